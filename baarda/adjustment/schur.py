@@ -1,0 +1,214 @@
+"""Sparse normal equations with points eliminated by the Schur complement.
+
+Unknowns: `n_frames` frames of `b` unknowns (photos: 6; independent models: 7 or 4) and
+`n_points` points of `d` unknowns (3 or 2).  Observations come in two sets:
+
+* frame-point observations, `k` rows each, tied to one frame and one point (image points,
+  model coordinates);
+* point observations, `kp` rows each, tied to one point (ground control).
+
+Weights are diagonal (1 / sigma^2, zero for a row that is not observed).  The reduced
+frame system S is factored by the block Cholesky of baarda.linalg; its selected inverse
+gives every covariance block that the residual cofactors need.  No matrix whose size
+grows with the block is ever dense.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from baarda.adjustment import kernels
+from baarda.io.errors import GeometryError
+from baarda.linalg import BlockCholesky, BlockPattern, NotPositiveDefinite
+
+
+@dataclass
+class Linearization:
+    """Jacobians, weights and misclosures e = l - f(x0) at the current estimate."""
+
+    jf: np.ndarray  # (m, k, b)
+    jp: np.ndarray  # (m, k, d)
+    w: np.ndarray  # (m, k)
+    e: np.ndarray  # (m, k)
+    jc: np.ndarray  # (mp, kp, d) point observations
+    wc: np.ndarray  # (mp, kp)
+    ec: np.ndarray  # (mp, kp)
+
+
+class SchurSystem:
+    """Structure (fixed) and numbers (per iteration) of the reduced normal equations."""
+
+    def __init__(self, n_frames: int, b: int, n_points: int, d: int,
+                 frame: np.ndarray, point: np.ndarray, control_point: np.ndarray,
+                 frame_names: list[str] | None = None, point_names: list[str] | None = None):
+        self.nf, self.b, self.np, self.d = n_frames, b, n_points, d
+        self.frame_names = frame_names or [str(i) for i in range(n_frames)]
+        self.point_names = point_names or [str(i) for i in range(n_points)]
+        frame = np.asarray(frame, np.int64)
+        point = np.asarray(point, np.int64)
+        self.order = np.argsort(point, kind="stable")  # observation order inside kernels
+        self.frame_sorted = frame[self.order]
+        self.point_sorted = point[self.order]
+        self.frame, self.point = frame, point
+        self.ptr = np.zeros(n_points + 1, np.int64)
+        np.cumsum(np.bincount(point, minlength=n_points), out=self.ptr[1:])
+        self.control_point = np.asarray(control_point, np.int64)
+        npairs = kernels.count_pairs(self.ptr, self.frame_sorted)
+        rows, cols = kernels.list_pairs(self.ptr, self.frame_sorted, npairs)
+        self.pattern = BlockPattern.from_pairs(n_frames, b, rows, cols)
+        self.pair_slot, self.pair_tr = self.pattern.slots(rows, cols)
+        diag = np.arange(n_frames)
+        self.diag_slot, diag_tr = self.pattern.slots(diag, diag)
+        self.chol = BlockCholesky(self.pattern)
+        self._sel = None
+
+    @property
+    def n_unknowns(self) -> int:
+        return self.nf * self.b + self.np * self.d
+
+    # ------------------------------------------------------------------ numbers
+    def factorize(self, lin: Linearization) -> None:
+        """Assemble the normal equations of `lin`, reduce them and factor S."""
+        o = self.order
+        jf, jp, w, e = lin.jf[o], lin.jp[o], lin.w[o], lin.e[o]
+        jfw = jf * w[:, :, None]
+        hff = np.zeros((self.nf, self.b, self.b))
+        np.add.at(hff, self.frame_sorted, np.einsum("mkb,mkc->mbc", jfw, jf))
+        self.hfp = np.ascontiguousarray(np.einsum("mkb,mkd->mbd", jfw, jp))
+        jpw = jp * w[:, :, None]
+        hpp = np.zeros((self.np, self.d, self.d))
+        np.add.at(hpp, self.point_sorted, np.einsum("mkd,mke->mde", jpw, jp))
+        gf = np.zeros((self.nf, self.b))
+        np.add.at(gf, self.frame_sorted, np.einsum("mkb,mk->mb", jfw, e))
+        gp = np.zeros((self.np, self.d))
+        np.add.at(gp, self.point_sorted, np.einsum("mkd,mk->md", jpw, e))
+        jcw = lin.jc * lin.wc[:, :, None]
+        np.add.at(hpp, self.control_point, np.einsum("mkd,mke->mde", jcw, lin.jc))
+        np.add.at(gp, self.control_point, np.einsum("mkd,mk->md", jcw, lin.ec))
+        self.gp = gp
+        self.gf_full = gf.copy()
+        values = self.pattern.new_values()
+        self.hpp_l = np.zeros_like(hpp)
+        self.hpp_inv = np.zeros_like(hpp)
+        bad = np.zeros(self.np, np.int8)
+        kernels.reduce_points(self.ptr, self.frame_sorted, self.hfp, hpp, gp, gf, values,
+                              self.diag_slot, hff, self.pair_slot, self.pair_tr,
+                              self.hpp_l, self.hpp_inv, bad)
+        if bad.any():
+            names = [self.point_names[j] for j in np.flatnonzero(bad)[:10]]
+            raise GeometryError(
+                f"{int(bad.sum())} point(s) cannot be intersected (their rays are parallel or "
+                f"too few): {', '.join(names)}")
+        self.gf = gf
+        try:
+            self.chol.factorize(values)
+        except NotPositiveDefinite as err:
+            raise GeometryError(
+                f"the exterior orientation of {self.frame_names[err.block]} is not determined: "
+                "the block has a datum defect or this photo is not connected well enough "
+                "(check control and tie points)") from None
+        self._sel = None
+
+    def solve(self) -> tuple[np.ndarray, np.ndarray]:
+        """Corrections to the frame (nf, b) and point (np, d) unknowns."""
+        xf = self.chol.solve(self.gf.reshape(-1)).reshape(self.nf, self.b)
+        xp = kernels.back_substitute(self.ptr, self.frame_sorted, self.hfp, self.hpp_inv,
+                                     self.gp[:, :, None], xf[:, :, None])
+        return xf, xp[:, :, 0]
+
+    # ------------------------------------------------------------ covariances
+    def covariances(self):
+        """Selected inverse: Sigma_ff (pattern storage), Sigma_pf per observation, Sigma_pp."""
+        if self._sel is None:
+            sel = self.chol.selected_inverse()
+            values = sel.values
+            spf, spp = kernels.point_covariances(self.ptr, self.frame_sorted, self.hfp,
+                                                 self.hpp_inv, values, self.pair_slot,
+                                                 self.pair_tr)
+            inv = np.empty_like(self.order)
+            inv[self.order] = np.arange(len(self.order))
+            self._sel = (sel, values[self.diag_slot], spf[inv], spp)
+        return self._sel
+
+    def frame_covariance(self) -> np.ndarray:
+        """(nf, b, b) cofactor blocks of the frame unknowns."""
+        return self.covariances()[1]
+
+    def point_covariance(self) -> np.ndarray:
+        """(np, d, d) cofactor blocks of the point unknowns (marginal, not conditional)."""
+        return self.covariances()[3]
+
+    def adjusted_cofactors(self, lin: Linearization) -> tuple[np.ndarray, np.ndarray]:
+        """Cofactor blocks of the adjusted observations: (m, k, k) and (mp, kp, kp)."""
+        _, sff, spf, spp = self.covariances()
+        jf, jp = lin.jf, lin.jp
+        sf = sff[self.frame]
+        q = (jf @ sf @ np.swapaxes(jf, 1, 2)
+             + jp @ spp[self.point] @ np.swapaxes(jp, 1, 2))
+        cross = jp @ spf @ np.swapaxes(jf, 1, 2)
+        q += cross + np.swapaxes(cross, 1, 2)
+        qc = lin.jc @ spp[self.control_point] @ np.swapaxes(lin.jc, 1, 2)
+        return q, qc
+
+    def point_effect(self, lin: Linearization) -> tuple[np.ndarray, np.ndarray]:
+        """Change of the observed point's unknowns per unit error of each observation row.
+
+        (m, k, d) for frame-point observations and (mp, kp, d) for point observations:
+        dX = Sigma_{X, x} a_i^T p_i, the column of N^-1 A^T P for that row, restricted to
+        the point that the observation belongs to.
+        """
+        _, _, spf, spp = self.covariances()
+        g = (spf @ np.swapaxes(lin.jf, 1, 2) + spp[self.point] @ np.swapaxes(lin.jp, 1, 2))
+        g = np.swapaxes(g, 1, 2) * lin.w[:, :, None]
+        gc = np.swapaxes(spp[self.control_point] @ np.swapaxes(lin.jc, 1, 2), 1, 2)
+        gc = gc * lin.wc[:, :, None]
+        return g, gc
+
+    # ---------------------------------------------------- general columns (H)
+    def apply_AtP(self, lin: Linearization, h: np.ndarray, hc: np.ndarray):
+        """A^T P [h; hc] for q columns: h (m, k, q), hc (mp, kp, q) -> (nf, b, q), (np, d, q)."""
+        q = h.shape[2]
+        gf = np.zeros((self.nf, self.b, q))
+        gp = np.zeros((self.np, self.d, q))
+        hw = h * lin.w[:, :, None]
+        np.add.at(gf, self.frame, np.einsum("mkb,mkq->mbq", lin.jf, hw))
+        np.add.at(gp, self.point, np.einsum("mkd,mkq->mdq", lin.jp, hw))
+        np.add.at(gp, self.control_point,
+                  np.einsum("mkd,mkq->mdq", lin.jc, hc * lin.wc[:, :, None]))
+        return gf, gp
+
+    def _reduce_rhs(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
+        """gf - sum Hfp Hpp^-1 gp for q columns, (nf, b, q)."""
+        o = self.order
+        t = np.einsum("mbd,mde->mbe", self.hfp, self.hpp_inv[self.point_sorted])
+        red = gf.copy()
+        np.add.at(red, self.frame_sorted, -np.einsum("mbd,mdq->mbq", t, gp[self.point_sorted]))
+        del o
+        return red
+
+    def solve_normal(self, gf: np.ndarray, gp: np.ndarray):
+        """N^-1 [gf; gp] for q columns."""
+        q = gf.shape[2]
+        red = self._reduce_rhs(gf, gp)
+        xf = self.chol.solve(red.reshape(self.nf * self.b, q)).reshape(self.nf, self.b, q)
+        xp = kernels.back_substitute(self.ptr, self.frame_sorted, self.hfp, self.hpp_inv,
+                                     np.ascontiguousarray(gp), np.ascontiguousarray(xf))
+        return xf, xp
+
+    def forward(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
+        """W with W^T W = g^T N^-1 g for q columns (FOTEF: one forward substitution)."""
+        q = gf.shape[2]
+        red = self._reduce_rhs(gf, gp)
+        wf = self.chol.forward(red.reshape(self.nf * self.b, q))
+        # Hpp = L L^T per point: the point part of the forward substitution is L^-1 gp
+        wp = np.linalg.solve(self.hpp_l, gp)
+        return np.concatenate([wp.reshape(self.np * self.d, q), wf.reshape(-1, q)])
+
+    def apply_A(self, lin: Linearization, xf: np.ndarray, xp: np.ndarray):
+        """A x for q columns: (m, k, q), (mp, kp, q)."""
+        rows = (np.einsum("mkb,mbq->mkq", lin.jf, xf[self.frame])
+                + np.einsum("mkd,mdq->mkq", lin.jp, xp[self.point]))
+        rows_c = np.einsum("mkd,mdq->mkq", lin.jc, xp[self.control_point])
+        return rows, rows_c

@@ -1,0 +1,122 @@
+"""The block: cameras, photos, image observations and ground points as NumPy arrays.
+
+Internal units: object coordinates in metres, angles in radians, image coordinates in
+millimetres, image standard deviations in millimetres.  Readers convert from the file
+units (µm, gon, deg) on the way in; writers convert back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+ROLES = ("control", "check", "tie")
+
+
+@dataclass
+class Settings:
+    """Project settings from project.toml."""
+
+    name: str = "block"
+    angle_unit: str = "gon"
+    sigma_image_um: float = 5.0
+    sigma_control_m: tuple[float, float, float] = (0.05, 0.05, 0.05)
+    alpha0: float = 0.001
+    beta0: float = 0.80
+    crs: str | None = None
+
+
+@dataclass
+class Cameras:
+    ids: list[str]
+    focal_mm: np.ndarray  # (n,)
+    principal_point_mm: np.ndarray  # (n, 2): x0, y0
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+@dataclass
+class Photos:
+    ids: list[str]
+    camera: np.ndarray  # (n,) index into Cameras
+    strip: np.ndarray  # (n,) object array of strip labels
+    eo: np.ndarray  # (n, 6): X0, Y0, Z0 [m], omega, phi, kappa [rad] (approximations)
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+@dataclass
+class ImagePoints:
+    """One row per measured image point (x and y of one point on one photo)."""
+
+    photo: np.ndarray  # (m,) index into Photos
+    point: np.ndarray  # (m,) index into GroundPoints
+    xy_mm: np.ndarray  # (m, 2)
+    sigma_mm: np.ndarray  # (m,) standard deviation of x and of y
+    model: np.ndarray | None = None  # (m,) stereo model label (twin rays), or None
+
+    def __len__(self) -> int:
+        return len(self.photo)
+
+
+@dataclass
+class GroundPoints:
+    """Every point of the block: control, check and tie points.
+
+    `xyz` holds the given coordinates of control and check points and approximations
+    (or NaN) for tie points; `sigma` is NaN for a coordinate that is not observed, so a
+    planimetric control point has sigma Z = NaN and a height point NaN in X and Y.
+    """
+
+    ids: list[str]
+    xyz: np.ndarray  # (k, 3)
+    sigma: np.ndarray  # (k, 3)
+    role: np.ndarray  # (k,) object array: 'control', 'check' or 'tie'
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    @property
+    def controlled(self) -> np.ndarray:
+        """(k, 3) bool: coordinate enters the adjustment as an observation."""
+        return (self.role == "control")[:, None] & np.isfinite(self.sigma)
+
+
+@dataclass
+class Block:
+    settings: Settings
+    cameras: Cameras
+    photos: Photos
+    image: ImagePoints
+    points: GroundPoints
+    source: str = ""
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def photo_index(self) -> dict[str, int]:
+        return {p: i for i, p in enumerate(self.photos.ids)}
+
+    @property
+    def point_index(self) -> dict[str, int]:
+        return {p: i for i, p in enumerate(self.points.ids)}
+
+    def rays(self) -> np.ndarray:
+        """Number of photos that see each ground point, (k,)."""
+        return np.bincount(self.image.point, minlength=len(self.points))
+
+    def select_image(self, keep: np.ndarray) -> Block:
+        """A copy of the block with only the image points where `keep` is True."""
+        im = self.image
+        image = ImagePoints(im.photo[keep], im.point[keep], im.xy_mm[keep], im.sigma_mm[keep],
+                            None if im.model is None else im.model[keep])
+        return replace(self, image=image, notes=list(self.notes))
+
+    def summary(self) -> str:
+        roles = self.points.role
+        return (f"{self.settings.name}: {len(self.cameras)} camera(s), {len(self.photos)} photos, "
+                f"{len(self.image)} image points, {len(self.points)} ground points "
+                f"({int(np.sum(roles == 'control'))} control, {int(np.sum(roles == 'check'))} "
+                f"check, {int(np.sum(roles == 'tie'))} tie)")

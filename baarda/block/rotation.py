@@ -1,0 +1,84 @@
+"""Rotation matrices of the omega-phi-kappa convention, vectorised.
+
+Convention (used everywhere in baarda, documented in docs/format.md):
+
+    R(omega, phi, kappa) = R_x(omega) @ R_y(phi) @ R_z(kappa)
+
+rotates vectors from the image (camera) frame into the object (ground) frame.  The
+camera frame has x along the image x axis, y along the image y axis and z towards the
+projection centre from the image plane (the image plane lies at z = -c).  A photo with
+omega = phi = kappa = 0 looks straight down with its x axis along object X.  Object
+coordinates of a point relative to the projection centre map into the camera frame by
+R^T:  u = R^T (X - X0).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+ANGLE_FACTORS = {"rad": 1.0, "deg": np.pi / 180.0, "gon": np.pi / 200.0}
+
+
+def angle_to_rad(values: np.ndarray, unit: str) -> np.ndarray:
+    """Convert angles from `unit` (rad, deg or gon) to radians."""
+    return np.asarray(values, dtype=float) * ANGLE_FACTORS[unit]
+
+
+def rad_to_angle(values: np.ndarray, unit: str) -> np.ndarray:
+    """Convert angles in radians to `unit` (rad, deg or gon)."""
+    return np.asarray(values, dtype=float) / ANGLE_FACTORS[unit]
+
+
+def _axes(omega, phi, kappa):
+    so, co = np.sin(omega), np.cos(omega)
+    sp, cp = np.sin(phi), np.cos(phi)
+    sk, ck = np.sin(kappa), np.cos(kappa)
+    n = np.broadcast(omega, phi, kappa).shape
+    one, zero = np.ones(n), np.zeros(n)
+    rx = np.stack([np.stack([one, zero, zero], -1),
+                   np.stack([zero, co, -so], -1),
+                   np.stack([zero, so, co], -1)], -2)
+    ry = np.stack([np.stack([cp, zero, sp], -1),
+                   np.stack([zero, one, zero], -1),
+                   np.stack([-sp, zero, cp], -1)], -2)
+    rz = np.stack([np.stack([ck, -sk, zero], -1),
+                   np.stack([sk, ck, zero], -1),
+                   np.stack([zero, zero, one], -1)], -2)
+    drx = np.stack([np.stack([zero, zero, zero], -1),
+                    np.stack([zero, -so, -co], -1),
+                    np.stack([zero, co, -so], -1)], -2)
+    dry = np.stack([np.stack([-sp, zero, cp], -1),
+                    np.stack([zero, zero, zero], -1),
+                    np.stack([-cp, zero, -sp], -1)], -2)
+    drz = np.stack([np.stack([-sk, -ck, zero], -1),
+                    np.stack([ck, -sk, zero], -1),
+                    np.stack([zero, zero, zero], -1)], -2)
+    return rx, ry, rz, drx, dry, drz
+
+
+def rotation_matrix(omega, phi, kappa) -> np.ndarray:
+    """R = R_x(omega) R_y(phi) R_z(kappa), image to object; angles in radians; shape (..., 3, 3)."""
+    rx, ry, rz, *_ = _axes(np.asarray(omega, float), np.asarray(phi, float),
+                           np.asarray(kappa, float))
+    return rx @ ry @ rz
+
+
+def rotation_and_derivatives(omega, phi, kappa):
+    """R and its partial derivatives dR/domega, dR/dphi, dR/dkappa, each (..., 3, 3)."""
+    rx, ry, rz, drx, dry, drz = _axes(np.asarray(omega, float), np.asarray(phi, float),
+                                      np.asarray(kappa, float))
+    r = rx @ ry @ rz
+    return r, drx @ ry @ rz, rx @ dry @ rz, rx @ ry @ drz
+
+
+def angles_from_matrix(r: np.ndarray) -> np.ndarray:
+    """Inverse of rotation_matrix: (..., 3, 3) -> (..., 3) omega, phi, kappa in radians.
+
+    R[0, 2] = sin(phi); R[1, 2] = -sin(omega) cos(phi); R[2, 2] = cos(omega) cos(phi);
+    R[0, 1] = -cos(phi) sin(kappa); R[0, 0] = cos(phi) cos(kappa).
+    """
+    r = np.asarray(r, float)
+    phi = np.arcsin(np.clip(r[..., 0, 2], -1.0, 1.0))
+    omega = np.arctan2(-r[..., 1, 2], r[..., 2, 2])
+    kappa = np.arctan2(-r[..., 0, 1], r[..., 0, 0])
+    return np.stack([omega, phi, kappa], -1)

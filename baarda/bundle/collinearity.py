@@ -1,0 +1,51 @@
+"""Collinearity equations and their analytic Jacobians, vectorised over observations.
+
+    u = R^T (X - X0)                      (camera frame, R from rotation.py)
+    x = x0 - c * u1 / u3,   y = y0 - c * u2 / u3      (mm)
+
+Parameters of a photo: X0, Y0, Z0 [m], omega, phi, kappa [rad]; of a point: X, Y, Z [m].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
+
+
+def project(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray, pp: np.ndarray) -> np.ndarray:
+    """Image coordinates (m, 2) in mm of points xyz (m, 3) on photos eo (m, 6)."""
+    r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+    u = np.einsum("mji,mj->mi", r, xyz - eo[:, :3])
+    return pp - focal[:, None] * u[:, :2] / u[:, 2:3]
+
+
+def camera_depth(eo: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+    """-u3: distance of each point in front of the camera along its axis (positive = in front)."""
+    r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+    return -np.einsum("mj,mj->m", r[:, :, 2], xyz - eo[:, :3])
+
+
+def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
+                           pp: np.ndarray):
+    """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3)."""
+    r, dro, drp, drk = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
+    d = xyz - eo[:, :3]
+    u = np.einsum("mji,mj->mi", r, d)
+    c = focal
+    inv3 = 1.0 / u[:, 2]
+    xy = pp - c[:, None] * u[:, :2] * inv3[:, None]
+    # d(x, y)/du, (m, 2, 3)
+    ju = np.zeros((len(u), 2, 3))
+    ju[:, 0, 0] = -c * inv3
+    ju[:, 1, 1] = -c * inv3
+    ju[:, 0, 2] = c * u[:, 0] * inv3**2
+    ju[:, 1, 2] = c * u[:, 1] * inv3**2
+    rt = np.swapaxes(r, 1, 2)
+    jp = ju @ rt  # d/dX
+    je = np.empty((len(u), 2, 6))
+    je[:, :, :3] = -jp
+    for k, dr in enumerate((dro, drp, drk)):
+        du = np.einsum("mji,mj->mi", dr, d)
+        je[:, :, 3 + k] = np.einsum("mab,mb->ma", ju, du)
+    return xy, je, jp

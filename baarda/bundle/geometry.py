@@ -1,0 +1,99 @@
+"""Geometric checks and approximations before a bundle adjustment."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baarda.block.model import Block
+from baarda.block.rotation import rotation_matrix
+from baarda.io.errors import GeometryError
+
+
+def usable_points(block: Block) -> tuple[np.ndarray, list[str]]:
+    """Points that can be determined: two or more rays, or one ray and full XYZ control.
+
+    Returns a boolean mask over block.points and messages for the points left out.
+    """
+    rays = block.rays()
+    full = block.points.controlled.all(axis=1)
+    ok = (rays >= 2) | ((rays == 1) & full)
+    notes = []
+    for j in np.flatnonzero(~ok):
+        pid, role = block.points.ids[j], block.points.role[j]
+        if rays[j] == 0:
+            notes.append(f"{role} point {pid} is not measured on any photo: left out")
+        else:
+            notes.append(f"{role} point {pid} is measured on one photo only (one ray "
+                         "cannot be intersected): left out")
+    return ok, notes
+
+
+def check_datum(block: Block, keep: np.ndarray) -> None:
+    """Raise GeometryError when the control cannot fix position, scale and orientation."""
+    ctrl = block.points.controlled & keep[:, None]
+    xyz = block.points.xyz
+    plan = np.flatnonzero(ctrl[:, 0] & ctrl[:, 1])
+    height = np.flatnonzero(ctrl[:, 2])
+    problems = []
+    if len(plan) < 2:
+        problems.append(f"{len(plan)} planimetric (X, Y) control point(s); at least two are "
+                        "needed for position, scale and azimuth")
+    elif np.ptp(xyz[plan, :2], axis=0).max() <= 0:
+        problems.append("the planimetric control points coincide")
+    if len(height) < 3:
+        problems.append(f"{len(height)} height control point(s); at least three not on one "
+                        "line are needed to fix the tilt of the block")
+    else:
+        p = xyz[height, :2] - xyz[height, :2].mean(axis=0)
+        s = np.linalg.svd(p, compute_uv=False)
+        if s[-1] <= 1e-6 * max(s[0], 1e-9):
+            problems.append("the height control points lie on one line: the block can tilt "
+                            "about it")
+    if problems:
+        raise GeometryError("datum defect: the control does not fix the block: "
+                            + "; ".join(problems) + ".")
+
+
+def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Least-squares intersection of the rays of `points` (indices) from photos `eo`.
+
+    Minimises the squared distances of the point to all its rays; returns (len(points), 3)
+    with NaN where fewer than two rays exist.
+    """
+    im = block.image
+    cam = block.photos.camera[im.photo]
+    c = block.cameras.focal_mm[cam]
+    pp = block.cameras.principal_point_mm[cam]
+    r = rotation_matrix(eo[im.photo, 3], eo[im.photo, 4], eo[im.photo, 5])
+    dirs_cam = np.column_stack([im.xy_mm - pp, -c])
+    dirs = np.einsum("mij,mj->mi", r, dirs_cam)
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    proj = np.eye(3)[None] - dirs[:, :, None] * dirs[:, None, :]
+    centre = eo[im.photo, :3]
+    n = len(block.points)
+    a = np.zeros((n, 3, 3))
+    b = np.zeros((n, 3))
+    np.add.at(a, im.point, proj)
+    np.add.at(b, im.point, np.einsum("mij,mj->mi", proj, centre))
+    a, b = a[points], b[points]
+    out = np.full((len(points), 3), np.nan)
+    good = np.linalg.cond(a) < 1e10
+    out[good] = np.linalg.solve(a[good], b[good][:, :, None])[:, :, 0]
+    return out
+
+
+def approximate_points(block: Block, keep: np.ndarray) -> np.ndarray:
+    """Approximate coordinates: control as given, the rest by intersection."""
+    xyz = block.points.xyz.copy()
+    need = keep & ~np.isfinite(xyz).all(axis=1) | (block.points.role == "check") & keep
+    idx = np.flatnonzero(need)
+    if len(idx):
+        xi = intersect(block, block.photos.eo, idx)
+        own = np.isfinite(block.points.xyz[idx]) & (block.points.role[idx] == "control")[:, None]
+        xyz[idx] = np.where(own, block.points.xyz[idx], xi)
+        lost = idx[~np.isfinite(xyz[idx]).all(axis=1)]
+        if len(lost):
+            names = ", ".join(block.points.ids[j] for j in lost[:10])
+            raise GeometryError(f"{len(lost)} point(s) cannot be intersected from the "
+                                f"approximate orientations (parallel rays): {names}")
+    return xyz

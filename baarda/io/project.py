@@ -1,0 +1,209 @@
+"""The native project format: a folder with project.toml and four CSV files.
+
+See docs/format.md for the contract.  `read_project` validates everything and names the
+file, line and column of the first problem; `write_project` writes atomically.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.model import ROLES, Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad, rad_to_angle
+from baarda.io.atomic import write_text
+from baarda.io.errors import ProjectError
+from baarda.io.table import Table
+
+FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
+
+
+def _settings(path: Path) -> Settings:
+    if not path.is_file():
+        raise ProjectError(str(path), "file not found (a project folder needs project.toml)")
+    try:
+        with open(path, "rb") as f:
+            doc = tomllib.load(f)
+    except tomllib.TOMLDecodeError as e:
+        raise ProjectError(str(path), f"not valid TOML: {e}") from None
+    s = Settings()
+    s.name = str(doc.get("name", path.parent.name))
+    s.angle_unit = str(doc.get("angle_unit", s.angle_unit))
+    if s.angle_unit not in ANGLE_FACTORS:
+        raise ProjectError(str(path), f"angle_unit '{s.angle_unit}' is not one of gon, deg, rad",
+                           column="angle_unit")
+    unit = str(doc.get("image_unit", "mm"))
+    if unit != "mm":
+        raise ProjectError(str(path), f"image_unit '{unit}': image coordinates must be in mm",
+                           column="image_unit")
+    sigma = doc.get("sigma", {})
+    try:
+        s.sigma_image_um = float(sigma.get("image_um", s.sigma_image_um))
+        ctrl = sigma.get("control_m", s.sigma_control_m)
+        ctrl = [float(ctrl)] * 3 if np.isscalar(ctrl) else [float(c) for c in ctrl]
+        tests = doc.get("tests", {})
+        s.alpha0 = float(tests.get("alpha0", s.alpha0))
+        s.beta0 = float(tests.get("beta0", s.beta0))
+    except (TypeError, ValueError) as e:
+        raise ProjectError(str(path), f"a setting is not a number: {e}") from None
+    if len(ctrl) != 3 or min(ctrl) <= 0 or s.sigma_image_um <= 0:
+        raise ProjectError(str(path), "standard deviations must be positive "
+                           "(sigma.image_um, sigma.control_m = [X, Y, Z])")
+    s.sigma_control_m = tuple(ctrl)
+    if not (0 < s.alpha0 < 0.5 and 0.5 <= s.beta0 < 1):
+        raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "
+                           "[0.5, 1)")
+    s.crs = doc.get("crs")
+    return s
+
+
+def read_project(folder: str | Path) -> Block:
+    """Read and validate a project folder; see docs/format.md."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ProjectError(str(folder), "not a project folder")
+    settings = _settings(folder / "project.toml")
+    notes: list[str] = []
+
+    t = Table(folder / "cameras.csv", ["camera", "focal_mm", "x0_mm", "y0_mm"])
+    cam_ids = t.unique_ids("camera")
+    focal = t.numbers("focal_mm")
+    bad = np.flatnonzero(focal <= 0)
+    if len(bad):
+        raise ProjectError(t.path, "focal length must be positive", int(t.lines[bad[0]]),
+                           "focal_mm")
+    cameras = Cameras(cam_ids, focal, np.column_stack([t.numbers("x0_mm"), t.numbers("y0_mm")]))
+    if not cam_ids:
+        raise ProjectError(t.path, "no cameras")
+
+    t = Table(folder / "photos.csv",
+              ["photo", "camera", "strip", "X0", "Y0", "Z0", "omega", "phi", "kappa"])
+    photo_ids = t.unique_ids("photo")
+    cam = t.lookup("camera", {c: i for i, c in enumerate(cam_ids)}, "camera")
+    eo = np.column_stack([t.numbers(c) for c in ("X0", "Y0", "Z0")] +
+                         [angle_to_rad(t.numbers(c), settings.angle_unit)
+                          for c in ("omega", "phi", "kappa")])
+    photos = Photos(photo_ids, cam, t.text("strip", allow_empty=True).astype(object), eo)
+    if not photo_ids:
+        raise ProjectError(t.path, "no photos")
+
+    g = Table(folder / "ground_points.csv", ["point", "X", "Y", "Z", "role"])
+    gids = g.unique_ids("point")
+    role = g.text("role")
+    for i, r in enumerate(role):
+        if r not in ("control", "check"):
+            raise ProjectError(g.path, f"role '{r}' must be 'control' or 'check'",
+                               int(g.lines[i]), "role")
+    gxyz = np.column_stack([g.numbers(c, allow_empty=True) for c in "XYZ"])
+    if all(g.has(f"sigma_{c}") for c in "XYZ"):
+        gsig = np.column_stack([g.numbers(f"sigma_{c}", allow_empty=True) for c in "XYZ"])
+    elif any(g.has(f"sigma_{c}") for c in "XYZ"):
+        raise ProjectError(g.path, "give all three columns sigma_X, sigma_Y, sigma_Z or none")
+    else:
+        gsig = np.tile(np.asarray(settings.sigma_control_m, float), (len(gids), 1))
+    for k, c in enumerate("XYZ"):
+        bad = np.flatnonzero(np.isfinite(gsig[:, k]) & ~(gsig[:, k] > 0))
+        if len(bad):
+            raise ProjectError(g.path, "standard deviation must be positive",
+                               int(g.lines[bad[0]]), f"sigma_{c}")
+        need = np.isfinite(gsig[:, k]) | (role == "check")
+        bad = np.flatnonzero(need & ~np.isfinite(gxyz[:, k]))
+        if len(bad):
+            raise ProjectError(g.path, f"coordinate {c} is empty but needed (control with "
+                               f"sigma_{c}, or a check point)", int(g.lines[bad[0]]), c)
+    is_ctrl = role == "control"
+    bad = np.flatnonzero(is_ctrl & ~np.isfinite(gsig).any(axis=1))
+    if len(bad):
+        raise ProjectError(g.path, "control point without any standard deviation: nothing "
+                           "is controlled", int(g.lines[bad[0]]), "sigma_X")
+    gsig[~is_ctrl] = np.nan
+
+    t = Table(folder / "image_points.csv", ["photo", "point", "x_mm", "y_mm"])
+    photo = t.lookup("photo", {p: i for i, p in enumerate(photo_ids)}, "photo")
+    names = t.text("point")
+    xy = np.column_stack([t.numbers("x_mm"), t.numbers("y_mm")])
+    sig_um = (t.numbers("sigma_um", allow_empty=True) if t.has("sigma_um")
+              else np.full(len(t), np.nan))
+    bad = np.flatnonzero(np.isfinite(sig_um) & ~(sig_um > 0))
+    if len(bad):
+        raise ProjectError(t.path, "standard deviation must be positive",
+                           int(t.lines[bad[0]]), "sigma_um")
+    sig_um = np.where(np.isfinite(sig_um), sig_um, settings.sigma_image_um)
+
+    # every point: ground file points first, then tie points in order of appearance
+    index = {p: i for i, p in enumerate(gids)}
+    ids = list(gids)
+    point = np.empty(len(names), dtype=np.int64)
+    for i, s in enumerate(names):
+        j = index.get(s)
+        if j is None:
+            j = index[s] = len(ids)
+            ids.append(s)
+        point[i] = j
+    model = t.text("model", allow_empty=True).astype(object) if t.has("model") else None
+    key = photo * len(ids) + point
+    if model is not None:  # stereo mode: twin rays of one photo differ in their model
+        _, mcode = np.unique(model.astype(str), return_inverse=True)
+        key = key * (int(mcode.max(initial=0)) + 1) + mcode
+    order = np.argsort(key, kind="stable")
+    dup = np.flatnonzero(np.diff(key[order]) == 0)
+    if len(dup):
+        i = order[dup[0] + 1]
+        raise ProjectError(t.path, f"point '{names[i]}' measured twice on photo "
+                           f"'{photo_ids[photo[i]]}'" + (" in the same model" if model is not
+                           None else " (give a 'model' column for stereo twin rays)") +
+                           f" (first on line {int(t.lines[order[dup[0]]])})",
+                           int(t.lines[i]), "point")
+    n_tie = len(ids) - len(gids)
+    xyz = np.vstack([gxyz, np.full((n_tie, 3), np.nan)])
+    sigma = np.vstack([gsig, np.full((n_tie, 3), np.nan)])
+    roles = np.concatenate([role.astype(object), np.full(n_tie, "tie", dtype=object)])
+    points = GroundPoints(ids, xyz, sigma, roles)
+    image = ImagePoints(photo, point, xy, sig_um * 1e-3, model)
+    block = Block(settings, cameras, photos, image, points, source=str(folder), notes=notes)
+    assert set(np.unique(roles)) <= set(ROLES)
+    return block
+
+
+def _fmt(x: float) -> str:
+    return "" if not np.isfinite(x) else repr(float(x))
+
+
+def write_project(block: Block, folder: str | Path) -> None:
+    """Write `block` as a native project folder (each file written atomically)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    s = block.settings
+    toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', 'image_unit = "mm"']
+    if s.crs:
+        toml.append(f'crs = "{s.crs}"')
+    toml += ["", "[sigma]", f"image_um = {s.sigma_image_um!r}",
+             f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]",
+             "", "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", ""]
+    write_text(folder / "project.toml", "\n".join(toml))
+    c = block.cameras
+    rows = ["camera,focal_mm,x0_mm,y0_mm"] + [
+        f"{c.ids[i]},{c.focal_mm[i]!r},{c.principal_point_mm[i, 0]!r},"
+        f"{c.principal_point_mm[i, 1]!r}" for i in range(len(c))]
+    write_text(folder / "cameras.csv", "\n".join(rows) + "\n")
+    p = block.photos
+    ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)
+    rows = ["photo,camera,strip,X0,Y0,Z0,omega,phi,kappa"] + [
+        ",".join([p.ids[i], c.ids[p.camera[i]], str(p.strip[i])] +
+                 [repr(float(v)) for v in p.eo[i, :3]] + [repr(float(v)) for v in ang[i]])
+        for i in range(len(p))]
+    write_text(folder / "photos.csv", "\n".join(rows) + "\n")
+    im, pts = block.image, block.points
+    has_model = im.model is not None
+    rows = ["photo,point,x_mm,y_mm,sigma_um" + (",model" if has_model else "")] + [
+        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{im.xy_mm[i, 0]!r},{im.xy_mm[i, 1]!r},"
+        f"{im.sigma_mm[i] * 1e3:.6g}" + (f",{im.model[i]}" if has_model else "")
+        for i in range(len(im))]
+    write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
+    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
+    for j in np.flatnonzero(pts.role != "tie"):
+        rows.append(",".join([pts.ids[j]] + [_fmt(v) for v in pts.xyz[j]] +
+                             [_fmt(v) for v in pts.sigma[j]] + [str(pts.role[j])]))
+    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")

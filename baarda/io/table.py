@@ -1,0 +1,119 @@
+"""A CSV table reader that remembers where every value came from.
+
+Blank lines and lines starting with '#' are skipped.  Values are kept as strings with
+the 1-based line number of their row so that every later check can name file, line and
+column.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from baarda.io.errors import ProjectError
+
+
+class Table:
+    """Columns of a CSV file as string arrays, with line numbers."""
+
+    def __init__(self, path: str | Path, required: list[str]):
+        self.path = str(path)
+        if not Path(path).is_file():
+            raise ProjectError(self.path, "file not found")
+        rows, lines = [], []
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            reader = csv.reader(f, skipinitialspace=True)
+            header = None
+            for row in reader:
+                if not row or not "".join(row).strip() or row[0].lstrip().startswith("#"):
+                    continue
+                if header is None:
+                    header = [h.strip() for h in row]
+                    header_line = reader.line_num
+                    continue
+                rows.append([c.strip() for c in row])
+                lines.append(reader.line_num)
+        if header is None:
+            raise ProjectError(self.path, "the file is empty (no header line)")
+        for name in required:
+            if name not in header:
+                raise ProjectError(self.path, f"missing column '{name}' (header: "
+                                   f"{', '.join(header)})", line=header_line)
+        seen = set()
+        for name in header:
+            if name in seen:
+                raise ProjectError(self.path, "duplicate column", header_line, name)
+            seen.add(name)
+        width = len(header)
+        for row, line in zip(rows, lines, strict=True):
+            if len(row) != width:
+                raise ProjectError(self.path, f"expected {width} fields, found {len(row)}", line)
+        self.header = header
+        self.lines = np.asarray(lines, dtype=np.int64)
+        data = np.asarray(rows, dtype=object).reshape(len(rows), width)
+        self.columns = {h: data[:, i].astype(str) for i, h in enumerate(header)}
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def has(self, name: str) -> bool:
+        return name in self.columns
+
+    def text(self, name: str, allow_empty: bool = False) -> np.ndarray:
+        col = self.columns[name]
+        if not allow_empty:
+            empty = np.flatnonzero(col == "")
+            if len(empty):
+                raise ProjectError(self.path, "empty value", int(self.lines[empty[0]]), name)
+        return col
+
+    def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
+        """Column as float; empty cells become NaN when allowed, else an error."""
+        col = self.columns[name]
+        empty = col == ""
+        try:
+            out = np.where(empty, "nan", col).astype(float)
+            if (allow_empty or not empty.any()) and np.isfinite(out[~empty]).all():
+                return out
+        except ValueError:
+            pass
+        out = np.full(len(col), np.nan)
+        for i, s in enumerate(col):
+            if s == "":
+                if not allow_empty:
+                    raise ProjectError(self.path, "empty value, a number is required",
+                                       int(self.lines[i]), name)
+                continue
+            try:
+                out[i] = float(s)
+            except ValueError:
+                raise ProjectError(self.path, f"'{s}' is not a number",
+                                   int(self.lines[i]), name) from None
+            if not np.isfinite(out[i]):
+                raise ProjectError(self.path, f"'{s}' is not a finite number",
+                                   int(self.lines[i]), name)
+        return out
+
+    def unique_ids(self, name: str) -> list[str]:
+        """Column of identifiers that must be unique."""
+        col = self.text(name)
+        seen: dict[str, int] = {}
+        for i, s in enumerate(col):
+            if s in seen:
+                raise ProjectError(self.path, f"duplicate id '{s}' (first on line {seen[s]})",
+                                   int(self.lines[i]), name)
+            seen[s] = int(self.lines[i])
+        return list(col)
+
+    def lookup(self, name: str, index: dict[str, int], what: str) -> np.ndarray:
+        """Map a reference column through `index`; unknown ids are an error."""
+        col = self.text(name)
+        out = np.empty(len(col), dtype=np.int64)
+        for i, s in enumerate(col):
+            j = index.get(s)
+            if j is None:
+                raise ProjectError(self.path, f"unknown {what} '{s}'", int(self.lines[i]), name)
+            out[i] = j
+        return out

@@ -1,0 +1,266 @@
+"""Synthetic aerial blocks with known truth.
+
+A regular block of `strips` x `photos_per_strip` vertical photos; ground points on a grid
+such that every photo measures an n x n pattern (Gruen 1980: 3x3 or 5x5); optional stereo
+mode (twin rays), control layouts, terrain relief, image noise and injected blunders.
+Deterministic for a given seed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.bundle.collinearity import project
+
+
+@dataclass
+class FlightPlan:
+    """Parameters of a simulated block (lengths in m unless stated)."""
+
+    strips: int = 3
+    photos_per_strip: int = 5
+    forward_overlap: float = 0.60
+    side_overlap: float = 0.30
+    image_scale: float = 10_000.0  # 1 : image_scale
+    focal_mm: float = 153.0
+    format_mm: float = 230.0
+    pattern: int = 3  # n x n image points per photo
+    stereo: bool = False  # points of adjacent models measured twice (twin rays)
+    neat_area: bool = False  # only points between the outer nadir lines (Gruen's blocks)
+    control: str = "perimeter"  # perimeter | corners | none
+    control_spacing: int = 2  # perimeter control every k base lengths
+    height_chains: int = 0  # a chain of height points across the strips every k bases
+    twin_control: bool = False  # each control point with a close companion
+    check_points: int = 0  # interior tie points turned into check points
+    relief_m: float = 0.0  # amplitude of smooth terrain relief
+    sigma_image_um: float = 5.0
+    sigma_control_m: tuple[float, float, float] = (0.05, 0.05, 0.10)
+    noise: bool = True  # add noise to image and control observations
+    eo_error: tuple[float, float] = (1.0, 0.005)  # error of approximate EO: m, rad
+    alternate: bool = False  # fly alternate strips in opposite direction
+    blunders: int = 0  # number of blunders injected
+    blunder_sigma: tuple[float, float] = (6.0, 20.0)  # size range in a-priori sigmas
+    blunder_kinds: tuple[str, ...] = ("x", "y")  # x, y (image) and/or X, Y, Z (control)
+    seed: int = 0
+    name: str = "simulated"
+    extra: dict = field(default_factory=dict)
+
+
+def _terrain(x: np.ndarray, y: np.ndarray, amplitude: float, size: float) -> np.ndarray:
+    if amplitude == 0:
+        return np.zeros_like(x)
+    k = 2 * np.pi / max(size, 1.0)
+    return amplitude * (0.5 * np.sin(1.3 * k * x + 0.4) * np.cos(0.9 * k * y)
+                        + 0.3 * np.sin(2.1 * k * y + 1.1) + 0.2 * np.cos(2.7 * k * (x + y)))
+
+
+def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
+    """Simulate a block; returns (block with approximations and noisy observations, truth)."""
+    rng = np.random.default_rng(plan.seed)
+    n = plan.pattern
+    if n < 2:
+        raise ValueError("pattern must be at least 2 (2x2 points per photo)")
+    side = plan.format_mm * 1e-3 * plan.image_scale  # ground side of a photo
+    base = (1 - plan.forward_overlap) * side
+    dist = (1 - plan.side_overlap) * side
+    height = plan.focal_mm * 1e-3 * plan.image_scale
+    ex = base if base <= 0.45 * side else base / 2
+    ey = dist if dist <= 0.45 * side else dist / 2
+    dx, dy = 2 * ex / (n - 1), 2 * ey / (n - 1)
+
+    # photos (true exterior orientation)
+    s_idx, p_idx = np.meshgrid(np.arange(plan.strips), np.arange(plan.photos_per_strip),
+                               indexing="ij")
+    s_idx, p_idx = s_idx.ravel(), p_idx.ravel()
+    X0 = p_idx * base
+    Y0 = s_idx * dist
+    kappa = np.where(plan.alternate & (s_idx % 2 == 1), np.pi, 0.0)
+    n_ph = len(X0)
+    eo_true = np.column_stack([X0, Y0, np.zeros(n_ph), rng.normal(0, 0.01, n_ph),
+                               rng.normal(0, 0.01, n_ph), kappa + rng.normal(0, 0.01, n_ph)])
+
+    # ground grid covering every pattern window
+    gx = np.arange(np.floor(-ex / dx), np.ceil((X0.max() + ex) / dx) + 1) * dx
+    gy = np.arange(np.floor(-ey / dy), np.ceil((Y0.max() + ey) / dy) + 1) * dy
+    GX, GY = np.meshgrid(gx, gy, indexing="xy")
+    gxy = np.column_stack([GX.ravel(), GY.ravel()])
+    cols = np.rint(gxy[:, 0] / dx).astype(int)
+    rows = np.rint(gxy[:, 1] / dy).astype(int)
+    if plan.neat_area:
+        inside = ((gxy[:, 0] > -1e-6) & (gxy[:, 0] < X0.max() + 1e-6) &
+                  (gxy[:, 1] > -1e-6) & (gxy[:, 1] < Y0.max() + 1e-6))
+        gxy, cols, rows = gxy[inside], cols[inside], rows[inside]
+    ids = [f"{r - rows.min() + 1:03d}{c - cols.min() + 1:03d}" for r, c in zip(rows, cols,
+                                                                                    strict=True)]
+    size = max(X0.max(), Y0.max(), side)
+    Z = _terrain(gxy[:, 0], gxy[:, 1], plan.relief_m, size)
+    xyz = np.column_stack([gxy, Z])
+    eo_true[:, 2] = height + np.mean(Z)
+    role = np.full(len(ids), "tie", dtype=object)
+    sigma = np.full((len(ids), 3), np.nan)
+
+    # control layout on the grid
+    ext = (xyz[:, 0].min(), xyz[:, 0].max(), xyz[:, 1].min(), xyz[:, 1].max())
+    on_border = ((np.isclose(xyz[:, 0], ext[0]) | np.isclose(xyz[:, 0], ext[1]) |
+                  np.isclose(xyz[:, 1], ext[2]) | np.isclose(xyz[:, 1], ext[3])))
+    full = np.zeros(len(ids), bool)
+    if plan.control == "perimeter":
+        step = plan.control_spacing * base
+        kx = np.rint((xyz[:, 0] - ext[0]) / step)
+        ky = np.rint((xyz[:, 1] - ext[2]) / step)
+        on_x = np.isclose(xyz[:, 0] - ext[0], kx * step, atol=dx / 2 + 1e-6)
+        on_y = np.isclose(xyz[:, 1] - ext[2], ky * step, atol=dy / 2 + 1e-6)
+        corner = ((np.isclose(xyz[:, 0], ext[0]) | np.isclose(xyz[:, 0], ext[1])) &
+                  (np.isclose(xyz[:, 1], ext[2]) | np.isclose(xyz[:, 1], ext[3])))
+        full = on_border & (on_x | on_y | corner)
+        # keep at most one control point per step along each side
+        full &= (np.isclose(xyz[:, 0] - ext[0], kx * step, atol=dx / 2 + 1e-6) &
+                 np.isin(np.rint(xyz[:, 1]), np.rint([ext[2], ext[3]]))) | \
+                (np.isclose(xyz[:, 1] - ext[2], ky * step, atol=dy / 2 + 1e-6) &
+                 np.isin(np.rint(xyz[:, 0]), np.rint([ext[0], ext[1]])))
+    elif plan.control == "corners":
+        full = ((np.isclose(xyz[:, 0], ext[0]) | np.isclose(xyz[:, 0], ext[1])) &
+                (np.isclose(xyz[:, 1], ext[2]) | np.isclose(xyz[:, 1], ext[3])))
+    elif plan.control != "none":
+        raise ValueError(f"unknown control layout '{plan.control}'")
+    role[full] = "control"
+    sigma[full] = plan.sigma_control_m
+    if plan.height_chains > 0:
+        step = plan.height_chains * base
+        k = np.rint((xyz[:, 0] - ext[0]) / step)
+        chain = np.isclose(xyz[:, 0] - ext[0], k * step, atol=dx / 2 + 1e-6) & ~full
+        role[chain] = "control"
+        sigma[chain, 2] = plan.sigma_control_m[2]
+
+    if plan.twin_control:
+        ctrl = np.flatnonzero(role == "control")
+        offset = np.array([0.1 * dx, 0.1 * dy, 0.0])
+        twin_xyz = xyz[ctrl] + offset
+        twin_xyz[:, 2] = _terrain(twin_xyz[:, 0], twin_xyz[:, 1], plan.relief_m, size)
+        xyz = np.vstack([xyz, twin_xyz])
+        ids += [ids[j] + "T" for j in ctrl]
+        role = np.concatenate([role, role[ctrl]])
+        sigma = np.vstack([sigma, sigma[ctrl]])
+
+    if plan.check_points > 0:
+        interior = np.flatnonzero((role == "tie") & ~np.concatenate(
+            [on_border, np.zeros(len(ids) - len(on_border), bool)]))
+        pick = rng.choice(interior, size=min(plan.check_points, len(interior)), replace=False)
+        role[pick] = "check"
+
+    # which photo measures which point: the pattern window around its nadir
+    rel_x = xyz[None, :, 0] - X0[:, None]
+    rel_y = xyz[None, :, 1] - Y0[:, None]
+    tol_x, tol_y = 0.2 * dx, 0.2 * dy
+    seen = (np.abs(rel_x) <= ex + tol_x) & (np.abs(rel_y) <= ey + tol_y)
+    ph, pt = np.nonzero(seen)
+    rays = np.bincount(pt, minlength=len(ids))
+    ok = rays[pt] >= 2
+    ph, pt = ph[ok], pt[ok]
+    model = None
+    if plan.stereo:  # each point measured in every stereo model of its strip: twin rays
+        rows_ph, rows_pt, rows_model = [], [], []
+        for st in range(plan.strips):
+            for j in range(plan.photos_per_strip - 1):
+                a = st * plan.photos_per_strip + j
+                both = np.flatnonzero(seen[a] & seen[a + 1] & (rays >= 2))
+                for photo in (a, a + 1):
+                    rows_ph.append(np.full(len(both), photo))
+                    rows_pt.append(both)
+                    rows_model.append(np.full(len(both), f"{st + 1}-{j + 1}", dtype=object))
+        ph, pt = np.concatenate(rows_ph), np.concatenate(rows_pt)
+        model = np.concatenate(rows_model)
+        ok = np.bincount(pt, minlength=len(ids))[pt] >= 2
+        ph, pt, model = ph[ok], pt[ok], model[ok]
+    order = np.lexsort((pt, ph)) if model is None else np.lexsort((model, pt, ph))
+    ph, pt = ph[order], pt[order]
+    if model is not None:
+        model = model[order]
+
+    # drop points that are not measured at all (and renumber)
+    used = np.zeros(len(ids), bool)
+    used[pt] = True
+    remap = np.cumsum(used) - 1
+    ids = [p for p, u in zip(ids, used, strict=True) if u]
+    xyz, sigma, role = xyz[used], sigma[used], role[used]
+    pt = remap[pt]
+
+    focal = np.full(len(ph), plan.focal_mm)
+    pp = np.zeros((len(ph), 2))
+    xy_true = project(eo_true[ph], xyz[pt], focal, pp)
+    sig_mm = plan.sigma_image_um * 1e-3
+    xy = xy_true + (rng.normal(0, sig_mm, xy_true.shape) if plan.noise else 0.0)
+    ctrl_given = xyz.copy()
+    if plan.noise:
+        noise = rng.normal(0, 1, xyz.shape) * np.nan_to_num(sigma)
+        ctrl_given = xyz + noise
+    ctrl_given[role == "tie"] = np.nan
+
+    # blunders
+    log = []
+    kinds_img = [k for k in plan.blunder_kinds if k in ("x", "y")]
+    kinds_ctl = [k for k in plan.blunder_kinds if k in ("X", "Y", "Z")]
+    used_obs = set()
+    for _ in range(plan.blunders):
+        kind = rng.choice(kinds_img + kinds_ctl)
+        mult = rng.uniform(*plan.blunder_sigma) * rng.choice([-1.0, 1.0])
+        if kind in ("x", "y"):
+            for _try in range(100):
+                i = int(rng.integers(len(ph)))
+                if (i, kind) not in used_obs:
+                    break
+            used_obs.add((i, kind))
+            size = mult * sig_mm
+            xy[i, "xy".index(kind)] += size
+            log.append({"kind": "image", "photo": f"{_photo_id(s_idx, p_idx, ph[i])}",
+                        "point": ids[pt[i]], "component": str(kind), "size": size * 1e3,
+                        "unit": "um", "sigmas": abs(mult),
+                        "model": None if model is None else str(model[i])})
+        else:
+            k = "XYZ".index(kind)
+            cand = np.flatnonzero(np.isfinite(sigma[:, k]) & (role == "control"))
+            cand = [j for j in cand if (j, kind) not in used_obs]
+            if not cand:
+                continue
+            j = int(rng.choice(cand))
+            used_obs.add((j, kind))
+            size = mult * sigma[j, k]
+            ctrl_given[j, k] += size
+            log.append({"kind": "control", "photo": None, "point": ids[j],
+                        "component": str(kind), "size": size, "unit": "m",
+                        "sigmas": abs(mult)})
+
+    eo_approx = eo_true.copy()
+    eo_approx[:, :3] += rng.normal(0, plan.eo_error[0], (n_ph, 3))
+    eo_approx[:, 3:] += rng.normal(0, plan.eo_error[1], (n_ph, 3))
+    xyz_given = np.where((role == "tie")[:, None], np.nan, ctrl_given)
+    photo_ids = [_photo_id(s_idx, p_idx, i) for i in range(n_ph)]
+    settings = Settings(name=plan.name, angle_unit="gon", sigma_image_um=plan.sigma_image_um,
+                        sigma_control_m=tuple(plan.sigma_control_m))
+    block = Block(
+        settings,
+        Cameras(["cam"], np.array([plan.focal_mm]), np.zeros((1, 2))),
+        Photos(photo_ids, np.zeros(n_ph, dtype=np.int64),
+               np.array([f"{s + 1}" for s in s_idx], dtype=object), eo_approx),
+        ImagePoints(ph.astype(np.int64), pt.astype(np.int64), xy, np.full(len(ph), sig_mm),
+                    model),
+        GroundPoints(ids, xyz_given, sigma, role),
+        source="simulate",
+    )
+    truth = {
+        "plan": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(plan).items()},
+        "photos": {pid: {"X0": e[0], "Y0": e[1], "Z0": e[2], "omega": e[3], "phi": e[4],
+                         "kappa": e[5]} for pid, e in zip(photo_ids, eo_true.tolist(),
+                                                           strict=True)},
+        "points": {pid: list(p) for pid, p in zip(ids, xyz.tolist(), strict=True)},
+        "blunders": log,
+        "units": {"angles": "rad", "coordinates": "m"},
+    }
+    return block, truth
+
+
+def _photo_id(s_idx: np.ndarray, p_idx: np.ndarray, i: int) -> str:
+    return f"{s_idx[i] + 1:02d}{p_idx[i] + 1:03d}"
