@@ -1,0 +1,106 @@
+"""Iterative data snooping: reject the largest significant |w|, re-adjust, repeat.
+
+Rejected components stay in the observation vector as predicted residuals and are tested
+at every iteration; one that is no longer significant comes back (once).  Rejection by
+component or by group (both coordinates of an image point).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from baarda.quality.model import AdjustedModel
+from baarda.quality.statistics import QualityResult, analyse
+
+
+@dataclass
+class SnoopingStep:
+    iteration: int
+    sigma0: float
+    action: str  # "reject" or "restore"
+    rows: list[int]
+    labels: list[str]
+    w: float
+    mdb: float
+
+    def to_dict(self) -> dict:
+        return {"iteration": self.iteration, "sigma0": self.sigma0, "action": self.action,
+                "observations": self.labels, "w": self.w, "mdb": self.mdb}
+
+
+@dataclass
+class SnoopingRun:
+    model: AdjustedModel
+    quality: QualityResult
+    active: np.ndarray
+    log: list[SnoopingStep] = field(default_factory=list)
+    converged: bool = True
+
+    @property
+    def rejected(self) -> np.ndarray:
+        return ~self.active
+
+
+def label(model: AdjustedModel, i: int) -> str:
+    parts = [str(model.kind[i])]
+    if model.frame[i]:
+        parts.append(f"photo {model.frame[i]}" if model.kind[i] == "image" else str(model.frame[i]))
+    parts.append(f"point {model.point[i]}")
+    parts.append(str(model.component[i]))
+    return " ".join(parts)
+
+
+def iterative_snooping(refit: Callable[[np.ndarray], AdjustedModel], active: np.ndarray, *,
+                       alpha0: float = 0.001, beta0: float = 0.80, statistic: str = "w",
+                       by_group: bool = False, max_iterations: int = 200,
+                       progress: Callable[[str], None] | None = None) -> SnoopingRun:
+    """Run Baarda's iterative data snooping with the w-test ("w") or Pope's tau ("tau").
+
+    `refit(active)` re-adjusts with only the components where `active` is True and returns
+    the adjusted model (with the same observation vector).
+    """
+    say = progress or (lambda m: None)
+    active = np.asarray(active, bool).copy()
+    restored: set[int] = set()
+    log: list[SnoopingStep] = []
+    for it in range(1, max_iterations + 1):
+        model = refit(active)
+        q = analyse(model, alpha0, beta0)
+        stat = q.w if statistic == "w" else q.tau
+        crit = q.k_w if statistic == "w" else q.k_tau
+        mag = np.abs(np.nan_to_num(stat))
+        cand = np.flatnonzero(active & q.controlled & (mag > crit))
+        if len(cand):
+            i = int(cand[np.argmax(mag[cand])])
+            rows = [i]
+            if by_group and model.group[i] >= 0:
+                rows = list(np.flatnonzero(model.group == model.group[i]))
+            active[rows] = False
+            step = SnoopingStep(it, q.sigma0_hat, "reject", rows,
+                                [label(model, r) for r in rows], float(stat[i]), float(q.mdb[i]))
+            log.append(step)
+            say(f"snooping {it}: sigma0 {q.sigma0_hat:.3f}, reject {step.labels[0]}"
+                f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}")
+            continue
+        back = np.flatnonzero(~active & q.controlled & (mag < crit))
+        back = np.array([b for b in back if int(b) not in restored], dtype=int)
+        if len(back):
+            i = int(back[np.argmin(mag[back])])
+            rows = [i]
+            if by_group and model.group[i] >= 0:
+                rows = [r for r in np.flatnonzero(model.group == model.group[i])
+                        if not active[r]]
+                if np.any(mag[rows] >= crit):
+                    rows = [i]
+            active[rows] = True
+            restored.update(int(r) for r in rows)
+            log.append(SnoopingStep(it, q.sigma0_hat, "restore", rows,
+                                    [label(model, r) for r in rows], float(stat[i]),
+                                    float(q.mdb[i])))
+            say(f"snooping {it}: restore {label(model, i)}: {statistic} = {stat[i]:.2f}")
+            continue
+        return SnoopingRun(model, q, active, log, True)
+    return SnoopingRun(model, q, active, log, False)

@@ -1,0 +1,128 @@
+"""Data snooping and reliability of every observation (Baarda 1968; Gruen 1980; Kratky 1983).
+
+Conventions: residual v = adjusted - observed; weight p = 1/sigma^2 with sigma0 = 1 a
+priori; cofactors in observation units squared.
+
+    q_vv  = sigma^2 - q_ll^   (active)        q_vv = sigma^2 + q_ll^   (rejected: predicted)
+    r     = q_vv / sigma^2                    (redundancy number, (Qvv P)_ii)
+    sigma_v = sqrt(q_vv)                      (= sigma * sqrt(r) for active components)
+    w     = -v / sigma_v                      (sign of the error in the observation)
+    tau   = w / sigma0_hat                    (Pope)
+    MDB   = delta0 * sigma / sqrt(r)          (boundary value, internal reliability)
+    lambda_bar = delta0 * sqrt((1 - r) / r)   (external reliability, normalised)
+    effect = MDB * dX/dl                      (on the adjusted coordinates of a point)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from baarda.quality.distributions import (
+    b_method,
+    global_test,
+    tau_critical,
+    tau_pvalue,
+    w_test_pvalue,
+)
+from baarda.quality.model import AdjustedModel
+
+R_MIN = 1e-3  # redundancy numbers below this: uncontrolled, not tested
+
+
+@dataclass
+class QualityResult:
+    """Per-component statistics, as arrays aligned with the model's observation vector."""
+
+    residual: np.ndarray
+    sigma: np.ndarray
+    active: np.ndarray
+    qvv: np.ndarray
+    redundancy_number: np.ndarray
+    sigma_residual: np.ndarray
+    w: np.ndarray
+    tau: np.ndarray
+    p_value: np.ndarray
+    tau_p_value: np.ndarray
+    mdb: np.ndarray
+    lambda_bar: np.ndarray
+    external: np.ndarray  # (n, 3) effect of the MDB on a point's coordinates
+    external_max: np.ndarray  # (n,) largest coordinate effect
+    external_point: np.ndarray  # (n,) label of that point
+    controlled: np.ndarray  # r >= R_MIN
+    flagged: np.ndarray  # active, controlled and |w| > k
+    redundancy: int
+    vtpv: float
+    sigma0_hat: float
+    k_w: float
+    k_tau: float
+    alpha0: float
+    beta0: float
+    delta0: float
+    global_alpha: float
+    global_test: object = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def sum_redundancy_numbers(self) -> float:
+        return float(np.sum(self.redundancy_number[self.active]))
+
+
+def cofactors(model: AdjustedModel) -> tuple[np.ndarray, np.ndarray]:
+    """q_vv and redundancy numbers r, with cancellation guarded.
+
+    For a rejected (inactive) component q_vv is the cofactor of its predicted residual,
+    sigma^2 + q_ll^, and r the redundancy number it would have if it were put back,
+    sigma^2 / (sigma^2 + q_ll^) (a rank-one update of N).
+    """
+    qhat = np.maximum(model.adjusted_cofactor_diag(), 0.0)
+    s2 = model.sigma**2
+    qvv = np.where(model.active, s2 - qhat, s2 + qhat)
+    # cancellation: q_ll^ cannot exceed sigma^2 for an active component
+    qvv = np.where(model.active & (qvv < 1e-12 * s2), 0.0, qvv)
+    r = np.where(model.active, qvv / s2, s2 / (s2 + qhat))
+    return qvv, r
+
+
+def analyse(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80,
+            r_min: float = R_MIN) -> QualityResult:
+    """Every statistic of data snooping and reliability for every component of `model`."""
+    bm = b_method(alpha0, beta0)
+    v, s, act = model.residuals, model.sigma, model.active
+    qvv, r = cofactors(model)
+    red = model.redundancy
+    vtpv = float(np.sum((v[act] / s[act]) ** 2))
+    s0 = float(np.sqrt(vtpv / red)) if red > 0 else np.nan
+    controlled = r >= r_min
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sv = np.sqrt(qvv)
+        w = np.where(controlled, -v / sv, np.nan)
+        tau = w / s0
+        mdb = np.where(controlled, bm.delta0 * s / np.sqrt(r), np.inf)
+        lam = np.where(controlled & act, bm.delta0 * np.sqrt(np.clip(1 - r, 0, None) / r),
+                       np.inf)
+    effect_unit, labels = model.point_effect()
+    external = effect_unit * np.where(np.isfinite(mdb), mdb, np.nan)[:, None]
+    with np.errstate(invalid="ignore"):
+        ext_max = np.nanmax(np.abs(external), axis=1) if len(external) else np.zeros(0)
+    ext_max = np.where(controlled, ext_max, np.inf)
+    k_tau = tau_critical(alpha0, red) if red >= 2 else np.nan
+    ga = bm.alpha_for(red) if red > 0 else np.nan
+    gt = global_test(vtpv, red, ga) if red > 0 else None
+    notes = []
+    unc = int(np.sum(act & ~controlled))
+    if unc:
+        notes.append(f"{unc} observation component(s) with redundancy number below {r_min} are "
+                     "not controlled by other observations: an error in them cannot be "
+                     "detected (not tested)")
+    return QualityResult(
+        residual=v, sigma=s, active=act, qvv=qvv, redundancy_number=r, sigma_residual=sv,
+        w=w, tau=tau, p_value=w_test_pvalue(np.nan_to_num(w)) * np.where(controlled, 1, np.nan),
+        tau_p_value=(tau_pvalue(np.nan_to_num(tau), red) if red >= 2 else np.full(len(v), np.nan))
+        * np.where(controlled, 1, np.nan),
+        mdb=mdb, lambda_bar=lam, external=external, external_max=ext_max,
+        external_point=labels, controlled=controlled,
+        flagged=act & controlled & (np.abs(np.nan_to_num(w)) > bm.k_w), redundancy=red,
+        vtpv=vtpv, sigma0_hat=s0, k_w=bm.k_w, k_tau=k_tau, alpha0=alpha0, beta0=beta0,
+        delta0=bm.delta0, global_alpha=ga, global_test=gt, notes=notes)
