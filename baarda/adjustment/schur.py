@@ -5,7 +5,8 @@ Unknowns: `n_frames` frames of `b` unknowns (photos: 6; independent models: 7 or
 
 * frame-point observations, `k` rows each, tied to one frame and one point (image points,
   model coordinates);
-* point observations, `kp` rows each, tied to one point (ground control).
+* point observations, `kp` rows each, tied to one point (ground control);
+* optionally, direct observations of frame unknowns (diagonal weights per frame unknown).
 
 Weights are diagonal (1 / sigma^2, zero for a row that is not observed).  The reduced
 frame system S is factored by the block Cholesky of baarda.linalg; its selected inverse
@@ -35,6 +36,8 @@ class Linearization:
     jc: np.ndarray  # (mp, kp, d) point observations
     wc: np.ndarray  # (mp, kp)
     ec: np.ndarray  # (mp, kp)
+    wf: np.ndarray | None = None  # (nf, b) weights of direct observations of frame unknowns
+    ef: np.ndarray | None = None  # (nf, b) their misclosures (observed - current)
 
 
 class SchurSystem:
@@ -82,6 +85,9 @@ class SchurSystem:
         np.add.at(hpp, self.point_sorted, np.einsum("mkd,mke->mde", jpw, jp))
         gf = np.zeros((self.nf, self.b))
         np.add.at(gf, self.frame_sorted, np.einsum("mkb,mk->mb", jfw, e))
+        if lin.wf is not None:  # direct observations of frame unknowns (e.g. GNSS, datum)
+            hff[:, np.arange(self.b), np.arange(self.b)] += lin.wf
+            gf += lin.wf * lin.ef
         gp = np.zeros((self.np, self.d))
         np.add.at(gp, self.point_sorted, np.einsum("mkd,mk->md", jpw, e))
         jcw = lin.jc * lin.wc[:, :, None]

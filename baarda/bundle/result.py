@@ -114,7 +114,7 @@ class BundleResult:
 
     def summary(self) -> str:
         d = self.to_dict()
-        im = self.image_residuals * 1e3
+        im = np.where(self.lin.w > 0, self.image_residuals * 1e3, np.nan)
         lines = [
             "Bundle block adjustment",
             "=" * 60,
@@ -124,8 +124,8 @@ class BundleResult:
             f"iterations {d['iterations']} ({'converged' if d['converged'] else 'NOT converged'}"
             f"), {d['seconds']:.2f} s",
             f"sigma0 a posteriori {d['sigma0']:.4f}",
-            f"RMS image residuals x {np.sqrt(np.mean(im[:, 0]**2)):.2f} µm, "
-            f"y {np.sqrt(np.mean(im[:, 1]**2)):.2f} µm",
+            f"RMS image residuals x {np.sqrt(np.nanmean(im[:, 0]**2)):.2f} µm, "
+            f"y {np.sqrt(np.nanmean(im[:, 1]**2)):.2f} µm (rejected ones left out)",
         ]
         if d["n_check_points"]:
             lines.append(f"check points {d['n_check_points']}: RMS X {d['check_rms_X']:.3f} m, "

@@ -185,8 +185,8 @@ def write_project(block: Block, folder: str | Path) -> None:
     write_text(folder / "project.toml", "\n".join(toml))
     c = block.cameras
     rows = ["camera,focal_mm,x0_mm,y0_mm"] + [
-        f"{c.ids[i]},{c.focal_mm[i]!r},{c.principal_point_mm[i, 0]!r},"
-        f"{c.principal_point_mm[i, 1]!r}" for i in range(len(c))]
+        f"{c.ids[i]},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
+        f"{float(c.principal_point_mm[i, 1])!r}" for i in range(len(c))]
     write_text(folder / "cameras.csv", "\n".join(rows) + "\n")
     p = block.photos
     ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)
@@ -197,9 +197,11 @@ def write_project(block: Block, folder: str | Path) -> None:
     write_text(folder / "photos.csv", "\n".join(rows) + "\n")
     im, pts = block.image, block.points
     has_model = im.model is not None
+    xy = im.xy_mm.tolist()
+    sig = (im.sigma_mm * 1e3).tolist()
     rows = ["photo,point,x_mm,y_mm,sigma_um" + (",model" if has_model else "")] + [
-        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{im.xy_mm[i, 0]!r},{im.xy_mm[i, 1]!r},"
-        f"{im.sigma_mm[i] * 1e3:.6g}" + (f",{im.model[i]}" if has_model else "")
+        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{xy[i][0]!r},{xy[i][1]!r},"
+        f"{sig[i]:.6g}" + (f",{im.model[i]}" if has_model else "")
         for i in range(len(im))]
     write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
     rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]

@@ -104,9 +104,9 @@ def analyse(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80,
                        np.inf)
     effect_unit, labels = model.point_effect()
     external = effect_unit * np.where(np.isfinite(mdb), mdb, np.nan)[:, None]
-    with np.errstate(invalid="ignore"):
-        ext_max = np.nanmax(np.abs(external), axis=1) if len(external) else np.zeros(0)
-    ext_max = np.where(controlled, ext_max, np.inf)
+    ext_abs = np.abs(external)
+    ext_max = np.max(np.where(np.isnan(ext_abs), -np.inf, ext_abs), axis=1, initial=-np.inf)
+    ext_max = np.where(controlled & act, ext_max, np.where(controlled, np.nan, np.inf))
     k_tau = tau_critical(alpha0, red) if red >= 2 else np.nan
     ga = bm.alpha_for(red) if red > 0 else np.nan
     gt = global_test(vtpv, red, ga) if red > 0 else None

@@ -1,0 +1,5 @@
+import sys
+
+from baarda.cli import main
+
+sys.exit(main())

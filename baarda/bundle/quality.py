@@ -1,0 +1,141 @@
+"""Data snooping and reliability of a bundle adjustment: glue between bundle and quality."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from baarda.block.model import Block
+from baarda.bundle.adjust import BundleProblem, Progress, adjust
+from baarda.bundle.quality_model import BundleModel
+from baarda.bundle.result import BundleResult
+from baarda.quality.hypotheses import test_groups
+from baarda.quality.iterative import SnoopingRun, iterative_snooping
+from baarda.quality.statistics import QualityResult, analyse
+
+UNIT = {"image": 1e3, "control": 1.0}  # output units: µm for image, m for control
+
+
+@dataclass
+class BundleQuality:
+    """A bundle adjustment with every observation's statistics (and the snooping log)."""
+
+    adjustment: BundleResult
+    model: BundleModel
+    quality: QualityResult
+    run: SnoopingRun | None = None
+
+    @property
+    def rejected(self) -> np.ndarray:
+        return ~self.quality.active
+
+    def table(self) -> pd.DataFrame:
+        """One row per observation component (observations.csv): image µm, control m."""
+        m, q = self.model, self.quality
+        scale = np.where(m.kind == "image", UNIT["image"], UNIT["control"])
+        _, t2, crit2, rej2 = test_groups(m, q.alpha0, q.beta0)
+        point_t = np.full(m.n, np.nan)
+        point_t[: len(t2) * 2] = np.repeat(t2, 2)
+        return pd.DataFrame({
+            "kind": m.kind, "photo": m.frame, "point": m.point, "component": m.component,
+            "residual": q.residual * scale, "sigma": q.sigma * scale,
+            "sigma_residual": q.sigma_residual * scale, "redundancy": q.redundancy_number,
+            "w": q.w, "tau": q.tau, "p_value": q.p_value, "mdb": q.mdb * scale,
+            "lambda_bar": q.lambda_bar, "external_max": q.external_max,
+            "external_point": q.external_point, "point_test": point_t,
+            "rejected": ~q.active, "flagged": q.flagged,
+        })
+
+    def to_dict(self) -> dict:
+        q = self.quality
+        gt = q.global_test
+        d = {
+            "global_test": None if gt is None else {
+                "statistic": gt.statistic, "critical": gt.critical, "alpha": q.global_alpha,
+                "p_value": gt.p_value, "passed": bool(gt.passed)},
+            "alpha0": q.alpha0, "beta0": q.beta0, "delta0": q.delta0, "k_w": q.k_w,
+            "k_tau": q.k_tau, "sum_redundancy_numbers": q.sum_redundancy_numbers,
+            "n_rejected": int(np.sum(~q.active)),
+            "n_flagged": int(np.sum(q.flagged)),
+            "n_uncontrolled": int(np.sum(q.active & ~q.controlled)),
+            "rejection_log": [] if self.run is None else [s.to_dict() for s in self.run.log],
+            "snooping_converged": None if self.run is None else self.run.converged,
+            "notes": q.notes,
+        }
+        return d
+
+    def summary(self) -> str:
+        q = self.quality
+        gt = q.global_test
+        lines = [self.adjustment.summary(), "", "Quality control", "=" * 60,
+                 f"alpha0 {q.alpha0}, beta0 {q.beta0}: delta0 {q.delta0:.3f}, critical |w| "
+                 f"{q.k_w:.3f}"]
+        if gt is not None:
+            lines.append(f"global test: sigma0^2 = {gt.statistic:.4f}, critical "
+                         f"{gt.critical:.4f} (alpha {q.global_alpha:.3g}) -> "
+                         f"{'accepted' if gt.passed else 'REJECTED'}")
+        act = q.active & q.controlled
+        lines.append(f"sum of redundancy numbers {q.sum_redundancy_numbers:.3f} = redundancy "
+                     f"{q.redundancy}")
+        for kind in np.unique(self.model.kind):
+            sel = act & (self.model.kind == kind)
+            if not sel.any():
+                continue
+            u, unit = (1e3, "µm") if kind == "image" else (1.0, "m")
+            lines.append(f"{kind}: r mean {np.mean(q.redundancy_number[sel]):.3f} min "
+                         f"{np.min(q.redundancy_number[sel]):.3f}; MDB max "
+                         f"{np.max(q.mdb[sel]) * u:.4g} {unit}; max |w| "
+                         f"{np.nanmax(np.abs(q.w[sel])):.2f}")
+        if self.run is not None:
+            lines.append(f"data snooping: {len(self.run.log)} step(s), "
+                         f"{int(np.sum(~q.active))} rejected")
+            for s in self.run.log:
+                lines.append(f"  {s.iteration:3d} {s.action:7s} {'; '.join(s.labels)}  "
+                             f"w = {s.w:.2f}  sigma0 {s.sigma0:.3f}")
+        lines += [f"note: {n}" for n in q.notes]
+        return "\n".join(lines)
+
+
+def assess(result: BundleResult, alpha0: float | None = None,
+           beta0: float | None = None) -> BundleQuality:
+    """Statistics of every observation of an adjusted block, without rejecting any."""
+    s = result.block.settings
+    model = BundleModel(result)
+    q = analyse(model, alpha0 or s.alpha0, beta0 or s.beta0)
+    return BundleQuality(result, model, q)
+
+
+def snoop(block: Block, *, alpha0: float | None = None, beta0: float | None = None,
+          statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
+          progress: Progress | None = None) -> BundleQuality:
+    """Iterative data snooping of a bundle block (re-adjusting after each rejection)."""
+    s = block.settings
+    alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
+    problem = BundleProblem(block)
+    state: dict = {}
+
+    def refit(active: np.ndarray) -> BundleModel:
+        if "model" in state:
+            m: BundleModel = state["model"]
+            img = m.image_row >= 0
+            keep = np.ones((len(block.image), 2), bool)
+            comp = np.where(m.component[img] == "x", 0, 1)
+            keep[m.image_row[img], comp] = active[img]
+            ckeep = np.ones((len(block.points), 3), bool)
+            ctl = ~img
+            ccomp = np.array(["XYZ".index(c) for c in m.component[ctl]], dtype=int)
+            ckeep[m.control_index[ctl], ccomp] = active[ctl]
+            problem.image_keep, problem.control_keep = keep, ckeep
+        start = state.get("start")
+        res = adjust(block, problem=problem, start=start)
+        state["start"] = (res.eo, res.xyz)
+        state["model"] = BundleModel(res)
+        return state["model"]
+
+    first = refit(np.ones(0, bool))
+    run = iterative_snooping(refit, first.active, alpha0=alpha0, beta0=beta0,
+                             statistic=statistic, by_group=by_point,
+                             max_iterations=max_iterations, progress=progress)
+    return BundleQuality(run.model.result, run.model, run.quality, run)

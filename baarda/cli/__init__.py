@@ -1,0 +1,42 @@
+"""Command line: a thin layer over the API.  Each command lives in its own module with
+`register(subparsers)`; the module list below is the only place that knows them all."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from baarda.io.errors import GeometryError, ProjectError
+
+COMMANDS = [
+    "baarda.cli.adjust",
+    "baarda.cli.simulate",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="baarda", description="Quality-controlled aerial triangulation: bundle adjustment, "
+        "data snooping and reliability.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    for name in COMMANDS:
+        importlib.import_module(name).register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except (ProjectError, GeometryError) as e:
+        print(f"baarda: error: {e}", file=sys.stderr)
+        return 2
+    except FileExistsError as e:
+        print(f"baarda: error: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
