@@ -6,6 +6,10 @@ Users speak in ORIGINAL block numbers (e.g. photo indices). Internally blocks ar
 fill-reducing ordering (``perm[new] = old``). Values live in *pattern storage*: an array of shape
 ``(nnz_blocks, b, b)`` with one slot per block of the lower block triangle of the permuted matrix,
 fill-in included. :meth:`BlockPattern.slots` translates original block pairs to slots.
+
+Internally the factor and the selected inverse are kept as dense supernodal panels in one flat
+buffer each (see :mod:`baarda.linalg.kernels`); ``slot_pos``/``slot_stride`` locate every slot's
+block in such a buffer.
 """
 
 from __future__ import annotations
@@ -13,11 +17,13 @@ from __future__ import annotations
 import numpy as np
 
 from .kernels import (
-    block_backward,
-    block_cholesky,
-    block_forward,
-    block_logdet,
-    block_selected_inverse,
+    gather_blocks,
+    scatter_blocks,
+    supernodal_backward,
+    supernodal_cholesky,
+    supernodal_forward,
+    supernodal_logdet,
+    supernodal_selected_inverse,
 )
 from .ordering import adjacency_from_pairs, fill_reducing_ordering
 from .symbolic import SymbolicFactor, lower_rows, symbolic_factor
@@ -56,6 +62,8 @@ class BlockPattern:
     n, b : number of blocks and block size.
     perm, iperm : ordering, ``perm[new] = old``, ``iperm[old] = new``.
     symbolic : :class:`~baarda.linalg.symbolic.SymbolicFactor` in permuted numbering.
+    sn_off, slot_pos, slot_stride : supernodal panel layout for block size b (see
+        :meth:`~baarda.linalg.symbolic.SymbolicFactor.panel_layout`).
     """
 
     def __init__(
@@ -67,6 +75,7 @@ class BlockPattern:
         self.iperm = iperm
         self.symbolic = symbolic
         self._keys = symbolic.keys()
+        self.sn_off, self.slot_pos, self.slot_stride = symbolic.panel_layout(self.b)
 
     @classmethod
     def from_pairs(
@@ -127,6 +136,11 @@ class BlockPattern:
             )
         return slot, transposed
 
+    @property
+    def panel_size(self) -> int:
+        """Length of the flat supernodal panel buffer of a factor (float64 entries)."""
+        return int(self.sn_off[-1])
+
     def diagonal_slots(self) -> np.ndarray:
         """Slot of the diagonal block of every original block index (shape (n,))."""
         return self.symbolic.colptr[:-1][self.iperm]
@@ -138,13 +152,13 @@ class BlockPattern:
 class BlockCholesky:
     """Block Cholesky factor ``P S P^T = L L^T`` on a fixed :class:`BlockPattern`.
 
-    Call :meth:`factorize` with new values at every iteration; the pattern (ordering and symbolic
-    factor) and the factor storage are reused.
+    Call :meth:`factorize` with new values at every iteration; the pattern (ordering, symbolic
+    factor, panel layout) and the factor storage are reused.
     """
 
     def __init__(self, pattern: BlockPattern) -> None:
         self.pattern = pattern
-        self._lval: np.ndarray | None = None
+        self._buf: np.ndarray | None = None
         self._factored = False
 
     def factorize(self, values: np.ndarray, rtol: float = DEFAULT_PIVOT_RTOL) -> None:
@@ -159,52 +173,69 @@ class BlockCholesky:
         """
         pat = self.pattern
         shape = (pat.nnz_blocks, pat.b, pat.b)
-        values = np.asarray(values)
+        values = np.ascontiguousarray(values, dtype=np.float64)
         if values.shape != shape:
             raise ValueError(f"values must have shape {shape}, got {values.shape}")
-        if self._lval is None:
-            self._lval = np.empty(shape)
-        np.copyto(self._lval, values)
+        if self._buf is None:
+            self._buf = np.empty(pat.panel_size)
         self._factored = False
+        scatter_blocks(values, pat.slot_pos, pat.slot_stride, self._buf)
         sym = pat.symbolic
-        info = block_cholesky(sym.colptr, sym.rowind, self._lval, float(rtol))
+        info = supernodal_cholesky(
+            sym.sn_start,
+            sym.col_to_sn,
+            sym.colptr,
+            sym.rowind,
+            pat.sn_off,
+            self._buf,
+            pat.b,
+            float(rtol),
+        )
         if info >= 0:
             j, t = divmod(int(info), pat.b)
             orig = int(pat.perm[j])
             raise NotPositiveDefinite(
                 orig,
-                f"block {orig} is not positive definite: pivot {t} of {pat.b} of its "
-                f"{pat.b}x{pat.b} block failed in the Cholesky factorisation (elimination step "
-                f"{j} of {pat.n}); the unknowns of block {orig} are not determined",
+                f"block {orig} is not positive definite: pivot {t} of its {pat.b}x{pat.b} "
+                f"block failed in the Cholesky factorisation (elimination step {j} of "
+                f"{pat.n}); the unknowns of block {orig} are not determined",
                 component=t,
             )
         self._factored = True
 
     def _check(self) -> np.ndarray:
-        if not self._factored or self._lval is None:
+        if not self._factored or self._buf is None:
             raise RuntimeError("no valid factorisation; call factorize() first")
-        return self._lval
+        return self._buf
 
     def _permuted(self, rhs: np.ndarray) -> tuple[np.ndarray, bool]:
-        """Copy rhs ((N,) or (N, k), original order) to a permuted (n, b, k) work array."""
+        """Copy rhs ((N,) or (N, k), original order) to a permuted (N, k) work array."""
         pat = self.pattern
         rhs = np.asarray(rhs, dtype=np.float64)
         vec = rhs.ndim == 1
-        if rhs.shape[0] != pat.n * pat.b or rhs.ndim not in (1, 2):
+        if rhs.ndim not in (1, 2) or rhs.shape[0] != pat.n * pat.b:
             raise ValueError(f"rhs must have shape ({pat.n * pat.b},) or ({pat.n * pat.b}, k)")
         x = rhs.reshape(pat.n, pat.b, -1)[pat.perm]
-        return np.ascontiguousarray(x), vec
+        return np.ascontiguousarray(x.reshape(pat.n * pat.b, -1)), vec
+
+    def _forward(self, x: np.ndarray) -> None:
+        pat = self.pattern
+        sym = pat.symbolic
+        supernodal_forward(
+            sym.sn_start, sym.colptr, sym.rowind, pat.sn_off, self._check(), pat.b, x
+        )
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve ``S x = rhs``; rhs (n*b,) or (n*b, k) in ORIGINAL ordering, result same shape."""
-        lval = self._check()
         pat = self.pattern
         sym = pat.symbolic
         x, vec = self._permuted(rhs)
-        block_forward(sym.colptr, sym.rowind, lval, x)
-        block_backward(sym.colptr, sym.rowind, lval, x)
-        out = np.empty_like(x)
-        out[pat.perm] = x
+        self._forward(x)
+        supernodal_backward(
+            sym.sn_start, sym.colptr, sym.rowind, pat.sn_off, self._check(), pat.b, x
+        )
+        out = np.empty_like(x).reshape(pat.n, pat.b, -1)
+        out[pat.perm] = x.reshape(pat.n, pat.b, -1)
         return out.reshape(-1) if vec else out.reshape(pat.n * pat.b, -1)
 
     def forward(self, rhs: np.ndarray) -> np.ndarray:
@@ -212,51 +243,72 @@ class BlockCholesky:
 
         rhs (n*b,) or (n*b, k) in ORIGINAL ordering; W has the same shape (rows permuted).
         """
-        lval = self._check()
-        sym = self.pattern.symbolic
         x, vec = self._permuted(rhs)
-        block_forward(sym.colptr, sym.rowind, lval, x)
-        return x.reshape(-1) if vec else x.reshape(x.shape[0] * x.shape[1], -1)
+        self._forward(x)
+        return x.reshape(-1) if vec else x
 
     def logdet(self) -> float:
         """``log det S``."""
-        lval = self._check()
-        return float(block_logdet(self.pattern.symbolic.colptr, lval))
+        pat = self.pattern
+        sym = pat.symbolic
+        return float(supernodal_logdet(sym.sn_start, sym.colptr, pat.sn_off, self._check(), pat.b))
 
     def selected_inverse(self) -> SelectedInverse:
         """Blocks of ``S^-1`` on the pattern of L (which contains the pattern of S)."""
-        lval = self._check()
-        sym = self.pattern.symbolic
-        zval = np.empty_like(lval)
-        block_selected_inverse(sym.colptr, sym.rowind, lval, zval)
-        return SelectedInverse(self.pattern, zval)
+        buf = self._check()
+        pat = self.pattern
+        sym = pat.symbolic
+        zbuf = np.empty_like(buf)
+        supernodal_selected_inverse(
+            sym.sn_start,
+            sym.col_to_sn,
+            sym.colptr,
+            sym.rowind,
+            pat.sn_off,
+            buf,
+            zbuf,
+            pat.b,
+        )
+        return SelectedInverse(pat, zbuf)
 
 
 class SelectedInverse:
     """Blocks of ``S^-1`` on the pattern of the Cholesky factor, addressed in ORIGINAL numbering.
 
-    ``values`` holds the blocks in pattern storage (same slots as :meth:`BlockPattern.slots`).
+    Any block pair of the pattern of L can be read (this includes every pair given to
+    :meth:`BlockPattern.from_pairs` and every diagonal block).
     """
 
-    def __init__(self, pattern: BlockPattern, values: np.ndarray) -> None:
+    def __init__(self, pattern: BlockPattern, panels: np.ndarray) -> None:
         self.pattern = pattern
-        self.values = values
+        self._panels = panels
+
+    def _gather(self, slot: np.ndarray, transposed: np.ndarray) -> np.ndarray:
+        pat = self.pattern
+        slot = np.ascontiguousarray(slot, dtype=np.int64).ravel()
+        transposed = np.ascontiguousarray(transposed, dtype=np.bool_).ravel()
+        out = np.empty((slot.size, pat.b, pat.b))
+        gather_blocks(self._panels, pat.slot_pos[slot], pat.slot_stride[slot], transposed, out)
+        return out
 
     def block(self, i: int, j: int) -> np.ndarray:
         """Block ``(i, j)`` of ``S^-1`` (b, b); the pair must be in the pattern."""
         slot, tr = self.pattern.slots(np.array([i]), np.array([j]))
-        z = self.values[slot[0]]
-        return (z.T if tr[0] else z).copy()
+        return self._gather(slot, tr)[0]
 
     def blocks(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         """Blocks ``(rows[m], cols[m])`` of ``S^-1``, shape (m, b, b)."""
         rows = np.asarray(rows, dtype=np.int64).ravel()
         cols = np.asarray(cols, dtype=np.int64).ravel()
-        slot, tr = self.pattern.slots(rows, cols)
-        out = self.values[slot]
-        out[tr] = out[tr].transpose(0, 2, 1)
-        return out
+        return self._gather(*self.pattern.slots(rows, cols))
 
     def diagonal_blocks(self) -> np.ndarray:
         """All diagonal blocks of ``S^-1`` in ORIGINAL numbering, shape (n, b, b)."""
-        return self.values[self.pattern.diagonal_slots()]
+        slot = self.pattern.diagonal_slots()
+        return self._gather(slot, np.zeros(slot.size, dtype=np.bool_))
+
+    def pattern_values(self) -> np.ndarray:
+        """All stored blocks in pattern storage (nnz_blocks, b, b), slots as in
+        :meth:`BlockPattern.slots` (block ``(i, j)``, ``i >= j`` in elimination order)."""
+        slot = np.arange(self.pattern.nnz_blocks, dtype=np.int64)
+        return self._gather(slot, np.zeros(slot.size, dtype=np.bool_))

@@ -5,6 +5,11 @@ is block row/column ``j`` in elimination order. The pattern of the factor ``L`` 
 block-CSC form: the blocks of block column ``j`` occupy slots ``colptr[j]:colptr[j + 1]``, their
 block row indices are ``rowind[colptr[j]:colptr[j + 1]]``, the diagonal block comes first and the
 rows are strictly increasing. The slot order is therefore the order of the keys ``j * n + i``.
+
+Supernodes: consecutive block columns ``f..l`` with ``parent[j] = j + 1`` and
+``struct(j) = {j} + struct(j + 1)`` share one row structure ``R = struct(f)``. The numeric factor
+keeps each supernode as one dense row-major panel of ``len(R) * b`` rows and ``(l - f + 1) * b``
+columns in a flat buffer, so that the block updates become dense matrix products (BLAS).
 """
 
 from __future__ import annotations
@@ -14,7 +19,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-__all__ = ["SymbolicFactor", "elimination_tree", "lower_rows", "symbolic_factor"]
+__all__ = [
+    "SymbolicFactor",
+    "elimination_tree",
+    "lower_rows",
+    "supernodes",
+    "symbolic_factor",
+]
 
 
 @dataclass(frozen=True)
@@ -28,6 +39,8 @@ class SymbolicFactor:
     colptr : (n + 1,) slot range of each block column.
     rowind : (nnz,) block row index of each slot (diagonal first, increasing in each column).
     colind : (nnz,) block column index of each slot.
+    sn_start : (nsup + 1,) first block column of each supernode.
+    col_to_sn : (n,) supernode of each block column.
     """
 
     n: int
@@ -35,6 +48,22 @@ class SymbolicFactor:
     colptr: np.ndarray
     rowind: np.ndarray
     colind: np.ndarray
+    sn_start: np.ndarray
+    col_to_sn: np.ndarray
+
+    @property
+    def nsup(self) -> int:
+        """Number of supernodes."""
+        return int(self.sn_start.size - 1)
+
+    def panel_layout(self, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Flat-buffer layout of the supernodal panels for block size ``b``.
+
+        Returns ``(sn_off, slot_pos, slot_stride)``: panel ``J`` starts at ``sn_off[J]``
+        (``sn_off[-1]`` is the buffer length); block slot ``q`` starts at ``slot_pos[q]`` and its
+        rows are ``slot_stride[q]`` apart (the panel width).
+        """
+        return _panel_layout(self.sn_start, self.colptr, b)
 
     @property
     def nnz(self) -> int:
@@ -139,4 +168,54 @@ def symbolic_factor(n: int, rptr: np.ndarray, rcol: np.ndarray) -> SymbolicFacto
     np.cumsum(counts, out=colptr[1:])
     rowind = _fill_rows(n, rptr, rcol, parent, colptr)
     colind = np.repeat(np.arange(n, dtype=np.int64), counts)
-    return SymbolicFactor(n=n, parent=parent, colptr=colptr, rowind=rowind, colind=colind)
+    sn_start = supernodes(parent, counts)
+    col_to_sn = np.repeat(np.arange(sn_start.size - 1, dtype=np.int64), np.diff(sn_start))
+    return SymbolicFactor(
+        n=n,
+        parent=parent,
+        colptr=colptr,
+        rowind=rowind,
+        colind=colind,
+        sn_start=sn_start,
+        col_to_sn=col_to_sn,
+    )
+
+
+def supernodes(parent: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Fundamental-chain supernode partition: ``sn_start`` (nsup + 1,) of the block columns.
+
+    Column ``j`` joins the supernode of ``j - 1`` when ``parent[j - 1] == j`` and
+    ``counts[j - 1] == counts[j] + 1`` (then the structure of ``j - 1`` is ``{j - 1}`` plus that
+    of ``j``).
+    """
+    n = parent.size
+    if n == 0:
+        return np.zeros(1, dtype=np.int64)
+    j = np.arange(1, n)
+    chain = (parent[:-1] == j) & (counts[:-1] == counts[1:] + 1)
+    starts = np.concatenate([[0], j[~chain], [n]])
+    return starts.astype(np.int64)
+
+
+@njit(cache=True)
+def _panel_layout(
+    sn_start: np.ndarray, colptr: np.ndarray, b: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    nsup = sn_start.size - 1
+    sn_off = np.zeros(nsup + 1, dtype=np.int64)
+    nnz = colptr[-1]
+    slot_pos = np.empty(nnz, dtype=np.int64)
+    slot_stride = np.empty(nnz, dtype=np.int64)
+    for s in range(nsup):
+        f = sn_start[s]
+        ncols = sn_start[s + 1] - f
+        width = ncols * b
+        nrows = colptr[f + 1] - colptr[f]
+        sn_off[s + 1] = sn_off[s] + nrows * b * width
+        for c in range(ncols):
+            j = f + c
+            for q in range(colptr[j], colptr[j + 1]):
+                a = q - colptr[j] + c  # position of the row in the supernode's structure
+                slot_pos[q] = sn_off[s] + a * b * width + c * b
+                slot_stride[q] = width
+    return sn_off, slot_pos, slot_stride

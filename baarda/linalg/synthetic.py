@@ -66,9 +66,7 @@ def random_spd_blocks(
     return r, c, blocks
 
 
-def assemble(
-    pattern: BlockPattern, r: np.ndarray, c: np.ndarray, blocks: np.ndarray
-) -> np.ndarray:
+def assemble(pattern: BlockPattern, r: np.ndarray, c: np.ndarray, blocks: np.ndarray) -> np.ndarray:
     """Assemble blocks ``(r[m], c[m])`` into pattern storage (lower triangle of L's pattern).
 
     Blocks of the upper triangle (in elimination order) are skipped, since they mirror the lower
