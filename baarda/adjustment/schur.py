@@ -129,7 +129,7 @@ class SchurSystem:
         """Selected inverse: Sigma_ff (pattern storage), Sigma_pf per observation, Sigma_pp."""
         if self._sel is None:
             sel = self.chol.selected_inverse()
-            values = sel.values
+            values = sel.pattern_values()
             spf, spp = kernels.point_covariances(self.ptr, self.frame_sorted, self.hfp,
                                                  self.hpp_inv, values, self.pair_slot,
                                                  self.pair_tr)
