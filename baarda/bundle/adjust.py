@@ -74,7 +74,7 @@ class BundleProblem:
         ec = np.where(np.isfinite(given), given, 0.0) - xyz[self.remap[self.control]]
         w, wc = self.weights
         jc = np.broadcast_to(np.eye(3), (len(self.control), 3, 3)).copy()
-        return Linearization(je, jp, w, e, jc, wc, np.where(wc > 0, ec, 0.0))
+        return Linearization(je, jp, w, e, jc, wc, ec)
 
 
 def _cost(lin: Linearization) -> float:

@@ -11,7 +11,7 @@ from baarda.block.model import Block
 from baarda.bundle.adjust import BundleProblem, Progress, adjust
 from baarda.bundle.quality_model import BundleModel
 from baarda.bundle.result import BundleResult
-from baarda.quality.hypotheses import test_groups
+from baarda.quality.hypotheses import image_point_tests
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import QualityResult, analyse
 
@@ -35,7 +35,7 @@ class BundleQuality:
         """One row per observation component (observations.csv): image µm, control m."""
         m, q = self.model, self.quality
         scale = np.where(m.kind == "image", UNIT["image"], UNIT["control"])
-        _, t2, crit2, rej2 = test_groups(m, q.alpha0, q.beta0)
+        _, t2, _, _, _ = image_point_tests(m, q.alpha0, q.beta0)
         point_t = np.full(m.n, np.nan)
         point_t[: len(t2) * 2] = np.repeat(t2, 2)
         return pd.DataFrame({

@@ -44,7 +44,7 @@ class HypothesisTest:
         return s + f"; estimated bias {np.array2string(self.nabla, precision=4)}"
 
 
-def test_hypothesis(model: AdjustedModel, h: np.ndarray, name: str = "H", alpha0: float = 0.001,
+def hypothesis_test(model: AdjustedModel, h: np.ndarray, name: str = "H", alpha0: float = 0.001,
                     beta0: float = 0.80, rcond: float = 1e-9) -> HypothesisTest:
     """Test the alternative hypothesis given by the columns of h (n, q)."""
     h = np.asarray(h, float)
@@ -82,34 +82,39 @@ def unit_columns(n: int, rows: np.ndarray) -> np.ndarray:
     return h
 
 
-def test_rows(model: AdjustedModel, rows: np.ndarray, name: str, alpha0: float = 0.001,
+def group_test(model: AdjustedModel, rows: np.ndarray, name: str, alpha0: float = 0.001,
               beta0: float = 0.80) -> HypothesisTest:
     """All components `rows` in error at once (an image point, a ground point, a photo)."""
     rows = np.asarray(rows)
     rows = rows[model.active[rows]]
-    return test_hypothesis(model, unit_columns(model.n, rows), name, alpha0, beta0)
+    return hypothesis_test(model, unit_columns(model.n, rows), name, alpha0, beta0)
 
 
-def test_groups(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80):
-    """Two-dimensional test of every image point (x and y together), vectorised.
+def image_point_tests(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80):
+    """Test of every group (an image point: x and y together), vectorised.
 
-    Returns (group index (g, k), T/k (g,), critical value, rejected (g,)).
-    T = v^T Qvv^-1 v with the k x k block Qvv = diag(sigma^2) - Q_ll^ of the group.
+    T = v^T Qvv^+ v with the k x k block Qvv = diag(sigma^2) - Q_ll^ of the group; a
+    direction with (numerically) zero cofactor is not testable and drops out of q (the x
+    of a two-ray point: Gruen's R2(x) = 0).  Returns (group index (g, k), T/q (g,),
+    q (g,), critical value of T/q (g,), rejected (g,)).
     """
     idx, qhat = model.adjusted_cofactor_blocks()
     if len(idx) == 0:
-        return idx, np.zeros(0), np.nan, np.zeros(0, bool)
+        z = np.zeros(0)
+        return idx, z, z.astype(int), z, z.astype(bool)
     k = idx.shape[1]
     s2 = model.sigma[idx] ** 2
     qvv = -qhat
     qvv[:, np.arange(k), np.arange(k)] += s2
-    v = model.residuals[idx]
-    ok = model.active[idx].all(axis=1)
-    t = np.full(len(idx), np.nan)
-    det = np.linalg.det(qvv[ok])
-    good = np.flatnonzero(ok)[det > 1e-14 * np.prod(s2[ok], axis=1)]
-    t[good] = np.einsum("gi,gi->g", v[good],
-                        np.linalg.solve(qvv[good], v[good][:, :, None])[:, :, 0])
+    vals, vecs = np.linalg.eigh(qvv)
+    tol = 1e-6 * s2.max(axis=1, keepdims=True)
+    ok = vals > tol
+    proj = np.einsum("gik,gi->gk", vecs, model.residuals[idx])
+    t = np.sum(np.where(ok, proj**2 / np.where(ok, vals, 1.0), 0.0), axis=1)
+    q = ok.sum(axis=1)
+    act = model.active[idx].all(axis=1) & (q > 0)
     bm = b_method(alpha0, beta0)
-    crit = bm.critical_F(k)
-    return idx, t / k, crit, np.nan_to_num(t / k) > crit
+    crit_q = {int(d): bm.critical_F(int(d)) for d in np.unique(q[q > 0])}
+    crit = np.array([crit_q.get(int(d), np.nan) for d in q])
+    stat = np.where(act, t / np.maximum(q, 1), np.nan)
+    return idx, stat, q, crit, np.nan_to_num(stat) > np.nan_to_num(crit, nan=np.inf)

@@ -1,0 +1,75 @@
+"""Data snooping on simulated blocks: residual response, detection, restoring."""
+
+import numpy as np
+import pytest
+
+from baarda.bundle.adjust import adjust
+from baarda.bundle.quality import assess, snoop
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+
+def test_blunder_changes_residual_by_minus_r_times_d():
+    """Kratky eq. 5 / Gruen eq. 6: dv_i = -r_i d for an error d in observation i."""
+    block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=5, relief_m=40, seed=4))
+    qc = assess(adjust(block))
+    q, m = qc.quality, qc.model
+    d = 0.002  # mm = 2 µm: small, so the re-adjustment stays linear
+    for i in np.flatnonzero(q.controlled & (m.kind == "image"))[::17][:6]:
+        row, comp = m.image_row[i], "xy".index(m.component[i])
+        block.image.xy_mm[row, comp] += d
+        try:
+            res2 = adjust(block)
+        finally:
+            block.image.xy_mm[row, comp] -= d
+        v2 = res2.image_residuals.ravel()[i]
+        assert v2 - q.residual[i] == pytest.approx(-q.redundancy_number[i] * d, abs=2e-3 * d)
+
+
+def test_snooping_finds_blunders_and_nothing_else():
+    """1 % of image observations blundered by 6-20 sigma in a 6 x 10 block."""
+    plan = FlightPlan(strips=6, photos_per_strip=10, relief_m=50, pattern=5, seed=7,
+                      side_overlap=0.6, blunders=0)
+    block, _ = simulate_block(plan)
+    n_img = 2 * len(block.image)
+    plan.blunders = int(round(0.01 * n_img))
+    block, truth = simulate_block(plan)
+    qc = snoop(block)
+    m = qc.model
+    rejected = {(m.frame[i], m.point[i], m.component[i]) for i in np.flatnonzero(~qc.quality.active)}
+    planted = {(b["photo"], b["point"], b["component"]) for b in truth["blunders"]}
+    found = planted & rejected
+    false = rejected - planted
+    # the numbers of this block (kept from getting worse): see the closing note of issue 3.
+    # False rejections: about alpha0 * n = 3 are expected by the test itself.
+    n_tested = int(np.sum(qc.quality.controlled))
+    assert len(found) >= 0.9 * len(planted)
+    assert len(false) <= 0.001 * n_tested + 3 * np.sqrt(0.001 * n_tested)
+    # sigma0 after cleaning: chi2(r)/r within its 99.9 % interval
+    r = qc.quality.redundancy
+    assert abs(qc.quality.sigma0_hat**2 - 1) < 3.3 * np.sqrt(2 / r)
+    assert qc.run.converged
+
+
+def test_rejected_observation_returns_when_not_significant():
+    """Force a rejection of a good observation: the next snooping step restores it."""
+    from baarda.quality.iterative import iterative_snooping
+    block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=5, relief_m=40, seed=9))
+    from baarda.bundle.adjust import BundleProblem
+    from baarda.bundle.quality_model import BundleModel
+    problem = BundleProblem(block)
+    first = BundleModel(adjust(block, problem=problem))
+    good = int(np.flatnonzero(assess(first.result).quality.redundancy_number > 0.5)[0])
+
+    def refit(active):
+        keep = np.ones((len(block.image), 2), bool)
+        img = first.image_row >= 0
+        keep[first.image_row[img], np.where(first.component[img] == "x", 0, 1)] = active[img]
+        problem.image_keep = keep
+        return BundleModel(adjust(block, problem=problem))
+
+    start = first.active.copy()
+    start[good] = False
+    run = iterative_snooping(refit, start)
+    assert run.active[good]
+    assert [s.action for s in run.log] == ["restore"]
+    assert run.log[0].rows == [good]
