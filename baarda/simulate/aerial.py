@@ -32,7 +32,7 @@ class FlightPlan:
     neat_area: bool = False  # only points between the outer nadir lines (Gruen's blocks)
     control: str = "perimeter"  # perimeter | corners | none
     control_spacing: int = 2  # perimeter control every k base lengths
-    height_chains: int = 2  # a chain of height points across the strips every k bases
+    height_chains: int = 4  # a chain of height points across the strips every k bases
     twin_control: bool = False  # each control point with a close companion
     check_points: int = 0  # interior tie points turned into check points
     relief_m: float = 0.0  # amplitude of smooth terrain relief
