@@ -35,7 +35,8 @@ def test_snooping_finds_blunders_and_nothing_else():
     block, truth = simulate_block(plan)
     qc = snoop(block)
     m = qc.model
-    rejected = {(m.frame[i], m.point[i], m.component[i]) for i in np.flatnonzero(~qc.quality.active)}
+    gone = np.flatnonzero(~qc.quality.active)
+    rejected = {(m.frame[i], m.point[i], m.component[i]) for i in gone}
     planted = {(b["photo"], b["point"], b["component"]) for b in truth["blunders"]}
     found = planted & rejected
     false = rejected - planted

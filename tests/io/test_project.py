@@ -1,0 +1,155 @@
+"""Reading, validation messages and round trip of the native project format."""
+
+import shutil
+
+import numpy as np
+import pytest
+
+from baarda.bundle.adjust import adjust
+from baarda.io.errors import GeometryError, ProjectError
+from baarda.io.project import read_project, write_project
+
+
+@pytest.fixture()
+def project(tmp_path, small_block):
+    block, _ = small_block
+    write_project(block, tmp_path / "p")
+    return tmp_path / "p"
+
+
+def edit(path, old, new, count=1):
+    text = path.read_text()
+    assert old in text
+    path.write_text(text.replace(old, new, count))
+
+
+def line_of(path, needle):
+    for i, line in enumerate(path.read_text().splitlines(), start=1):
+        if needle in line:
+            return i
+    raise AssertionError(needle)
+
+
+def test_round_trip(project, small_block):
+    block, _ = small_block
+    b2 = read_project(project)
+    assert b2.photos.ids == block.photos.ids
+    assert np.allclose(b2.photos.eo, block.photos.eo, atol=1e-12)
+    assert np.allclose(b2.image.xy_mm, block.image.xy_mm, atol=0)
+    order = [b2.point_index[p] for p in block.points.ids]
+    assert np.array_equal(b2.points.role[order], block.points.role)
+    assert np.allclose(np.nan_to_num(b2.points.sigma[order], nan=-1),
+                       np.nan_to_num(block.points.sigma, nan=-1))
+
+
+def test_unknown_photo_reference(project):
+    f = project / "image_points.csv"
+    lines = f.read_text().splitlines()
+    lines[3] = "NOPHOTO" + lines[3][lines[3].index(","):]
+    f.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ProjectError) as e:
+        read_project(project)
+    assert e.value.line == 4 and e.value.column == "photo"
+    assert "unknown photo 'NOPHOTO'" in str(e.value) and "image_points.csv" in str(e.value)
+
+
+def test_unknown_camera(project):
+    edit(project / "photos.csv", ",cam,", ",lens2,")
+    with pytest.raises(ProjectError, match=r"photos.csv, line 2, column 'camera': unknown "
+                                           r"camera 'lens2'"):
+        read_project(project)
+
+
+def test_duplicate_id(project):
+    f = project / "photos.csv"
+    lines = f.read_text().splitlines()
+    f.write_text("\n".join(lines + [lines[1]]) + "\n")
+    with pytest.raises(ProjectError, match=rf"line {len(lines) + 1}, column 'photo': duplicate"):
+        read_project(project)
+
+
+def test_duplicate_measurement(project):
+    f = project / "image_points.csv"
+    lines = f.read_text().splitlines()
+    f.write_text("\n".join(lines + [lines[5]]) + "\n")
+    with pytest.raises(ProjectError, match="measured twice"):
+        read_project(project)
+
+
+def test_not_a_number(project):
+    f = project / "ground_points.csv"
+    lines = f.read_text().splitlines()
+    parts = lines[2].split(",")
+    parts[3] = "12,5".replace(",", ";")
+    lines[2] = ",".join(parts)
+    f.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ProjectError) as e:
+        read_project(project)
+    assert (e.value.line, e.value.column) == (3, "Z")
+    assert "'12;5' is not a number" in str(e.value)
+
+
+def test_missing_column_and_wrong_field_count(project):
+    edit(project / "cameras.csv", "focal_mm", "focal")
+    with pytest.raises(ProjectError, match="missing column 'focal_mm'"):
+        read_project(project)
+    edit(project / "cameras.csv", "focal", "focal_mm")
+    edit(project / "cameras.csv", "cam,153.0,", "cam,153.0,0.0,")
+    with pytest.raises(ProjectError, match="line 2: expected 4 fields, found 5"):
+        read_project(project)
+
+
+def test_bad_settings(project):
+    edit(project / "project.toml", 'angle_unit = "gon"', 'angle_unit = "grad"')
+    with pytest.raises(ProjectError, match="angle_unit 'grad'"):
+        read_project(project)
+
+
+def test_bad_role_and_sigma(project):
+    edit(project / "ground_points.csv", ",control", ",contrl")
+    with pytest.raises(ProjectError, match="role 'contrl' must be 'control' or 'check'"):
+        read_project(project)
+    edit(project / "ground_points.csv", ",contrl", ",control")
+    f = project / "ground_points.csv"
+    lines = f.read_text().splitlines()
+    parts = lines[1].split(",")
+    parts[4] = "-0.05"
+    lines[1] = ",".join(parts)
+    f.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ProjectError, match="line 2, column 'sigma_X': standard deviation"):
+        read_project(project)
+
+
+def test_one_ray_points_are_left_out_and_listed(project):
+    f = project / "image_points.csv"
+    f.write_text(f.read_text() + "01001,LONELY,1.0,2.0,5\n")
+    block = read_project(project)
+    res = adjust(block)
+    assert any("LONELY" in n and "one photo only" in n for n in res.notes)
+    assert block.point_index["LONELY"] not in set(res.problem.point_ids)
+
+
+def test_datum_defect_reported_before_adjusting(project):
+    f = project / "ground_points.csv"
+    lines = f.read_text().splitlines()
+    ctrl = [ln for ln in lines[1:] if ln.endswith("control")]
+    keep = [lines[0]] + ctrl[:1] + [ln for ln in lines[1:] if ln.endswith("check")]
+    f.write_text("\n".join(keep) + "\n")
+    with pytest.raises(GeometryError, match="datum defect.*1 planimetric.*at least two"):
+        adjust(read_project(project))
+
+
+def test_inputs_are_not_modified(project, tmp_path):
+    before = {p.name: p.read_bytes() for p in project.iterdir()}
+    from baarda.cli import main
+    assert main(["adjust", str(project), "-o", str(tmp_path / "out"), "-q"]) == 0
+    assert {p.name: p.read_bytes() for p in project.iterdir()} == before
+    assert main(["adjust", str(project), "-o", str(project), "-q"]) == 2
+
+
+def test_missing_file(project, capsys):
+    shutil.rmtree(project / "cameras.csv", ignore_errors=True)
+    (project / "cameras.csv").unlink()
+    from baarda.cli import main
+    assert main(["adjust", str(project), "-o", str(project.parent / "o"), "-q"]) == 2
+    assert "cameras.csv: file not found" in capsys.readouterr().err
