@@ -81,15 +81,16 @@ def _cost(lin: Linearization) -> float:
     return float(np.sum(lin.w * lin.e**2) + np.sum(lin.wc * lin.ec**2))
 
 
-def adjust(block: Block, *, max_iterations: int = 50, tolerance: float = 1e-10,
+def adjust(block: Block, *, max_iterations: int = 50,
            image_keep: np.ndarray | None = None, control_keep: np.ndarray | None = None,
            problem: BundleProblem | None = None, start: tuple | None = None,
            progress: Progress | None = None) -> BundleResult:
     """Adjust `block`; returns a BundleResult (arrays plus summary()).
 
     Gauss-Newton with step halving when the weighted sum of squares grows.  Converged when
-    the relative change of v^T P v is below `tolerance` and the largest correction is below
-    1e-6 of the flying height (positions) and 1e-9 rad (angles).
+    the next correction is below 1e-7 of the flying height (positions and points) and
+    1e-10 rad (angles); the solution is then the last point of linearisation, so residuals,
+    Jacobians and the factored normal equations used by the statistics belong together.
     """
     t0 = time.perf_counter()
     say = progress or (lambda msg: None)
@@ -111,6 +112,15 @@ def adjust(block: Block, *, max_iterations: int = 50, tolerance: float = 1e-10,
     for it in range(1, max_iterations + 1):
         system.factorize(lin)
         dxf, dxp = system.solve()
+        dpos = max(np.max(np.abs(dxf[:, :3]), initial=0.0), np.max(np.abs(dxp), initial=0.0))
+        dang = np.max(np.abs(dxf[:, 3:]), initial=0.0)
+        if dpos < 1e-7 * scale and dang < 1e-10:
+            # the correction is negligible: keep the point of linearisation, whose normal
+            # equations are factored, as the solution (consistent for the quality analysis)
+            say(f"iteration {it}: converged, vTPv = {cost:.6g}, remaining correction "
+                f"{dpos:.3g} m, {dang:.3g} rad")
+            converged = True
+            break
         step = 1.0
         for _ in range(30):
             eo_new, xyz_new = eo + step * dxf, xyz + step * dxp
@@ -126,20 +136,13 @@ def adjust(block: Block, *, max_iterations: int = 50, tolerance: float = 1e-10,
                                 "direction keeps the points in front of the cameras; check the "
                                 "approximate orientations and the identification of points")
         eo, xyz, lin = eo_new, xyz_new, lin_new
-        rel = abs(cost - cost_new) / max(cost_new, 1e-300)
         cost = cost_new
-        dpos = np.max(np.abs(step * dxf[:, :3]), initial=0.0)
-        dpos = max(dpos, np.max(np.abs(step * dxp), initial=0.0))
-        dang = np.max(np.abs(step * dxf[:, 3:]), initial=0.0)
-        say(f"iteration {it}: vTPv = {cost:.6g}, max correction {dpos:.3g} m, "
-            f"{dang:.3g} rad" + ("" if step == 1 else f" (step {step:g})"))
+        say(f"iteration {it}: vTPv = {cost:.6g}, max correction {step * dpos:.3g} m, "
+            f"{step * dang:.3g} rad" + ("" if step == 1 else f" (step {step:g})"))
         if not np.isfinite(cost):
             raise GeometryError("the adjustment diverged (non-finite residuals)")
-        if rel < tolerance and dpos < 1e-6 * scale and dang < 1e-9 or (
-                dpos < 1e-9 * scale and dang < 1e-12):
-            converged = True
-            break
-    system.factorize(lin)  # normal equations at the solution, for the quality analysis
+    else:
+        system.factorize(lin)  # normal equations at the last estimate, for the statistics
     if not converged:
         notes.append(f"not converged after {max_iterations} iterations")
     return BundleResult(block=block, problem=problem, eo=eo, xyz=xyz, lin=lin,
