@@ -47,6 +47,9 @@ class BundleProblem:
                            else np.asarray(image_keep, bool))
         self.control_keep = (np.ones((len(pts), 3), bool) if control_keep is None
                              else np.asarray(control_keep, bool))
+        # weight factors of robust re-weighting (Danish method); 1 = a-priori weight
+        self.image_factor = np.ones((len(im), 2))
+        self.control_factor = np.ones((len(pts), 3))
         check_datum(block, ok & np.isin(np.arange(len(pts)), self.control)
                     & (self.control_keep.any(axis=1)))
         self.system = SchurSystem(
@@ -57,8 +60,8 @@ class BundleProblem:
 
     @property
     def weights(self) -> tuple[np.ndarray, np.ndarray]:
-        w = self.w_full * self.image_keep[self.obs]
-        wc = self.wc_full * self.control_keep[self.control]
+        w = self.w_full * self.image_keep[self.obs] * self.image_factor[self.obs]
+        wc = self.wc_full * self.control_keep[self.control] * self.control_factor[self.control]
         return w, wc
 
     def linearize(self, eo: np.ndarray, xyz: np.ndarray) -> Linearization:

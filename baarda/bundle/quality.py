@@ -13,6 +13,7 @@ from baarda.bundle.quality_model import BundleModel
 from baarda.bundle.result import BundleResult
 from baarda.quality.hypotheses import image_point_tests
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
+from baarda.quality.robust import danish_method
 from baarda.quality.statistics import QualityResult, analyse
 
 UNIT = {"image": 1e3, "control": 1.0}  # output units: µm for image, m for control
@@ -107,35 +108,58 @@ def assess(result: BundleResult, alpha0: float | None = None,
     return BundleQuality(result, model, q)
 
 
+def _to_block_arrays(m: BundleModel, flat: np.ndarray, fill, n_image: int, n_points: int):
+    """Scatter a flat per-component array onto (n_image, 2) and (n_points, 3) arrays."""
+    img = m.image_row >= 0
+    image = np.full((n_image, 2), fill, dtype=np.asarray(flat).dtype)
+    image[m.image_row[img], np.where(m.component[img] == "x", 0, 1)] = flat[img]
+    ctrl = np.full((n_points, 3), fill, dtype=np.asarray(flat).dtype)
+    ccomp = np.array(["XYZ".index(c) for c in m.component[~img]], dtype=int)
+    ctrl[m.control_index[~img], ccomp] = flat[~img]
+    return image, ctrl
+
+
 def snoop(block: Block, *, alpha0: float | None = None, beta0: float | None = None,
           statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
-          progress: Progress | None = None) -> BundleQuality:
-    """Iterative data snooping of a bundle block (re-adjusting after each rejection)."""
+          robust: bool = False, progress: Progress | None = None) -> BundleQuality:
+    """Iterative data snooping of a bundle block (re-adjusting after each rejection).
+
+    With `robust`, the Danish method first down-weights large errors; the components it
+    leaves with (almost) no weight start out rejected and are tested again by snooping.
+    """
     s = block.settings
     alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
     problem = BundleProblem(block)
+    n_img, n_pts = len(block.image), len(block.points)
     state: dict = {}
 
-    def refit(active: np.ndarray) -> BundleModel:
-        if "model" in state:
-            m: BundleModel = state["model"]
-            img = m.image_row >= 0
-            keep = np.ones((len(block.image), 2), bool)
-            comp = np.where(m.component[img] == "x", 0, 1)
-            keep[m.image_row[img], comp] = active[img]
-            ckeep = np.ones((len(block.points), 3), bool)
-            ctl = ~img
-            ccomp = np.array(["XYZ".index(c) for c in m.component[ctl]], dtype=int)
-            ckeep[m.control_index[ctl], ccomp] = active[ctl]
-            problem.image_keep, problem.control_keep = keep, ckeep
-        start = state.get("start")
-        res = adjust(block, problem=problem, start=start)
+    def fit() -> BundleModel:
+        res = adjust(block, problem=problem, start=state.get("start"))
         state["start"] = (res.eo, res.xyz)
         state["model"] = BundleModel(res)
         return state["model"]
 
-    first = refit(np.ones(0, bool))
-    run = iterative_snooping(refit, first.active, alpha0=alpha0, beta0=beta0,
+    def refit(active: np.ndarray) -> BundleModel:
+        problem.image_keep, problem.control_keep = _to_block_arrays(
+            state["model"], active, True, n_img, n_pts)
+        return fit()
+
+    def reweight(factors: np.ndarray) -> BundleModel:
+        problem.image_factor, problem.control_factor = _to_block_arrays(
+            state["model"], factors, 1.0, n_img, n_pts)
+        return fit()
+
+    first = fit()
+    active = first.active.copy()
+    if robust:
+        rob = danish_method(reweight, first.sigma_apriori)
+        problem.image_factor[:] = 1.0
+        problem.control_factor[:] = 1.0
+        active &= ~rob.rejected
+        if progress:
+            progress(f"Danish method: {rob.iterations} re-weightings, "
+                     f"{int(rob.rejected.sum())} component(s) down-weighted to rejection")
+    run = iterative_snooping(refit, active, alpha0=alpha0, beta0=beta0,
                              statistic=statistic, by_group=by_point,
                              max_iterations=max_iterations, progress=progress)
     return BundleQuality(run.model.result, run.model, run.quality, run)

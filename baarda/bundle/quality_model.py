@@ -29,7 +29,10 @@ class BundleModel(AdjustedModel):
         self.residuals = np.concatenate([result.image_residuals.ravel(),
                                          result.control_residuals.ravel()[self.ctrl_sel]])
         s_img = np.repeat(im.sigma_mm[pb.obs], 2)
-        self.sigma = np.concatenate([s_img, sig_c.ravel()[self.ctrl_sel]])
+        self.sigma_apriori = np.concatenate([s_img, sig_c.ravel()[self.ctrl_sel]])
+        factor = np.concatenate([pb.image_factor[pb.obs].ravel(),
+                                 pb.control_factor[pb.control].ravel()[self.ctrl_sel]])
+        self.sigma = self.sigma_apriori / np.sqrt(factor)  # = a priori unless re-weighted
         keep_img = pb.image_keep[pb.obs].ravel()
         keep_c = pb.control_keep[pb.control].ravel()[self.ctrl_sel]
         self.active = np.concatenate([keep_img, keep_c])

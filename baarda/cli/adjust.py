@@ -21,6 +21,8 @@ def _common(p) -> None:
                    "posteriori) instead of Baarda's w (sigma0 a priori)")
     p.add_argument("--by-point", action="store_true",
                    help="reject both coordinates of an image point together")
+    p.add_argument("--robust", action="store_true", help="Danish-method re-weighting before "
+                   "snooping (for blocks with many large errors)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
 
 
@@ -42,7 +44,8 @@ def run_adjust(args) -> int:
         say(f"read {block.summary()}")
     if args.snoop:
         qc = snoop(block, alpha0=args.alpha0, beta0=args.beta0,
-                   statistic="tau" if args.tau else "w", by_point=args.by_point, progress=say)
+                   statistic="tau" if args.tau else "w", by_point=args.by_point,
+                   robust=args.robust, progress=say)
         result = qc.adjustment
     else:
         result = adjust(block, progress=say)

@@ -94,7 +94,9 @@ def analyse(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80,
     red = model.redundancy
     vtpv = float(np.sum((v[act] / s[act]) ** 2))
     s0 = float(np.sqrt(vtpv / red)) if red > 0 else np.nan
-    controlled = r >= r_min
+    # a rejected component is always testable: its predicted residual has cofactor
+    # sigma^2 + q_ll^ > 0 (restored when it fits, even if nothing else would control it)
+    controlled = (r >= r_min) | ~act
     with np.errstate(divide="ignore", invalid="ignore"):
         sv = np.sqrt(qvv)
         w = np.where(controlled, -v / sv, np.nan)

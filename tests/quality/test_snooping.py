@@ -74,3 +74,22 @@ def test_rejected_observation_returns_when_not_significant():
     assert run.active[good]
     assert [s.action for s in run.log] == ["restore"]
     assert run.log[0].rows == [good]
+
+
+def test_danish_prescreening_then_snooping_finds_many_large_blunders():
+    plan = FlightPlan(strips=4, photos_per_strip=8, relief_m=50, pattern=5, side_overlap=0.6,
+                      blunders=25, blunder_sigma=(20.0, 60.0), seed=31)
+    block, truth = simulate_block(plan)
+    planted = {(b["photo"], b["point"], b["component"]) for b in truth["blunders"]}
+    for robust in (False, True):
+        qc = snoop(block, robust=robust)
+        m = qc.model
+        rejected = {(m.frame[i], m.point[i], m.component[i])
+                    for i in np.flatnonzero(~qc.quality.active)}
+        found = len(planted & rejected)
+        if robust:
+            assert found >= found_plain
+            assert found >= 0.9 * len(planted)
+            assert len(rejected - planted) <= 3
+            assert qc.run.converged
+        found_plain = found
