@@ -11,7 +11,12 @@ from baarda.block.model import Block
 from baarda.bundle.adjust import BundleProblem, Progress, adjust
 from baarda.bundle.quality_model import BundleModel
 from baarda.bundle.result import BundleResult
-from baarda.quality.hypotheses import image_point_tests
+from baarda.quality.hypotheses import (
+    HypothesisTest,
+    group_test,
+    hypothesis_test,
+    image_point_tests,
+)
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.robust import danish_method
 from baarda.quality.statistics import QualityResult, analyse
@@ -48,6 +53,26 @@ class BundleQuality:
             "external_point": q.external_point, "point_test": point_t,
             "rejected": ~q.active, "flagged": q.flagged,
         })
+
+    def point_test(self, point: str) -> HypothesisTest:
+        """All observations of a ground point in error together (image and control)."""
+        rows = np.flatnonzero(self.model.point == point)
+        if not len(rows):
+            raise KeyError(f"no observations of point {point}")
+        return group_test(self.model, rows, f"point {point}", self.quality.alpha0,
+                          self.quality.beta0)
+
+    def photo_test(self, photo: str) -> HypothesisTest:
+        """All image observations of a photo in error together."""
+        rows = np.flatnonzero(self.model.frame == photo)
+        if not len(rows):
+            raise KeyError(f"no observations on photo {photo}")
+        return group_test(self.model, rows, f"photo {photo}", self.quality.alpha0,
+                          self.quality.beta0)
+
+    def hypothesis_test(self, h: np.ndarray, name: str = "H") -> HypothesisTest:
+        """A non-conventional alternative hypothesis: h (n, q) over the observation vector."""
+        return hypothesis_test(self.model, h, name, self.quality.alpha0, self.quality.beta0)
 
     def to_dict(self) -> dict:
         q = self.quality

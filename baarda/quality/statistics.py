@@ -113,6 +113,10 @@ def analyse(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80,
     ga = bm.alpha_for(red) if red > 0 else np.nan
     gt = global_test(vtpv, red, ga) if red > 0 else None
     notes = []
+    total = float(np.sum(r[act]))
+    if red > 0 and abs(total - red) > 1e-6 * red:
+        notes.append(f"the redundancy numbers add up to {total:.6f}, not to the redundancy "
+                     f"{red}: the normal equations are ill-conditioned")
     unc = int(np.sum(act & ~controlled))
     if unc:
         notes.append(f"{unc} observation component(s) with redundancy number below {r_min} are "
@@ -128,3 +132,20 @@ def analyse(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80,
         flagged=act & controlled & (np.abs(np.nan_to_num(w)) > bm.k_w), redundancy=red,
         vtpv=vtpv, sigma0_hat=s0, k_w=bm.k_w, k_tau=k_tau, alpha0=alpha0, beta0=beta0,
         delta0=bm.delta0, global_alpha=ga, global_test=gt, notes=notes)
+
+
+def qvv_columns(model: AdjustedModel, rows: np.ndarray) -> np.ndarray:
+    """Columns `rows` of Qvv (n, len(rows)) by Gruen's identity-matrix observation.
+
+    With f_i the i-th unit vector as observation vector, x_i = N^-1 A^T P f_i and
+    Qvv P f_i = f_i - A x_i (Gruen 1980, eq. 12-17), so column i of Qvv is
+    (f_i - A x_i) / p_i: one reduction of the right-hand side and one back substitution per
+    column.  Right for a few columns; the diagonal of all of them comes from
+    adjusted_cofactor_diag (selected inversion).
+    """
+    rows = np.atleast_1d(np.asarray(rows))
+    h = np.zeros((model.n, len(rows)))
+    h[rows, np.arange(len(rows))] = 1.0
+    ax = model.solve_columns(h)
+    p = 1.0 / model.sigma[rows] ** 2
+    return (h - ax) / p[None, :]

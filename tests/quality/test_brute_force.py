@@ -114,3 +114,17 @@ def test_multidimensional_tests(qc, dense):
     ref = -(h @ (p * v)) / np.sqrt(h @ (p[:, None] * qvv * p[None, :]) @ h)
     assert res.w == pytest.approx(ref, rel=1e-8)
     assert res.statistic == pytest.approx(ref**2, rel=1e-8)
+
+
+def test_gruen_columns_and_group_shortcuts(qc, dense):
+    from baarda.quality.statistics import qvv_columns
+    a, p, qxx, qvv = dense
+    rows = np.array([0, 5, len(p) - 1])
+    cols = qvv_columns(qc.model, rows)
+    assert np.allclose(cols, qvv[:, rows], rtol=1e-8, atol=1e-10 * np.abs(qvv).max())
+    pid = qc.model.point[10]
+    t = qc.point_test(pid)
+    ref = group_test(qc.model, np.flatnonzero(qc.model.point == pid), "x")
+    assert t.statistic == pytest.approx(ref.statistic) and t.q == ref.q
+    photo = qc.model.frame[0]
+    assert qc.photo_test(photo).q > 0
