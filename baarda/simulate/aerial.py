@@ -104,8 +104,8 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
 
     # control layout on the grid
     ext = (xyz[:, 0].min(), xyz[:, 0].max(), xyz[:, 1].min(), xyz[:, 1].max())
-    on_border = ((np.isclose(xyz[:, 0], ext[0]) | np.isclose(xyz[:, 0], ext[1]) |
-                  np.isclose(xyz[:, 1], ext[2]) | np.isclose(xyz[:, 1], ext[3])))
+    on_border = (np.isclose(xyz[:, 0], ext[0]) | np.isclose(xyz[:, 0], ext[1]) |
+                  np.isclose(xyz[:, 1], ext[2]) | np.isclose(xyz[:, 1], ext[3]))
     full = np.zeros(len(ids), bool)
     if plan.control == "perimeter":
         step = plan.control_spacing * base
