@@ -123,11 +123,12 @@ class OnlineSession:
         p = self._need()
         if str(point) not in p.points:
             raise KeyError(f"point {point} is not in model {p.name}")
-        old = p.points.pop(str(point))
+        before = dict(p.points)
+        del p.points[str(point)]
         try:
             return self._orient()
         except Exception:
-            p.points[str(point)] = old
+            p.points = before
             raise
 
     def accept(self) -> AcceptedModel:
