@@ -55,7 +55,7 @@ def test_online_reads_stdin(monkeypatch, capsys):
 def test_online_prompt_keeps_going_after_errors(monkeypatch, capsys):
     st = simulate_strip(1, "6", sigma_x=5.0, seed=3)
     lines = online_text(st, 152.0, 5.0).splitlines()[1:]
-    feed = iter(["nonsense"] + lines + ["drop 99", "drop 12", "help", "quit"])
+    feed = iter(["nonsense"] + lines + ["drop 99", "drop 12", "matrix", "help", "quit"])
 
     def fake_input(prompt=""):
         try:
@@ -71,6 +71,7 @@ def test_online_prompt_keeps_going_after_errors(monkeypatch, capsys):
     assert "error: point 99 is not in model 1-2" in out
     assert "error: model 1-2: 5 points and 0 tie points give no redundancy" in out
     assert "remeasure ID x' y' x'' y''" in out  # help
+    assert "Qvv P (column: error in; row: shows at)" in out and "    12y" in out
     assert "model 1-2 accepted: 6 points" in out  # the failed drop left the model as it was
 
 

@@ -94,3 +94,25 @@ def test_refusals():
     no_ties = {p: v for p, v in meas.items() if not p.startswith("2")}
     with pytest.raises(GeometryError, match="at least one tie point"):
         s.add_model(name, no_ties)
+
+
+def test_tie_weight_calibration():
+    """Simulated strips, no blunders: with Kratky's q_tie = 1 the w of x'' at tie points
+    spread about twice as wide as N(0, 1) (the tie coordinates carry the preceding model's
+    x-parallax error, seen doubled); q_tie = 5 makes them standard."""
+    sd = {}
+    for qtie in (1.0, 5.0):
+        wx, wy = [], []
+        for seed in range(25):
+            st = simulate_strip(3, "9", sigma_x=5.0, seed=100 + seed, attitude=0.02)
+            s = OnlineSession(152.0, sigma_x=5.0, qtie=qtie)
+            for k, (name, meas) in enumerate(st.models):
+                qc = s.add_model(name, meas)
+                s.accept()
+                if k:
+                    comp = qc.orientation.obs_component
+                    wx += list(qc.quality.w[comp == "x"])
+                    wy += list(qc.quality.w[comp == "y"])
+        sd[qtie] = (np.std(wx), np.std(wy))
+    assert sd[1.0][0] > 1.6
+    assert 0.8 < sd[5.0][0] < 1.25 and 0.8 < sd[5.0][1] < 1.25

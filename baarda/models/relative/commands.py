@@ -10,6 +10,7 @@ typed at the prompt.
     remeasure ID x' y' x'' y''              replace a point of the model on the instrument, QC
     drop ID                                 leave a point out, QC again
     accept | discard                        accept the model on the instrument, or throw it away
+    matrix                                  print Qvv P of the model on the instrument
     coords                                  print the strip coordinates
     help | quit
 """
@@ -25,8 +26,8 @@ from baarda.models.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.models.relative.session import OnlineSession
 from baarda.models.relative.table import model_report
 
-KEYWORDS = ("camera", "model", "end", "remeasure", "drop", "accept", "discard", "coords",
-            "help", "quit")
+KEYWORDS = ("camera", "model", "end", "remeasure", "drop", "accept", "discard", "matrix",
+            "coords", "help", "quit")
 
 
 class LineError(ValueError):
@@ -178,6 +179,10 @@ class Interpreter:
         self.session.discard()
         self.say(f"model {name} discarded")
 
+    def _do_matrix(self, f: list[str]) -> None:
+        self._need()
+        self.say(matrix_text(self.session.current))
+
     def _do_coords(self, f: list[str]) -> None:
         self.say(coordinates_text(self.session))
 
@@ -198,6 +203,16 @@ class Interpreter:
 
     def _show(self, qc) -> None:
         self.say(model_report(qc))
+
+
+def matrix_text(qc) -> str:
+    """Qvv P with labels 'point component'; column j: effect of an error in observation j."""
+    labels = [qc.label(i) for i in range(len(qc.qvvp))]
+    lines = ["  Qvv P (column: error in; row: shows at)",
+             "        " + "".join(f"{s:>7}" for s in labels)]
+    lines += [f"  {s:>6}" + "".join(f"{v:7.3f}" for v in qc.qvvp[i])
+              for i, s in enumerate(labels)]
+    return "\n".join(lines)
 
 
 def coordinates_text(session: OnlineSession | None) -> str:
