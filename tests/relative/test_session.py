@@ -116,3 +116,12 @@ def test_tie_weight_calibration():
         sd[qtie] = (np.std(wx), np.std(wy))
     assert sd[1.0][0] > 1.6
     assert 0.8 < sd[5.0][0] < 1.25 and 0.8 < sd[5.0][1] < 1.25
+
+
+def test_degenerate_geometry_is_refused():
+    """All points in one column across the model: phi and beta_z are not separable."""
+    s = OnlineSession(152.0)
+    ys = [-90.0, -45.0, 0.0, 20.0, 45.0, 90.0]
+    with pytest.raises(GeometryError, match="not determined"):
+        s.add_model("m", {str(i): (0.0, y, -92.0, y) for i, y in enumerate(ys)})
+    assert s.current is None

@@ -175,7 +175,7 @@ class Interpreter:
 
     def _do_discard(self, f: list[str]) -> None:
         self._need()
-        name = self.session._pending.name
+        name = self.session.current.orientation.name
         self.session.discard()
         self.say(f"model {name} discarded")
 

@@ -188,8 +188,9 @@ def orient(name: str, points: list[str], left_xy: np.ndarray, right_xy: np.ndarr
         if np.max(np.abs(dg)) < tol:
             break
     else:
-        raise GeometryError(f"model {name}: orientation did not converge in {max_iter} "
-                            "iterations")
+        if np.max(np.abs(dg)) > 1e-9:  # below: at the rounding floor, converged
+            raise GeometryError(f"model {name}: orientation did not converge in {max_iter} "
+                                "iterations")
     v, jac = residual_function(g, setup, left_xy, right_xy, delta)
     rot, _ = right_rotation(g[3:6])
     bx = g[0] * setup.base_ref
