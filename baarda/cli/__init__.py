@@ -12,6 +12,8 @@ from baarda.io.errors import GeometryError, ProjectError
 COMMANDS = [
     "baarda.cli.adjust",
     "baarda.cli.simulate",
+    "baarda.cli.online",
+    "baarda.cli.pattern",
 ]
 
 

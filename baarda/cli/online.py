@@ -1,0 +1,92 @@
+"""`baarda online [FILE]`: on-line relative orientation with scale transfer, model by model,
+with the ANAPLOT quality control after each model (docs/online.md)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from baarda.io.atomic import write_text
+from baarda.io.errors import GeometryError, ProjectError
+from baarda.models.relative.commands import Interpreter, LineError, coordinates_csv
+from baarda.models.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
+
+
+def register(sub) -> None:
+    p = sub.add_parser("online", help="on-line strip bridging with data snooping per model "
+                       "(relative orientation with scale transfer)")
+    p.add_argument("file", nargs="?", type=Path,
+                   help="measurement file ('-' or none: read lines from the prompt/stdin)")
+    p.add_argument("--focal", type=float, help="principal distance in mm (or a camera line)")
+    p.add_argument("--sigma", type=float, default=10.0, help="sigma of x'' in µm (default 10)")
+    p.add_argument("--qyy", type=float, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=float, default=DEFAULT_QTIE,
+                   help="cofactor of x'' at tie points / "
+                   "q_xx (default 1 as Kratky; 5 accounts for the errors of the tie "
+                   "coordinates, docs/online.md)")
+    p.add_argument("--alpha0", type=float, default=0.001, help="level of the w-test")
+    p.add_argument("--beta0", type=float, default=0.80, help="power of the tests")
+    p.add_argument("--tau", action="store_true", help="test with Pope's tau instead of w")
+    p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    interp = Interpreter(say=print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
+                         qtie=args.qtie, alpha0=args.alpha0, beta0=args.beta0,
+                         statistic="tau" if args.tau else "w")
+    if args.out is not None and args.file is not None and args.file != Path("-") and \
+            args.out.resolve() == args.file.resolve():
+        raise FileExistsError(f"output {args.out} is the input file (inputs are never "
+                              "overwritten)")
+    if args.file is None or str(args.file) == "-":
+        if sys.stdin.isatty():
+            _prompt(interp)
+        else:
+            _batch(interp, sys.stdin, "<stdin>")
+    else:
+        try:
+            fh = open(args.file, encoding="utf-8")
+        except OSError as e:
+            raise ProjectError(args.file, f"cannot read: {e.strerror}") from None
+        with fh:
+            _batch(interp, fh, str(args.file))
+    if args.out is not None and interp.session is not None and interp.session.accepted:
+        write_text(args.out, coordinates_csv(interp.session))
+        print(f"strip coordinates written to {args.out}")
+    return 0
+
+
+def _batch(interp: Interpreter, lines, name: str) -> None:
+    n = 0
+    for n, line in enumerate(lines, 1):  # noqa: B007
+        try:
+            interp.feed(line)
+        except LineError as e:
+            raise ProjectError(name, str(e), n, e.column) from None
+        except (GeometryError, ValueError) as e:
+            raise ProjectError(name, str(e), n) from None
+        if interp.done:
+            break
+    try:
+        interp.finish()
+    except LineError as e:
+        raise ProjectError(name, str(e), n, e.column) from None
+
+
+def _prompt(interp: Interpreter) -> None:
+    print("baarda online: type 'help' for the commands, 'quit' to stop")
+    while not interp.done:
+        try:
+            prompt = "point> " if interp.collecting is not None else "online> "
+            line = input(prompt)
+        except EOFError:
+            break
+        try:
+            interp.feed(line)
+        except (LineError, GeometryError, ValueError) as e:
+            print(f"error: {e}")
+    try:
+        interp.finish()
+    except LineError as e:
+        print(f"error: {e}")

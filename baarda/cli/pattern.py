@@ -1,0 +1,94 @@
+"""`baarda pattern SPEC`: reliability of a point pattern for on-line relative orientation,
+without measurements (redundancy numbers, r0, trace(Qgg), critical transfers; text and SVG)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from baarda.io.atomic import write_text
+from baarda.io.errors import ProjectError
+from baarda.models.relative.drawing import svg_drawing, text_drawing
+from baarda.models.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
+from baarda.models.relative.pattern import NAMED, PatternPoint, design, standard_pattern
+
+
+def register(sub) -> None:
+    p = sub.add_parser("pattern", help="point-pattern design for relative orientation with "
+                       "scale transfer (Kratky's Figures 2, 4, 7)")
+    p.add_argument("spec", help=f"pattern: {', '.join(NAMED)}, CxR, CxR+corners, CxR+edges, "
+                   "or a CSV file with columns name,x,y[,tie] (left image mm)")
+    p.add_argument("--ties", type=int, default=0, choices=[0, 3, 5],
+                   help="tie points (the left column) for the scale transfer")
+    p.add_argument("--focal", type=float, default=152.0, help="principal distance, mm")
+    p.add_argument("--base", type=float, default=92.0, help="base in the image, mm")
+    p.add_argument("--width", type=float, default=92.0, help="half width of the pattern in y, "
+                   "mm")
+    p.add_argument("--twin-offset", type=float, default=1.0, help="distance of doubled points "
+                   "from their original, mm")
+    p.add_argument("--qyy", type=float, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=float, default=DEFAULT_QTIE,
+                   help="cofactor of x'' at tie points / "
+                   "q_xx (default 1)")
+    p.add_argument("--serious", type=float, default=0.8, help="ratio to the diagonal from "
+                   "which a transfer is listed as serious (default 0.8)")
+    p.add_argument("--matrix", action="store_true", help="print the full Qvv P matrix")
+    p.add_argument("--svg", type=Path, help="write the drawing as SVG")
+    p.set_defaults(func=run)
+
+
+def read_points(path: Path) -> list[PatternPoint]:
+    """CSV with header name,x,y[,tie] (tie: 1/0, yes/no)."""
+    try:
+        fh = open(path, encoding="utf-8", newline="")
+    except OSError as e:
+        raise ProjectError(path, f"cannot read: {e.strerror}") from None
+    with fh:
+        rows = list(csv.reader(fh))
+    if not rows or [c.strip().lower() for c in rows[0][:3]] != ["name", "x", "y"]:
+        raise ProjectError(path, "the header must be name,x,y[,tie]", 1)
+    header = [c.strip().lower() for c in rows[0]]
+    pts = []
+    for n, row in enumerate(rows[1:], 2):
+        if not row or not "".join(row).strip():
+            continue
+        if len(row) != len(header):
+            raise ProjectError(path, f"{len(row)} fields, expected {len(header)}", n)
+        vals = dict(zip(header, (c.strip() for c in row), strict=True))
+        xy = []
+        for k in ("x", "y"):
+            try:
+                xy.append(float(vals[k]))
+            except ValueError:
+                raise ProjectError(path, f"not a number: {vals[k]!r}", n, k) from None
+        tie = vals.get("tie", "0").lower()
+        if tie not in ("0", "1", "yes", "no", "true", "false", ""):
+            raise ProjectError(path, f"tie must be 1/0 or yes/no, got {tie!r}", n, "tie")
+        pts.append(PatternPoint(vals["name"], xy[0], xy[1], tie in ("1", "yes", "true")))
+    if len({p.name for p in pts}) != len(pts):
+        raise ProjectError(path, "point names must be unique")
+    return pts
+
+
+def run(args) -> int:
+    spec_path = Path(args.spec)
+    if spec_path.suffix.lower() == ".csv" or spec_path.is_file():
+        pts = read_points(spec_path)
+        title = f"pattern {spec_path.name}"
+    else:
+        pts = standard_pattern(args.spec, args.ties, args.base, args.width, args.twin_offset)
+        title = f"pattern {args.spec}" + (f" with {args.ties} tie points" if args.ties else "")
+    d = design(pts, args.focal, args.base, args.qyy, args.serious, args.qtie)
+    print(text_drawing(d, title), end="")
+    if args.matrix:
+        labels = [d.label(i) for i in range(d.n)]
+        print("Qvv P (column j: effect of an error in observation j):")
+        print("        " + "".join(f"{s:>7}" for s in labels))
+        for i, s in enumerate(labels):
+            print(f"  {s:>6}" + "".join(f"{v:7.3f}" for v in d.qvvp[i]))
+    if args.svg is not None:
+        if spec_path.is_file() and args.svg.resolve() == spec_path.resolve():
+            raise FileExistsError(f"output {args.svg} is the input file")
+        write_text(args.svg, svg_drawing(d, title))
+        print(f"drawing written to {args.svg}")
+    return 0
