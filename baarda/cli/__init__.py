@@ -14,6 +14,7 @@ COMMANDS = [
     "baarda.cli.simulate",
     "baarda.cli.online",
     "baarda.cli.pattern",
+    "baarda.cli.plan",
 ]
 
 

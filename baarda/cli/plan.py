@@ -1,0 +1,176 @@
+"""`baarda plan -o OUT`: design-stage reliability of a flight plan or of a project's design.
+
+`baarda modified-snoop PROJECT -o OUT`: Gruen's modified data snooping with a reliability
+table (approximate sqrt(qvv); exact values only inside the +-k_q band).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from baarda.cli.common import check_output, progress
+from baarda.io.atomic import write_text
+from baarda.io.errors import GeometryError
+from baarda.simulate.aerial import FlightPlan
+
+
+def register(sub) -> None:
+    d = FlightPlan()
+    p = sub.add_parser("plan", help="design-stage reliability of a planned block (no "
+                       "measurements): sqrt(qvv), MDB, external reliability, precision, advice")
+    p.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    p.add_argument("--project", type=Path, help="take the design (photos, points, stereo "
+                   "models, control, weights) of this project instead of a flight plan")
+    p.add_argument("--adjusted", action="store_true", help="with --project: geometry from an "
+                   "adjustment of the project (default: its approximate orientations)")
+    p.add_argument("--strips", type=int, default=d.strips)
+    p.add_argument("--photos", type=int, default=d.photos_per_strip, help="photos per strip")
+    p.add_argument("--forward-overlap", type=float, default=d.forward_overlap)
+    p.add_argument("--side-overlap", type=float, default=d.side_overlap)
+    p.add_argument("--scale", type=float, default=d.image_scale, help="image scale 1:SCALE")
+    p.add_argument("--focal", type=float, default=d.focal_mm, help="focal length in mm")
+    p.add_argument("--format", type=float, default=d.format_mm, help="image format in mm")
+    p.add_argument("--pattern", type=int, default=d.pattern, help="n x n points per photo")
+    p.add_argument("--stereo", action="store_true", help="stereo mode (twin rays)")
+    p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
+    p.add_argument("--bridging", type=float, default=2.0, help="control every I base lengths "
+                   "on the perimeter (Gruen's bridging distance)")
+    p.add_argument("--bridging-y", type=float, help="control grid across the strips in strip "
+                   "distances (default: as --bridging with 50 %% side overlap or more, else 0.5: "
+                   "height points on every row of tie points between strips)")
+    p.add_argument("--relief", type=float, default=0.0, help="terrain relief in m (flat)")
+    p.add_argument("--interior", default="height", choices=["height", "full", "none"],
+                   help="control at the interior grid positions")
+    p.add_argument("--twin-control", action="store_true")
+    p.add_argument("--sigma-control", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                   help="m (default: error-free control)")
+    p.add_argument("--alpha0", type=float, default=0.001)
+    p.add_argument("--beta0", type=float, default=0.80)
+    p.add_argument("--what-if", action="store_true", help="recompute the plan with each "
+                   "remedy (twin control, 5x5 points, 60 %% side overlap, stereo)")
+    p.add_argument("--derive-table", type=Path, metavar="CSV", help="also derive a reliability "
+                   "table for this flight plan (control every L/3, L/2, L; single and twin) "
+                   "for `modified-snoop --table`")
+    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--name", default="plan")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=run_plan)
+
+    m = sub.add_parser("modified-snoop", help="Gruen's modified data snooping: approximate "
+                       "sqrt(qvv) from a reliability table, exact values only where needed")
+    m.add_argument("project", type=Path, help="project folder")
+    m.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    m.add_argument("--table", default="baarda", help="'baarda' (our study table), 'gruen' "
+                   "(Table 2 of Gruen 1980) or a CSV written by `plan --derive-table`")
+    m.add_argument("--k-q", type=float, default=25.0, help="tolerance of the approximations "
+                   "in %% (Gruen: 25)")
+    m.add_argument("--tau", action="store_true", help="Pope's tau (sigma0 a posteriori) "
+                   "instead of Baarda's w")
+    m.add_argument("--alpha0", type=float)
+    m.add_argument("--beta0", type=float)
+    m.add_argument("-q", "--quiet", action="store_true")
+    m.set_defaults(func=run_modified)
+
+
+def _flight(args) -> FlightPlan:
+    return FlightPlan(strips=args.strips, photos_per_strip=args.photos,
+                      forward_overlap=args.forward_overlap, side_overlap=args.side_overlap,
+                      image_scale=args.scale, focal_mm=args.focal, format_mm=args.format,
+                      pattern=args.pattern, stereo=args.stereo,
+                      sigma_image_um=args.sigma_image, relief_m=args.relief, name=args.name)
+
+
+def run_plan(args) -> int:
+    from baarda.bundle.adjust import adjust
+    from baarda.io.project import read_project
+    from baarda.planning.advice import advise, what_if
+    from baarda.planning.design import ControlLayout, design_block, design_from_project
+    from baarda.planning.plan import analyse_design
+    from baarda.planning.report import write_plan
+    from baarda.planning.study import derive_table, simulate_cases
+
+    inputs = [args.project] if args.project else []
+    check_output(args.out, inputs)
+    say = progress(args.quiet) or (lambda m: None)
+    flight = None
+    wi = None
+    if args.project:
+        block = read_project(args.project)
+        start = None
+        if args.adjusted:
+            res = adjust(block)
+            pts = res.points_xyz()
+            start = (res.eo, pts)
+        design = design_from_project(block, start)
+        title = f"design of project {args.project}"
+    else:
+        flight = _flight(args)
+        by = args.bridging_y
+        if by is None:
+            by = args.bridging if flight.side_overlap >= 0.5 else 0.5
+        layout = ControlLayout(spacing=args.bridging, spacing_y=by, interior=args.interior,
+                               twin=args.twin_control,
+                               sigma_m=tuple(args.sigma_control) if args.sigma_control else None)
+        design = design_block(flight, layout)
+        title = (f"{flight.strips} strips x {flight.photos_per_strip} photos, "
+                 f"{flight.forward_overlap:.0%}/{flight.side_overlap:.0%} overlap, "
+                 f"{flight.pattern}x{flight.pattern} points, "
+                 f"{'stereo' if flight.stereo else 'mono'}, control every {args.bridging:g} "
+                 f"bases{', twin' if args.twin_control else ''}")
+        if args.what_if:
+            say("computing the remedies")
+            wi = what_if(flight, layout)
+    say(f"design block: {design.summary()}")
+    try:
+        plan = analyse_design(design, alpha0=args.alpha0, beta0=args.beta0)
+    except GeometryError as e:
+        raise GeometryError(
+            f"{e}\nThe planned block cannot be adjusted as designed.  With flat terrain and a "
+            "single row of tie points between neighbouring strips the strips can turn about "
+            "that row (a hinge): add height control on the rows between strips "
+            "(--bridging-y 0.5), fly 60 % side overlap, or model the terrain (--relief)."
+        ) from None
+    advice = advise(plan, flight)
+    files = write_plan(args.out, plan, advice, wi, title, plots=not args.no_plots)
+    if args.derive_table:
+        if flight is None:
+            say("--derive-table needs a flight plan (not --project): skipped")
+        else:
+            length = flight.photos_per_strip - 1
+            cases = simulate_cases(flight, (length / 3, length / 2, float(length)))
+            derive_table(cases, f"baarda plan ({title})").write(
+                args.derive_table, header=f"reliability table derived by baarda plan: {title}")
+            files.append(args.derive_table)
+    if not args.quiet:
+        print((Path(args.out) / "plan_report.txt").read_text(encoding="utf-8"))
+        print("written: " + ", ".join(str(f) for f in files))
+    return 0
+
+
+def run_modified(args) -> int:
+    from baarda.bundle.adjust import adjust
+    from baarda.io.project import read_project
+    from baarda.planning.snooping import modified_snoop
+    from baarda.planning.table import baarda_table, gruen_table, read_table
+
+    check_output(args.out, [args.project])
+    say = progress(args.quiet)
+    table = {"baarda": baarda_table, "gruen": gruen_table}.get(args.table)
+    table = table() if table else read_table(args.table)
+    block = read_project(args.project)
+    res = adjust(block, progress=say)
+    ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0, alpha0=args.alpha0,
+                        beta0=args.beta0, statistic="tau" if args.tau else "w")
+    out = Path(args.out)
+    df = ms.table()
+    write_text(out / "modified_snooping.csv",
+               df.to_csv(index=False, float_format="%.6g", lineterminator="\n"))
+    text = res.summary() + "\n\n" + ms.summary() + "\n"
+    rej = df[df["rejected"]]
+    if len(rej):
+        text += "rejected:\n" + rej[["kind", "photo", "point", "component", "class", "residual",
+                                     "statistic", "exact"]].to_string(index=False) + "\n"
+    write_text(out / "modified_snooping.txt", text)
+    if not args.quiet:
+        print(text + f"results written to {out}")
+    return 0
