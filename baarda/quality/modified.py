@@ -35,6 +35,7 @@ class ModifiedSnooping:
     """Decisions of the modified data snooping for every component of a model."""
 
     approx: np.ndarray  # (n,) approximate sqrt(r) (Gruen's sqrt(qvv0) at unit weight)
+    approximated: np.ndarray  # (n,) bool: active with a usable approximation
     w0: np.ndarray  # (n,) test statistic with the approximate value
     exact: np.ndarray  # (n,) bool: exact redundancy number computed (inside the band)
     redundancy_number: np.ndarray  # (n,) exact r where computed, NaN elsewhere
@@ -57,10 +58,12 @@ class ModifiedSnooping:
 
     def summary(self) -> str:
         n_act = int(np.count_nonzero(self.tested | self.exact))
+        n_band = int(np.count_nonzero(self.exact & self.approximated))
         return (f"modified data snooping ({self.statistic}, k_q = {self.k_q:.0%}, critical "
                 f"{self.critical:.3f}): {int(np.sum(self.rejected))} rejected, "
                 f"{self.n_exact} exact qvv of {n_act} components "
-                f"({self.n_exact / max(n_act, 1):.1%})")
+                f"({self.n_exact / max(n_act, 1):.1%}): {n_band} inside the band, "
+                f"{self.n_exact - n_band} without an approximation")
 
 
 def exact_redundancy_numbers(model: AdjustedModel, rows: np.ndarray,
@@ -124,6 +127,6 @@ def modified_snooping(model: AdjustedModel, approx_sqrt_r: np.ndarray, *, k_q: f
     rejected[rows] = controlled & (np.abs(np.nan_to_num(stat[rows])) > crit)
     tested = reject0 | accept0
     tested[rows] = controlled
-    return ModifiedSnooping(approx=approx, w0=w0, exact=band, redundancy_number=r,
+    return ModifiedSnooping(approx=approx, approximated=usable, w0=w0, exact=band, redundancy_number=r,
                             statistic_value=stat, rejected=rejected, tested=tested,
                             statistic=statistic, critical=float(crit), k_q=k_q, sigma0=s0)
