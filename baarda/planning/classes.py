@@ -50,6 +50,13 @@ def ray_counts(block: Block) -> tuple[np.ndarray, np.ndarray]:
     return rays, counts[inv] > 1
 
 
+def points_per_photo(block: Block) -> np.ndarray:
+    """Distinct points measured on each photo, (n_photos,)."""
+    n_ph = max(len(block.photos), 1)
+    key = np.unique(block.image.point.astype(np.int64) * n_ph + block.image.photo)
+    return np.bincount(key % n_ph, minlength=len(block.photos))
+
+
 def class_name(rays: int, inner: bool, control: bool) -> str:
     """Gruen's class name for one observation (rays counted with twins once)."""
     c = "C" if control else ""

@@ -19,7 +19,12 @@ from baarda.block.model import Block
 from baarda.bundle.adjust import adjust
 from baarda.bundle.quality import BundleQuality, assess
 from baarda.bundle.result import BundleResult
-from baarda.planning.classes import RowClasses, classify, half_coverage_photos
+from baarda.planning.classes import (
+    RowClasses,
+    classify,
+    half_coverage_photos,
+    points_per_photo,
+)
 
 
 @dataclass
@@ -124,7 +129,7 @@ def photo_table(block: Block, qc: BundleQuality, rc: RowClasses) -> pd.DataFrame
     weakest = np.full(n, np.inf)
     np.minimum.at(weakest, ph[tested], sq[tested])
     mean = np.bincount(ph, sq, minlength=n) / np.maximum(np.bincount(ph, minlength=n), 1)
-    distinct = np.array([len(np.unique(im.point[im.photo == i])) for i in range(n)])
+    distinct = points_per_photo(block)
     return pd.DataFrame({
         "photo": block.photos.ids, "strip": block.photos.strip,
         "X0": block.photos.eo[:, 0], "Y0": block.photos.eo[:, 1],

@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy.spatial import cKDTree
 
 from baarda.block.model import Block
 from baarda.io.errors import ProjectError
-from baarda.planning.classes import classify, control_points
+from baarda.planning.classes import classify, control_points, points_per_photo
 
 DATA = resources.files("baarda.planning") / "data"
 COLUMNS = ["pattern", "overlap", "stereo", "control", "class", "component", "value", "count",
@@ -146,9 +147,7 @@ def design_key(block: Block, twin_distance: float | None = None) -> DesignKey:
     point closer than `twin_distance` (default: a tenth of the median base).  The overlap
     cannot be told from a project (the format is not known): 60/60, the table's nearest.
     """
-    im = block.image
-    per_photo = np.array([len(np.unique(im.point[im.photo == i])) for i in
-                          range(len(block.photos))])
+    per_photo = points_per_photo(block)
     n = int(np.clip(np.rint(np.sqrt(np.median(per_photo) if len(per_photo) else 9)), 2, 9))
     rc = classify(block)
     stereo = bool(np.any(rc.inner))
@@ -164,9 +163,8 @@ def design_key(block: Block, twin_distance: float | None = None) -> DesignKey:
     if len(ctrl) > 1:
         lim = twin_distance if twin_distance is not None else (0.1 * base if np.isfinite(base)
                                                                else 0.0)
-        d = np.linalg.norm(block.points.xyz[ctrl, None, :2] - block.points.xyz[None, ctrl, :2],
-                           axis=2)
-        np.fill_diagonal(d, np.inf)
-        twin = bool(np.mean(d.min(axis=1) < lim) > 0.5)
+        xy = block.points.xyz[ctrl, :2]
+        d = cKDTree(xy).query(xy, k=2)[0][:, 1]  # distance to the nearest other control
+        twin = bool(np.mean(d < lim) > 0.5)
     return DesignKey(pattern=f"{n}x{n}", overlap="60/60", stereo=stereo,
                      control="twin" if twin else "single")

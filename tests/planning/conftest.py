@@ -1,0 +1,9 @@
+import pytest
+
+from baarda.planning.study import run_study
+
+
+@pytest.fixture(scope="session")
+def study():
+    """Gruen's whole study: 4 blocks x 3 control distributions x single/twin (a few s)."""
+    return run_study()
