@@ -56,7 +56,8 @@ def advise(plan: PlanResult, flight: FlightPlan | None = None, weak: float = WEA
             "perimeter photos with part coverage",
             f"{len(half)} photo(s) have their points on only part of the format "
             f"(median {int(np.median(half['points']))} points against "
-            f"{int(np.median(photos['points']))}); their observations average sqrt(qvv) "
+            f"{int(np.median(photos.loc[~photos['half_coverage'], 'points']))} on the "
+            "others); their observations average sqrt(qvv) "
             f"{_fmt(sq[on_half].mean())} against {_fmt(sq[~on_half].mean())} elsewhere, "
             f"lowest {_fmt(np.nanmin(half['min_sqrt_qvv']))}",
             "stabilise them with additional tie and pass points on the uncovered part of the "

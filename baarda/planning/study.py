@@ -197,7 +197,7 @@ def tolerance_check(study: Study, table: ReliabilityTable, k_q: float = 0.25,
 def format_side_by_side(sbs: pd.DataFrame, tolerance: float = TOLERANCE) -> str:
     """Text table: for each class and control, 'ours/Gruen' per column; * beyond tolerance."""
     cols = ["b43", "b73", "b45", "b75", "m3x3", "m5x5", "total"]
-    head = f"{'class':9s} {'ctl':6s} " + " ".join(f"{c[1:] if c[0] == 'b' else c:>11s}"
+    head = f"{'class':10s} {'ctl':6s} " + " ".join(f"{c[1:] if c[0] == 'b' else c:>11s}"
                                                   for c in cols)
     lines = [head, "-" * len(head)]
     for (cls, comp, ctl), g in sbs.groupby(["class", "component", "control"], sort=False):
@@ -210,7 +210,27 @@ def format_side_by_side(sbs: pd.DataFrame, tolerance: float = TOLERANCE) -> str:
             r = r.iloc[0]
             flag = "*" if abs(r["difference"]) > tolerance else " "
             cells.append(f"{r['ours']:.2f}/{r['gruen']:.2f}{flag}".rjust(11))
-        lines.append(f"{cls + '(' + comp + ')':9s} {ctl:6s} " + " ".join(cells))
+        lines.append(f"{cls + '(' + comp + ')':10s} {ctl:6s} " + " ".join(cells))
+    return "\n".join(lines)
+
+
+def side_by_side_markdown(sbs: pd.DataFrame, tolerance: float = TOLERANCE) -> str:
+    """Markdown table: 'ours / Gruen' (ours to 3 decimals), bold beyond the tolerance."""
+    cols = ["b43", "b73", "b45", "b75", "m3x3", "m5x5", "total"]
+    names = ["43", "73", "45", "75", "3x3", "5x5", "total"]
+    lines = ["| class | control | " + " | ".join(names) + " |",
+             "|---|---|" + "---|" * len(cols)]
+    for (cls, comp, ctl), g in sbs.groupby(["class", "component", "control"], sort=False):
+        cells = []
+        for c in cols:
+            r = g[g["column"] == c]
+            if r.empty:
+                cells.append("")
+                continue
+            r = r.iloc[0]
+            cell = f"{r['ours']:.3f} / {r['gruen']:.2f}"
+            cells.append(f"**{cell}**" if abs(r["difference"]) > tolerance else cell)
+        lines.append(f"| {cls}({comp}) | {ctl} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

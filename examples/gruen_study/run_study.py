@@ -24,6 +24,7 @@ from baarda.planning.study import (
     format_side_by_side,
     photo_grid,
     run_study,
+    side_by_side_markdown,
     tolerance_check,
 )
 from baarda.planning.table import gruen_table
@@ -46,11 +47,16 @@ def _band_summary(tc: pd.DataFrame) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--write-table", help="write our derived reliability table to this CSV")
+    ap.add_argument("--markdown", action="store_true", help="only the side-by-side table as "
+                    "Markdown (for docs/planning.md)")
     args = ap.parse_args()
     pd.set_option("display.width", 120)
     t0 = time.perf_counter()
     study = run_study()
     dt = time.perf_counter() - t0
+    if args.markdown:
+        print(side_by_side_markdown(study.side_by_side()))
+        return
     print(f"Gruen's study: {len(study.cases)} blocks adjusted in {dt:.1f} s\n")
     for c in study.cases[:: 3]:
         print(f"  block {c.block} ({c.control}): {c.plan.block.summary()}")
