@@ -10,7 +10,8 @@ observation component i:
 
 The exact values come from Gruen's identity-matrix observation (eq. 12-17): with f = e_i as
 observation vector, A N^-1 A^T P e_i = AdjustedModel.solve_columns(e_i) and
-r_i = 1 - (A N^-1 A^T P e_i)_i; the columns of the band are solved in batches.
+r_i = 1 - (A N^-1 A^T P e_i)_i (quality.statistics.qvv_columns); the columns of the band are
+solved in batches.
 
 statistic 'w': sigma0 = 1 (a priori) and c = k_w of the B-method (Baarda's w-test);
 statistic 'tau': sigma0 = sigma0_hat and c = Pope's tau critical value (Gruen's eq. 8).
@@ -27,7 +28,7 @@ import numpy as np
 
 from baarda.quality.distributions import b_method, tau_critical
 from baarda.quality.model import AdjustedModel
-from baarda.quality.statistics import R_MIN
+from baarda.quality.statistics import R_MIN, qvv_columns
 
 
 @dataclass
@@ -68,17 +69,16 @@ class ModifiedSnooping:
 
 def exact_redundancy_numbers(model: AdjustedModel, rows: np.ndarray,
                              batch: int = 256) -> np.ndarray:
-    """r_i = 1 - (A N^-1 A^T P e_i)_i for the active components `rows` (Gruen eq. 17)."""
+    """r_i = (Qvv)_ii / sigma_i^2 for the active components `rows`, by Gruen's
+    identity-matrix observation (quality.statistics.qvv_columns, eq. 12-17) in batches."""
     rows = np.asarray(rows, dtype=np.int64)
     if np.any(~model.active[rows]):
         raise ValueError("exact redundancy numbers by eq. 17 need active components")
     out = np.empty(len(rows))
     for s in range(0, len(rows), batch):
         part = rows[s:s + batch]
-        h = np.zeros((model.n, len(part)))
-        h[part, np.arange(len(part))] = 1.0
-        col = model.solve_columns(h)
-        out[s:s + batch] = 1.0 - col[part, np.arange(len(part))]
+        col = qvv_columns(model, part)
+        out[s:s + batch] = col[part, np.arange(len(part))] / model.sigma[part] ** 2
     return out
 
 
@@ -127,6 +127,7 @@ def modified_snooping(model: AdjustedModel, approx_sqrt_r: np.ndarray, *, k_q: f
     rejected[rows] = controlled & (np.abs(np.nan_to_num(stat[rows])) > crit)
     tested = reject0 | accept0
     tested[rows] = controlled
-    return ModifiedSnooping(approx=approx, approximated=usable, w0=w0, exact=band, redundancy_number=r,
-                            statistic_value=stat, rejected=rejected, tested=tested,
+    return ModifiedSnooping(approx=approx, approximated=usable, w0=w0, exact=band,
+                            redundancy_number=r, statistic_value=stat, rejected=rejected,
+                            tested=tested,
                             statistic=statistic, critical=float(crit), k_q=k_q, sigma0=s0)
