@@ -44,9 +44,13 @@ class BundleQuality:
         _, t2, _, _, _ = image_point_tests(m, q.alpha0, q.beta0)
         point_t = np.full(m.n, np.nan)
         point_t[: len(t2) * 2] = np.repeat(t2, 2)
+        img = m.image_row >= 0  # observed image coordinates (mm) for plotting
+        xy = np.full((m.n, 2), np.nan)
+        xy[img] = self.adjustment.block.image.xy_mm[m.image_row[img]]
         return pd.DataFrame({
             "kind": m.kind, "photo": m.frame, "point": m.point, "component": m.component,
-            "residual": q.residual * scale, "sigma": q.sigma * scale,
+            "x_mm": xy[:, 0], "y_mm": xy[:, 1], "residual": q.residual * scale,
+            "sigma": q.sigma * scale,
             "sigma_residual": q.sigma_residual * scale, "redundancy": q.redundancy_number,
             "w": q.w, "tau": q.tau, "p_value": q.p_value, "mdb": q.mdb * scale,
             "lambda_bar": q.lambda_bar, "external_max": q.external_max,

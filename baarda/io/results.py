@@ -35,7 +35,8 @@ def photos_table(result: BundleResult) -> pd.DataFrame:
     ang = rad_to_angle(result.eo[:, 3:], unit)
     std = result.eo_std
     sang = rad_to_angle(std[:, 3:], unit)
-    df = pd.DataFrame({"photo": blk.photos.ids, "strip": blk.photos.strip,
+    cams = np.asarray(blk.cameras.ids, dtype=object)[blk.photos.camera]
+    df = pd.DataFrame({"photo": blk.photos.ids, "strip": blk.photos.strip, "camera": cams,
                        "X0": result.eo[:, 0], "Y0": result.eo[:, 1], "Z0": result.eo[:, 2],
                        "omega": ang[:, 0], "phi": ang[:, 1], "kappa": ang[:, 2],
                        "sigma_X0": std[:, 0], "sigma_Y0": std[:, 1], "sigma_Z0": std[:, 2],
@@ -65,14 +66,20 @@ def write_results(out: str | Path, result: BundleResult,
     """Write the result files into folder `out` (each atomically); returns the paths."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    summary = {"project": result.block.settings.name, "source": result.block.source}
+    blk = result.block
+    cam = blk.cameras
+    summary = {"project": blk.settings.name, "source": blk.source,
+               "angle_unit": blk.settings.angle_unit,
+               "cameras": [{"camera": cam.ids[i], "focal_mm": float(cam.focal_mm[i]),
+                            "x0_mm": float(cam.principal_point_mm[i, 0]),
+                            "y0_mm": float(cam.principal_point_mm[i, 1])}
+                           for i in range(len(cam))]}
     summary.update(result.to_dict())
     if quality is not None:
         summary.update(quality.to_dict())
         obs = quality.table()
     else:
         m = result.problem
-        blk = result.block
         v = result.image_residuals * 1e3
         n = len(m.obs)
         photos = np.asarray(blk.photos.ids, dtype=object)[blk.image.photo[m.obs]]
@@ -86,6 +93,10 @@ def write_results(out: str | Path, result: BundleResult,
                                      np.repeat(pts[m.control], 3)[sel]]),
             "component": np.concatenate([np.tile(["x", "y"], n),
                                          np.tile(["X", "Y", "Z"], len(m.control))[sel]]),
+            "x_mm": np.concatenate([np.repeat(blk.image.xy_mm[m.obs, 0], 2),
+                                    np.full(int(sel.sum()), np.nan)]),
+            "y_mm": np.concatenate([np.repeat(blk.image.xy_mm[m.obs, 1], 2),
+                                    np.full(int(sel.sum()), np.nan)]),
             "residual": np.concatenate([v.ravel(), cv.ravel()[sel]]),
         })
     paths = []
