@@ -15,6 +15,8 @@ COMMANDS = [
     "baarda.cli.online",
     "baarda.cli.pattern",
     "baarda.cli.plan",
+    "baarda.cli.report",
+    "baarda.cli.residuals",
 ]
 
 

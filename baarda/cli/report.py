@@ -1,0 +1,84 @@
+"""`baarda report OUT -o report.html` and `baarda report OUT --text`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from baarda.cli.common import progress
+
+
+def add_histogram_options(p) -> None:
+    p.add_argument("--class-width", type=float, default=1.0,
+                   help="histogram class width (µm for image residuals; default 1)")
+    p.add_argument("--range", type=float, nargs=2, default=[-25.0, 25.0], metavar=("LO", "HI"),
+                   help="centres of the first and last class (default -25 25)")
+    p.add_argument("--line-width", type=int, default=60,
+                   help="longest '*' bar of a text histogram before bars are scaled")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("report", help="adjustment report: HTML (plots embedded) or text")
+    p.add_argument("results", type=Path, help="output folder of baarda adjust")
+    p.add_argument("-o", "--out", type=Path, help="HTML file to write")
+    p.add_argument("--text", action="store_true", help="print the text report")
+    add_histogram_options(p)
+    p.add_argument("--w-class-width", type=float, default=0.5, help="class width for w")
+    p.add_argument("--w-range", type=float, nargs=2, default=[-6.0, 6.0], metavar=("LO", "HI"))
+    p.add_argument("--top", type=int, default=50,
+                   help="snooping table: rows with the largest |w| shown besides every "
+                   "rejected and flagged observation (default 50)")
+    p.add_argument("--min-w", type=float, help="snooping table: only |w| >= this (besides "
+                   "rejected and flagged)")
+    p.add_argument("--sort", choices=["w", "input"], default="w",
+                   help="snooping table order: largest |w| first, or file order")
+    p.add_argument("--exaggeration", type=float,
+                   help="residual vector exaggeration (default: automatic)")
+    p.add_argument("--vector-photos", type=int, default=12,
+                   help="photos drawn with residual vectors (those with rejected or flagged "
+                   "observations first)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.set_defaults(func=run)
+
+
+def options(args):
+    from baarda.report.text import ReportOptions
+
+    return ReportOptions(width=args.class_width, lo=args.range[0], hi=args.range[1],
+                         line_width=args.line_width, w_width=args.w_class_width,
+                         w_lo=args.w_range[0], w_hi=args.w_range[1], top=args.top,
+                         min_abs_w=args.min_w, sort=args.sort, exaggeration=args.exaggeration,
+                         vector_photos=args.vector_photos)
+
+
+def run(args) -> int:
+    from baarda.io.errors import ProjectError
+    from baarda.report.histogram import classes
+    from baarda.report.load import read_results
+    from baarda.report.text import text_report
+
+    if args.out is None and not args.text:
+        raise ProjectError(str(args.results), "nothing to do: give -o report.html and/or --text")
+    opt = options(args)
+    for w, lo, hi in ((opt.width, opt.lo, opt.hi), (opt.w_width, opt.w_lo, opt.w_hi)):
+        try:
+            classes(w, lo, hi)
+        except ValueError as e:
+            raise ProjectError("command line", str(e)) from None
+    res = read_results(args.results)
+    if args.text:
+        print(text_report(res, opt), end="")
+    if args.out is not None:
+        from baarda.report.html import html_report, write_html
+
+        out = args.out.resolve()
+        if out.parent == args.results.resolve() and out.name in (
+                "summary.json", "observations.csv", "photos.csv", "points.csv"):
+            raise FileExistsError(f"{out} is an input of the report (inputs are never "
+                                  "overwritten)")
+        say = progress(args.quiet or args.text)
+        if say:
+            say(f"read {args.results}: {len(res.obs)} observations")
+        write_html(args.out, html_report(res, opt))
+        if not args.quiet:
+            print(f"report written to {args.out}")
+    return 0

@@ -1,0 +1,112 @@
+"""The data-snooping table in the style of NRC ANAPLOT (Kratky & El-Hakim 1983, Fig. 6).
+
+Per observation: redundancy number (RED-N), residual (PARX), its expected size sigma_v
+(EXPD) and the significance w = -v / sigma_v (SIGF), with a flag.  The values are those the
+adjustment wrote (observations.csv); nothing is recomputed here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from baarda.report.load import UNITS
+
+COLUMNS = ["kind", "photo", "point", "component", "unit", "redundancy", "residual",
+           "sigma_residual", "w", "flag"]
+
+
+def flag_of(df: pd.DataFrame) -> np.ndarray:
+    """'REJECTED', 'FLAGGED' (active, |w| above the critical value), 'uncontrolled'
+    (redundancy number too small to test) or ''."""
+    rej = df["rejected"].to_numpy(bool)
+    fl = df["flagged"].to_numpy(bool)
+    unc = ~np.isfinite(df["w"].to_numpy(float))
+    return np.where(rej, "REJECTED", np.where(fl, "FLAGGED",
+                                              np.where(unc, "uncontrolled", ""))).astype(object)
+
+
+def snooping_table(df: pd.DataFrame, *, sort: str = "w", min_abs_w: float | None = None,
+                   top: int | None = None, always: str = "rejected+flagged",
+                   units: dict[str, str] | None = None) -> pd.DataFrame:
+    """Rows of the snooping table.
+
+    sort: 'w' (largest |w| first; untested last) or 'input' (file order).
+    min_abs_w: keep only |w| >= this; top: keep the first `top` rows after sorting.
+    always: rows kept whatever the filters ('rejected+flagged', 'rejected' or '').
+    """
+    units = {**UNITS, **(units or {})}
+    t = df.copy()
+    t["flag"] = flag_of(t)
+    t["unit"] = [units.get(k, "") for k in t["kind"]]
+    absw = np.abs(t["w"].to_numpy(float))
+    t["_absw"] = np.where(np.isfinite(absw), absw, -1.0)
+    keep_always = np.zeros(len(t), bool)
+    if "rejected" in always:
+        keep_always |= t["rejected"].to_numpy(bool)
+    if "flagged" in always:
+        keep_always |= t["flagged"].to_numpy(bool)
+    if sort == "w":
+        order = np.argsort(-t["_absw"].to_numpy(), kind="stable")
+        t, keep_always = t.iloc[order], keep_always[order]
+    elif sort != "input":
+        raise ValueError(f"sort must be 'w' or 'input', not {sort!r}")
+    sel = np.ones(len(t), bool)
+    if min_abs_w is not None:
+        sel &= t["_absw"].to_numpy() >= min_abs_w
+    if top is not None:
+        rank = np.cumsum(sel)
+        sel &= rank <= top
+    return t[sel | keep_always][COLUMNS + (["line"] if "line" in t else [])]
+
+
+def _v(x: float, unit: str, width: int) -> str:
+    if not np.isfinite(x):
+        return f"{'-':>{width}}"
+    return f"{x:>{width}.4f}" if unit == "m" else f"{x:>{width}.2f}"
+
+
+def format_snooping(t: pd.DataFrame, k_w: float | None = None) -> str:
+    """The table as text, ANAPLOT headings."""
+    lines = []
+    if k_w is not None and np.isfinite(k_w):
+        lines.append(f"critical value |w| = {k_w:.2f}; SIGF = w = -v / sigma_v")
+    lines.append(f"{'KIND':<8}{'PHOTO':<10}{'POINT':<12}{'C':<2}{'RED-N':>7}{'PARX':>11}"
+                 f"{'EXPD':>10}{'SIGF':>8}  {'UNIT':<4} FLAG")
+    for r in t.itertuples(index=False):
+        w = f"{r.w:8.2f}" if np.isfinite(r.w) else f"{'-':>8}"
+        lines.append(f"{r.kind:<8}{r.photo:<10}{r.point:<12}{r.component:<2}"
+                     f"{r.redundancy:7.3f}{_v(r.residual, r.unit, 11)}"
+                     f"{_v(r.sigma_residual, r.unit, 10)}{w}  {r.unit:<4} {r.flag}".rstrip())
+    return "\n".join(lines)
+
+
+def format_log(summary: dict) -> str:
+    """The snooping log of summary.json (rejections and restorations in order)."""
+    log = summary.get("rejection_log") or []
+    if not log:
+        return "no observation rejected" if summary.get("snooping_converged") is not None \
+            else "no data snooping run (baarda adjust without --snoop)"
+    lines = [f"{'step':>4}  {'action':<8}{'sigma0':>8}{'w':>8}{'MDB':>10}  observation"]
+    for s in log:
+        obs = "; ".join(s.get("observations", []))
+        mdb, unit = log_mdb(s)
+        lines.append(f"{s.get('iteration', ''):>4}  {s.get('action', ''):<8}"
+                     f"{s.get('sigma0', np.nan):8.3f}{s.get('w', np.nan):8.2f}"
+                     f"{mdb:>10} {unit:<3} {obs}")
+    if summary.get("snooping_converged") is False:
+        lines.append("snooping did NOT converge (iteration limit)")
+    return "\n".join(lines)
+
+
+def log_mdb(step: dict) -> tuple[str, str]:
+    """MDB of a log step in report units (the log stores model units: image mm, control m)."""
+    mdb = step.get("mdb")
+    obs = step.get("observations") or [""]
+    if mdb is None or not np.isfinite(mdb):
+        return "-", ""
+    if obs[0].startswith("image"):
+        return f"{mdb * 1e3:.1f}", "µm"
+    if obs[0].startswith("control"):
+        return f"{mdb:.3f}", "m"
+    return f"{mdb:.4g}", ""

@@ -1,0 +1,211 @@
+"""Group statistics of residuals in the manner of Salsig's VAN (1989).
+
+For every group: number, mean (the bias; should be near zero), RMS = sqrt(mean(v^2)), and
+the two extremes with the observation where each occurs.  Groups: control X, Y, Z and X+Y,
+image x, y and x+y, every other kind by component and together; also per photo and per
+strip.  Input is an observation table with columns kind, photo, point, component, residual
+(image µm, control m) and optionally rejected; rejected observations are left out (their
+residuals are predicted, not adjusted) and counted separately.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from baarda.report.load import UNITS
+
+
+@dataclass
+class GroupStats:
+    """Statistics of one group of residuals (values in `unit`)."""
+
+    name: str
+    unit: str
+    count: int
+    mean: float
+    rms: float
+    minimum: float
+    min_at: str
+    maximum: float
+    max_at: str
+    rejected: int = 0
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+def obs_label(df: pd.DataFrame) -> np.ndarray:
+    """'photo P point Q c' for image rows, 'point Q c' otherwise."""
+    photo = df["photo"].astype(str).to_numpy()
+    head = np.where(photo != "", "photo " + photo + " ", "")
+    return (head + "point " + df["point"].astype(str).to_numpy() + " "
+            + df["component"].astype(str).to_numpy()).astype(object)
+
+
+def describe(values: np.ndarray, labels: np.ndarray, name: str, unit: str,
+             rejected: int = 0) -> GroupStats:
+    """Number, mean, RMS, minimum and maximum (with where they occur) of `values`."""
+    v = np.asarray(values, float)
+    if len(v) == 0:
+        nan = float("nan")
+        return GroupStats(name, unit, 0, nan, nan, nan, "", nan, "", rejected)
+    i, j = int(np.argmin(v)), int(np.argmax(v))
+    return GroupStats(name, unit, len(v), float(np.mean(v)), float(np.sqrt(np.mean(v * v))),
+                      float(v[i]), str(labels[i]), float(v[j]), str(labels[j]), rejected)
+
+
+def _active(df: pd.DataFrame) -> np.ndarray:
+    return ~df["rejected"].to_numpy(bool) if "rejected" in df else np.ones(len(df), bool)
+
+
+def group_statistics(df: pd.DataFrame, units: dict[str, str] | None = None) -> list[GroupStats]:
+    """The VAN groups: control X, Y, Z, XY; image x, y, x+y; other kinds by component.
+    `units`: unit of each kind's residuals (default image µm, control m)."""
+    units = {**UNITS, **(units or {})}
+    act = _active(df)
+    kind = df["kind"].to_numpy(str)
+    comp = df["component"].to_numpy(str)
+    v = df["residual"].to_numpy(float)
+    lab = obs_label(df)
+    out = []
+
+    def add(sel: np.ndarray, name: str, unit: str) -> None:
+        if sel.any():
+            out.append(describe(v[sel & act], lab[sel & act], name, unit,
+                                int(np.sum(sel & ~act))))
+
+    ctl = kind == "control"
+    for c in "XYZ":
+        add(ctl & (comp == c), f"control {c}", units["control"])
+    if (ctl & (comp == "X")).any() and (ctl & (comp == "Y")).any():
+        add(ctl & np.isin(comp, ["X", "Y"]), "control X+Y", units["control"])
+    img = kind == "image"
+    for c in "xy":
+        add(img & (comp == c), f"image {c}", units["image"])
+    add(img & np.isin(comp, ["x", "y"]), "image x+y", units["image"])
+    for k in sorted(set(kind) - {"image", "control"}):
+        sel = kind == k
+        comps = sorted(set(comp[sel]))
+        for c in comps:
+            add(sel & (comp == c), f"{k} {c}", units.get(k, ""))
+        if len(comps) > 1:
+            add(sel, f"{k} all", units.get(k, ""))
+    return out
+
+
+def pair_xy(df: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The x and the y rows of the image observations, aligned (one row per image point).
+
+    Rows written in x, y pairs (as baarda and the readers write them) are paired in order;
+    otherwise they are joined on photo and point (first y row of each)."""
+    img = df[df["kind"] == "image"]
+    x = img[img["component"] == "x"].reset_index(drop=True)
+    y = img[img["component"] == "y"].reset_index(drop=True)
+    if not (len(x) == len(y) and (x["photo"].to_numpy() == y["photo"].to_numpy()).all()
+            and (x["point"].to_numpy() == y["point"].to_numpy()).all()):
+        y = x[["photo", "point"]].merge(y.drop_duplicates(["photo", "point"]),
+                                       on=["photo", "point"], how="left")
+    return x, y
+
+
+def vector_statistics(df: pd.DataFrame, unit: str = "µm") -> GroupStats | None:
+    """Length of the image residual vector sqrt(vx^2 + vy^2) of every image point with both
+    components active; RMS = sqrt(mean(vx^2 + vy^2)) (PhotoModeler's 'Overall RMS')."""
+    x, y = pair_xy(df)
+    ok = (~x["rejected"].to_numpy(bool) & ~y["rejected"].fillna(True).to_numpy(bool)
+          & y["residual"].notna().to_numpy())
+    if not ok.any():
+        return None
+    length = np.hypot(x["residual"].to_numpy(float), y["residual"].to_numpy(float))[ok]
+    lab = ("photo " + x["photo"].astype(str) + " point " + x["point"].astype(str)).to_numpy()
+    return describe(length, lab[ok], "image vector", unit)
+
+
+def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd.DataFrame:
+    """Image residual statistics per photo (by='photo') or per strip (by='strip', key = the
+    strip of every row).  Columns: number of points, mean and RMS of x and y, RMS of x+y,
+    largest |v| and where, rejected components."""
+    img = df["kind"].to_numpy(str) == "image"
+    d = df.loc[img, ["photo", "point", "component", "residual"]].copy()
+    d["group"] = d["photo"].astype(str).to_numpy() if key is None else np.asarray(key)[img]
+    d["active"] = _active(df)[img]
+    d["label"] = obs_label(d)
+    v = d["residual"].to_numpy(float)
+    d["abs"] = np.abs(v)
+    d["v2"] = v * v
+    cols = [by, "points", "mean_x", "mean_y", "rms_x", "rms_y", "rms_xy", "max_abs", "max_at",
+            "rejected"]
+    if d.empty:
+        return pd.DataFrame(columns=cols)
+    groups = sorted(d["group"].unique())
+    out = pd.DataFrame({by: groups}).set_index(by, drop=False)
+    out["points"] = d[d["component"] == "x"].groupby("group")["point"].nunique()
+    a = d[d["active"]]
+    for c in "xy":
+        g = a[a["component"] == c].groupby("group")
+        out[f"mean_{c}"] = g["residual"].mean()
+        out[f"rms_{c}"] = np.sqrt(g["v2"].mean())
+    out["rms_xy"] = np.sqrt(a.groupby("group")["v2"].mean())
+    if len(a):
+        top = a.loc[a.groupby("group")["abs"].idxmax()].set_index("group")
+        out["max_abs"] = top["abs"]
+        out["max_at"] = top["label"]
+    else:
+        out["max_abs"] = np.nan
+        out["max_at"] = ""
+    out["rejected"] = (~d["active"]).groupby(d["group"]).sum()
+    out["points"] = out["points"].fillna(0).astype(int)
+    out["rejected"] = out["rejected"].fillna(0).astype(int)
+    out["max_at"] = out["max_at"].fillna("")
+    return out[cols].reset_index(drop=True)
+
+
+def per_photo(df: pd.DataFrame) -> pd.DataFrame:
+    return image_groups(df, "photo")
+
+
+def per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFrame:
+    key = np.array([str(strip_of.get(p, "")) for p in df["photo"].astype(str)], dtype=object)
+    return image_groups(df, "strip", key)
+
+
+def worst(df: pd.DataFrame, n: int = 10) -> pd.DataFrame:
+    """The n largest |residual| per kind (active observations): the computer points at them."""
+    act = df[_active(df)].copy()
+    act["abs"] = np.abs(act["residual"].to_numpy(float))
+    parts = [g.nlargest(n, "abs") for _, g in act.groupby("kind", sort=True)]
+    return pd.concat(parts) if parts else act.iloc[:0]
+
+
+# ------------------------------------------------------------------ text output
+def _num(x: float, unit: str) -> str:
+    if not np.isfinite(x):
+        return "-"
+    return f"{x:.3f}" if unit in ("m", "px") else f"{x:.2f}"
+
+
+def format_groups(groups: list[GroupStats]) -> str:
+    """The VAN summary table as text."""
+    lines = [f"{'group':<14}{'unit':>5}{'number':>8}{'mean':>10}{'RMS':>10}{'minimum':>10}"
+             f"  {'at':<28}{'maximum':>10}  {'at':<28}{'rejected':>8}"]
+    for g in groups:
+        lines.append(f"{g.name:<14}{g.unit:>5}{g.count:>8}{_num(g.mean, g.unit):>10}"
+                     f"{_num(g.rms, g.unit):>10}{_num(g.minimum, g.unit):>10}  {g.min_at:<28}"
+                     f"{_num(g.maximum, g.unit):>10}  {g.max_at:<28}{g.rejected:>8}")
+    return "\n".join(lines)
+
+
+def format_image_groups(t: pd.DataFrame, by: str, unit: str = "µm") -> str:
+    """Per-photo or per-strip table as text."""
+    lines = [f"{by:<10}{'points':>7}{'mean x':>9}{'mean y':>9}{'RMS x':>8}{'RMS y':>8}"
+             f"{'RMS xy':>8}{'max |v|':>9}  {'at':<30}{'rej':>4}   ({unit})"]
+    for r in t.itertuples(index=False):
+        d = r._asdict()
+        lines.append(f"{str(d[by]):<10}{d['points']:>7}{_num(d['mean_x'], unit):>9}"
+                     f"{_num(d['mean_y'], unit):>9}{_num(d['rms_x'], unit):>8}"
+                     f"{_num(d['rms_y'], unit):>8}{_num(d['rms_xy'], unit):>8}"
+                     f"{_num(d['max_abs'], unit):>9}  {d['max_at']:<30}{d['rejected']:>4}")
+    return "\n".join(lines)
