@@ -38,7 +38,7 @@ main{padding:8px 24px 40px;max-width:1400px}
 h2{border-bottom:2px solid #1f3b5a;padding-bottom:2px;margin-top:28px;font-size:18px}
 table{border-collapse:collapse;font-size:12px;margin:6px 0}
 th,td{border:1px solid #ccd;padding:2px 6px;text-align:right;white-space:nowrap}
-th{background:#eef2f7} td.t{text-align:left}
+th{background:#eef2f7} td.t,th.t{text-align:left}
 tr.rejected td{background:#fbd5d5} tr.flagged td{background:#fde7c8}
 tr.uncontrolled td{color:#888}
 .ok{color:#146c2e;font-weight:bold} .bad{color:#b00020;font-weight:bold}
@@ -69,18 +69,26 @@ def esc(x) -> str:
     return html.escape(str(x))
 
 
+def num(x: float, decimals: int) -> str:
+    """Fixed decimals without a negative zero."""
+    return f"{round(float(x), decimals) + 0.0:.{decimals}f}"
+
+
 def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
           text_cols: tuple[str, ...] = (), attrs: str = "") -> str:
     """An HTML table of `df`; numbers formatted with `fmt` (column -> format spec)."""
     fmt = fmt or {}
-    head = "".join(f"<th>{esc(c)}</th>" for c in df.columns)
+    head = "".join(f"<th{' class=t' if c in text_cols else ''}>{esc(c)}</th>"
+                   for c in df.columns)
     rows = []
     classes = row_class(df) if row_class is not None else [""] * len(df)
     for rec, cls in zip(df.itertuples(index=False), classes, strict=True):
         cells = []
         for c, v in zip(df.columns, rec, strict=True):
             if isinstance(v, float | np.floating):
-                s = "-" if not np.isfinite(v) else format(v, fmt.get(c, ".4g"))
+                f = fmt.get(c, ".4g")
+                s = ("-" if not np.isfinite(v) else num(v, int(f[1:-1])) if f.endswith("f")
+                     else format(v, f))
             else:
                 s = str(v)
             cells.append(f"<td{' class=t' if c in text_cols else ''}>{esc(s)}</td>")
@@ -134,7 +142,7 @@ def _group_table(res: Results) -> str:
     g = group_statistics(res.obs)
 
     def f(x: float, unit: str) -> str:
-        return "-" if not np.isfinite(x) else f"{x:.3f}" if unit == "m" else f"{x:.2f}"
+        return "-" if not np.isfinite(x) else num(x, 3 if unit == "m" else 2)
 
     df = pd.DataFrame([{"group": x.name, "unit": x.unit, "number": x.count,
                         "mean": f(x.mean, x.unit), "RMS": f(x.rms, x.unit),

@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 from matplotlib.collections import PolyCollection
+from matplotlib.ticker import MaxNLocator
 
 from baarda.report.load import Results
 from baarda.report.plots import COLORS, Plot, to_png
@@ -151,7 +152,7 @@ def residual_vectors(res: Results, exaggeration: float | None = None, limit: int
     v = np.hypot(pairs.loc[act, "vx"], pairs.loc[act, "vy"])
     p95 = float(np.percentile(v, 95)) if len(v) else 1.0
     if exaggeration is None:
-        exaggeration = _nice(0.12 * ext / max(p95 * 1e-3, 1e-9))
+        exaggeration = _nice(0.25 * ext / max(p95 * 1e-3, 1e-9))
     ref = _nice(p95) if p95 > 0 else 1.0
     rows = int(np.ceil(len(photos) / cols))
     ncol = min(cols, len(photos))
@@ -181,16 +182,19 @@ def residual_vectors(res: Results, exaggeration: float | None = None, limit: int
         ax.set_aspect("equal")
         ax.set_title(f"photo {p}", fontsize=9)
         ax.tick_params(labelsize=6)
+        ax.xaxis.set_major_locator(MaxNLocator(4))
+        ax.yaxis.set_major_locator(MaxNLocator(4))
     for ax in axes.ravel()[len(photos):]:
         ax.axis("off")
     fig.suptitle(f"Image residual vectors × {exaggeration:g} (x, y in mm); red: rejected, "
                  "orange: flagged", fontsize=10)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.04, top=1 - 0.55 / (rows * 3.3),
+                        wspace=0.25, hspace=0.3)
     n_all = pairs["photo"].nunique()
     cap = (f"{len(photos)} of {n_all} photos (those with rejected or flagged observations "
            f"first); vectors exaggerated {exaggeration:g} times; rejected observations "
            f"marked: {', '.join(marked) if marked else 'none'}")
-    return Plot("vectors", "Image residual vectors", to_png(fig), cap, marked)
+    return Plot("vectors", "Image residual vectors", to_png(fig, tight=False), cap, marked)
 
 
 def _colour_map(ax, fig, pts, col, label, cmap, vmin=None, vmax=None):

@@ -32,9 +32,9 @@ class Plot:
     marked: list[str] = field(default_factory=list)  # observations marked in the figure
 
 
-def to_png(fig) -> bytes:
+def to_png(fig, tight: bool = True) -> bytes:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=DPI, bbox_inches="tight" if tight else None)
     plt.close(fig)
     return buf.getvalue()
 

@@ -129,7 +129,7 @@ def read_photomodeler(path: Path, pixel_size_um: float | None = None) -> pd.Data
     Residuals are in pixels as PhotoModeler writes them (image frame y down); with
     `pixel_size_um` they are converted to µm.  Physical lines are counted at '\\n'.
     """
-    raw = Path(path).read_text(encoding="utf-8-sig", errors="replace").split("\n")
+    raw = Path(path).read_bytes().decode("utf-8-sig", errors="replace").split("\n")
     lines = [s.rstrip("\r") for s in raw]
     start = next((i for i, s in enumerate(lines) if s.lstrip().startswith(PM_HEADER)), None)
     if start is None:

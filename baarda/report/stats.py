@@ -184,7 +184,8 @@ def worst(df: pd.DataFrame, n: int = 10) -> pd.DataFrame:
 def _num(x: float, unit: str) -> str:
     if not np.isfinite(x):
         return "-"
-    return f"{x:.3f}" if unit in ("m", "px") else f"{x:.2f}"
+    d = 3 if unit in ("m", "px") else 2
+    return f"{round(x, d) + 0.0:.{d}f}"  # no '-0.00'
 
 
 def format_groups(groups: list[GroupStats]) -> str:

@@ -1,0 +1,43 @@
+"""A simulated block with injected blunders, snooped, written and reported (once)."""
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from baarda.bundle.quality import snoop
+from baarda.io.project import write_project
+from baarda.io.results import write_results
+from baarda.report.html import html_report
+from baarda.report.load import read_results
+from baarda.report.text import ReportOptions
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+
+@dataclass
+class Case:
+    project: Path
+    out: Path
+    html_path: Path
+    html: str
+    truth: dict
+    obs: pd.DataFrame  # observations.csv as written
+
+
+@pytest.fixture(scope="session")
+def report_case(tmp_path_factory) -> Case:
+    root = tmp_path_factory.mktemp("report")
+    block, truth = simulate_block(FlightPlan(strips=3, photos_per_strip=5, blunders=5,
+                                             check_points=2, relief_m=30.0, seed=1))
+    write_project(block, root / "project")
+    qc = snoop(block)
+    write_results(root / "out", qc.adjustment, qc)
+    res = read_results(root / "out")
+    text = html_report(res, ReportOptions(vector_photos=15))
+    (root / "report.html").write_text(text, encoding="utf-8")
+    obs = pd.read_csv(root / "out" / "observations.csv", dtype={"photo": str, "point": str},
+                      keep_default_na=False, na_values=[""])
+    return Case(root / "project", root / "out", root / "report.html", text,
+                json.loads(json.dumps(truth, default=float)), obs)
