@@ -87,7 +87,8 @@ def format_histogram(h: Histogram, title: str, unit: str = "µm", line_width: in
     """
     scale = bar_scale(np.maximum(h.counts, 0 if expected is None else expected), line_width)
     dec = _decimals(h.width, float(h.centers[0]))
-    head = f"{title}  (classes of {h.width:g} {unit}; n = {h.n}"
+    u = f" {unit}" if unit else ""
+    head = f"{title}  (classes of {h.width:g}{u}; n = {h.n}"
     head += ")" if scale == 1 else f"; each * = {scale:.3g} observations)"
     lines = [head]
     if expected is not None:
@@ -113,11 +114,11 @@ def format_histogram(h: Histogram, title: str, unit: str = "µm", line_width: in
         if k is not None and hi_edge[i] <= -k and (i + 1 == len(h.centers)
                                                    or hi_edge[i + 1] > -k):
             lines.append(f"{pad}---- critical value -{k:.2f} ----")
-    rng = f"{h.centers[0]:.{dec}f} .. {h.centers[-1]:.{dec}f} {unit}"
+    rng = f"{h.centers[0]:.{dec}f} .. {h.centers[-1]:.{dec}f}{u}"
     if len(h.outside_values):
         lines.append(f"outside {rng}: {len(h.outside_values)}")
         for v, lab in list(zip(h.outside_values, h.outside_labels, strict=True))[:max_outside]:
-            lines.append(f"  {v:>10.2f} {unit}  {lab}")
+            lines.append(f"  {v:>10.2f}{u}  {lab}")
         if len(h.outside_values) > max_outside:
             lines.append(f"  ... and {len(h.outside_values) - max_outside} more")
     else:

@@ -25,7 +25,7 @@ from baarda.report.text import (
     global_test_line,
     image_histograms,
     summary_lines,
-    w_hist,
+    w_hists,
 )
 
 CSS = """
@@ -165,8 +165,8 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     hists = image_histograms(res.obs, opt)
     out: dict[str, Plot | None] = {}
     out["hist_image"] = (residual_histograms(hists, "µm") if hists[2][1].n else None)
-    wh = w_hist(res.obs, opt)
-    out["hist_w"] = w_histogram(wh, res.k_w) if wh.n else None
+    wh = w_hists(res.obs, opt)
+    out["hist_w"] = w_histogram(wh, res.k_w) if wh else None
     outlines = {}
     if res.photos is not None and res.points is not None and res.cameras:
         ext = image_extent(res.obs, res.photos, res.cameras)

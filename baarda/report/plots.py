@@ -61,28 +61,30 @@ def residual_histograms(hists: list[tuple[str, Histogram]], unit: str,
     return Plot(name, "Histograms of the residuals", to_png(fig), cap)
 
 
-def w_histogram(h: Histogram, k: float | None, name: str = "hist_w",
-                title: str = "standardized residuals w") -> Plot:
-    """Histogram of w with the standard normal curve (scaled to counts) and +-k marked."""
-    fig, ax = plt.subplots(figsize=(7.5, 3.4))
-    _bars(ax, h, COLORS["active"])
-    x = np.linspace(h.centers[0] - h.width / 2, h.centers[-1] + h.width / 2, 400)
-    ax.plot(x, h.n * h.width * norm.pdf(x), color="black", lw=1.2, label="normal N(0, 1)")
-    cap = f"{h.n} values, normal curve N(0, 1) scaled to the count"
-    if k is not None and np.isfinite(k):
-        for s in (-1, 1):
-            ax.axvline(s * k, color=COLORS["rejected"], ls="--", lw=1.2,
-                       label=f"critical value ±{k:.2f}" if s > 0 else None)
-        beyond = int(np.sum(np.abs(h.outside_values) > k)) + int(
-            np.sum(h.counts[np.abs(h.centers) - h.width / 2 >= k]))
-        cap += f"; critical value ±{k:.2f} dashed; {beyond} value(s) wholly beyond it"
-    out = len(h.outside_values)
-    if out:
-        cap += f"; {out} beyond {h.centers[0]:g} .. {h.centers[-1]:g} not drawn"
-    ax.set_xlabel(f"w (classes of {h.width:g})")
-    ax.set_ylabel("number")
-    ax.set_title(f"{title}: n = {h.n}" + (f", {out} outside the range" if out else ""),
-                 fontsize=10)
-    ax.legend(fontsize=8, loc="upper right")
+def w_histogram(hists: list[tuple[str, Histogram]], k: float | None,
+                name: str = "hist_w") -> Plot:
+    """Histograms of w with the standard normal curve (scaled to the count) and +-k marked."""
+    fig, axes = plt.subplots(1, len(hists), figsize=(4.2 * len(hists), 3.3), squeeze=False)
+    caps = []
+    for ax, (title, h) in zip(axes[0], hists, strict=True):
+        _bars(ax, h, COLORS["active"])
+        x = np.linspace(h.centers[0] - h.width / 2, h.centers[-1] + h.width / 2, 400)
+        ax.plot(x, h.n * h.width * norm.pdf(x), color="black", lw=1.2, label="N(0, 1)")
+        beyond = 0
+        if k is not None and np.isfinite(k):
+            for s in (-1, 1):
+                ax.axvline(s * k, color=COLORS["rejected"], ls="--", lw=1.2,
+                           label=f"±{k:.2f}" if s > 0 else None)
+            beyond = int(np.sum(np.abs(h.outside_values) > k)) + int(
+                np.sum(h.counts[np.abs(h.centers) - h.width / 2 >= k]))
+        out = len(h.outside_values)
+        ax.set_xlabel(f"w (classes of {h.width:g})")
+        ax.set_ylabel("number")
+        ax.set_title(f"w, {title}: n = {h.n}" + (f", {out} outside" if out else ""),
+                     fontsize=10)
+        ax.legend(fontsize=7, loc="upper right")
+        caps.append(f"{title}: {h.n} values, {beyond} wholly beyond the critical value")
     fig.tight_layout()
-    return Plot(name, "Histogram of the standardized residuals w", to_png(fig), cap)
+    crit = f"critical value ±{k:.2f} dashed; " if k is not None and np.isfinite(k) else ""
+    cap = "normal curve N(0, 1) scaled to the count; " + crit + "; ".join(caps)
+    return Plot(name, "Histograms of the standardized residuals w", to_png(fig), cap)

@@ -56,10 +56,20 @@ def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, H
     return out
 
 
-def w_hist(obs: pd.DataFrame, opt: ReportOptions) -> Histogram:
-    """Histogram of w of the active, tested observations (all kinds)."""
+def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
+    """Histograms of w of the active, tested observations: image x, y, x and y, and all
+    observations when there are other kinds (control)."""
     d = obs[~obs["rejected"] & np.isfinite(obs["w"])]
-    return histogram(d["w"].to_numpy(float), obs_label(d), opt.w_width, opt.w_lo, opt.w_hi)
+    lab = obs_label(d)
+    img = (d["kind"] == "image").to_numpy()
+    comp = d["component"].to_numpy(str)
+    sels = [("image x", img & (comp == "x")), ("image y", img & (comp == "y")),
+            ("image x and y", img)]
+    if not img.all():
+        sels.append(("all observations", np.ones(len(d), bool)))
+    w = d["w"].to_numpy(float)
+    return [(n, histogram(w[s], lab[s], opt.w_width, opt.w_lo, opt.w_hi)) for n, s in sels
+            if s.any()]
 
 
 def summary_lines(res: Results) -> list[str]:
@@ -121,10 +131,10 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     for name, h in image_histograms(obs, opt):
         out += ["", format_histogram(h, f"IMAGE {name.upper()} RESIDUALS", "µm",
                                      opt.line_width)]
-    h = w_hist(obs, opt)
-    if h.n:
-        out += ["", format_histogram(h, "STANDARDIZED RESIDUALS w", "", opt.line_width,
-                                     expected=h.expected_normal(), critical=res.k_w)]
+    for name, h in w_hists(obs, opt):
+        out += ["", format_histogram(h, f"STANDARDIZED RESIDUALS w, {name.upper()}", "",
+                                     opt.line_width, expected=h.expected_normal(),
+                                     critical=res.k_w)]
     t = snooping_table(obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
     out += ["", f"SNOOPING TABLE ({len(t)} of {len(obs)} observations: every rejected and "
             f"flagged one, and the largest |w|)", "-" * 78, format_snooping(t, res.k_w)]

@@ -115,3 +115,42 @@ def test_bad_results_name_file_line_column(report_case, tmp_path, capsys):
     assert main(["report", str(bad), "--text"]) == 2
     err = capsys.readouterr().err
     assert "observations.csv, line 4, column 'rejected'" in err
+
+
+def test_older_output_folder_still_reports(report_case, tmp_path):
+    """Without the report's fields (x_mm, y_mm, cameras): cameras from the project named in
+    'source', image-space plots left out with a note."""
+    import json
+    import shutil
+
+    from baarda.report.html import html_report
+
+    old = tmp_path / "out"
+    shutil.copytree(report_case.out, old)
+    s = json.loads((old / "summary.json").read_text())
+    del s["cameras"], s["angle_unit"]
+    s["source"] = str(report_case.project)
+    (old / "summary.json").write_text(json.dumps(s))
+    o = report_case.obs.drop(columns=["x_mm", "y_mm"])
+    o.to_csv(old / "observations.csv", index=False)
+    res = read_results(old)
+    assert res.cameras and res.angle_unit == "gon"  # from the project folder
+    assert any("no image coordinates" in n for n in res.notes)
+    h = html_report(res)
+    assert h.count("<img") == 5 and "no image coordinates in the results" in h
+    s["source"] = str(tmp_path / "nowhere")
+    (old / "summary.json").write_text(json.dumps(s))
+    res = read_results(old)
+    assert not res.cameras and any("footprints not drawn" in n for n in res.notes)
+
+
+def test_missing_files(tmp_path):
+    from baarda.io.errors import ProjectError
+
+    with pytest.raises(ProjectError, match="not an output folder"):
+        read_results(tmp_path / "none")
+    with pytest.raises(ProjectError, match=r"summary.json: file not found"):
+        read_results(tmp_path)
+    (tmp_path / "summary.json").write_text("{bad")
+    with pytest.raises(ProjectError, match=r"summary.json, line 1: not valid JSON"):
+        read_results(tmp_path)
