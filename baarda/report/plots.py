@@ -86,5 +86,6 @@ def w_histogram(hists: list[tuple[str, Histogram]], k: float | None,
         caps.append(f"{title}: {h.n} values, {beyond} wholly beyond the critical value")
     fig.tight_layout()
     crit = f"critical value ±{k:.2f} dashed; " if k is not None and np.isfinite(k) else ""
-    cap = "normal curve N(0, 1) scaled to the count; " + crit + "; ".join(caps)
+    cap = ("active observations (rejected ones are in the snooping table); normal curve "
+           "N(0, 1) scaled to the count; " + crit + "; ".join(caps))
     return Plot(name, "Histograms of the standardized residuals w", to_png(fig), cap)
