@@ -175,8 +175,9 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     have_pts = res.points is not None and len(res.points)
     out["block_map"] = maps.block_map(res, outlines) if have_pts else None
     out["vectors"] = maps.residual_vectors(res, opt.exaggeration, opt.vector_photos)
-    out["redundancy_map"] = maps.redundancy_map(res) if have_pts else None
-    out["reliability_map"] = maps.reliability_map(res) if have_pts else None
+    stats = bool(have_pts) and bool(res.obs["redundancy"].notna().any())
+    out["redundancy_map"] = maps.redundancy_map(res) if stats else None
+    out["reliability_map"] = maps.reliability_map(res) if stats else None
     return out
 
 
@@ -212,7 +213,8 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     sec.append(("vectors", "Image residual vectors", figure(figs["vectors"])
                 or "<p>no image coordinates in the results</p>"))
     sec.append(("reliability", "Redundancy and reliability", figure(figs["redundancy_map"])
-                + figure(figs["reliability_map"])))
+                + figure(figs["reliability_map"]) if figs["redundancy_map"] else
+                "<p>no redundancy numbers in the results (adjusted without statistics)</p>"))
     sec.append(("table", "Snooping table (ANAPLOT)", _snoop_table(res, opt)))
     nav = "".join(f'<a href="#{k}">{esc(t.split(" (")[0])}</a>' for k, t, _ in sec)
     main = "".join(f'<section id="{k}"><h2>{esc(t)}</h2>{b}</section>' for k, t, b in sec)

@@ -154,3 +154,25 @@ def test_missing_files(tmp_path):
     (tmp_path / "summary.json").write_text("{bad")
     with pytest.raises(ProjectError, match=r"summary.json, line 1: not valid JSON"):
         read_results(tmp_path)
+
+
+def test_results_without_statistics(report_case, tmp_path):
+    """An adjustment written without quality control: residuals only; the extremes of the
+    group statistics point at the planted blunders (Salsig's point)."""
+    from baarda.bundle.adjust import adjust
+    from baarda.io.project import read_project
+    from baarda.io.results import write_results
+    from baarda.report.html import html_report
+    from baarda.report.stats import group_statistics
+    from baarda.report.text import text_report
+
+    write_results(tmp_path / "out", adjust(read_project(report_case.project)))
+    res = read_results(tmp_path / "out")
+    h = html_report(res)
+    assert h.count("<img") == 3  # histograms, block map, vectors; no w, no r/MDB maps
+    assert "no redundancy numbers in the results" in h
+    assert "no data snooping run" in text_report(res)
+    g = {s.name: s for s in group_statistics(res.obs)}
+    planted = {f"photo {b['photo']} point {b['point']} {b['component']}"
+               for b in report_case.truth["blunders"]}
+    assert g["image x+y"].min_at in planted or g["image x+y"].max_at in planted
