@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from baarda.cli.common import progress
+
+if TYPE_CHECKING:
+    from baarda.report.text import ReportOptions
 
 
 def add_histogram_options(p) -> None:
@@ -40,7 +44,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def options(args):
+def options(args) -> ReportOptions:
     from baarda.report.text import ReportOptions
 
     return ReportOptions(width=args.class_width, lo=args.range[0], hi=args.range[1],

@@ -4,6 +4,7 @@ group statistics, histograms and the ANAPLOT table, as printer text."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -21,6 +22,9 @@ from baarda.report.stats import (
     vector_statistics,
     worst,
 )
+
+if TYPE_CHECKING:
+    from baarda.report.residual_readers import ResidualSet
 
 
 @dataclass
@@ -152,7 +156,7 @@ def format_worst(t: pd.DataFrame, units: dict[str, str] | None = None) -> str:
     return "\n".join(lines) or "none"
 
 
-def residuals_report(rs, width: float = 1.0, lo: float = -25.0, hi: float = 25.0,
+def residuals_report(rs: ResidualSet, width: float = 1.0, lo: float = -25.0, hi: float = 25.0,
                      line_width: int = 60, n_worst: int = 10) -> str:
     """The post-processor's text (`baarda residuals`): VAN statistics and histograms of a
     ResidualSet read by baarda.report.residual_readers."""
