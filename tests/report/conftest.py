@@ -1,6 +1,7 @@
 """A simulated block with injected blunders, snooped, written and reported (once)."""
 
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,6 +15,9 @@ from baarda.report.html import html_report
 from baarda.report.load import read_results
 from baarda.report.text import ReportOptions
 from baarda.simulate.aerial import FlightPlan, simulate_block
+
+# helper modules of these tests (salsig.py, htmlrows.py); pytest runs with importlib mode
+sys.path.insert(0, str(Path(__file__).parent))
 
 
 @dataclass
