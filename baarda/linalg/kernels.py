@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit
 
 __all__ = [
+    "add_blocks",
     "gather_blocks",
     "scatter_blocks",
     "supernodal_backward",
@@ -58,6 +59,25 @@ def scatter_blocks(
         for r in range(b):
             for c in range(b):
                 buf[p + r * st + c] = values[q, r, c]
+
+
+@njit(cache=True)
+def add_blocks(
+    values: np.ndarray, slot: np.ndarray, transposed: np.ndarray, blocks: np.ndarray
+) -> None:
+    """``values[slot[m]] += blocks[m]`` (``blocks[m].T`` where ``transposed[m]``)."""
+    b = values.shape[1]
+    for m in range(slot.size):
+        v = values[slot[m]]
+        x = blocks[m]
+        if transposed[m]:
+            for r in range(b):
+                for c in range(b):
+                    v[r, c] += x[c, r]
+        else:
+            for r in range(b):
+                for c in range(b):
+                    v[r, c] += x[r, c]
 
 
 @njit(cache=True)
