@@ -27,7 +27,14 @@ from .kernels import (
     supernodal_selected_inverse,
 )
 from .ordering import adjacency_from_pairs, fill_reducing_ordering, inverse_permutation
-from .symbolic import SymbolicFactor, find_slots, lower_rows, postordered, symbolic_factor
+from .symbolic import (
+    RelaxRule,
+    SymbolicFactor,
+    find_slots,
+    lower_rows,
+    postordered,
+    symbolic_factor,
+)
 
 __all__ = ["BlockCholesky", "BlockPattern", "NotPositiveDefinite", "SelectedInverse"]
 
@@ -54,9 +61,9 @@ class NotPositiveDefinite(np.linalg.LinAlgError):
 class BlockPattern:
     """Symbolic structure of a symmetric block-sparse matrix with n blocks of size b.
 
-    Holds the fill-reducing ordering, the symbolic factor (block pattern of L including fill) and
-    a sorted key array for fast slot lookup. Computed once and reused for every factorisation with
-    the same sparsity pattern.
+    Holds the fill-reducing ordering, the symbolic factor (block pattern of L including fill and
+    supernode padding) and the supernodal panel layout. Computed once and reused for every
+    factorisation with the same sparsity pattern.
 
     Attributes
     ----------
@@ -79,7 +86,13 @@ class BlockPattern:
 
     @classmethod
     def from_pairs(
-        cls, n: int, b: int, rows: np.ndarray, cols: np.ndarray, ordering: str = "auto"
+        cls,
+        n: int,
+        b: int,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        ordering: str = "auto",
+        relax: RelaxRule | None = None,
     ) -> BlockPattern:
         """Pattern from block coupling pairs in ORIGINAL numbering.
 
@@ -87,7 +100,8 @@ class BlockPattern:
         blocks are always included. ``ordering`` is passed to
         :func:`~baarda.linalg.ordering.fill_reducing_ordering` (``"auto"``: METIS nested
         dissection, reverse Cuthill-McKee fallback); the ordering is then postordered along its
-        elimination tree.
+        elimination tree. ``relax`` sets the supernode amalgamation (default
+        :data:`~baarda.linalg.symbolic.DEFAULT_RELAX`).
         """
         n = int(n)
         b = int(b)
@@ -98,7 +112,7 @@ class BlockPattern:
         perm = postordered(n, indptr, indices, perm)
         iperm = inverse_permutation(perm)
         rptr, rcol = lower_rows(n, indptr, indices, iperm)
-        return cls(n, b, perm, iperm, symbolic_factor(n, rptr, rcol))
+        return cls(n, b, perm, iperm, symbolic_factor(n, rptr, rcol, relax))
 
     @property
     def nnz_blocks(self) -> int:
@@ -187,7 +201,7 @@ class BlockCholesky:
 
         A scalar pivot fails when it is NaN or not larger than ``rtol`` times the corresponding
         diagonal element of S; then :class:`NotPositiveDefinite` is raised naming the ORIGINAL
-        block index of the failing pivot block.
+        block index of the failing pivot block. Non-finite values raise ValueError.
         """
         pat = self.pattern
         shape = (pat.nnz_blocks, pat.b, pat.b)
@@ -197,8 +211,11 @@ class BlockCholesky:
         if self._buf is None:
             self._buf = np.empty(pat.panel_size)
         self._factored = False
-        scatter_blocks(values, pat.slot_pos, pat.slot_stride, self._buf)
         sym = pat.symbolic
+        bad = scatter_blocks(values, pat.slot_pos, pat.slot_stride, self._buf)
+        if bad >= 0:
+            i, j = int(pat.perm[sym.rowind[bad]]), int(pat.perm[sym.colind[bad]])
+            raise ValueError(f"values contain non-finite numbers (block ({i}, {j}))")
         info = supernodal_cholesky(
             sym.sn_start,
             sym.col_to_sn,

@@ -50,15 +50,25 @@ def _view(buf: np.ndarray, off: int, rows: int, cols: int) -> np.ndarray:
 @njit(cache=True)
 def scatter_blocks(
     values: np.ndarray, slot_pos: np.ndarray, slot_stride: np.ndarray, buf: np.ndarray
-) -> None:
-    """Copy pattern-storage blocks ``values`` (nnz, b, b) into the panel buffer."""
+) -> int:
+    """Copy pattern-storage blocks ``values`` (nnz, b, b) into the panel buffer.
+
+    Returns -1, or the first slot holding a non-finite number.
+    """
     b = values.shape[1]
+    bad = -1
     for q in range(values.shape[0]):
         p = slot_pos[q]
         st = slot_stride[q]
+        acc = 0.0
         for r in range(b):
             for c in range(b):
-                buf[p + r * st + c] = values[q, r, c]
+                v = values[q, r, c]
+                acc += v - v
+                buf[p + r * st + c] = v
+        if bad < 0 and acc != 0.0:  # v - v is NaN for inf and NaN
+            bad = q
+    return bad
 
 
 @njit(cache=True)
