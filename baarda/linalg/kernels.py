@@ -9,8 +9,8 @@ of the panel belongs to block row ``R[a]``. A supernode of one block column is e
 column of b x b blocks: a b x b dense Cholesky plus b x b block updates; wider supernodes turn the
 block updates into dense matrix products that go to BLAS.
 
-Numba caches the compiled kernels (``cache=True``); where the cache folder is not writable numba
-only warns and compiles in memory.
+Numba caches the compiled kernels (``cache=True``, see :mod:`baarda.linalg._jit`); where no cache
+folder is writable they are compiled in memory (with one warning).
 """
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from ._jit import kernel
 
 __all__ = [
     "add_blocks",
@@ -35,19 +36,19 @@ __all__ = [
 CHUNK = 48
 
 
-@njit(cache=True)
+@kernel
 def _chunk(b: int) -> int:
     """Chunk width: a multiple of b close to CHUNK."""
     return b * max(1, CHUNK // b)
 
 
-@njit(cache=True)
+@kernel
 def _view(buf: np.ndarray, off: int, rows: int, cols: int) -> np.ndarray:
     """C-contiguous (rows, cols) view of ``buf[off:off + rows * cols]``."""
     return buf[off : off + rows * cols].reshape(rows, cols)
 
 
-@njit(cache=True)
+@kernel
 def scatter_blocks(
     values: np.ndarray, slot_pos: np.ndarray, slot_stride: np.ndarray, buf: np.ndarray
 ) -> int:
@@ -71,7 +72,7 @@ def scatter_blocks(
     return bad
 
 
-@njit(cache=True)
+@kernel
 def add_blocks(
     values: np.ndarray, slot: np.ndarray, transposed: np.ndarray, blocks: np.ndarray
 ) -> None:
@@ -90,7 +91,7 @@ def add_blocks(
                     v[r, c] += x[r, c]
 
 
-@njit(cache=True)
+@kernel
 def gather_blocks(
     buf: np.ndarray, pos: np.ndarray, stride: np.ndarray, transposed: np.ndarray, out: np.ndarray
 ) -> None:
@@ -109,7 +110,7 @@ def gather_blocks(
                     out[m, r, c] = buf[p + r * st + c]
 
 
-@njit(cache=True)
+@kernel
 def _panel_cholesky(
     p: np.ndarray,
     diag0: np.ndarray,
@@ -169,7 +170,7 @@ def _panel_cholesky(
     return -1
 
 
-@njit(cache=True)
+@kernel
 def supernodal_cholesky(
     sn_start: np.ndarray,
     col_to_sn: np.ndarray,
@@ -261,7 +262,7 @@ def supernodal_cholesky(
     return -1
 
 
-@njit(cache=True)
+@kernel
 def supernodal_forward(
     sn_start: np.ndarray,
     colptr: np.ndarray,
@@ -298,7 +299,7 @@ def supernodal_forward(
                         x[i0 + r, c] -= lrt * x[x0 + t, c]
 
 
-@njit(cache=True)
+@kernel
 def supernodal_backward(
     sn_start: np.ndarray,
     colptr: np.ndarray,
@@ -335,7 +336,7 @@ def supernodal_backward(
                     x[x0 + t, c] -= lrt * x[x0 + r, c]
 
 
-@njit(cache=True)
+@kernel
 def supernodal_logdet(
     sn_start: np.ndarray, colptr: np.ndarray, sn_off: np.ndarray, buf: np.ndarray, b: int
 ) -> float:
@@ -351,7 +352,7 @@ def supernodal_logdet(
     return 2.0 * total
 
 
-@njit(cache=True)
+@kernel
 def _tri_inverse(
     p: np.ndarray,
     w: int,
@@ -403,7 +404,7 @@ def _tri_inverse(
                     x[j1 + i, j0 + j] = -lb[i, j]
 
 
-@njit(cache=True)
+@kernel
 def supernodal_selected_inverse(
     sn_start: np.ndarray,
     col_to_sn: np.ndarray,

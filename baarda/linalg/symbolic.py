@@ -17,7 +17,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+
+from ._jit import kernel
 
 __all__ = [
     "DEFAULT_RELAX",
@@ -99,7 +100,7 @@ def lower_rows(
     return rptr, np.ascontiguousarray(k[order])
 
 
-@njit(cache=True)
+@kernel
 def elimination_tree(n: int, rptr: np.ndarray, rcol: np.ndarray) -> np.ndarray:
     """Elimination tree from the strictly lower row structure (Liu, with path compression)."""
     parent = np.full(n, -1, dtype=np.int64)
@@ -116,7 +117,7 @@ def elimination_tree(n: int, rptr: np.ndarray, rcol: np.ndarray) -> np.ndarray:
     return parent
 
 
-@njit(cache=True)
+@kernel
 def etree_postorder(parent: np.ndarray) -> np.ndarray:
     """Postorder of a forest (``post[k]`` is the k-th vertex); children in increasing order."""
     n = parent.size
@@ -162,7 +163,7 @@ def postordered(n: int, indptr: np.ndarray, indices: np.ndarray, perm: np.ndarra
     return perm[etree_postorder(parent)]
 
 
-@njit(cache=True)
+@kernel
 def _column_counts(n: int, rptr: np.ndarray, rcol: np.ndarray, parent: np.ndarray) -> np.ndarray:
     """Number of blocks in each column of L (diagonal included), via row subtrees."""
     counts = np.ones(n, dtype=np.int64)
@@ -178,7 +179,7 @@ def _column_counts(n: int, rptr: np.ndarray, rcol: np.ndarray, parent: np.ndarra
     return counts
 
 
-@njit(cache=True)
+@kernel
 def _fill_rows(
     n: int, rptr: np.ndarray, rcol: np.ndarray, parent: np.ndarray, colptr: np.ndarray
 ) -> np.ndarray:
@@ -269,7 +270,7 @@ def supernodes(parent: np.ndarray, counts: np.ndarray, relax: RelaxRule) -> np.n
     return _relaxed_supernodes(parent, counts, nc, zr)
 
 
-@njit(cache=True)
+@kernel
 def _relaxed_supernodes(
     parent: np.ndarray, counts: np.ndarray, nc: np.ndarray, zr: np.ndarray
 ) -> np.ndarray:
@@ -308,7 +309,7 @@ def _relaxed_supernodes(
     return starts[: ns + 1].copy()
 
 
-@njit(cache=True)
+@kernel
 def _supernodal_pattern(
     sn_start: np.ndarray, colptr: np.ndarray, rowind: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -339,7 +340,7 @@ def _supernodal_pattern(
     return new_ptr, new_rows
 
 
-@njit(cache=True)
+@kernel
 def _panel_layout(
     sn_start: np.ndarray, colptr: np.ndarray, b: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -363,7 +364,7 @@ def _panel_layout(
     return sn_off, slot_pos, slot_stride
 
 
-@njit(cache=True)
+@kernel
 def find_slots(
     colptr: np.ndarray,
     rowind: np.ndarray,
