@@ -288,12 +288,22 @@ class BlockCholesky:
         sym = pat.symbolic
         return float(supernodal_logdet(sym.sn_start, sym.colptr, pat.sn_off, self._check(), pat.b))
 
-    def selected_inverse(self) -> SelectedInverse:
-        """Blocks of ``S^-1`` on the pattern of L (which contains the pattern of S)."""
+    def selected_inverse(self, overwrite_factor: bool = False) -> SelectedInverse:
+        """Blocks of ``S^-1`` on the pattern of L (which contains the pattern of S).
+
+        With ``overwrite_factor=True`` the selected inverse is computed in the factor's own
+        storage (saving one factor's worth of memory); the factor is consumed and must be
+        recomputed by :meth:`factorize` before the next solve.
+        """
         buf = self._check()
         pat = self.pattern
         sym = pat.symbolic
-        zbuf = np.empty_like(buf)
+        if overwrite_factor:
+            zbuf = buf
+            self._factored = False
+            self._buf = None
+        else:
+            zbuf = np.empty_like(buf)
         supernodal_selected_inverse(
             sym.sn_start,
             sym.col_to_sn,

@@ -422,6 +422,8 @@ def supernodal_selected_inverse(
     processed from last to first), with ``Y = L[R, C] L[C, C]^-1``:
     ``Z[R, C] = -Z[R, R] Y`` and ``Z[C, C] = L[C, C]^-T L[C, C]^-1 - Y^T Z[R, C]``.
     ``zbuf`` receives the panels of ``Z = A^-1`` (diagonal parts stored in full, symmetric).
+    ``zbuf`` may be ``lbuf`` itself: panel J of L is fully read before panel J of Z is written,
+    and only the Z panels of later supernodes are read.
     """
     nsup = sn_start.size - 1
     maxw = 1

@@ -288,3 +288,16 @@ def test_bad_shapes():
         chol.solve(np.zeros(prob.n * 3 + 1))
     with pytest.raises(ValueError):
         BlockPattern.from_pairs(0, 3, np.array([]), np.array([]))
+
+
+def test_selected_inverse_in_place():
+    prob = make_problem("aerial", 6, seed=16)
+    chol = BlockCholesky(prob.pattern)
+    chol.factorize(prob.values)
+    ref = chol.selected_inverse().pattern_values()
+    got = chol.selected_inverse(overwrite_factor=True).pattern_values()
+    np.testing.assert_array_equal(got, ref)
+    with pytest.raises(RuntimeError):
+        chol.solve(np.zeros(prob.n * 6))
+    chol.factorize(prob.values)
+    assert rel_err(chol.selected_inverse(overwrite_factor=True).pattern_values(), ref) == 0.0
