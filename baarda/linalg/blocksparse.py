@@ -91,6 +91,7 @@ class BlockPattern:
         b: int,
         rows: np.ndarray,
         cols: np.ndarray,
+        *,
         ordering: str = "auto",
         relax: RelaxRule | None = None,
     ) -> BlockPattern:

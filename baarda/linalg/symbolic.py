@@ -6,10 +6,13 @@ block-CSC form: the blocks of block column ``j`` occupy slots ``colptr[j]:colptr
 block row indices are ``rowind[colptr[j]:colptr[j + 1]]``, the diagonal block comes first and the
 rows are strictly increasing. The slot order is therefore the order of the keys ``j * n + i``.
 
-Supernodes: consecutive block columns ``f..l`` with ``parent[j] = j + 1`` and
-``struct(j) = {j} + struct(j + 1)`` share one row structure ``R = struct(f)``. The numeric factor
-keeps each supernode as one dense row-major panel of ``len(R) * b`` rows and ``(l - f + 1) * b``
-columns in a flat buffer, so that the block updates become dense matrix products (BLAS).
+Supernodes: consecutive block columns ``f..l`` forming a chain of the elimination tree
+(``parent[j] = j + 1``) share one row structure ``R = {f..l} + struct(l)``. Fundamental
+supernodes have exactly this structure; relaxed amalgamation (:class:`RelaxRule`) also merges
+chains whose structures differ a little and pads the pattern of L with explicit zero blocks. The
+ordering is postordered first (:func:`postordered`) so that most parents directly follow a child.
+The numeric factor keeps each supernode as one dense row-major panel of ``len(R) * b`` rows and
+``(l - f + 1) * b`` columns in a flat buffer, so that block updates become dense matrix products.
 """
 
 from __future__ import annotations

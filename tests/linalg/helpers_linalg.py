@@ -64,6 +64,21 @@ class Problem:
     values: np.ndarray
     dense: np.ndarray
     blocks: tuple[np.ndarray, np.ndarray, np.ndarray]
+    key: tuple
+
+    @property
+    def inverse(self) -> np.ndarray:
+        """Dense inverse (computed once per matrix; the matrix depends on kind, b and seed)."""
+        if self.key not in _INVERSES:
+            _INVERSES[self.key] = np.linalg.inv(self.dense)
+        return _INVERSES[self.key]
+
+    def inverse_blocks(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """Blocks (rows[m], cols[m]) of the dense inverse, shape (m, b, b)."""
+        return self.inverse.reshape(self.n, self.b, self.n, self.b)[rows, :, cols, :]
+
+
+_INVERSES: dict[tuple, np.ndarray] = {}
 
 
 def make_problem(kind: str, b: int, seed: int = 0, **pattern_kw) -> Problem:
@@ -74,7 +89,7 @@ def make_problem(kind: str, b: int, seed: int = 0, **pattern_kw) -> Problem:
     r, c, blk = random_spd_blocks(n, b, rows, cols, rng)
     values = assemble(pattern, r, c, blk)
     dense = to_dense(n, b, r, c, blk)
-    return Problem(n, b, rows, cols, pattern, values, dense, (r, c, blk))
+    return Problem(n, b, rows, cols, pattern, values, dense, (r, c, blk), (kind, b, seed))
 
 
 def rel_err(x: np.ndarray, ref: np.ndarray) -> float:
