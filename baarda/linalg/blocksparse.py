@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .kernels import (
+    add_blocks,
     gather_blocks,
     scatter_blocks,
     supernodal_backward,
@@ -25,8 +26,15 @@ from .kernels import (
     supernodal_logdet,
     supernodal_selected_inverse,
 )
-from .ordering import adjacency_from_pairs, fill_reducing_ordering
-from .symbolic import SymbolicFactor, lower_rows, symbolic_factor
+from .ordering import adjacency_from_pairs, fill_reducing_ordering, inverse_permutation
+from .symbolic import (
+    RelaxRule,
+    SymbolicFactor,
+    find_slots,
+    lower_rows,
+    postordered,
+    symbolic_factor,
+)
 
 __all__ = ["BlockCholesky", "BlockPattern", "NotPositiveDefinite", "SelectedInverse"]
 
@@ -53,9 +61,9 @@ class NotPositiveDefinite(np.linalg.LinAlgError):
 class BlockPattern:
     """Symbolic structure of a symmetric block-sparse matrix with n blocks of size b.
 
-    Holds the fill-reducing ordering, the symbolic factor (block pattern of L including fill) and
-    a sorted key array for fast slot lookup. Computed once and reused for every factorisation with
-    the same sparsity pattern.
+    Holds the fill-reducing ordering, the symbolic factor (block pattern of L including fill and
+    supernode padding) and the supernodal panel layout. Computed once and reused for every
+    factorisation with the same sparsity pattern.
 
     Attributes
     ----------
@@ -74,28 +82,38 @@ class BlockPattern:
         self.perm = perm
         self.iperm = iperm
         self.symbolic = symbolic
-        self._keys = symbolic.keys()
         self.sn_off, self.slot_pos, self.slot_stride = symbolic.panel_layout(self.b)
 
     @classmethod
     def from_pairs(
-        cls, n: int, b: int, rows: np.ndarray, cols: np.ndarray, ordering: str = "auto"
+        cls,
+        n: int,
+        b: int,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        *,
+        ordering: str = "auto",
+        relax: RelaxRule | None = None,
     ) -> BlockPattern:
         """Pattern from block coupling pairs in ORIGINAL numbering.
 
         ``rows``/``cols`` may come in any order and either triangle, with duplicates; the diagonal
         blocks are always included. ``ordering`` is passed to
         :func:`~baarda.linalg.ordering.fill_reducing_ordering` (``"auto"``: METIS nested
-        dissection, reverse Cuthill-McKee fallback).
+        dissection, reverse Cuthill-McKee fallback); the ordering is then postordered along its
+        elimination tree. ``relax`` sets the supernode amalgamation (default
+        :data:`~baarda.linalg.symbolic.DEFAULT_RELAX`).
         """
         n = int(n)
         b = int(b)
         if n < 1 or b < 1:
             raise ValueError("n and b must be positive")
         indptr, indices = adjacency_from_pairs(n, rows, cols)
-        perm, iperm = fill_reducing_ordering(n, indptr, indices, method=ordering)
+        perm, _ = fill_reducing_ordering(n, indptr, indices, method=ordering)
+        perm = postordered(n, indptr, indices, perm)
+        iperm = inverse_permutation(perm)
         rptr, rcol = lower_rows(n, indptr, indices, iperm)
-        return cls(n, b, perm, iperm, symbolic_factor(n, rptr, rcol))
+        return cls(n, b, perm, iperm, symbolic_factor(n, rptr, rcol, relax))
 
     @property
     def nnz_blocks(self) -> int:
@@ -121,25 +139,40 @@ class BlockPattern:
         n = self.n
         if rows.size and (min(rows.min(), cols.min()) < 0 or max(rows.max(), cols.max()) >= n):
             raise ValueError(f"block indices must lie in [0, {n})")
-        pr = self.iperm[rows]
-        pc = self.iperm[cols]
-        transposed = pr < pc
-        key = np.minimum(pr, pc) * n + np.maximum(pr, pc)
-        slot = np.searchsorted(self._keys, key)
-        slot_c = np.minimum(slot, self._keys.size - 1)
-        missing = self._keys[slot_c] != key
-        if np.any(missing):
-            m = int(np.flatnonzero(missing.ravel())[0])
+        flat_r = np.ascontiguousarray(rows.ravel())
+        flat_c = np.ascontiguousarray(cols.ravel())
+        slot = np.empty(flat_r.size, dtype=np.int64)
+        transposed = np.empty(flat_r.size, dtype=np.bool_)
+        sym = self.symbolic
+        bad = find_slots(sym.colptr, sym.rowind, self.iperm, flat_r, flat_c, slot, transposed)
+        if bad >= 0:
             raise ValueError(
-                f"block pair ({int(rows.ravel()[m])}, {int(cols.ravel()[m])}) is not in the "
-                f"pattern ({int(missing.sum())} missing pairs)"
+                f"block pair ({int(flat_r[bad])}, {int(flat_c[bad])}) is not in the pattern"
             )
+        slot = slot.reshape(rows.shape)
+        transposed = transposed.reshape(rows.shape)
         return slot, transposed
 
     @property
     def panel_size(self) -> int:
         """Length of the flat supernodal panel buffer of a factor (float64 entries)."""
         return int(self.sn_off[-1])
+
+    def add_blocks(
+        self, values: np.ndarray, slot: np.ndarray, transposed: np.ndarray, blocks: np.ndarray
+    ) -> None:
+        """Fast ``np.add.at(values, slot, blocks)`` with ``blocks[m].T`` added where
+        ``transposed[m]`` (the output of :meth:`slots`). ``blocks``: (m, b, b)."""
+        slot = np.ascontiguousarray(slot, dtype=np.int64).ravel()
+        transposed = np.ascontiguousarray(transposed, dtype=np.bool_).ravel()
+        blocks = np.ascontiguousarray(blocks, dtype=np.float64)
+        if blocks.shape != (slot.size, self.b, self.b) or transposed.size != slot.size:
+            raise ValueError("slot, transposed and blocks (m, b, b) must have matching lengths")
+        if values.shape != (self.nnz_blocks, self.b, self.b) or values.dtype != np.float64:
+            raise ValueError("values must be a float64 array from new_values()")
+        if slot.size and (slot.min() < 0 or slot.max() >= self.nnz_blocks):
+            raise ValueError("slot out of range")
+        add_blocks(values, slot, transposed, blocks)
 
     def diagonal_slots(self) -> np.ndarray:
         """Slot of the diagonal block of every original block index (shape (n,))."""
@@ -169,7 +202,7 @@ class BlockCholesky:
 
         A scalar pivot fails when it is NaN or not larger than ``rtol`` times the corresponding
         diagonal element of S; then :class:`NotPositiveDefinite` is raised naming the ORIGINAL
-        block index of the failing pivot block.
+        block index of the failing pivot block. Non-finite values raise ValueError.
         """
         pat = self.pattern
         shape = (pat.nnz_blocks, pat.b, pat.b)
@@ -179,8 +212,11 @@ class BlockCholesky:
         if self._buf is None:
             self._buf = np.empty(pat.panel_size)
         self._factored = False
-        scatter_blocks(values, pat.slot_pos, pat.slot_stride, self._buf)
         sym = pat.symbolic
+        bad = scatter_blocks(values, pat.slot_pos, pat.slot_stride, self._buf)
+        if bad >= 0:
+            i, j = int(pat.perm[sym.rowind[bad]]), int(pat.perm[sym.colind[bad]])
+            raise ValueError(f"values contain non-finite numbers (block ({i}, {j}))")
         info = supernodal_cholesky(
             sym.sn_start,
             sym.col_to_sn,
@@ -253,12 +289,22 @@ class BlockCholesky:
         sym = pat.symbolic
         return float(supernodal_logdet(sym.sn_start, sym.colptr, pat.sn_off, self._check(), pat.b))
 
-    def selected_inverse(self) -> SelectedInverse:
-        """Blocks of ``S^-1`` on the pattern of L (which contains the pattern of S)."""
+    def selected_inverse(self, overwrite_factor: bool = False) -> SelectedInverse:
+        """Blocks of ``S^-1`` on the pattern of L (which contains the pattern of S).
+
+        With ``overwrite_factor=True`` the selected inverse is computed in the factor's own
+        storage (saving one factor's worth of memory); the factor is consumed and must be
+        recomputed by :meth:`factorize` before the next solve.
+        """
         buf = self._check()
         pat = self.pattern
         sym = pat.symbolic
-        zbuf = np.empty_like(buf)
+        if overwrite_factor:
+            zbuf = buf
+            self._factored = False
+            self._buf = None
+        else:
+            zbuf = np.empty_like(buf)
         supernodal_selected_inverse(
             sym.sn_start,
             sym.col_to_sn,

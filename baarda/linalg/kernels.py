@@ -9,8 +9,8 @@ of the panel belongs to block row ``R[a]``. A supernode of one block column is e
 column of b x b blocks: a b x b dense Cholesky plus b x b block updates; wider supernodes turn the
 block updates into dense matrix products that go to BLAS.
 
-Numba caches the compiled kernels (``cache=True``); where the cache folder is not writable numba
-only warns and compiles in memory.
+Numba caches the compiled kernels (``cache=True``, see :mod:`baarda.linalg._jit`); where no cache
+folder is writable they are compiled in memory (with one warning).
 """
 
 from __future__ import annotations
@@ -18,9 +18,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from ._jit import kernel
 
 __all__ = [
+    "add_blocks",
     "gather_blocks",
     "scatter_blocks",
     "supernodal_backward",
@@ -34,33 +36,62 @@ __all__ = [
 CHUNK = 48
 
 
-@njit(cache=True)
+@kernel
 def _chunk(b: int) -> int:
     """Chunk width: a multiple of b close to CHUNK."""
     return b * max(1, CHUNK // b)
 
 
-@njit(cache=True)
+@kernel
 def _view(buf: np.ndarray, off: int, rows: int, cols: int) -> np.ndarray:
     """C-contiguous (rows, cols) view of ``buf[off:off + rows * cols]``."""
     return buf[off : off + rows * cols].reshape(rows, cols)
 
 
-@njit(cache=True)
+@kernel
 def scatter_blocks(
     values: np.ndarray, slot_pos: np.ndarray, slot_stride: np.ndarray, buf: np.ndarray
-) -> None:
-    """Copy pattern-storage blocks ``values`` (nnz, b, b) into the panel buffer."""
+) -> int:
+    """Copy pattern-storage blocks ``values`` (nnz, b, b) into the panel buffer.
+
+    Returns -1, or the first slot holding a non-finite number.
+    """
     b = values.shape[1]
+    bad = -1
     for q in range(values.shape[0]):
         p = slot_pos[q]
         st = slot_stride[q]
+        acc = 0.0
         for r in range(b):
             for c in range(b):
-                buf[p + r * st + c] = values[q, r, c]
+                v = values[q, r, c]
+                acc += v - v
+                buf[p + r * st + c] = v
+        if bad < 0 and acc != 0.0:  # v - v is NaN for inf and NaN
+            bad = q
+    return bad
 
 
-@njit(cache=True)
+@kernel
+def add_blocks(
+    values: np.ndarray, slot: np.ndarray, transposed: np.ndarray, blocks: np.ndarray
+) -> None:
+    """``values[slot[m]] += blocks[m]`` (``blocks[m].T`` where ``transposed[m]``)."""
+    b = values.shape[1]
+    for m in range(slot.size):
+        v = values[slot[m]]
+        x = blocks[m]
+        if transposed[m]:
+            for r in range(b):
+                for c in range(b):
+                    v[r, c] += x[c, r]
+        else:
+            for r in range(b):
+                for c in range(b):
+                    v[r, c] += x[r, c]
+
+
+@kernel
 def gather_blocks(
     buf: np.ndarray, pos: np.ndarray, stride: np.ndarray, transposed: np.ndarray, out: np.ndarray
 ) -> None:
@@ -79,7 +110,7 @@ def gather_blocks(
                     out[m, r, c] = buf[p + r * st + c]
 
 
-@njit(cache=True)
+@kernel
 def _panel_cholesky(
     p: np.ndarray,
     diag0: np.ndarray,
@@ -139,7 +170,7 @@ def _panel_cholesky(
     return -1
 
 
-@njit(cache=True)
+@kernel
 def supernodal_cholesky(
     sn_start: np.ndarray,
     col_to_sn: np.ndarray,
@@ -231,7 +262,7 @@ def supernodal_cholesky(
     return -1
 
 
-@njit(cache=True)
+@kernel
 def supernodal_forward(
     sn_start: np.ndarray,
     colptr: np.ndarray,
@@ -268,7 +299,7 @@ def supernodal_forward(
                         x[i0 + r, c] -= lrt * x[x0 + t, c]
 
 
-@njit(cache=True)
+@kernel
 def supernodal_backward(
     sn_start: np.ndarray,
     colptr: np.ndarray,
@@ -305,7 +336,7 @@ def supernodal_backward(
                     x[x0 + t, c] -= lrt * x[x0 + r, c]
 
 
-@njit(cache=True)
+@kernel
 def supernodal_logdet(
     sn_start: np.ndarray, colptr: np.ndarray, sn_off: np.ndarray, buf: np.ndarray, b: int
 ) -> float:
@@ -321,7 +352,7 @@ def supernodal_logdet(
     return 2.0 * total
 
 
-@njit(cache=True)
+@kernel
 def _tri_inverse(
     p: np.ndarray,
     w: int,
@@ -373,7 +404,7 @@ def _tri_inverse(
                     x[j1 + i, j0 + j] = -lb[i, j]
 
 
-@njit(cache=True)
+@kernel
 def supernodal_selected_inverse(
     sn_start: np.ndarray,
     col_to_sn: np.ndarray,
@@ -391,6 +422,8 @@ def supernodal_selected_inverse(
     processed from last to first), with ``Y = L[R, C] L[C, C]^-1``:
     ``Z[R, C] = -Z[R, R] Y`` and ``Z[C, C] = L[C, C]^-T L[C, C]^-1 - Y^T Z[R, C]``.
     ``zbuf`` receives the panels of ``Z = A^-1`` (diagonal parts stored in full, symmetric).
+    ``zbuf`` may be ``lbuf`` itself: panel J of L is fully read before panel J of Z is written,
+    and only the Z panels of later supernodes are read.
     """
     nsup = sn_start.size - 1
     maxw = 1

@@ -77,8 +77,7 @@ def assemble(pattern: BlockPattern, r: np.ndarray, c: np.ndarray, blocks: np.nda
     pc = pattern.iperm[np.asarray(c)]
     keep = pr >= pc
     values = pattern.new_values()
-    np.add.at(values, slot[keep], blocks[keep])
-    del tr
+    pattern.add_blocks(values, slot[keep], tr[keep], blocks[keep])
     return values
 
 
