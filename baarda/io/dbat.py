@@ -10,11 +10,11 @@ What is read, and how it is converted:
   y_mm = (h/2 - y_px) p_y, with p = sensor size / image size in pixels.
 * principal point ``pp`` in mm from the upper-left sensor corner, y down -> (pp_x - W/2,
   H/2 - pp_y) mm; camera constant ``cc`` (default: ``focal``).
-* lens distortion ``K`` (K1..K3), ``P`` (P1, P2) of DBAT's backward models 1-5 ->
-  ``brown_backward`` with the same coefficients (DBAT's sign; PhotoModeler's are negated);
-  DBAT's forward model (negative model number) -> ``brown_forward`` with K_i c^(2i) and
-  P c (coefficients made dimensionless).  Aspect enters through the pixel sizes; skew must
-  be 0.
+* lens distortion ``K`` (K1..K3), ``P`` (P1, P2) of DBAT's backward model 3 ->
+  ``brown_backward`` with the same coefficients (ideal = u + delta(u)); other DBAT models
+  are rejected.  The aspect enters through the pixel sizes: DBAT scales pixels by the pixel
+  height and multiplies x by px/py after subtracting pp, so the x of pp is in units of the
+  pixel height and becomes pp_x px/py.  Skew must be 0.
 * image sigma ``sxy`` (pixels; the ``sxy`` attribute of the file element overrides the
   column) -> mm with the pixel height (DBAT's pixel size).
 * control points with sigmas -> control; without sigma (DBAT: fixed) -> control with the
@@ -169,14 +169,11 @@ def _camera(node: Node, path: str) -> dict:
         raise ProjectError(path, "camera skew is not supported", node.line, "skew")
     model = int(parse_number(node.value("model", "3"), path, node.line, "model"))
     c = cc[0]
-    if 1 <= model <= 5:
-        kind, coef = "brown_backward", [*k, *p]
-    elif model < 0:
-        kind = "brown_forward"
-        coef = [k[0] * c**2, k[1] * c**4, k[2] * c**6, p[0] * c, p[1] * c]
-    else:
-        raise ProjectError(path, f"lens distortion model {model} is not known", node.line,
-                           "model")
+    if model != 3:
+        raise ProjectError(path, f"lens distortion model {model} is not supported (only "
+                           "DBAT's backward model 3, verified against DBAT's results)",
+                           node.line, "model")
+    kind, coef = "brown_backward", [*k, *p]
     if not any(coef):
         kind = "none"
     px, py = sw / iw, sh / ih
