@@ -127,21 +127,32 @@ def uncorrect_backward(xy_ideal: np.ndarray, pp: np.ndarray, d: np.ndarray,
     return pp + u
 
 
-def ideal_image_coordinates(block) -> np.ndarray:
-    """Image coordinates (m, 2) in mm free of distortion, for every row of block.image.
-
-    Backward model: the corrected observations (exactly what the adjustment compares with
-    the projection).  Forward model: the undistorted observations (used only for
-    approximations; the adjustment applies the forward model in the projection).
-    """
+def corrected_observations(block) -> np.ndarray:
+    """The observations (m, 2) in mm as the adjustment compares them with the projection:
+    backward-model rows corrected, all other rows as observed."""
     im = block.image
     kinds, coef = camera_arrays(block.cameras)
     cam = block.photos.camera[im.photo]
     out = np.array(im.xy_mm, dtype=float, copy=True)
-    pp = block.cameras.principal_point_mm[cam]
     back = kinds[cam] == "brown_backward"
     if back.any():
-        out[back] = correct_backward(out[back], pp[back], coef[cam[back]])
+        pp = block.cameras.principal_point_mm[cam[back]]
+        out[back] = correct_backward(out[back], pp, coef[cam[back]])
+    return out
+
+
+def ideal_image_coordinates(block) -> np.ndarray:
+    """Image coordinates (m, 2) in mm free of distortion, for every row of block.image.
+
+    Backward model: the corrected observations.  Forward model: the undistorted
+    observations (for approximations only: the adjustment applies the forward model in the
+    projection and compares with `corrected_observations`).
+    """
+    im = block.image
+    kinds, coef = camera_arrays(block.cameras)
+    cam = block.photos.camera[im.photo]
+    out = corrected_observations(block)
+    pp = block.cameras.principal_point_mm[cam]
     fwd = kinds[cam] == "brown_forward"
     if fwd.any():
         out[fwd] = undistort(out[fwd], pp[fwd], block.cameras.focal_mm[cam[fwd]],

@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 
 from baarda.adjustment.schur import Linearization, SchurSystem
-from baarda.block.camera import forward_coefficients, ideal_image_coordinates
+from baarda.block.camera import corrected_observations, forward_coefficients
 from baarda.block.model import Block
 from baarda.bundle.collinearity import camera_depth, project_with_jacobians
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
@@ -54,8 +54,9 @@ class BundleProblem:
         if self.needs_control:
             check_datum(block, ok & np.isin(np.arange(len(pts)), self.control)
                         & (self.control_keep.any(axis=1)))
-        # observations free of backward (observation-side) distortion; forward model rows
-        self.xy_obs = ideal_image_coordinates(block)[self.obs]
+        # observations corrected for backward (observation-side) distortion; forward model
+        # rows as observed (the projection applies that model)
+        self.xy_obs = corrected_observations(block)[self.obs]
         self.distortion = forward_coefficients(block.cameras,
                                                block.photos.camera[im.photo[self.obs]])
         self.system = SchurSystem(
