@@ -109,11 +109,14 @@ def assess(result: BundleResult, alpha0: float | None = None,
 
 def snoop(block: Block, *, alpha0: float | None = None, beta0: float | None = None,
           statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
-          progress: Progress | None = None) -> BundleQuality:
-    """Iterative data snooping of a bundle block (re-adjusting after each rejection)."""
+          progress: Progress | None = None,
+          problem: BundleProblem | None = None) -> BundleQuality:
+    """Iterative data snooping of a bundle block (re-adjusting after each rejection).
+
+    problem: the BundleProblem to use (e.g. a free network, bundle/free.py)."""
     s = block.settings
     alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
-    problem = BundleProblem(block)
+    problem = problem or BundleProblem(block)
     state: dict = {}
 
     def refit(active: np.ndarray) -> BundleModel:
