@@ -85,7 +85,10 @@ def drop_points_behind(block: Block) -> tuple[Block, int]:
     from baarda.bundle.collinearity import camera_depth
 
     im = block.image
-    ok = camera_depth(block.photos.eo[im.photo], block.points.xyz[im.point]) > 0
+    xyz = block.points.xyz[im.point]
+    known = np.isfinite(xyz).all(axis=1)  # points without approximations cannot be judged
+    ok = ~known | (camera_depth(block.photos.eo[im.photo], np.where(known[:, None], xyz, 0))
+                   > 0)
     if ok.all():
         return block, 0
     out = block.select_image(ok)
