@@ -12,6 +12,7 @@ from baarda.io.errors import GeometryError, ProjectError
 COMMANDS = [
     "baarda.cli.adjust",
     "baarda.cli.simulate",
+    "baarda.cli.convert",
 ]
 
 
