@@ -66,10 +66,13 @@ class SchurSystem:
         self.diag_slot, diag_tr = self.pattern.slots(diag, diag)
         self.chol = BlockCholesky(self.pattern)
         self._sel = None
+        # frame unknowns held by datum constraints (zero Jacobian columns plus a direct
+        # observation of weight wf): they are not unknowns of the model (bundle/free.py)
+        self.n_fixed = 0
 
     @property
     def n_unknowns(self) -> int:
-        return self.nf * self.b + self.np * self.d
+        return self.nf * self.b + self.np * self.d - self.n_fixed
 
     # ------------------------------------------------------------------ numbers
     def factorize(self, lin: Linearization) -> None:

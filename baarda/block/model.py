@@ -32,6 +32,8 @@ class Cameras:
     ids: list[str]
     focal_mm: np.ndarray  # (n,)
     principal_point_mm: np.ndarray  # (n, 2): x0, y0
+    model: np.ndarray | None = None  # (n,) lens model kind (block/camera.py), None = none
+    distortion: np.ndarray | None = None  # (n, 5) k1, k2, k3, p1, p2 of that model
 
     def __len__(self) -> int:
         return len(self.ids)

@@ -8,6 +8,7 @@ from collections.abc import Callable
 import numpy as np
 
 from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.block.camera import corrected_observations, forward_coefficients
 from baarda.block.model import Block
 from baarda.bundle.collinearity import camera_depth, project_with_jacobians
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
@@ -21,8 +22,11 @@ class BundleProblem:
     """The block in the form of the adjustment: index arrays, weights, the Schur structure.
 
     `image_keep` and `control_keep` switch single observation components off (data snooping
-    rejects them) without changing the structure.
+    rejects them) without changing the structure.  `needs_control` = False (free networks,
+    bundle/free.py) skips the check that the control fixes the datum.
     """
+
+    needs_control = True
 
     def __init__(self, block: Block, image_keep: np.ndarray | None = None,
                  control_keep: np.ndarray | None = None):
@@ -50,8 +54,14 @@ class BundleProblem:
         # weight factors of robust re-weighting (Danish method); 1 = a-priori weight
         self.image_factor = np.ones((len(im), 2))
         self.control_factor = np.ones((len(pts), 3))
-        check_datum(block, ok & np.isin(np.arange(len(pts)), self.control)
-                    & (self.control_keep.any(axis=1)))
+        if self.needs_control:
+            check_datum(block, ok & np.isin(np.arange(len(pts)), self.control)
+                        & (self.control_keep.any(axis=1)))
+        # observations corrected for backward (observation-side) distortion; forward model
+        # rows as observed (the projection applies that model)
+        self.xy_obs = corrected_observations(block)[self.obs]
+        self.distortion = forward_coefficients(block.cameras,
+                                               block.photos.camera[im.photo[self.obs]])
         self.system = SchurSystem(
             len(block.photos), 6, len(self.point_ids), 3,
             im.photo[self.obs], remap[im.point[self.obs]], remap[ctrl],
@@ -71,8 +81,9 @@ class BundleProblem:
         cam = b.photos.camera[ph]
         xy, je, jp = project_with_jacobians(eo[ph], xyz[self.remap[im.point[self.obs]]],
                                             b.cameras.focal_mm[cam],
-                                            b.cameras.principal_point_mm[cam])
-        e = im.xy_mm[self.obs] - xy
+                                            b.cameras.principal_point_mm[cam],
+                                            self.distortion)
+        e = self.xy_obs - xy
         given = b.points.xyz[self.control]
         ec = np.where(np.isfinite(given), given, 0.0) - xyz[self.remap[self.control]]
         w, wc = self.weights

@@ -4,20 +4,25 @@
     x = x0 - c * u1 / u3,   y = y0 - c * u2 / u3      (mm)
 
 Parameters of a photo: X0, Y0, Z0 [m], omega, phi, kappa [rad]; of a point: X, Y, Z [m].
+With `distortion` (m, 5) the forward lens model of block/camera.py is applied to (x, y) and
+the Jacobians follow by the chain rule.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from baarda.block.camera import distort
 from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
 
 
-def project(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray, pp: np.ndarray) -> np.ndarray:
+def project(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray, pp: np.ndarray,
+            distortion: np.ndarray | None = None) -> np.ndarray:
     """Image coordinates (m, 2) in mm of points xyz (m, 3) on photos eo (m, 6)."""
     r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
     u = np.einsum("mji,mj->mi", r, xyz - eo[:, :3])
-    return pp - focal[:, None] * u[:, :2] / u[:, 2:3]
+    xy = pp - focal[:, None] * u[:, :2] / u[:, 2:3]
+    return xy if distortion is None else distort(xy, pp, focal, distortion)[0]
 
 
 def camera_depth(eo: np.ndarray, xyz: np.ndarray) -> np.ndarray:
@@ -27,7 +32,7 @@ def camera_depth(eo: np.ndarray, xyz: np.ndarray) -> np.ndarray:
 
 
 def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
-                           pp: np.ndarray):
+                           pp: np.ndarray, distortion: np.ndarray | None = None):
     """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3)."""
     r, dro, drp, drk = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
     d = xyz - eo[:, :3]
@@ -48,4 +53,7 @@ def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
     for k, dr in enumerate((dro, drp, drk)):
         du = np.einsum("mji,mj->mi", dr, d)
         je[:, :, 3 + k] = np.einsum("mab,mb->ma", ju, du)
+    if distortion is not None:
+        xy, dd = distort(xy, pp, c, distortion)
+        je, jp = dd @ je, dd @ jp
     return xy, je, jp

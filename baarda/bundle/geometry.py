@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from baarda.block.camera import ideal_image_coordinates
 from baarda.block.model import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.io.errors import GeometryError
@@ -65,7 +66,7 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
     c = block.cameras.focal_mm[cam]
     pp = block.cameras.principal_point_mm[cam]
     r = rotation_matrix(eo[im.photo, 3], eo[im.photo, 4], eo[im.photo, 5])
-    dirs_cam = np.column_stack([im.xy_mm - pp, -c])
+    dirs_cam = np.column_stack([ideal_image_coordinates(block) - pp, -c])
     dirs = np.einsum("mij,mj->mi", r, dirs_cam)
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     proj = np.eye(3)[None] - dirs[:, :, None] * dirs[:, None, :]

@@ -150,15 +150,17 @@ def _to_block_arrays(m: BundleModel, flat: np.ndarray, fill, n_image: int, n_poi
 
 def snoop(block: Block, *, alpha0: float | None = None, beta0: float | None = None,
           statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
-          robust: bool = False, progress: Progress | None = None) -> BundleQuality:
+          robust: bool = False, progress: Progress | None = None,
+          problem: BundleProblem | None = None) -> BundleQuality:
     """Iterative data snooping of a bundle block (re-adjusting after each rejection).
 
     With `robust`, the Danish method first down-weights large errors; the components it
     leaves with (almost) no weight start out rejected and are tested again by snooping.
+    `problem`: the BundleProblem to use (e.g. a free network, bundle/free.py).
     """
     s = block.settings
     alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
-    problem = BundleProblem(block)
+    problem = problem or BundleProblem(block)
     n_img, n_pts = len(block.image), len(block.points)
     state: dict = {}
 

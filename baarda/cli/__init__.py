@@ -17,6 +17,7 @@ COMMANDS = [
     "baarda.cli.plan",
     "baarda.cli.report",
     "baarda.cli.residuals",
+    "baarda.cli.convert",
 ]
 
 

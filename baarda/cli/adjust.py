@@ -7,12 +7,12 @@ from pathlib import Path
 from baarda.bundle.adjust import adjust
 from baarda.bundle.quality import assess, snoop
 from baarda.cli.common import check_output, progress
-from baarda.io.project import read_project
-from baarda.io.results import write_results
+from baarda.cli.inputs import add_input_options, prepare
 
 
 def _common(p) -> None:
-    p.add_argument("project", type=Path, help="project folder (project.toml + CSV files)")
+    p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
+                   "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
     p.add_argument("-o", "--out", type=Path, required=True, help="output folder")
     p.add_argument("--alpha0", type=float, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
@@ -24,6 +24,7 @@ def _common(p) -> None:
     p.add_argument("--robust", action="store_true", help="Danish-method re-weighting before "
                    "snooping (for blocks with many large errors)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    add_input_options(p)
 
 
 def register(sub) -> None:
@@ -37,20 +38,21 @@ def register(sub) -> None:
 
 
 def run_adjust(args) -> int:
-    check_output(args.out, [args.project])
+    check_output(args.out, [args.input])
     say = progress(args.quiet)
-    block = read_project(args.project)
+    inp = prepare(args, say)
+    block = inp.adjusted
     if say:
         say(f"read {block.summary()}")
     if args.snoop:
         qc = snoop(block, alpha0=args.alpha0, beta0=args.beta0,
                    statistic="tau" if args.tau else "w", by_point=args.by_point,
-                   robust=args.robust, progress=say)
+                   robust=args.robust, progress=say, problem=inp.problem)
         result = qc.adjustment
     else:
-        result = adjust(block, progress=say)
+        result = adjust(block, progress=say, problem=inp.problem)
         qc = assess(result, args.alpha0, args.beta0)
-    write_results(args.out, result, qc)
+    inp.write(args.out, result, qc)
     if not args.quiet:
         print(qc.summary())
         print(f"results written to {args.out}")

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import COEFFICIENTS, KINDS, camera_arrays
 from baarda.block.model import ROLES, Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad, rad_to_angle
 from baarda.io.atomic import write_text
@@ -75,6 +76,15 @@ def read_project(folder: str | Path) -> Block:
         raise ProjectError(t.path, "focal length must be positive", int(t.lines[bad[0]]),
                            "focal_mm")
     cameras = Cameras(cam_ids, focal, np.column_stack([t.numbers("x0_mm"), t.numbers("y0_mm")]))
+    if t.has("model"):  # optional lens model (block/camera.py), coefficients default 0
+        kinds = t.text("model").astype(object)
+        for i, k in enumerate(kinds):
+            if k not in KINDS:
+                raise ProjectError(t.path, f"lens model '{k}' is not one of {', '.join(KINDS)}",
+                                   int(t.lines[i]), "model")
+        coef = np.column_stack([t.numbers(c, allow_empty=True) if t.has(c)
+                                else np.zeros(len(t)) for c in COEFFICIENTS])
+        cameras.model, cameras.distortion = kinds, np.nan_to_num(coef)
     if not cam_ids:
         raise ProjectError(t.path, "no cameras")
 
@@ -184,9 +194,14 @@ def write_project(block: Block, folder: str | Path) -> None:
              "", "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", ""]
     write_text(folder / "project.toml", "\n".join(toml))
     c = block.cameras
-    rows = ["camera,focal_mm,x0_mm,y0_mm"] + [
+    kinds, coef = camera_arrays(c)
+    lens = bool(np.any(kinds != "none"))
+    rows = ["camera,focal_mm,x0_mm,y0_mm" + (",model," + ",".join(COEFFICIENTS) if lens
+                                             else "")] + [
         f"{c.ids[i]},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
-        f"{float(c.principal_point_mm[i, 1])!r}" for i in range(len(c))]
+        f"{float(c.principal_point_mm[i, 1])!r}" +
+        (f",{kinds[i]}," + ",".join(repr(float(v)) for v in coef[i]) if lens else "")
+        for i in range(len(c))]
     write_text(folder / "cameras.csv", "\n".join(rows) + "\n")
     p = block.photos
     ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)

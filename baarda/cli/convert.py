@@ -1,0 +1,33 @@
+"""`baarda convert IN -o PROJECT`: any supported input -> native project folder."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from baarda.cli.common import check_output
+from baarda.cli.inputs import add_input_options, read_input
+from baarda.io.convert import detect
+from baarda.io.project import write_project
+
+
+def register(sub) -> None:
+    p = sub.add_parser("convert", help="convert a COLMAP, BAL, DBAT, PhotoModeler or AICON "
+                       "input (or a project) into a native project folder")
+    p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
+    p.add_argument("-o", "--out", type=Path, required=True, help="project folder to write")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
+    add_input_options(p)
+    p.set_defaults(func=run_convert)
+
+
+def run_convert(args) -> int:
+    check_output(args.out, [args.input])
+    fmt = args.format or detect(args.input)
+    block = read_input(args)
+    write_project(block, args.out)
+    if not args.quiet:
+        print(f"read {fmt}: {block.summary()}")
+        for note in block.notes:
+            print(f"note: {note}")
+        print(f"project written to {args.out}")
+    return 0

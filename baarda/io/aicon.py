@@ -1,0 +1,305 @@
+"""AICON 3D Studio bundle files: NAME.ior, .eor, .obc, .phc, .scale (whitespace separated).
+
+Columns (from the German comments of the JAiCov readers; '#' lines are comments):
+
+* .ior, five lines per camera: (1) camera no., internal, ck, xh, yh, A1, A2, R0; (2) A3;
+  (3) B1, B2; (4) C1, C2; (5) sensor width, height [mm], pixels x, y;
+* .eor: image no., camera no., X0, Y0, Z0 [mm], omega, phi, kappa [rad], rotation order
+  (0 = AICON "CAP"), image status (0 = inactive), orientation status (1 = not oriented);
+* .obc: point id, X, Y, Z [mm], sX, sY, sZ, rays, status (1 = active), new-point flag,
+  datum flag;
+* .phc: image no., point id, x, y [mm], sx, sy, residuals vx, vy, method code, status
+  (> 0 active), internal parameter;
+* .scale: id, "name", point A, point B, length [mm], sigma [mm], status.
+
+Conventions, checked by reprojecting AICON's own solution (tests/io/test_aicon.py: 0.04 mm
+RMS, the size of AICON's lens distortion, whose radial part the residuals follow with
+correlation 0.998): the rotation is baarda's R_x(omega) R_y(phi) R_z(kappa) (image to
+object); AICON's negative ck means the image plane at z = ck, baarda's c = -ck; image
+coordinates are in mm relative to the image centre (x right, y up), principal point
+(xh, yh).  Object coordinates are converted from mm to m.
+
+AICON's distortion model (A1..A3 radial with zero crossing R0, B1, B2 decentring, C1, C2
+affinity and shear) is read and kept in `AiconProject`, but not yet applied: the block
+gets lens model 'none' and a note says so (the model is a later step).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.io.atomic import write_text
+from baarda.io.errors import ProjectError
+from baarda.io.text import read_lines, to_numbers
+
+EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
+
+
+@dataclass
+class AiconProject:
+    name: str
+    folder: Path
+    cameras: dict  # field -> array (n_cam,): id, internal, ck, xh, yh, A1, A2, R0, A3, ...
+    images: dict  # id, camera, X0, Y0, Z0, omega, phi, kappa, order, status, orient
+    points: dict  # id, X, Y, Z, sX, sY, sZ, rays, status, new, datum
+    observations: dict  # image, point, x, y, sx, sy, vx, vy, method, status, internal
+    scale_bars: dict  # id, name, a, b, length, sigma, status
+    raw_lines: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------- what is used
+    def active_images(self) -> np.ndarray:
+        im = self.images
+        return (im["status"] != 0) & (im["orient"] != 1) & (im["order"] == 0)
+
+    def active_points(self) -> np.ndarray:
+        return self.points["status"] == 1
+
+    def active_observations(self) -> np.ndarray:
+        o = self.observations
+        img = set(self.images["id"][self.active_images()])
+        pts = set(self.points["id"][self.active_points()])
+        return ((o["status"] > 0) & np.isin(o["image"], list(img)) &
+                np.isin(o["point"], list(pts)))
+
+    def active_scale_bars(self) -> np.ndarray:
+        return self.scale_bars["status"] != 0
+
+    def counts(self) -> dict:
+        """Observations (image coordinates and scale bars), points and images in use."""
+        n_obs = int(self.active_observations().sum())
+        n_sb = int(self.active_scale_bars().sum())
+        return {"observations": 2 * n_obs + n_sb, "image_points": n_obs, "scale_bars": n_sb,
+                "points": int(self.active_points().sum()),
+                "images": int(self.active_images().sum())}
+
+    def to_block(self, sigma_image_mm: float | None = None) -> Block:
+        """The active images, points and observations as a Block (object units m).
+
+        sigma_image_mm: a-priori sigma of the image coordinates; default: the sx, sy of the
+        .phc file (AICON's report used 0.0005 mm for this example, not the file's values).
+        """
+        cams = self.cameras
+        cam_ids = [str(int(c)) for c in cams["id"]]
+        cameras = Cameras(cam_ids, -cams["ck"], np.column_stack([cams["xh"], cams["yh"]]))
+        act_i = self.active_images()
+        im = {k: v[act_i] for k, v in self.images.items()}
+        cam_index = {int(c): i for i, c in enumerate(cams["id"])}
+        missing = [c for c in im["camera"] if int(c) not in cam_index]
+        if missing:
+            raise ProjectError(str(self.folder / f"{self.name}.eor"),
+                               f"image uses unknown camera {int(missing[0])}")
+        photo_ids = [str(int(i)) for i in im["id"]]
+        eo = np.column_stack([np.column_stack([im["X0"], im["Y0"], im["Z0"]]) * 1e-3,
+                              im["omega"], im["phi"], im["kappa"]])
+        photos = Photos(photo_ids, np.array([cam_index[int(c)] for c in im["camera"]]),
+                        np.full(len(photo_ids), "", dtype=object), eo)
+        act_p = self.active_points()
+        pid = self.points["id"][act_p]
+        xyz = np.column_stack([self.points[k][act_p] for k in "XYZ"]) * 1e-3
+        points = GroundPoints([_id(p) for p in pid], xyz, np.full(xyz.shape, np.nan),
+                              np.full(len(pid), "tie", dtype=object))
+        o = {k: v[self.active_observations()] for k, v in self.observations.items()}
+        pi = {int(p): i for i, p in enumerate(im["id"])}
+        qi = {p: j for j, p in enumerate(pid.tolist())}
+        sig = (np.full(len(o["x"]), sigma_image_mm) if sigma_image_mm is not None
+               else np.sqrt(0.5 * (o["sx"] ** 2 + o["sy"] ** 2)))
+        image = ImagePoints(np.array([pi[int(i)] for i in o["image"]], dtype=np.int64),
+                            np.array([qi[p] for p in o["point"].tolist()], dtype=np.int64),
+                            np.column_stack([o["x"], o["y"]]), sig)
+        notes = [f"AICON project {self.name}: object coordinates mm -> m; c = -ck",
+                 "AICON lens distortion (A1..A3, R0, B1, B2, C1, C2) is NOT applied (lens model "
+                 "'none'): its effect reaches 0.1 mm in this kind of camera",
+                 f"{int(self.active_scale_bars().sum())} scale bar(s) read but not in the "
+                 "block (distance observations are not part of the bundle yet)"]
+        settings = Settings(name=self.name, angle_unit="rad",
+                            sigma_image_um=float(np.median(sig)) * 1e3)
+        return Block(settings, cameras, photos, image, points,
+                     source=str(self.folder / self.name), notes=notes)
+
+
+def _f(v) -> str:
+    return repr(float(v))
+
+
+def _id(v) -> str:
+    v = float(v)
+    return str(int(v)) if v.is_integer() else repr(v)
+
+
+def _stem(path: Path) -> tuple[Path, str]:
+    if path.is_dir():
+        stems = sorted({p.stem for p in path.glob("*.phc")})
+        if len(stems) != 1:
+            raise ProjectError(str(path), f"expected one AICON project (*.phc), found "
+                               f"{len(stems)}")
+        return path, stems[0]
+    if path.suffix.lower().lstrip(".") not in EXTENSIONS:
+        raise ProjectError(str(path), "not an AICON file (.ior, .eor, .obc, .phc, .scale)")
+    return path.parent, path.stem
+
+
+def is_aicon(path: str | Path) -> bool:
+    p = Path(path)
+    try:
+        folder, stem = _stem(p)
+    except ProjectError:
+        return False
+    return all((folder / f"{stem}.{e}").is_file() for e in ("ior", "eor", "obc", "phc"))
+
+
+def _table(path: Path, names: list[str], ints: tuple[str, ...] = ()) -> dict:
+    rows, lines = [], []
+    for no, s in enumerate(read_lines(path), start=1):
+        t = s.strip()
+        if not t or t.startswith("#"):
+            continue
+        parts = t.split()
+        if len(parts) != len(names):
+            raise ProjectError(str(path), f"expected {len(names)} columns ({', '.join(names)}),"
+                               f" found {len(parts)}", no)
+        rows.append(parts)
+        lines.append(no)
+    data = np.array(rows, dtype=str).reshape(-1, len(names))
+    ln = np.array(lines, dtype=np.int64)
+    out = {"_lines": ln}
+    for k, n in enumerate(names):
+        v = to_numbers(data[:, k], str(path), ln, n)
+        if n in ints and np.any(v != np.round(v)):
+            bad = int(np.flatnonzero(v != np.round(v))[0])
+            raise ProjectError(str(path), f"'{data[bad, k]}' is not an integer", int(ln[bad]), n)
+        out[n] = v
+    return out
+
+
+def _read_ior(path: Path) -> dict:
+    lines = [(no, s.split()) for no, s in enumerate(read_lines(path), start=1)
+             if s.strip() and not s.lstrip().startswith("#")]
+    if not lines or len(lines) % 5:
+        raise ProjectError(str(path), f"expected 5 lines per camera, found {len(lines)} lines",
+                           lines[-1][0] if lines else None)
+    shape = [("id", "internal", "ck", "xh", "yh", "A1", "A2", "R0"), ("A3",), ("B1", "B2"),
+             ("C1", "C2"), ("width_mm", "height_mm", "nx", "ny")]
+    out: dict[str, list[float]] = {n: [] for names in shape for n in names}
+    for c in range(len(lines) // 5):
+        for k, names in enumerate(shape):
+            no, parts = lines[5 * c + k]
+            if len(parts) != len(names):
+                raise ProjectError(str(path), f"line {k + 1} of a camera needs {len(names)} "
+                                   f"values ({', '.join(names)}), found {len(parts)}", no)
+            vals = to_numbers(np.array(parts), str(path), np.full(len(parts), no), names[0])
+            for n, v in zip(names, vals, strict=True):
+                out[n].append(float(v))
+    res = {k: np.array(v) for k, v in out.items()}
+    if np.any(res["ck"] == 0):
+        raise ProjectError(str(path), "camera constant ck is zero")
+    return res
+
+
+def _read_scale(path: Path) -> dict:
+    out = {k: [] for k in ("id", "name", "a", "b", "length", "sigma", "status")}
+    if not path.is_file():
+        return {k: np.array(v) for k, v in out.items()}
+    for no, s in enumerate(read_lines(path), start=1):
+        t = s.strip()
+        if not t or t.startswith("#"):
+            continue
+        first, quote, rest = t.partition('"')
+        name, quote2, tail = rest.partition('"')
+        if not quote or not quote2:
+            raise ProjectError(str(path), 'expected id "name" pointA pointB length sigma status',
+                               no)
+        parts = first.split() + tail.split()
+        if len(parts) != 6:
+            raise ProjectError(str(path), 'expected id "name" pointA pointB length sigma status',
+                               no)
+        vals = to_numbers(np.array(parts), str(path), np.full(6, no), "scale bar")
+        if vals[3] <= 0 or vals[4] <= 0:
+            raise ProjectError(str(path), "length and sigma must be positive", no)
+        for k, v in zip(("id", "a", "b", "length", "sigma", "status"), vals, strict=True):
+            out[k].append(v)
+        out["name"].append(name)
+    return {k: np.array(v) for k, v in out.items()}
+
+
+def read_aicon(path: str | Path) -> AiconProject:
+    """Read an AICON project given its folder or any of its files."""
+    folder, stem = _stem(Path(path))
+    f = {e: folder / f"{stem}.{e}" for e in EXTENSIONS}
+    cams = _read_ior(f["ior"])
+    images = _table(f["eor"], ["id", "camera", "X0", "Y0", "Z0", "omega", "phi", "kappa",
+                               "order", "status", "orient"], ints=("id", "camera"))
+    points = _table(f["obc"], ["id", "X", "Y", "Z", "sX", "sY", "sZ", "rays", "status", "new",
+                               "datum"])
+    obs = _table(f["phc"], ["image", "point", "x", "y", "sx", "sy", "vx", "vy", "method",
+                            "status", "internal"], ints=("image",))
+    for what, t, key in (("image", images, "id"), ("point", points, "id")):
+        u, first = np.unique(t[key], return_index=True)
+        if len(u) != len(t[key]):
+            dup = np.setdiff1d(np.arange(len(t[key])), first)[0]
+            raise ProjectError(str(f["eor" if what == "image" else "obc"]),
+                               f"duplicate {what} id {_id(t[key][dup])}", int(t["_lines"][dup]),
+                               "id")
+    bad = np.flatnonzero((obs["status"] > 0) & ~np.isin(obs["image"], images["id"]))
+    if len(bad):
+        raise ProjectError(str(f["phc"]), f"unknown image {_id(obs['image'][bad[0]])}",
+                           int(obs["_lines"][bad[0]]), "image")
+    bad = np.flatnonzero((obs["sx"] <= 0) | (obs["sy"] <= 0))
+    if len(bad):
+        raise ProjectError(str(f["phc"]), "standard deviation must be positive",
+                           int(obs["_lines"][bad[0]]), "sx")
+    scale = _read_scale(f["scale"])
+    lines = {e: read_lines(p) for e, p in f.items() if p.is_file()}
+    return AiconProject(stem, folder, cams, images, points, obs, scale, lines)
+
+
+def read_aicon_block(path: str | Path, **kw) -> Block:
+    return read_aicon(path).to_block(**kw)
+
+
+def write_aicon(project: AiconProject, folder: str | Path, name: str | None = None,
+                eo: np.ndarray | None = None, xyz: np.ndarray | None = None) -> None:
+    """Write the project's five files; optionally with new EO (image order of the .eor,
+    object mm, rad) and point coordinates (order of the .obc, mm)."""
+    folder = Path(folder)
+    name = name or project.name
+    c = project.cameras
+    rows = []
+    for k in range(len(c["id"])):
+        rows += [f"{int(c['id'][k]):8d} {int(c['internal'][k]):8d} {_f(c['ck'][k])} "
+                 f"{_f(c['xh'][k])} {_f(c['yh'][k])} {_f(c['A1'][k])} {_f(c['A2'][k])} "
+                 f"{_f(c['R0'][k])}",
+                 f"    {_f(c['A3'][k])}", f"    {_f(c['B1'][k])} {_f(c['B2'][k])}",
+                 f"    {_f(c['C1'][k])} {_f(c['C2'][k])}",
+                 f"    {_f(c['width_mm'][k])} {_f(c['height_mm'][k])} {int(c['nx'][k])} "
+                 f"{int(c['ny'][k])}"]
+    write_text(folder / f"{name}.ior", "\n".join(rows) + "\n")
+    im = project.images
+    e = (np.column_stack([im[k] for k in ("X0", "Y0", "Z0", "omega", "phi", "kappa")])
+         if eo is None else eo)
+    rows = [f"{int(im['id'][k]):8d} {int(im['camera'][k]):6d} " +
+            " ".join(repr(float(v)) for v in e[k]) +
+            f" {int(im['order'][k])} {int(im['status'][k])} {int(im['orient'][k])}"
+            for k in range(len(im["id"]))]
+    write_text(folder / f"{name}.eor", "\n".join(rows) + "\n")
+    p = project.points
+    x = np.column_stack([p[k] for k in "XYZ"]) if xyz is None else xyz
+    rows = [f"{_id(p['id'][k]):>10} " + " ".join(repr(float(v)) for v in x[k]) + " " +
+            " ".join(repr(float(p[s][k])) for s in ("sX", "sY", "sZ")) +
+            f" {int(p['rays'][k])} {int(p['status'][k])} {int(p['new'][k])} {int(p['datum'][k])}"
+            for k in range(len(p["id"]))]
+    write_text(folder / f"{name}.obc", "\n".join(rows) + "\n")
+    o = project.observations
+    rows = [f"{int(o['image'][k]):8d} {_id(o['point'][k]):>8} " +
+            " ".join(repr(float(o[s][k])) for s in ("x", "y", "sx", "sy", "vx", "vy")) +
+            f" {int(o['method'][k])} {int(o['status'][k])} {int(o['internal'][k])}"
+            for k in range(len(o["image"]))]
+    write_text(folder / f"{name}.phc", "\n".join(rows) + "\n")
+    s = project.scale_bars
+    rows = [f"{int(s['id'][k])} \"{s['name'][k]}\" {_id(s['a'][k])} {_id(s['b'][k])} "
+            f"{_f(s['length'][k])} {_f(s['sigma'][k])} {int(s['status'][k])}"
+            for k in range(len(s["id"]))]
+    write_text(folder / f"{name}.scale", "\n".join(rows) + ("\n" if rows else ""))

@@ -1,0 +1,253 @@
+"""Bundle Adjustment in the Large (BAL) problem files (text, optionally .bz2).
+
+    <num_cameras> <num_points> <num_observations>
+    <camera_index> <point_index> <x> <y>            one line per observation (0-based)
+    <camera parameters>  9 per camera: Rodrigues vector r, translation t, f, k1, k2
+    <point coordinates>  3 per point
+
+Projection (BAL): P = R(r) X + t, p = -P.xy / P.z, x = f (1 + k1 |p|^2 + k2 |p|^4) p, in
+pixels with the origin at the image centre, +x right, +y up; the camera looks down -z.
+
+Conversion to a Block: R(r) maps world to camera and BAL's camera frame is baarda's (x
+right, y up, viewing along -z), so R_b = R(r)^T, X0 = -R(r)^T t; c = f p and the pixels
+become mm with a nominal pixel size p (`pixel_mm`, default 0.001 mm: 1 px = 1 µm, so
+residuals in µm read as pixels); lens model ``brown_forward`` with (k1, k2, 0, 0, 0) per
+camera (the BAL radial model, held fixed); image sigma 1 px unless given.  Each BAL camera
+is a camera of its own (per-camera focal length and distortion).
+"""
+
+from __future__ import annotations
+
+import bz2
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.rotation import angles_from_matrix, rotation_matrix
+from baarda.io.atomic import write_bytes
+from baarda.io.errors import ProjectError
+
+
+@dataclass
+class BalProblem:
+    cameras: np.ndarray  # (n, 9) r (3), t (3), f, k1, k2
+    points: np.ndarray  # (m, 3)
+    obs_camera: np.ndarray  # (k,) int
+    obs_point: np.ndarray  # (k,) int
+    obs_xy: np.ndarray  # (k, 2) pixels
+
+
+def rodrigues(r: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation vectors r (..., 3) (angle = |r|)."""
+    r = np.asarray(r, float)
+    theta = np.linalg.norm(r, axis=-1)[..., None, None]
+    k = np.zeros(r.shape[:-1] + (3, 3))
+    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
+    k[..., 1, 0], k[..., 2, 0], k[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
+    small = theta < 1e-8
+    t = np.where(small, 1.0, theta)
+    a = np.where(small, 1.0 - theta**2 / 6, np.sin(t) / t)
+    b = np.where(small, 0.5 - theta**2 / 24, (1 - np.cos(t)) / t**2)
+    return np.eye(3) + a * k + b * (k @ k)
+
+
+def rotation_vector(m: np.ndarray) -> np.ndarray:
+    """Inverse of `rodrigues` for one matrix (robust near 0 and pi)."""
+    m = np.asarray(m, float)
+    c = np.clip((np.trace(m) - 1) / 2, -1.0, 1.0)
+    theta = np.arccos(c)
+    w = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
+    if theta < 1e-6:
+        return 0.5 * w
+    if np.pi - theta < 1e-4:
+        b = (m + np.eye(3)) / 2
+        axis = b[int(np.argmax(np.diag(b)))]
+        axis = axis / np.linalg.norm(axis)
+        if w @ axis < 0:
+            axis = -axis
+        return axis * theta
+    return w * theta / (2 * np.sin(theta))
+
+
+def _open_text(path: Path) -> str:
+    if not path.is_file():
+        raise ProjectError(str(path), "file not found")
+    try:
+        data = bz2.decompress(path.read_bytes()) if path.suffix == ".bz2" else path.read_bytes()
+    except (OSError, ValueError) as e:
+        raise ProjectError(str(path), f"not a valid bzip2 file ({e})") from None
+    try:
+        return data.decode("ascii")
+    except UnicodeDecodeError as e:
+        raise ProjectError(str(path), f"not a text file (byte {e.start})") from None
+
+
+def _numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:
+    try:
+        out = np.array(tokens, dtype=float)
+    except ValueError:
+        bad = next(t for t in tokens if not _isfloat(t))
+        raise ProjectError(path, f"'{bad}' is not a number", line, what) from None
+    if not np.isfinite(out).all():
+        raise ProjectError(path, "not a finite number", line, what)
+    return out
+
+
+def _isfloat(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
+
+
+def is_bal(path: str | Path) -> bool:
+    p = Path(path)
+    if not p.is_file() or not (p.name.endswith(".txt.bz2") or p.suffix in (".bz2", ".bal")):
+        return False
+    try:
+        with bz2.open(p, "rt") if p.suffix == ".bz2" else open(p) as f:
+            head = f.readline().split()
+    except (OSError, UnicodeDecodeError):
+        return False
+    return len(head) == 3 and all(h.isdigit() for h in head)
+
+
+def read_bal(path: str | Path) -> BalProblem:
+    """Read a BAL problem; ProjectError with the line of the first malformed value."""
+    path = Path(path)
+    sp = str(path)
+    lines = _open_text(path).splitlines()
+    if not lines:
+        raise ProjectError(sp, "empty file", 1)
+    head = lines[0].split()
+    if len(head) != 3 or not all(h.isdigit() for h in head):
+        raise ProjectError(sp, "first line must be: num_cameras num_points num_observations", 1)
+    nc, npt, nobs = (int(h) for h in head)
+    if nc < 1 or npt < 1 or nobs < 1:
+        raise ProjectError(sp, "counts must be positive", 1)
+    if len(lines) < 1 + nobs:
+        raise ProjectError(sp, f"{nobs} observation lines announced, file has "
+                           f"{len(lines) - 1} lines", len(lines))
+    obs_lines = lines[1:1 + nobs]
+    parts = [s.split() for s in obs_lines]
+    widths = np.fromiter((len(p) for p in parts), dtype=np.int64, count=nobs)
+    bad = np.flatnonzero(widths != 4)
+    if len(bad):
+        raise ProjectError(sp, "observation line needs camera_index point_index x y",
+                           int(bad[0]) + 2)
+    flat = [t for p in parts for t in p]
+    try:
+        tab = np.array(flat, dtype=float).reshape(nobs, 4)
+    except ValueError:
+        for i, p in enumerate(parts):
+            _numbers(p, sp, i + 2, "observation")
+        raise
+    if not np.isfinite(tab).all():
+        i = int(np.flatnonzero(~np.isfinite(tab).all(axis=1))[0])
+        raise ProjectError(sp, "not a finite number", i + 2, "observation")
+    cam, pt = tab[:, 0], tab[:, 1]
+    bad = np.flatnonzero((cam != np.round(cam)) | (cam < 0) | (cam >= nc))
+    if len(bad):
+        raise ProjectError(sp, f"camera index {parts[bad[0]][0]} not in 0..{nc - 1}",
+                           int(bad[0]) + 2, "camera_index")
+    bad = np.flatnonzero((pt != np.round(pt)) | (pt < 0) | (pt >= npt))
+    if len(bad):
+        raise ProjectError(sp, f"point index {parts[bad[0]][1]} not in 0..{npt - 1}",
+                           int(bad[0]) + 2, "point_index")
+    # parameters: any layout, one value per line in the published files
+    rest = lines[1 + nobs:]
+    counts = np.fromiter((len(s.split()) for s in rest), dtype=np.int64, count=len(rest))
+    need = 9 * nc + 3 * npt
+    if counts.sum() < need:
+        raise ProjectError(sp, f"{need} parameter values needed (9 per camera, 3 per point), "
+                           f"found {int(counts.sum())}", len(lines))
+    if counts.sum() > need:
+        extra_line = int(np.searchsorted(np.cumsum(counts), need, side="right")) + 2 + nobs
+        raise ProjectError(sp, f"values after the last point ({int(counts.sum()) - need} "
+                           "too many)", extra_line)
+    tokens = " ".join(rest).split()
+    try:
+        vals = np.array(tokens, dtype=float)
+    except ValueError:
+        k = next(i for i, t in enumerate(tokens) if not _isfloat(t))
+        line = int(np.searchsorted(np.cumsum(counts), k, side="right")) + 2 + nobs
+        raise ProjectError(sp, f"'{tokens[k]}' is not a number", line,
+                           "camera" if k < 9 * nc else "point") from None
+    if not np.isfinite(vals).all():
+        k = int(np.flatnonzero(~np.isfinite(vals))[0])
+        line = int(np.searchsorted(np.cumsum(counts), k, side="right")) + 2 + nobs
+        raise ProjectError(sp, "not a finite number", line, "camera" if k < 9 * nc else "point")
+    cams = vals[:9 * nc].reshape(nc, 9)
+    bad = np.flatnonzero(cams[:, 6] <= 0)
+    if len(bad):
+        line = int(np.searchsorted(np.cumsum(counts), 9 * bad[0] + 6, side="right")) + 2 + nobs
+        raise ProjectError(sp, f"camera {bad[0]}: focal length must be positive", line, "f")
+    return BalProblem(cams, vals[9 * nc:].reshape(npt, 3), cam.astype(np.int64),
+                      pt.astype(np.int64), tab[:, 2:4].copy())
+
+
+def write_bal(problem: BalProblem, path: str | Path) -> None:
+    """Write a BAL file (bzip2-compressed when the name ends in .bz2), atomically."""
+    path = Path(path)
+    rows = [f"{len(problem.cameras)} {len(problem.points)} {len(problem.obs_xy)}"]
+    rows += [f"{c} {p} {x!r} {y!r}" for c, p, x, y in zip(
+        problem.obs_camera.tolist(), problem.obs_point.tolist(), problem.obs_xy[:, 0].tolist(),
+        problem.obs_xy[:, 1].tolist(), strict=True)]
+    rows += [repr(v) for v in problem.cameras.ravel().tolist()]
+    rows += [repr(v) for v in problem.points.ravel().tolist()]
+    data = ("\n".join(rows) + "\n").encode("ascii")
+    write_bytes(path, bz2.compress(data) if path.suffix == ".bz2" else data)
+
+
+def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float = 1.0,
+                 name: str = "bal", source: str = "") -> Block:
+    """A Block of a BAL problem (conventions in the module docstring)."""
+    cams = problem.cameras
+    n = len(cams)
+    r = rodrigues(cams[:, :3])  # world -> camera
+    rt = np.swapaxes(r, 1, 2)
+    x0 = -np.einsum("nij,nj->ni", rt, cams[:, 3:6])
+    eo = np.column_stack([x0, angles_from_matrix(rt)])
+    ids = [str(i) for i in range(n)]
+    dist = np.column_stack([cams[:, 7], cams[:, 8], np.zeros((n, 3))])
+    kinds = np.where(np.any(dist != 0, axis=1), "brown_forward", "none").astype(object)
+    cameras = Cameras(ids, cams[:, 6] * pixel_mm, np.zeros((n, 2)), kinds, dist)
+    photos = Photos(ids, np.arange(n), np.full(n, "", dtype=object), eo)
+    key = problem.obs_camera * len(problem.points) + problem.obs_point
+    _, first = np.unique(key, return_index=True)
+    keep = np.sort(first)
+    notes = [f"BAL problem: nominal pixel size {pixel_mm:g} mm (1 px = {pixel_mm * 1e3:g} µm); "
+             "BAL radial distortion (k1, k2) per camera held fixed"]
+    if len(keep) < len(key):
+        notes.append(f"{len(key) - len(keep)} repeated observation(s) of a point in one image "
+                     "left out (first kept)")
+    image = ImagePoints(problem.obs_camera[keep], problem.obs_point[keep],
+                        problem.obs_xy[keep] * pixel_mm,
+                        np.full(len(keep), sigma_px * pixel_mm))
+    m = len(problem.points)
+    points = GroundPoints([str(j) for j in range(m)], problem.points.copy(),
+                          np.full((m, 3), np.nan), np.full(m, "tie", dtype=object))
+    settings = Settings(name=name, angle_unit="rad", sigma_image_um=sigma_px * pixel_mm * 1e3)
+    return Block(settings, cameras, photos, image, points, source=source, notes=notes)
+
+
+def bal_with_block(problem: BalProblem, eo: np.ndarray, xyz: np.ndarray) -> BalProblem:
+    """A copy of `problem` with new orientations (EO per camera) and points (NaN = keep)."""
+    cams = problem.cameras.copy()
+    for i in range(len(cams)):
+        rb = rotation_matrix(eo[i, 3], eo[i, 4], eo[i, 5])
+        r = rb.T
+        cams[i, :3] = rotation_vector(r)
+        cams[i, 3:6] = -r @ eo[i, :3]
+    pts = np.where(np.isfinite(xyz), xyz, problem.points)
+    return BalProblem(cams, pts, problem.obs_camera.copy(), problem.obs_point.copy(),
+                      problem.obs_xy.copy())
+
+
+def read_bal_block(path: str | Path, **kw) -> Block:
+    path = Path(path)
+    name = path.name.split(".")[0]
+    return bal_to_block(read_bal(path), name=kw.pop("name", name), source=str(path), **kw)

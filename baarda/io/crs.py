@@ -1,0 +1,244 @@
+"""Ground coordinates in a geographic or projected CRS: adjust in a local Cartesian frame.
+
+A `LocalFrame` is the east-north-up frame tangent to the ellipsoid at an origin (the mean of
+the ground points).  Coordinates of the CRS go to the CRS's own geodetic coordinates with
+pyproj (no datum change), from there to earth-centred Cartesian coordinates on the same
+ellipsoid and into the tangent frame; the way back inverts each step.  In that frame the
+collinearity equations hold without map-projection scale or earth-curvature corrections.
+
+* Heights of a 2D CRS are taken as ellipsoidal heights (``CRS.to_3d()``).  Compound CRSs
+  with a vertical datum are refused: they need a geoid model (a constant geoid undulation
+  would only shift the block).
+* Exterior orientation: positions are converted as points; the rotation of a photo refers
+  to the axes of the CRS at the projection centre (grid east, grid north, up for a
+  projected CRS; local east, north, up for a geographic one).  The rotation between those
+  axes and the local frame is the orthonormal polar factor of the Jacobian of the mapping
+  (metric units), so R_crs = Q R_local.
+* Results: coordinates back in the CRS; covariances of points propagated with the same
+  Jacobian; angle standard deviations are those of the local frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from pyproj import CRS, Transformer
+from pyproj.exceptions import CRSError
+
+from baarda.block.model import Block, Photos
+from baarda.block.rotation import angles_from_matrix, rotation_matrix
+from baarda.io.errors import ProjectError
+
+
+def _polar(j: np.ndarray) -> np.ndarray:
+    u, _, vt = np.linalg.svd(j)
+    return u @ vt
+
+
+class LocalFrame:
+    """Tangent east-north-up frame at `origin` (given in the CRS) for the CRS `crs`."""
+
+    def __init__(self, crs: str | CRS, origin: np.ndarray):
+        try:
+            self.crs = CRS.from_user_input(crs)
+        except CRSError as e:
+            raise ProjectError(str(crs), f"not a coordinate reference system: {e}") from None
+        if self.crs.is_compound or self.crs.is_vertical:
+            raise ProjectError(str(crs), "compound/vertical CRS: heights must be ellipsoidal "
+                               "(give the horizontal CRS; a geoid model is not applied)")
+        if not (self.crs.is_geographic or self.crs.is_projected):
+            raise ProjectError(str(crs), "the CRS must be geographic or projected")
+        self.crs3 = self.crs.to_3d()
+        geod = self.crs.geodetic_crs.to_3d()
+        info = geod.axis_info
+        self.angle = info[0].unit_conversion_factor  # radians per angle unit
+        self.geographic = self.crs.is_geographic
+        self._fwd = Transformer.from_crs(self.crs3, geod, always_xy=True)
+        self._inv = Transformer.from_crs(geod, self.crs3, always_xy=True)
+        ell = self.crs.ellipsoid
+        self.a = ell.semi_major_metre
+        inv_f = ell.inverse_flattening
+        self.e2 = 0.0 if not np.isfinite(inv_f) or inv_f == 0 else (2 - 1 / inv_f) / inv_f
+        o = np.asarray(origin, float)
+        self.origin_ecef = self._ecef(o[None])[0]
+        lon, lat, _ = self._geodetic(o[None])
+        sl, cl = np.sin(lon[0]), np.cos(lon[0])
+        sp, cp = np.sin(lat[0]), np.cos(lat[0])
+        self.rot = np.array([[-sl, cl, 0.0], [-sp * cl, -sp * sl, cp], [cp * cl, cp * sl, sp]])
+
+    # ------------------------------------------------------------ points
+    def _geodetic(self, xyz: np.ndarray):
+        lon, lat, h = self._fwd.transform(xyz[:, 0], xyz[:, 1], xyz[:, 2], errcheck=True)
+        return (np.asarray(lon) * self.angle, np.asarray(lat) * self.angle, np.asarray(h))
+
+    def _ecef(self, xyz: np.ndarray) -> np.ndarray:
+        lon, lat, h = self._geodetic(xyz)
+        n = self.a / np.sqrt(1 - self.e2 * np.sin(lat) ** 2)
+        return np.column_stack([(n + h) * np.cos(lat) * np.cos(lon),
+                                (n + h) * np.cos(lat) * np.sin(lon),
+                                (n * (1 - self.e2) + h) * np.sin(lat)])
+
+    def _from_ecef(self, ecef: np.ndarray) -> np.ndarray:
+        x, y, z = ecef.T
+        lon = np.arctan2(y, x)
+        p = np.hypot(x, y)
+        lat = np.arctan2(z, p * (1 - self.e2))
+        for _ in range(10):
+            n = self.a / np.sqrt(1 - self.e2 * np.sin(lat) ** 2)
+            h = p / np.cos(lat) - n
+            lat = np.arctan2(z, p * (1 - self.e2 * n / (n + h)))
+        n = self.a / np.sqrt(1 - self.e2 * np.sin(lat) ** 2)
+        h = np.where(np.abs(np.cos(lat)) > 1e-9, p / np.cos(lat) - n,
+                     np.abs(z) - n * (1 - self.e2))
+        out = self._inv.transform(lon / self.angle, lat / self.angle, h, errcheck=True)
+        return np.column_stack(out)
+
+    def to_local(self, xyz: np.ndarray) -> np.ndarray:
+        """CRS coordinates (n, 3) -> local east, north, up [m]."""
+        xyz = np.atleast_2d(np.asarray(xyz, float))
+        out = np.full(xyz.shape, np.nan)
+        ok = np.isfinite(xyz).all(axis=1)
+        out[ok] = (self._ecef(xyz[ok]) - self.origin_ecef) @ self.rot.T
+        return out
+
+    def from_local(self, xyz: np.ndarray) -> np.ndarray:
+        """Local east, north, up (n, 3) [m] -> CRS coordinates."""
+        xyz = np.atleast_2d(np.asarray(xyz, float))
+        out = np.full(xyz.shape, np.nan)
+        ok = np.isfinite(xyz).all(axis=1)
+        out[ok] = self._from_ecef(xyz[ok] @ self.rot + self.origin_ecef)
+        return out
+
+    # ----------------------------------------------------- axes and Jacobians
+    def jacobian(self, xyz_local: np.ndarray, h: float = 1.0) -> np.ndarray:
+        """d(CRS, metric) / d(local) at points (n, 3): (n, 3, 3), by central differences.
+
+        For a geographic CRS the longitude and latitude rows are turned into metres along
+        the parallel and the meridian."""
+        xyz_local = np.atleast_2d(xyz_local)
+        cols = []
+        for k in range(3):
+            e = np.zeros(3)
+            e[k] = h
+            cols.append((self.from_local(xyz_local + e) - self.from_local(xyz_local - e))
+                        / (2 * h))
+        j = np.stack(cols, axis=-1)
+        if self.geographic:
+            c = self.from_local(xyz_local)
+            lat = c[:, 1] * self.angle
+            n = self.a / np.sqrt(1 - self.e2 * np.sin(lat) ** 2)
+            m = n * (1 - self.e2) / (1 - self.e2 * np.sin(lat) ** 2)
+            j[:, 0] *= ((n + c[:, 2]) * np.cos(lat) * self.angle)[:, None]
+            j[:, 1] *= ((m + c[:, 2]) * self.angle)[:, None]
+        return j
+
+    def axes(self, xyz_local: np.ndarray) -> np.ndarray:
+        """Rotations Q (n, 3, 3) from local axes to the CRS axes at the points."""
+        return np.array([_polar(j) for j in self.jacobian(xyz_local)])
+
+    def eo_to_local(self, eo: np.ndarray) -> np.ndarray:
+        pos = self.to_local(eo[:, :3])
+        q = self.axes(pos)
+        r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+        return np.column_stack([pos, angles_from_matrix(np.swapaxes(q, 1, 2) @ r)])
+
+    def eo_from_local(self, eo: np.ndarray) -> np.ndarray:
+        q = self.axes(eo[:, :3])
+        r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+        return np.column_stack([self.from_local(eo[:, :3]), angles_from_matrix(q @ r)])
+
+    def covariance_from_local(self, xyz_local: np.ndarray, cov: np.ndarray) -> np.ndarray:
+        """Covariances (n, 3, 3) of local coordinates -> of CRS coordinates (metric)."""
+        j = self.jacobian(xyz_local)
+        return j @ cov @ np.swapaxes(j, 1, 2)
+
+
+def localize(block: Block, crs: str | None = None) -> tuple[Block, LocalFrame]:
+    """The block with ground coordinates and EO in a local frame of its CRS.
+
+    crs: overrides block.settings.crs.  The origin is the mean of the ground points with
+    coordinates (else of the projection centres).  Sigmas of control points are kept (the
+    frame is conformal up to the map scale factor).
+    """
+    crs = crs or block.settings.crs
+    if not crs:
+        raise ProjectError(block.source or block.settings.name, "no CRS given")
+    pts = block.points
+    known = np.isfinite(pts.xyz).all(axis=1)
+    base = pts.xyz[known] if known.any() else block.photos.eo[:, :3]
+    base = base[np.isfinite(base).all(axis=1)]
+    if not len(base):
+        raise ProjectError(block.source or block.settings.name, "no coordinates to place the "
+                           "local frame")
+    frame = LocalFrame(crs, base.mean(axis=0))
+    xyz = frame.to_local(pts.xyz)
+    part = np.isfinite(pts.xyz).any(axis=1) & ~known
+    if part.any():
+        raise ProjectError(block.source, f"point {pts.ids[int(np.flatnonzero(part)[0])]}: a "
+                           "control point in a CRS needs all three coordinates")
+    eo = block.photos.eo
+    ok = np.isfinite(eo).all(axis=1)
+    eo_l = np.full(eo.shape, np.nan)
+    if ok.any():
+        eo_l[ok] = frame.eo_to_local(eo[ok])
+    photos = Photos(block.photos.ids, block.photos.camera, block.photos.strip, eo_l)
+    points = replace(pts, xyz=xyz)
+    notes = list(block.notes) + [f"adjusted in a local east-north-up frame of {frame.crs.name} "
+                                 "(heights ellipsoidal); results converted back"]
+    return replace(block, photos=photos, points=points, notes=notes), frame
+
+
+def tables_in_crs(result, frame: LocalFrame, block: Block):
+    """photos.csv and points.csv tables of a result adjusted in `frame`, in the CRS.
+
+    block: the block as read (CRS coordinates), for the given coordinates of control and
+    check points.  Point standard deviations are propagated with the full covariance
+    blocks; those of positions of photos likewise; angle standard deviations as adjusted.
+    """
+    from baarda.block.rotation import rad_to_angle
+    from baarda.io.results import photos_table, points_table
+
+    ph = photos_table(result)
+    eo = frame.eo_from_local(result.eo)
+    unit = result.block.settings.angle_unit
+    ang = rad_to_angle(eo[:, 3:], unit)
+    s2 = result.sigma0**2
+    cf = result.problem.system.frame_covariance()[:, :3, :3] * s2
+    sf = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(result.eo[:, :3], cf),
+                                        axis1=1, axis2=2), 0))
+    for k, c in enumerate(("X0", "Y0", "Z0")):
+        ph[c] = eo[:, k]
+        ph[f"sigma_{c}"] = sf[:, k]
+    for k, c in enumerate(("omega", "phi", "kappa")):
+        ph[c] = ang[:, k]
+    pt = points_table(result)
+    xyz = frame.from_local(result.xyz)
+    cp = result.problem.system.point_covariance() * s2
+    sp = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(result.xyz, cp),
+                                        axis1=1, axis2=2), 0))
+    given = block.points.xyz[result.problem.point_ids]
+    role = block.points.role[result.problem.point_ids]
+    for k, c in enumerate("XYZ"):
+        pt[c] = xyz[:, k]
+        pt[f"sigma_{c}"] = sp[:, k]
+        pt[f"d{c}"] = np.where(role != "tie", xyz[:, k] - given[:, k], np.nan)
+    return ph, pt
+
+
+def write_results_crs(out, result, quality, frame: LocalFrame, block: Block) -> list:
+    """write_results, with photos.csv and points.csv in the CRS of the input (the local
+    frame's tables are kept as photos_local.csv and points_local.csv)."""
+    from pathlib import Path
+
+    from baarda.io.atomic import write_text
+    from baarda.io.results import _csv, photos_table, points_table, write_results
+
+    out = Path(out)
+    paths = write_results(out, result, quality)
+    write_text(out / "photos_local.csv", _csv(photos_table(result)))
+    write_text(out / "points_local.csv", _csv(points_table(result)))
+    ph, pt = tables_in_crs(result, frame, block)
+    write_text(out / "photos.csv", _csv(ph))
+    write_text(out / "points.csv", _csv(pt))
+    return paths + [out / "photos_local.csv", out / "points_local.csv"]

@@ -1,0 +1,379 @@
+"""DBAT script projects (Damped Bundle Adjustment Toolbox, Boerlin & Grussenmeyer).
+
+A DBAT script is an XML file (``<document dbat_script_version="1.0">``) naming comma
+separated files of control/check points, images and image measurements, and the camera.
+What is read, and how it is converted:
+
+* image measurements ``x, y`` in pixels, origin at the upper-left image corner, y down
+  (DBAT: mm = pixel * pixel size, then y flipped, no half-pixel shift).  baarda's image
+  frame: origin at the image centre, y up:  x_mm = (x_px - w/2) p_x,
+  y_mm = (h/2 - y_px) p_y, with p = sensor size / image size in pixels.
+* principal point ``pp`` in mm from the upper-left sensor corner, y down -> (pp_x - W/2,
+  H/2 - pp_y) mm; camera constant ``cc`` (default: ``focal``).
+* lens distortion ``K`` (K1..K3), ``P`` (P1, P2) of DBAT's backward model 3 ->
+  ``brown_backward`` with the same coefficients (ideal = u + delta(u)); other DBAT models
+  are rejected.  The aspect enters through the pixel sizes: DBAT scales pixels by the pixel
+  height and multiplies x by px/py after subtracting pp, so the x of pp is in units of the
+  pixel height and becomes pp_x px/py.  Skew must be 0.
+* image sigma ``sxy`` (pixels; the ``sxy`` attribute of the file element overrides the
+  column) -> mm with the pixel height (DBAT's pixel size).
+* control points with sigmas -> control; without sigma (DBAT: fixed) -> control with the
+  sigma `fixed_sigma_m` (a note says so); ``<filter id="..">keep|remove</filter>`` applied;
+  check points -> role check (coordinates kept, not used in the adjustment).
+* no exterior orientation is given: approximations by space resection and intersection
+  (bundle/resection.py), as DBAT's own script does.
+
+Processing operations of the script are not executed; estimation of the interior
+orientation (self-calibration) is reported in a note and not done.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.bundle.resection import orient_block
+from baarda.io.errors import ProjectError
+from baarda.io.text import Records, numbers_in, parse_number
+from baarda.io.xmltree import Node, parse_xml
+
+KNOWN_FIELDS = {"id", "label", "name", "x", "y", "z", "sx", "sy", "sz", "sxyz", "im", "sxy",
+                "path"}
+
+
+def is_dbat_script(path: str | Path) -> bool:
+    p = Path(path)
+    if not (p.is_file() and p.suffix.lower() == ".xml"):
+        return False
+    head = p.read_bytes()[:4000].decode("utf-8", "replace")
+    return "dbat_script_version" in head
+
+
+def _fields(node: Node, path: str) -> list[str]:
+    fmt = node.attrib.get("format")
+    if not fmt:
+        raise ProjectError(path, f"<{node.tag}> element without a format attribute", node.line,
+                           "format")
+    fields = [f.strip() for f in fmt.split(",")]
+    bad = [f for f in fields if f not in KNOWN_FIELDS]
+    if bad:
+        raise ProjectError(path, f"unknown field '{bad[0]}' in format '{fmt}'", node.line,
+                           "format")
+    return fields
+
+
+def _resolve(base: Path, text: str, xml_dir: Path) -> Path:
+    text = text.strip().replace("$HERE", str(xml_dir))
+    p = Path(text)
+    return p if p.is_absolute() else base / p
+
+
+def _base_dir(node: Node, xml_dir: Path, attr: str = "base_dir") -> Path:
+    b = node.attrib.get(attr, "$HERE").replace("$HERE", str(xml_dir))
+    return Path(b) if Path(b).is_absolute() else xml_dir / b
+
+
+def _filter_ids(section: Node, path: str) -> tuple[set[str] | None, bool]:
+    """(ids, keep) of a <filter id="a,b">keep|remove</filter> element, or (None, True)."""
+    f = section.find("filter")
+    if f is None:
+        return None, True
+    action = f.text.strip().lower()
+    if action not in ("keep", "remove"):
+        raise ProjectError(path, f"filter action '{action}' must be keep or remove", f.line)
+    ids = {s.strip() for s in re.split(r"[,\s]+", f.attrib.get("id", "")) if s.strip()}
+    return ids, action == "keep"
+
+
+def _points(section: Node, base: Path, xml_dir: Path, path: str):
+    """Rows (id, label, xyz, sigma) of the <file> elements of a ctrl_pts/check_pts section."""
+    ids, xyz, sig = [], [], []
+    flt, keep = _filter_ids(section, path)
+    for f in section.findall("file"):
+        fields = _fields(f, path)
+        for need in ("id", "x", "y", "z"):
+            if need not in fields:
+                raise ProjectError(path, f"point file format lacks '{need}'", f.line, "format")
+        r = Records(_resolve(base, f.text, xml_dir), fields)
+        pid = r.text("id")
+        c = np.column_stack([r.numbers(k) for k in "xyz"])
+        if "sxyz" in fields:
+            s = np.repeat(r.numbers("sxyz")[:, None], 3, axis=1)
+        elif all(k in fields for k in ("sx", "sy", "sz")):
+            s = np.column_stack([r.numbers(k) for k in ("sx", "sy", "sz")])
+        else:
+            s = np.zeros((len(r), 3))
+        bad = np.flatnonzero((s < 0).any(axis=1))
+        if len(bad):
+            raise ProjectError(r.path, "negative standard deviation", int(r.lines[bad[0]]))
+        sel = np.ones(len(pid), bool) if flt is None else np.isin(pid, list(flt)) == keep
+        ids += list(pid[sel])
+        xyz.append(c[sel])
+        sig.append(s[sel])
+    if not ids:
+        return [], np.zeros((0, 3)), np.zeros((0, 3))
+    return ids, np.vstack(xyz), np.vstack(sig)
+
+
+def _camera(node: Node, path: str) -> dict:
+    def val(tag, count=None, default=None):
+        c = node.find(tag)
+        if c is None:
+            if default is None:
+                raise ProjectError(path, f"camera lacks <{tag}>", node.line, tag)
+            return default
+        return c.text.strip(), c.line
+
+    unit = (node.value("unit") or "mm").strip()
+    if unit != "mm":
+        raise ProjectError(path, f"camera unit '{unit}': only mm is supported", node.line,
+                           "unit")
+    text, line = val("image")
+    iw, ih = numbers_in(text, path, line, "image", 2)
+    aspect = parse_number(node.value("aspect", "1"), path, node.line, "aspect")
+    text, line = val("sensor")
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) != 2:
+        raise ProjectError(path, f"sensor '{text}' must be 'width,height'", line, "sensor")
+    if parts[0] == "auto" and parts[1] == "auto":
+        raise ProjectError(path, "sensor width and height cannot both be auto", line, "sensor")
+    if parts[0] == "auto":
+        sh = parse_number(parts[1], path, line, "sensor")
+        sw = iw * (sh / ih) / aspect
+    elif parts[1] == "auto":
+        sw = parse_number(parts[0], path, line, "sensor")
+        sh = ih * (sw / iw) * aspect
+    else:
+        sw, sh = (parse_number(p, path, line, "sensor") for p in parts)
+    focal = node.value("focal")
+    cc_text = node.value("cc") or focal
+    if cc_text is None:
+        raise ProjectError(path, "camera lacks <cc> and <focal>", node.line, "cc")
+    cc = numbers_in(cc_text, path, node.line, "cc")
+    if len(cc) not in (1, 2) or (len(cc) == 2 and cc[0] == 0):
+        cc = numbers_in(focal or "", path, node.line, "focal", 1)
+    pp = numbers_in(node.value("pp", f"{sw / 2},{sh / 2}"), path, node.line, "pp", 2)
+    if pp == [0.0, 0.0] and node.value("pp") is not None and node.find("calibrated") is None:
+        pp = [sw / 2, sh / 2]  # DBAT's uncalibrated template: pp = 0 means 'default'
+    k = numbers_in(node.value("K", "0,0,0"), path, node.line, "K")
+    p = numbers_in(node.value("P", "0,0"), path, node.line, "P")
+    if len(k) > 3 or len(p) > 2:
+        raise ProjectError(path, "at most 3 K and 2 P coefficients are supported", node.line,
+                           "K")
+    k, p = (k + [0.0] * 3)[:3], (p + [0.0] * 2)[:2]
+    skew = parse_number(node.value("skew", "0"), path, node.line, "skew")
+    if skew != 0:
+        raise ProjectError(path, "camera skew is not supported", node.line, "skew")
+    model = int(parse_number(node.value("model", "3"), path, node.line, "model"))
+    c = cc[0]
+    if model != 3:
+        raise ProjectError(path, f"lens distortion model {model} is not supported (only "
+                           "DBAT's backward model 3, verified against DBAT's results)",
+                           node.line, "model")
+    kind, coef = "brown_backward", [*k, *p]
+    if not any(coef):
+        kind = "none"
+    px, py = sw / iw, sh / ih
+    # DBAT scales pixels by the pixel height and applies the aspect (1 + fa = px / py) to x
+    # after subtracting pp: the x of pp is in units of the pixel height
+    return {"id": node.value("id") or node.value("name") or "1", "c": c,
+            "pp": np.array([pp[0] * px / py - sw / 2, sh / 2 - pp[1]]), "px": px, "py": py,
+            "size_px": (iw, ih), "kind": kind, "coef": coef}
+
+
+def read_dbat_camera(path: str | Path) -> dict:
+    """The first camera of a DBAT camera file (``<document dbat_camera_version=..>``)."""
+    root = parse_xml(path)
+    cams = root.find("cameras")
+    if root.tag != "document" or cams is None or cams.find("camera") is None:
+        raise ProjectError(str(path), "not a DBAT camera file (<document><cameras><camera>)",
+                           root.line)
+    return _camera(cams.find("camera"), str(path))
+
+
+def read_dbat_stations(path: str | Path) -> dict[str, np.ndarray]:
+    """EO by image id from a DBAT ``camera_stations.txt`` listing: X, Y, Z [m], angles [rad].
+
+    DBAT 0.9.2.0 writes 'Unit: degrees' in the header but the angles are radians (checked
+    against the residual listing of the camcal project, tests/io/test_dbat.py).
+    """
+    fields = ["no", "id", "x", "y", "z", "omega", "phi", "kappa", "sx", "sy", "sz", "so",
+              "sp", "sk", "label"]
+    r = Records(path, fields, min_fields=8)
+    eo = np.column_stack([r.numbers(k) for k in ("x", "y", "z", "omega", "phi", "kappa")])
+    return dict(zip(r.text("id"), eo, strict=True))
+
+
+def read_dbat(path: str | Path, *, camera: str | Path | None = None,
+              stations: str | Path | None = None, fixed_sigma_m: float = 1e-6,
+              orient: bool = True) -> Block:
+    """Read a DBAT script project (XML + CSV files) into a Block; see the module docstring.
+
+    camera: a DBAT camera file (e.g. a calibration result) replacing the script's camera.
+    stations: a DBAT camera_stations.txt whose EO become the approximations (else: space
+    resection from the control points when `orient`).
+    """
+    path = Path(path)
+    spath = str(path)
+    root = parse_xml(path)
+    if root.tag != "document" or "dbat_script_version" not in root.attrib:
+        raise ProjectError(spath, "not a DBAT script (<document dbat_script_version=..>)",
+                           root.line)
+    xml_dir = path.parent.resolve()
+    inp = root.find("input")
+    if inp is None:
+        raise ProjectError(spath, "no <input> section", root.line)
+    base = _base_dir(inp, xml_dir)
+    notes: list[str] = []
+    meta = root.find("meta")
+    name = (meta.value("name") if meta is not None else None) or path.stem
+
+    # cameras
+    cams_node = inp.find("cameras")
+    if cams_node is None or not cams_node.findall("camera"):
+        raise ProjectError(spath, "no <cameras><camera> in <input>", inp.line)
+    cams = [_camera(c, spath) for c in cams_node.findall("camera")]
+    if camera is not None:
+        cams = [read_dbat_camera(camera)]
+        notes.append(f"camera replaced by {Path(camera).name}")
+    cam_ids = [str(c["id"]) for c in cams]
+    if len(set(cam_ids)) != len(cam_ids):
+        raise ProjectError(spath, "camera ids are not unique", cams_node.line, "id")
+
+    # images
+    im_node = inp.find("images")
+    if im_node is None or im_node.find("file") is None:
+        raise ProjectError(spath, "no <images><file> in <input>", inp.line)
+    img_ids, img_names, img_cam = [], [], []
+    for f in im_node.findall("file"):
+        fields = _fields(f, spath)
+        r = Records(_resolve(base, f.text, xml_dir), fields)
+        img_ids += list(r.text("id"))
+        img_names += [Path(s.replace("\\", "/")).stem for s in
+                      (r.text("path") if "path" in fields else r.text("id"))]
+        img_cam += [0] * len(r)
+    if len(set(img_ids)) != len(img_ids):
+        raise ProjectError(spath, "image ids are not unique", im_node.line)
+    if len(cams) > 1:
+        raise ProjectError(spath, "several cameras: the image-to-camera mapping of DBAT "
+                           "scripts is not supported", cams_node.line)
+    photo_ids = img_names if len(set(img_names)) == len(img_names) else list(img_ids)
+    photo_of = {s: i for i, s in enumerate(img_ids)}
+
+    # control and check points
+    ctrl = inp.find("ctrl_pts")
+    c_ids, c_xyz, c_sig = _points(ctrl, base, xml_dir, spath) if ctrl is not None else \
+        ([], np.zeros((0, 3)), np.zeros((0, 3)))
+    chk = inp.find("check_pts")
+    h_ids, h_xyz, _ = _points(chk, base, xml_dir, spath) if chk is not None else \
+        ([], np.zeros((0, 3)), np.zeros((0, 3)))
+    fixed = (c_sig == 0)
+    if fixed.any():
+        notes.append(f"{int(fixed.any(axis=1).sum())} control point(s) without standard "
+                     f"deviation (fixed in DBAT) entered with sigma {fixed_sigma_m:g} m")
+        c_sig = np.where(fixed, fixed_sigma_m, c_sig)
+
+    # image measurements
+    ip_node = inp.find("image_pts")
+    if ip_node is None or ip_node.find("file") is None:
+        raise ProjectError(spath, "no <image_pts><file> in <input>", inp.line)
+    cam = cams[0]
+    rows_photo, rows_point, rows_xy, rows_sig = [], [], [], []
+    for f in ip_node.findall("file"):
+        fields = _fields(f, spath)
+        for need in ("id", "im", "x", "y"):
+            if need not in fields:
+                raise ProjectError(spath, f"image point format lacks '{need}'", f.line,
+                                   "format")
+        r = Records(_resolve(base, f.text, xml_dir), fields)
+        if "sxy" in f.attrib:
+            s = np.full(len(r), parse_number(f.attrib["sxy"], spath, f.line, "sxy"))
+        elif "sxy" in fields:
+            s = r.numbers("sxy")
+        else:
+            s = np.ones(len(r))
+        bad = np.flatnonzero(~(s > 0))
+        if len(bad):
+            raise ProjectError(r.path, "standard deviation must be positive",
+                               int(r.lines[bad[0]]), "sxy")
+        ims = r.text("im")
+        for i, s_im in enumerate(ims):
+            if s_im not in photo_of:
+                raise ProjectError(r.path, f"unknown image id '{s_im}'", int(r.lines[i]), "im")
+        rows_photo.append(np.array([photo_of[s] for s in ims], dtype=np.int64))
+        rows_point += list(r.text("id"))
+        x, y = r.numbers("x"), r.numbers("y")
+        rows_xy.append(np.column_stack([(x - cam["size_px"][0] / 2) * cam["px"],
+                                        (cam["size_px"][1] / 2 - y) * cam["py"]]))
+        rows_sig.append(s * cam["py"])
+    photo = np.concatenate(rows_photo)
+    xy = np.vstack(rows_xy)
+    sig = np.concatenate(rows_sig)
+
+    # every point: control, check, then the rest in order of appearance
+    ids, index = [], {}
+    for pid in list(c_ids) + list(h_ids) + rows_point:
+        if pid not in index:
+            index[pid] = len(ids)
+            ids.append(pid)
+    k = len(ids)
+    pxyz = np.full((k, 3), np.nan)
+    psig = np.full((k, 3), np.nan)
+    role = np.full(k, "tie", dtype=object)
+    for pid, c, s in zip(c_ids, c_xyz, c_sig, strict=True):
+        j = index[pid]
+        pxyz[j], psig[j], role[j] = c, s, "control"
+    for pid, c in zip(h_ids, h_xyz, strict=True):
+        j = index[pid]
+        pxyz[j], psig[j], role[j] = c, np.nan, "check"
+    point = np.array([index[s] for s in rows_point], dtype=np.int64)
+    key = photo * k + point
+    uniq, first = np.unique(key, return_index=True)
+    if len(uniq) != len(key):
+        dup = np.setdiff1d(np.arange(len(key)), first)[0]
+        raise ProjectError(spath, f"point '{rows_point[dup]}' measured twice on image "
+                           f"'{img_ids[photo[dup]]}'")
+
+    settings = Settings(name=name, angle_unit="deg", sigma_image_um=float(np.median(sig)) * 1e3,
+                        sigma_control_m=tuple(float(v) for v in (np.nanmedian(psig, axis=0)
+                                              if np.isfinite(psig).any() else (0.05,) * 3)))
+    cameras = Cameras(cam_ids, np.array([cam["c"]]), cam["pp"][None, :],
+                      np.array([cam["kind"]], dtype=object), np.array([cam["coef"]], float))
+    photos = Photos(photo_ids, np.zeros(len(photo_ids), np.int64),
+                    np.full(len(photo_ids), "", dtype=object),
+                    np.full((len(photo_ids), 6), np.nan))
+    image = ImagePoints(photo, point, xy, sig)
+    points = GroundPoints(ids, pxyz, psig, role)
+    est = root.find("operations")
+    if est is not None and "<io>" in _flat(est) and "true" in _io_flag(est):
+        notes.append("the script estimates the interior orientation (self-calibration); "
+                     "baarda holds it fixed at the given values")
+    notes.append(f"DBAT script {path.name}: pixel size {cam['px']:.6g} x {cam['py']:.6g} mm, "
+                 "image origin moved to the image centre, y up")
+    block = Block(settings, cameras, photos, image, points, source=spath, notes=notes)
+    if stations is not None:
+        st = read_dbat_stations(stations)
+        missing = [s for s in img_ids if s not in st]
+        if missing:
+            raise ProjectError(str(stations), f"no station for image id '{missing[0]}'")
+        block.photos.eo = np.array([st[s] for s in img_ids])
+    elif orient:
+        block.photos.eo = orient_block(block)
+    return block
+
+
+def _flat(node: Node) -> str:
+    return f"<{node.tag}>" + "".join(_flat(c) for c in node.children)
+
+
+def _io_flag(ops: Node) -> str:
+    out = []
+    for op in ops.findall("operation"):
+        sbe = op.find("set_bundle_estimate_params")
+        if sbe is not None and sbe.find("io") is not None:
+            io = sbe.find("io")
+            out.append((io.text + " ".join(c.text for c in io.children)).lower())
+    return " ".join(out)

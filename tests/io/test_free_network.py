@@ -1,0 +1,81 @@
+"""Free-network adjustment (bundle/free.py) against a dense brute-force computation.
+
+For a small simulated block without control, the residuals, sigma0 and redundancy numbers
+of the minimal-constraint solution must equal those of the dense inner solution computed
+with the pseudo-inverse of the (singular) full normal matrix, and must not depend on the
+choice of the datum photos.
+"""
+
+import numpy as np
+import pytest
+
+from baarda.bundle.collinearity import project_with_jacobians
+from baarda.bundle.free import adjust_free
+from baarda.bundle.quality import assess
+from baarda.io.errors import GeometryError
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+
+@pytest.fixture(scope="module")
+def block():
+    plan = FlightPlan(strips=2, photos_per_strip=3, pattern=3, control="none", height_chains=0,
+                      relief_m=80.0, seed=3)
+    b, _ = simulate_block(plan)
+    assert not b.points.controlled.any()
+    return b
+
+
+def _dense(block, res):
+    """Full Jacobian (all 6 n + 3 k unknowns) at the solution, weights."""
+    pb = res.problem
+    im = block.image
+    obs = pb.obs
+    ph, pt = im.photo[obs], pb.remap[im.point[obs]]
+    cam = block.photos.camera[ph]
+    _, je, jp = project_with_jacobians(res.eo[ph], res.xyz[pt], block.cameras.focal_mm[cam],
+                                       block.cameras.principal_point_mm[cam])
+    nf, npt = len(block.photos), len(pb.point_ids)
+    a = np.zeros((2 * len(obs), 6 * nf + 3 * npt))
+    for i in range(len(obs)):
+        a[2 * i:2 * i + 2, 6 * ph[i]:6 * ph[i] + 6] = je[i]
+        a[2 * i:2 * i + 2, 6 * nf + 3 * pt[i]:6 * nf + 3 * pt[i] + 3] = jp[i]
+    p = np.repeat(1 / im.sigma_mm[obs] ** 2, 2)
+    return a, p
+
+
+def test_free_network_matches_dense_inner_solution(block):
+    res = adjust_free(block)
+    assert res.converged
+    a, p = _dense(block, res)
+    n = a.T @ (p[:, None] * a)
+    sc = 1 / np.sqrt(np.diag(n))
+    rank = np.linalg.matrix_rank(sc[:, None] * n * sc[None, :], tol=1e-8)
+    assert n.shape[0] - rank == 7  # datum defect of a free network
+    assert res.n_unknowns == rank and res.redundancy == len(p) - rank
+    # at the solution the gradient vanishes (also in the held directions: minimal datum)
+    v = res.image_residuals.ravel()
+    assert np.abs(a.T @ (p * v)).max() < 1e-6 * np.abs(a.T @ (p * np.abs(v))).max()
+    # redundancy numbers from the pseudo-inverse
+    ninv = sc[:, None] * np.linalg.pinv(sc[:, None] * n * sc[None, :], rcond=1e-10) * sc[None, :]
+    r_dense = 1 - p * np.einsum("ij,jk,ik->i", a, ninv, a)
+    qc = assess(res)
+    assert np.allclose(qc.quality.redundancy_number, r_dense, atol=1e-7)
+    assert np.isclose(qc.quality.sum_redundancy_numbers, res.redundancy, atol=1e-6)
+
+
+def test_datum_choice_does_not_change_observation_statistics(block):
+    r1 = adjust_free(block, datum=(0, 5, 0))
+    r2 = adjust_free(block, datum=(2, 3, 1))
+    assert np.allclose(r1.image_residuals, r2.image_residuals, atol=1e-9)
+    assert np.isclose(r1.sigma0, r2.sigma0, rtol=1e-9)
+    q1, q2 = assess(r1), assess(r2)
+    assert np.allclose(q1.quality.w, q2.quality.w, atol=1e-6, equal_nan=True)
+    assert np.allclose(q1.quality.redundancy_number, q2.quality.redundancy_number, atol=1e-8)
+    # the held photo does not move, its standard deviations are zero
+    assert np.allclose(r1.eo[0], block.photos.eo[0]) and np.all(r1.eo_std[0] < 1e-9)
+
+
+def test_free_network_refuses_control():
+    b, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=3, seed=1))
+    with pytest.raises(GeometryError, match="control"):
+        adjust_free(b)
