@@ -36,6 +36,9 @@ def parser(description: str) -> argparse.ArgumentParser:
     ap.add_argument("--keep-numba-cache", action="store_true",
                     help="use numba's normal cache (first call loads it) instead of a fresh, "
                          "empty cache folder (first call compiles)")
+    ap.add_argument("--blas-threads", type=int, default=None,
+                    help="set OPENBLAS_NUM_THREADS and OMP_NUM_THREADS for both engines "
+                         "(default: the environment as it is)")
     ap.add_argument("--profile", action="store_true",
                     help="also profile baarda (cProfile, top 25 by cumulative time)")
     ap.add_argument("--out", type=Path, default=None, help="keep the raw results here")
@@ -62,7 +65,10 @@ def run_engines(args, quality: bool) -> dict:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), str(HERE)]
                                         + [p for p in [env.get("PYTHONPATH")] if p])
-    recs = {}
+    if args.blas_threads:
+        env["OPENBLAS_NUM_THREADS"] = env["OMP_NUM_THREADS"] = str(args.blas_threads)
+    recs = {"load_before": _loadavg(), "blas_threads": env.get("OPENBLAS_NUM_THREADS",
+                                                                "unset (all cores)")}
     for engine in ("baarda", "pycolmap"):
         cmd = [sys.executable, str(HERE / "worker.py"), engine] + common
         e = dict(env)
@@ -93,7 +99,17 @@ def run_engines(args, quality: bool) -> dict:
         "point_m": float(np.max(np.abs(a["xyz"] - b["xyz"]))),
     }
     recs["out"] = str(out)
+    recs["load_after"] = _loadavg()
+    (out / "records.json").write_text(json.dumps(recs, indent=1, default=str))
     return recs
+
+
+def _loadavg() -> str:
+    try:
+        with open("/proc/loadavg") as fh:
+            return " ".join(fh.read().split()[:3])
+    except OSError:
+        return "?"
 
 
 def med(values) -> float:
@@ -113,6 +129,9 @@ def header(recs: dict, args) -> list[str]:
         f"/ Ceres {p['initial_vtpv']:.6e}",
         f"timed runs per engine: {args.repeat} (median shown, min in brackets); memory: RSS "
         "growth during the first timed call / max RSS of the whole engine process",
+        f"machine: {os.cpu_count()} cores, load average {recs['load_before']} before, "
+        f"{recs['load_after']} after; OPENBLAS_NUM_THREADS {recs['blas_threads']}; numba "
+        f"{'cache as found' if args.keep_numba_cache else 'compiled afresh (empty cache)'}",
     ]
 
 
