@@ -195,8 +195,8 @@ def adjust(cb: ColmapBlock, weighted: bool = True, function_tolerance: float = 1
         for j in cb.control_rows[full]:
             cfg.add_constant_point(int(cb.point3d_ids[j]))
     ba = pycolmap.create_default_ceres_bundle_adjuster(o, cfg, cb.rec)
-    problem = ba.problem
     if weighted:
+        problem = ba.problem  # a pyceres.Problem (needs pyceres imported)
         s = np.where(np.isfinite(cb.control_sigma), cb.control_sigma, UNOBSERVED_SIGMA_M)
         mean = np.nan_to_num(cb.control_xyz)
         for k, j in enumerate(cb.control_rows):

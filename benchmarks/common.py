@@ -144,7 +144,10 @@ def agreement(recs: dict) -> list[str]:
         f"in baarda's equations {p['baarda_vtpv_of_solution']:.10g})",
         f"largest difference of the solutions: projection centres {d['centre_m']:.2e} m, "
         f"angles {d['angle_rad']:.2e} rad, points {d['point_m']:.2e} m",
-    ]
+    ] + ([] if p["control"].startswith("weighted") else [
+        "NOTE: pycolmap held the control points fixed (pyceres missing or --fixed-control): "
+        "its objective differs from baarda's (no control residuals, height-only points "
+        "free), so the costs and solutions are not expected to agree"])
 
 
 def table(rows: list[list[str]]) -> str:
