@@ -80,16 +80,64 @@ def _chol_inv(h, out_l, out_inv):
 
 
 @njit(cache=True)
+def assemble(order, frame, jf, jp, w, e, hfp, hff, gf):
+    """Normal-equation pieces of the frame-point observations, with explicit loops.
+
+    Observations are visited in point order (`order`); hfp[a] (b, d) is stored at the
+    sorted position a.  Adds to hff (nf, b, b) and gf (nf, b).
+    """
+    m, k, b = jf.shape
+    d = jp.shape[2]
+    for a in range(m):
+        i = order[a]
+        f = frame[i]
+        for r in range(k):
+            wr = w[i, r]
+            if wr == 0.0:
+                continue
+            er = wr * e[i, r]
+            for p in range(b):
+                wp = wr * jf[i, r, p]
+                gf[f, p] += jf[i, r, p] * er
+                for q in range(b):
+                    hff[f, p, q] += wp * jf[i, r, q]
+                for q in range(d):
+                    hfp[a, p, q] += wp * jp[i, r, q]
+    return 0
+
+
+@njit(cache=True)
+def point_terms(ptr, order, jp, w, e, point_of_sorted, hpp, gp):
+    """Add Jp^T W Jp to hpp (np, d, d) and Jp^T W e to gp (np, d), in point order."""
+    m, k, d = jp.shape
+    for a in range(m):
+        i = order[a]
+        j = point_of_sorted[a]
+        for r in range(k):
+            wr = w[i, r]
+            if wr == 0.0:
+                continue
+            for p in range(d):
+                wp = wr * jp[i, r, p]
+                gp[j, p] += wp * e[i, r]
+                for q in range(d):
+                    hpp[j, p, q] += wp * jp[i, r, q]
+    return 0
+
+
+@njit(cache=True)
 def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slot, pair_tr,
                   hpp_l, hpp_inv, bad):
     """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side.
 
-    hfp (m, b, d) per observation; hpp (np, d, d) and gp (np, d) per point; hff (nf, b, b)
-    frame diagonal blocks; gf (nf, b) is reduced in place.  Writes Cholesky factors and
-    inverses of Hpp; bad[j] = 1 for a point whose Hpp is not positive definite.
+    hfp (m, b, d) per observation (sorted by point), frame (m,) sorted likewise; hpp
+    (np, d, d) and gp (np, d) per point; hff (nf, b, b) frame diagonal blocks; gf (nf, b)
+    is reduced in place.  Writes Cholesky factors and inverses of Hpp; bad[j] = 1 for a
+    point whose Hpp is not positive definite.
     """
     nf = hff.shape[0]
     b = hff.shape[1]
+    d = hpp.shape[1]
     for f in range(nf):
         s = diag_slot[f]
         for r in range(b):
@@ -97,51 +145,77 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
                 values[s, r, c] += hff[f, r, c]
     k = 0
     npnt = len(ptr) - 1
-    d = hpp.shape[1]
+    t = np.empty((hfp.shape[0], b, d))
     for j in range(npnt):
+        lo, hi = ptr[j], ptr[j + 1]
         ok = _chol_inv(hpp[j], hpp_l[j], hpp_inv[j])
         if not ok:
             bad[j] = 1
-        lo, hi = ptr[j], ptr[j + 1]
-        for a in range(lo, hi):
-            if not ok:
-                continue
-            t = hfp[a] @ hpp_inv[j]  # (b, d)
-            gf[frame[a]] -= t @ gp[j]
-            for c in range(lo, hi):
-                if frame[a] < frame[c]:
-                    continue
-                blk = t @ hfp[c].T
-                s = pair_slot[k]
-                if pair_tr[k]:
-                    for r in range(b):
-                        for q in range(b):
-                            values[s, q, r] -= blk[r, q]
-                else:
-                    for r in range(b):
-                        for q in range(b):
-                            values[s, r, q] -= blk[r, q]
-                k += 1
-        if not ok:
             for a in range(lo, hi):
                 for c in range(lo, hi):
                     if frame[a] >= frame[c]:
                         k += 1
+            continue
+        hinv = hpp_inv[j]
+        for a in range(lo, hi):
+            fa = frame[a]
+            for p in range(b):
+                for q in range(d):
+                    acc = 0.0
+                    for r in range(d):
+                        acc += hfp[a, p, r] * hinv[r, q]
+                    t[a, p, q] = acc
+                g = 0.0
+                for q in range(d):
+                    g += t[a, p, q] * gp[j, q]
+                gf[fa, p] -= g
+        for a in range(lo, hi):
+            fa = frame[a]
+            for c in range(lo, hi):
+                if fa < frame[c]:
+                    continue
+                s = pair_slot[k]
+                tr = pair_tr[k]
+                for p in range(b):
+                    for q in range(b):
+                        acc = 0.0
+                        for r in range(d):
+                            acc += t[a, p, r] * hfp[c, q, r]
+                        if tr:
+                            values[s, q, p] -= acc
+                        else:
+                            values[s, p, q] -= acc
+                k += 1
     return d
 
 
 @njit(cache=True)
 def back_substitute(ptr, frame, hfp, hpp_inv, gp, xf):
-    """Point unknowns x_p = Hpp^-1 (g_p - sum_a Hpf_a x_f[frame a]); xf (nf, b) or (nf, b, q)."""
+    """Point unknowns x_p = Hpp^-1 (g_p - sum_a Hpf_a x_f[frame a]); gp (np, d, q), xf (nf, b, q)."""
     npnt = len(ptr) - 1
     d = hpp_inv.shape[1]
+    b = hfp.shape[1]
     q = gp.shape[2]
     xp = np.zeros((npnt, d, q))
+    r = np.empty((d, q))
     for j in range(npnt):
-        r = gp[j].copy()
+        for p in range(d):
+            for c in range(q):
+                r[p, c] = gp[j, p, c]
         for a in range(ptr[j], ptr[j + 1]):
-            r -= hfp[a].T @ xf[frame[a]]
-        xp[j] = hpp_inv[j] @ r
+            f = frame[a]
+            for p in range(d):
+                for c in range(q):
+                    acc = 0.0
+                    for s in range(b):
+                        acc += hfp[a, s, p] * xf[f, s, c]
+                    r[p, c] -= acc
+        for p in range(d):
+            for c in range(q):
+                acc = 0.0
+                for s in range(d):
+                    acc += hpp_inv[j, p, s] * r[s, c]
+                xp[j, p, c] = acc
     return xp
 
 
@@ -159,25 +233,58 @@ def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
     npnt = len(ptr) - 1
     spf = np.zeros((m, d, b))
     spp = np.zeros((npnt, d, d))
+    acc = np.zeros((m, d, b))
+    tmp = np.empty((d, d))
     k = 0
     for j in range(npnt):
         lo, hi = ptr[j], ptr[j + 1]
-        acc = np.zeros((hi - lo, d, b))
         for a in range(lo, hi):
             for c in range(lo, hi):
                 if frame[a] < frame[c]:
                     continue
                 s = pair_slot[k]
-                blk = sel[s].T.copy() if pair_tr[k] else sel[s].copy()  # Sigma[f_a, f_c]
-                # ordered pair (a, c): acc[a] += Hpf_c Sigma[f_c, f_a] = Hpf_c blk^T; the
-                # mirror pair (c, a) is visited separately only when frames are equal
-                acc[a - lo] += hfp[c].T @ blk.T
+                tr = pair_tr[k]
+                # blk = Sigma[f_a, f_c] = sel[s] (or its transpose)
+                # acc[a] += Hpf_c Sigma[f_c, f_a] = hfp[c]^T blk^T
+                # acc[c] += Hpf_a Sigma[f_a, f_c] = hfp[a]^T blk   (frames differ)
+                for p in range(d):
+                    for q in range(b):
+                        x = 0.0
+                        for r in range(b):
+                            blk_qr = sel[s, r, q] if tr else sel[s, q, r]  # blk[q, r]
+                            x += hfp[c, r, p] * blk_qr
+                        acc[a, p, q] += x
                 if frame[a] != frame[c]:
-                    acc[c - lo] += hfp[a].T @ blk
+                    for p in range(d):
+                        for q in range(b):
+                            x = 0.0
+                            for r in range(b):
+                                blk_rq = sel[s, q, r] if tr else sel[s, r, q]  # blk[r, q]
+                                x += hfp[a, r, p] * blk_rq
+                            acc[c, p, q] += x
                 k += 1
-        tmp = hpp_inv[j].copy()
+        hinv = hpp_inv[j]
+        for p in range(d):
+            for q in range(d):
+                tmp[p, q] = hinv[p, q]
         for a in range(lo, hi):
-            spf[a] = -hpp_inv[j] @ acc[a - lo]
-            tmp -= spf[a] @ hfp[a] @ hpp_inv[j]
-        spp[j] = tmp
+            for p in range(d):
+                for q in range(b):
+                    x = 0.0
+                    for r in range(d):
+                        x += hinv[p, r] * acc[a, r, q]
+                    spf[a, p, q] = -x
+            # tmp -= spf[a] @ hfp[a] @ hinv
+            for p in range(d):
+                for q in range(d):
+                    x = 0.0
+                    for r in range(b):
+                        y = 0.0
+                        for t in range(d):
+                            y += hfp[a, r, t] * hinv[t, q]
+                        x += spf[a, p, r] * y
+                    tmp[p, q] -= x
+        for p in range(d):
+            for q in range(d):
+                spp[j, p, q] = tmp[p, q]
     return spf, spp

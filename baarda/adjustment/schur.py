@@ -23,6 +23,7 @@ import numpy as np
 from baarda.adjustment import kernels
 from baarda.io.errors import GeometryError
 from baarda.linalg import BlockCholesky, BlockPattern, NotPositiveDefinite
+from baarda.linalg.threads import single_threaded_blas
 
 
 @dataclass
@@ -75,24 +76,21 @@ class SchurSystem:
         return self.nf * self.b + self.np * self.d - self.n_fixed
 
     # ------------------------------------------------------------------ numbers
+    @single_threaded_blas
     def factorize(self, lin: Linearization) -> None:
         """Assemble the normal equations of `lin`, reduce them and factor S."""
-        o = self.order
-        jf, jp, w, e = lin.jf[o], lin.jp[o], lin.w[o], lin.e[o]
-        jfw = jf * w[:, :, None]
         hff = np.zeros((self.nf, self.b, self.b))
-        np.add.at(hff, self.frame_sorted, np.einsum("mkb,mkc->mbc", jfw, jf))
-        self.hfp = np.ascontiguousarray(np.einsum("mkb,mkd->mbd", jfw, jp))
-        jpw = jp * w[:, :, None]
-        hpp = np.zeros((self.np, self.d, self.d))
-        np.add.at(hpp, self.point_sorted, np.einsum("mkd,mke->mde", jpw, jp))
         gf = np.zeros((self.nf, self.b))
-        np.add.at(gf, self.frame_sorted, np.einsum("mkb,mk->mb", jfw, e))
+        self.hfp = np.zeros((len(self.order), self.b, self.d))
+        kernels.assemble(self.order, self.frame, lin.jf, lin.jp, lin.w, lin.e, self.hfp, hff,
+                         gf)
         if lin.wf is not None:  # direct observations of frame unknowns (e.g. GNSS, datum)
             hff[:, np.arange(self.b), np.arange(self.b)] += lin.wf
             gf += lin.wf * lin.ef
+        hpp = np.zeros((self.np, self.d, self.d))
         gp = np.zeros((self.np, self.d))
-        np.add.at(gp, self.point_sorted, np.einsum("mkd,mk->md", jpw, e))
+        kernels.point_terms(self.ptr, self.order, lin.jp, lin.w, lin.e, self.point_sorted,
+                            hpp, gp)
         jcw = lin.jc * lin.wc[:, :, None]
         np.add.at(hpp, self.control_point, np.einsum("mkd,mke->mde", jcw, lin.jc))
         np.add.at(gp, self.control_point, np.einsum("mkd,mk->md", jcw, lin.ec))
@@ -120,6 +118,7 @@ class SchurSystem:
                 "(check control and tie points)") from None
         self._sel = None
 
+    @single_threaded_blas
     def solve(self) -> tuple[np.ndarray, np.ndarray]:
         """Corrections to the frame (nf, b) and point (np, d) unknowns."""
         xf = self.chol.solve(self.gf.reshape(-1)).reshape(self.nf, self.b)
@@ -128,6 +127,7 @@ class SchurSystem:
         return xf, xp[:, :, 0]
 
     # ------------------------------------------------------------ covariances
+    @single_threaded_blas
     def covariances(self):
         """Selected inverse: Sigma_ff (pattern storage), Sigma_pf per observation, Sigma_pp."""
         if self._sel is None:
@@ -197,6 +197,7 @@ class SchurSystem:
         del o
         return red
 
+    @single_threaded_blas
     def solve_normal(self, gf: np.ndarray, gp: np.ndarray):
         """N^-1 [gf; gp] for q columns."""
         q = gf.shape[2]
@@ -206,6 +207,7 @@ class SchurSystem:
                                      np.ascontiguousarray(gp), np.ascontiguousarray(xf))
         return xf, xp
 
+    @single_threaded_blas
     def forward(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
         """W with W^T W = g^T N^-1 g for q columns (FOTEF: one forward substitution)."""
         q = gf.shape[2]

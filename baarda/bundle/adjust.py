@@ -79,10 +79,10 @@ class BundleProblem:
         im = b.image
         ph = im.photo[self.obs]
         cam = b.photos.camera[ph]
-        xy, je, jp = project_with_jacobians(eo[ph], xyz[self.remap[im.point[self.obs]]],
+        xy, je, jp = project_with_jacobians(eo, xyz[self.remap[im.point[self.obs]]],
                                             b.cameras.focal_mm[cam],
                                             b.cameras.principal_point_mm[cam],
-                                            self.distortion)
+                                            self.distortion, photo=ph)
         e = self.xy_obs - xy
         given = b.points.xyz[self.control]
         ec = np.where(np.isfinite(given), given, 0.0) - xyz[self.remap[self.control]]
@@ -138,8 +138,8 @@ def adjust(block: Block, *, max_iterations: int = 50,
         step = 1.0
         for _ in range(30):
             eo_new, xyz_new = eo + step * dxf, xyz + step * dxp
-            if np.all(camera_depth(eo_new[block.image.photo[problem.obs]],
-                                   xyz_new[problem.remap[block.image.point[problem.obs]]]) > 0):
+            if np.all(camera_depth(eo_new, xyz_new[problem.remap[block.image.point[problem.obs]]],
+                                   block.image.photo[problem.obs]) > 0):
                 lin_new = problem.linearize(eo_new, xyz_new)
                 cost_new = _cost(lin_new)
                 if cost_new <= cost * (1 + 1e-12) or step < 1e-3:

@@ -25,16 +25,30 @@ def project(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray, pp: np.ndarray,
     return xy if distortion is None else distort(xy, pp, focal, distortion)[0]
 
 
-def camera_depth(eo: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-    """-u3: distance of each point in front of the camera along its axis (positive = in front)."""
+def camera_depth(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray | None = None) -> np.ndarray:
+    """-u3: distance of each point in front of the camera along its axis (positive = in front).
+
+    With `photo`, eo holds one row per photo and photo[i] names the photo of point i.
+    """
     r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+    if photo is not None:
+        r, eo = r[photo], eo[photo]
     return -np.einsum("mj,mj->m", r[:, :, 2], xyz - eo[:, :3])
 
 
 def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
-                           pp: np.ndarray, distortion: np.ndarray | None = None):
-    """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3)."""
-    r, dro, drp, drk = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
+                           pp: np.ndarray, distortion: np.ndarray | None = None,
+                           photo: np.ndarray | None = None):
+    """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3).
+
+    With `photo`, eo holds one row per photo (rotations are computed once per photo) and
+    photo[i] names the photo of observation i.
+    """
+    rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
+    if photo is not None:
+        rot = [a[photo] for a in rot]
+        eo = eo[photo]
+    r, dro, drp, drk = rot
     d = xyz - eo[:, :3]
     u = np.einsum("mji,mj->mi", r, d)
     c = focal

@@ -35,6 +35,7 @@ from .symbolic import (
     postordered,
     symbolic_factor,
 )
+from .threads import single_threaded_blas
 
 __all__ = ["BlockCholesky", "BlockPattern", "NotPositiveDefinite", "SelectedInverse"]
 
@@ -194,6 +195,7 @@ class BlockCholesky:
         self._buf: np.ndarray | None = None
         self._factored = False
 
+    @single_threaded_blas
     def factorize(self, values: np.ndarray, rtol: float = DEFAULT_PIVOT_RTOL) -> None:
         """Numeric factorisation of S given in pattern storage.
 
@@ -261,6 +263,7 @@ class BlockCholesky:
             sym.sn_start, sym.colptr, sym.rowind, pat.sn_off, self._check(), pat.b, x
         )
 
+    @single_threaded_blas
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve ``S x = rhs``; rhs (n*b,) or (n*b, k) in ORIGINAL ordering, result same shape."""
         pat = self.pattern
@@ -274,6 +277,7 @@ class BlockCholesky:
         out[pat.perm] = x.reshape(pat.n, pat.b, -1)
         return out.reshape(-1) if vec else out.reshape(pat.n * pat.b, -1)
 
+    @single_threaded_blas
     def forward(self, rhs: np.ndarray) -> np.ndarray:
         """``W = L^-1 P rhs`` (permuted order), so that ``rhs^T S^-1 rhs = ||W||^2``.
 
@@ -289,6 +293,7 @@ class BlockCholesky:
         sym = pat.symbolic
         return float(supernodal_logdet(sym.sn_start, sym.colptr, pat.sn_off, self._check(), pat.b))
 
+    @single_threaded_blas
     def selected_inverse(self, overwrite_factor: bool = False) -> SelectedInverse:
         """Blocks of ``S^-1`` on the pattern of L (which contains the pattern of S).
 
