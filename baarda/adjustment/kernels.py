@@ -191,7 +191,7 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
 
 @njit(cache=True)
 def back_substitute(ptr, frame, hfp, hpp_inv, gp, xf):
-    """Point unknowns x_p = Hpp^-1 (g_p - sum_a Hpf_a x_f[frame a]); gp (np, d, q), xf (nf, b, q)."""
+    """Point unknowns x_p = Hpp^-1 (g_p - sum_a Hpf_a x_f[f_a]); gp (np, d, q), xf (nf, b, q)."""
     npnt = len(ptr) - 1
     d = hpp_inv.shape[1]
     b = hfp.shape[1]
