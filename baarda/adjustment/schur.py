@@ -67,6 +67,7 @@ class SchurSystem:
         self.diag_slot, diag_tr = self.pattern.slots(diag, diag)
         self.chol = BlockCholesky(self.pattern)
         self._sel = None
+        self.factored_at: Linearization | None = None
         # frame unknowns held by datum constraints (zero Jacobian columns plus a direct
         # observation of weight wf): they are not unknowns of the model (bundle/free.py)
         self.n_fixed = 0
@@ -109,6 +110,8 @@ class SchurSystem:
                 f"{int(bad.sum())} point(s) cannot be intersected (their rays are parallel or "
                 f"too few): {', '.join(names)}")
         self.gf = gf
+        self._sel = None
+        self.factored_at = None
         try:
             self.chol.factorize(values)
         except NotPositiveDefinite as err:
@@ -116,7 +119,12 @@ class SchurSystem:
                 f"the exterior orientation of {self.frame_names[err.block]} is not determined: "
                 "the block has a datum defect or this photo is not connected well enough "
                 "(check control and tie points)") from None
-        self._sel = None
+        self.factored_at = lin
+
+    def ensure(self, lin: Linearization) -> None:
+        """Factor at `lin` unless S is already factored there (statistics need it exact)."""
+        if self.factored_at is not lin:
+            self.factorize(lin)
 
     @single_threaded_blas
     def solve(self) -> tuple[np.ndarray, np.ndarray]:
@@ -151,6 +159,7 @@ class SchurSystem:
 
     def adjusted_cofactors(self, lin: Linearization) -> tuple[np.ndarray, np.ndarray]:
         """Cofactor blocks of the adjusted observations: (m, k, k) and (mp, kp, kp)."""
+        self.ensure(lin)
         _, sff, spf, spp = self.covariances()
         jf, jp = lin.jf, lin.jp
         sf = sff[self.frame]
@@ -168,6 +177,7 @@ class SchurSystem:
         dX = Sigma_{X, x} a_i^T p_i, the column of N^-1 A^T P for that row, restricted to
         the point that the observation belongs to.
         """
+        self.ensure(lin)
         _, _, spf, spp = self.covariances()
         g = (spf @ np.swapaxes(lin.jf, 1, 2) + spp[self.point] @ np.swapaxes(lin.jp, 1, 2))
         g = np.swapaxes(g, 1, 2) * lin.w[:, :, None]

@@ -21,6 +21,7 @@ class BundleModel(AdjustedModel):
         lin = result.lin
         self.system = pb.system
         self.lin = lin
+        self.system.ensure(lin)  # the statistics need S factored at the solution
         m = len(pb.obs)
         im = blk.image
         sig_c = blk.points.sigma[pb.control]
@@ -79,11 +80,13 @@ class BundleModel(AdjustedModel):
 
     def normal_forward(self, h: np.ndarray) -> np.ndarray:
         hi, hc = self._split(h)
+        self.system.ensure(self.lin)
         gf, gp = self.system.apply_AtP(self.lin, hi, hc)
         return self.system.forward(gf, gp)
 
     def solve_columns(self, h: np.ndarray) -> np.ndarray:
         hi, hc = self._split(h)
+        self.system.ensure(self.lin)
         gf, gp = self.system.apply_AtP(self.lin, hi, hc)
         xf, xp = self.system.solve_normal(gf, gp)
         ri, rc = self.system.apply_A(self.lin, xf, xp)

@@ -69,11 +69,13 @@ class BundleResult:
     # --------------------------------------------------------- precision
     @property
     def eo_std(self) -> np.ndarray:
+        self.problem.system.ensure(self.lin)
         q = self.problem.system.frame_covariance()
         return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
 
     @property
     def xyz_std(self) -> np.ndarray:
+        self.problem.system.ensure(self.lin)
         q = self.problem.system.point_covariance()
         return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
 

@@ -204,6 +204,7 @@ def tables_in_crs(result, frame: LocalFrame, block: Block):
     unit = result.block.settings.angle_unit
     ang = rad_to_angle(eo[:, 3:], unit)
     s2 = result.sigma0**2
+    result.problem.system.ensure(result.lin)
     cf = result.problem.system.frame_covariance()[:, :3, :3] * s2
     sf = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(result.eo[:, :3], cf),
                                         axis1=1, axis2=2), 0))

@@ -108,6 +108,7 @@ def point_table(result: BundleResult) -> pd.DataFrame:
     """Expected standard deviations (m) of the adjusted points with sigma0 = 1 a priori."""
     blk = result.block
     pb = result.problem
+    pb.system.ensure(result.lin)
     cov = pb.system.point_covariance()
     std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     return pd.DataFrame({
