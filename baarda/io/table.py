@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.io.errors import ProjectError
+from baarda.io.text import to_numbers
 
 
 class Table:
@@ -71,30 +72,7 @@ class Table:
 
     def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
         """Column as float; empty cells become NaN when allowed, else an error."""
-        col = self.columns[name]
-        empty = col == ""
-        try:
-            out = np.where(empty, "nan", col).astype(float)
-            if (allow_empty or not empty.any()) and np.isfinite(out[~empty]).all():
-                return out
-        except ValueError:
-            pass
-        out = np.full(len(col), np.nan)
-        for i, s in enumerate(col):
-            if s == "":
-                if not allow_empty:
-                    raise ProjectError(self.path, "empty value, a number is required",
-                                       int(self.lines[i]), name)
-                continue
-            try:
-                out[i] = float(s)
-            except ValueError:
-                raise ProjectError(self.path, f"'{s}' is not a number",
-                                   int(self.lines[i]), name) from None
-            if not np.isfinite(out[i]):
-                raise ProjectError(self.path, f"'{s}' is not a finite number",
-                                   int(self.lines[i]), name)
-        return out
+        return to_numbers(self.columns[name], self.path, self.lines, name, allow_empty)
 
     def unique_ids(self, name: str) -> list[str]:
         """Column of identifiers that must be unique."""
