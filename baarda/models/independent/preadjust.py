@@ -1,0 +1,331 @@
+"""Pre-adjustment search for large errors and approximate values (FOTEF's 2D/3D pre-adjustment).
+
+The models are connected one by one into a free block: the next model is the one with the
+most points already determined; a similarity transformation (closed form, Umeyama 1991)
+fits it to the current estimates of these points.  The connection is checked step by step:
+while the largest discrepancy exceeds the threshold (FOTEF: 250 µm in x, y and 500 µm in z
+at model scale), that point of the new model is set aside and the fit repeated, so the
+large errors go first.  The free block is then fitted to the control (checked the same way,
+with the threshold in the terrain; where the free connection has drifted more than that,
+three times the robust RMS of the fit).  The transformations give the approximate values of
+the rigorous adjustment; the set-aside observations enter it rejected, and iterative data
+snooping restores those that prove innocent.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from baarda.io.errors import GeometryError
+from baarda.models.independent import similarity
+from baarda.models.independent.problem import ModelProblem
+
+
+@dataclass
+class Finding:
+    step: int
+    kind: str  # 'connection' or 'control'
+    model: str
+    point: str
+    discrepancy: list[float]  # connection: µm at model scale; control: m
+    ratio: float  # discrepancy / threshold
+
+    def to_dict(self) -> dict:
+        return {"step": self.step, "kind": self.kind, "model": self.model, "point": self.point,
+                "discrepancy": self.discrepancy, "ratio": self.ratio}
+
+    def text(self) -> str:
+        unit = "µm" if self.kind == "connection" else "m"
+        d = ", ".join(f"{x:.4g}" for x in self.discrepancy)
+        where = f"model {self.model} " if self.model else "control "
+        return (f"{self.step:3d} {where}point {self.point}: ({d}) {unit}, "
+                f"{self.ratio:.1f} x threshold")
+
+
+@dataclass
+class PreAdjustment:
+    params: np.ndarray  # (nm, b) reduced terrain frame (as ModelProblem expects)
+    pts: np.ndarray  # (np_used, d)
+    obs_flag: np.ndarray  # (m_block, 3) bool: set aside by the search
+    control_flag: np.ndarray  # (np_block, 3) bool
+    findings: list[Finding] = field(default_factory=list)
+    order: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def summary(self) -> str:
+        lines = [f"pre-adjustment search: {len(self.findings)} large error(s) set aside"]
+        lines += ["  " + f.text() for f in self.findings]
+        lines += [f"  note: {n}" for n in self.notes]
+        return "\n".join(lines)
+
+
+def _fit(src, dst, dim):
+    """Similarity dst ~ t + s R src; in 3D a level fit (2D similarity and a height shift)
+    when the points are nearly on one line, which leaves the roll about it free."""
+    if dim == 3:
+        sv = np.linalg.svd(dst - dst.mean(axis=0), compute_uv=False)
+        if len(dst) >= 3 and sv[1] > 0.05 * sv[0]:
+            s, r, t = similarity.fit3d(src, dst)
+        else:
+            s, k, t2 = similarity.fit2d(src[:, :2], dst[:, :2])
+            r = np.eye(3)
+            r[:2, :2] = [[np.cos(k), -np.sin(k)], [np.sin(k), np.cos(k)]]
+            t = np.append(t2, np.mean(dst[:, 2] - s * src[:, 2]))
+    else:
+        s, k, t = similarity.fit2d(src, dst)
+        r = np.array([[np.cos(k), -np.sin(k)], [np.sin(k), np.cos(k)]])
+    return s, r, t
+
+
+def _apply(tr, x):
+    s, r, t = tr
+    return t + s * x @ r.T
+
+
+def _back(tr, dx):
+    """Discrepancies in the local frame -> model units."""
+    s, r, _ = tr
+    return dx @ r / s
+
+
+class _Component:
+    """A free sub-block: model transformations into its own frame and point estimates."""
+
+    def __init__(self, npnt: int, dim: int):
+        self.acc = np.zeros((npnt, dim))
+        self.cnt = np.zeros(npnt)
+        self.trans: dict[int, tuple] = {}
+
+    def est(self, j):
+        return self.acc[j] / self.cnt[j][:, None]
+
+    def absorb(self, other: _Component, tr) -> None:
+        """Add `other`, transformed by tr into this frame."""
+        s, r, t = tr
+        for m, (s2, r2, t2) in other.trans.items():
+            self.trans[m] = (s * s2, r @ r2, t + s * r @ t2)
+        self.acc += _apply(tr, other.acc / np.maximum(other.cnt, 1)[:, None]) * \
+            other.cnt[:, None]
+        self.cnt += other.cnt
+
+
+def _check_fit(src, dst, need, dim, thr, on_flag):
+    """Fit dst ~ tr(src), setting aside the worst point while it exceeds the threshold."""
+    use = np.ones(len(src), bool)
+    while True:
+        tr = _fit(src[use], dst[use], dim)
+        disc = _back(tr, dst[use] - _apply(tr, src[use]))
+        ratio = np.max(np.abs(disc) / thr, axis=1)
+        worst = int(np.argmax(ratio))
+        if ratio[worst] <= 1 or use.sum() <= need:
+            return tr, use, bool(ratio[worst] > 1)
+        k = np.flatnonzero(use)[worst]
+        on_flag(k, disc[worst], ratio[worst])
+        use[k] = False
+
+
+def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None = None,
+              search: bool = True) -> PreAdjustment:
+    """Connect the models of `problem` (mode 3d or 2d), check connections and control."""
+    bl, mode = problem.block, problem.mode
+    if mode == "height":
+        raise ValueError("the pre-adjustment works on the 3d or 2d adjustment")
+    dim = problem.d
+    thr_um = np.asarray(thresholds_um or bl.settings.pre_um, float)
+    thr = (np.array([thr_um[0], thr_um[0], thr_um[1]]) * 1e-3)[problem.comps]  # mm
+    if not search:
+        thr = np.full(dim, np.inf)
+    rows = problem.rows
+    x = problem.obs
+    pnt = problem.remap[bl.obs_point[rows]]
+    frame = problem.frame
+    npnt, nm = len(problem.point_ids), bl.n_models
+    need = 3 if dim == 3 else 2
+    by_model = [np.flatnonzero(frame == m) for m in range(nm)]
+    by_point: list[list[int]] = [[] for _ in range(npnt)]
+    for m, j in zip(frame, pnt, strict=True):
+        by_point[j].append(m)
+    flag = np.zeros(len(rows), bool)
+    findings: list[Finding] = []
+    notes: list[str] = []
+    order: list[str] = []
+    shared = np.array([sum(len(by_point[j]) > 1 for j in pnt[idx]) for idx in by_model])
+    placed = np.zeros(nm, bool)
+    comps: list[_Component] = []
+    counter = [0]
+
+    def place(comp: _Component, common, m: int, tr) -> None:
+        idx = by_model[m][~flag[by_model[m]]]
+        new = pnt[idx][comp.cnt[pnt[idx]] == 0]
+        np.add.at(comp.acc, pnt[idx], _apply(tr, x[idx]))
+        np.add.at(comp.cnt, pnt[idx], 1.0)
+        for j in np.unique(new):
+            for mm in by_point[j]:
+                common[mm] += 1
+        comp.trans[m] = tr
+        placed[m] = True
+        order.append(bl.models[m])
+
+    while not placed.all():  # grow free sub-blocks model by model
+        comp = _Component(npnt, dim)
+        common = np.zeros(nm, np.int64)
+        seed = int(np.argmax(np.where(placed, -1, shared)))
+        place(comp, common, seed, (1.0, np.eye(dim), np.zeros(dim)))
+        while True:
+            cand = np.where(placed, -1, common)
+            m = int(np.argmax(cand))
+            if cand[m] < need:
+                break
+            idx = by_model[m]
+            idx = idx[comp.cnt[pnt[idx]] > 0]
+
+            def on_flag(k, disc, ratio, idx=idx, m=m):
+                counter[0] += 1
+                i = idx[k]
+                findings.append(Finding(counter[0], "connection", bl.models[m],
+                                        bl.points[problem.point_ids[pnt[i]]],
+                                        [float(v) for v in -disc * 1e3], float(ratio)))
+                flag[i] = True
+
+            tr, use, bad = _check_fit(x[idx], comp.est(pnt[idx]), need, dim, thr, on_flag)
+            if bad:
+                notes.append(f"model {bl.models[m]}: connection has large discrepancies but "
+                             f"only {need} points are left; not checked further")
+            elif len(idx) == need and search:
+                notes.append(f"model {bl.models[m]}: connected by {need} points only "
+                             "(unchecked)")
+            place(comp, common, m, tr)
+        comps.append(comp)
+    main = comps.pop(0)
+    while comps:  # join the sub-blocks through their common points
+        ncommon = [int(np.sum((main.cnt > 0) & (c.cnt > 0))) for c in comps]
+        k = int(np.argmax(ncommon))
+        if ncommon[k] < need:
+            left = sorted(bl.models[m] for c in comps for m in c.trans)
+            raise GeometryError(f"model(s) {', '.join(left[:10])} share fewer than {need} "
+                                "points with the connected block: the block is not connected")
+        other = comps.pop(k)
+        j = np.flatnonzero((main.cnt > 0) & (other.cnt > 0))
+
+        def on_flag_join(kk, disc, ratio, j=j):
+            counter[0] += 1
+            findings.append(Finding(counter[0], "connection", "(sub-blocks)",
+                                    bl.points[problem.point_ids[j[kk]]],
+                                    [float(v) for v in -disc * 1e3], float(ratio)))
+
+        tr, _, _ = _check_fit(other.est(j), main.est(j), need, dim, thr, on_flag_join)
+        main.absorb(other, tr)
+    # points whose every row was set aside: estimate from all their rows
+    lost = main.cnt == 0
+    if lost.any():
+        for m, tr in main.trans.items():
+            idx = by_model[m][lost[pnt[by_model[m]]]]
+            np.add.at(main.acc, pnt[idx], _apply(tr, x[idx]))
+            np.add.at(main.cnt, pnt[idx], 1.0)
+    local = main.est(np.arange(npnt))
+    tc, cflag = _control_fit(problem, local, thr, findings, counter, notes)
+    params = np.zeros((nm, problem.b))
+    for m, tr in main.trans.items():
+        s, r, t = tr
+        sc, rc, tcc = tc
+        s_, r_, t_ = sc * s, rc @ r, tcc + sc * rc @ t
+        c = problem.centroid[m, :dim]
+        t_ = t_ - problem.origin[problem.comps]
+        params[m] = (similarity.params3d(s_, r_, t_, c) if dim == 3
+                     else similarity.params2d(s_, float(np.arctan2(r_[1, 0], r_[0, 0])), t_, c))
+    pts = _apply(tc, local) - problem.origin[problem.comps]
+    obs_flag = np.zeros((len(bl.obs_model), 3), bool)
+    obs_flag[rows[flag][:, None], problem.comps[None, :]] = True
+    return PreAdjustment(params, pts, obs_flag, cflag, findings, order, notes)
+
+
+def _control_fit(problem: ModelProblem, local, thr_mm, findings, counter, notes):
+    """Similarity local -> terrain from the control, checked step by step."""
+    bl, dim = problem.block, problem.d
+    ctrl = problem.control
+    given = bl.xyz[ctrl][:, problem.comps]
+    ok = (problem.wc_full > 0) & np.isfinite(given)
+    loc = local[problem.remap[ctrl]]
+    cflag = np.zeros((bl.n_points, 3), bool)
+    while True:
+        tr = _initial_control_fit(loc, given, ok, dim)
+        if tr is None:
+            raise GeometryError("the control does not fix the block (pre-adjustment: too few "
+                                "control points for the similarity transformation)")
+        res = np.where(ok, given - _apply(tr, loc), np.nan)
+        thr_m = thr_mm * tr[0]  # local units are mm of the first model
+        if dim == 3:
+            groups = [(0, 1), (2,)]
+        else:
+            groups = [(0, 1)]
+        size = np.column_stack([np.sqrt(np.nansum(res[:, list(g)] ** 2, axis=1))
+                                / (thr_m[g[0]]) for g in groups])
+        robust = 3 * 1.4826 * np.nanmedian(np.where(np.isfinite(res), np.abs(res), np.nan))
+        robust = robust / np.min(thr_m) if np.isfinite(robust) else 0.0
+        scale = max(1.0, robust)
+        ratio = np.where(np.isnan(size), 0.0, size) / scale
+        worst = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+        if ratio[worst] <= 1:
+            break
+        comps = list(groups[worst[1]])
+        trial = ok.copy()
+        trial[worst[0], comps] = False
+        if _initial_control_fit(loc, given, trial, dim) is None or trial.sum() <= dim + 3:
+            notes.append("control: large residuals remain but the control is too weak to "
+                         "locate them; left to data snooping")
+            break
+        counter[0] += 1
+        findings.append(Finding(counter[0], "control", "", bl.points[ctrl[worst[0]]],
+                                [float(v) for v in res[worst[0], comps]],
+                                float(ratio[worst] * scale)))
+        ok = trial
+        cflag[ctrl[worst[0]], problem.comps[comps]] = True
+    return tr, cflag
+
+
+def _initial_control_fit(loc, given, ok, dim):
+    """(s, R, t) local -> terrain from the usable control components, or None."""
+    plan = ok[:, 0] & ok[:, 1]
+    if plan.sum() < 2 or np.ptp(given[plan, :2], axis=0).max() <= 0:
+        return None
+    if dim == 2:
+        return _fit(loc[plan], given[plan], 2)
+    full = ok.all(axis=1)
+    if full.sum() >= 3:
+        p = given[full] - given[full].mean(axis=0)
+        sv = np.linalg.svd(p, compute_uv=False)
+        if sv[-2] > 1e-6 * sv[0]:
+            return _refine(_fit(loc[full], given[full], 3), loc, given, ok)
+    hz = ok[:, 2]
+    if hz.sum() < 1:
+        return None
+    s, r2, t2 = _fit(loc[plan, :2], given[plan, :2], 2)
+    r = np.eye(3)
+    r[:2, :2] = r2
+    tz = np.mean(given[hz, 2] - s * loc[hz, 2])
+    return _refine((s, r, np.array([t2[0], t2[1], tz])), loc, given, ok)
+
+
+def _refine(tr, loc, given, ok, iterations: int = 10):
+    """Gauss-Newton on the 7 parameters with every usable control component."""
+    s, r, t = tr
+    p = similarity.params3d(s, r, t, np.zeros(3))
+    for _ in range(iterations):
+        xyz, jac = similarity.forward3d(np.tile(p, (len(loc), 1)), loc, np.zeros((len(loc), 3)))
+        e = np.where(ok, given - xyz, 0.0)[ok]
+        a = jac[ok]
+        if len(e) < 7:
+            break
+        dp, *_ = np.linalg.lstsq(a, e, rcond=None)
+        p = p + dp
+        if np.max(np.abs(dp[3:6])) < 1e-12:
+            break
+    return 1.0 / p[6], similarity.rotation3d(p), p[:3]
+
+
+def approximations(problem: ModelProblem) -> tuple[np.ndarray, np.ndarray]:
+    """Approximate (params, points) for the rigorous adjustment (large errors left out)."""
+    pre = preadjust(problem)
+    return pre.params, pre.pts

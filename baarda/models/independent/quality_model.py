@@ -1,0 +1,104 @@
+"""An independent-model adjustment as an AdjustedModel for the quality layer.
+
+Observation vector: the k components of every model row of the adjustment (model
+coordinates, mm; decorrelated components when a full covariance was given), then every
+observed control component (m).  Rejected components stay in the vector with active =
+False: they are predicted and tested, not adjusted.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baarda.models.independent.problem import COMPONENTS, CORRELATED
+from baarda.models.independent.result import ModelResult
+from baarda.quality.model import AdjustedModel
+
+
+class IndependentModel(AdjustedModel):
+    def __init__(self, result: ModelResult):
+        self.result = result
+        pb = result.problem
+        bl = pb.block
+        self.problem, self.system, self.lin = pb, pb.system, result.lin
+        m, k = len(pb.rows), pb.k
+        self.m, self.k = m, k
+        sig_c = np.where(pb.wc_full > 0, 1.0 / np.sqrt(np.where(pb.wc_full > 0, pb.wc_full, 1)),
+                         np.nan)
+        self.ctrl_sel = np.flatnonzero(np.isfinite(sig_c).ravel())  # into (nc * k)
+        nc = len(self.ctrl_sel)
+        self.residuals = np.concatenate([result.model_residuals.ravel(),
+                                         result.control_residuals.ravel()[self.ctrl_sel]])
+        self.sigma = np.concatenate([pb.sigma_obs.ravel(), sig_c.ravel()[self.ctrl_sel]])
+        keep = pb.obs_keep[pb.rows][:, pb.comps].ravel()
+        keep_c = pb.control_keep[pb.control][:, pb.comps].ravel()[self.ctrl_sel]
+        self.active = np.concatenate([keep, keep_c])
+        self.n_unknowns = pb.system.n_unknowns
+        models = np.asarray(bl.models, dtype=object)
+        pids = np.asarray(bl.points, dtype=object)
+        names = CORRELATED[pb.mode] if pb.transform is not None else COMPONENTS[pb.mode]
+        upper = np.array(["X", "Y", "Z"], dtype=object)[pb.comps]
+        self.kind = np.array(["model"] * (m * k) + ["control"] * nc, dtype=object)
+        self.component = np.concatenate([np.tile(np.array(names, dtype=object), m),
+                                         np.tile(upper, len(pb.control))[self.ctrl_sel]])
+        self.frame = np.concatenate([np.repeat(models[pb.frame], k),
+                                     np.full(nc, "", dtype=object)])
+        self.point = np.concatenate([np.repeat(pids[bl.obs_point[pb.rows]], k),
+                                     np.repeat(pids[pb.control], k)[self.ctrl_sel]])
+        self.group = np.concatenate([np.repeat(np.arange(m), k), np.full(nc, -1)])
+        # back into the block tables: model row (or -1), control point (or -1), xyz column
+        self.block_row = np.concatenate([np.repeat(pb.rows, k), np.full(nc, -1)])
+        self.block_point = np.concatenate([np.full(m * k, -1),
+                                           np.repeat(pb.control, k)[self.ctrl_sel]])
+        self.xyz_col = np.concatenate([np.tile(pb.comps, m),
+                                       np.tile(pb.comps, len(pb.control))[self.ctrl_sel]])
+        # terrain units per observation unit (model: m per mm = 1 / mu of the model)
+        mu = (result.params[:, -1] if pb.mode != "height" else pb.mu)[pb.frame]
+        self.terrain_per_unit = np.concatenate([np.repeat(1.0 / mu, k), np.ones(nc)])
+
+    # ------------------------------------------------------------- helpers
+    def split(self, h: np.ndarray):
+        """Flat (n, q) -> model rows (m, k, q) and control (nc, k, q)."""
+        q = h.shape[1]
+        hm = h[: self.m * self.k].reshape(self.m, self.k, q)
+        hc = np.zeros((len(self.problem.control) * self.k, q))
+        hc[self.ctrl_sel] = h[self.m * self.k:]
+        return hm, hc.reshape(-1, self.k, q)
+
+    def flat(self, rm: np.ndarray, rc: np.ndarray) -> np.ndarray:
+        q = rm.shape[-1]
+        return np.concatenate([rm.reshape(self.m * self.k, q), rc.reshape(-1, q)[self.ctrl_sel]])
+
+    def parameter_effect(self, h: np.ndarray):
+        """N^-1 A^T P H: changes of the frame (nf, b, q) and point (np, d, q) unknowns."""
+        hm, hc = self.split(h)
+        gf, gp = self.system.apply_AtP(self.lin, hm, hc)
+        return self.system.solve_normal(gf, gp)
+
+    # ------------------------------------------------------------- interface
+    def adjusted_cofactor_diag(self) -> np.ndarray:
+        q, qc = self.system.adjusted_cofactors(self.lin)
+        return np.concatenate([np.diagonal(q, axis1=1, axis2=2).ravel(),
+                               np.diagonal(qc, axis1=1, axis2=2).ravel()[self.ctrl_sel]])
+
+    def adjusted_cofactor_blocks(self) -> tuple[np.ndarray, np.ndarray]:
+        q, _ = self.system.adjusted_cofactors(self.lin)
+        return np.arange(self.m * self.k).reshape(self.m, self.k), q
+
+    def normal_forward(self, h: np.ndarray) -> np.ndarray:
+        hm, hc = self.split(h)
+        gf, gp = self.system.apply_AtP(self.lin, hm, hc)
+        return self.system.forward(gf, gp)
+
+    def solve_columns(self, h: np.ndarray) -> np.ndarray:
+        xf, xp = self.parameter_effect(h)
+        rm, rc = self.system.apply_A(self.lin, xf, xp)
+        return self.flat(rm, rc)
+
+    def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
+        g, gc = self.system.point_effect(self.lin)
+        eff = np.concatenate([g.reshape(self.m * self.k, -1),
+                              gc.reshape(-1, g.shape[-1])[self.ctrl_sel]])
+        out = np.zeros((self.n, 3))
+        out[:, self.problem.comps] = eff
+        return out, self.point
