@@ -31,9 +31,9 @@ class ModelPlan:
     format_mm: float = 230.0
     forward_overlap: float = 0.60
     side_overlap: float = 0.25  # single coverage
-    control: str = "perimeter"  # perimeter | corners | none
-    control_spacing: int = 2  # perimeter control every k base lengths
-    height_chains: int = 3  # height chains across the strips every k bases (0: none)
+    control_spacing: int = 2  # planimetric control on the long borders every k bases
+    height_chains: int = 3  # strings of height points across the strips every k bases
+    full_control: bool = False  # the border points are XYZ control (else XY only)
     relief_m: float = 0.0
     sigma_model_um: tuple[float, float] = (10.0, 15.0)  # xy, z
     sigma_control_m: tuple[float, float, float] = (0.05, 0.05, 0.05)
@@ -56,10 +56,8 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
     fp = FlightPlan(strips=plan.strips, photos_per_strip=plan.models_per_strip + 1,
                     forward_overlap=plan.forward_overlap, side_overlap=plan.side_overlap,
                     image_scale=plan.image_scale, focal_mm=plan.focal_mm,
-                    format_mm=plan.format_mm, pattern=3, control=plan.control,
-                    control_spacing=plan.control_spacing, height_chains=plan.height_chains,
-                    relief_m=plan.relief_m, sigma_control_m=plan.sigma_control_m, noise=False,
-                    seed=plan.seed)
+                    format_mm=plan.format_mm, pattern=3, control="none", height_chains=0,
+                    relief_m=plan.relief_m, noise=False, seed=plan.seed)
     blk, truth = simulate_block(fp)
     pts_true = np.array([truth["points"][p] for p in blk.points.ids])
     eo = np.array([[truth["photos"][p][k] for k in ("X0", "Y0", "Z0", "omega", "phi", "kappa")]
@@ -98,8 +96,8 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
     remap = np.cumsum(used) - 1
     ids = [p for p, u in zip(ids, used, strict=True) if u]
     pc, xyz_all, op = pc[used], xyz_all[used], remap[op]
-    role = np.concatenate([blk.points.role, np.full(len(pc_ids), "tie", dtype=object)])[used]
-    sig_c = np.vstack([blk.points.sigma, np.full((len(pc_ids), 3), np.nan)])[used]
+    sig_c = _control_layout(xyz_all, pc, plan)
+    role = np.where(np.isfinite(sig_c).any(axis=1), "control", "tie").astype(object)
     sig_mm = np.array([plan.sigma_model_um[0]] * 2 + [plan.sigma_model_um[1]]) * 1e-3
     obs_sigma = np.tile(sig_mm, (len(om), 1))
     settings = ModelSettings(name=plan.name, sigma_model_um=tuple(plan.sigma_model_um),
@@ -133,3 +131,30 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
         "units": {"terrain": "m", "model": "mm"},
     }
     return block, truth
+
+
+def _control_layout(xyz: np.ndarray, pc: np.ndarray, plan: ModelPlan) -> np.ndarray:
+    """Standard deviations (np, 3) of the control: FOTEF's standard single-coverage layout.
+
+    Planimetric control on the borders (every `control_spacing` columns of points on the
+    long sides, every point on the short sides), strings of height points crossing the
+    strips every `height_chains` columns and at both ends.  NaN = not observed.
+    """
+    sig = np.full((len(xyz), 3), np.nan)
+    g = ~pc
+    cols = np.unique(np.round(xyz[g, 0], 3))
+    rows = np.unique(np.round(xyz[g, 1], 3))
+    ci = np.searchsorted(cols, np.round(xyz[:, 0], 3))
+    ri = np.searchsorted(rows, np.round(xyz[:, 1], 3))
+    last_c, last_r = len(cols) - 1, len(rows) - 1
+    ends = (ci == 0) | (ci == last_c)
+    long_side = (ri == 0) | (ri == last_r)
+    plan_pts = g & ((long_side & ((ci % max(plan.control_spacing, 1) == 0)
+                                                   | (ci == last_c))))
+    height = g & (plan.height_chains > 0) & (ends | (ci % max(plan.height_chains, 1) == 0))
+    sxy, sz = plan.sigma_control_m[:2], plan.sigma_control_m[2]
+    sig[plan_pts, 0], sig[plan_pts, 1] = sxy
+    sig[height, 2] = sz
+    if plan.full_control:
+        sig[plan_pts, 2] = sz
+    return sig

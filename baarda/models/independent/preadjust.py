@@ -61,12 +61,16 @@ class PreAdjustment:
         return "\n".join(lines)
 
 
+def _collinear(dst) -> bool:
+    sv = np.linalg.svd(dst - dst.mean(axis=0), compute_uv=False)
+    return len(dst) < 3 or sv[1] <= 0.05 * sv[0]
+
+
 def _fit(src, dst, dim):
     """Similarity dst ~ t + s R src; in 3D a level fit (2D similarity and a height shift)
     when the points are nearly on one line, which leaves the roll about it free."""
     if dim == 3:
-        sv = np.linalg.svd(dst - dst.mean(axis=0), compute_uv=False)
-        if len(dst) >= 3 and sv[1] > 0.05 * sv[0]:
+        if not _collinear(dst):
             s, r, t = similarity.fit3d(src, dst)
         else:
             s, k, t2 = similarity.fit2d(src[:, :2], dst[:, :2])
@@ -112,8 +116,13 @@ class _Component:
 
 
 def _check_fit(src, dst, need, dim, thr, on_flag):
-    """Fit dst ~ tr(src), setting aside the worst point while it exceeds the threshold."""
+    """Fit dst ~ tr(src), setting aside the worst point while it exceeds the threshold.
+
+    A level fit (3D, points on a line) cannot check heights: z is not tested then.
+    """
     use = np.ones(len(src), bool)
+    if dim == 3 and _collinear(dst):
+        thr = np.array([thr[0], thr[1], np.inf])
     while True:
         tr = _fit(src[use], dst[use], dim)
         disc = _back(tr, dst[use] - _apply(tr, src[use]))
@@ -199,6 +208,7 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
             place(comp, common, m, tr)
         comps.append(comp)
     main = comps.pop(0)
+    level_join = False
     while comps:  # join the sub-blocks through their common points
         ncommon = [int(np.sum((main.cnt > 0) & (c.cnt > 0))) for c in comps]
         k = int(np.argmax(ncommon))
@@ -216,6 +226,8 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
                                     [float(v) for v in -disc * 1e3], float(ratio)))
 
         tr, _, _ = _check_fit(other.est(j), main.est(j), need, dim, thr, on_flag_join)
+        if dim == 3 and _collinear(main.est(j)):
+            level_join = True
         main.absorb(other, tr)
     # points whose every row was set aside: estimate from all their rows
     lost = main.cnt == 0
@@ -225,6 +237,10 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
             np.add.at(main.acc, pnt[idx], _apply(tr, x[idx]))
             np.add.at(main.cnt, pnt[idx], 1.0)
     local = main.est(np.arange(npnt))
+    if level_join:
+        notes.append("sub-blocks joined by points on a line (strips): their relative tilt is "
+                     "not known before the adjustment, so the control heights are not checked")
+        thr = np.array([thr[0], thr[1], np.inf])
     tc, cflag = _control_fit(problem, local, thr, findings, counter, notes)
     params = np.zeros((nm, problem.b))
     for m, tr in main.trans.items():
@@ -262,11 +278,16 @@ def _control_fit(problem: ModelProblem, local, thr_mm, findings, counter, notes)
             groups = [(0, 1)]
         size = np.column_stack([np.sqrt(np.nansum(res[:, list(g)] ** 2, axis=1))
                                 / (thr_m[g[0]]) for g in groups])
-        robust = 3 * 1.4826 * np.nanmedian(np.where(np.isfinite(res), np.abs(res), np.nan))
-        robust = robust / np.min(thr_m) if np.isfinite(robust) else 0.0
-        scale = max(1.0, robust)
-        ratio = np.where(np.isnan(size), 0.0, size) / scale
+        size = np.where(np.isnan(size), 0.0, size)
+        # where the free block has drifted more than the threshold: 3 x robust RMS
+        scale = np.ones(len(groups))
+        for gi, g in enumerate(groups):
+            a = np.abs(res[:, list(g)])
+            if np.isfinite(a).any() and np.isfinite(thr_m[g[0]]):
+                scale[gi] = max(1.0, 3 * 1.4826 * np.nanmedian(a) / thr_m[g[0]])
+        ratio = size / scale
         worst = np.unravel_index(int(np.argmax(ratio)), ratio.shape)
+        scale = scale[worst[1]]
         if ratio[worst] <= 1:
             break
         comps = list(groups[worst[1]])
