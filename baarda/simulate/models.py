@@ -44,8 +44,87 @@ class ModelPlan:
     blunders: int = 0
     blunder_sigma: tuple[float, float] = (10.0, 30.0)
     deformations: dict = field(default_factory=dict)  # name -> size in µm (block-invariant)
+    layout: str = "grid"  # grid (6 points per model) | fotef (8: two per corner)
+    single_end_points: bool = False  # fotef: one point at the block corners
     seed: int = 0
     name: str = "simulated models"
+
+
+def _grid_layout(plan: ModelPlan):
+    """Points of baarda.simulate.aerial (3 x 3 per photo): 6 per model (von Gruber)."""
+    fp = FlightPlan(strips=plan.strips, photos_per_strip=plan.models_per_strip + 1,
+                    forward_overlap=plan.forward_overlap, side_overlap=plan.side_overlap,
+                    image_scale=plan.image_scale, focal_mm=plan.focal_mm,
+                    format_mm=plan.format_mm, pattern=3, control="none", height_chains=0,
+                    relief_m=plan.relief_m, noise=False, seed=plan.seed)
+    blk, truth = simulate_block(fp)
+    pts = np.array([truth["points"][p] for p in blk.points.ids])
+    pcs = np.array([[truth["photos"][p][k] for k in ("X0", "Y0", "Z0")]
+                    for p in blk.photos.ids])
+    seen = np.zeros((len(blk.photos), len(blk.points)), bool)
+    seen[blk.image.photo, blk.image.point] = True
+    members = []
+    for s in range(plan.strips):
+        for j in range(plan.models_per_strip):
+            a = s * (plan.models_per_strip + 1) + j
+            members.append(np.flatnonzero(seen[a] & seen[a + 1]))
+    return list(blk.points.ids), pts, list(blk.photos.ids), pcs, members, None
+
+
+def _fotef_layout(plan: ModelPlan):
+    """FOTEF's test blocks (Appendix I): two points at each model corner, 8 per model.
+
+    On the block borders both points of a corner lie in the same models; on a boundary
+    between strips one point is common to both strips (4 models) and each strip has its own
+    second point (2 models).  Planimetric control on the borders (every `control_spacing`
+    bases on the long sides, every corner on the short sides), height strings every
+    `height_chains` bases and at the ends; only the first point of a corner is control.
+    """
+    side = plan.format_mm * 1e-3 * plan.image_scale
+    base, dist = (1 - plan.forward_overlap) * side, (1 - plan.side_overlap) * side
+    h = plan.focal_mm * 1e-3 * plan.image_scale
+    ns, nm = plan.strips, plan.models_per_strip
+    dx, dy = 0.1 * base, 0.1 * dist
+    ids, xyz, models_of, sig = [], [], [], []
+    sc = plan.sigma_control_m
+
+    def add(name, x, y, strips, c, control):
+        ids.append(name)
+        xyz.append([x, y, 0.0])
+        models_of.append([(s, j) for s in strips for j in (c - 1, c) if 0 <= j < nm])
+        sg = [np.nan] * 3
+        if control[0]:
+            sg[0], sg[1] = sc[0], sc[1]
+        if control[1]:
+            sg[2] = sc[2]
+        sig.append(sg if not plan.full_control or not control[0] else [sc[0], sc[1], sc[2]])
+
+    for i in range(ns + 1):
+        y = (i - 0.5) * dist
+        strips = [s for s in (i - 1, i) if 0 <= s < ns]
+        for c in range(nm + 1):
+            x = c * base
+            border = i in (0, ns)
+            ends = c in (0, nm)
+            plan_ctrl = (border and (c % max(plan.control_spacing, 1) == 0 or ends)) or ends
+            h_ctrl = plan.height_chains > 0 and (ends or c % plan.height_chains == 0)
+            add(f"{i + 1}{c + 1:02d}1", x, y, strips, c, (plan_ctrl, h_ctrl))
+            if border and ends and plan.single_end_points:
+                continue
+            if border:
+                add(f"{i + 1}{c + 1:02d}2", x + (dx if c < nm else -dx), y, strips, c,
+                    (False, False))
+            else:
+                add(f"{i + 1}{c + 1:02d}2", x, y + dy, [i], c, (False, False))
+                add(f"{i + 1}{c + 1:02d}3", x, y - dy, [i - 1], c, (False, False))
+    members = [[] for _ in range(ns * nm)]
+    for p, mods in enumerate(models_of):
+        for s, j in mods:
+            members[s * nm + j].append(p)
+    photo_ids = [f"{s + 1:02d}{c + 1:03d}" for s in range(ns) for c in range(nm + 1)]
+    pcs = np.array([[c * base, s * dist, h] for s in range(ns) for c in range(nm + 1)])
+    return (ids, np.array(xyz), photo_ids, pcs, [np.array(m) for m in members],
+            np.array(sig, float))
 
 
 def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
@@ -53,28 +132,23 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
     from baarda.models.independent.deformations import deformation_rows
 
     rng = np.random.default_rng(plan.seed)
-    fp = FlightPlan(strips=plan.strips, photos_per_strip=plan.models_per_strip + 1,
-                    forward_overlap=plan.forward_overlap, side_overlap=plan.side_overlap,
-                    image_scale=plan.image_scale, focal_mm=plan.focal_mm,
-                    format_mm=plan.format_mm, pattern=3, control="none", height_chains=0,
-                    relief_m=plan.relief_m, noise=False, seed=plan.seed)
-    blk, truth = simulate_block(fp)
-    pts_true = np.array([truth["points"][p] for p in blk.points.ids])
-    eo = np.array([[truth["photos"][p][k] for k in ("X0", "Y0", "Z0", "omega", "phi", "kappa")]
-                   for p in blk.photos.ids])
-    seen = np.zeros((len(blk.photos), len(blk.points)), bool)
-    seen[blk.image.photo, blk.image.point] = True
+    if plan.layout == "grid":
+        names, pts_true, photo_ids, pcs, members, sig_pts = _grid_layout(plan)
+    elif plan.layout == "fotef":
+        names, pts_true, photo_ids, pcs, members, sig_pts = _fotef_layout(plan)
+    else:
+        raise ValueError(f"unknown layout '{plan.layout}' (grid or fotef)")
     k = 1000.0 / plan.image_scale  # mm per m
-    n_pts = len(blk.points)
-    pc_ids = [f"PC{p}" for p in blk.photos.ids]
+    n_pts = len(names)
+    pc_ids = [f"PC{p}" for p in photo_ids]
     models, strips, om, op, ox, params = [], [], [], [], [], []
     for s in range(plan.strips):
         for j in range(plan.models_per_strip):
             a = s * (plan.models_per_strip + 1) + j
-            both = np.flatnonzero(seen[a] & seen[a + 1])
+            both = members[s * plan.models_per_strip + j]
             r = rotation_matrix(rng.normal(0, plan.tilt_rad), rng.normal(0, plan.tilt_rad),
                                 rng.normal(0, plan.kappa_rad))
-            x0 = eo[a, :3]
+            x0 = pcs[a]
             mi = len(models)
             models.append(f"{s + 1}.{j + 1:02d}")
             strips.append(str(s + 1))
@@ -82,21 +156,24 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
             xyz = pts_true[both]
             if plan.projection_centres:
                 ids += [n_pts + a, n_pts + a + 1]
-                xyz = np.vstack([xyz, eo[[a, a + 1], :3]])
+                xyz = np.vstack([xyz, pcs[[a, a + 1]]])
             x = k * (xyz - x0) @ r  # R^T (X - X0) row-wise
             om += [mi] * len(ids)
             op += ids
             ox.append(x)
             params.append((x0, r))
     om, op, ox = np.asarray(om), np.asarray(op), np.vstack(ox)
-    ids = list(blk.points.ids) + pc_ids
+    ids = names + pc_ids
     pc = np.concatenate([np.zeros(n_pts, bool), np.ones(len(pc_ids), bool)])
-    xyz_all = np.vstack([pts_true, eo[:, :3]])
+    xyz_all = np.vstack([pts_true, pcs])
     used = np.bincount(op, minlength=len(ids)) > 0
     remap = np.cumsum(used) - 1
     ids = [p for p, u in zip(ids, used, strict=True) if u]
     pc, xyz_all, op = pc[used], xyz_all[used], remap[op]
-    sig_c = _control_layout(xyz_all, pc, plan)
+    if sig_pts is None:
+        sig_c = _control_layout(xyz_all, pc, plan)
+    else:
+        sig_c = np.vstack([sig_pts, np.full((len(pc_ids), 3), np.nan)])[used]
     role = np.where(np.isfinite(sig_c).any(axis=1), "control", "tie").astype(object)
     sig_mm = np.array([plan.sigma_model_um[0]] * 2 + [plan.sigma_model_um[1]]) * 1e-3
     obs_sigma = np.tile(sig_mm, (len(om), 1))
@@ -149,8 +226,8 @@ def _control_layout(xyz: np.ndarray, pc: np.ndarray, plan: ModelPlan) -> np.ndar
     last_c, last_r = len(cols) - 1, len(rows) - 1
     ends = (ci == 0) | (ci == last_c)
     long_side = (ri == 0) | (ri == last_r)
-    plan_pts = g & ((long_side & ((ci % max(plan.control_spacing, 1) == 0)
-                                                   | (ci == last_c))))
+    every = (ci % max(plan.control_spacing, 1) == 0) | (ci == last_c)
+    plan_pts = g & (ends | (long_side & every))
     height = g & (plan.height_chains > 0) & (ends | (ci % max(plan.height_chains, 1) == 0))
     sxy, sz = plan.sigma_control_m[:2], plan.sigma_control_m[2]
     sig[plan_pts, 0], sig[plan_pts, 1] = sxy

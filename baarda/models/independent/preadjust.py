@@ -115,18 +115,61 @@ class _Component:
         self.cnt += other.cnt
 
 
-def _check_fit(src, dst, need, dim, thr, on_flag):
-    """Fit dst ~ tr(src), setting aside the worst point while it exceeds the threshold.
+def _ratios(tr, src, dst, thr):
+    disc = _back(tr, dst - _apply(tr, src))
+    return disc, np.max(np.abs(disc) / thr, axis=1)
 
-    A level fit (3D, points on a line) cannot check heights: z is not tested then.
+
+def _robust_start(src, dst, need, dim, thr, max_sets: int = 200):
+    """Inliers of the minimal-subset fit that agrees with the most points (several large
+    errors in one connection cannot mask each other then)."""
+    from itertools import combinations
+
+    n = len(src)
+    if n <= need + 1:
+        return np.ones(n, bool)
+    sets = list(combinations(range(n), need))
+    if len(sets) > max_sets:
+        pick = np.random.default_rng(0).choice(len(sets), max_sets, replace=False)
+        sets = [sets[i] for i in pick]
+    best, best_key = np.ones(n, bool), (-1, np.inf)
+    for c in sets:
+        c = list(c)
+        if dim == 3 and _collinear(dst[c]) and not _collinear(dst):
+            continue  # a level fit of three points on a line says little
+        try:
+            tr = _fit(src[c], dst[c], dim)
+        except (np.linalg.LinAlgError, ZeroDivisionError, FloatingPointError):
+            continue
+        if not np.isfinite(tr[0]) or tr[0] <= 0:
+            continue
+        _, ratio = _ratios(tr, src, dst, thr)
+        key = (int(np.sum(ratio <= 1)), float(np.median(ratio)))
+        if key[0] > best_key[0] or (key[0] == best_key[0] and key[1] < best_key[1]):
+            best, best_key = ratio <= 1, key
+    if best.sum() < need:
+        return np.ones(n, bool)
+    return best
+
+
+def _check_fit(src, dst, need, dim, thr, on_flag):
+    """Fit dst ~ tr(src); points that disagree are set aside, the largest first.
+
+    A robust start (minimal subsets) finds the consistent points; the fit to them is then
+    checked step by step.  A level fit (3D, points on a line) cannot check heights.
     """
-    use = np.ones(len(src), bool)
     if dim == 3 and _collinear(dst):
         thr = np.array([thr[0], thr[1], np.inf])
+    use = _robust_start(src, dst, need, dim, thr)
+    if not use.all():
+        tr = _fit(src[use], dst[use], dim)
+        disc, ratio = _ratios(tr, src, dst, thr)
+        out = np.flatnonzero(~use)
+        for k in out[np.argsort(-ratio[out])]:
+            on_flag(k, disc[k], ratio[k])
     while True:
         tr = _fit(src[use], dst[use], dim)
-        disc = _back(tr, dst[use] - _apply(tr, src[use]))
-        ratio = np.max(np.abs(disc) / thr, axis=1)
+        disc, ratio = _ratios(tr, src[use], dst[use], thr)
         worst = int(np.argmax(ratio))
         if ratio[worst] <= 1 or use.sum() <= need:
             return tr, use, bool(ratio[worst] > 1)
@@ -229,6 +272,9 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
         if dim == 3 and _collinear(main.est(j)):
             level_join = True
         main.absorb(other, tr)
+    thr_final = np.array([thr[0], thr[1], np.inf]) if level_join else thr
+    flag, findings = _final_check(problem, main, by_model, pnt, frame, x, flag, findings,
+                                  thr_final)
     # points whose every row was set aside: estimate from all their rows
     lost = main.cnt == 0
     if lost.any():
@@ -242,6 +288,8 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
                      "not known before the adjustment, so the control heights are not checked")
         thr = np.array([thr[0], thr[1], np.inf])
     tc, cflag = _control_fit(problem, local, thr, findings, counter, notes)
+    for k, f in enumerate(findings, 1):
+        f.step = k
     params = np.zeros((nm, problem.b))
     for m, tr in main.trans.items():
         s, r, t = tr
@@ -255,6 +303,51 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
     obs_flag = np.zeros((len(bl.obs_model), 3), bool)
     obs_flag[rows[flag][:, None], problem.comps[None, :]] = True
     return PreAdjustment(params, pts, obs_flag, cflag, findings, order, notes)
+
+
+def _final_check(problem, main, by_model, pnt, frame, x, flag, findings, thr):
+    """Points in three or more models: the row that disagrees with the others is the one in
+    error (leave-one-out, largest first).  Connection findings of such points are replaced
+    by this verdict; a point in two models cannot tell which model is wrong (reported)."""
+    bl = problem.block
+    dim = x.shape[1]
+    pos = np.empty((len(x), dim))
+    for m, tr in main.trans.items():
+        pos[by_model[m]] = _apply(tr, x[by_model[m]])
+    order = np.argsort(pnt, kind="stable")
+    starts = np.searchsorted(pnt[order], np.arange(len(main.cnt) + 1))
+    new_flag = flag.copy()
+    verdicts = []
+    for j in range(len(main.cnt)):
+        r = order[starts[j]:starts[j + 1]]
+        if len(r) < 3:
+            continue
+        use = np.ones(len(r), bool)
+        while use.sum() >= 3:
+            ru = r[use]
+            d = pos[ru] - (pos[ru].sum(axis=0) - pos[ru]) / (len(ru) - 1)
+            disc = np.array([_back(main.trans[frame[i]], d[k:k + 1])[0]
+                             for k, i in enumerate(ru)])
+            ratio = np.max(np.abs(disc) / thr, axis=1)
+            w = int(np.argmax(ratio))
+            if ratio[w] <= 1:
+                break
+            verdicts.append((ratio[w], ru[w], disc[w]))
+            use[np.flatnonzero(use)[w]] = False
+        new_flag[r] = ~use
+    pid = problem.point_ids
+    multi = {bl.points[pid[j]] for j in range(len(main.cnt))
+             if starts[j + 1] - starts[j] >= 3}
+    kept = [f for f in findings if f.kind != "connection" or f.point not in multi]
+    for f in kept:
+        if f.kind == "connection" and f.model != "(sub-blocks)":
+            f.model += " (or the other model of this point)"
+    kept += [Finding(0, "connection", bl.models[frame[i]], bl.points[pid[pnt[i]]],
+                     [float(v) for v in -dd * 1e3], float(ratio)) for ratio, i, dd in verdicts]
+    kept.sort(key=lambda f: -f.ratio)  # the large errors first
+    for k, f in enumerate(kept, 1):
+        f.step = k
+    return new_flag, kept
 
 
 def _control_fit(problem: ModelProblem, local, thr_mm, findings, counter, notes):

@@ -1,0 +1,96 @@
+"""Non-conventional alternative hypotheses: deformations, control clusters, user H."""
+
+import numpy as np
+import pytest
+
+from baarda.io.errors import ProjectError
+from baarda.models.independent.adjust import adjust_models
+from baarda.models.independent.deformations import deformation_rows, model_radius
+from baarda.models.independent.hypotheses import (
+    UserHypotheses,
+    cluster_tests,
+    decision,
+    deformation_h,
+    deformation_tests,
+)
+from baarda.models.independent.quality import assess, snoop
+from baarda.quality import hypotheses as hyp
+from baarda.quality.model import DenseModel
+from baarda.simulate.models import ModelPlan, simulate_models
+
+
+@pytest.mark.parametrize("name,size,mode,seed", [("affinity", 12.0, "2d", 5),
+                                                 ("torsion", 25.0, "3d", 1)])
+def test_planted_block_invariant_deformation_found_by_its_test_not_by_snooping(
+        name, size, mode, seed):
+    plan = dict(strips=3, models_per_strip=5, layout="fotef", seed=seed, tilt_rad=0.01)
+    blk, _ = simulate_models(ModelPlan(deformations={name: size}, **plan))
+    qc = snoop(blk, mode)
+    assert len(qc.run.log) == 0  # single-observation snooping finds nothing
+    tests = {t.name: t for t in deformation_tests(qc.model)}
+    t = tests[f"block-invariant {name}"]
+    assert t.rejected and t.statistic > 2 * t.critical
+    assert t.nabla[0] == pytest.approx(size, rel=0.35)
+    assert "systematic-error model needed" in decision(list(tests.values()))
+    # the same block without the deformation: accepted
+    blk0, _ = simulate_models(ModelPlan(deformations={}, **plan))
+    q0 = assess(adjust_models(blk0, mode))
+    h, _ = deformation_h(q0.model, name)
+    assert not hyp.test_hypothesis(q0.model, h).rejected
+
+
+def test_deformation_h_is_the_planted_field(small3d):
+    """H of a block-invariant deformation reproduces what the simulator plants."""
+    blk, _, res = small3d
+    qc = assess(res)
+    h, labels = deformation_h(qc.model, "radial")
+    assert labels == ["radial"]
+    field = deformation_rows(blk, "radial")  # per µm, mm = 1e-3 * field
+    pb = qc.model.problem
+    np.testing.assert_allclose(h[: qc.model.m * 3, 0], 1e-3 * field[pb.rows].ravel())
+    hs, ls = deformation_h(qc.model, "radial", "strip")
+    assert hs.shape[1] == 2 and len(ls) == 2
+    np.testing.assert_allclose(hs.sum(axis=1), h[:, 0])
+    assert model_radius(blk) > 0
+    assert deformation_h(assess(adjust_models(blk, "height", mu=np.full(blk.n_models, 0.2)))
+                         .model, "affinity") is None
+
+
+def test_hypothesis_tests_agree_with_dense(small2d):
+    from conftest import dense_design
+
+    blk, _, res = small2d
+    qc = assess(res)
+    dm = DenseModel(dense_design(qc.model), qc.model.sigma, qc.model.residuals)
+    h, _ = deformation_h(qc.model, "affinity", "strip")
+    a, b = hyp.test_hypothesis(qc.model, h), hyp.test_hypothesis(dm, h)
+    assert a.statistic == pytest.approx(b.statistic, rel=1e-8)
+    np.testing.assert_allclose(a.nabla, b.nabla, rtol=1e-7)
+
+
+def test_control_cluster_shift_is_found(tmp_path):
+    blk, _ = simulate_models(ModelPlan(strips=2, models_per_strip=4, layout="fotef", seed=3))
+    idx = np.flatnonzero(blk.controlled[:, 0])
+    near = idx[np.argsort(np.linalg.norm(blk.xyz[idx, :2] - blk.xyz[idx[0], :2], axis=1))]
+    ctrl = [blk.points[j] for j in near]
+    cluster = ctrl[:3]  # three neighbouring control points shifted together
+    for p in cluster:
+        blk.xyz[blk.points.index(p), :2] += [0.3, -0.2]  # 6 and 4 sigma
+    qc = assess(adjust_models(blk, "2d"))
+    t = cluster_tests(qc.model, {"A": cluster, "B": ctrl[-3:]})
+    assert t[0].rejected and not t[1].rejected
+    np.testing.assert_allclose(t[0].nabla, [0.3, -0.2], atol=0.08)
+    # the same hypothesis from a user file
+    f = tmp_path / "hypotheses.csv"
+    rows = ["hypothesis,kind,model,point,component,value,column"]
+    rows += [f"shift,control,,{p},X,1,1" for p in cluster]
+    rows += [f"shift,control,,{p},Y,1,2" for p in cluster]
+    f.write_text("\n".join(rows) + "\n")
+    u = UserHypotheses(f).tests(qc.model)
+    assert u[0].statistic == pytest.approx(t[0].statistic)
+    f.write_text("hypothesis,kind,model,point,component,value\nx,model,,P1,x,1\n")
+    with pytest.raises(ProjectError, match="line 2"):
+        UserHypotheses(f)
+    f.write_text(f"hypothesis,kind,model,point,component,value\nx,model,9.99,{ctrl[0]},x,1\n")
+    with pytest.raises(ProjectError, match="not in model"):
+        UserHypotheses(f).tests(qc.model)
