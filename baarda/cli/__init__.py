@@ -18,6 +18,7 @@ COMMANDS = [
     "baarda.cli.report",
     "baarda.cli.residuals",
     "baarda.cli.convert",
+    "baarda.cli.models",
 ]
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.rotation import ANGLE_FACTORS
 from baarda.io.atomic import write_text
 from baarda.io.errors import ProjectError
 from baarda.io.table import Table
@@ -43,6 +44,10 @@ def read_settings(path: Path) -> ModelSettings:
     except tomllib.TOMLDecodeError as e:
         raise ProjectError(str(path), f"not valid TOML: {e}") from None
     s = ModelSettings(name=str(doc.get("name", path.parent.name)))
+    s.angle_unit = str(doc.get("angle_unit", s.angle_unit))
+    if s.angle_unit not in ANGLE_FACTORS:
+        raise ProjectError(str(path), f"angle_unit '{s.angle_unit}' is not one of gon, deg, rad",
+                           column="angle_unit")
     sig = doc.get("sigma", {})
     tests = doc.get("tests", {})
     pre = doc.get("models", {})
@@ -70,7 +75,7 @@ def read_settings(path: Path) -> ModelSettings:
 def read_ground_points(path: Path, settings: ModelSettings):
     """ids, xyz (k, 3), sigma (k, 3) [m] (NaN = not observed), role (k,)."""
     g = Table(path, ["point", "X", "Y", "Z", "role"])
-    ids = g.unique_ids("point")
+    ids = [str(p) for p in g.unique_ids("point")]
     role = g.text("role")
     for i, r in enumerate(role):
         if r not in ("control", "check"):
@@ -142,7 +147,7 @@ def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[
         j = mindex.get(m)
         if j is None:
             j = mindex[m] = len(models)
-            models.append(m)
+            models.append(str(m))
         obs_model[i] = j
     index = {p: i for i, p in enumerate(point_ids)}
     ids = list(point_ids)
@@ -151,7 +156,7 @@ def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[
         j = index.get(p)
         if j is None:
             j = index[p] = len(ids)
-            ids.append(p)
+            ids.append(str(p))
         obs_point[i] = j
     key = obs_model * len(ids) + obs_point
     order = np.argsort(key, kind="stable")
@@ -261,7 +266,7 @@ def write_model_project(block: ModelBlock, folder: str | Path) -> None:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     s = block.settings
-    toml = [f'name = "{s.name}"', "", "[sigma]",
+    toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', "", "[sigma]",
             f"model_xy_um = {float(s.sigma_model_um[0])!r}",
             f"model_z_um = {float(s.sigma_model_um[1])!r}",
             f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]", "",

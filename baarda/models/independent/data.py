@@ -22,6 +22,7 @@ class ModelSettings:
     alpha0: float = 0.001
     beta0: float = 0.80
     pre_um: tuple[float, float] = (250.0, 500.0)  # pre-adjustment thresholds xy, z (FOTEF)
+    angle_unit: str = "gon"  # of the rotations in the output
 
 
 @dataclass

@@ -1,0 +1,137 @@
+"""`baarda models PROJECT -o OUT`: independent-model block adjustment (FOTEF).
+
+PROJECT is a model project (project.toml, models.csv, ground_points.csv) or a bundle
+project, whose photos are then formed into models by relative orientation.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from baarda.cli.common import check_output, progress
+from baarda.io.errors import ProjectError
+from baarda.io.model_coordinates import read_model_project
+from baarda.models.independent.deformations import ALL
+
+
+def register(sub) -> None:
+    p = sub.add_parser("models", help="independent-model block adjustment with data snooping "
+                       "and tests of model deformations (FOTEF)")
+    p.add_argument("project", type=Path, help="model project (models.csv) or bundle project")
+    p.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    p.add_argument("--2d", dest="planimetric", action="store_true",
+                   help="planimetric adjustment (4 parameters) with a separate height "
+                   "adjustment instead of the spatial one (7 parameters)")
+    p.add_argument("--level", action="store_true", help="2d: level the models by the tilts "
+                   "of a spatial adjustment first")
+    p.add_argument("--no-snoop", action="store_true", help="statistics only, no rejections")
+    p.add_argument("--tau", action="store_true", help="snoop with Pope's tau")
+    p.add_argument("--by-point", action="store_true",
+                   help="reject the coordinates of a model point together")
+    p.add_argument("--alpha0", type=float, help="significance level of the w-test")
+    p.add_argument("--beta0", type=float, help="power of the tests")
+    ext = p.add_mutually_exclusive_group()
+    ext.add_argument("--external", dest="external", action="store_true", default=None,
+                     help="external reliability on detail points and distances (default "
+                     "up to 400 models)")
+    ext.add_argument("--no-external", dest="external", action="store_false")
+    p.add_argument("--deformations", default="all", help="comma list of model deformations "
+                   f"to test ({', '.join(ALL)}), 'all' or 'none'")
+    p.add_argument("--clusters", type=Path, help="clusters.csv (cluster, point): control "
+                   "clusters to test")
+    p.add_argument("--hypotheses", type=Path, help="hypotheses.csv: user-defined H")
+    p.add_argument("--covariance", action="store_true", help="bundle project: use the full "
+                   "covariance of each model point from the relative orientation")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=run)
+    q = sub.add_parser("simulate-models", help="simulate an independent-model block with "
+                       "known truth (truth.json)")
+    q.add_argument("-o", "--out", type=Path, required=True, help="model project to write")
+    q.add_argument("--strips", type=int, default=2)
+    q.add_argument("--models", type=int, default=4, help="models per strip")
+    q.add_argument("--layout", default="fotef", choices=["fotef", "grid"])
+    q.add_argument("--scale", type=float, default=5000.0, help="image scale 1:SCALE")
+    q.add_argument("--sigma-model", type=float, nargs=2, default=[10.0, 15.0],
+                   metavar=("XY", "Z"), help="µm")
+    q.add_argument("--sigma-control", type=float, default=0.05, help="m")
+    q.add_argument("--control-spacing", type=int, default=2)
+    q.add_argument("--height-chains", type=int, default=1)
+    q.add_argument("--tilt", type=float, default=0.01, help="model tilts, rad (std)")
+    q.add_argument("--blunders", type=int, default=0)
+    q.add_argument("--deformation", action="append", default=[], metavar="NAME=UM",
+                   help=f"plant a block-invariant deformation ({', '.join(ALL)})")
+    q.add_argument("--seed", type=int, default=0)
+    q.set_defaults(func=run_simulate)
+
+
+def load(project: Path, covariance: bool = False):
+    """A model project, or a bundle project formed into models."""
+    if (project / "models.csv").is_file():
+        return read_model_project(project)
+    if (project / "image_points.csv").is_file():
+        from baarda.io.project import read_project
+        from baarda.models.independent.forming import form_models
+
+        return form_models(read_project(project), covariance=covariance)
+    raise ProjectError(str(project), "neither models.csv nor image_points.csv found")
+
+
+def run(args) -> int:
+    from baarda.models.independent.hypotheses import UserHypotheses, read_clusters
+    from baarda.models.independent.output import write_results
+    from baarda.models.independent.workflow import process
+
+    check_output(args.out, [args.project])
+    say = progress(args.quiet)
+    block = load(args.project, args.covariance)
+    if say:
+        say(f"read {block.summary()}")
+    if args.deformations == "all":
+        defs = ALL
+    elif args.deformations == "none":
+        defs = None
+    else:
+        defs = tuple(d.strip() for d in args.deformations.split(",") if d.strip())
+        bad = [d for d in defs if d not in ALL]
+        if bad:
+            raise ProjectError("--deformations", f"unknown deformation(s) {', '.join(bad)} "
+                               f"(known: {', '.join(ALL)})")
+    bq = process(block, "2d" if args.planimetric else "3d", do_snoop=not args.no_snoop,
+                 statistic="tau" if args.tau else "w", by_point=args.by_point,
+                 alpha0=args.alpha0, beta0=args.beta0, external=args.external,
+                 deformations=defs,
+                 clusters=read_clusters(args.clusters) if args.clusters else None,
+                 user=UserHypotheses(args.hypotheses) if args.hypotheses else None,
+                 level_models=args.level, progress=say)
+    write_results(args.out, bq)
+    if not args.quiet:
+        print(bq.summary())
+        print(f"results written to {args.out}")
+    return 0
+
+
+def run_simulate(args) -> int:
+    import json
+
+    from baarda.io.atomic import write_text
+    from baarda.io.model_coordinates import write_model_project
+    from baarda.simulate.models import ModelPlan, simulate_models
+
+    defs = {}
+    for d in args.deformation:
+        name, _, size = d.partition("=")
+        if name not in ALL or not size:
+            raise ProjectError("--deformation", f"'{d}': give NAME=SIZE_UM with NAME one of "
+                               f"{', '.join(ALL)}")
+        defs[name] = float(size)
+    plan = ModelPlan(strips=args.strips, models_per_strip=args.models, layout=args.layout,
+                     image_scale=args.scale, sigma_model_um=tuple(args.sigma_model),
+                     sigma_control_m=(args.sigma_control,) * 3,
+                     control_spacing=args.control_spacing, height_chains=args.height_chains,
+                     tilt_rad=args.tilt, blunders=args.blunders, deformations=defs,
+                     seed=args.seed)
+    block, truth = simulate_models(plan)
+    write_model_project(block, args.out)
+    write_text(Path(args.out) / "truth.json", json.dumps(truth, indent=1, default=float) + "\n")
+    print(f"{block.summary()} -> {args.out}")
+    return 0

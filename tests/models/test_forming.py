@@ -1,0 +1,44 @@
+"""Models formed from image coordinates by relative orientation."""
+
+import numpy as np
+import pytest
+
+from baarda.models.independent import similarity
+from baarda.models.independent.adjust import adjust_models
+from baarda.models.independent.forming import form_models, model_pairs
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+
+def test_noise_free_models_are_similar_to_the_terrain():
+    blk, truth = simulate_block(FlightPlan(strips=2, photos_per_strip=4, noise=False,
+                                           image_scale=5000))
+    mb = form_models(blk)
+    assert mb.n_models == 6 and len(model_pairs(blk)) == 6
+    for m in range(mb.n_models):
+        r = mb.obs_model == m
+        x = mb.obs_xyz[r]
+        xt = np.array([truth["points"].get(mb.points[j]) or
+                       [truth["photos"][mb.points[j][2:]][k] for k in ("X0", "Y0", "Z0")]
+                       for j in mb.obs_point[r]])
+        s, rot, t = similarity.fit3d(x, xt)
+        assert np.abs(xt - (t + s * x @ rot.T)).max() < 1e-8
+        assert s == pytest.approx(5.0, rel=0.02)  # model at image scale: 5 m per mm
+        pcs = mb.pc[mb.obs_point[r]]
+        assert pcs.sum() == 2 and np.allclose(x[pcs][0], 0)
+
+
+def test_formed_block_adjusts_to_the_truth():
+    blk, truth = simulate_block(FlightPlan(strips=2, photos_per_strip=5, image_scale=5000,
+                                           control_spacing=1, height_chains=1, seed=3))
+    for cov in (False, True):
+        mb = form_models(blk, covariance=cov)
+        assert (mb.obs_cov is not None) == cov
+        if cov:
+            assert np.all(np.linalg.eigvalsh(mb.obs_cov)[:, 0] > 0)
+        res = adjust_models(mb, "3d")
+        assert 0.5 < res.sigma0 < 1.5
+        pb = res.problem
+        ok = ~mb.pc[pb.point_ids]
+        tr = np.array([truth["points"][mb.points[j]] for j in pb.point_ids[ok]])
+        err = (res.xyz[ok] - tr) / res.xyz_std[ok]
+        assert np.sqrt(np.mean(err**2)) < 2.0
