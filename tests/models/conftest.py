@@ -1,28 +1,14 @@
 """Small simulated model blocks shared by the tests (module-scoped, deterministic)."""
 
-import numpy as np
+import sys
+from pathlib import Path
+
 import pytest
 
-from baarda.models.independent.adjust import adjust_models
-from baarda.simulate.models import ModelPlan, simulate_models
+sys.path.insert(0, str(Path(__file__).parent))  # model_dense.py
 
-
-def dense_design(qm):
-    """Dense A (n, u) of an IndependentModel from its linearization (frames, then points)."""
-    pb, lin = qm.problem, qm.lin
-    nf, b, npnt, d = pb.system.nf, pb.b, pb.system.np, pb.d
-    m, k = qm.m, qm.k
-    a_rows = np.zeros((m, k, nf * b + npnt * d))
-    pt = pb.remap[pb.block.obs_point[pb.rows]]
-    for i in range(m):
-        a_rows[i, :, pb.frame[i] * b:(pb.frame[i] + 1) * b] = lin.jf[i]
-        a_rows[i, :, nf * b + pt[i] * d: nf * b + (pt[i] + 1) * d] = lin.jp[i]
-    c_rows = np.zeros((len(pb.control), k, nf * b + npnt * d))
-    for i, j in enumerate(pb.remap[pb.control]):
-        c_rows[i, :, nf * b + j * d: nf * b + (j + 1) * d] = lin.jc[i]
-    a = np.concatenate([a_rows.reshape(m * k, -1),
-                        c_rows.reshape(-1, a_rows.shape[-1])[qm.ctrl_sel]])
-    return a
+from baarda.models.independent.adjust import adjust_models  # noqa: E402
+from baarda.simulate.models import ModelPlan, simulate_models  # noqa: E402
 
 
 @pytest.fixture(scope="session")

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from conftest import dense_design
+from model_dense import dense_design
 
 from baarda.models.independent import similarity
 from baarda.models.independent.adjust import adjust_models

@@ -36,7 +36,7 @@ def test_planted_block_invariant_deformation_found_by_its_test_not_by_snooping(
     blk0, _ = simulate_models(ModelPlan(deformations={}, **plan))
     q0 = assess(adjust_models(blk0, mode))
     h, _ = deformation_h(q0.model, name)
-    assert not hyp.test_hypothesis(q0.model, h).rejected
+    assert not hyp.hypothesis_test(q0.model, h).rejected
 
 
 def test_deformation_h_is_the_planted_field(small3d):
@@ -56,14 +56,14 @@ def test_deformation_h_is_the_planted_field(small3d):
                          .model, "affinity") is None
 
 
-def test_hypothesis_tests_agree_with_dense(small2d):
-    from conftest import dense_design
+def hypothesis_test_tests_agree_with_dense(small2d):
+    from model_dense import dense_design
 
     blk, _, res = small2d
     qc = assess(res)
     dm = DenseModel(dense_design(qc.model), qc.model.sigma, qc.model.residuals)
     h, _ = deformation_h(qc.model, "affinity", "strip")
-    a, b = hyp.test_hypothesis(qc.model, h), hyp.test_hypothesis(dm, h)
+    a, b = hyp.hypothesis_test(qc.model, h), hyp.hypothesis_test(dm, h)
     assert a.statistic == pytest.approx(b.statistic, rel=1e-8)
     np.testing.assert_allclose(a.nabla, b.nabla, rtol=1e-7)
 

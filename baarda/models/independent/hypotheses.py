@@ -26,7 +26,7 @@ from baarda.io.errors import ProjectError
 from baarda.io.table import Table
 from baarda.models.independent.deformations import ALL, deformation_rows
 from baarda.models.independent.quality_model import IndependentModel
-from baarda.quality.hypotheses import HypothesisTest, test_hypothesis
+from baarda.quality.hypotheses import HypothesisTest, hypothesis_test
 
 
 def _model_part(qm: IndependentModel, rows_field: np.ndarray) -> np.ndarray:
@@ -69,13 +69,13 @@ def deformation_tests(qm: IndependentModel, names: tuple[str, ...] = ALL,
             continue
         joint.append(hb[0])
         joint_names.append(name)
-        out.append(test_hypothesis(qm, hb[0], f"block-invariant {name}", alpha0, beta0))
+        out.append(hypothesis_test(qm, hb[0], f"block-invariant {name}", alpha0, beta0))
         if n_strips > 1:
             hs, _ = deformation_h(qm, name, "strip")
-            out.append(test_hypothesis(qm, hs, f"strip-invariant {name} ({n_strips} strips)",
+            out.append(hypothesis_test(qm, hs, f"strip-invariant {name} ({n_strips} strips)",
                                        alpha0, beta0))
     if len(joint) > 1:
-        out.append(test_hypothesis(qm, np.hstack(joint), "all block-invariant deformations "
+        out.append(hypothesis_test(qm, np.hstack(joint), "all block-invariant deformations "
                                    f"({', '.join(joint_names)})", alpha0, beta0))
     return out
 
@@ -98,7 +98,7 @@ def cluster_tests(qm: IndependentModel, clusters: dict[str, list[str]], alpha0: 
     for name, pts in clusters.items():
         h = control_cluster_h(qm, pts)
         if h.shape[1]:
-            out.append(test_hypothesis(qm, h, f"control cluster {name} ({len(pts)} points)",
+            out.append(hypothesis_test(qm, h, f"control cluster {name} ({len(pts)} points)",
                                        alpha0, beta0))
     return out
 
@@ -178,7 +178,7 @@ class UserHypotheses:
             h = self.h(qm, name)
             keep = np.any(h != 0, axis=0)
             if keep.any():
-                out.append(test_hypothesis(qm, h[:, keep], f"user: {name}", alpha0, beta0))
+                out.append(hypothesis_test(qm, h[:, keep], f"user: {name}", alpha0, beta0))
         return out
 
 

@@ -19,7 +19,7 @@ from baarda.models.independent.hypotheses import decision
 from baarda.models.independent.problem import ModelProblem
 from baarda.models.independent.quality_model import IndependentModel
 from baarda.models.independent.result import ModelResult
-from baarda.quality.hypotheses import HypothesisTest, test_groups
+from baarda.quality.hypotheses import HypothesisTest, image_point_tests
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import QualityResult, analyse
 
@@ -44,7 +44,7 @@ class ModelQuality:
         m, q = self.model, self.quality
         model_rows = m.kind == "model"
         scale = np.where(model_rows, 1e3, 1.0)
-        _, tg, _, _ = test_groups(m, q.alpha0, q.beta0)
+        _, tg, _, _, _ = image_point_tests(m, q.alpha0, q.beta0)
         group_t = np.full(m.n, np.nan)
         group_t[: m.m * m.k] = np.repeat(tg, m.k) if len(tg) else np.nan
         df = pd.DataFrame({
