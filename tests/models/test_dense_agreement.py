@@ -74,6 +74,10 @@ def check_against_dense(res, rtol=1e-6):
     xf, xp = qm.parameter_effect(h)
     np.testing.assert_allclose(np.concatenate([xf.reshape(nf_b, 3), xp.reshape(-1, 3)]),
                                full @ h, rtol=1e-6, atol=1e-9 * np.abs(full @ h).max())
+    idx = np.flatnonzero(qm.active)[::7]
+    uf, up = qm.unit_effect(idx)
+    np.testing.assert_allclose(np.concatenate([uf.reshape(nf_b, -1), up.reshape(-1, len(idx))]),
+                               full[:, idx], rtol=1e-6, atol=1e-9 * np.abs(full).max())
     ts, td = hyp.hypothesis_test(qm, h), hyp.hypothesis_test(dm, h)
     assert ts.statistic == pytest.approx(td.statistic, rel=1e-7)
     np.testing.assert_allclose(ts.nabla, td.nabla, rtol=1e-6)

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 
 from baarda.models.independent import similarity
 from baarda.models.independent.quality_model import IndependentModel
@@ -69,17 +70,68 @@ class DetailGeometry:
                                zip(self.frame, bl.obs_point[pb.rows[self.rows]], strict=True)],
                               dtype=object)
         pid = bl.obs_point[pb.rows[self.rows]]
-        i1, i2 = np.triu_indices(len(self.rows), 1)
-        same = self.frame[i1] == self.frame[i2]
-        share = np.zeros((bl.n_models, bl.n_models), bool)  # small: models x models
-        inc = np.zeros((bl.n_models, bl.n_points), bool)
-        inc[pb.frame, bl.obs_point[pb.rows]] = True
-        share = (inc.astype(np.int32) @ inc.T.astype(np.int32)) > 0
-        adjacent = ~same & share[self.frame[i1], self.frame[i2]] & (pid[i1] != pid[i2])
-        self.same = (i1[same], i2[same])
-        self.diff = (i1[adjacent], i2[adjacent])
+        self.same, self.diff = self._pairs(pb, pid)
         self.dir_same = self._directions(*self.same)
         self.dir_diff = self._directions(*self.diff)
+        nb = pb.system.nf * pb.b
+        self.b = pb.b
+        self.disp_op = self._operator(np.arange(len(self.rows)), None, nb)
+        self.same_op = self._operator(self.same[1], self.dir_same, nb, self.same[0])
+        self.diff_op = self._operator(self.diff[1], self.dir_diff, nb, self.diff[0])
+
+    def _operator(self, b, u, nb, a=None):
+        """Sparse map of the frame changes (nf * b) to displacements of rows `b`
+        (u None: (rows * d) outputs) or to changes of the distances a-b along u."""
+        jb = self.jac[b]  # (p, d, b)
+        cols = self.frame[b][:, None] * self.b + np.arange(self.b)[None, :]
+        if u is None:
+            p, d = len(b), jb.shape[1]
+            rows = np.repeat(np.arange(p * d), self.b)
+            vals = jb.reshape(p * d, self.b).ravel()
+            cc = np.repeat(cols, d, axis=0).ravel()
+            return sparse.csr_matrix((vals, (rows, cc)), shape=(p * d, nb))
+        ga = np.einsum("pd,pdb->pb", u, self.jac[a])
+        gb = np.einsum("pd,pdb->pb", u, jb)
+        ca = self.frame[a][:, None] * self.b + np.arange(self.b)[None, :]
+        p = len(b)
+        rows = np.repeat(np.arange(p), 2 * self.b)
+        vals = np.concatenate([gb, -ga], axis=1).ravel()
+        cc = np.concatenate([cols, ca], axis=1).ravel()
+        return sparse.csr_matrix((vals, (rows, cc)), shape=(p, nb))
+
+    def _pairs(self, pb, pid):
+        """Row pairs within a model and between adjacent models (sharing a point), built
+        model by model: their number grows with the block, never its square."""
+        bl = pb.block
+        order = np.argsort(self.frame, kind="stable")
+        starts = np.searchsorted(self.frame[order], np.arange(bl.n_models + 1))
+        rows_of = [order[starts[m]:starts[m + 1]] for m in range(bl.n_models)]
+        # adjacency from the points shared by models (all rows of the adjustment)
+        frame_all, pt_all = pb.frame, bl.obs_point[pb.rows]
+        o = np.argsort(pt_all, kind="stable")
+        cuts = np.flatnonzero(np.diff(pt_all[o])) + 1
+        adj = set()
+        for grp in np.split(frame_all[o], cuts):
+            g = np.unique(grp)
+            for k, a in enumerate(g):
+                for b in g[k + 1:]:
+                    adj.add((int(a), int(b)))
+        same_a, same_b, diff_a, diff_b = [], [], [], []
+        for r in rows_of:
+            a, b = np.triu_indices(len(r), 1)
+            same_a.append(r[a])
+            same_b.append(r[b])
+        for m1, m2 in sorted(adj):
+            r1, r2 = rows_of[m1], rows_of[m2]
+            a, b = np.repeat(r1, len(r2)), np.tile(r2, len(r1))
+            keep = pid[a] != pid[b]
+            diff_a.append(a[keep])
+            diff_b.append(b[keep])
+
+        def cat(x):
+            return np.concatenate(x) if x else np.zeros(0, int)
+
+        return (cat(same_a), cat(same_b)), (cat(diff_a), cat(diff_b))
 
     def _directions(self, a, b):
         d = self.pos[b] - self.pos[a]
@@ -90,13 +142,10 @@ class DetailGeometry:
 
     def effects(self, dframe: np.ndarray):
         """dframe (nf, b, q) -> displacements (rows, d, q), distance changes (pairs, q)."""
-        disp = np.einsum("rdb,rbq->rdq", self.jac, dframe[self.frame])
-
-        def dist(pairs, u):
-            a, b = pairs
-            return np.einsum("pd,pdq->pq", u, disp[b] - disp[a])
-
-        return disp, dist(self.same, self.dir_same), dist(self.diff, self.dir_diff)
+        q = dframe.shape[2]
+        flat = dframe.reshape(-1, q)
+        disp = (self.disp_op @ flat).reshape(len(self.rows), -1, q)
+        return disp, self.same_op @ flat, self.diff_op @ flat
 
 
 def external_reliability(qm: IndependentModel, quality: QualityResult,
@@ -113,9 +162,7 @@ def external_reliability(qm: IndependentModel, quality: QualityResult,
     where = np.empty(q, dtype=object)
     for s in range(0, q, chunk):
         idx = index[s:s + chunk]
-        h = np.zeros((qm.n, len(idx)))
-        h[idx, np.arange(len(idx))] = 1.0
-        dframe, _ = qm.parameter_effect(h)
+        dframe, _ = qm.unit_effect(idx)
         disp, dsame, ddiff = geo.effects(dframe)
         size = np.linalg.norm(disp, axis=1)  # (rows, q)
         best = np.argmax(size, axis=0)

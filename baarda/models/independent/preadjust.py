@@ -178,6 +178,34 @@ def _check_fit(src, dst, need, dim, thr, on_flag):
         use[k] = False
 
 
+def _check_join(src, dst, need, dim, thr, on_flag, degree: int = 3):
+    """Join two free sub-blocks.  Free connections drift smoothly along a strip, so the
+    discrepancies of the join are tested after removing a polynomial (degree 3) in the
+    position along the common points: only isolated disagreements are reported."""
+    if dim == 3 and _collinear(dst):
+        thr = np.array([thr[0], thr[1], np.inf])
+    use = _robust_start(src, dst, need, dim, thr * 10)
+    tr = _fit(src[use], dst[use], dim)
+    disc = _back(tr, dst - _apply(tr, src))
+    c = dst - dst.mean(axis=0)
+    axis = np.linalg.svd(c, full_matrices=False)[2][0]
+    t = c @ axis
+    t = t / max(np.abs(t).max(), 1e-12)
+    deg = min(degree, max(len(t) - 4, 0))
+    basis = np.vander(t, deg + 1)
+    keep = np.ones(len(t), bool)
+    while keep.sum() > deg + 2:
+        coef, *_ = np.linalg.lstsq(basis[keep], disc[keep], rcond=None)
+        res = disc - basis @ coef
+        ratio = np.where(keep, np.max(np.abs(res) / thr, axis=1), 0.0)
+        w = int(np.argmax(ratio))
+        if ratio[w] <= 1:
+            break
+        on_flag(w, res[w], ratio[w])
+        keep[w] = False
+    return _fit(src[keep & use], dst[keep & use], dim) if (keep & use).sum() >= need else tr
+
+
 def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None = None,
               search: bool = True) -> PreAdjustment:
     """Connect the models of `problem` (mode 3d or 2d), check connections and control."""
@@ -250,6 +278,9 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
                              "(unchecked)")
             place(comp, common, m, tr)
         comps.append(comp)
+    component = np.zeros(nm, int)  # sub-block of each model (locally consistent frames)
+    for ci, comp in enumerate(comps):
+        component[list(comp.trans)] = ci
     main = comps.pop(0)
     level_join = False
     while comps:  # join the sub-blocks through their common points
@@ -268,13 +299,13 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
                                     bl.points[problem.point_ids[j[kk]]],
                                     [float(v) for v in -disc * 1e3], float(ratio)))
 
-        tr, _, _ = _check_fit(other.est(j), main.est(j), need, dim, thr, on_flag_join)
+        tr = _check_join(other.est(j), main.est(j), need, dim, thr, on_flag_join)
         if dim == 3 and _collinear(main.est(j)):
             level_join = True
         main.absorb(other, tr)
     thr_final = np.array([thr[0], thr[1], np.inf]) if level_join else thr
     flag, findings = _final_check(problem, main, by_model, pnt, frame, x, flag, findings,
-                                  thr_final)
+                                  thr_final, component)
     # points whose every row was set aside: estimate from all their rows
     lost = main.cnt == 0
     if lost.any():
@@ -305,23 +336,27 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
     return PreAdjustment(params, pts, obs_flag, cflag, findings, order, notes)
 
 
-def _final_check(problem, main, by_model, pnt, frame, x, flag, findings, thr):
-    """Points in three or more models: the row that disagrees with the others is the one in
-    error (leave-one-out, largest first).  Connection findings of such points are replaced
-    by this verdict; a point in two models cannot tell which model is wrong (reported)."""
+def _final_check(problem, main, by_model, pnt, frame, x, flag, findings, thr, component):
+    """Points in three or more models of one sub-block: the row that disagrees with the
+    others is the one in error (leave-one-out, largest first).  Connection findings of such
+    points are replaced by this verdict.  Rows of different sub-blocks are not compared:
+    a free connection drifts along a strip, so only locally connected models agree to the
+    threshold.  A point in two models cannot tell which model is wrong (reported)."""
     bl = problem.block
     dim = x.shape[1]
     pos = np.empty((len(x), dim))
     for m, tr in main.trans.items():
         pos[by_model[m]] = _apply(tr, x[by_model[m]])
-    order = np.argsort(pnt, kind="stable")
-    starts = np.searchsorted(pnt[order], np.arange(len(main.cnt) + 1))
+    key = pnt * (component.max() + 1) + component[frame]
+    order = np.argsort(key, kind="stable")
+    cuts = np.flatnonzero(np.diff(key[order])) + 1
     new_flag = flag.copy()
     verdicts = []
-    for j in range(len(main.cnt)):
-        r = order[starts[j]:starts[j + 1]]
+    judged = set()
+    for r in np.split(order, cuts):
         if len(r) < 3:
             continue
+        judged.add(int(pnt[r[0]]))
         use = np.ones(len(r), bool)
         while use.sum() >= 3:
             ru = r[use]
@@ -336,8 +371,7 @@ def _final_check(problem, main, by_model, pnt, frame, x, flag, findings, thr):
             use[np.flatnonzero(use)[w]] = False
         new_flag[r] = ~use
     pid = problem.point_ids
-    multi = {bl.points[pid[j]] for j in range(len(main.cnt))
-             if starts[j + 1] - starts[j] >= 3}
+    multi = {bl.points[pid[j]] for j in judged}
     kept = [f for f in findings if f.kind != "connection" or f.point not in multi]
     for f in kept:
         if f.kind == "connection" and f.model != "(sub-blocks)":

@@ -75,6 +75,25 @@ class IndependentModel(AdjustedModel):
         gf, gp = self.system.apply_AtP(self.lin, hm, hc)
         return self.system.solve_normal(gf, gp)
 
+    def unit_effect(self, index: np.ndarray):
+        """N^-1 A^T P e_i for the components `index` (cheaper than parameter_effect with unit
+        columns: A^T P e_i is one weighted row of A, nonzero in one frame and one point)."""
+        pb, lin = self.problem, self.lin
+        q = len(index)
+        gf = np.zeros((pb.system.nf, pb.b, q))
+        gp = np.zeros((pb.system.np, pb.d, q))
+        col = np.arange(q)
+        mod = index < self.m * self.k
+        r, c = np.divmod(index[mod], self.k)
+        wt = lin.w[r, c]
+        gf[pb.frame[r], :, col[mod]] = lin.jf[r, c] * wt[:, None]
+        pts = pb.remap[pb.block.obs_point[pb.rows[r]]]
+        gp[pts, :, col[mod]] = lin.jp[r, c] * wt[:, None]
+        flat_c = self.ctrl_sel[index[~mod] - self.m * self.k]
+        ci, cc = np.divmod(flat_c, self.k)
+        gp[pb.remap[pb.control[ci]], :, col[~mod]] = lin.jc[ci, cc] * lin.wc[ci, cc][:, None]
+        return self.system.solve_normal(gf, gp)
+
     # ------------------------------------------------------------- interface
     def adjusted_cofactor_diag(self) -> np.ndarray:
         q, qc = self.system.adjusted_cofactors(self.lin)
