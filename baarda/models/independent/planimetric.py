@@ -23,6 +23,7 @@ import numpy as np
 
 from baarda.models.independent.adjust import Progress, adjust_models
 from baarda.models.independent.data import ModelBlock
+from baarda.models.independent.result import ModelResult
 from baarda.models.independent.similarity import rotation3d
 
 
@@ -59,8 +60,9 @@ def levelling_rotations(params3d: np.ndarray) -> np.ndarray:
             + (1 - c)[:, None, None] * kx @ kx)
 
 
-def level(block: ModelBlock, obs_keep=None, control_keep=None, start=None,
-          progress: Progress | None = None):
+def level(block: ModelBlock, obs_keep: np.ndarray | None = None,
+          control_keep: np.ndarray | None = None, start: tuple | None = None,
+          progress: Progress | None = None) -> tuple[ModelBlock, np.ndarray]:
     """Level the models by the tilts of a spatial adjustment.
 
     Returns (levelled block, tilt angle of each model (nm,) [rad]).
@@ -77,7 +79,7 @@ def level(block: ModelBlock, obs_keep=None, control_keep=None, start=None,
     return block.with_observations(obs), tilt
 
 
-def check_tilts(result, factor: float = 30.0) -> None:
+def check_tilts(result: ModelResult, factor: float = 30.0) -> None:
     """Raise GeometryError when the height control does not determine the model tilts.
 
     A tilt (mm at the model edge) whose a-priori standard deviation exceeds `factor` times

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from baarda.io.errors import GeometryError
-from baarda.models.independent import similarity
+from baarda.models.independent import connect, similarity
 from baarda.models.independent.problem import ModelProblem
 
 
@@ -61,39 +61,6 @@ class PreAdjustment:
         return "\n".join(lines)
 
 
-def _collinear(dst) -> bool:
-    sv = np.linalg.svd(dst - dst.mean(axis=0), compute_uv=False)
-    return len(dst) < 3 or sv[1] <= 0.05 * sv[0]
-
-
-def _fit(src, dst, dim):
-    """Similarity dst ~ t + s R src; in 3D a level fit (2D similarity and a height shift)
-    when the points are nearly on one line, which leaves the roll about it free."""
-    if dim == 3:
-        if not _collinear(dst):
-            s, r, t = similarity.fit3d(src, dst)
-        else:
-            s, k, t2 = similarity.fit2d(src[:, :2], dst[:, :2])
-            r = np.eye(3)
-            r[:2, :2] = [[np.cos(k), -np.sin(k)], [np.sin(k), np.cos(k)]]
-            t = np.append(t2, np.mean(dst[:, 2] - s * src[:, 2]))
-    else:
-        s, k, t = similarity.fit2d(src, dst)
-        r = np.array([[np.cos(k), -np.sin(k)], [np.sin(k), np.cos(k)]])
-    return s, r, t
-
-
-def _apply(tr, x):
-    s, r, t = tr
-    return t + s * x @ r.T
-
-
-def _back(tr, dx):
-    """Discrepancies in the local frame -> model units."""
-    s, r, _ = tr
-    return dx @ r / s
-
-
 class _Component:
     """A free sub-block: model transformations into its own frame and point estimates."""
 
@@ -110,100 +77,9 @@ class _Component:
         s, r, t = tr
         for m, (s2, r2, t2) in other.trans.items():
             self.trans[m] = (s * s2, r @ r2, t + s * r @ t2)
-        self.acc += _apply(tr, other.acc / np.maximum(other.cnt, 1)[:, None]) * \
+        self.acc += connect.apply(tr, other.acc / np.maximum(other.cnt, 1)[:, None]) * \
             other.cnt[:, None]
         self.cnt += other.cnt
-
-
-def _ratios(tr, src, dst, thr):
-    disc = _back(tr, dst - _apply(tr, src))
-    return disc, np.max(np.abs(disc) / thr, axis=1)
-
-
-def _robust_start(src, dst, need, dim, thr, max_sets: int = 200):
-    """Inliers of the minimal-subset fit that agrees with the most points (several large
-    errors in one connection cannot mask each other then)."""
-    from itertools import combinations
-
-    n = len(src)
-    if n <= need + 1:
-        return np.ones(n, bool)
-    sets = list(combinations(range(n), need))
-    if len(sets) > max_sets:
-        pick = np.random.default_rng(0).choice(len(sets), max_sets, replace=False)
-        sets = [sets[i] for i in pick]
-    best, best_key = np.ones(n, bool), (-1, np.inf)
-    for c in sets:
-        c = list(c)
-        if dim == 3 and _collinear(dst[c]) and not _collinear(dst):
-            continue  # a level fit of three points on a line says little
-        try:
-            tr = _fit(src[c], dst[c], dim)
-        except (np.linalg.LinAlgError, ZeroDivisionError, FloatingPointError):
-            continue
-        if not np.isfinite(tr[0]) or tr[0] <= 0:
-            continue
-        _, ratio = _ratios(tr, src, dst, thr)
-        key = (int(np.sum(ratio <= 1)), float(np.median(ratio)))
-        if key[0] > best_key[0] or (key[0] == best_key[0] and key[1] < best_key[1]):
-            best, best_key = ratio <= 1, key
-    if best.sum() < need:
-        return np.ones(n, bool)
-    return best
-
-
-def _check_fit(src, dst, need, dim, thr, on_flag):
-    """Fit dst ~ tr(src); points that disagree are set aside, the largest first.
-
-    A robust start (minimal subsets) finds the consistent points; the fit to them is then
-    checked step by step.  A level fit (3D, points on a line) cannot check heights.
-    """
-    if dim == 3 and _collinear(dst):
-        thr = np.array([thr[0], thr[1], np.inf])
-    use = _robust_start(src, dst, need, dim, thr)
-    if not use.all():
-        tr = _fit(src[use], dst[use], dim)
-        disc, ratio = _ratios(tr, src, dst, thr)
-        out = np.flatnonzero(~use)
-        for k in out[np.argsort(-ratio[out])]:
-            on_flag(k, disc[k], ratio[k])
-    while True:
-        tr = _fit(src[use], dst[use], dim)
-        disc, ratio = _ratios(tr, src[use], dst[use], thr)
-        worst = int(np.argmax(ratio))
-        if ratio[worst] <= 1 or use.sum() <= need:
-            return tr, use, bool(ratio[worst] > 1)
-        k = np.flatnonzero(use)[worst]
-        on_flag(k, disc[worst], ratio[worst])
-        use[k] = False
-
-
-def _check_join(src, dst, need, dim, thr, on_flag, degree: int = 3):
-    """Join two free sub-blocks.  Free connections drift smoothly along a strip, so the
-    discrepancies of the join are tested after removing a polynomial (degree 3) in the
-    position along the common points: only isolated disagreements are reported."""
-    if dim == 3 and _collinear(dst):
-        thr = np.array([thr[0], thr[1], np.inf])
-    use = _robust_start(src, dst, need, dim, thr * 10)
-    tr = _fit(src[use], dst[use], dim)
-    disc = _back(tr, dst - _apply(tr, src))
-    c = dst - dst.mean(axis=0)
-    axis = np.linalg.svd(c, full_matrices=False)[2][0]
-    t = c @ axis
-    t = t / max(np.abs(t).max(), 1e-12)
-    deg = min(degree, max(len(t) - 4, 0))
-    basis = np.vander(t, deg + 1)
-    keep = np.ones(len(t), bool)
-    while keep.sum() > deg + 2:
-        coef, *_ = np.linalg.lstsq(basis[keep], disc[keep], rcond=None)
-        res = disc - basis @ coef
-        ratio = np.where(keep, np.max(np.abs(res) / thr, axis=1), 0.0)
-        w = int(np.argmax(ratio))
-        if ratio[w] <= 1:
-            break
-        on_flag(w, res[w], ratio[w])
-        keep[w] = False
-    return _fit(src[keep & use], dst[keep & use], dim) if (keep & use).sum() >= need else tr
 
 
 def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None = None,
@@ -239,7 +115,7 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
     def place(comp: _Component, common, m: int, tr) -> None:
         idx = by_model[m][~flag[by_model[m]]]
         new = pnt[idx][comp.cnt[pnt[idx]] == 0]
-        np.add.at(comp.acc, pnt[idx], _apply(tr, x[idx]))
+        np.add.at(comp.acc, pnt[idx], connect.apply(tr, x[idx]))
         np.add.at(comp.cnt, pnt[idx], 1.0)
         for j in np.unique(new):
             for mm in by_point[j]:
@@ -269,7 +145,7 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
                                         [float(v) for v in -disc * 1e3], float(ratio)))
                 flag[i] = True
 
-            tr, use, bad = _check_fit(x[idx], comp.est(pnt[idx]), need, dim, thr, on_flag)
+            tr, use, bad = connect.check_fit(x[idx], comp.est(pnt[idx]), need, dim, thr, on_flag)
             if bad:
                 notes.append(f"model {bl.models[m]}: connection has large discrepancies but "
                              f"only {need} points are left; not checked further")
@@ -299,8 +175,8 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
                                     bl.points[problem.point_ids[j[kk]]],
                                     [float(v) for v in -disc * 1e3], float(ratio)))
 
-        tr = _check_join(other.est(j), main.est(j), need, dim, thr, on_flag_join)
-        if dim == 3 and _collinear(main.est(j)):
+        tr = connect.check_join(other.est(j), main.est(j), need, dim, thr, on_flag_join)
+        if dim == 3 and connect.collinear(main.est(j)):
             level_join = True
         main.absorb(other, tr)
     thr_final = np.array([thr[0], thr[1], np.inf]) if level_join else thr
@@ -311,7 +187,7 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
     if lost.any():
         for m, tr in main.trans.items():
             idx = by_model[m][lost[pnt[by_model[m]]]]
-            np.add.at(main.acc, pnt[idx], _apply(tr, x[idx]))
+            np.add.at(main.acc, pnt[idx], connect.apply(tr, x[idx]))
             np.add.at(main.cnt, pnt[idx], 1.0)
     local = main.est(np.arange(npnt))
     if level_join:
@@ -330,7 +206,7 @@ def preadjust(problem: ModelProblem, thresholds_um: tuple[float, float] | None =
         t_ = t_ - problem.origin[problem.comps]
         params[m] = (similarity.params3d(s_, r_, t_, c) if dim == 3
                      else similarity.params2d(s_, float(np.arctan2(r_[1, 0], r_[0, 0])), t_, c))
-    pts = _apply(tc, local) - problem.origin[problem.comps]
+    pts = connect.apply(tc, local) - problem.origin[problem.comps]
     obs_flag = np.zeros((len(bl.obs_model), 3), bool)
     obs_flag[rows[flag][:, None], problem.comps[None, :]] = True
     return PreAdjustment(params, pts, obs_flag, cflag, findings, order, notes)
@@ -346,7 +222,7 @@ def _final_check(problem, main, by_model, pnt, frame, x, flag, findings, thr, co
     dim = x.shape[1]
     pos = np.empty((len(x), dim))
     for m, tr in main.trans.items():
-        pos[by_model[m]] = _apply(tr, x[by_model[m]])
+        pos[by_model[m]] = connect.apply(tr, x[by_model[m]])
     key = pnt * (component.max() + 1) + component[frame]
     order = np.argsort(key, kind="stable")
     cuts = np.flatnonzero(np.diff(key[order])) + 1
@@ -361,7 +237,7 @@ def _final_check(problem, main, by_model, pnt, frame, x, flag, findings, thr, co
         while use.sum() >= 3:
             ru = r[use]
             d = pos[ru] - (pos[ru].sum(axis=0) - pos[ru]) / (len(ru) - 1)
-            disc = np.array([_back(main.trans[frame[i]], d[k:k + 1])[0]
+            disc = np.array([connect.back(main.trans[frame[i]], d[k:k + 1])[0]
                              for k, i in enumerate(ru)])
             ratio = np.max(np.abs(disc) / thr, axis=1)
             w = int(np.argmax(ratio))
@@ -393,11 +269,11 @@ def _control_fit(problem: ModelProblem, local, thr_mm, findings, counter, notes)
     loc = local[problem.remap[ctrl]]
     cflag = np.zeros((bl.n_points, 3), bool)
     while True:
-        tr = _initial_control_fit(loc, given, ok, dim)
+        tr = connect.initial_control_fit(loc, given, ok, dim)
         if tr is None:
             raise GeometryError("the control does not fix the block (pre-adjustment: too few "
                                 "control points for the similarity transformation)")
-        res = np.where(ok, given - _apply(tr, loc), np.nan)
+        res = np.where(ok, given - connect.apply(tr, loc), np.nan)
         thr_m = thr_mm * tr[0]  # local units are mm of the first model
         if dim == 3:
             groups = [(0, 1), (2,)]
@@ -420,7 +296,7 @@ def _control_fit(problem: ModelProblem, local, thr_mm, findings, counter, notes)
         comps = list(groups[worst[1]])
         trial = ok.copy()
         trial[worst[0], comps] = False
-        if _initial_control_fit(loc, given, trial, dim) is None or trial.sum() <= dim + 3:
+        if connect.initial_control_fit(loc, given, trial, dim) is None or trial.sum() <= dim + 3:
             notes.append("control: large residuals remain but the control is too weak to "
                          "locate them; left to data snooping")
             break
@@ -431,46 +307,6 @@ def _control_fit(problem: ModelProblem, local, thr_mm, findings, counter, notes)
         ok = trial
         cflag[ctrl[worst[0]], problem.comps[comps]] = True
     return tr, cflag
-
-
-def _initial_control_fit(loc, given, ok, dim):
-    """(s, R, t) local -> terrain from the usable control components, or None."""
-    plan = ok[:, 0] & ok[:, 1]
-    if plan.sum() < 2 or np.ptp(given[plan, :2], axis=0).max() <= 0:
-        return None
-    if dim == 2:
-        return _fit(loc[plan], given[plan], 2)
-    full = ok.all(axis=1)
-    if full.sum() >= 3:
-        p = given[full] - given[full].mean(axis=0)
-        sv = np.linalg.svd(p, compute_uv=False)
-        if sv[-2] > 1e-6 * sv[0]:
-            return _refine(_fit(loc[full], given[full], 3), loc, given, ok)
-    hz = ok[:, 2]
-    if hz.sum() < 1:
-        return None
-    s, r2, t2 = _fit(loc[plan, :2], given[plan, :2], 2)
-    r = np.eye(3)
-    r[:2, :2] = r2
-    tz = np.mean(given[hz, 2] - s * loc[hz, 2])
-    return _refine((s, r, np.array([t2[0], t2[1], tz])), loc, given, ok)
-
-
-def _refine(tr, loc, given, ok, iterations: int = 10):
-    """Gauss-Newton on the 7 parameters with every usable control component."""
-    s, r, t = tr
-    p = similarity.params3d(s, r, t, np.zeros(3))
-    for _ in range(iterations):
-        xyz, jac = similarity.forward3d(np.tile(p, (len(loc), 1)), loc, np.zeros((len(loc), 3)))
-        e = np.where(ok, given - xyz, 0.0)[ok]
-        a = jac[ok]
-        if len(e) < 7:
-            break
-        dp, *_ = np.linalg.lstsq(a, e, rcond=None)
-        p = p + dp
-        if np.max(np.abs(dp[3:6])) < 1e-12:
-            break
-    return 1.0 / p[6], similarity.rotation3d(p), p[:3]
 
 
 def approximations(problem: ModelProblem) -> tuple[np.ndarray, np.ndarray]:
