@@ -42,3 +42,24 @@ def test_formed_block_adjusts_to_the_truth():
         tr = np.array([truth["points"][mb.points[j]] for j in pb.point_ids[ok]])
         err = (res.xyz[ok] - tr) / res.xyz_std[ok]
         assert np.sqrt(np.mean(err**2)) < 2.0
+
+
+def test_datum_free_removes_the_similarity_part():
+    from baarda.models.independent.forming import datum_free
+
+    rng = np.random.default_rng(2)
+    xyz = rng.normal(0, 50, (7, 3))
+    c = xyz - xyz.mean(axis=0)
+    g = np.zeros((7, 3, 7))
+    g[:, [0, 1, 2], [0, 1, 2]] = 1
+    g[:, 1, 3], g[:, 2, 3], g[:, 0, 4], g[:, 2, 4] = -c[:, 2], c[:, 1], c[:, 2], -c[:, 0]
+    g[:, 0, 5], g[:, 1, 5], g[:, :, 6] = -c[:, 1], c[:, 0], c
+    g = g.reshape(21, 7)
+    a = rng.normal(size=(7, 7)) * 1e-3
+    only_datum = g @ (a @ a.T) @ g.T  # a random similarity of the whole model
+    np.testing.assert_allclose(datum_free(only_datum, xyz), 0, atol=1e-8)
+    noise = np.eye(21) * 0.01**2
+    both = datum_free(noise + only_datum, xyz)
+    np.testing.assert_allclose(both, datum_free(noise, xyz), atol=1e-12)
+    assert np.all(np.linalg.eigvalsh(both) > -1e-15)
+    assert np.all(np.diagonal(both, axis1=1, axis2=2) < 0.01**2)

@@ -94,3 +94,17 @@ def test_control_cluster_shift_is_found(tmp_path):
     f.write_text(f"hypothesis,kind,model,point,component,value\nx,model,9.99,{ctrl[0]},x,1\n")
     with pytest.raises(ProjectError, match="not in model"):
         UserHypotheses(f).tests(qc.model)
+
+
+def test_absorbed_deformation_is_reported_not_testable():
+    """z_scale of a flat block moves only the free projection-centre heights: absorbed.
+    Without the guard its statistic is rounding noise (it was 'rejected' at T = 39)."""
+    blk, _ = simulate_models(ModelPlan(strips=3, models_per_strip=6, seed=0))
+    qc = assess(adjust_models(blk, "3d"))
+    t = {x.name.split(" (")[0]: x for x in deformation_tests(qc.model, ("z_scale", "torsion"))}
+    assert t["block-invariant z_scale"].q == 0 and not t["block-invariant z_scale"].rejected
+    assert "not testable" in [x.name for x in deformation_tests(qc.model, ("z_scale",))][0]
+    assert t["block-invariant torsion"].q == 1
+    joint = [x for x in deformation_tests(qc.model, ("z_scale", "torsion", "bend"))
+             if x.name.startswith("all")][0]
+    assert joint.q == 2 and "z_scale" not in joint.name

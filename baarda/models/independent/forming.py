@@ -10,8 +10,11 @@ Both projection centres become points of the model.
 
 Standard deviations of the model coordinates: FOTEF's diagonal ones by default, from the
 image sigma sx: sigma_xy = sx and sigma_z = sqrt(2) sx c / bx (normal case); or, with
-`covariance=True`, the full 3 x 3 covariance of each point propagated from the relative
-orientation (datum: left photo and bx fixed), which the adjustment decorrelates per row.
+`covariance=True`, the 3 x 3 covariance of each point propagated from the relative
+orientation and S-transformed to the inner datum of the similarity (the part that only
+moves the model as a whole, which the block adjustment absorbs, removed); the adjustment
+decorrelates it per row.  The correlations between the points of a model (the random
+model deformation caused by errors of the relative orientation) are not kept.
 """
 
 from __future__ import annotations
@@ -113,9 +116,32 @@ def relative_orientation(block: Block, left: int, right: int, eo_approx: np.ndar
                             f"{block.photos.ids[right]} did not converge")
     red = 4 * n - 5 - 3 * n
     s0 = float(np.sqrt(np.sum((e / sig) ** 2) / red)) if red > 0 else np.nan
-    qxx = np.linalg.inv(aw.T @ aw)
-    cov = np.array([qxx[5 + 3 * i:8 + 3 * i, 5 + 3 * i:8 + 3 * i] for i in range(n)])
+    qxx = np.linalg.inv(aw.T @ aw)[5:, 5:]
+    cov = datum_free(qxx, xyz)
     return pts, xyz, cov, eo_r, s0
+
+
+def datum_free(q: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+    """Per-point 3 x 3 blocks of the covariance q (3n x 3n) of model points xyz after an
+    S-transformation to the inner (minimum-trace) datum of the 7-parameter similarity.
+
+    The block adjustment absorbs any similarity of a model, so the part of the relative
+    orientation's covariance that only moves the model as a whole (the datum of the left
+    photo) is removed: Q_S = S Q S^T, S = I - G (G^T G)^-1 G^T with G the changes of the
+    point coordinates under translation, rotation and scale about the centroid.
+    """
+    n = len(xyz)
+    c = xyz - xyz.mean(axis=0)
+    g = np.zeros((n, 3, 7))
+    g[:, [0, 1, 2], [0, 1, 2]] = 1.0
+    g[:, 1, 3], g[:, 2, 3] = -c[:, 2], c[:, 1]  # rotation about x
+    g[:, 0, 4], g[:, 2, 4] = c[:, 2], -c[:, 0]  # about y
+    g[:, 0, 5], g[:, 1, 5] = -c[:, 1], c[:, 0]  # about z
+    g[:, :, 6] = c  # scale
+    g = g.reshape(3 * n, 7)
+    s = np.eye(3 * n) - g @ np.linalg.solve(g.T @ g, g.T)
+    qs = s @ q @ s.T
+    return np.array([qs[3 * i:3 * i + 3, 3 * i:3 * i + 3] for i in range(n)])
 
 
 def form_models(block: Block, covariance: bool = False) -> ModelBlock:

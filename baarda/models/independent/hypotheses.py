@@ -26,7 +26,9 @@ from baarda.io.errors import ProjectError
 from baarda.io.table import Table
 from baarda.models.independent.deformations import ALL, deformation_rows
 from baarda.models.independent.quality_model import IndependentModel
+from baarda.quality.distributions import b_method
 from baarda.quality.hypotheses import HypothesisTest, hypothesis_test
+from baarda.quality.statistics import R_MIN
 
 
 def _model_part(qm: IndependentModel, rows_field: np.ndarray) -> np.ndarray:
@@ -58,6 +60,40 @@ def deformation_h(qm: IndependentModel, name: str, per: str = "block"):
     return _model_part(qm, cols), [f"{name} strip {s}" for s in strips]
 
 
+def _test(qm: IndependentModel, h: np.ndarray, name: str, alpha0: float,
+          beta0: float) -> HypothesisTest:
+    """quality.hypotheses.hypothesis_test on the testable columns of h.
+
+    A column is testable when the adjustment does not absorb it: its redundancy
+    r_H = h^T P Qvv P h / h^T P h (from the test's own boundary value: M = (delta0/MDB)^2)
+    is at least R_MIN, the limit the w-tests use.  Below it M is at the level of rounding
+    and the test statistic would be noise (z_scale of a flat block, whose projection-centre
+    heights are free tie points, is such a case).
+    """
+    h = np.atleast_2d(h.T).T
+    p = np.where(qm.active, 1.0 / qm.sigma**2, 0.0)
+    delta0 = b_method(alpha0, beta0).delta0
+    keep = np.zeros(h.shape[1], bool)
+    for j in range(h.shape[1]):
+        hpj = float(h[:, j] @ (p * h[:, j]))
+        if hpj <= 0:
+            continue
+        t = hypothesis_test(qm, h[:, j], name, alpha0, beta0)
+        if t.q == 1 and t.mdb is not None and np.isfinite(t.mdb):
+            keep[j] = (delta0 / t.mdb) ** 2 / hpj >= R_MIN
+    if not keep.any():
+        return HypothesisTest(f"{name} (not testable: absorbed by the adjustment)", 0, np.nan,
+                              np.nan, np.nan, False, np.full(h.shape[1], np.nan), None, None)
+    if not keep.all():
+        name += f" ({int((~keep).sum())} absorbed column(s) left out)"
+    t = hypothesis_test(qm, h[:, keep], name, alpha0, beta0)
+    if not keep.all():
+        nabla = np.full(h.shape[1], np.nan)
+        nabla[keep] = t.nabla
+        t.nabla = nabla
+    return t
+
+
 def deformation_tests(qm: IndependentModel, names: tuple[str, ...] = ALL,
                       alpha0: float = 0.001, beta0: float = 0.80) -> list[HypothesisTest]:
     """Block-invariant and strip-invariant tests of every deformation, and all together."""
@@ -67,16 +103,18 @@ def deformation_tests(qm: IndependentModel, names: tuple[str, ...] = ALL,
         hb = deformation_h(qm, name, "block")
         if hb is None:
             continue
-        joint.append(hb[0])
-        joint_names.append(name)
-        out.append(hypothesis_test(qm, hb[0], f"block-invariant {name}", alpha0, beta0))
+        tb = _test(qm, hb[0], f"block-invariant {name}", alpha0, beta0)
+        out.append(tb)
+        if tb.q:
+            joint.append(hb[0])
+            joint_names.append(name)
         if n_strips > 1:
             hs, _ = deformation_h(qm, name, "strip")
-            out.append(hypothesis_test(qm, hs, f"strip-invariant {name} ({n_strips} strips)",
-                                       alpha0, beta0))
+            out.append(_test(qm, hs, f"strip-invariant {name} ({n_strips} strips)",
+                             alpha0, beta0))
     if len(joint) > 1:
-        out.append(hypothesis_test(qm, np.hstack(joint), "all block-invariant deformations "
-                                   f"({', '.join(joint_names)})", alpha0, beta0))
+        out.append(_test(qm, np.hstack(joint), "all block-invariant deformations "
+                         f"({', '.join(joint_names)})", alpha0, beta0))
     return out
 
 
@@ -98,8 +136,8 @@ def cluster_tests(qm: IndependentModel, clusters: dict[str, list[str]], alpha0: 
     for name, pts in clusters.items():
         h = control_cluster_h(qm, pts)
         if h.shape[1]:
-            out.append(hypothesis_test(qm, h, f"control cluster {name} ({len(pts)} points)",
-                                       alpha0, beta0))
+            out.append(_test(qm, h, f"control cluster {name} ({len(pts)} points)",
+                             alpha0, beta0))
     return out
 
 
@@ -178,7 +216,7 @@ class UserHypotheses:
             h = self.h(qm, name)
             keep = np.any(h != 0, axis=0)
             if keep.any():
-                out.append(hypothesis_test(qm, h[:, keep], f"user: {name}", alpha0, beta0))
+                out.append(_test(qm, h[:, keep], f"user: {name}", alpha0, beta0))
         return out
 
 
