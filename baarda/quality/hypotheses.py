@@ -45,28 +45,40 @@ class HypothesisTest:
 
 
 def hypothesis_test(model: AdjustedModel, h: np.ndarray, name: str = "H", alpha0: float = 0.001,
-                    beta0: float = 0.80, rcond: float = 1e-9) -> HypothesisTest:
-    """Test the alternative hypothesis given by the columns of h (n, q)."""
+                    beta0: float = 0.80, r_min: float = 1e-3) -> HypothesisTest:
+    """Test the alternative hypothesis given by the columns of h (n, q).
+
+    The test is carried out in the directions of H that the observations control: with
+    G = H^T P H, the generalised eigenvalues of M u = lambda G u are the redundancy numbers
+    of those directions (0 <= lambda <= 1); directions with lambda < r_min are absorbed by
+    the adjustment (no other observation checks them) and are left out of q, as
+    uncontrolled single observations are left out of the w-test.
+    """
     h = np.asarray(h, float)
     if h.ndim == 1:
         h = h[:, None]
     p = np.where(model.active, 1.0 / model.sigma**2, 0.0)
     a = h.T @ (p * model.residuals)
     wmat = model.normal_forward(h)
-    m = h.T @ (p[:, None] * h) - wmat.T @ wmat
+    g = h.T @ (p[:, None] * h)
+    m = g - wmat.T @ wmat
     m = 0.5 * (m + m.T)
-    vals, vecs = np.linalg.eigh(m)
-    keep = vals > rcond * max(vals.max(initial=0.0), 1e-300)
-    q = int(keep.sum())
     bm = b_method(alpha0, beta0)
+    # whiten by G (restricted to its range), then the eigenvalues are redundancy numbers
+    gv, gvec = np.linalg.eigh(0.5 * (g + g.T))
+    rng = gv > 1e-12 * max(gv.max(initial=0.0), 1e-300)
+    c = gvec[:, rng] / np.sqrt(gv[rng])  # (q_given, q_range): C^T G C = I
+    lam, u = np.linalg.eigh(c.T @ m @ c)
+    keep = lam > r_min
+    q = int(keep.sum())
     if q == 0:
         return HypothesisTest(name, 0, np.nan, np.nan, np.nan, False, np.full(h.shape[1], np.nan),
                               None, None)
-    minv = (vecs[:, keep] / vals[keep]) @ vecs[:, keep].T
-    t = float(a @ minv @ a)
-    nabla = -minv @ a
-    alpha = bm.alpha_for(q)
-    res = multidim_test(t, q, alpha)
+    cu = c @ u[:, keep]  # directions in the parameters of H
+    proj = cu.T @ a
+    t = float(np.sum(proj**2 / lam[keep]))
+    nabla = -cu @ (proj / lam[keep])
+    res = multidim_test(t, q, bm.alpha_for(q))
     w = mdb = None
     if h.shape[1] == 1:
         w = float(-a[0] / np.sqrt(m[0, 0]))

@@ -128,3 +128,17 @@ def test_gruen_columns_and_group_shortcuts(qc, dense):
     assert t.statistic == pytest.approx(ref.statistic) and t.q == ref.q
     photo = qc.model.frame[0]
     assert qc.photo_test(photo).q > 0
+
+
+def test_absorbed_hypothesis_is_not_testable(qc):
+    """An H that the adjustment absorbs (a shift of a tie point's ground coordinates seen
+    through all its rays, i.e. A times a point correction) has no testable dimension."""
+    m = qc.model
+    s = m.system
+    j = int(np.flatnonzero(np.bincount(s.point) >= 3)[0])
+    xp = np.zeros((s.np, 3, 1))
+    xp[j, 2, 0] = 1.0  # a height shift of point j
+    ri, rc = s.apply_A(m.lin, np.zeros((s.nf, 6, 1)), xp)
+    h = m._flat(ri, rc)[:, 0]
+    res = hypothesis_test(m, h)
+    assert res.q == 0 and not res.rejected
