@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baarda.io.errors import GeometryError
 from baarda.quality.model import AdjustedModel
 from baarda.quality.statistics import QualityResult, analyse
 
@@ -65,14 +66,30 @@ def iterative_snooping(refit: Callable[[np.ndarray], AdjustedModel], active: np.
     say = progress or (lambda m: None)
     active = np.asarray(active, bool).copy()
     restored: set[int] = set()
+    needed = np.zeros(len(active), bool)  # cannot be rejected: the block needs them
     log: list[SnoopingStep] = []
+    model = q = None
     for it in range(1, max_iterations + 1):
-        model = refit(active)
+        try:
+            model = refit(active)
+        except GeometryError as err:
+            if not log or log[-1].action != "reject" or q is None:
+                raise
+            # the last rejection left the block undetermined (datum, a point or a photo):
+            # keep those components, say so, and go on with the next candidate
+            last = log.pop()
+            active[last.rows] = True
+            needed[last.rows] = True
+            say(f"snooping {it}: {last.labels[0]} kept: without it {err}")
+            model = refit(active)
         q = analyse(model, alpha0, beta0)
         stat = q.w if statistic == "w" else q.tau
         crit = q.k_w if statistic == "w" else q.k_tau
         mag = np.abs(np.nan_to_num(stat))
-        cand = np.flatnonzero(active & q.controlled & (mag > crit))
+        q.notes.extend(f"{label(model, i)}: |{statistic}| = {mag[i]:.2f} is significant but it "
+                       "cannot be rejected: the block would be undetermined without it"
+                       for i in np.flatnonzero(needed & (mag > crit)))
+        cand = np.flatnonzero(active & ~needed & q.controlled & (mag > crit))
         if len(cand):
             i = int(cand[np.argmax(mag[cand])])
             rows = [i]

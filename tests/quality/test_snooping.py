@@ -92,3 +92,28 @@ def test_danish_prescreening_then_snooping_finds_many_large_blunders():
         assert qc.run.converged
     assert found[True] >= found[False]
     assert found[True] >= 0.9 * len(planted)
+
+
+def test_component_the_block_needs_is_kept_and_reported():
+    """If rejecting the worst component leaves the model undetermined, it stays in."""
+    from baarda.io.errors import GeometryError
+    from baarda.quality.iterative import iterative_snooping
+    from baarda.quality.model import DenseModel
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(30, 3))
+    x = np.array([1.0, -2.0, 0.5])
+    obs = a @ x + rng.normal(0, 0.01, 30)
+    obs[4] += 0.5  # a blunder of 50 sigma in a component the "block" cannot lose
+    obs[9] -= 0.3  # and one it can
+    sigma = np.full(30, 0.01)
+
+    def refit(active):
+        if not active[4]:
+            raise GeometryError("the exterior orientation of photo 7 is not determined")
+        p = active / sigma**2
+        xh = np.linalg.solve(a.T @ (p[:, None] * a), a.T @ (p * obs))
+        return DenseModel(a, sigma, a @ xh - obs, active)
+
+    run = iterative_snooping(refit, np.ones(30, bool))
+    assert run.active[4] and not run.active[9]
+    assert any("cannot be rejected" in n for n in run.quality.notes)
