@@ -149,3 +149,19 @@ def qvv_columns(model: AdjustedModel, rows: np.ndarray) -> np.ndarray:
     ax = model.solve_columns(h)
     p = 1.0 / model.sigma[rows] ** 2
     return (h - ax) / p[None, :]
+
+
+def w_correlation(model: AdjustedModel, i: int) -> np.ndarray:
+    """Correlation of the w-test of active component i with the w-test of every component.
+
+    rho_ij = q_vv,ij / sqrt(q_vv,ii q_vv,jj), column i of Q_vv from qvv_columns (Foerstner's
+    separability: |rho| near 1 means an error in i cannot be told from an error in j).  A
+    rejected (inactive) j is uncorrelated with v_i: 0.
+    """
+    if not model.active[i]:
+        raise ValueError("w_correlation: component i must be active")
+    col = qvv_columns(model, np.array([i]))[:, 0]
+    qvv, _ = cofactors(model)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = col / np.sqrt(qvv * qvv[i])
+    return np.where(model.active & (qvv > 0) & (qvv[i] > 0), rho, 0.0)
