@@ -1,0 +1,134 @@
+"""The screening chain: photo pairs, strip formation, control; then the cleaned block.
+
+    result = screen(block)                 # ScreeningResult: .block (cleaned), .log
+    qc = screen_and_snoop(block)[1]        # bundle adjustment and data snooping after it
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from baarda.block.model import Block, GroundPoints
+from baarda.bundle.quality import BundleQuality
+from baarda.screening.control import ControlCheck, screen_control
+from baarda.screening.log import Entry, ScreeningLog
+from baarda.screening.pairs import PairTest, screen_pairs
+from baarda.screening.snooping import snoop_separable
+from baarda.screening.strips import Strip, screen_strips
+
+
+@dataclass
+class ScreeningOptions:
+    """Settings of the three stages (alpha0/beta0 None: those of the project)."""
+
+    stages: tuple[int, ...] = (1, 2, 3)
+    alpha0: float | None = None  # stages 2 and 3 (w-test)
+    beta0: float | None = None
+    pair_alpha0: float = 1e-4  # stage 1: the 2D model is approximate, so only clear errors
+    pair_transform: str = "auto"  # auto | similarity | affine
+    pair_statistic: str = "tau"  # tau (variance factor of each pair) | w
+    pair_min_redundancy: int = 4
+    rho_max: float = 0.9  # |correlation| of w-tests above which errors are not separable
+
+
+@dataclass
+class ScreeningResult:
+    block: Block  # the cleaned block
+    original: Block
+    image_keep: np.ndarray  # (m,) rows of original.image kept
+    control_removed: list[int]  # point indices whose control was removed
+    log: ScreeningLog
+    pairs: list[PairTest] = field(default_factory=list)
+    strips: list[Strip] = field(default_factory=list)
+    control: list[ControlCheck] = field(default_factory=list)
+
+    def summary(self) -> str:
+        return self.log.summary()
+
+
+def _one_ray(block: Block, keep: np.ndarray, log: ScreeningLog,
+             control_removed: set[int]) -> None:
+    """Remove the last ray of points that screening left with one (it cannot be used)."""
+    im, pts = block.image, block.points
+    rays = np.bincount(im.point[keep], minlength=len(pts))
+    full = pts.controlled.all(axis=1)
+    full[list(control_removed)] = False
+    orphans = (rays == 1) & ~full & (np.bincount(im.point, minlength=len(pts)) > 1)
+    for row in np.flatnonzero(keep & orphans[im.point]):
+        keep[row] = False
+        log.add(Entry(0, "after screening", "image", pts.ids[im.point[row]],
+                      block.photos.ids[im.photo[row]],
+                      reason="the other rays of the point were removed: one ray cannot be "
+                             "intersected"))
+
+
+def cleaned_block(block: Block, keep: np.ndarray, control_removed: set[int] | list[int]) -> Block:
+    """The block without the removed image points; removed control becomes a tie point."""
+    out = block.select_image(np.asarray(keep, bool))
+    pts = block.points
+    ctrl = sorted(control_removed)
+    if ctrl:
+        role, xyz, sig = pts.role.copy(), pts.xyz.copy(), pts.sigma.copy()
+        role[ctrl] = "tie"
+        xyz[ctrl] = np.nan
+        sig[ctrl] = np.nan
+        out = replace(out, points=GroundPoints(list(pts.ids), xyz, sig, role))
+    out.notes.append(f"screened: {int(np.sum(~np.asarray(keep)))} image point(s) and "
+                     f"{len(ctrl)} control point(s) removed")
+    return out
+
+
+def screen(block: Block, options: ScreeningOptions | None = None,
+           progress: Callable[[str], None] | None = None) -> ScreeningResult:
+    """Run the screening stages on `block` (not modified); returns the cleaned block and log."""
+    opt = options or ScreeningOptions()
+    say = progress or (lambda m: None)
+    alpha0 = opt.alpha0 or block.settings.alpha0
+    beta0 = opt.beta0 or block.settings.beta0
+    log = ScreeningLog()
+    keep = np.ones(len(block.image), bool)
+    pairs: list[PairTest] = []
+    strips: list[Strip] = []
+    checks: list[ControlCheck] = []
+    bad: set[int] = set()
+    if 1 in opt.stages:
+        keep, pairs = screen_pairs(block, keep, log, kind=opt.pair_transform,
+                                   statistic=opt.pair_statistic, alpha0=opt.pair_alpha0,
+                                   beta0=beta0, min_redundancy=opt.pair_min_redundancy)
+        say(f"stage 1: {len(pairs)} photo pairs, {len(log.removed('image', 1))} image "
+            "point(s) removed")
+    if 2 in opt.stages or 3 in opt.stages:
+        keep2, strips = screen_strips(block, keep, log, alpha0=alpha0, beta0=beta0,
+                                      rho_max=opt.rho_max)
+        if 2 in opt.stages:
+            keep = keep2
+            say(f"stage 2: {len(strips)} strip(s) formed, "
+                f"{len(log.removed('image', 2))} image point(s) removed")
+        else:  # strips formed only for the control check: their decisions are not kept
+            log.entries = [e for e in log.entries if e.stage != 2]
+    if 3 in opt.stages:
+        bad, checks = screen_control(block, strips, log, alpha0=alpha0, beta0=beta0)
+        say(f"stage 3: {len(checks)} strip(s) checked, {len(bad)} control point(s) removed")
+    _one_ray(block, keep, log, bad)
+    return ScreeningResult(cleaned_block(block, keep, bad), block, keep, sorted(bad), log,
+                           pairs, strips, checks)
+
+
+def screen_and_snoop(block: Block, options: ScreeningOptions | None = None, *,
+                     statistic: str = "w", progress: Callable[[str], None] | None = None
+                     ) -> tuple[ScreeningResult, BundleQuality]:
+    """Screening, then bundle adjustment with data snooping of the cleaned block.
+
+    The snooping removes what it rejects together with the observations it cannot tell from
+    it (screening.snooping); its removals are added to the log (stage 4).  The returned
+    ScreeningResult's block is the block after both.
+    """
+    res = screen(block, options, progress)
+    opt = options or ScreeningOptions()
+    qc, final, _ = snoop_separable(res.block, res.log, alpha0=opt.alpha0, beta0=opt.beta0,
+                                   rho_max=opt.rho_max, statistic=statistic, progress=progress)
+    res.block = final
+    return res, qc

@@ -1,0 +1,240 @@
+"""Stage 3: control points checked by a spatial similarity transformation of each strip.
+
+For every strip with three or more full (X, Y, Z) control points formed in stage 2, the
+strip coordinates are transformed onto the given ground coordinates by a 7-parameter
+similarity transformation
+
+    X_ground = t + s R(omega, phi, kappa) (X_strip - c)      (c: centroid of the control)
+
+Observations: the given control coordinates, sigma^2 = sigma_control^2 + s^2 var_strip, with
+var_strip the variances of the strip coordinates from the strip adjustment, S-transformed to
+the datum of the strip's control points (so that they do not depend on the strip's datum, the
+first photo).  Control points are snooped as groups (all
+their coordinates together) with baarda.quality.iterative, started from the full set and from
+every leave-one-out subset; a rejected point is tested again by its predicted residual from
+the others and restored when it fits.  The best run keeps the most points (then: global test
+passed, smallest v^T P v).  A rejected point is removed only when the error is located: the
+other points fit without it (global test and w-tests), and no leave-one-out subset that keeps
+it fits (otherwise another point could be the one in error: a height error among four points
+is a single condition).  An error that is not located is left to the bundle adjustment.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from baarda.block.model import Block
+from baarda.block.rotation import angles_from_matrix, rotation_and_derivatives
+from baarda.io.errors import GeometryError
+from baarda.quality.iterative import SnoopingRun, iterative_snooping
+from baarda.quality.statistics import analyse
+from baarda.screening.fit import (
+    Observations,
+    dense_model,
+    gauss_newton,
+    largest_test,
+)
+from baarda.screening.log import Entry, ScreeningLog
+from baarda.screening.strips import Strip
+
+XYZ = np.array(["X", "Y", "Z"], dtype=object)
+
+
+def similarity(params: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """t + s R d for d (n, 3) (centred strip coordinates) and its Jacobian (n, 3, 7)."""
+    t, s = params[:3], params[3]
+    r, dro, drp, drk = rotation_and_derivatives(params[4], params[5], params[6])
+    rd = d @ r.T
+    jac = np.empty((len(d), 3, 7))
+    jac[:, :, :3] = np.eye(3)
+    jac[:, :, 3] = rd
+    for k, dr in enumerate((dro, drp, drk)):
+        jac[:, :, 4 + k] = s * d @ dr.T
+    return t + s * rd, jac
+
+
+def s_transform(q: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+    """Cofactors q (3n, 3n) of points xyz (n, 3) in the datum of these points (Baarda's
+    S-transformation): S q S^T with S = I - G (G^T G)^-1 G^T, G the 7 similarity directions
+    (shifts, scale, rotations) at the points.  The part a similarity transformation absorbs
+    is removed, so that the diagonal no longer depends on where the strip's datum lies."""
+    n = len(xyz)
+    d = xyz - xyz.mean(axis=0)
+    d = d / max(float(np.sqrt(np.mean(d**2))), 1e-12)
+    g = np.zeros((n, 3, 7))
+    g[:, :, :3] = np.eye(3)
+    g[:, :, 3] = d
+    g[:, 0, 5], g[:, 0, 6] = d[:, 2], -d[:, 1]
+    g[:, 1, 4], g[:, 1, 6] = -d[:, 2], d[:, 0]
+    g[:, 2, 4], g[:, 2, 5] = d[:, 1], -d[:, 0]
+    g = g.reshape(3 * n, 7)
+    s = np.eye(3 * n) - g @ np.linalg.solve(g.T @ g, g.T)
+    return s @ q @ s.T
+
+
+def closed_form(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Least-squares similarity dst = t + s R src (Umeyama 1991): parameters (7,)."""
+    ms, md = src.mean(axis=0), dst.mean(axis=0)
+    a, b = src - ms, dst - md
+    u, sv, vt = np.linalg.svd(b.T @ a)
+    e = np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))])
+    r = u @ e @ vt
+    s = float(np.sum(sv * np.diag(e)) / np.sum(a**2))
+    t = md - s * r @ ms
+    return np.concatenate([t, [s], angles_from_matrix(r)])
+
+
+@dataclass
+class ControlCheck:
+    """Stage 3 of one strip."""
+
+    strip: str
+    points: list[int]  # block indices of the control points used
+    rejected: list[int]  # located errors: the only point whose removal makes the control fit
+    unlocated: list[tuple[int, float, float, list[int]]]  # (point, w, critical, alternatives)
+    params: np.ndarray  # t (3), s, omega, phi, kappa of the accepted fit (centred)
+    sigma0: float
+    run: SnoopingRun
+
+
+class StripSimilarity:
+    """The similarity transformation of one strip onto its control, as a small adjustment."""
+
+    def __init__(self, block: Block, strip: Strip, points: list[int]):
+        self.block, self.strip, self.points = block, strip, list(points)
+        pts = block.points
+        xs = np.array([strip.xyz[p] for p in points])
+        self.centre = xs.mean(axis=0)
+        self.d = xs - self.centre
+        self.var = np.diag(s_transform(strip.covariance(points), xs)).reshape(-1, 3)
+        sig = pts.sigma[points]
+        self.comp = np.isfinite(sig) & (pts.role[points] == "control")[:, None]
+        j, k = np.nonzero(self.comp)
+        self.j, self.k = j, k
+        self.given = pts.xyz[points]
+        ids = np.asarray(pts.ids, dtype=object)[points]
+        full = self.comp.all(axis=1)
+        self.params = closed_form(self.d[full], self.given[full])
+        self.sig_c = sig[j, k]
+        self.obs = Observations(self.given[j, k], self._sigma(self.params[3]),
+                                np.full(len(j), "control", dtype=object), XYZ[k],
+                                np.full(len(j), "", dtype=object), ids[j], j.astype(int))
+
+    def _sigma(self, scale: float) -> np.ndarray:
+        return np.sqrt(self.sig_c**2 + scale**2 * self.var[self.j, self.k])
+
+    def func(self, params: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        f, jac = similarity(params, self.d)
+        return f[self.j, self.k], jac[self.j, self.k]
+
+    def refit(self, active: np.ndarray):
+        full = self.comp.all(axis=1) & np.array(
+            [active[self.j == i].all() for i in range(len(self.points))])
+        start = closed_form(self.d[full], self.given[full]) if full.sum() >= 3 else self.params
+        x, f, a = gauss_newton(self.func, start, self.obs, active,
+                               what=f"strip {self.strip.label} similarity")
+        self.params = x
+        return dense_model(a, self.obs, f, active)
+
+
+def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
+                beta0: float = 0.80) -> ControlCheck | None:
+    """Snoop the control of one strip; None when it has fewer than 3 full control points."""
+    pts = block.points
+    ctrl = [p for p in sorted(strip.xyz) if pts.role[p] == "control"
+            and np.isfinite(pts.sigma[p]).any()]
+    full = [p for p in ctrl if np.isfinite(pts.sigma[p]).all()]
+    if len(full) < 3:
+        return None
+    sim = StripSimilarity(block, strip, ctrl)
+    n = sim.obs.n
+    starts = [np.ones(n, bool)]
+    if len(full) >= 4:
+        starts += [sim.obs.group != j for j in range(len(ctrl)) if sim.comp[j].all()]
+    best = None
+    for start in starts:
+        try:
+            run = iterative_snooping(sim.refit, start, alpha0=alpha0, beta0=beta0,
+                                     by_group=True)
+        except GeometryError:
+            continue
+        q = run.quality
+        gt = q.global_test
+        if q.redundancy < 1:  # nothing left to check the control with
+            continue
+        score = (int(np.sum(run.active)), bool(gt is None or gt.passed), -q.vtpv)
+        if best is None or score > best[0]:
+            best = (score, run, sim.params.copy())
+    if best is None:
+        return None
+    _, run, params = best
+    rejected, unlocated = [], []
+    for g in sorted({int(g) for g in sim.obs.group[~run.active]}):
+        comps = np.flatnonzero(sim.obs.group == g)
+        act = run.active.copy()
+        act[comps] = True
+        try:
+            i, w, crit = largest_test(sim.refit(act), comps, alpha0, beta0)
+        except GeometryError:
+            continue
+        if not abs(w) > crit:  # rejected while other points were out: not an error of its own
+            continue
+        # located when the others fit without g and no other leave-one-out subset with g fits
+        others = [j for j in range(len(ctrl)) if j != g and sim.comp[j].all()
+                  and run.active[sim.obs.group == j].all()]
+        alt = [ctrl[j] for j in others
+               if _consistent(sim, act & (sim.obs.group != j), alpha0, beta0)]
+        if _consistent(sim, run.active, alpha0, beta0) and not alt:
+            rejected.append(ctrl[g])
+        else:
+            unlocated.append((ctrl[g], w, crit, alt))
+    sim.params = params
+    return ControlCheck(strip.label, ctrl, rejected, unlocated, params,
+                        float(run.quality.sigma0_hat), run)
+
+
+def _consistent(sim: StripSimilarity, active: np.ndarray, alpha0: float, beta0: float) -> bool:
+    """The active control fits: global test passed and no w-test rejected."""
+    try:
+        q = analyse(sim.refit(active), alpha0, beta0)
+    except GeometryError:
+        return False
+    if q.redundancy < 1:
+        return True  # nothing contradicts it
+    if q.global_test is not None and not q.global_test.passed:
+        return False
+    return not np.any(q.flagged)
+
+
+def screen_control(block: Block, strips: list[Strip], log: ScreeningLog, *,
+                   alpha0: float = 0.001, beta0: float = 0.80
+                   ) -> tuple[set[int], list[ControlCheck]]:
+    """Stage 3 for every strip; returns the control points found in error and the checks."""
+    bad: set[int] = set()
+    checks = []
+    ids = block.points.ids
+    for strip in strips:
+        chk = check_strip(block, strip, alpha0=alpha0, beta0=beta0)
+        if chk is None:
+            log.note(3, f"strip {strip.label}", "fewer than three full control points formed "
+                     "in the strip: control not checked")
+            continue
+        checks.append(chk)
+        model = chk.run.model
+        ctx = f"strip {strip.label} control ({len(chk.points)} points, sigma0 {chk.sigma0:.2f})"
+        for p, w, crit, alt in chk.unlocated:
+            why = (f"the control also fits without point(s) {', '.join(ids[a] for a in alt)}"
+                   if alt else "the other control points do not fit either")
+            log.add(Entry(3, ctx, "control", ids[p], action="kept", statistic="w", value=w,
+                          critical=crit, reason=f"rejected, but not located ({why}): left to "
+                          "the bundle adjustment"))
+        for p in chk.rejected:
+            rows = np.flatnonzero(model.point == ids[p])
+            _, w, crit = largest_test(model, rows, alpha0, beta0)
+            bad.add(p)
+            log.add(Entry(3, ctx, "control", ids[p], statistic="w", value=w, critical=crit,
+                          reason="disagrees with the strip transformed onto the other control "
+                                 "points (predicted residual)"))
+    return bad, checks

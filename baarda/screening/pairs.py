@@ -1,0 +1,205 @@
+"""Stage 1: planimetric 2D transformations between the image coordinates of photo pairs.
+
+For every pair of overlapping photos (within and across strips) the image coordinates of the
+common points on photo b are fitted to those on photo a by a similarity (4 parameters) or
+an affine (6) transformation, with iterative data snooping of whole points.  The model is a
+simplification (relief displacement, tilts), so its variance factor is unknown and the test
+is Pope's tau (sigma0 a posteriori) by default: the stage is meant for errors that stand out
+far above the relief parallaxes: identification, numbering and other large blunders.
+
+A point that is inconsistent in a pair may be in error on either photo.  It is blamed on the
+photo that two or more tested pairs contain and all of them reject (and that is in every
+rejecting pair); when no single photo is singled out (a point on two photos only, or rejected
+in one pair only), it is removed from every photo of the rejecting pairs.
+
+Transformations, photo b = T(photo a), image coordinates in mm:
+    similarity  x' = a x - b y + c,   y' = b x + a y + d
+    affine      x' = a1 x + a2 y + a3,  y' = b1 x + b2 y + b3
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from baarda.block.model import Block
+from baarda.io.errors import GeometryError
+from baarda.quality.iterative import SnoopingRun, iterative_snooping
+from baarda.quality.statistics import analyse
+from baarda.screening.fit import Observations, dense_model, gauss_newton
+from baarda.screening.log import Entry, ScreeningLog
+
+N_PARAMS = {"similarity": 4, "affine": 6}
+
+
+def design(xy: np.ndarray, kind: str) -> np.ndarray:
+    """A (2n, u) of the transformation of points xy (n, 2); rows x0, y0, x1, y1, ..."""
+    n = len(xy)
+    x, y = xy[:, 0], xy[:, 1]
+    one, zero = np.ones(n), np.zeros(n)
+    if kind == "similarity":
+        rx = np.column_stack([x, -y, one, zero])
+        ry = np.column_stack([y, x, zero, one])
+    elif kind == "affine":
+        rx = np.column_stack([x, y, one, zero, zero, zero])
+        ry = np.column_stack([zero, zero, zero, x, y, one])
+    else:
+        raise ValueError(f"unknown 2D transformation '{kind}' (similarity or affine)")
+    a = np.empty((2 * n, rx.shape[1]))
+    a[0::2], a[1::2] = rx, ry
+    return a
+
+
+def choose_kind(n_points: int, kind: str, min_redundancy: int) -> str | None:
+    """The transformation to use for a pair with n common points, or None (too few)."""
+    if kind == "auto":
+        if 2 * n_points - N_PARAMS["affine"] >= max(min_redundancy, 6):
+            return "affine"
+        kind = "similarity"
+    return kind if 2 * n_points - N_PARAMS[kind] >= min_redundancy else None
+
+
+@dataclass
+class PairTest:
+    """Snooping of one photo pair (photo indices a < b)."""
+
+    a: int
+    b: int
+    kind: str
+    points: np.ndarray  # block point indices of the common points
+    tested: np.ndarray  # (k,) bool: point's test is controlled
+    rejected: np.ndarray  # (k,) bool
+    value: np.ndarray  # (k,) largest |test statistic| of the point (rejected: when predicted)
+    critical: float
+    sigma0: float
+    redundancy: int
+    run: SnoopingRun | None = field(default=None, repr=False)
+
+
+def common_points(block: Block, keep: np.ndarray, min_points: int) -> list[tuple]:
+    """Pairs (a, b, rows on a, rows on b) of photos with at least min_points common points."""
+    im = block.image
+    rows = np.flatnonzero(keep)
+    # first row of every (photo, point): twin rays of stereo mode count once
+    key = im.photo[rows] * len(block.points) + im.point[rows]
+    _, first = np.unique(key, return_index=True)
+    rows = rows[first]
+    inc = sp.csr_matrix((np.ones(len(rows)), (im.photo[rows], im.point[rows])),
+                        shape=(len(block.photos), len(block.points)))
+    counts = sp.triu(inc @ inc.T, k=1).tocoo()
+    row_of = {(int(im.photo[r]), int(im.point[r])): int(r) for r in rows}
+    out = []
+    for a, b, c in zip(counts.row, counts.col, counts.data, strict=True):
+        if c < min_points:
+            continue
+        pa = set(im.point[rows[im.photo[rows] == a]].tolist())
+        pts = np.array(sorted(pa & set(im.point[rows[im.photo[rows] == b]].tolist())))
+        out.append((int(a), int(b), np.array([row_of[(int(a), p)] for p in pts]),
+                    np.array([row_of[(int(b), p)] for p in pts])))
+    return out
+
+
+def test_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarray, kind: str,
+              *, alpha0: float, beta0: float, statistic: str = "tau") -> PairTest:
+    """Fit photo b's coordinates to photo a's by `kind`, snooping whole points."""
+    im = block.image
+    pts = im.point[rows_a]
+    k = len(pts)
+    xy_a, xy_b = im.xy_mm[rows_a], im.xy_mm[rows_b]
+    sig = np.repeat(np.hypot(im.sigma_mm[rows_a], im.sigma_mm[rows_b]), 2)
+    pid = np.asarray(block.points.ids, dtype=object)[pts]
+    obs = Observations(xy_b.ravel(), sig, np.full(2 * k, "image", dtype=object),
+                       np.tile(np.array(["x", "y"], dtype=object), k),
+                       np.full(2 * k, block.photos.ids[b], dtype=object), np.repeat(pid, 2),
+                       np.repeat(np.arange(k), 2))
+    a_mat = design(xy_a, kind)
+    what = f"pair {block.photos.ids[a]}-{block.photos.ids[b]}"
+
+    def refit(active: np.ndarray):
+        x, f, jac = gauss_newton(lambda x: (a_mat @ x, a_mat), np.zeros(a_mat.shape[1]), obs,
+                                 active, what=what)
+        return dense_model(jac, obs, f, active)
+
+    first = refit(np.ones(2 * k, bool))
+    q = analyse(first, alpha0, beta0)
+    stat = q.w if statistic == "w" else q.tau
+    crit = q.k_w if statistic == "w" else q.k_tau
+    tested = q.controlled.reshape(k, 2).any(axis=1)
+    value = np.nanmax(np.abs(np.where(q.controlled, stat, np.nan)).reshape(k, 2), axis=1,
+                      initial=0.0)
+    try:
+        run = iterative_snooping(refit, np.ones(2 * k, bool), alpha0=alpha0, beta0=beta0,
+                                 statistic=statistic, by_group=True)
+        rejected = (~run.active).reshape(k, 2).any(axis=1)
+        qf = run.quality
+        final = np.abs(np.nan_to_num(qf.w if statistic == "w" else qf.tau)).reshape(k, 2)
+        value = np.where(rejected, final.max(axis=1), value)
+    except GeometryError:  # too many points rejected to fit the transformation
+        run, rejected = None, np.zeros(k, bool)
+        tested[:] = False
+    return PairTest(a, b, kind, pts, tested, rejected, value, float(crit),
+                    float(q.sigma0_hat), int(q.redundancy), run)
+
+
+def blame(tests: list[PairTest]) -> dict[int, tuple[list[int], list[PairTest]]]:
+    """For every rejected point: the photos to remove it from and the rejecting pairs.
+
+    A photo is singled out when at least two tested pairs contain it (for this point), all of
+    them reject the point, and it belongs to every rejecting pair; otherwise the point is
+    removed from all photos of the rejecting pairs (one rejecting pair cannot tell which of
+    its two photos is in error).
+    """
+    per_point: dict[int, list[tuple[PairTest, bool]]] = {}
+    for t in tests:
+        for j, p in enumerate(t.points):
+            if t.tested[j]:
+                per_point.setdefault(int(p), []).append((t, bool(t.rejected[j])))
+    out = {}
+    for p, entries in per_point.items():
+        bad = [t for t, r in entries if r]
+        if not bad:
+            continue
+        photos = {x for t, _ in entries for x in (t.a, t.b)}
+        cand = []
+        for ph in photos:
+            mine = [r for t, r in entries if ph in (t.a, t.b)]
+            if len(mine) >= 2 and all(mine) and all(ph in (t.a, t.b) for t in bad):
+                cand.append(ph)
+        remove = cand if len(cand) == 1 else sorted({x for t in bad for x in (t.a, t.b)})
+        out[p] = (remove, bad)
+    return out
+
+
+def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str = "auto",
+                 statistic: str = "tau", alpha0: float = 0.001, beta0: float = 0.80,
+                 min_redundancy: int = 4) -> tuple[np.ndarray, list[PairTest]]:
+    """Stage 1 on the image rows where `keep` is True; returns the new keep and the tests."""
+    keep = np.asarray(keep, bool).copy()
+    tests = []
+    for a, b, ra, rb in common_points(block, keep, 2):
+        use = choose_kind(len(ra), kind, min_redundancy)
+        if use is None:
+            continue
+        tests.append(test_pair(block, a, b, ra, rb, use, alpha0=alpha0, beta0=beta0,
+                               statistic=statistic))
+    im = block.image
+    ids = block.photos.ids
+    for p, (photos, bad) in sorted(blame(tests).items()):
+        pairs = ", ".join(f"{ids[t.a]}-{ids[t.b]} ({t.kind})" for t in bad)
+        worst = max(bad, key=lambda t: t.value[np.flatnonzero(t.points == p)[0]])
+        value = float(worst.value[np.flatnonzero(worst.points == p)[0]])
+        single = len(photos) == 1
+        reason = (f"inconsistent in pair(s) {pairs}" +
+                  ("" if single else "; the photo in error cannot be singled out"))
+        for ph in photos:
+            rows = np.flatnonzero(keep & (im.photo == ph) & (im.point == p))
+            if not len(rows):
+                continue
+            keep[rows] = False
+            log.add(Entry(1, f"pairs {pairs}", "image", block.points.ids[p], ids[ph],
+                          statistic=statistic, value=value, critical=worst.critical,
+                          reason=reason))
+    log.note(1, "pairs", f"{len(tests)} photo pair(s) tested")
+    return keep, tests
