@@ -19,6 +19,7 @@ COMMANDS = [
     "baarda.cli.residuals",
     "baarda.cli.convert",
     "baarda.cli.models",
+    "baarda.cli.screen",
 ]
 
 

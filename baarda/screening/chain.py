@@ -31,6 +31,7 @@ class ScreeningOptions:
     pair_transform: str = "auto"  # auto | similarity | affine
     pair_statistic: str = "tau"  # tau (variance factor of each pair) | w
     pair_min_redundancy: int = 4
+    pair_tolerance_mm: float | None = None  # None: the relief parallax of each pair
     rho_max: float = 0.9  # |correlation| of w-tests above which errors are not separable
 
 
@@ -97,7 +98,8 @@ def screen(block: Block, options: ScreeningOptions | None = None,
     if 1 in opt.stages:
         keep, pairs = screen_pairs(block, keep, log, kind=opt.pair_transform,
                                    statistic=opt.pair_statistic, alpha0=opt.pair_alpha0,
-                                   beta0=beta0, min_redundancy=opt.pair_min_redundancy)
+                                   beta0=beta0, min_redundancy=opt.pair_min_redundancy,
+                                   tolerance_mm=opt.pair_tolerance_mm)
         say(f"stage 1: {len(pairs)} photo pairs, {len(log.removed('image', 1))} image "
             "point(s) removed")
     if 2 in opt.stages or 3 in opt.stages:

@@ -179,6 +179,7 @@ class Intersection:
         x0[self.ne:] = self.xyz[pts].ravel()
         x, f, a = gauss_newton(func, x0, self.obs, active & ~und, what=self.what)
         self.state = unpack(x)
+        self.last = (func, x)  # the function of the unknowns and the solution (tests)
         rows3 = (self.ne + 3 * np.arange(len(pts)))[:, None] + np.arange(3)[None, :]
         labels = [self.block.points.ids[int(self.points[p])] for p in pts]
         if not len(pts):

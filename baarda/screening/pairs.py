@@ -4,8 +4,10 @@ For every pair of overlapping photos (within and across strips) the image coordi
 common points on photo b are fitted to those on photo a by a similarity (4 parameters) or
 an affine (6) transformation, with iterative data snooping of whole points.  The model is a
 simplification (relief displacement, tilts), so its variance factor is unknown and the test
-is Pope's tau (sigma0 a posteriori) by default: the stage is meant for errors that stand out
-far above the relief parallaxes: identification, numbering and other large blunders.
+is Pope's tau (sigma0 a posteriori) by default, at a strict level (alpha 1e-4), and a rejected
+point is removed only when its estimated error exceeds the parallax that the relief of the
+control heights can cause between the two photos: the stage is meant for errors that stand
+out far above the relief parallaxes: identification, numbering and other large blunders.
 
 A point that is inconsistent in a pair may be in error on either photo.  It is blamed on the
 photo that two or more tested pairs contain and all of them reject (and that is in every
@@ -72,6 +74,7 @@ class PairTest:
     tested: np.ndarray  # (k,) bool: point's test is controlled
     rejected: np.ndarray  # (k,) bool
     value: np.ndarray  # (k,) largest |test statistic| of the point (rejected: when predicted)
+    size: np.ndarray  # (k,) estimated error of a rejected point (its predicted residual), mm
     critical: float
     sigma0: float
     redundancy: int
@@ -102,8 +105,13 @@ def common_points(block: Block, keep: np.ndarray, min_points: int) -> list[tuple
 
 
 def test_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarray, kind: str,
-              *, alpha0: float, beta0: float, statistic: str = "tau") -> PairTest:
-    """Fit photo b's coordinates to photo a's by `kind`, snooping whole points."""
+              *, alpha0: float, beta0: float, statistic: str = "tau",
+              tolerance_mm: float = 0.0) -> PairTest:
+    """Fit photo b's coordinates to photo a's by `kind`, snooping whole points.
+
+    A point counts as rejected when the snooping rejects it and its estimated error (the
+    length of its predicted residual) exceeds `tolerance_mm`.
+    """
     im = block.image
     pts = im.point[rows_a]
     k = len(pts)
@@ -132,15 +140,37 @@ def test_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarr
     try:
         run = iterative_snooping(refit, np.ones(2 * k, bool), alpha0=alpha0, beta0=beta0,
                                  statistic=statistic, by_group=True)
-        rejected = (~run.active).reshape(k, 2).any(axis=1)
         qf = run.quality
+        size = np.hypot(*run.model.residuals.reshape(k, 2).T)
+        rejected = (~run.active).reshape(k, 2).any(axis=1)
+        size = np.where(rejected, size, 0.0)
+        rejected &= size > tolerance_mm
         final = np.abs(np.nan_to_num(qf.w if statistic == "w" else qf.tau)).reshape(k, 2)
         value = np.where(rejected, final.max(axis=1), value)
     except GeometryError:  # too many points rejected to fit the transformation
-        run, rejected = None, np.zeros(k, bool)
+        run, rejected, size = None, np.zeros(k, bool), np.zeros(k)
         tested[:] = False
-    return PairTest(a, b, kind, pts, tested, rejected, value, float(crit),
+    return PairTest(a, b, kind, pts, tested, rejected, value, size, float(crit),
                     float(q.sigma0_hat), int(q.redundancy), run)
+
+
+def relief_tolerance(block: Block, a: int, b: int) -> float:
+    """Parallax (mm) that the relief of the control heights causes between photos a, b.
+
+    dp = c B dZ / H^2: B the base between the photos, H the flying height above the mean
+    control height, dZ the range of the control heights (0 without three control heights).
+    A 2D transformation cannot follow it; errors below it are left to stage 2.
+    """
+    z = block.points.xyz[block.points.controlled[:, 2], 2]
+    eo = block.photos.eo
+    if len(z) < 3:
+        return 0.0
+    h = float(np.median(eo[[a, b], 2]) - np.mean(z))
+    if h <= 0:
+        return 0.0
+    c = float(block.cameras.focal_mm[block.photos.camera[a]])
+    base = float(np.linalg.norm(eo[a, :2] - eo[b, :2]))
+    return c * base * float(np.ptp(z)) / h**2
 
 
 def blame(tests: list[PairTest]) -> dict[int, tuple[list[int], list[PairTest]]]:
@@ -174,16 +204,22 @@ def blame(tests: list[PairTest]) -> dict[int, tuple[list[int], list[PairTest]]]:
 
 def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str = "auto",
                  statistic: str = "tau", alpha0: float = 0.001, beta0: float = 0.80,
-                 min_redundancy: int = 4) -> tuple[np.ndarray, list[PairTest]]:
-    """Stage 1 on the image rows where `keep` is True; returns the new keep and the tests."""
+                 min_redundancy: int = 4, tolerance_mm: float | None = None
+                 ) -> tuple[np.ndarray, list[PairTest]]:
+    """Stage 1 on the image rows where `keep` is True; returns the new keep and the tests.
+
+    tolerance_mm: errors smaller than this are not removed (None: the relief parallax of each
+    pair, relief_tolerance).
+    """
     keep = np.asarray(keep, bool).copy()
     tests = []
     for a, b, ra, rb in common_points(block, keep, 2):
         use = choose_kind(len(ra), kind, min_redundancy)
         if use is None:
             continue
+        tol = relief_tolerance(block, a, b) if tolerance_mm is None else tolerance_mm
         tests.append(test_pair(block, a, b, ra, rb, use, alpha0=alpha0, beta0=beta0,
-                               statistic=statistic))
+                               statistic=statistic, tolerance_mm=tol))
     im = block.image
     ids = block.photos.ids
     for p, (photos, bad) in sorted(blame(tests).items()):
@@ -191,7 +227,8 @@ def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str
         worst = max(bad, key=lambda t: t.value[np.flatnonzero(t.points == p)[0]])
         value = float(worst.value[np.flatnonzero(worst.points == p)[0]])
         single = len(photos) == 1
-        reason = (f"inconsistent in pair(s) {pairs}" +
+        size = max(float(t.size[np.flatnonzero(t.points == p)[0]]) for t in bad)
+        reason = (f"inconsistent in pair(s) {pairs} (error about {size:.2f} mm)" +
                   ("" if single else "; the photo in error cannot be singled out"))
         for ph in photos:
             rows = np.flatnonzero(keep & (im.photo == ph) & (im.point == p))

@@ -30,6 +30,8 @@ import numpy as np
 from baarda.block.model import Block
 from baarda.io.errors import GeometryError
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
+from baarda.quality.iterative import label as obs_label
+from baarda.quality.statistics import w_correlation
 from baarda.screening.fit import largest_test, separable
 from baarda.screening.intersection import Intersection
 from baarda.screening.log import Entry, ScreeningLog
@@ -95,8 +97,6 @@ class Decision:
 def _examine(prob: Intersection, run: SnoopingRun, alpha0: float, beta0: float,
              rho_max: float) -> list[Decision]:
     """Separability of every group that the snooping rejected."""
-    from baarda.quality.iterative import label
-
     out = []
     obs = prob.obs
     for g in np.unique(obs.group[~run.active]):
@@ -114,10 +114,8 @@ def _examine(prob: Intersection, run: SnoopingRun, alpha0: float, beta0: float,
         ok, rho = separable(model, i, others, rho_max)
         other = ""
         if len(others):
-            from baarda.quality.statistics import w_correlation
-
             j = others[int(np.argmax(np.abs(w_correlation(model, i)[others])))]
-            other = label(model, int(j))
+            other = obs_label(model, int(j))
         out.append(Decision(int(g), point, int(i), w, crit, ok, rho, other))
     prob.refit(run.active)  # back to the solution of the run
     return out

@@ -1,0 +1,74 @@
+"""`baarda screen PROJECT -o OUT`: the screening chain; writes a cleaned project and its log."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from baarda.cli.common import check_output, progress
+from baarda.io.project import read_project, write_project
+from baarda.screening.chain import ScreeningOptions, screen
+
+
+def add_options(p) -> None:
+    """Options of the screening stages (shared with `baarda adjust --screen`)."""
+    d = ScreeningOptions()
+    p.add_argument("--stages", default="1,2,3",
+                   help="stages to run: 1 photo pairs, 2 strip formation, 3 control "
+                   "(default 1,2,3)")
+    p.add_argument("--pair-transform", default=d.pair_transform,
+                   choices=["auto", "similarity", "affine"],
+                   help="2D transformation of the photo pairs (auto: affine with 6 or more "
+                   "common points, else similarity)")
+    p.add_argument("--pair-test", default=d.pair_statistic, choices=["tau", "w"],
+                   help="test of the photo pairs: tau (variance factor of each pair, default) "
+                   "or w (the image sigma)")
+    p.add_argument("--pair-alpha0", type=float, default=d.pair_alpha0,
+                   help=f"significance level of the photo-pair tests (default {d.pair_alpha0})")
+    p.add_argument("--pair-tolerance", type=float, default=None, metavar="MM",
+                   help="photo pairs: errors smaller than this (mm) are left to stage 2 "
+                   "(default: the parallax the relief of the control heights causes)")
+    p.add_argument("--rho-max", type=float, default=d.rho_max,
+                   help="errors whose w-tests correlate more than this are not separable "
+                   f"(default {d.rho_max})")
+
+
+def options(args) -> ScreeningOptions:
+    try:
+        stages = tuple(sorted({int(s) for s in str(args.stages).split(",") if s.strip()}))
+    except ValueError:
+        stages = ()
+    if not stages or not set(stages) <= {1, 2, 3}:
+        raise SystemExit(f"baarda: error: --stages '{args.stages}': a comma list of 1, 2, 3")
+    return ScreeningOptions(stages=stages, alpha0=args.alpha0, beta0=args.beta0,
+                            pair_alpha0=args.pair_alpha0, pair_transform=args.pair_transform,
+                            pair_statistic=args.pair_test, rho_max=args.rho_max,
+                            pair_tolerance_mm=args.pair_tolerance)
+
+
+def register(sub) -> None:
+    p = sub.add_parser("screen", help="pre-adjustment screening: photo pairs, strip formation, "
+                       "control; writes a cleaned project and the screening log")
+    p.add_argument("project", type=Path, help="project folder (project.toml + CSV files)")
+    p.add_argument("-o", "--out", type=Path, required=True,
+                   help="folder of the cleaned project (and screening_log.csv, screening.txt)")
+    p.add_argument("--alpha0", type=float, help="significance level of the w-tests of stages "
+                   "2 and 3 (default: project.toml, else 0.001)")
+    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
+    add_options(p)
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output(args.out, [args.project])
+    say = progress(args.quiet)
+    block = read_project(args.project)
+    if say:
+        say(f"read {block.summary()}")
+    res = screen(block, options(args), progress=say)
+    write_project(res.block, args.out)
+    res.log.write(args.out)
+    if not args.quiet:
+        print(res.summary())
+        print(f"cleaned project and screening log written to {args.out}")
+    return 0
