@@ -1,4 +1,4 @@
-"""`baarda adjust PROJECT -o OUT` and `baarda snoop PROJECT -o OUT`."""
+"""`baarda adjust PROJECT -o OUT [--screen] [--snoop]` and `baarda snoop PROJECT -o OUT`."""
 
 from __future__ import annotations
 
@@ -31,6 +31,13 @@ def register(sub) -> None:
     p = sub.add_parser("adjust", help="bundle block adjustment with observation statistics")
     _common(p)
     p.add_argument("--snoop", action="store_true", help="iterative data snooping")
+    p.add_argument("--screen", action="store_true", help="screen the data first (photo "
+                   "pairs, strip formation, control; see baarda screen); with --snoop, what "
+                   "the snooping rejects is removed with the observations it cannot be told "
+                   "from; the log is written to screening_log.csv")
+    from baarda.cli.screen import add_options
+
+    add_options(p)
     p.set_defaults(func=run_adjust)
     p = sub.add_parser("snoop", help="bundle adjustment with iterative data snooping")
     _common(p)
@@ -44,6 +51,8 @@ def run_adjust(args) -> int:
     block = inp.adjusted
     if say:
         say(f"read {block.summary()}")
+    if getattr(args, "screen", False):
+        return _screened(args, block, say)
     if args.snoop:
         qc = snoop(block, alpha0=args.alpha0, beta0=args.beta0,
                    statistic="tau" if args.tau else "w", by_point=args.by_point,
@@ -56,6 +65,28 @@ def run_adjust(args) -> int:
     if not args.quiet:
         print(qc.summary())
         print(f"results written to {args.out}")
+    return 0
+
+
+def _screened(args, block, say) -> int:
+    from baarda.cli.screen import options
+    from baarda.screening.chain import screen, screen_and_snoop
+
+    opts = options(args)
+    if args.snoop:
+        res, qc = screen_and_snoop(block, opts, statistic="tau" if args.tau else "w",
+                                   progress=say)
+        result = qc.adjustment
+    else:
+        res = screen(block, opts, progress=say)
+        result = adjust(res.block, progress=say)
+        qc = assess(result, args.alpha0, args.beta0)
+    write_results(args.out, result, qc)
+    res.log.write(args.out)
+    if not args.quiet:
+        print(res.summary())
+        print(qc.summary())
+        print(f"results and screening log written to {args.out}")
     return 0
 
 
