@@ -16,12 +16,12 @@ def add_options(p) -> None:
                    help="stages to run: 1 photo pairs, 2 strip formation, 3 control "
                    "(default 1,2,3)")
     p.add_argument("--pair-transform", default=d.pair_transform,
-                   choices=["auto", "similarity", "affine"],
-                   help="2D transformation of the photo pairs (auto: affine with 6 or more "
-                   "common points, else similarity)")
-    p.add_argument("--pair-test", default=d.pair_statistic, choices=["tau", "w"],
-                   help="test of the photo pairs: tau (variance factor of each pair, default) "
-                   "or w (the image sigma)")
+                   choices=["auto", "similarity", "affine", "projective"],
+                   help="2D transformation of the photo pairs (auto: projective with 7 or "
+                   "more common points, affine with 6, else similarity)")
+    p.add_argument("--pair-test", default=d.pair_statistic, choices=["w", "tau"],
+                   help="test of the photo pairs: w with the pooled sigma of all pairs "
+                   "(default) or tau with each pair's own variance factor")
     p.add_argument("--pair-alpha0", type=float, default=d.pair_alpha0,
                    help=f"significance level of the photo-pair tests (default {d.pair_alpha0})")
     p.add_argument("--pair-tolerance", type=float, default=None, metavar="MM",

@@ -61,14 +61,17 @@ def gauss_newton(func: Function, x0: np.ndarray, obs: Observations, active: np.n
                  what: str = "small adjustment") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weighted least squares of observed = f(x) with the `active` components.
 
-    Returns x, f(x) and the Jacobian at x.  Converged when the largest correction is below
-    tol times (1 + |x|).  Raises GeometryError when N is singular or it does not converge.
+    Returns x, f(x) and the Jacobian at x.  The step is halved while the weighted sum of
+    squares grows.  Converged when the largest correction is below tol times (1 + |x|) or the
+    sum of squares no longer changes (1e-13 relative).  Raises GeometryError when N is
+    singular or it does not converge.
     """
     x = np.asarray(x0, float).copy()
     p = np.where(active, 1.0 / obs.sigma**2, 0.0)
+    f, a = func(x)
+    e = np.where(active, obs.observed - f, 0.0)
+    cost = float(np.sum(p * e**2))
     for _ in range(max_iterations):
-        f, a = func(x)
-        e = np.where(active, obs.observed - f, 0.0)
         n = a.T @ (p[:, None] * a)
         try:
             c = np.linalg.cholesky(n)
@@ -76,11 +79,22 @@ def gauss_newton(func: Function, x0: np.ndarray, obs: Observations, active: np.n
             raise GeometryError(f"{what}: the unknowns are not determined by the "
                                 "observations (singular normal equations)") from None
         dx = np.linalg.solve(c.T, np.linalg.solve(c, a.T @ (p * e)))
-        x += dx
-        if not np.all(np.isfinite(x)):
-            break
-        if np.max(np.abs(dx), initial=0.0) <= tol * (1.0 + np.max(np.abs(x), initial=0.0)):
-            f, a = func(x)
+        step = 1.0
+        for _halve in range(20):  # step halving when the weighted sum of squares grows
+            x_new = x + step * dx
+            f_new, a_new = func(x_new)
+            e_new = np.where(active, obs.observed - f_new, 0.0)
+            cost_new = float(np.sum(p * e_new**2))
+            if np.isfinite(cost_new) and cost_new <= cost * (1 + 1e-12) + 1e-300:
+                break
+            step *= 0.5
+        else:
+            raise GeometryError(f"{what}: Gauss-Newton diverged")
+        small = np.max(np.abs(step * dx), initial=0.0) <= tol * (1.0 + np.max(np.abs(x_new),
+                                                                            initial=0.0))
+        flat = abs(cost - cost_new) <= 1e-13 * max(cost, 1e-300)
+        x, f, a, e, cost = x_new, f_new, a_new, e_new, cost_new
+        if small or flat:
             return x, f, a
     raise GeometryError(f"{what}: Gauss-Newton did not converge")
 

@@ -3,20 +3,28 @@
 For every pair of overlapping photos (within and across strips) the image coordinates of the
 common points on photo b are fitted to those on photo a by a similarity (4 parameters) or
 an affine (6) transformation, with iterative data snooping of whole points.  The model is a
-simplification (relief displacement, tilts), so its variance factor is unknown and the test
-is Pope's tau (sigma0 a posteriori) by default, at a strict level (alpha 1e-4), and a rejected
-point is removed only when its estimated error exceeds the parallax that the relief of the
-control heights can cause between the two photos: the stage is meant for errors that stand
-out far above the relief parallaxes: identification, numbering and other large blunders.
+simplification (relief displacement, tilts), so its variance is not known: each pair is first
+snooped with its own variance factor (Pope's tau), and the median of the pairs' standard
+deviations is then the a-priori sigma of the w-test with which every pair is snooped (alpha
+1e-4).  A rejected point is removed only when its estimated error exceeds both the parallax
+that the relief of the control heights can cause between the two photos and the critical w
+times the pooled sigma: the stage is meant for errors that stand out far above what the 2D
+model cannot follow: identification, numbering and other large blunders.
 
 A point that is inconsistent in a pair may be in error on either photo.  It is blamed on the
 photo that two or more tested pairs contain and all of them reject (and that is in every
 rejecting pair); when no single photo is singled out (a point on two photos only, or rejected
-in one pair only), it is removed from every photo of the rejecting pairs.
+in one pair only), it is removed from every photo of the rejecting pairs if the error is gross
+(more than GROSS times the tolerance: it would upset the relative orientations of stage 2),
+and otherwise left to stage 2, which can locate it with a third ray.
 
 Transformations, photo b = T(photo a), image coordinates in mm:
     similarity  x' = a x - b y + c,   y' = b x + a y + d
     affine      x' = a1 x + a2 y + a3,  y' = b1 x + b2 y + b3
+    projective  x' = (a1 x + a2 y + a3) / (c1 x + c2 y + 1),  y' = (b1 x + b2 y + b3) / (...)
+The projective one maps a plane exactly from one photo to the other, so the tilts of the
+photos leave no model error, only the relief does; it is used where the pair has enough
+points (auto), the affine and the similarity where it has fewer.
 """
 
 from __future__ import annotations
@@ -28,12 +36,13 @@ import scipy.sparse as sp
 
 from baarda.block.model import Block
 from baarda.io.errors import GeometryError
+from baarda.quality.distributions import b_method
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import analyse
 from baarda.screening.fit import Observations, dense_model, gauss_newton
 from baarda.screening.log import Entry, ScreeningLog
 
-N_PARAMS = {"similarity": 4, "affine": 6}
+N_PARAMS = {"similarity": 4, "affine": 6, "projective": 8}
 
 
 def design(xy: np.ndarray, kind: str) -> np.ndarray:
@@ -54,12 +63,43 @@ def design(xy: np.ndarray, kind: str) -> np.ndarray:
     return a
 
 
+def transformation(xy: np.ndarray, kind: str):
+    """f(params) -> (values (2n,), Jacobian (2n, u)) of the transformation of xy, and a start."""
+    if kind != "projective":
+        a = design(xy, kind)
+        return (lambda p: (a @ p, a)), np.zeros(a.shape[1])
+    x, y = xy[:, 0], xy[:, 1]
+    n = len(xy)
+
+    def f(p):
+        den = p[6] * x + p[7] * y + 1.0
+        u = p[0] * x + p[1] * y + p[2]
+        v = p[3] * x + p[4] * y + p[5]
+        out = np.empty(2 * n)
+        out[0::2], out[1::2] = u / den, v / den
+        jac = np.zeros((2 * n, 8))
+        jac[0::2, 0:3] = np.column_stack([x, y, np.ones(n)]) / den[:, None]
+        jac[1::2, 3:6] = np.column_stack([x, y, np.ones(n)]) / den[:, None]
+        jac[0::2, 6], jac[0::2, 7] = -u * x / den**2, -u * y / den**2
+        jac[1::2, 6], jac[1::2, 7] = -v * x / den**2, -v * y / den**2
+        return out, jac
+
+    return f, np.array([1.0, 0, 0, 0, 1.0, 0, 0, 0])
+
+
 def choose_kind(n_points: int, kind: str, min_redundancy: int) -> str | None:
-    """The transformation to use for a pair with n common points, or None (too few)."""
+    """The transformation to use for a pair with n common points, or None (too few).
+
+    auto: projective where it leaves a redundancy of 6 or more, else affine (likewise), else
+    similarity (with at least `min_redundancy`).
+    """
     if kind == "auto":
-        if 2 * n_points - N_PARAMS["affine"] >= max(min_redundancy, 6):
-            return "affine"
+        for k in ("projective", "affine"):
+            if 2 * n_points - N_PARAMS[k] >= max(min_redundancy, 6):
+                return k
         kind = "similarity"
+    if kind not in N_PARAMS:
+        raise ValueError(f"unknown 2D transformation '{kind}' (similarity, affine, projective)")
     return kind if 2 * n_points - N_PARAMS[kind] >= min_redundancy else None
 
 
@@ -76,9 +116,13 @@ class PairTest:
     value: np.ndarray  # (k,) largest |test statistic| of the point (rejected: when predicted)
     size: np.ndarray  # (k,) estimated error of a rejected point (its predicted residual), mm
     critical: float
+    tolerance: float  # mm: errors up to this size were not counted as rejected
     sigma0: float
     redundancy: int
     run: SnoopingRun | None = field(default=None, repr=False)
+
+
+GROSS = 4.0  # a point one pair rejects is removed (from both photos) only above GROSS * tolerance
 
 
 def common_points(block: Block, keep: np.ndarray, min_points: int) -> list[tuple]:
@@ -104,33 +148,46 @@ def common_points(block: Block, keep: np.ndarray, min_points: int) -> list[tuple
     return out
 
 
-def test_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarray, kind: str,
-              *, alpha0: float, beta0: float, statistic: str = "tau",
-              tolerance_mm: float = 0.0) -> PairTest:
+def fit_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarray, kind: str,
+             *, alpha0: float, beta0: float, statistic: str = "tau",
+             sigma_mm: float | None = None, tolerance_mm: float = 0.0) -> PairTest | None:
     """Fit photo b's coordinates to photo a's by `kind`, snooping whole points.
 
-    A point counts as rejected when the snooping rejects it and its estimated error (the
-    length of its predicted residual) exceeds `tolerance_mm`.
+    sigma_mm: a-priori standard deviation of the coordinate differences (None: from the
+    image sigmas of both photos).  A point counts as rejected when the snooping rejects it and
+    the part of its error it would show in the fit (redundancy number times the predicted
+    residual) exceeds `tolerance_mm` and, for the w-test, the critical w times the pair's own
+    standard deviation after the rejections (a pair the 2D model fits worse than the others
+    keeps its points).  `size` reports the estimated error itself (the predicted residual).
+    None when the transformation cannot be fitted at all.
     """
     im = block.image
     pts = im.point[rows_a]
     k = len(pts)
     xy_a, xy_b = im.xy_mm[rows_a], im.xy_mm[rows_b]
     sig = np.repeat(np.hypot(im.sigma_mm[rows_a], im.sigma_mm[rows_b]), 2)
+    if sigma_mm is not None:
+        sig = np.full(2 * k, float(sigma_mm))
     pid = np.asarray(block.points.ids, dtype=object)[pts]
     obs = Observations(xy_b.ravel(), sig, np.full(2 * k, "image", dtype=object),
                        np.tile(np.array(["x", "y"], dtype=object), k),
                        np.full(2 * k, block.photos.ids[b], dtype=object), np.repeat(pid, 2),
                        np.repeat(np.arange(k), 2))
-    a_mat = design(xy_a, kind)
+    func, start = transformation(xy_a, kind)
     what = f"pair {block.photos.ids[a]}-{block.photos.ids[b]}"
+    if kind == "projective":  # start from the affine solution
+        aff = design(xy_a, "affine")
+        sol = np.linalg.lstsq(aff, xy_b.ravel(), rcond=None)[0]
+        start = np.concatenate([sol, [0.0, 0.0]])
 
     def refit(active: np.ndarray):
-        x, f, jac = gauss_newton(lambda x: (a_mat @ x, a_mat), np.zeros(a_mat.shape[1]), obs,
-                                 active, what=what)
+        x, f, jac = gauss_newton(func, start, obs, active, what=what)
         return dense_model(jac, obs, f, active)
 
-    first = refit(np.ones(2 * k, bool))
+    try:
+        first = refit(np.ones(2 * k, bool))
+    except GeometryError:
+        return None
     q = analyse(first, alpha0, beta0)
     stat = q.w if statistic == "w" else q.tau
     crit = q.k_w if statistic == "w" else q.k_tau
@@ -141,17 +198,27 @@ def test_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarr
         run = iterative_snooping(refit, np.ones(2 * k, bool), alpha0=alpha0, beta0=beta0,
                                  statistic=statistic, by_group=True)
         qf = run.quality
-        size = np.hypot(*run.model.residuals.reshape(k, 2).T)
+        v = run.model.residuals.reshape(k, 2)
         rejected = (~run.active).reshape(k, 2).any(axis=1)
-        size = np.where(rejected, size, 0.0)
-        rejected &= size > tolerance_mm
+        size = np.where(rejected, np.hypot(*v.T), 0.0)
+        # the part of the error the point would show in the fit (r times the predicted
+        # residual): at a point of low redundancy the extrapolated model errors show as well
+        shown = np.hypot(*(v * qf.redundancy_number.reshape(k, 2)).T)
+        # not more than the pair's own scatter (after the rejections) either
+        own = qf.k_w * qf.sigma0_hat * float(sig[0]) if np.isfinite(qf.sigma0_hat) else 0.0
+        tolerance_mm = max(tolerance_mm, own if statistic == "w" else 0.0)
+        rejected &= shown > tolerance_mm
         final = np.abs(np.nan_to_num(qf.w if statistic == "w" else qf.tau)).reshape(k, 2)
         value = np.where(rejected, final.max(axis=1), value)
     except GeometryError:  # too many points rejected to fit the transformation
         run, rejected, size = None, np.zeros(k, bool), np.zeros(k)
         tested[:] = False
     return PairTest(a, b, kind, pts, tested, rejected, value, size, float(crit),
-                    float(q.sigma0_hat), int(q.redundancy), run)
+                    float(tolerance_mm), float(q.sigma0_hat), int(q.redundancy), run)
+
+
+def _tol(block: Block, a: int, b: int, given: float | None, floor: float) -> float:
+    return given if given is not None else max(relief_tolerance(block, a, b), floor)
 
 
 def relief_tolerance(block: Block, a: int, b: int) -> float:
@@ -203,23 +270,44 @@ def blame(tests: list[PairTest]) -> dict[int, tuple[list[int], list[PairTest]]]:
 
 
 def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str = "auto",
-                 statistic: str = "tau", alpha0: float = 0.001, beta0: float = 0.80,
+                 statistic: str = "w", alpha0: float = 1e-4, beta0: float = 0.80,
                  min_redundancy: int = 4, tolerance_mm: float | None = None
                  ) -> tuple[np.ndarray, list[PairTest]]:
     """Stage 1 on the image rows where `keep` is True; returns the new keep and the tests.
 
-    tolerance_mm: errors smaller than this are not removed (None: the relief parallax of each
-    pair, relief_tolerance).
+    statistic "w": every pair is first snooped with its own variance factor (tau); the median
+    of their final standard deviations is the a-priori sigma of a second, w-test snooping of
+    every pair (a w-test is not bounded like tau, so several gross errors in one pair do not
+    hide each other).  "tau": the first snooping only.
+    tolerance_mm: errors smaller than this are not removed (None: the larger of the relief
+    parallax of the pair, relief_tolerance, and the critical w times the pooled sigma).
     """
     keep = np.asarray(keep, bool).copy()
-    tests = []
+    ids = block.photos.ids
+    pairs = []
     for a, b, ra, rb in common_points(block, keep, 2):
         use = choose_kind(len(ra), kind, min_redundancy)
-        if use is None:
-            continue
-        tol = relief_tolerance(block, a, b) if tolerance_mm is None else tolerance_mm
-        tests.append(test_pair(block, a, b, ra, rb, use, alpha0=alpha0, beta0=beta0,
-                               statistic=statistic, tolerance_mm=tol))
+        if use is not None:
+            pairs.append((a, b, ra, rb, use))
+    tests = [fit_pair(block, a, b, ra, rb, use, alpha0=alpha0, beta0=beta0, statistic="tau",
+                      tolerance_mm=np.inf if statistic == "w" else _tol(block, a, b,
+                                                                         tolerance_mm, 0.0))
+             for a, b, ra, rb, use in pairs]
+    final = [t.run.quality.sigma0_hat * t.run.model.sigma[0] for t in tests
+             if t is not None and t.run is not None and np.isfinite(t.run.quality.sigma0_hat)]
+    if statistic == "w" and final:
+        pooled = float(np.median(final))
+        k_w = b_method(alpha0, beta0).k_w
+        log.note(1, "pairs", f"pooled sigma of the 2D transformations {pooled * 1e3:.0f} µm")
+        tests = [fit_pair(block, a, b, ra, rb, use, alpha0=alpha0, beta0=beta0, statistic="w",
+                          sigma_mm=pooled,
+                          tolerance_mm=_tol(block, a, b, tolerance_mm, k_w * pooled))
+                 for a, b, ra, rb, use in pairs]
+    failed = [f"{ids[a]}-{ids[b]}" for t, (a, b, *_) in zip(tests, pairs, strict=True)
+              if t is None]
+    if failed:
+        log.note(1, "pairs", f"not fitted (not tested): {', '.join(failed)}")
+    tests = [t for t in tests if t is not None]
     im = block.image
     ids = block.photos.ids
     for p, (photos, bad) in sorted(blame(tests).items()):
@@ -228,6 +316,14 @@ def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str
         value = float(worst.value[np.flatnonzero(worst.points == p)[0]])
         single = len(photos) == 1
         size = max(float(t.size[np.flatnonzero(t.points == p)[0]]) for t in bad)
+        if not single and size <= GROSS * max(t.tolerance for t in bad):
+            log.add(Entry(1, f"pairs {pairs}", "image", block.points.ids[p],
+                          ",".join(ids[ph] for ph in photos), action="kept",
+                          statistic=statistic, value=value, critical=worst.critical,
+                          reason=f"inconsistent in pair(s) {pairs} (error about {size:.2f} mm), "
+                                 "but the photo in error cannot be singled out and the error is "
+                                 "not gross: left to the strip formation"))
+            continue
         reason = (f"inconsistent in pair(s) {pairs} (error about {size:.2f} mm)" +
                   ("" if single else "; the photo in error cannot be singled out"))
         for ph in photos:
