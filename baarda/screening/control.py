@@ -9,14 +9,17 @@ similarity transformation
 Observations: the given control coordinates, sigma^2 = sigma_control^2 + s^2 var_strip, with
 var_strip the variances of the strip coordinates from the strip adjustment, S-transformed to
 the datum of the strip's control points (so that they do not depend on the strip's datum, the
-first photo).  Control points are snooped as groups (all
-their coordinates together) with baarda.quality.iterative, started from the full set and from
-every leave-one-out subset; a rejected point is tested again by its predicted residual from
-the others and restored when it fits.  The best run keeps the most points (then: global test
+first photo) and divided by diag(S) (exact for independent errors; strip_variances).
+Control points are snooped as groups (all their coordinates together) with
+baarda.quality.iterative, started from the full set and from every leave-one-out subset; a
+rejected point is tested again by its predicted residual from the others and restored when
+it fits.  The best run keeps the most points (then: global test
 passed, smallest v^T P v).  A rejected point is removed only when the error is located: the
-other points fit without it (global test and w-tests), and no leave-one-out subset that keeps
-it fits (otherwise another point could be the one in error: a height error among four points
-is a single condition).  An error that is not located is left to the bundle adjustment.
+other points fit without it (no w-test rejects, with the sigmas scaled by the variance factor
+of that fit when it exceeds 1: strip deformations are no error of a point), and no
+leave-one-out subset that keeps it fits (otherwise another point could be the one in error: a
+height error among four points is a single condition).  An error that is not located is left
+to the bundle adjustment.
 """
 
 from __future__ import annotations
@@ -55,11 +58,15 @@ def similarity(params: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return t + s * rd, jac
 
 
-def s_transform(q: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+def s_transform(q: np.ndarray, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Cofactors q (3n, 3n) of points xyz (n, 3) in the datum of these points (Baarda's
-    S-transformation): S q S^T with S = I - G (G^T G)^-1 G^T, G the 7 similarity directions
-    (shifts, scale, rotations) at the points.  The part a similarity transformation absorbs
-    is removed, so that the diagonal no longer depends on where the strip's datum lies."""
+    S-transformation) and the diagonal of S.
+
+    S q S^T with S = I - G (G^T G)^-1 G^T, G the 7 similarity directions (shifts, scale,
+    rotations) at the points: the part that a similarity transformation absorbs is removed,
+    so that the result no longer depends on where the strip's datum lies.  diag(S) is the
+    share of an independent error of a coordinate that survives the transformation.
+    """
     n = len(xyz)
     d = xyz - xyz.mean(axis=0)
     d = d / max(float(np.sqrt(np.mean(d**2))), 1e-12)
@@ -71,7 +78,17 @@ def s_transform(q: np.ndarray, xyz: np.ndarray) -> np.ndarray:
     g[:, 2, 4], g[:, 2, 5] = d[:, 1], -d[:, 0]
     g = g.reshape(3 * n, 7)
     s = np.eye(3 * n) - g @ np.linalg.solve(g.T @ g, g.T)
-    return s @ q @ s.T
+    return s @ q @ s.T, np.diag(s).copy()
+
+
+def strip_variances(q: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+    """(n, 3) variances of strip coordinates for the similarity: diag(S q S^T) / diag(S).
+
+    Exact for independent errors (q = s^2 I gives s^2); the datum part of q (errors a
+    similarity transformation absorbs, large far from the strip's first photo) drops out.
+    """
+    qs, sd = s_transform(q, xyz)
+    return (np.diag(qs) / np.maximum(sd, 1e-9)).reshape(-1, 3)
 
 
 def closed_form(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
@@ -108,7 +125,7 @@ class StripSimilarity:
         xs = np.array([strip.xyz[p] for p in points])
         self.centre = xs.mean(axis=0)
         self.d = xs - self.centre
-        self.var = np.diag(s_transform(strip.covariance(points), xs)).reshape(-1, 3)
+        self.var = strip_variances(strip.covariance(points), xs)
         sig = pts.sigma[points]
         self.comp = np.isfinite(sig) & (pts.role[points] == "control")[:, None]
         j, k = np.nonzero(self.comp)
@@ -181,12 +198,18 @@ def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
             continue
         if not abs(w) > crit:  # rejected while other points were out: not an error of its own
             continue
-        # located when the others fit without g and no other leave-one-out subset with g fits
+        # located when the others fit without g and no other leave-one-out subset with g fits;
+        # "fit" is judged with the variance factor of the fit without g (strip deformations
+        # that the similarity cannot follow make it exceed 1: they are not errors of a point)
         others = [j for j in range(len(ctrl)) if j != g and sim.comp[j].all()
                   and run.active[sim.obs.group == j].all()]
+        base = _fit(sim, run.active, alpha0, beta0)
+        if base is None:
+            continue
+        factor = max(1.0, base.sigma0_hat) if base.redundancy > 0 else 1.0
         alt = [ctrl[j] for j in others
-               if _consistent(sim, act & (sim.obs.group != j), alpha0, beta0)]
-        if _consistent(sim, run.active, alpha0, beta0) and not alt:
+               if _fits(_fit(sim, act & (sim.obs.group != j), alpha0, beta0), factor)]
+        if _fits(base, factor) and not alt:
             rejected.append(ctrl[g])
         else:
             unlocated.append((ctrl[g], w, crit, alt))
@@ -195,17 +218,23 @@ def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
                         float(run.quality.sigma0_hat), run)
 
 
-def _consistent(sim: StripSimilarity, active: np.ndarray, alpha0: float, beta0: float) -> bool:
-    """The active control fits: global test passed and no w-test rejected."""
+def _fit(sim: StripSimilarity, active: np.ndarray, alpha0: float, beta0: float):
+    """The statistics of the similarity with the `active` control, or None (singular)."""
     try:
-        q = analyse(sim.refit(active), alpha0, beta0)
+        return analyse(sim.refit(active), alpha0, beta0)
     except GeometryError:
+        return None
+
+
+def _fits(q, factor: float) -> bool:
+    """No w-test rejects when the sigmas are scaled by `factor` (and nothing contradicts a fit
+    without redundancy)."""
+    if q is None:
         return False
     if q.redundancy < 1:
-        return True  # nothing contradicts it
-    if q.global_test is not None and not q.global_test.passed:
-        return False
-    return not np.any(q.flagged)
+        return True
+    w = np.abs(np.nan_to_num(q.w[q.active & q.controlled]))
+    return not np.any(w > q.k_w * factor)
 
 
 def screen_control(block: Block, strips: list[Strip], log: ScreeningLog, *,

@@ -85,10 +85,12 @@ def gauss_newton(func: Function, x0: np.ndarray, obs: Observations, active: np.n
             f_new, a_new = func(x_new)
             e_new = np.where(active, obs.observed - f_new, 0.0)
             cost_new = float(np.sum(p * e_new**2))
-            if np.isfinite(cost_new) and cost_new <= cost * (1 + 1e-12) + 1e-300:
+            if np.isfinite(cost_new) and cost_new <= cost * (1 + 1e-10) + 1e-20:
                 break
             step *= 0.5
-        else:
+        else:  # no step lowers it: at the minimum (to rounding), or diverging
+            if np.max(np.abs(dx), initial=0.0) <= 1e-6 * (1.0 + np.max(np.abs(x), initial=0.0)):
+                return x, f, a
             raise GeometryError(f"{what}: Gauss-Newton diverged")
         small = np.max(np.abs(step * dx), initial=0.0) <= tol * (1.0 + np.max(np.abs(x_new),
                                                                             initial=0.0))

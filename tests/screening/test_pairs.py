@@ -5,7 +5,15 @@ import pytest
 
 from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.screening.log import ScreeningLog
-from baarda.screening.pairs import PairTest, blame, design, screen_pairs, fit_pair
+from baarda.screening.pairs import (
+    PairTest,
+    blame,
+    choose_kind,
+    design,
+    fit_pair,
+    screen_pairs,
+    transformation,
+)
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 
@@ -35,6 +43,26 @@ def test_design_reproduces_the_transformation(kind, params):
         a1, a2, a3, b1, b2, b3 = params
         ref = np.column_stack([a1 * x + a2 * y + a3, b1 * x + b2 * y + b3])
     np.testing.assert_allclose(design(xy, kind) @ params, ref.ravel(), atol=1e-12)
+
+
+def test_projective_jacobian_and_exact_fit():
+    rng = np.random.default_rng(2)
+    xy = rng.uniform(-100, 100, (9, 2))
+    p = np.array([0.98, 0.03, -91.0, -0.02, 1.01, 1.2, 2e-4, -1e-4])
+    f, _ = transformation(xy, "projective")
+    val, jac = f(p)
+    num = np.column_stack([(f(p + h)[0] - f(p - h)[0]) / (2 * h[k])
+                           for k, h in enumerate(np.eye(8) * np.array([1e-6] * 6 + [1e-9] * 2))])
+    np.testing.assert_allclose(jac, num, rtol=1e-5, atol=1e-6)
+    # a plane seen from two tilted photos: the projective fit leaves nothing
+    block = pair_block(xy, val.reshape(-1, 2))
+    t = fit_pair(block, 0, 1, np.arange(9), 9 + np.arange(9), "projective", alpha0=1e-4,
+                 beta0=0.8, statistic="w")
+    assert np.max(np.abs(t.run.model.residuals)) < 1e-9
+    assert choose_kind(7, "auto", 4) == "projective"
+    assert choose_kind(6, "auto", 4) == "affine"
+    assert choose_kind(4, "auto", 4) == "similarity"
+    assert choose_kind(3, "auto", 4) is None
 
 
 def test_planted_error_is_found_and_tau_matches_brute_force():
