@@ -52,7 +52,7 @@ def run_adjust(args) -> int:
     if say:
         say(f"read {block.summary()}")
     if getattr(args, "screen", False):
-        return _screened(args, block, say)
+        return _screened(args, inp, say)
     if args.snoop:
         qc = snoop(block, alpha0=args.alpha0, beta0=args.beta0,
                    statistic="tau" if args.tau else "w", by_point=args.by_point,
@@ -68,10 +68,16 @@ def run_adjust(args) -> int:
     return 0
 
 
-def _screened(args, block, say) -> int:
+def _screened(args, inp, say) -> int:
     from baarda.cli.screen import options
+    from baarda.io.errors import GeometryError
     from baarda.screening.chain import screen, screen_and_snoop
 
+    block = inp.adjusted
+    if not block.points.controlled.any():
+        raise GeometryError("--screen needs control points (stage 3 and the datum of the "
+                            "bundle adjustment after it); screen a free network with "
+                            "baarda screen --stages 1,2")
     opts = options(args)
     if args.snoop:
         res, qc = screen_and_snoop(block, opts, statistic="tau" if args.tau else "w",
@@ -81,7 +87,7 @@ def _screened(args, block, say) -> int:
         res = screen(block, opts, progress=say)
         result = adjust(res.block, progress=say)
         qc = assess(result, args.alpha0, args.beta0)
-    write_results(args.out, result, qc)
+    inp.write(args.out, result, qc)
     res.log.write(args.out)
     if not args.quiet:
         print(res.summary())

@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import check_output, progress
-from baarda.io.project import read_project, write_project
+from baarda.cli.inputs import add_input_options, read_input
+from baarda.io.project import write_project
 from baarda.screening.chain import ScreeningOptions, screen
 
 
@@ -48,7 +49,9 @@ def options(args) -> ScreeningOptions:
 def register(sub) -> None:
     p = sub.add_parser("screen", help="pre-adjustment screening: photo pairs, strip formation, "
                        "control; writes a cleaned project and the screening log")
-    p.add_argument("project", type=Path, help="project folder (project.toml + CSV files)")
+    p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
+                   "supported input (see docs/formats.md); the cleaned block is written as a "
+                   "project")
     p.add_argument("-o", "--out", type=Path, required=True,
                    help="folder of the cleaned project (and screening_log.csv, screening.txt)")
     p.add_argument("--alpha0", type=float, help="significance level of the w-tests of stages "
@@ -56,13 +59,14 @@ def register(sub) -> None:
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
     add_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    add_input_options(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    check_output(args.out, [args.project])
+    check_output(args.out, [args.input])
     say = progress(args.quiet)
-    block = read_project(args.project)
+    block = read_input(args)
     if say:
         say(f"read {block.summary()}")
     res = screen(block, options(args), progress=say)
