@@ -236,14 +236,15 @@ def table(results: dict[str, tuple[Outcome, Score]], sample: int = 10) -> str:
     # sample of discrepancies (the paper's Tables 3 and 5): the worst points of strategy 1
     ra = results.get("residual analysis", (None, sc[0]))[1].discrepancy
     worst = sorted(ra, key=lambda p: -np.linalg.norm(ra[p]))[:sample]
+    w2 = 22
     lines += ["", f"discrepancies adjusted - true (m), the {sample} worst points of residual "
-              "analysis:", "point".ljust(8) + "".join(n[:w - 1].rjust(w) for n in names)]
+              "analysis:", "point".ljust(8) + "".join(n[:w2 - 2].rjust(w2) for n in names)]
     for p in sorted(worst):
         cells = []
         for s in sc:
             d = s.discrepancy.get(p)
             cells.append("removed" if d is None else " ".join(f"{x:6.2f}" for x in d))
-        lines.append(f"{p:8s}" + "".join(c.rjust(w) for c in cells))
+        lines.append(f"{p:8s}" + "".join(c.rjust(w2) for c in cells))
     return "\n".join(lines)
 
 
