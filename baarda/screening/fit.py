@@ -1,9 +1,10 @@
-"""Small dense adjustments of the screening stages: Gauss-Newton, DenseModel, snooping.
+"""Small dense adjustments of the screening stages: Gauss-Newton and the DenseModel.
 
 Every stage describes its observations (`Observations`: observed values, sigmas and the
-labels of the quality layer) and a function f(x, columns) -> (computed, Jacobian).  `refit`
-solves the adjustment with the active components and hands a DenseModel to the quality
-layer; the stages run baarda.quality.iterative.iterative_snooping on it.
+labels of the quality layer) and a function f(x) -> (computed, Jacobian).  Its `refit(active)`
+solves the adjustment with the active components (`gauss_newton`) and hands the quality layer
+a DenseModel (`dense_model`); the stages run baarda.quality.iterative.iterative_snooping with
+that refit, and judge separability with `separable` (quality.statistics.w_correlation).
 """
 
 from __future__ import annotations
@@ -49,7 +50,7 @@ class SmallModel(DenseModel):
                              else np.asarray(undetermined, bool))
 
     def adjusted_cofactor_diag(self) -> np.ndarray:
-        q = super().adjusted_cofactor_diag()
+        q = np.sum((self.a @ self.qxx) * self.a, axis=1)  # diag(A Qxx A^T) by BLAS
         return np.where(self.undetermined, np.inf, q)
 
 

@@ -45,3 +45,18 @@ def test_inactive_component_is_refused():
     model = DenseModel(np.eye(3)[:, :2], np.ones(3), np.zeros(3), np.array([True, True, False]))
     with pytest.raises(ValueError):
         w_correlation(model, 2)
+
+
+def test_small_model_cofactors_equal_the_dense_model_and_flag_undetermined_rows():
+    from baarda.screening.fit import SmallModel
+
+    rng = np.random.default_rng(5)
+    a = rng.normal(size=(12, 3))
+    sigma = rng.uniform(0.5, 2.0, 12)
+    und = np.zeros(12, bool)
+    und[4] = True
+    dense = DenseModel(a, sigma, np.zeros(12))
+    small = SmallModel(a, sigma, np.zeros(12), undetermined=und)
+    q = small.adjusted_cofactor_diag()
+    np.testing.assert_allclose(q[~und], dense.adjusted_cofactor_diag()[~und], rtol=1e-12)
+    assert np.isinf(q[4])
