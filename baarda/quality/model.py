@@ -105,7 +105,7 @@ class DenseModel(AdjustedModel):
         self.point_labels = point_labels
 
     def adjusted_cofactor_diag(self) -> np.ndarray:
-        return np.einsum("ij,jk,ik->i", self.a, self.qxx, self.a)
+        return np.sum((self.a @ self.qxx) * self.a, axis=1)
 
     def qll_hat(self) -> np.ndarray:
         return self.a @ self.qxx @ self.a.T

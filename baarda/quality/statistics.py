@@ -94,9 +94,10 @@ def analyse(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80,
     red = model.redundancy
     vtpv = float(np.sum((v[act] / s[act]) ** 2))
     s0 = float(np.sqrt(vtpv / red)) if red > 0 else np.nan
-    # a rejected component is always testable: its predicted residual has cofactor
-    # sigma^2 + q_ll^ > 0 (restored when it fits, even if nothing else would control it)
-    controlled = (r >= r_min) | ~act
+    # a rejected component is testable whenever it can be predicted: its predicted residual
+    # has cofactor sigma^2 + q_ll^ (restored when it fits, even if nothing else would control
+    # it); one whose unknowns are undetermined without it (infinite q_ll^) is not
+    controlled = (r >= r_min) | (~act & np.isfinite(qvv))
     with np.errstate(divide="ignore", invalid="ignore"):
         sv = np.sqrt(qvv)
         w = np.where(controlled, -v / sv, np.nan)

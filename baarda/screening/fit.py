@@ -50,8 +50,7 @@ class SmallModel(DenseModel):
                              else np.asarray(undetermined, bool))
 
     def adjusted_cofactor_diag(self) -> np.ndarray:
-        q = np.sum((self.a @ self.qxx) * self.a, axis=1)  # diag(A Qxx A^T) by BLAS
-        return np.where(self.undetermined, np.inf, q)
+        return np.where(self.undetermined, np.inf, super().adjusted_cofactor_diag())
 
 
 Function = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
