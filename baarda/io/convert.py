@@ -17,7 +17,8 @@ from pathlib import Path
 from baarda.block.model import Block
 from baarda.io.aicon import is_aicon, read_aicon
 from baarda.io.bal import is_bal, read_bal_block
-from baarda.io.colmap import is_colmap_model, read_colmap_block
+from baarda.io.colmap import is_colmap_model
+from baarda.io.colmap_block import read_colmap_block
 from baarda.io.dbat import is_dbat_script, read_dbat
 from baarda.io.errors import ProjectError
 from baarda.io.photomodeler import is_photomodeler_export, read_photomodeler
