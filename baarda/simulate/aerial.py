@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
@@ -151,12 +152,14 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
         pick = rng.choice(interior, size=min(plan.check_points, len(interior)), replace=False)
         role[pick] = "check"
 
-    # which photo measures which point: the pattern window around its nadir
-    rel_x = xyz[None, :, 0] - X0[:, None]
-    rel_y = xyz[None, :, 1] - Y0[:, None]
-    tol_x, tol_y = 0.2 * dx, 0.2 * dy
-    seen = (np.abs(rel_x) <= ex + tol_x) & (np.abs(rel_y) <= ey + tol_y)
-    ph, pt = np.nonzero(seen)
+    # which photo measures which point: the pattern window around its nadir (a k-d tree
+    # in coordinates scaled by the window, Chebyshev distance <= 1; no photos x points matrix)
+    wx, wy = ex + 0.2 * dx, ey + 0.2 * dy
+    tree = cKDTree(np.column_stack([xyz[:, 0] / wx, xyz[:, 1] / wy]))
+    seen = [np.sort(np.asarray(ix, dtype=np.int64)) for ix in
+            tree.query_ball_point(np.column_stack([X0 / wx, Y0 / wy]), r=1.0, p=np.inf)]
+    ph = np.repeat(np.arange(n_ph), [len(ix) for ix in seen])
+    pt = np.concatenate(seen)
     rays = np.bincount(pt, minlength=len(ids))
     ok = rays[pt] >= 2
     ph, pt = ph[ok], pt[ok]
@@ -166,7 +169,8 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
         for st in range(plan.strips):
             for j in range(plan.photos_per_strip - 1):
                 a = st * plan.photos_per_strip + j
-                both = np.flatnonzero(seen[a] & seen[a + 1] & (rays >= 2))
+                both = np.intersect1d(seen[a], seen[a + 1])
+                both = both[rays[both] >= 2]
                 for photo in (a, a + 1):
                     rows_ph.append(np.full(len(both), photo))
                     rows_pt.append(both)
