@@ -104,8 +104,8 @@ class BundleQuality:
                  f"{q.k_w:.3f}"]
         if gt is not None:
             lines.append(f"global test: sigma0^2 = {gt.statistic:.4f}, critical "
-                         f"{gt.critical:.4f} (alpha {q.global_alpha:.3g}) -> "
-                         f"{'accepted' if gt.passed else 'REJECTED'}")
+                         f"{gt.critical:.4f} (alpha {q.global_alpha:.3g} by the B-method, "
+                         f"p = {gt.p_value:.3g}) -> {'accepted' if gt.passed else 'REJECTED'}")
         act = q.active & q.controlled
         lines.append(f"sum of redundancy numbers {q.sum_redundancy_numbers:.3f} = redundancy "
                      f"{q.redundancy}")
