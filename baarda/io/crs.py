@@ -233,13 +233,13 @@ def write_results_crs(out, result, quality, frame: LocalFrame, block: Block) -> 
     from pathlib import Path
 
     from baarda.io.atomic import write_text
-    from baarda.io.results import _csv, photos_table, points_table, write_results
+    from baarda.io.results import csv_text, photos_table, points_table, write_results
 
     out = Path(out)
     paths = write_results(out, result, quality)
-    write_text(out / "photos_local.csv", _csv(photos_table(result)))
-    write_text(out / "points_local.csv", _csv(points_table(result)))
+    write_text(out / "photos_local.csv", csv_text(photos_table(result)))
+    write_text(out / "points_local.csv", csv_text(points_table(result)))
     ph, pt = tables_in_crs(result, frame, block)
-    write_text(out / "photos.csv", _csv(ph))
-    write_text(out / "points.csv", _csv(pt))
+    write_text(out / "photos.csv", csv_text(ph))
+    write_text(out / "points.csv", csv_text(pt))
     return paths + [out / "photos_local.csv", out / "points_local.csv"]

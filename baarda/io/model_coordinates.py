@@ -14,15 +14,14 @@ sigma_X, sigma_Y, sigma_Z in m; role control or check).
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from baarda.block.rotation import ANGLE_FACTORS
 from baarda.io.atomic import write_text
 from baarda.io.errors import ProjectError
+from baarda.io.project import load_toml
 from baarda.io.table import Table
 from baarda.models.independent.data import ModelBlock, ModelSettings
 
@@ -36,18 +35,9 @@ def _positive(values, name: str) -> tuple[float, ...]:
 
 def read_settings(path: Path) -> ModelSettings:
     """Read project.toml of a model project (missing keys take FOTEF's defaults)."""
-    if not path.is_file():
-        raise ProjectError(str(path), "file not found (a project folder needs project.toml)")
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except tomllib.TOMLDecodeError as e:
-        raise ProjectError(str(path), f"not valid TOML: {e}") from None
-    s = ModelSettings(name=str(doc.get("name", path.parent.name)))
-    s.angle_unit = str(doc.get("angle_unit", s.angle_unit))
-    if s.angle_unit not in ANGLE_FACTORS:
-        raise ProjectError(str(path), f"angle_unit '{s.angle_unit}' is not one of gon, deg, rad",
-                           column="angle_unit")
+    s = ModelSettings()
+    doc, s.angle_unit = load_toml(path, s.angle_unit)
+    s.name = str(doc.get("name", path.parent.name))
     sig = doc.get("sigma", {})
     tests = doc.get("tests", {})
     pre = doc.get("models", {})

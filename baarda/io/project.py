@@ -21,7 +21,8 @@ from baarda.io.table import Table
 FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
 
 
-def _settings(path: Path) -> Settings:
+def load_toml(path: Path, default_unit: str = "gon") -> tuple[dict, str]:
+    """project.toml as a dict and its checked angle unit; errors name the file."""
     if not path.is_file():
         raise ProjectError(str(path), "file not found (a project folder needs project.toml)")
     try:
@@ -29,12 +30,17 @@ def _settings(path: Path) -> Settings:
             doc = tomllib.load(f)
     except tomllib.TOMLDecodeError as e:
         raise ProjectError(str(path), f"not valid TOML: {e}") from None
-    s = Settings()
-    s.name = str(doc.get("name", path.parent.name))
-    s.angle_unit = str(doc.get("angle_unit", s.angle_unit))
-    if s.angle_unit not in ANGLE_FACTORS:
-        raise ProjectError(str(path), f"angle_unit '{s.angle_unit}' is not one of gon, deg, rad",
+    unit = str(doc.get("angle_unit", default_unit))
+    if unit not in ANGLE_FACTORS:
+        raise ProjectError(str(path), f"angle_unit '{unit}' is not one of gon, deg, rad",
                            column="angle_unit")
+    return doc, unit
+
+
+def _settings(path: Path) -> Settings:
+    s = Settings()
+    doc, s.angle_unit = load_toml(path, s.angle_unit)
+    s.name = str(doc.get("name", path.parent.name))
     unit = str(doc.get("image_unit", "mm"))
     if unit != "mm":
         raise ProjectError(str(path), f"image_unit '{unit}': image coordinates must be in mm",

@@ -15,13 +15,15 @@ from baarda.bundle.result import BundleResult
 from baarda.io.atomic import write_text
 
 
-def _csv(df: pd.DataFrame) -> str:
+def csv_text(df: pd.DataFrame) -> str:
+    """A table as CSV text (10 significant digits, LF line ends)."""
     buf = io.StringIO()
     df.to_csv(buf, index=False, float_format="%.10g", lineterminator="\n")
     return buf.getvalue()
 
 
-def _json_default(o):
+def json_default(o):
+    """json.dumps default for NumPy scalars and arrays."""
     if isinstance(o, np.generic):
         return o.item()
     if isinstance(o, np.ndarray):
@@ -101,10 +103,10 @@ def write_results(out: str | Path, result: BundleResult,
         })
     paths = []
     for name, text in (
-        ("summary.json", json.dumps(summary, indent=2, default=_json_default) + "\n"),
-        ("photos.csv", _csv(photos_table(result))),
-        ("points.csv", _csv(points_table(result))),
-        ("observations.csv", _csv(obs)),
+        ("summary.json", json.dumps(summary, indent=2, default=json_default) + "\n"),
+        ("photos.csv", csv_text(photos_table(result))),
+        ("points.csv", csv_text(points_table(result))),
+        ("observations.csv", csv_text(obs)),
     ):
         write_text(out / name, text)
         paths.append(out / name)

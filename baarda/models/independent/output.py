@@ -3,7 +3,6 @@ hypotheses.csv and preadjustment.csv (each written atomically)."""
 
 from __future__ import annotations
 
-import io
 import json
 from pathlib import Path
 
@@ -12,21 +11,9 @@ import pandas as pd
 
 from baarda.block.rotation import rad_to_angle
 from baarda.io.atomic import write_text
+from baarda.io.results import csv_text as _csv
+from baarda.io.results import json_default as _json_default
 from baarda.models.independent.workflow import BlockQuality
-
-
-def _csv(df: pd.DataFrame) -> str:
-    buf = io.StringIO()
-    df.to_csv(buf, index=False, float_format="%.10g", lineterminator="\n")
-    return buf.getvalue()
-
-
-def _json_default(o):
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
 
 
 def models_table(bq: BlockQuality) -> pd.DataFrame:
