@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from baarda.adjustment.counts import AdjustmentCounts
 from baarda.adjustment.schur import Linearization
 from baarda.block.model import Block
 
@@ -15,7 +16,7 @@ if TYPE_CHECKING:
 
 
 @dataclass
-class BundleResult:
+class BundleResult(AdjustmentCounts):
     """Adjusted orientations and points with their precision.
 
     Units: positions in m, angles in rad, image residuals in mm (µm in the outputs).
@@ -31,28 +32,6 @@ class BundleResult:
     converged: bool
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
-
-    # ------------------------------------------------------------ counts
-    @property
-    def n_observations(self) -> int:
-        return int(np.count_nonzero(self.lin.w) + np.count_nonzero(self.lin.wc))
-
-    @property
-    def n_unknowns(self) -> int:
-        return self.problem.system.n_unknowns
-
-    @property
-    def redundancy(self) -> int:
-        return self.n_observations - self.n_unknowns
-
-    @property
-    def vtpv(self) -> float:
-        return float(np.sum(self.lin.w * self.lin.e**2) + np.sum(self.lin.wc * self.lin.ec**2))
-
-    @property
-    def sigma0(self) -> float:
-        """A-posteriori sigma0 (unitless: 1 means the a-priori precision was right)."""
-        return float(np.sqrt(self.vtpv / self.redundancy)) if self.redundancy > 0 else np.nan
 
     # --------------------------------------------------------- residuals
     @property

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baarda.adjustment.counts import AdjustmentCounts
 from baarda.adjustment.schur import Linearization
 from baarda.models.independent.problem import ModelProblem
 
@@ -15,7 +16,7 @@ TITLE = {"3d": "Independent-model block adjustment, spatial (7 parameters per mo
 
 
 @dataclass
-class ModelResult:
+class ModelResult(AdjustmentCounts):
     """Adjusted model transformations and terrain points.
 
     `params` (nm, b): 3d (TX, TY, TZ [m], omega, phi, kappa [rad], mu [mm/m]); 2d (TX, TY,
@@ -39,27 +40,6 @@ class ModelResult:
     @property
     def mode(self) -> str:
         return self.problem.mode
-
-    # ------------------------------------------------------------ counts
-    @property
-    def n_observations(self) -> int:
-        return int(np.count_nonzero(self.lin.w) + np.count_nonzero(self.lin.wc))
-
-    @property
-    def n_unknowns(self) -> int:
-        return self.problem.system.n_unknowns
-
-    @property
-    def redundancy(self) -> int:
-        return self.n_observations - self.n_unknowns
-
-    @property
-    def vtpv(self) -> float:
-        return float(np.sum(self.lin.w * self.lin.e**2) + np.sum(self.lin.wc * self.lin.ec**2))
-
-    @property
-    def sigma0(self) -> float:
-        return float(np.sqrt(self.vtpv / self.redundancy)) if self.redundancy > 0 else np.nan
 
     # ------------------------------------------------------------ values
     @property

@@ -1,0 +1,33 @@
+"""Counts shared by the results of every model adjusted on a SchurSystem."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class AdjustmentCounts:
+    """Mixin: observation and unknown counts, vTPv and sigma0 from `lin` and `problem.system`.
+
+    Components with zero weight (not observed, or rejected) are not observations.
+    """
+
+    @property
+    def n_observations(self) -> int:
+        return int(np.count_nonzero(self.lin.w) + np.count_nonzero(self.lin.wc))
+
+    @property
+    def n_unknowns(self) -> int:
+        return self.problem.system.n_unknowns
+
+    @property
+    def redundancy(self) -> int:
+        return self.n_observations - self.n_unknowns
+
+    @property
+    def vtpv(self) -> float:
+        return float(np.sum(self.lin.w * self.lin.e**2) + np.sum(self.lin.wc * self.lin.ec**2))
+
+    @property
+    def sigma0(self) -> float:
+        """A-posteriori sigma0 (unitless: 1 means the a-priori precision was right)."""
+        return float(np.sqrt(self.vtpv / self.redundancy)) if self.redundancy > 0 else np.nan
