@@ -119,11 +119,7 @@ class BundleQuality:
                          f"{np.max(q.mdb[sel]) * u:.4g} {unit}; max |w| "
                          f"{np.nanmax(np.abs(q.w[sel])):.2f}")
         if self.run is not None:
-            lines.append(f"data snooping: {len(self.run.log)} step(s), "
-                         f"{int(np.sum(~q.active))} rejected")
-            for s in self.run.log:
-                lines.append(f"  {s.iteration:3d} {s.action:7s} {'; '.join(s.labels)}  "
-                             f"w = {s.w:.2f}  sigma0 {s.sigma0:.3f}")
+            lines += self.run.summary_lines()
         lines += [f"note: {n}" for n in q.notes]
         return "\n".join(lines)
 

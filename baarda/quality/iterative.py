@@ -44,6 +44,13 @@ class SnoopingRun:
     def rejected(self) -> np.ndarray:
         return ~self.active
 
+    def summary_lines(self) -> list[str]:
+        """The snooping log for people: one line per step."""
+        lines = [f"data snooping: {len(self.log)} step(s), {int(np.sum(~self.active))} rejected"]
+        lines += [f"  {s.iteration:3d} {s.action:7s} {'; '.join(s.labels)}  w = {s.w:.2f}  "
+                  f"sigma0 {s.sigma0:.3f}" for s in self.log]
+        return lines
+
 
 def label(model: AdjustedModel, i: int) -> str:
     parts = [str(model.kind[i])]

@@ -132,11 +132,7 @@ class ModelQuality:
                          f"{np.max(e.same_prop, initial=0):.2f}, between adjacent models "
                          f"{np.max(e.diff_prop, initial=0):.2f}")
         if self.run is not None:
-            lines.append(f"data snooping: {len(self.run.log)} step(s), "
-                         f"{int(np.sum(~q.active))} rejected")
-            for s in self.run.log:
-                lines.append(f"  {s.iteration:3d} {s.action:7s} {'; '.join(s.labels)}  "
-                             f"w = {s.w:.2f}  sigma0 {s.sigma0:.3f}")
+            lines += self.run.summary_lines()
         if self.hypotheses:
             lines.append("alternative hypotheses:")
             lines += ["  " + t.summary() for t in self.hypotheses]
