@@ -96,7 +96,7 @@ class BlockPattern:
         self.iperm = iperm
         self.symbolic = symbolic
         self.sn_off, self.slot_pos, self.slot_stride = symbolic.panel_layout(self.b)
-        self._plans: dict[tuple[int, float], ParallelPlan | None] = {}
+        self._plans: dict[tuple[int, float], ParallelPlan | None] = {}  # by (threads, min_work)
 
     @classmethod
     def from_pairs(
@@ -191,9 +191,10 @@ class BlockPattern:
     def parallel_plan(self, min_work: float = PARALLEL_MIN_WORK) -> ParallelPlan | None:
         """Subtree split for numba's current thread count (cached), or None: serial kernels."""
         key = (num_threads(), float(min_work))
-        if key not in self._plans:
-            self._plans[key] = parallel_plan(self.symbolic, self.b, key[0], min_work)
-        return self._plans[key]
+        plans = self.__dict__.setdefault("_plans", {})  # also for patterns pickled without it
+        if key not in plans:
+            plans[key] = parallel_plan(self.symbolic, self.b, key[0], min_work)
+        return plans[key]
 
     def diagonal_slots(self) -> np.ndarray:
         """Slot of the diagonal block of every original block index (shape (n,))."""
