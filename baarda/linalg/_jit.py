@@ -13,16 +13,16 @@ from typing import Any
 
 from numba import njit
 
-__all__ = ["kernel"]
+__all__ = ["kernel", "parallel_kernel"]
 
 _warned = False
 
 
-def kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
+def kernel(fn: Callable[..., Any], **options: Any) -> Callable[..., Any]:
     """Decorate ``fn`` with ``numba.njit(cache=True)``, falling back to ``cache=False``."""
     global _warned
     try:
-        return njit(cache=True)(fn)
+        return njit(cache=True, **options)(fn)
     except RuntimeError as exc:  # "cannot cache function ...: no locator available"
         if not _warned:
             warnings.warn(
@@ -32,4 +32,9 @@ def kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
                 stacklevel=2,
             )
             _warned = True
-        return njit(cache=False)(fn)
+        return njit(cache=False, **options)(fn)
+
+
+def parallel_kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """:func:`kernel` with ``parallel=True`` (``numba.prange`` loops run on numba's threads)."""
+    return kernel(fn, parallel=True)

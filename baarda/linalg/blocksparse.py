@@ -27,6 +27,14 @@ from .kernels import (
     supernodal_selected_inverse,
 )
 from .ordering import adjacency_from_pairs, fill_reducing_ordering, inverse_permutation
+from .parallel import (
+    PARALLEL_MIN_WORK,
+    ParallelPlan,
+    num_threads,
+    parallel_cholesky,
+    parallel_plan,
+    parallel_selected_inverse,
+)
 from .symbolic import (
     RelaxRule,
     SymbolicFactor,
@@ -66,6 +74,10 @@ class BlockPattern:
     supernode padding) and the supernodal panel layout. Computed once and reused for every
     factorisation with the same sparsity pattern.
 
+    ``parallel_min_work``: estimated work above which the factorisation and the selected inverse
+    run independent subtrees on numba's threads (see :mod:`baarda.linalg.parallel`); ``0``
+    always, ``math.inf`` never.
+
     Attributes
     ----------
     n, b : number of blocks and block size.
@@ -84,6 +96,7 @@ class BlockPattern:
         self.iperm = iperm
         self.symbolic = symbolic
         self.sn_off, self.slot_pos, self.slot_stride = symbolic.panel_layout(self.b)
+        self._plans: dict[tuple[int, float], ParallelPlan | None] = {}  # by (threads, min_work)
 
     @classmethod
     def from_pairs(
@@ -175,6 +188,14 @@ class BlockPattern:
             raise ValueError("slot out of range")
         add_blocks(values, slot, transposed, blocks)
 
+    def parallel_plan(self, min_work: float = PARALLEL_MIN_WORK) -> ParallelPlan | None:
+        """Subtree split for numba's current thread count (cached), or None: serial kernels."""
+        key = (num_threads(), float(min_work))
+        plans = self.__dict__.setdefault("_plans", {})  # also for patterns pickled without it
+        if key not in plans:
+            plans[key] = parallel_plan(self.symbolic, self.b, key[0], min_work)
+        return plans[key]
+
     def diagonal_slots(self) -> np.ndarray:
         """Slot of the diagonal block of every original block index (shape (n,))."""
         return self.symbolic.colptr[:-1][self.iperm]
@@ -190,8 +211,9 @@ class BlockCholesky:
     factor, panel layout) and the factor storage are reused.
     """
 
-    def __init__(self, pattern: BlockPattern) -> None:
+    def __init__(self, pattern: BlockPattern, parallel_min_work: float = PARALLEL_MIN_WORK) -> None:
         self.pattern = pattern
+        self.parallel_min_work = float(parallel_min_work)
         self._buf: np.ndarray | None = None
         self._factored = False
 
@@ -219,16 +241,12 @@ class BlockCholesky:
         if bad >= 0:
             i, j = int(pat.perm[sym.rowind[bad]]), int(pat.perm[sym.colind[bad]])
             raise ValueError(f"values contain non-finite numbers (block ({i}, {j}))")
-        info = supernodal_cholesky(
-            sym.sn_start,
-            sym.col_to_sn,
-            sym.colptr,
-            sym.rowind,
-            pat.sn_off,
-            self._buf,
-            pat.b,
-            float(rtol),
-        )
+        args = (sym.sn_start, sym.col_to_sn, sym.colptr, sym.rowind, pat.sn_off, self._buf)
+        plan = pat.parallel_plan(self.parallel_min_work)
+        if plan is None:
+            info = supernodal_cholesky(*args, pat.b, float(rtol))
+        else:
+            info = parallel_cholesky(*args, pat.b, float(rtol), *plan.arrays())
         if info >= 0:
             j, t = divmod(int(info), pat.b)
             orig = int(pat.perm[j])
@@ -310,16 +328,12 @@ class BlockCholesky:
             self._buf = None
         else:
             zbuf = np.empty_like(buf)
-        supernodal_selected_inverse(
-            sym.sn_start,
-            sym.col_to_sn,
-            sym.colptr,
-            sym.rowind,
-            pat.sn_off,
-            buf,
-            zbuf,
-            pat.b,
-        )
+        args = (sym.sn_start, sym.col_to_sn, sym.colptr, sym.rowind, pat.sn_off, buf, zbuf, pat.b)
+        plan = pat.parallel_plan(self.parallel_min_work)
+        if plan is None:
+            supernodal_selected_inverse(*args)
+        else:
+            parallel_selected_inverse(*args, *plan.arrays())
         return SelectedInverse(pat, zbuf)
 
 

@@ -171,6 +171,99 @@ def _panel_cholesky(
 
 
 @kernel
+def cholesky_workspace(
+    sn_start: np.ndarray, colptr: np.ndarray, sn_off: np.ndarray, b: int, lo: int, hi: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Work arrays ``(tmp, work, work2, diag0)`` for target supernodes ``lo..hi - 1``."""
+    maxpanel = 1
+    maxrows = 1
+    maxw = 1
+    for s in range(lo, hi):
+        maxpanel = max(maxpanel, sn_off[s + 1] - sn_off[s])
+        maxrows = max(maxrows, (colptr[sn_start[s] + 1] - colptr[sn_start[s]]) * b)
+        maxw = max(maxw, (sn_start[s + 1] - sn_start[s]) * b)
+    return np.empty(maxpanel), np.empty(maxrows * _chunk(b)), np.empty(maxpanel), np.empty(maxw)
+
+
+@kernel
+def cholesky_supernode(
+    J: int,
+    sn_start: np.ndarray,
+    col_to_sn: np.ndarray,
+    colptr: np.ndarray,
+    rowind: np.ndarray,
+    sn_off: np.ndarray,
+    buf: np.ndarray,
+    b: int,
+    rtol: float,
+    head: np.ndarray,
+    link: np.ndarray,
+    nextpos: np.ndarray,
+    relpos: np.ndarray,
+    tmp: np.ndarray,
+    work: np.ndarray,
+    work2: np.ndarray,
+    diag0: np.ndarray,
+) -> int:
+    """One step of :func:`supernodal_cholesky`: apply the updates waiting in ``head[J]``, factor
+    panel J and put J in the list of the supernode of its first off-diagonal row.
+
+    Returns -1 or ``j * b + t`` for a failing pivot (see :func:`supernodal_cholesky`).
+    """
+    f = sn_start[J]
+    lj = sn_start[J + 1]
+    w = (lj - f) * b
+    p0 = colptr[f]
+    nr = colptr[f + 1] - p0
+    pj = _view(buf, sn_off[J], nr * b, w)
+    for a in range(nr):
+        relpos[rowind[p0 + a]] = a
+    for t in range(w):
+        diag0[t] = pj[t, t]
+    K = head[J]
+    while K != -1:
+        knext = link[K]
+        fk = sn_start[K]
+        wk = (sn_start[K + 1] - fk) * b
+        pk = colptr[fk]
+        nrk = colptr[fk + 1] - pk
+        a0 = nextpos[K]
+        a1 = a0
+        while a1 < nrk and rowind[pk + a1] < lj:
+            a1 += 1
+        m = nrk - a0
+        mc = a1 - a0
+        src = _view(buf, sn_off[K] + a0 * b * wk, m * b, wk)
+        srct = _view(buf, sn_off[K] + a0 * b * wk, mc * b, wk)
+        prod = _view(tmp, 0, m * b, mc * b)
+        np.dot(src, srct.T, prod)
+        for ra in range(m):
+            ti = relpos[rowind[pk + a0 + ra]] * b
+            for cb in range(min(ra + 1, mc)):
+                tc = (rowind[pk + a0 + cb] - f) * b
+                for r in range(b):
+                    for c in range(b):
+                        pj[ti + r, tc + c] -= prod[ra * b + r, cb * b + c]
+        nextpos[K] = a1
+        if a1 < nrk:
+            j2 = col_to_sn[rowind[pk + a1]]
+            link[K] = head[j2]
+            head[j2] = K
+        K = knext
+    head[J] = -1
+    info = _panel_cholesky(pj, diag0, w, b, rtol, work, work2)
+    if info >= 0:
+        return f * b + info
+    s = lj - f
+    if nr > s:
+        nextpos[J] = s
+        j2 = col_to_sn[rowind[p0 + s]]
+        link[J] = head[j2]
+        head[j2] = J
+    return -1
+
+
+@kernel
 def supernodal_cholesky(
     sn_start: np.ndarray,
     col_to_sn: np.ndarray,
@@ -198,67 +291,14 @@ def supernodal_cholesky(
     link = np.full(nsup, -1, dtype=np.int64)
     nextpos = np.zeros(nsup, dtype=np.int64)
     relpos = np.zeros(n, dtype=np.int64)
-    maxpanel = 1
-    maxrows = 1
-    maxw = 1
-    for s in range(nsup):
-        maxpanel = max(maxpanel, sn_off[s + 1] - sn_off[s])
-        maxrows = max(maxrows, (colptr[sn_start[s] + 1] - colptr[sn_start[s]]) * b)
-        maxw = max(maxw, (sn_start[s + 1] - sn_start[s]) * b)
-    tmp = np.empty(maxpanel)
-    work = np.empty(maxrows * _chunk(b))
-    work2 = np.empty(maxpanel)
-    diag0 = np.empty(maxw)
+    tmp, work, work2, diag0 = cholesky_workspace(sn_start, colptr, sn_off, b, 0, nsup)
     for J in range(nsup):
-        f = sn_start[J]
-        lj = sn_start[J + 1]
-        w = (lj - f) * b
-        p0 = colptr[f]
-        nr = colptr[f + 1] - p0
-        pj = _view(buf, sn_off[J], nr * b, w)
-        for a in range(nr):
-            relpos[rowind[p0 + a]] = a
-        for t in range(w):
-            diag0[t] = pj[t, t]
-        K = head[J]
-        while K != -1:
-            knext = link[K]
-            fk = sn_start[K]
-            wk = (sn_start[K + 1] - fk) * b
-            pk = colptr[fk]
-            nrk = colptr[fk + 1] - pk
-            a0 = nextpos[K]
-            a1 = a0
-            while a1 < nrk and rowind[pk + a1] < lj:
-                a1 += 1
-            m = nrk - a0
-            mc = a1 - a0
-            src = _view(buf, sn_off[K] + a0 * b * wk, m * b, wk)
-            srct = _view(buf, sn_off[K] + a0 * b * wk, mc * b, wk)
-            prod = _view(tmp, 0, m * b, mc * b)
-            np.dot(src, srct.T, prod)
-            for ra in range(m):
-                ti = relpos[rowind[pk + a0 + ra]] * b
-                for cb in range(min(ra + 1, mc)):
-                    tc = (rowind[pk + a0 + cb] - f) * b
-                    for r in range(b):
-                        for c in range(b):
-                            pj[ti + r, tc + c] -= prod[ra * b + r, cb * b + c]
-            nextpos[K] = a1
-            if a1 < nrk:
-                j2 = col_to_sn[rowind[pk + a1]]
-                link[K] = head[j2]
-                head[j2] = K
-            K = knext
-        info = _panel_cholesky(pj, diag0, w, b, rtol, work, work2)
+        info = cholesky_supernode(
+            J, sn_start, col_to_sn, colptr, rowind, sn_off, buf, b, rtol,
+            head, link, nextpos, relpos, tmp, work, work2, diag0,
+        )  # fmt: skip
         if info >= 0:
-            return f * b + info
-        s = lj - f
-        if nr > s:
-            nextpos[J] = s
-            j2 = col_to_sn[rowind[p0 + s]]
-            link[J] = head[j2]
-            head[j2] = J
+            return info
     return -1
 
 
@@ -405,6 +445,101 @@ def _tri_inverse(
 
 
 @kernel
+def selinv_workspace(
+    sn_start: np.ndarray, colptr: np.ndarray, b: int, sns: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """Work arrays of :func:`selinv_supernode` for the supernodes ``sns``."""
+    maxw = 1
+    maxm = 1
+    for s in sns:
+        f = sn_start[s]
+        w = (sn_start[s + 1] - f) * b
+        maxw = max(maxw, w)
+        maxm = max(maxm, (colptr[f + 1] - colptr[f]) * b - w)
+    cw = _chunk(b)
+    return (
+        np.empty(maxw * maxw),
+        np.empty(maxm * maxw),
+        np.empty(maxm * maxm),
+        np.empty(maxw * maxw),
+        np.empty(maxw * maxw),
+        np.empty(maxw * cw),
+        np.empty(maxw * cw),
+        np.empty(cw * cw),
+    )
+
+
+@kernel
+def selinv_supernode(
+    J: int,
+    sn_start: np.ndarray,
+    col_to_sn: np.ndarray,
+    colptr: np.ndarray,
+    rowind: np.ndarray,
+    sn_off: np.ndarray,
+    lbuf: np.ndarray,
+    zbuf: np.ndarray,
+    b: int,
+    ws: tuple[np.ndarray, ...],
+) -> None:
+    """Z panel of supernode J (see :func:`supernodal_selected_inverse`); reads only the Z panels
+    of J's ancestors and the L panel of J, writes only the Z panel of J."""
+    linv, ybuf, zrr, tw, work1, work2, work3, work4 = ws
+    f = sn_start[J]
+    s = sn_start[J + 1] - f
+    w = s * b
+    p0 = colptr[f]
+    nr = colptr[f + 1] - p0
+    mr = nr - s
+    m = mr * b
+    off = sn_off[J]
+    pj = _view(lbuf, off, nr * b, w)
+    li = _view(linv, 0, w, w)
+    _tri_inverse(pj, w, li, b, work1, work2, work3, work4)
+    zcc = _view(zbuf, off, w, w)
+    if m > 0:
+        lr = _view(lbuf, off + w * w, m, w)
+        y = _view(ybuf, 0, m, w)
+        np.dot(lr, li, y)
+    np.dot(li.T, li, zcc)
+    if m > 0:
+        zr = _view(zrr, 0, m, m)
+        for cb in range(mr):
+            lcol = rowind[p0 + s + cb]
+            j2 = col_to_sn[lcol]
+            f2 = sn_start[j2]
+            w2 = (sn_start[j2 + 1] - f2) * b
+            q2 = colptr[f2]
+            c2 = (lcol - f2) * b
+            z2 = _view(zbuf, sn_off[j2], (colptr[f2 + 1] - q2) * b, w2)
+            a2 = lcol - f2
+            for ra in range(cb, mr):
+                row = rowind[p0 + s + ra]
+                while rowind[q2 + a2] != row:
+                    a2 += 1
+                for r in range(b):
+                    for c in range(b):
+                        v = z2[a2 * b + r, c2 + c]
+                        zr[ra * b + r, cb * b + c] = v
+                        zr[cb * b + c, ra * b + r] = v
+        zoff = _view(zbuf, off + w * w, m, w)
+        np.dot(zr, y, zoff)
+        for i in range(m):
+            for j in range(w):
+                zoff[i, j] = -zoff[i, j]
+        t = _view(tw, 0, w, w)
+        np.dot(y.T, zoff, t)
+        for i in range(w):
+            for j in range(w):
+                zcc[i, j] -= t[i, j]
+    for i in range(w):
+        for j in range(i):
+            v = 0.5 * (zcc[i, j] + zcc[j, i])
+            zcc[i, j] = v
+            zcc[j, i] = v
+
+
+@kernel
 def supernodal_selected_inverse(
     sn_start: np.ndarray,
     col_to_sn: np.ndarray,
@@ -426,71 +561,6 @@ def supernodal_selected_inverse(
     and only the Z panels of later supernodes are read.
     """
     nsup = sn_start.size - 1
-    maxw = 1
-    maxm = 1
-    for s in range(nsup):
-        f = sn_start[s]
-        w = (sn_start[s + 1] - f) * b
-        maxw = max(maxw, w)
-        maxm = max(maxm, (colptr[f + 1] - colptr[f]) * b - w)
-    cw = _chunk(b)
-    linv = np.empty(maxw * maxw)
-    ybuf = np.empty(maxm * maxw)
-    zrr = np.empty(maxm * maxm)
-    tw = np.empty(maxw * maxw)
-    work1 = np.empty(maxw * maxw)
-    work2 = np.empty(maxw * cw)
-    work3 = np.empty(maxw * cw)
-    work4 = np.empty(cw * cw)
+    ws = selinv_workspace(sn_start, colptr, b, np.arange(nsup))
     for J in range(nsup - 1, -1, -1):
-        f = sn_start[J]
-        s = sn_start[J + 1] - f
-        w = s * b
-        p0 = colptr[f]
-        nr = colptr[f + 1] - p0
-        mr = nr - s
-        m = mr * b
-        off = sn_off[J]
-        pj = _view(lbuf, off, nr * b, w)
-        li = _view(linv, 0, w, w)
-        _tri_inverse(pj, w, li, b, work1, work2, work3, work4)
-        zcc = _view(zbuf, off, w, w)
-        np.dot(li.T, li, zcc)
-        if m > 0:
-            lr = _view(lbuf, off + w * w, m, w)
-            y = _view(ybuf, 0, m, w)
-            np.dot(lr, li, y)
-            zr = _view(zrr, 0, m, m)
-            for cb in range(mr):
-                lcol = rowind[p0 + s + cb]
-                j2 = col_to_sn[lcol]
-                f2 = sn_start[j2]
-                w2 = (sn_start[j2 + 1] - f2) * b
-                q2 = colptr[f2]
-                c2 = (lcol - f2) * b
-                z2 = _view(zbuf, sn_off[j2], (colptr[f2 + 1] - q2) * b, w2)
-                a2 = lcol - f2
-                for ra in range(cb, mr):
-                    row = rowind[p0 + s + ra]
-                    while rowind[q2 + a2] != row:
-                        a2 += 1
-                    for r in range(b):
-                        for c in range(b):
-                            v = z2[a2 * b + r, c2 + c]
-                            zr[ra * b + r, cb * b + c] = v
-                            zr[cb * b + c, ra * b + r] = v
-            zoff = _view(zbuf, off + w * w, m, w)
-            np.dot(zr, y, zoff)
-            for i in range(m):
-                for j in range(w):
-                    zoff[i, j] = -zoff[i, j]
-            t = _view(tw, 0, w, w)
-            np.dot(y.T, zoff, t)
-            for i in range(w):
-                for j in range(w):
-                    zcc[i, j] -= t[i, j]
-        for i in range(w):
-            for j in range(i):
-                v = 0.5 * (zcc[i, j] + zcc[j, i])
-                zcc[i, j] = v
-                zcc[j, i] = v
+        selinv_supernode(J, sn_start, col_to_sn, colptr, rowind, sn_off, lbuf, zbuf, b, ws)
