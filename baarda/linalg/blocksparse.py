@@ -24,7 +24,6 @@ from .kernels import (
     supernodal_cholesky,
     supernodal_forward,
     supernodal_logdet,
-    supernodal_selected_inverse,
 )
 from .ordering import adjacency_from_pairs, fill_reducing_ordering, inverse_permutation
 from .parallel import (
@@ -35,6 +34,7 @@ from .parallel import (
     parallel_plan,
     parallel_selected_inverse,
 )
+from .selinv import supernodal_selected_inverse
 from .symbolic import (
     RelaxRule,
     SymbolicFactor,

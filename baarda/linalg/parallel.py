@@ -25,7 +25,8 @@ import numpy as np
 from numba import prange
 
 from ._jit import parallel_kernel
-from .kernels import cholesky_supernode, cholesky_workspace, selinv_supernode, selinv_workspace
+from .kernels import cholesky_supernode, cholesky_workspace
+from .selinv import selinv_supernode, selinv_workspace
 from .symbolic import SymbolicFactor
 
 __all__ = ["PARALLEL_MIN_WORK", "ParallelPlan", "parallel_plan"]
@@ -230,7 +231,7 @@ def parallel_selected_inverse(
     bin_sub: np.ndarray,
     top: np.ndarray,
 ) -> None:
-    """:func:`~baarda.linalg.kernels.supernodal_selected_inverse`: the top supernodes first,
+    """:func:`~baarda.linalg.selinv.supernodal_selected_inverse`: the top supernodes first,
     then the subtrees of a :class:`ParallelPlan` concurrently (identical results)."""
     ws = selinv_workspace(sn_start, colptr, b, top)
     for i in range(top.size - 1, -1, -1):

@@ -9,17 +9,14 @@ import pytest
 from helpers_linalg import make_problem, rel_err
 
 from baarda.linalg import BlockCholesky, NotPositiveDefinite
-from baarda.linalg.kernels import (
-    scatter_blocks,
-    supernodal_cholesky,
-    supernodal_selected_inverse,
-)
+from baarda.linalg.kernels import scatter_blocks, supernodal_cholesky
 from baarda.linalg.parallel import (
     num_threads,
     parallel_cholesky,
     parallel_plan,
     parallel_selected_inverse,
 )
+from baarda.linalg.selinv import supernodal_selected_inverse
 
 CASES = [("aerial", 1), ("aerial", 6), ("components", 3), ("random", 6), ("aerial", 7)]
 
