@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from baarda.adjustment.schur_model import SchurModel
 from baarda.bundle.result import BundleResult
-from baarda.quality.model import AdjustedModel
 
 
-class BundleModel(AdjustedModel):
+class BundleModel(SchurModel):
     def __init__(self, result: BundleResult):
         self.result = result
         pb = result.problem
@@ -26,7 +26,7 @@ class BundleModel(AdjustedModel):
         im = blk.image
         sig_c = blk.points.sigma[pb.control]
         self.ctrl_sel = np.flatnonzero(np.isfinite(sig_c).ravel())  # into (nc*3)
-        self.m = m
+        self.m, self.k, self.kc, self.n_control = m, 2, 3, len(pb.control)
         self.residuals = np.concatenate([result.image_residuals.ravel(),
                                          result.control_residuals.ravel()[self.ctrl_sel]])
         s_img = np.repeat(im.sigma_mm[pb.obs], 2)
@@ -55,44 +55,5 @@ class BundleModel(AdjustedModel):
         self.control_index = np.concatenate([np.full(2 * m, -1),
                                              np.repeat(pb.control, 3)[self.ctrl_sel]])
 
-    # ------------------------------------------------------------- helpers
-    def _split(self, h: np.ndarray):
-        """Flat (n, q) -> image (m, 2, q) and control (nc, 3, q) arrays."""
-        q = h.shape[1]
-        hi = h[: 2 * self.m].reshape(self.m, 2, q)
-        hc = np.zeros((len(self.result.problem.control) * 3, q))
-        hc[self.ctrl_sel] = h[2 * self.m:]
-        return hi, hc.reshape(-1, 3, q)
-
-    def _flat(self, ri: np.ndarray, rc: np.ndarray) -> np.ndarray:
-        q = ri.shape[-1]
-        return np.concatenate([ri.reshape(2 * self.m, q), rc.reshape(-1, q)[self.ctrl_sel]])
-
-    # ------------------------------------------------------------- interface
-    def adjusted_cofactor_diag(self) -> np.ndarray:
-        q, qc = self.system.adjusted_cofactors(self.lin)
-        return np.concatenate([np.diagonal(q, axis1=1, axis2=2).ravel(),
-                               np.diagonal(qc, axis1=1, axis2=2).ravel()[self.ctrl_sel]])
-
-    def adjusted_cofactor_blocks(self) -> tuple[np.ndarray, np.ndarray]:
-        q, _ = self.system.adjusted_cofactors(self.lin)
-        return np.arange(2 * self.m).reshape(self.m, 2), q
-
-    def normal_forward(self, h: np.ndarray) -> np.ndarray:
-        hi, hc = self._split(h)
-        self.system.ensure(self.lin)
-        gf, gp = self.system.apply_AtP(self.lin, hi, hc)
-        return self.system.forward(gf, gp)
-
-    def solve_columns(self, h: np.ndarray) -> np.ndarray:
-        hi, hc = self._split(h)
-        self.system.ensure(self.lin)
-        gf, gp = self.system.apply_AtP(self.lin, hi, hc)
-        xf, xp = self.system.solve_normal(gf, gp)
-        ri, rc = self.system.apply_A(self.lin, xf, xp)
-        return self._flat(ri, rc)
-
     def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
-        g, gc = self.system.point_effect(self.lin)
-        eff = np.concatenate([g.reshape(2 * self.m, 3), gc.reshape(-1, 3)[self.ctrl_sel]])
-        return eff, self.point
+        return self.point_effect_rows(), self.point

@@ -139,6 +139,6 @@ def test_absorbed_hypothesis_is_not_testable(qc):
     xp = np.zeros((s.np, 3, 1))
     xp[j, 2, 0] = 1.0  # a height shift of point j
     ri, rc = s.apply_A(m.lin, np.zeros((s.nf, 6, 1)), xp)
-    h = m._flat(ri, rc)[:, 0]
+    h = m.flat(ri, rc)[:, 0]
     res = hypothesis_test(m, h)
     assert res.q == 0 and not res.rejected

@@ -10,19 +10,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from baarda.adjustment.schur_model import SchurModel
 from baarda.models.independent.problem import COMPONENTS, CORRELATED
 from baarda.models.independent.result import ModelResult
-from baarda.quality.model import AdjustedModel
 
 
-class IndependentModel(AdjustedModel):
+class IndependentModel(SchurModel):
     def __init__(self, result: ModelResult):
         self.result = result
         pb = result.problem
         bl = pb.block
         self.problem, self.system, self.lin = pb, pb.system, result.lin
         m, k = len(pb.rows), pb.k
-        self.m, self.k = m, k
+        self.m, self.k, self.kc, self.n_control = m, k, k, len(pb.control)
         sig_c = np.where(pb.wc_full > 0, 1.0 / np.sqrt(np.where(pb.wc_full > 0, pb.wc_full, 1)),
                          np.nan)
         self.ctrl_sel = np.flatnonzero(np.isfinite(sig_c).ravel())  # into (nc * k)
@@ -56,25 +56,6 @@ class IndependentModel(AdjustedModel):
         mu = (result.params[:, -1] if pb.mode != "height" else pb.mu)[pb.frame]
         self.terrain_per_unit = np.concatenate([np.repeat(1.0 / mu, k), np.ones(nc)])
 
-    # ------------------------------------------------------------- helpers
-    def split(self, h: np.ndarray):
-        """Flat (n, q) -> model rows (m, k, q) and control (nc, k, q)."""
-        q = h.shape[1]
-        hm = h[: self.m * self.k].reshape(self.m, self.k, q)
-        hc = np.zeros((len(self.problem.control) * self.k, q))
-        hc[self.ctrl_sel] = h[self.m * self.k:]
-        return hm, hc.reshape(-1, self.k, q)
-
-    def flat(self, rm: np.ndarray, rc: np.ndarray) -> np.ndarray:
-        q = rm.shape[-1]
-        return np.concatenate([rm.reshape(self.m * self.k, q), rc.reshape(-1, q)[self.ctrl_sel]])
-
-    def parameter_effect(self, h: np.ndarray):
-        """N^-1 A^T P H: changes of the frame (nf, b, q) and point (np, d, q) unknowns."""
-        hm, hc = self.split(h)
-        gf, gp = self.system.apply_AtP(self.lin, hm, hc)
-        return self.system.solve_normal(gf, gp)
-
     def unit_effect(self, index: np.ndarray):
         """N^-1 A^T P e_i for the components `index` (cheaper than parameter_effect with unit
         columns: A^T P e_i is one weighted row of A, nonzero in one frame and one point)."""
@@ -92,32 +73,10 @@ class IndependentModel(AdjustedModel):
         flat_c = self.ctrl_sel[index[~mod] - self.m * self.k]
         ci, cc = np.divmod(flat_c, self.k)
         gp[pb.remap[pb.control[ci]], :, col[~mod]] = lin.jc[ci, cc] * lin.wc[ci, cc][:, None]
+        self.system.ensure(self.lin)
         return self.system.solve_normal(gf, gp)
 
-    # ------------------------------------------------------------- interface
-    def adjusted_cofactor_diag(self) -> np.ndarray:
-        q, qc = self.system.adjusted_cofactors(self.lin)
-        return np.concatenate([np.diagonal(q, axis1=1, axis2=2).ravel(),
-                               np.diagonal(qc, axis1=1, axis2=2).ravel()[self.ctrl_sel]])
-
-    def adjusted_cofactor_blocks(self) -> tuple[np.ndarray, np.ndarray]:
-        q, _ = self.system.adjusted_cofactors(self.lin)
-        return np.arange(self.m * self.k).reshape(self.m, self.k), q
-
-    def normal_forward(self, h: np.ndarray) -> np.ndarray:
-        hm, hc = self.split(h)
-        gf, gp = self.system.apply_AtP(self.lin, hm, hc)
-        return self.system.forward(gf, gp)
-
-    def solve_columns(self, h: np.ndarray) -> np.ndarray:
-        xf, xp = self.parameter_effect(h)
-        rm, rc = self.system.apply_A(self.lin, xf, xp)
-        return self.flat(rm, rc)
-
     def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
-        g, gc = self.system.point_effect(self.lin)
-        eff = np.concatenate([g.reshape(self.m * self.k, -1),
-                              gc.reshape(-1, g.shape[-1])[self.ctrl_sel]])
         out = np.zeros((self.n, 3))
-        out[:, self.problem.comps] = eff
+        out[:, self.problem.comps] = self.point_effect_rows()
         return out, self.point
