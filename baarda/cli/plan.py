@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import check_output, progress
+from baarda.cli.common import add_flight_plan_arguments, check_output, progress
 from baarda.io.atomic import write_text
 from baarda.io.errors import GeometryError
 from baarda.simulate.aerial import FlightPlan
@@ -23,15 +23,7 @@ def register(sub) -> None:
                    "models, control, weights) of this project instead of a flight plan")
     p.add_argument("--adjusted", action="store_true", help="with --project: geometry from an "
                    "adjustment of the project (default: its approximate orientations)")
-    p.add_argument("--strips", type=int, default=d.strips)
-    p.add_argument("--photos", type=int, default=d.photos_per_strip, help="photos per strip")
-    p.add_argument("--forward-overlap", type=float, default=d.forward_overlap)
-    p.add_argument("--side-overlap", type=float, default=d.side_overlap)
-    p.add_argument("--scale", type=float, default=d.image_scale, help="image scale 1:SCALE")
-    p.add_argument("--focal", type=float, default=d.focal_mm, help="focal length in mm")
-    p.add_argument("--format", type=float, default=d.format_mm, help="image format in mm")
-    p.add_argument("--pattern", type=int, default=d.pattern, help="n x n points per photo")
-    p.add_argument("--stereo", action="store_true", help="stereo mode (twin rays)")
+    add_flight_plan_arguments(p, d)
     p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
     p.add_argument("--bridging", type=float, default=2.0, help="control every I base lengths "
                    "on the perimeter (Gruen's bridging distance)")

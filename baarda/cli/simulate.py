@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from baarda.cli.common import add_flight_plan_arguments
 from baarda.io.atomic import write_text
 from baarda.io.project import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -14,15 +15,7 @@ def register(sub) -> None:
     p = sub.add_parser("simulate", help="simulate an aerial block with known truth")
     p.add_argument("-o", "--out", type=Path, required=True, help="project folder to write")
     d = FlightPlan()
-    p.add_argument("--strips", type=int, default=d.strips)
-    p.add_argument("--photos", type=int, default=d.photos_per_strip, help="photos per strip")
-    p.add_argument("--forward-overlap", type=float, default=d.forward_overlap)
-    p.add_argument("--side-overlap", type=float, default=d.side_overlap)
-    p.add_argument("--scale", type=float, default=d.image_scale, help="image scale 1:SCALE")
-    p.add_argument("--focal", type=float, default=d.focal_mm, help="focal length in mm")
-    p.add_argument("--format", type=float, default=d.format_mm, help="image format in mm")
-    p.add_argument("--pattern", type=int, default=d.pattern, help="n x n points per photo")
-    p.add_argument("--stereo", action="store_true", help="stereo mode (twin rays)")
+    add_flight_plan_arguments(p, d)
     p.add_argument("--neat-area", action="store_true",
                    help="points only between the outer nadir lines")
     p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"])

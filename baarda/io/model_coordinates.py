@@ -21,7 +21,7 @@ import numpy as np
 
 from baarda.io.atomic import write_text
 from baarda.io.errors import ProjectError
-from baarda.io.project import load_toml
+from baarda.io.project import format_number, load_toml
 from baarda.io.table import Table
 from baarda.models.independent.data import ModelBlock, ModelSettings
 
@@ -247,10 +247,6 @@ def drop_unused(block: ModelBlock) -> ModelBlock:
                    sigma=block.sigma[used], obs_point=remap[block.obs_point])
 
 
-def _fmt(x: float) -> str:
-    return "" if not np.isfinite(x) else repr(float(x))
-
-
 def write_model_project(block: ModelBlock, folder: str | Path) -> None:
     """Write `block` as a model project folder (each file atomically)."""
     folder = Path(folder)
@@ -273,7 +269,7 @@ def write_model_project(block: ModelBlock, folder: str | Path) -> None:
         m, j = block.obs_model[i], block.obs_point[i]
         vals = [block.models[m], str(block.strip[m]), block.points[j],
                 "pc" if block.pc[j] else "point"]
-        vals += [_fmt(v) for v in block.obs_xyz[i]] + [f"{v:.6g}" for v in sig[i]]
+        vals += [format_number(v) for v in block.obs_xyz[i]] + [f"{v:.6g}" for v in sig[i]]
         if cov is not None:
             d = np.sqrt(np.diagonal(cov[i]))
             vals += [f"{cov[i][a, b] / (d[a] * d[b]):.9g}" for a, b in ((0, 1), (0, 2), (1, 2))]
@@ -281,6 +277,6 @@ def write_model_project(block: ModelBlock, folder: str | Path) -> None:
     write_text(folder / "models.csv", "\n".join(rows) + "\n")
     rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
     for j in np.flatnonzero(block.role != "tie"):
-        rows.append(",".join([block.points[j]] + [_fmt(v) for v in block.xyz[j]] +
-                             [_fmt(v) for v in block.sigma[j]] + [str(block.role[j])]))
+        rows.append(",".join([block.points[j]] + [format_number(v) for v in block.xyz[j]] +
+                             [format_number(v) for v in block.sigma[j]] + [str(block.role[j])]))
     write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")

@@ -183,7 +183,8 @@ def read_project(folder: str | Path) -> Block:
     return block
 
 
-def _fmt(x: float) -> str:
+def format_number(x: float) -> str:
+    """A CSV field: the shortest exact repr, empty for NaN (an unobserved coordinate)."""
     return "" if not np.isfinite(x) else repr(float(x))
 
 
@@ -227,6 +228,6 @@ def write_project(block: Block, folder: str | Path) -> None:
     write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
     rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
     for j in np.flatnonzero(pts.role != "tie"):
-        rows.append(",".join([pts.ids[j]] + [_fmt(v) for v in pts.xyz[j]] +
-                             [_fmt(v) for v in pts.sigma[j]] + [str(pts.role[j])]))
+        rows.append(",".join([pts.ids[j]] + [format_number(v) for v in pts.xyz[j]] +
+                             [format_number(v) for v in pts.sigma[j]] + [str(pts.role[j])]))
     write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")
