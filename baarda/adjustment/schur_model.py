@@ -47,14 +47,20 @@ class SchurModel(AdjustedModel):
         gf, gp = self.system.apply_AtP(self.lin, hm, hc)
         return self.system.solve_normal(gf, gp)
 
+    def _adjusted_cofactors(self) -> tuple[np.ndarray, np.ndarray]:
+        """Blocks of A N^-1 A^T, computed once (statistics and grouped tests both need them)."""
+        if getattr(self, "_qll", None) is None:
+            self._qll = self.system.adjusted_cofactors(self.lin)
+        return self._qll
+
     # ------------------------------------------------------------- interface
     def adjusted_cofactor_diag(self) -> np.ndarray:
-        q, qc = self.system.adjusted_cofactors(self.lin)
+        q, qc = self._adjusted_cofactors()
         return np.concatenate([np.diagonal(q, axis1=1, axis2=2).ravel(),
                                np.diagonal(qc, axis1=1, axis2=2).ravel()[self.ctrl_sel]])
 
     def adjusted_cofactor_blocks(self) -> tuple[np.ndarray, np.ndarray]:
-        q, _ = self.system.adjusted_cofactors(self.lin)
+        q, _ = self._adjusted_cofactors()
         return np.arange(self.m * self.k).reshape(self.m, self.k), q
 
     def normal_forward(self, h: np.ndarray) -> np.ndarray:
