@@ -7,11 +7,11 @@
     print(qc.summary())
 """
 
-from baarda.block.model import Block
-from baarda.bundle.adjust import adjust
-from baarda.bundle.quality import BundleQuality, assess, snoop
-from baarda.bundle.result import BundleResult
-from baarda.io.errors import GeometryError, ProjectError
+from baarda.block.photo_block import Block
+from baarda.bundle.bundle_problem import adjust
+from baarda.bundle.bundle_quality import BundleQuality, assess, snoop
+from baarda.bundle.bundle_result import BundleResult
+from baarda.errors import GeometryError, ProjectError
 from baarda.io.project import read_project, write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.bundle.free import adjust_free, drop_points_behind
+from baarda.bundle.free_network import adjust_free, drop_points_behind
 from baarda.io.bal import bal_to_block, read_bal, rodrigues
 
 DEFAULT = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "bal"

@@ -3,7 +3,7 @@ pycolmap's bundle adjustment alone, on the same block in the same run.
 
     PYTHONPATH=$PWD python benchmarks/bench_quality.py [--photos 1000] [--repeat 3] [--profile]
 
-Target: wall time of baarda.adjust + baarda.bundle.quality.assess / pycolmap BA <= 1.0.
+Target: wall time of baarda.adjust + baarda.bundle.bundle_quality.assess / pycolmap BA <= 1.0.
 """
 
 from __future__ import annotations

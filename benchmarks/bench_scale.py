@@ -14,8 +14,8 @@ import argparse
 import resource
 import time
 
-from baarda.bundle.adjust import adjust
-from baarda.bundle.quality import assess
+from baarda.bundle.bundle_problem import adjust
+from baarda.bundle.bundle_quality import assess
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 import pycolmap
 
-from baarda.block.model import Block
+from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.bundle.collinearity import project
 

@@ -78,8 +78,8 @@ def profile_text(func, lines: int = 25):
 
 
 def run_baarda(args, block, out: Path) -> dict:
-    from baarda.bundle.adjust import adjust
-    from baarda.bundle.quality import assess
+    from baarda.bundle.bundle_problem import adjust
+    from baarda.bundle.bundle_quality import assess
     from baarda.simulate.aerial import simulate_block
 
     rec: dict = {"engine": "baarda", "numba_cache": os.environ.get("NUMBA_CACHE_DIR", "default")}
@@ -133,7 +133,7 @@ def run_baarda(args, block, out: Path) -> dict:
 def run_pycolmap(args, block, out: Path) -> dict:
     import colmap_block as cbm
 
-    from baarda.bundle.adjust import BundleProblem, _cost
+    from baarda.bundle.bundle_problem import BundleProblem, _cost
     from baarda.bundle.geometry import approximate_points
 
     pb = BundleProblem(block)

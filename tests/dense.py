@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from baarda.bundle.quality_model import BundleModel
+from baarda.bundle.bundle_model import BundleModel
 
 
 def dense_system(model: BundleModel) -> tuple[np.ndarray, np.ndarray]:

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.adjustment import kernels
-from baarda.io.errors import GeometryError
+from baarda.adjustment import schur_kernels as kernels
+from baarda.errors import GeometryError
 from baarda.linalg import BlockCholesky, BlockPattern, NotPositiveDefinite
 from baarda.linalg.threads import single_threaded_blas
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from baarda.adjustment.schur import Linearization, SchurSystem
-from baarda.quality.model import AdjustedModel
+from baarda.quality.adjusted_model import AdjustedModel
 
 
 class SchurModel(AdjustedModel):

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from baarda.block.camera import ideal_image_coordinates
-from baarda.block.model import Block
+from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
-from baarda.io.errors import GeometryError
+from baarda.errors import GeometryError
 
 
 def usable_points(block: Block) -> tuple[np.ndarray, list[str]]:

@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from baarda.block.camera import ideal_image_coordinates
-from baarda.block.model import Block
+from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix
 from baarda.bundle.collinearity import camera_depth, project, project_with_jacobians
-from baarda.io.errors import GeometryError
+from baarda.errors import GeometryError
 
 FLIP = np.diag([1.0, 1.0, -1.0])
 

@@ -7,7 +7,7 @@ import argparse
 import importlib
 import sys
 
-from baarda.io.errors import GeometryError, ProjectError
+from baarda.errors import GeometryError, ProjectError
 
 COMMANDS = [
     "baarda.cli.adjust",

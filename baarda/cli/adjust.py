@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.bundle.adjust import adjust
-from baarda.bundle.quality import assess, snoop
+from baarda.bundle.bundle_problem import adjust
+from baarda.bundle.bundle_quality import assess, snoop
 from baarda.cli.common import check_output, progress
 from baarda.cli.inputs import add_input_options, prepare
 
@@ -70,7 +70,7 @@ def run_adjust(args) -> int:
 
 def _screened(args, inp, say) -> int:
     from baarda.cli.screen import options
-    from baarda.io.errors import GeometryError
+    from baarda.errors import GeometryError
     from baarda.screening.chain import screen, screen_and_snoop
 
     block = inp.adjusted

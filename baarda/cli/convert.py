@@ -6,7 +6,7 @@ from pathlib import Path
 
 from baarda.cli.common import check_output
 from baarda.cli.inputs import add_input_options, read_input
-from baarda.io.convert import detect
+from baarda.io.formats import detect
 from baarda.io.project import write_project
 
 

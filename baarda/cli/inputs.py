@@ -11,12 +11,12 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from baarda.block.model import Block
-from baarda.bundle.adjust import BundleProblem
-from baarda.bundle.free import FreeBundleProblem, drop_points_behind
-from baarda.io.convert import FORMATS, read_any
+from baarda.block.photo_block import Block
+from baarda.bundle.bundle_problem import BundleProblem
+from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
 from baarda.io.crs import LocalFrame, localize, write_results_crs
-from baarda.io.results import write_results
+from baarda.io.formats import FORMATS, read_any
+from baarda.output.bundle_results import write_results
 
 
 def add_input_options(p) -> None:

@@ -9,9 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import check_output, progress
-from baarda.io.errors import ProjectError
-from baarda.io.model_coordinates import read_model_project
-from baarda.models.independent.deformations import ALL
+from baarda.errors import ProjectError
+from baarda.independent.deformations import ALL
+from baarda.io.model_project import read_model_project
 
 
 def register(sub) -> None:
@@ -69,17 +69,17 @@ def load(project: Path, covariance: bool = False):
     if (project / "models.csv").is_file():
         return read_model_project(project)
     if (project / "image_points.csv").is_file():
+        from baarda.independent.forming import form_models
         from baarda.io.project import read_project
-        from baarda.models.independent.forming import form_models
 
         return form_models(read_project(project), covariance=covariance)
     raise ProjectError(str(project), "neither models.csv nor image_points.csv found")
 
 
 def run(args) -> int:
-    from baarda.models.independent.hypotheses import UserHypotheses, read_clusters
-    from baarda.models.independent.output import write_results
-    from baarda.models.independent.workflow import process
+    from baarda.independent.model_hypotheses import UserHypotheses, read_clusters
+    from baarda.independent.workflow import process
+    from baarda.output.model_results import write_results
 
     check_output(args.out, [args.project])
     say = progress(args.quiet)
@@ -113,9 +113,9 @@ def run(args) -> int:
 def run_simulate(args) -> int:
     import json
 
-    from baarda.io.atomic import write_text
-    from baarda.io.model_coordinates import write_model_project
-    from baarda.simulate.models import ModelPlan, simulate_models
+    from baarda.io.model_project import write_model_project
+    from baarda.output.atomic import write_text
+    from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
     defs = {}
     for d in args.deformation:

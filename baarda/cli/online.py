@@ -6,10 +6,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from baarda.io.atomic import write_text
-from baarda.io.errors import GeometryError, ProjectError
-from baarda.models.relative.commands import Interpreter, LineError, coordinates_csv
-from baarda.models.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
+from baarda.errors import GeometryError, ProjectError
+from baarda.output.atomic import write_text
+from baarda.relative.online_commands import Interpreter, LineError, coordinates_csv
+from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
 
 
 def register(sub) -> None:

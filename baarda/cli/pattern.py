@@ -6,11 +6,11 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from baarda.io.atomic import write_text
-from baarda.io.errors import ProjectError
-from baarda.models.relative.drawing import svg_drawing, text_drawing
-from baarda.models.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
-from baarda.models.relative.pattern import NAMED, PatternPoint, design, standard_pattern
+from baarda.errors import ProjectError
+from baarda.output.atomic import write_text
+from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
+from baarda.relative.pattern_drawing import svg_drawing, text_drawing
+from baarda.relative.point_pattern import NAMED, PatternPoint, design, standard_pattern
 
 
 def register(sub) -> None:

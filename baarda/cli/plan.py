@@ -9,8 +9,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import add_flight_plan_arguments, check_output, progress
-from baarda.io.atomic import write_text
-from baarda.io.errors import GeometryError
+from baarda.errors import GeometryError
+from baarda.output.atomic import write_text
 from baarda.simulate.aerial import FlightPlan
 
 
@@ -73,13 +73,13 @@ def _flight(args) -> FlightPlan:
 
 
 def run_plan(args) -> int:
-    from baarda.bundle.adjust import adjust
+    from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
+    from baarda.output.plan_files import write_plan
     from baarda.planning.advice import advise, what_if
     from baarda.planning.design import ControlLayout, design_block, design_from_project
-    from baarda.planning.plan import analyse_design
-    from baarda.planning.report import write_plan
-    from baarda.planning.study import derive_table, simulate_cases
+    from baarda.planning.design_reliability import analyse_design
+    from baarda.planning.gruen_study import derive_table, simulate_cases
 
     inputs = [args.project] if args.project else []
     check_output(args.out, inputs)
@@ -140,10 +140,10 @@ def run_plan(args) -> int:
 
 
 def run_modified(args) -> int:
-    from baarda.bundle.adjust import adjust
+    from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
-    from baarda.planning.snooping import modified_snoop
-    from baarda.planning.table import baarda_table, gruen_table, read_table
+    from baarda.planning.modified_snoop import modified_snoop
+    from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 
     check_output(args.out, [args.project])
     say = progress(args.quiet)

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 from baarda.cli.common import progress
 
 if TYPE_CHECKING:
-    from baarda.report.text import ReportOptions
+    from baarda.report.text_report import ReportOptions
 
 
 def add_histogram_options(p) -> None:
@@ -45,7 +45,7 @@ def register(sub) -> None:
 
 
 def options(args) -> ReportOptions:
-    from baarda.report.text import ReportOptions
+    from baarda.report.text_report import ReportOptions
 
     return ReportOptions(width=args.class_width, lo=args.range[0], hi=args.range[1],
                          line_width=args.line_width, w_width=args.w_class_width,
@@ -55,10 +55,10 @@ def options(args) -> ReportOptions:
 
 
 def run(args) -> int:
-    from baarda.io.errors import ProjectError
+    from baarda.errors import ProjectError
+    from baarda.output.result_folder import read_results
     from baarda.report.histogram import classes
-    from baarda.report.load import read_results
-    from baarda.report.text import text_report
+    from baarda.report.text_report import text_report
 
     if args.out is None and not args.text:
         raise ProjectError(str(args.results), "nothing to do: give -o report.html and/or --text")
@@ -72,7 +72,7 @@ def run(args) -> int:
     if args.text:
         print(text_report(res, opt), end="")
     if args.out is not None:
-        from baarda.report.html import html_report, write_html
+        from baarda.report.html_report import html_report, write_html
 
         out = args.out.resolve()
         if out.parent == args.results.resolve() and out.name in (

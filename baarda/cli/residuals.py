@@ -23,9 +23,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from baarda.io.errors import ProjectError
+    from baarda.errors import ProjectError
     from baarda.report.residual_readers import read_residuals
-    from baarda.report.text import residuals_report
+    from baarda.report.text_report import residuals_report
 
     res = read_residuals(args.files, args.format, args.pixel_size)
     px = res.units["image"] == "px"

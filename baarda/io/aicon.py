@@ -31,10 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.io.atomic import write_text
-from baarda.io.errors import ProjectError
-from baarda.io.text import read_lines, to_numbers
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.errors import ProjectError
+from baarda.io.records import read_lines, to_numbers
+from baarda.output.atomic import write_text
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
 

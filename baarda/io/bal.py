@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
-from baarda.io.atomic import write_bytes
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
+from baarda.output.atomic import write_bytes
 
 
 @dataclass

@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.io.atomic import write_bytes, write_text
-from baarda.io.errors import ProjectError
-from baarda.io.text import read_lines
+from baarda.errors import ProjectError
+from baarda.io.records import read_lines
+from baarda.output.atomic import write_bytes, write_text
 
 # model id -> (name, number of parameters)
 MODELS = {0: ("SIMPLE_PINHOLE", 3), 1: ("PINHOLE", 4), 2: ("SIMPLE_RADIAL", 4),

@@ -11,8 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
+from baarda.errors import ProjectError
 from baarda.io.colmap import (
     ColmapCamera,
     ColmapImage,
@@ -22,7 +23,6 @@ from baarda.io.colmap import (
     qvec_to_matrix,
     read_colmap,
 )
-from baarda.io.errors import ProjectError
 
 # camera models with a baarda lens model
 CONVERTIBLE = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")

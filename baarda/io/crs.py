@@ -26,9 +26,9 @@ import numpy as np
 from pyproj import CRS, Transformer
 from pyproj.exceptions import CRSError
 
-from baarda.block.model import Block, Photos
+from baarda.block.photo_block import Block, Photos
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
 
 
 def _polar(j: np.ndarray) -> np.ndarray:
@@ -197,7 +197,7 @@ def tables_in_crs(result, frame: LocalFrame, block: Block):
     blocks; those of positions of photos likewise; angle standard deviations as adjusted.
     """
     from baarda.block.rotation import rad_to_angle
-    from baarda.io.results import photos_table, points_table
+    from baarda.output.bundle_results import photos_table, points_table
 
     ph = photos_table(result)
     eo = frame.eo_from_local(result.eo)
@@ -232,8 +232,8 @@ def write_results_crs(out, result, quality, frame: LocalFrame, block: Block) -> 
     frame's tables are kept as photos_local.csv and points_local.csv)."""
     from pathlib import Path
 
-    from baarda.io.atomic import write_text
-    from baarda.io.results import csv_text, photos_table, points_table, write_results
+    from baarda.output.atomic import write_text
+    from baarda.output.bundle_results import csv_text, photos_table, points_table, write_results
 
     out = Path(out)
     paths = write_results(out, result, quality)

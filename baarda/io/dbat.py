@@ -34,10 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.resection import orient_block
-from baarda.io.errors import ProjectError
-from baarda.io.text import Records, numbers_in, parse_number
+from baarda.errors import ProjectError
+from baarda.io.records import Records, numbers_in, parse_number
 from baarda.io.xmltree import Node, parse_xml
 
 KNOWN_FIELDS = {"id", "label", "name", "x", "y", "z", "sx", "sy", "sz", "sxyz", "im", "sxy",

@@ -39,9 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.io.errors import ProjectError
-from baarda.io.text import parse_number, read_lines
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.errors import ProjectError
+from baarda.io.records import parse_number, read_lines
 
 
 def is_photomodeler_export(path: str | Path) -> bool:

@@ -12,11 +12,19 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.camera import COEFFICIENTS, KINDS, camera_arrays
-from baarda.block.model import ROLES, Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import (
+    ROLES,
+    Block,
+    Cameras,
+    GroundPoints,
+    ImagePoints,
+    Photos,
+    Settings,
+)
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad, rad_to_angle
-from baarda.io.atomic import write_text
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
 from baarda.io.table import Table
+from baarda.output.atomic import write_text
 
 FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
 

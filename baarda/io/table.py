@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.io.errors import ProjectError
-from baarda.io.text import to_numbers
+from baarda.errors import ProjectError
+from baarda.io.records import to_numbers
 
 
 class Table:

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
 
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
 
 
 @dataclass

@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.planning.design import ControlLayout, design_block
-from baarda.planning.plan import PlanResult, analyse_design
+from baarda.planning.design_reliability import PlanResult, analyse_design
 from baarda.simulate.aerial import FlightPlan
 
 WEAK = 0.5  # Gruen: sqrt(qvv) of about 0.5 regarded as sufficient
@@ -147,7 +147,7 @@ def _models_of(plan: PlanResult, points: list[str]):
 
 
 def _has_twins(plan: PlanResult) -> bool:
-    from baarda.planning.table import design_key
+    from baarda.planning.reliability_tables import design_key
 
     return design_key(plan.block).control == "twin"
 

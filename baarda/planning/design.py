@@ -18,10 +18,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from baarda.block.model import Block, GroundPoints, ImagePoints, Photos
+from baarda.block.photo_block import Block, GroundPoints, ImagePoints, Photos
 from baarda.bundle.collinearity import project
 from baarda.bundle.geometry import intersect
-from baarda.io.errors import GeometryError
+from baarda.errors import GeometryError
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 CONTROL_SIGMA_RATIO = 1e-4  # "error-free" control: sigma = ratio * image sigma on the ground

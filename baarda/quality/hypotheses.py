@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.distributions import b_method, multidim_test
-from baarda.quality.model import AdjustedModel
 
 
 @dataclass

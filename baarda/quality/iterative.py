@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from baarda.io.errors import GeometryError
-from baarda.quality.model import AdjustedModel
+from baarda.errors import GeometryError
+from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.statistics import QualityResult, analyse
 
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.quality.model import AdjustedModel
+from baarda.quality.adjusted_model import AdjustedModel
 
 MAX_DENSE = 4000  # components; larger models must not form an n x n matrix
 

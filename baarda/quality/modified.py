@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.distributions import b_method, tau_critical
-from baarda.quality.model import AdjustedModel
 from baarda.quality.statistics import R_MIN, qvv_columns
 
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.quality.model import AdjustedModel
+from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.statistics import cofactors
 
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.distributions import (
     b_method,
     global_test,
@@ -26,7 +27,6 @@ from baarda.quality.distributions import (
     tau_pvalue,
     w_test_pvalue,
 )
-from baarda.quality.model import AdjustedModel
 
 R_MIN = 1e-3  # redundancy numbers below this: uncontrolled, not tested
 

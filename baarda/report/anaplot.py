@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from baarda.report.load import UNITS
+from baarda.output.result_folder import UNITS
 
 COLUMNS = ["kind", "photo", "point", "component", "unit", "redundancy", "residual",
            "sigma_residual", "w", "flag"]

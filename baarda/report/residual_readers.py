@@ -23,9 +23,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
 from baarda.io.table import Table
-from baarda.report.load import numbers, read_observations
+from baarda.output.result_folder import numbers, read_observations
 
 PM_HEADER = "Object Point ID"
 FORMATS = ("auto", "generic", "photomodeler", "baarda")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from baarda.report.load import UNITS
+from baarda.output.result_folder import UNITS
 
 
 @dataclass

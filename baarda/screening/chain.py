@@ -11,12 +11,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from baarda.block.model import Block, GroundPoints
-from baarda.bundle.quality import BundleQuality
+from baarda.block.photo_block import Block, GroundPoints
+from baarda.bundle.bundle_quality import BundleQuality
 from baarda.screening.control import ControlCheck, screen_control
 from baarda.screening.log import Entry, ScreeningLog
 from baarda.screening.pairs import PairTest, screen_pairs
-from baarda.screening.snooping import snoop_separable
+from baarda.screening.separable import snoop_separable
 from baarda.screening.strips import Strip, screen_strips
 
 

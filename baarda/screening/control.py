@@ -28,9 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.block.model import Block
+from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_and_derivatives
-from baarda.io.errors import GeometryError
+from baarda.errors import GeometryError
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import analyse
 from baarda.screening.fit import (

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.io.errors import GeometryError
-from baarda.quality.model import DenseModel
+from baarda.errors import GeometryError
+from baarda.quality.adjusted_model import DenseModel
 from baarda.quality.statistics import analyse, w_correlation
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from baarda.block.model import Block
+from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.bundle.collinearity import project_with_jacobians
 from baarda.screening.fit import Observations, SmallModel, dense_model, gauss_newton

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from baarda.io.atomic import write_text
+from baarda.output.atomic import write_text
 
 STAGES = {1: "photo pairs", 2: "strip formation", 3: "control", 0: "chain",
           4: "bundle snooping"}

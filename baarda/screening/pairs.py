@@ -34,8 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from baarda.block.model import Block
-from baarda.io.errors import GeometryError
+from baarda.block.photo_block import Block
+from baarda.errors import GeometryError
 from baarda.quality.distributions import b_method
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import analyse

@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from baarda.block.model import Block
-from baarda.io.errors import GeometryError
+from baarda.block.photo_block import Block
+from baarda.errors import GeometryError
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.iterative import label as obs_label
 from baarda.quality.statistics import w_correlation

@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
 
 

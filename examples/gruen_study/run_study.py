@@ -16,7 +16,7 @@ import time
 import numpy as np
 import pandas as pd
 
-from baarda.planning.study import (
+from baarda.planning.gruen_study import (
     GRUEN_ROWS,
     STUDY_BLOCKS,
     TOLERANCE,
@@ -27,7 +27,7 @@ from baarda.planning.study import (
     side_by_side_markdown,
     tolerance_check,
 )
-from baarda.planning.table import gruen_table
+from baarda.planning.reliability_tables import gruen_table
 
 FIG9 = {2.0: (2, 0.46), 3.0: (1, 0.44), 6.0: (1, 0.43)}  # i: (count per photo, mean) in Fig. 9
 

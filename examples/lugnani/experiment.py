@@ -20,14 +20,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from baarda.block.model import Block, GroundPoints
-from baarda.bundle.adjust import adjust
-from baarda.bundle.quality import snoop
-from baarda.bundle.result import BundleResult
-from baarda.io.errors import GeometryError
+from baarda.block.photo_block import Block, GroundPoints
+from baarda.bundle.bundle_problem import adjust
+from baarda.bundle.bundle_quality import snoop
+from baarda.bundle.bundle_result import BundleResult
+from baarda.errors import GeometryError
 from baarda.screening.chain import ScreeningResult, screen_and_snoop
 from baarda.screening.log import ScreeningLog
-from baarda.screening.snooping import snoop_separable
+from baarda.screening.separable import snoop_separable
 
 K_RMS = 3.0  # residual analysis: reject |v|/sigma > K_RMS * RMS(v/sigma)
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
 
 SCALE, FOCAL, FORMAT = 10_000.0, 153.0, 230.0

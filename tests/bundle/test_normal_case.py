@@ -12,8 +12,8 @@ tie point, so the tie point's precision is that of the intersection alone.
 import numpy as np
 import pytest
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.bundle.adjust import adjust
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.bundle.bundle_problem import adjust
 from baarda.bundle.collinearity import project
 
 H, B, C, SIG = 1500.0, 600.0, 150.0, 0.005  # m, m, mm, mm

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from dense import dense_system
 
-from baarda.bundle.adjust import adjust
-from baarda.bundle.quality_model import BundleModel
+from baarda.bundle.bundle_model import BundleModel
+from baarda.bundle.bundle_problem import adjust
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

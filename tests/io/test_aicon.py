@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from baarda.bundle.collinearity import project
+from baarda.errors import ProjectError
 from baarda.io.aicon import read_aicon, write_aicon
-from baarda.io.errors import ProjectError
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / \
     "aicon_jaicov_closerange"

@@ -10,7 +10,8 @@ import pytest
 
 from baarda.block.camera import forward_coefficients
 from baarda.bundle.collinearity import camera_depth, project
-from baarda.bundle.free import adjust_free
+from baarda.bundle.free_network import adjust_free
+from baarda.errors import ProjectError
 from baarda.io.bal import (
     BalProblem,
     bal_to_block,
@@ -20,7 +21,6 @@ from baarda.io.bal import (
     rotation_vector,
     write_bal,
 )
-from baarda.io.errors import ProjectError
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "bal"
 # README of the data set: counts and the initial reprojection errors (median, mean, 99th

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from baarda.block.model import Photos
+from baarda.block.photo_block import Photos
 from baarda.cli import main
 from baarda.io.bal import bal_to_block, write_bal
-from baarda.io.convert import detect, read_any
 from baarda.io.crs import LocalFrame
+from baarda.io.formats import detect, read_any
 from baarda.io.project import read_project, write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
 

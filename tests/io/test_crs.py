@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from pyproj import CRS, Proj, Transformer
 
-from baarda.block.model import Photos
-from baarda.bundle.adjust import adjust
+from baarda.block.photo_block import Photos
+from baarda.bundle.bundle_problem import adjust
+from baarda.errors import ProjectError
 from baarda.io.crs import LocalFrame, localize, tables_in_crs
-from baarda.io.errors import ProjectError
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 rng = np.random.default_rng(11)

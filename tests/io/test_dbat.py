@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from baarda.block.camera import ideal_image_coordinates
-from baarda.bundle.adjust import adjust
+from baarda.bundle.bundle_problem import adjust
 from baarda.bundle.collinearity import project, project_with_jacobians
+from baarda.errors import ProjectError
 from baarda.io.dbat import read_dbat
-from baarda.io.errors import ProjectError
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 SXB = DATA / "dbat_sxb_aerial" / "dbat_script"

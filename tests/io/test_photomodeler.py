@@ -8,7 +8,7 @@ import pytest
 
 from baarda.block.camera import ideal_image_coordinates
 from baarda.bundle.collinearity import project
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
 from baarda.io.photomodeler import read_photomodeler
 
 DATA = Path(__file__).resolve().parents[1] / "data"

@@ -5,8 +5,8 @@ import shutil
 import numpy as np
 import pytest
 
-from baarda.bundle.adjust import adjust
-from baarda.io.errors import GeometryError, ProjectError
+from baarda.bundle.bundle_problem import adjust
+from baarda.errors import GeometryError, ProjectError
 from baarda.io.project import read_project, write_project
 
 

@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from baarda.errors import ProjectError
 from baarda.io.dbat import read_dbat
-from baarda.io.errors import ProjectError
 from baarda.io.project import read_project, write_project
 
 SXB = Path(__file__).resolve().parents[1] / "data" / "dbat_sxb_aerial" / "dbat_script" / "sxb.xml"

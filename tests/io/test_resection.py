@@ -5,11 +5,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from baarda.bundle.adjust import adjust
+from baarda.bundle.bundle_problem import adjust
 from baarda.bundle.collinearity import project
 from baarda.bundle.resection import orient_block, resect
+from baarda.errors import GeometryError
 from baarda.io.dbat import read_dbat, read_dbat_stations
-from baarda.io.errors import GeometryError
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 CAMCAL = Path(__file__).resolve().parents[1] / "data" / "dbat_camcal_closerange" / "dbat_script"

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from model_dense import dense_design
 
-from baarda.models.independent.adjust import adjust_models
-from baarda.models.independent.quality_model import IndependentModel
+from baarda.independent.adjust_models import adjust_models
+from baarda.independent.independent_model import IndependentModel
 from baarda.quality import hypotheses as hyp
-from baarda.quality.model import DenseModel
+from baarda.quality.adjusted_model import DenseModel
 from baarda.quality.statistics import analyse
-from baarda.simulate.models import ModelPlan, simulate_models
+from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
 
 def numeric_design(res, h=1e-6):

@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 from model_dense import dense_design
 
-from baarda.models.independent import similarity
-from baarda.models.independent.adjust import adjust_models
-from baarda.models.independent.external import external_reliability
-from baarda.models.independent.quality_model import IndependentModel
+from baarda.independent import similarity
+from baarda.independent.adjust_models import adjust_models
+from baarda.independent.external import external_reliability
+from baarda.independent.independent_model import IndependentModel
 from baarda.quality.statistics import analyse
-from baarda.simulate.models import ModelPlan, simulate_models
+from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
 
 def brute_force(res, idx):

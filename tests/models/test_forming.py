@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from baarda.models.independent import similarity
-from baarda.models.independent.adjust import adjust_models
-from baarda.models.independent.forming import form_models, model_pairs
+from baarda.independent import similarity
+from baarda.independent.adjust_models import adjust_models
+from baarda.independent.forming import form_models, model_pairs
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 
@@ -45,7 +45,7 @@ def test_formed_block_adjusts_to_the_truth():
 
 
 def test_datum_free_removes_the_similarity_part():
-    from baarda.models.independent.forming import datum_free
+    from baarda.independent.forming import datum_free
 
     rng = np.random.default_rng(2)
     xyz = rng.normal(0, 50, (7, 3))

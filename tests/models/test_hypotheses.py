@@ -3,20 +3,20 @@
 import numpy as np
 import pytest
 
-from baarda.io.errors import ProjectError
-from baarda.models.independent.adjust import adjust_models
-from baarda.models.independent.deformations import deformation_rows, model_radius
-from baarda.models.independent.hypotheses import (
+from baarda.errors import ProjectError
+from baarda.independent.adjust_models import adjust_models
+from baarda.independent.deformations import deformation_rows, model_radius
+from baarda.independent.model_hypotheses import (
     UserHypotheses,
     cluster_tests,
     decision,
     deformation_h,
     deformation_tests,
 )
-from baarda.models.independent.quality import assess, snoop
+from baarda.independent.model_quality import assess, snoop
 from baarda.quality import hypotheses as hyp
-from baarda.quality.model import DenseModel
-from baarda.simulate.models import ModelPlan, simulate_models
+from baarda.quality.adjusted_model import DenseModel
+from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
 
 @pytest.mark.parametrize("name,size,mode,seed", [("affinity", 12.0, "2d", 5),

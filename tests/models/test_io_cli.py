@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from baarda.cli import main
-from baarda.io.errors import ProjectError
-from baarda.io.model_coordinates import read_model_project, write_model_project
-from baarda.simulate.models import ModelPlan, simulate_models
+from baarda.errors import ProjectError
+from baarda.io.model_project import read_model_project, write_model_project
+from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
 
 @pytest.fixture

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from baarda.block.rotation import rotation_matrix
-from baarda.models.independent import similarity as sim
+from baarda.independent import similarity as sim
 
 
 def numeric(f, x, h):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from baarda.models.independent.study import FOTEF, FOTEF_TABLE, headline, study_block
+from baarda.planning.fotef_study import FOTEF, FOTEF_TABLE, headline, study_block
 
 
 @pytest.fixture(scope="module")

@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
-from baarda.io.errors import GeometryError
-from baarda.models.independent.adjust import adjust_models
-from baarda.models.independent.planimetric import check_tilts, level
-from baarda.models.independent.preadjust import preadjust
-from baarda.models.independent.problem import ModelProblem
-from baarda.models.independent.workflow import process
-from baarda.simulate.models import ModelPlan, simulate_models
+from baarda.errors import GeometryError
+from baarda.independent.adjust_models import adjust_models
+from baarda.independent.model_problem import ModelProblem
+from baarda.independent.planimetric import check_tilts, level
+from baarda.independent.preadjust import preadjust
+from baarda.independent.workflow import process
+from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
 
 def planted_block():

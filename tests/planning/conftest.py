@@ -1,6 +1,6 @@
 import pytest
 
-from baarda.planning.study import run_study
+from baarda.planning.gruen_study import run_study
 
 
 @pytest.fixture(scope="session")

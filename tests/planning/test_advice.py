@@ -4,8 +4,8 @@ import numpy as np
 
 from baarda.planning.advice import advise, what_if
 from baarda.planning.design import ControlLayout, design_block
-from baarda.planning.plan import analyse_design
-from baarda.planning.study import study_plan
+from baarda.planning.design_reliability import analyse_design
+from baarda.planning.gruen_study import study_plan
 from baarda.simulate.aerial import FlightPlan
 
 

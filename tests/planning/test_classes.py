@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.planning.classes import class_name, classify, half_coverage_photos, ray_counts
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.planning.design import ControlLayout, design_block
-from baarda.planning.study import study_plan
+from baarda.planning.gruen_study import study_plan
+from baarda.planning.point_classes import class_name, classify, half_coverage_photos, ray_counts
 
 
 def _block():

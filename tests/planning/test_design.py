@@ -6,8 +6,8 @@ import pytest
 
 from baarda.bundle.collinearity import project
 from baarda.planning.design import ControlLayout, design_block, design_from_project
-from baarda.planning.plan import analyse_design
-from baarda.planning.study import spacings, study_plan
+from baarda.planning.design_reliability import analyse_design
+from baarda.planning.gruen_study import spacings, study_plan
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

@@ -5,8 +5,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from baarda.planning.study import GRUEN_ROWS, TOLERANCE, control_curves, tolerance_check
-from baarda.planning.table import baarda_table, gruen_table, read_gruen_table2
+from baarda.planning.gruen_study import GRUEN_ROWS, TOLERANCE, control_curves, tolerance_check
+from baarda.planning.reliability_tables import baarda_table, gruen_table, read_gruen_table2
 
 
 def test_table2_side_by_side_within_tolerance(study):

@@ -3,10 +3,16 @@
 import numpy as np
 import pytest
 
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
 from baarda.planning.design import ControlLayout, design_block
-from baarda.planning.study import study_plan
-from baarda.planning.table import DesignKey, baarda_table, design_key, gruen_table, read_table
+from baarda.planning.gruen_study import study_plan
+from baarda.planning.reliability_tables import (
+    DesignKey,
+    baarda_table,
+    design_key,
+    gruen_table,
+    read_table,
+)
 
 
 def test_gruen_recommended_values():

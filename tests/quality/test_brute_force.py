@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from dense import dense_system
 
-from baarda.bundle.adjust import adjust
-from baarda.bundle.quality import assess
+from baarda.bundle.bundle_problem import adjust
+from baarda.bundle.bundle_quality import assess
+from baarda.quality.adjusted_model import DenseModel
 from baarda.quality.distributions import b_method
 from baarda.quality.hypotheses import group_test, hypothesis_test, image_point_tests
-from baarda.quality.model import DenseModel
 from baarda.quality.statistics import analyse
 from baarda.simulate.aerial import FlightPlan, simulate_block
 

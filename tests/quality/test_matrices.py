@@ -4,8 +4,8 @@ observation and watch every residual move (Kratky and El-Hakim 1983, eq. 5)."""
 import numpy as np
 import pytest
 
+from baarda.quality.adjusted_model import DenseModel
 from baarda.quality.matrices import critical_transfers, qvv_p_matrix
-from baarda.quality.model import DenseModel
 
 
 def _lsq_residuals(a, sigma, l, active):

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from baarda.bundle.adjust import adjust
-from baarda.bundle.quality import assess, snoop
+from baarda.bundle.bundle_problem import adjust
+from baarda.bundle.bundle_quality import assess, snoop
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 
@@ -55,8 +55,8 @@ def test_rejected_observation_returns_when_not_significant():
     """Force a rejection of a good observation: the next snooping step restores it."""
     from baarda.quality.iterative import iterative_snooping
     block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=5, relief_m=40, seed=9))
-    from baarda.bundle.adjust import BundleProblem
-    from baarda.bundle.quality_model import BundleModel
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.bundle.bundle_problem import BundleProblem
     problem = BundleProblem(block)
     first = BundleModel(adjust(block, problem=problem))
     good = int(np.flatnonzero(assess(first.result).quality.redundancy_number > 0.5)[0])
@@ -96,9 +96,9 @@ def test_danish_prescreening_then_snooping_finds_many_large_blunders():
 
 def test_component_the_block_needs_is_kept_and_reported():
     """If rejecting the worst component leaves the model undetermined, it stays in."""
-    from baarda.io.errors import GeometryError
+    from baarda.errors import GeometryError
+    from baarda.quality.adjusted_model import DenseModel
     from baarda.quality.iterative import iterative_snooping
-    from baarda.quality.model import DenseModel
     rng = np.random.default_rng(3)
     a = rng.normal(size=(30, 3))
     x = np.array([1.0, -2.0, 0.5])

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from baarda.cli import main
-from baarda.models.relative.pattern import design, standard_pattern
-from baarda.models.relative.simulate import online_text, simulate_strip
+from baarda.relative.point_pattern import design, standard_pattern
+from baarda.simulate.online_strip import online_text, simulate_strip
 
 
 def _blunder_file(tmp_path, point="31", dy=0.100):

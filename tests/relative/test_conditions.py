@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from baarda.block.rotation import rotation_matrix
-from baarda.models.relative.coplanarity import coplanarity, image_vectors, right_rotation
-from baarda.models.relative.orientation import ModelSetup, PhotoPose, residual_function
-from baarda.models.relative.scale_transfer import collinearity_xz
+from baarda.relative.coplanarity import coplanarity, image_vectors, right_rotation
+from baarda.relative.orientation import ModelSetup, PhotoPose, residual_function
+from baarda.relative.scale_transfer import collinearity_xz
 
 C = 152.0
 

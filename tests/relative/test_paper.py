@@ -4,10 +4,10 @@
 import numpy as np
 import pytest
 
-from baarda.models.relative.orientation import orient
-from baarda.models.relative.pattern import design, standard_pattern
-from baarda.models.relative.session import OnlineSession
-from baarda.models.relative.simulate import simulate_strip
+from baarda.relative.orientation import orient
+from baarda.relative.point_pattern import design, standard_pattern
+from baarda.relative.session import OnlineSession
+from baarda.simulate.online_strip import simulate_strip
 
 
 def test_noise_free_strip_recovers_the_truth():

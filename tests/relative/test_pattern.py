@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from baarda.models.relative.drawing import svg_drawing, text_drawing
-from baarda.models.relative.pattern import design, standard_pattern
+from baarda.relative.pattern_drawing import svg_drawing, text_drawing
+from baarda.relative.point_pattern import design, standard_pattern
 
 
 def _pairs(d, transfers=None):

@@ -4,9 +4,9 @@ strip growing model by model, and the API's refusals."""
 import numpy as np
 import pytest
 
-from baarda.io.errors import GeometryError
-from baarda.models.relative.session import OnlineSession
-from baarda.models.relative.simulate import simulate_strip
+from baarda.errors import GeometryError
+from baarda.relative.session import OnlineSession
+from baarda.simulate.online_strip import simulate_strip
 
 
 def _with_blunder(meas, point, dy):

@@ -8,12 +8,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from baarda.bundle.quality import snoop
+from baarda.bundle.bundle_quality import snoop
 from baarda.io.project import write_project
-from baarda.io.results import write_results
-from baarda.report.html import html_report
-from baarda.report.load import read_results
-from baarda.report.text import ReportOptions
+from baarda.output.bundle_results import write_results
+from baarda.output.result_folder import read_results
+from baarda.report.html_report import html_report
+from baarda.report.text_report import ReportOptions
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 # helper modules of these tests (salsig.py, htmlrows.py); pytest runs with importlib mode

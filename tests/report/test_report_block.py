@@ -7,7 +7,7 @@ import pytest
 from htmlrows import table_rows
 
 from baarda.cli import main
-from baarda.report.load import read_results
+from baarda.output.result_folder import read_results
 from baarda.report.maps import block_map, residual_vectors
 
 
@@ -123,7 +123,7 @@ def test_older_output_folder_still_reports(report_case, tmp_path):
     import json
     import shutil
 
-    from baarda.report.html import html_report
+    from baarda.report.html_report import html_report
 
     old = tmp_path / "out"
     shutil.copytree(report_case.out, old)
@@ -145,7 +145,7 @@ def test_older_output_folder_still_reports(report_case, tmp_path):
 
 
 def test_missing_files(tmp_path):
-    from baarda.io.errors import ProjectError
+    from baarda.errors import ProjectError
 
     with pytest.raises(ProjectError, match="not an output folder"):
         read_results(tmp_path / "none")
@@ -159,12 +159,12 @@ def test_missing_files(tmp_path):
 def test_results_without_statistics(report_case, tmp_path):
     """An adjustment written without quality control: residuals only; the extremes of the
     group statistics point at the planted blunders (Salsig's point)."""
-    from baarda.bundle.adjust import adjust
+    from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
-    from baarda.io.results import write_results
-    from baarda.report.html import html_report
+    from baarda.output.bundle_results import write_results
+    from baarda.report.html_report import html_report
     from baarda.report.stats import group_statistics
-    from baarda.report.text import text_report
+    from baarda.report.text_report import text_report
 
     write_results(tmp_path / "out", adjust(read_project(report_case.project)))
     res = read_results(tmp_path / "out")

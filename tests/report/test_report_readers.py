@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from baarda.cli import main
-from baarda.io.errors import ProjectError
+from baarda.errors import ProjectError
 from baarda.report.residual_readers import detect, read_residuals
 from baarda.report.stats import group_statistics, vector_statistics
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from baarda.block.model import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.screening.log import ScreeningLog
 from baarda.screening.pairs import (
     PairTest,

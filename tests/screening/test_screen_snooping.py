@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.screening.snooping import snoop_separable
+from baarda.screening.separable import snoop_separable
 
 sys.path.insert(0, str(Path(__file__).parents[2] / "examples" / "lugnani"))
 from lugnani_block import build  # noqa: E402

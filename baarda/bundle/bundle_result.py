@@ -1,0 +1,115 @@
+"""The result of a bundle adjustment: arrays plus a summary for people."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from baarda.adjustment.counts import AdjustmentCounts
+from baarda.adjustment.schur import Linearization
+from baarda.block.photo_block import Block
+
+if TYPE_CHECKING:
+    from baarda.bundle.bundle_problem import BundleProblem
+
+
+@dataclass
+class BundleResult(AdjustmentCounts):
+    """Adjusted orientations and points with their precision.
+
+    Units: positions in m, angles in rad, image residuals in mm (µm in the outputs).
+    Standard deviations are scaled by the a-posteriori sigma0.
+    """
+
+    block: Block
+    problem: BundleProblem
+    eo: np.ndarray  # (n_photos, 6)
+    xyz: np.ndarray  # (n_adjusted_points, 3), order of problem.point_ids
+    lin: Linearization
+    iterations: int
+    converged: bool
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+    # --------------------------------------------------------- residuals
+    @property
+    def image_residuals(self) -> np.ndarray:
+        """v = adjusted - observed image coordinates, (m_adjusted, 2) in mm."""
+        return -self.lin.e
+
+    @property
+    def control_residuals(self) -> np.ndarray:
+        """v = adjusted - given control coordinates, (n_control, 3) in m (NaN: not observed)."""
+        given = self.block.points.xyz[self.problem.control]
+        return np.where(np.isfinite(given), -self.lin.ec, np.nan)
+
+    # --------------------------------------------------------- precision
+    @property
+    def eo_std(self) -> np.ndarray:
+        self.problem.system.ensure(self.lin)
+        q = self.problem.system.frame_covariance()
+        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+
+    @property
+    def xyz_std(self) -> np.ndarray:
+        self.problem.system.ensure(self.lin)
+        q = self.problem.system.point_covariance()
+        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+
+    def points_xyz(self) -> np.ndarray:
+        """Adjusted coordinates for every block point, (n_points, 3); NaN if left out."""
+        out = np.full((len(self.block.points), 3), np.nan)
+        out[self.problem.point_ids] = self.xyz
+        return out
+
+    def check_points(self) -> tuple[list[str], np.ndarray]:
+        """Ids and discrepancies adjusted - given (n, 3) in m of the check points."""
+        pts = self.block.points
+        idx = np.flatnonzero((pts.role == "check") & (self.problem.remap >= 0))
+        d = self.xyz[self.problem.remap[idx]] - pts.xyz[idx]
+        return [pts.ids[j] for j in idx], d
+
+    def check_rms(self) -> np.ndarray:
+        _, d = self.check_points()
+        return np.sqrt(np.mean(d**2, axis=0)) if len(d) else np.full(3, np.nan)
+
+    def to_dict(self) -> dict:
+        rms = self.check_rms()
+        return {
+            "sigma0": self.sigma0,
+            "redundancy": self.redundancy,
+            "n_observations": self.n_observations,
+            "n_unknowns": self.n_unknowns,
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "vtpv": self.vtpv,
+            "n_check_points": len(self.check_points()[0]),
+            "check_rms_X": None if np.isnan(rms[0]) else float(rms[0]),
+            "check_rms_Y": None if np.isnan(rms[1]) else float(rms[1]),
+            "check_rms_Z": None if np.isnan(rms[2]) else float(rms[2]),
+            "seconds": self.seconds,
+            "notes": self.notes,
+        }
+
+    def summary(self) -> str:
+        d = self.to_dict()
+        im = np.where(self.lin.w > 0, self.image_residuals * 1e3, np.nan)
+        lines = [
+            "Bundle block adjustment",
+            "=" * 60,
+            self.block.summary(),
+            f"observations {d['n_observations']}, unknowns {d['n_unknowns']}, "
+            f"redundancy {d['redundancy']}",
+            f"iterations {d['iterations']} ({'converged' if d['converged'] else 'NOT converged'}"
+            f"), {d['seconds']:.2f} s",
+            f"sigma0 a posteriori {d['sigma0']:.4f}",
+            f"RMS image residuals x {np.sqrt(np.nanmean(im[:, 0]**2)):.2f} µm, "
+            f"y {np.sqrt(np.nanmean(im[:, 1]**2)):.2f} µm (rejected ones left out)",
+        ]
+        if d["n_check_points"]:
+            lines.append(f"check points {d['n_check_points']}: RMS X {d['check_rms_X']:.3f} m, "
+                         f"Y {d['check_rms_Y']:.3f} m, Z {d['check_rms_Z']:.3f} m")
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)

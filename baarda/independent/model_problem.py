@@ -1,0 +1,188 @@
+"""An independent-model block in the form of the generic point-eliminated adjustment.
+
+Frames are models, points are terrain points; three kinds of adjustment share the code:
+
+=======  ===========================================  ===  ===  =========================
+mode     observation equation of a model row          b    d    components
+=======  ===========================================  ===  ===  =========================
+3d       x = c + mu R^T (X - T)    (similarity.py)    7    3    x, y, z
+2d       (x, y) = c + mu R(k)^T (X - T)               4    2    x, y   (no proj. centres)
+height   z = c_z + mu_m (Z - Z_ref) + a0 + a1 u + a2 v  3  1    z      (mu_m from 2d)
+=======  ===========================================  ===  ===  =========================
+
+(u, v: model coordinates about the centroid / model radius L, so a1, a2 are the height
+changes in mm at the model's edge.)  Control coordinates are point observations.  Terrain
+coordinates are reduced by `origin` inside.  With a full covariance per row (obs_cov) each
+row is decorrelated by G = D L^-1 (C = L L^T, D = diag L): the first component stays, the
+others become their part not predicted by the previous ones (x, y|x, z|xy), with
+standard deviations diag(L); weights stay diagonal.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.block.model_block import ModelBlock
+from baarda.errors import GeometryError
+from baarda.independent import similarity
+from baarda.independent.deformations import model_radius
+
+MODES = {"3d": (7, 3, (0, 1, 2)), "2d": (4, 2, (0, 1)), "height": (3, 1, (2,))}
+COMPONENTS = {"3d": ("x", "y", "z"), "2d": ("x", "y"), "height": ("z",)}
+CORRELATED = {"3d": ("x", "y|x", "z|xy"), "2d": ("x", "y|x"), "height": ("z",)}
+
+
+class ModelProblem:
+    """Index arrays, weights and the Schur structure of one adjustment of a model block.
+
+    `obs_keep` (m, 3) and `control_keep` (np, 3) switch components off (data snooping)
+    without changing the structure.  `mu` (nm,) is required for mode 'height'.
+    """
+
+    def __init__(self, block: ModelBlock, mode: str = "3d", *, obs_keep=None,
+                 control_keep=None, mu: np.ndarray | None = None, include_pc: bool | None = None,
+                 origin: np.ndarray | None = None):
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}")
+        self.block, self.mode = block, mode
+        self.b, self.d, comps = MODES[mode]
+        self.comps = np.asarray(comps)
+        self.k = len(comps)
+        bl = block
+        pc_rows = bl.pc[bl.obs_point]
+        if include_pc is None:
+            include_pc = mode != "2d"
+        use = np.ones(len(bl.obs_model), bool) if include_pc else ~pc_rows
+        finite = np.isfinite(bl.obs_xyz[:, self.comps]).all(axis=1)
+        if mode == "3d" and not finite[use].all():
+            raise GeometryError("the 3D adjustment needs z of every model point (models.csv "
+                                "has empty z_mm); use the planimetric adjustment (--2d)")
+        self.rows = np.flatnonzero(use & finite)
+        self.point_ids = np.unique(bl.obs_point[self.rows])  # block index of each point
+        remap = np.full(bl.n_points, -1)
+        remap[self.point_ids] = np.arange(len(self.point_ids))
+        self.remap = remap
+        ctrl = bl.controlled[:, self.comps].any(axis=1) & (remap >= 0)
+        self.control = np.flatnonzero(ctrl)
+        sig = bl.sigma[self.control][:, self.comps]
+        ok = np.isfinite(sig) & (bl.role[self.control] == "control")[:, None]
+        self.wc_full = np.where(ok, 1.0 / np.where(ok, sig, 1.0) ** 2, 0.0)
+        self.model_ids = np.unique(bl.obs_model[self.rows])
+        self.frame = bl.obs_model[self.rows]
+        self.centroid = bl.centroids()
+        self.radius = model_radius(bl, self.centroid)
+        self.obs = bl.obs_xyz[self.rows][:, self.comps]
+        # weights, with the per-row decorrelation G = D L^-1 when a covariance is given
+        self.transform = None
+        if bl.obs_cov is not None and self.k > 1:
+            cov = bl.obs_cov[self.rows][:, self.comps][:, :, self.comps]
+            lo = np.linalg.cholesky(cov)
+            dg = np.diagonal(lo, axis1=1, axis2=2)
+            self.transform = dg[:, :, None] * np.linalg.inv(lo)
+            self.sigma_obs = dg.copy()
+        else:
+            self.sigma_obs = bl.obs_sigma[self.rows][:, self.comps]
+        self.w_full = 1.0 / self.sigma_obs**2
+        self.obs_keep = (np.ones((len(bl.obs_model), 3), bool) if obs_keep is None
+                         else np.asarray(obs_keep, bool))
+        self.control_keep = (np.ones((bl.n_points, 3), bool) if control_keep is None
+                             else np.asarray(control_keep, bool))
+        if mode == "height":
+            if mu is None:
+                raise ValueError("the height adjustment needs the scale mu of each model")
+            self.mu = np.asarray(mu, float)
+        given = bl.xyz[self.control]
+        if origin is None:
+            pts = given if np.isfinite(given).any() else np.zeros((1, 3))
+            origin = np.array([np.nanmean(pts[:, c]) if np.isfinite(pts[:, c]).any() else 0.0
+                               for c in range(3)])
+        self.origin = np.asarray(origin, float)
+        self.check_datum()
+        self.system = SchurSystem(
+            bl.n_models, self.b, len(self.point_ids), self.d, self.frame,
+            remap[bl.obs_point[self.rows]], remap[self.control],
+            frame_names=[f"model {m}" for m in bl.models],
+            point_names=[bl.points[j] for j in self.point_ids])
+
+    # ------------------------------------------------------------------ checks
+    def check_datum(self) -> None:
+        bl = self.block
+        keep = self.control_keep[self.control][:, self.comps] & (self.wc_full > 0)
+        xyz = bl.xyz[self.control]
+        problems = []
+        npts = np.bincount(self.frame, minlength=bl.n_models)
+        need = {"3d": 3, "2d": 2, "height": 3}[self.mode]
+        few = [bl.models[i] for i in np.flatnonzero((npts > 0) & (npts < need))]
+        if few:
+            problems.append(f"model(s) {', '.join(few[:10])} have fewer than {need} points")
+        empty = [bl.models[i] for i in np.flatnonzero(npts == 0)]
+        if empty:
+            problems.append(f"model(s) {', '.join(empty[:10])} have no usable points")
+        if self.mode in ("3d", "2d"):
+            plan = np.flatnonzero(keep[:, 0] & keep[:, 1])
+            if len(plan) < 2 or np.ptp(xyz[plan, :2], axis=0).max(initial=0) <= 0:
+                problems.append(f"{len(plan)} distinct planimetric (X, Y) control point(s); at "
+                                "least two are needed for position, scale and azimuth")
+        if self.mode in ("3d", "height"):
+            hz = np.flatnonzero(keep[:, -1])
+            known = hz[np.isfinite(xyz[hz, :2]).all(axis=1)]  # XY known: check the line
+            s = np.ones(2)
+            if len(known) == len(hz) and len(hz) >= 3:
+                p = xyz[hz, :2] - xyz[hz, :2].mean(axis=0)
+                s = np.linalg.svd(p, compute_uv=False)
+            if len(hz) < 3 or s[-1] <= 1e-6 * max(s[0], 1e-9):
+                problems.append(f"{len(hz)} height control point(s): at least three not on "
+                                "one line are needed to fix the tilt of the block")
+        if problems:
+            raise GeometryError("the model block cannot be adjusted: " + "; ".join(problems))
+
+    # ------------------------------------------------------------------ numbers
+    @property
+    def weights(self) -> tuple[np.ndarray, np.ndarray]:
+        w = self.w_full * self.obs_keep[self.rows][:, self.comps]
+        wc = self.wc_full * self.control_keep[self.control][:, self.comps]
+        return w, wc
+
+    def uv(self) -> np.ndarray:
+        """(m, 2) planimetric model coordinates about the centroid / model radius."""
+        bl = self.block
+        return (bl.obs_xyz[self.rows, :2] - self.centroid[self.frame, :2]) / self.radius
+
+    def predict(self, params: np.ndarray, pts: np.ndarray):
+        """Model coordinates f (m, k) of the current unknowns and Jacobians (m,k,b), (m,k,d)."""
+        bl = self.block
+        p = pts[self.remap[bl.obs_point[self.rows]]]
+        par = params[self.frame]
+        c = self.centroid[self.frame]
+        if self.mode == "3d":
+            return similarity.inverse3d(par, p, c)
+        if self.mode == "2d":
+            return similarity.inverse2d(par, p, c[:, :2])
+        uv = self.uv()
+        mu = self.mu[self.frame]
+        f = c[:, 2] + mu * p[:, 0] + par[:, 0] + par[:, 1] * uv[:, 0] + par[:, 2] * uv[:, 1]
+        jf = np.column_stack([np.ones(len(f)), uv])[:, None, :]
+        jp = mu[:, None, None] * np.ones((len(f), 1, 1))
+        return f[:, None], jf, jp
+
+    def linearize(self, params: np.ndarray, pts: np.ndarray) -> Linearization:
+        """Jacobians and misclosures e = l - f at (params, reduced terrain points)."""
+        f, jf, jp = self.predict(params, pts)
+        e = self.obs - f
+        if self.transform is not None:
+            g = self.transform
+            e = np.einsum("mij,mj->mi", g, e)
+            jf, jp = g @ jf, g @ jp
+        given = self.block.xyz[self.control][:, self.comps] - self.origin[self.comps]
+        ec = np.where(np.isfinite(given), given, 0.0) - pts[self.remap[self.control]]
+        w, wc = self.weights
+        jc = np.broadcast_to(np.eye(self.d), (len(self.control), self.d, self.d)).copy()
+        # misclosures of rejected components stay (predicted residuals); weight 0 in N
+        return Linearization(jf, jp, w, e, jc, wc, np.where(self.wc_full > 0, ec, 0.0))
+
+    def transform_rows(self, h: np.ndarray) -> np.ndarray:
+        """Apply the decorrelation G to per-row vectors h (m, k, q) (identity if none)."""
+        if self.transform is None:
+            return h
+        return self.transform @ h

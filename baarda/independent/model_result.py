@@ -1,0 +1,116 @@
+"""The result of an independent-model adjustment: arrays plus a summary for people."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from baarda.adjustment.counts import AdjustmentCounts
+from baarda.adjustment.schur import Linearization
+from baarda.independent.model_problem import ModelProblem
+
+TITLE = {"3d": "Independent-model block adjustment, spatial (7 parameters per model)",
+         "2d": "Independent-model block adjustment, planimetric (4 parameters per model)",
+         "height": "Independent-model height adjustment (3 parameters per model)"}
+
+
+@dataclass
+class ModelResult(AdjustmentCounts):
+    """Adjusted model transformations and terrain points.
+
+    `params` (nm, b): 3d (TX, TY, TZ [m], omega, phi, kappa [rad], mu [mm/m]); 2d (TX, TY,
+    kappa, mu); height (a0, a1, a2 [mm]).  T is the terrain position of the model centroid
+    (with the origin added back).  Standard deviations are scaled by the a-posteriori sigma0.
+    """
+
+    problem: ModelProblem
+    params: np.ndarray  # reduced: T relative to problem.origin
+    pts: np.ndarray  # (np_used, d) reduced terrain coordinates
+    lin: Linearization
+    iterations: int
+    converged: bool
+    notes: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def block(self):
+        return self.problem.block
+
+    @property
+    def mode(self) -> str:
+        return self.problem.mode
+
+    # ------------------------------------------------------------ values
+    @property
+    def terrain_params(self) -> np.ndarray:
+        """params with T in terrain coordinates (origin added)."""
+        p = self.params.copy()
+        if self.mode == "3d":
+            p[:, :3] += self.problem.origin
+        elif self.mode == "2d":
+            p[:, :2] += self.problem.origin[:2]
+        return p
+
+    @property
+    def xyz(self) -> np.ndarray:
+        """(np_used, d) adjusted terrain coordinates [m]."""
+        return self.pts + self.problem.origin[self.problem.comps]
+
+    @property
+    def model_residuals(self) -> np.ndarray:
+        """v = adjusted - observed model coordinates (m_rows, k) [mm] (decorrelated if C)."""
+        return -self.lin.e
+
+    @property
+    def control_residuals(self) -> np.ndarray:
+        """v = adjusted - given control (nc, k) [m]; NaN where not observed."""
+        return np.where(self.problem.wc_full > 0, -self.lin.ec, np.nan)
+
+    @property
+    def param_std(self) -> np.ndarray:
+        q = self.problem.system.frame_covariance()
+        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+
+    @property
+    def xyz_std(self) -> np.ndarray:
+        q = self.problem.system.point_covariance()
+        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+
+    def check_points(self) -> tuple[list[str], np.ndarray]:
+        """Ids and discrepancies adjusted - given (n, k) [m] of the check points."""
+        bl, pb = self.block, self.problem
+        idx = np.flatnonzero((bl.role == "check") & (pb.remap >= 0))
+        d = self.xyz[pb.remap[idx]] - bl.xyz[idx][:, pb.comps]
+        return [bl.points[j] for j in idx], d
+
+    def to_dict(self) -> dict:
+        _, d = self.check_points()
+        rms = np.sqrt(np.mean(d**2, axis=0)) if len(d) else np.full(self.problem.k, np.nan)
+        names = ["X", "Y", "Z"]
+        out = {"mode": self.mode, "sigma0": self.sigma0, "redundancy": self.redundancy,
+               "n_observations": self.n_observations, "n_unknowns": self.n_unknowns,
+               "iterations": self.iterations, "converged": self.converged, "vtpv": self.vtpv,
+               "n_check_points": len(d), "seconds": self.seconds, "notes": self.notes}
+        for c, r in zip(self.problem.comps, rms, strict=True):
+            out[f"check_rms_{names[c]}"] = None if np.isnan(r) else float(r)
+        return out
+
+    def summary(self) -> str:
+        d = self.to_dict()
+        v = np.where(self.lin.w > 0, self.model_residuals * 1e3, np.nan)
+        names = ("z",) if self.mode == "height" else ("x", "y", "z")[: v.shape[1]]
+        comp = ", ".join(f"{c} {np.sqrt(np.nanmean(v[:, i] ** 2)):.2f} µm"
+                         for i, c in enumerate(names))
+        status = "converged" if d["converged"] else "NOT converged"
+        lines = [TITLE[self.mode], "=" * 60, self.block.summary(),
+                 f"observations {d['n_observations']}, unknowns {d['n_unknowns']}, "
+                 f"redundancy {d['redundancy']}",
+                 f"iterations {d['iterations']} ({status}), {d['seconds']:.2f} s",
+                 f"sigma0 a posteriori {d['sigma0']:.4f}",
+                 f"RMS model residuals {comp} (rejected ones left out)"]
+        if d["n_check_points"]:
+            rms = ", ".join(f"{k[-1]} {d[k]:.3f} m" for k in d if k.startswith("check_rms"))
+            lines.append(f"check points {d['n_check_points']}: RMS {rms}")
+        lines += [f"note: {n}" for n in self.notes]
+        return "\n".join(lines)

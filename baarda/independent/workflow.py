@@ -1,0 +1,137 @@
+"""The whole FOTEF procedure on a model block.
+
+pre-adjustment search (large errors first) -> rigorous adjustment (3D, or planimetry with a
+separate height adjustment) -> data snooping -> non-conventional alternative hypotheses
+(model deformations, control clusters, user H) -> external reliability on detail points and
+distances.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from baarda.block.model_block import ModelBlock
+from baarda.independent.adjust_models import Progress, adjust_models
+from baarda.independent.deformations import ALL
+from baarda.independent.model_hypotheses import (
+    UserHypotheses,
+    cluster_tests,
+    decision,
+    deformation_tests,
+)
+from baarda.independent.model_problem import ModelProblem
+from baarda.independent.model_quality import ModelQuality, assess, snoop
+from baarda.independent.planimetric import check_tilts, height_possible, level
+from baarda.independent.preadjust import PreAdjustment, preadjust
+
+EXTERNAL_LIMIT = 400  # models: external reliability on detail points by default up to this
+
+
+@dataclass
+class BlockQuality:
+    """Outcome of `process`: the pre-adjustment and one ModelQuality per adjustment."""
+
+    block: ModelBlock
+    mode: str  # '3d' or '2d'
+    pre: PreAdjustment
+    parts: list[ModelQuality]
+    tilts: np.ndarray | None = None  # (nm,) tilt [rad] removed by levelling (2d)
+    notes: list[str] = field(default_factory=list)
+
+    def part(self, mode: str) -> ModelQuality | None:
+        return next((p for p in self.parts if p.mode == mode), None)
+
+    def decision(self) -> str:
+        tests = [t for p in self.parts for t in p.hypotheses]
+        return decision(tests) if tests else ""
+
+    def to_dict(self) -> dict:
+        d = {"project": self.block.settings.name, "source": self.block.source,
+             "mode": self.mode, "summary": self.block.summary(),
+             "preadjustment": {"findings": [f.to_dict() for f in self.pre.findings],
+                               "connection_order": self.pre.order, "notes": self.pre.notes},
+             "adjustments": {p.mode: p.to_dict() for p in self.parts},
+             "notes": self.notes + list(self.block.notes)}
+        if self.tilts is not None:
+            d["levelling_max_tilt_rad"] = float(np.max(np.abs(self.tilts), initial=0))
+        dec = self.decision()
+        if dec:
+            d["decision"] = dec
+        return d
+
+    def summary(self) -> str:
+        lines = [self.pre.summary(), ""]
+        if self.tilts is not None:
+            lines.append(f"models levelled by up to {np.max(self.tilts) * 1e3:.3g} mrad "
+                         "(tilts of a spatial adjustment) before the planimetric adjustment\n")
+        for p in self.parts:
+            lines += [p.summary(), ""]
+        dec = self.decision()
+        if dec:
+            lines.append("Decision: " + dec)
+        lines += [f"note: {n}" for n in self.notes + list(self.block.notes)]
+        return "\n".join(lines)
+
+
+def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,
+            statistic: str = "w", by_point: bool = False, alpha0: float | None = None,
+            beta0: float | None = None, external: bool | None = None,
+            deformations: tuple[str, ...] | None = ALL,
+            clusters: dict[str, list[str]] | None = None,
+            user: UserHypotheses | None = None, level_models: bool = False,
+            progress: Progress | None = None) -> BlockQuality:
+    """Run the whole procedure; mode '3d' or '2d' (planimetry + height).
+
+    level_models (2d): level the models by the tilts of a spatial adjustment first.
+    """
+    say = progress or (lambda msg: None)
+    s = block.settings
+    alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
+    if external is None:
+        external = block.n_models <= EXTERNAL_LIMIT
+    notes: list[str] = []
+    if not external:
+        notes.append("external reliability on detail points and distances not computed "
+                      f"(more than {EXTERNAL_LIMIT} models; use --external)")
+    pre = preadjust(ModelProblem(block, mode))
+    say(f"pre-adjustment: {len(pre.findings)} large error(s) set aside")
+    obs_keep, control_keep = ~pre.obs_flag, ~pre.control_flag
+    tilts = None
+    runs: list[tuple[ModelBlock, str, dict]] = []
+    if mode == "3d":
+        runs.append((block, "3d", {"start": (pre.params, pre.pts)}))
+    else:
+        reason = height_possible(block, control_keep)
+        if reason is None:
+            if level_models:
+                block, tilts = level(block, obs_keep, control_keep, progress=say)
+            runs.append((block, "2d", {"start": (pre.params, pre.pts)}))
+            runs.append((block, "height", {}))
+        else:
+            notes.append(reason)
+            runs.append((block, "2d", {"start": (pre.params, pre.pts)}))
+    parts: list[ModelQuality] = []
+    for blk, m, extra in runs:
+        if m == "height":
+            extra = {"mu": parts[0].adjustment.params[:, 3]}
+            first = adjust_models(blk, m, obs_keep=obs_keep, control_keep=control_keep,
+                                  **extra)
+            check_tilts(first)
+        if do_snoop:
+            qc = snoop(blk, m, alpha0=alpha0, beta0=beta0, statistic=statistic,
+                       by_point=by_point, obs_keep=obs_keep, control_keep=control_keep,
+                       external=external, progress=say, **extra)
+        else:
+            res = adjust_models(blk, m, obs_keep=obs_keep, control_keep=control_keep,
+                                progress=say, **extra)
+            qc = assess(res, alpha0, beta0, external=external)
+        if deformations:
+            qc.hypotheses += deformation_tests(qc.model, deformations, alpha0, beta0)
+        if clusters:
+            qc.hypotheses += cluster_tests(qc.model, clusters, alpha0, beta0)
+        if user is not None:
+            qc.hypotheses += user.tests(qc.model, alpha0, beta0)
+        parts.append(qc)
+    return BlockQuality(block, mode, pre, parts, tilts, notes)

@@ -1,0 +1,82 @@
+"""Recognise an input by what the path is and read it into a Block (`read_any`).
+
+| what the path is | format | reader |
+|---|---|---|
+| folder with project.toml | native project | io/project.py |
+| folder with cameras, images, points3D (.txt/.bin), or sparse/, sparse/0/ | COLMAP | colmap |
+| folder or file of an AICON project (.ior .eor .obc .phc [.scale]) | AICON | io/aicon.py |
+| .xml with ``dbat_script_version`` | DBAT script | io/dbat.py |
+| .txt starting with "Bundle Soln" | PhotoModeler export | io/photomodeler.py |
+| .bz2 / text whose first line is three counts | BAL | io/bal.py |
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from baarda.block.photo_block import Block
+from baarda.errors import ProjectError
+from baarda.io.aicon import is_aicon, read_aicon
+from baarda.io.bal import is_bal, read_bal_block
+from baarda.io.colmap import is_colmap_model
+from baarda.io.colmap_block import read_colmap_block
+from baarda.io.dbat import is_dbat_script, read_dbat
+from baarda.io.photomodeler import is_photomodeler_export, read_photomodeler
+from baarda.io.project import read_project
+
+FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal")
+
+
+def _colmap_folder(p: Path) -> Path | None:
+    for cand in (p, p / "sparse", p / "sparse" / "0"):
+        if is_colmap_model(cand):
+            return cand
+    return None
+
+
+def detect(path: str | Path) -> str:
+    """The format of `path` (one of FORMATS); ProjectError if none fits."""
+    p = Path(path)
+    if not p.exists():
+        raise ProjectError(str(p), "not found")
+    if p.is_dir() and (p / "project.toml").is_file():
+        return "project"
+    if p.is_dir() and _colmap_folder(p) is not None:
+        return "colmap"
+    if is_aicon(p):
+        return "aicon"
+    if p.is_file():
+        if is_dbat_script(p):
+            return "dbat"
+        if is_photomodeler_export(p):
+            return "photomodeler"
+        if is_bal(p):
+            return "bal"
+    raise ProjectError(str(p), "format not recognised (native project folder, COLMAP model, "
+                       "AICON project, DBAT script .xml, PhotoModeler export .txt, BAL file)")
+
+
+def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.001,
+             sigma_px: float = 1.0, sigma_image_mm: float | None = None) -> Block:
+    """Read any supported input into a Block.
+
+    pixel_mm, sigma_px: nominal pixel size and image sigma for formats without a physical
+    pixel size (COLMAP, BAL); sigma_image_mm: image sigma for AICON (default: the file's).
+    """
+    p = Path(path)
+    fmt = fmt or detect(p)
+    if fmt not in FORMATS:
+        raise ProjectError(str(p), f"unknown format '{fmt}' (one of {', '.join(FORMATS)})")
+    if fmt == "project":
+        return read_project(p)
+    if fmt == "colmap":
+        folder = _colmap_folder(p) or p
+        return read_colmap_block(folder, pixel_mm=pixel_mm, sigma_px=sigma_px,
+                                 name=p.name)
+    if fmt == "aicon":
+        return read_aicon(p).to_block(sigma_image_mm=sigma_image_mm)
+    if fmt == "dbat":
+        return read_dbat(p)
+    if fmt == "photomodeler":
+        return read_photomodeler(p)
+    return read_bal_block(p, pixel_mm=pixel_mm, sigma_px=sigma_px)

@@ -1,0 +1,282 @@
+"""Model projects: project.toml, models.csv (model coordinates) and ground_points.csv.
+
+models.csv, one row per point per model (docs/independent_models.md):
+
+    model, point, x_mm, y_mm, z_mm                     required (z_mm may be empty: 2D only)
+    strip                                              optional, one label per model
+    kind                                               optional: point (default) or pc
+    sigma_xy_um, sigma_z_um  | sigma_x_um, sigma_y_um, sigma_z_um     optional
+    rho_xy, rho_xz, rho_yz                             optional correlations (full 3x3)
+
+ground_points.csv has the columns of the bundle project (point, X, Y, Z, role and optional
+sigma_X, sigma_Y, sigma_Z in m; role control or check).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.model_block import ModelBlock, ModelSettings
+from baarda.errors import ProjectError
+from baarda.io.project import format_number, load_toml
+from baarda.io.table import Table
+from baarda.output.atomic import write_text
+
+
+def _positive(values, name: str) -> tuple[float, ...]:
+    vals = tuple(float(v) for v in values)
+    if min(vals) <= 0:
+        raise ValueError(f"{name} must be positive")
+    return vals
+
+
+def read_settings(path: Path) -> ModelSettings:
+    """Read project.toml of a model project (missing keys take FOTEF's defaults)."""
+    s = ModelSettings()
+    doc, s.angle_unit = load_toml(path, s.angle_unit)
+    s.name = str(doc.get("name", path.parent.name))
+    sig = doc.get("sigma", {})
+    tests = doc.get("tests", {})
+    pre = doc.get("models", {})
+    try:
+        s.sigma_model_um = _positive((sig.get("model_xy_um", s.sigma_model_um[0]),
+                                      sig.get("model_z_um", s.sigma_model_um[1])),
+                                     "sigma.model_xy_um / model_z_um")
+        ctrl = sig.get("control_m", s.sigma_control_m)
+        ctrl = [ctrl] * 3 if np.isscalar(ctrl) else list(ctrl)
+        if len(ctrl) != 3:
+            raise ValueError("sigma.control_m must be one number or [X, Y, Z]")
+        s.sigma_control_m = _positive(ctrl, "sigma.control_m")
+        s.alpha0 = float(tests.get("alpha0", s.alpha0))
+        s.beta0 = float(tests.get("beta0", s.beta0))
+        s.pre_um = _positive((pre.get("pre_xy_um", s.pre_um[0]),
+                              pre.get("pre_z_um", s.pre_um[1])), "models.pre_xy_um / pre_z_um")
+    except (TypeError, ValueError) as e:
+        raise ProjectError(str(path), f"bad setting: {e}") from None
+    if not (0 < s.alpha0 < 0.5 and 0.5 <= s.beta0 < 1):
+        raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "
+                           "[0.5, 1)")
+    return s
+
+
+def read_ground_points(path: Path, settings: ModelSettings):
+    """ids, xyz (k, 3), sigma (k, 3) [m] (NaN = not observed), role (k,)."""
+    g = Table(path, ["point", "X", "Y", "Z", "role"])
+    ids = [str(p) for p in g.unique_ids("point")]
+    role = g.text("role")
+    for i, r in enumerate(role):
+        if r not in ("control", "check"):
+            raise ProjectError(g.path, f"role '{r}' must be 'control' or 'check'",
+                               int(g.lines[i]), "role")
+    xyz = np.column_stack([g.numbers(c, allow_empty=True) for c in "XYZ"])
+    names = [f"sigma_{c}" for c in "XYZ"]
+    if all(g.has(n) for n in names):
+        sig = np.column_stack([g.numbers(n, allow_empty=True) for n in names])
+    elif any(g.has(n) for n in names):
+        raise ProjectError(g.path, "give all three columns sigma_X, sigma_Y, sigma_Z or none")
+    else:
+        sig = np.tile(np.asarray(settings.sigma_control_m, float), (len(ids), 1))
+    for k, c in enumerate("XYZ"):
+        bad = np.flatnonzero(np.isfinite(sig[:, k]) & ~(sig[:, k] > 0))
+        if len(bad):
+            raise ProjectError(g.path, "standard deviation must be positive",
+                               int(g.lines[bad[0]]), f"sigma_{c}")
+        need = (np.isfinite(sig[:, k]) & (role == "control")) | (role == "check")
+        bad = np.flatnonzero(need & ~np.isfinite(xyz[:, k]))
+        if len(bad):
+            raise ProjectError(g.path, f"coordinate {c} is empty but needed (control with "
+                               f"sigma_{c}, or a check point)", int(g.lines[bad[0]]), c)
+    ctrl = role == "control"
+    bad = np.flatnonzero(ctrl & ~np.isfinite(sig).any(axis=1))
+    if len(bad):
+        raise ProjectError(g.path, "control point without any standard deviation",
+                           int(g.lines[bad[0]]), "sigma_X")
+    sig[~ctrl] = np.nan
+    return ids, xyz, sig, role.astype(object), g
+
+
+def _sigmas(t: Table, settings: ModelSettings) -> np.ndarray:
+    """(m, 3) standard deviations in µm from the optional columns."""
+    n = len(t)
+    default = np.tile([settings.sigma_model_um[0]] * 2 + [settings.sigma_model_um[1]], (n, 1))
+    cols = {}
+    for name in ("sigma_xy_um", "sigma_z_um", "sigma_x_um", "sigma_y_um"):
+        if t.has(name):
+            cols[name] = t.numbers(name, allow_empty=True)
+    if "sigma_xy_um" in cols and ("sigma_x_um" in cols or "sigma_y_um" in cols):
+        raise ProjectError(t.path, "give sigma_xy_um or sigma_x_um/sigma_y_um, not both")
+    out = default.copy()
+    for k, name in ((0, "sigma_x_um"), (1, "sigma_y_um")):
+        if name in cols:
+            out[:, k] = np.where(np.isfinite(cols[name]), cols[name], out[:, k])
+    if "sigma_xy_um" in cols:
+        for k in (0, 1):
+            out[:, k] = np.where(np.isfinite(cols["sigma_xy_um"]), cols["sigma_xy_um"], out[:, k])
+    if "sigma_z_um" in cols:
+        out[:, 2] = np.where(np.isfinite(cols["sigma_z_um"]), cols["sigma_z_um"], out[:, 2])
+    for name, c in cols.items():
+        bad = np.flatnonzero(np.isfinite(c) & ~(c > 0))
+        if len(bad):
+            raise ProjectError(t.path, "standard deviation must be positive",
+                               int(t.lines[bad[0]]), name)
+    return out
+
+
+def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[str]):
+    """Rows of models.csv; new point ids are appended to `point_ids` (tie points)."""
+    t = Table(path, ["model", "point", "x_mm", "y_mm", "z_mm"])
+    if len(t) == 0:
+        raise ProjectError(t.path, "no model coordinates")
+    model_names = t.text("model")
+    models, mindex = [], {}
+    obs_model = np.empty(len(t), np.int64)
+    for i, m in enumerate(model_names):
+        j = mindex.get(m)
+        if j is None:
+            j = mindex[m] = len(models)
+            models.append(str(m))
+        obs_model[i] = j
+    index = {p: i for i, p in enumerate(point_ids)}
+    ids = list(point_ids)
+    obs_point = np.empty(len(t), np.int64)
+    for i, p in enumerate(t.text("point")):
+        j = index.get(p)
+        if j is None:
+            j = index[p] = len(ids)
+            ids.append(str(p))
+        obs_point[i] = j
+    key = obs_model * len(ids) + obs_point
+    order = np.argsort(key, kind="stable")
+    dup = np.flatnonzero(np.diff(key[order]) == 0)
+    if len(dup):
+        i = order[dup[0] + 1]
+        raise ProjectError(t.path, f"point '{ids[obs_point[i]]}' given twice in model "
+                           f"'{models[obs_model[i]]}' (first on line "
+                           f"{int(t.lines[order[dup[0]]])})", int(t.lines[i]), "point")
+    xyz = np.column_stack([t.numbers("x_mm"), t.numbers("y_mm"),
+                           t.numbers("z_mm", allow_empty=True)])
+    strip = np.array(["1"] * len(models), dtype=object)
+    if t.has("strip"):
+        s = t.text("strip", allow_empty=True)
+        seen: dict[int, tuple[str, int]] = {}
+        for i, (m, lab) in enumerate(zip(obs_model, s, strict=True)):
+            if m in seen and seen[m][0] != lab:
+                raise ProjectError(t.path, f"model '{models[m]}' has strip '{seen[m][0]}' on "
+                                   f"line {seen[m][1]} and '{lab}' here", int(t.lines[i]), "strip")
+            seen.setdefault(m, (lab, int(t.lines[i])))
+        for m, (lab, _) in seen.items():
+            strip[m] = lab
+    pc = np.zeros(len(ids), bool)
+    if t.has("kind"):
+        kind = t.text("kind", allow_empty=True)
+        first: dict[int, tuple[bool, int]] = {}
+        for i, k in enumerate(kind):
+            if k not in ("", "point", "pc"):
+                raise ProjectError(t.path, f"kind '{k}' must be 'point' or 'pc'",
+                                   int(t.lines[i]), "kind")
+            j, is_pc = obs_point[i], k == "pc"
+            if j in first and first[j][0] != is_pc:
+                raise ProjectError(t.path, f"point '{ids[j]}' is a projection centre on line "
+                                   f"{first[j][1]} or here but not on both", int(t.lines[i]),
+                                   "kind")
+            first.setdefault(j, (is_pc, int(t.lines[i])))
+            pc[j] = is_pc
+    sig = _sigmas(t, settings) * 1e-3
+    cov = None
+    rho_names = ("rho_xy", "rho_xz", "rho_yz")
+    if any(t.has(n) for n in rho_names):
+        rho = np.column_stack([t.numbers(n, allow_empty=True) if t.has(n) else np.zeros(len(t))
+                               for n in rho_names])
+        rho = np.nan_to_num(rho)
+        for k, n in enumerate(rho_names):
+            bad = np.flatnonzero(np.abs(rho[:, k]) >= 1)
+            if len(bad):
+                raise ProjectError(t.path, "correlation must be in (-1, 1)",
+                                   int(t.lines[bad[0]]), n)
+        corr = np.repeat(np.eye(3)[None], len(t), axis=0)
+        for k, (a, b) in enumerate(((0, 1), (0, 2), (1, 2))):
+            corr[:, a, b] = corr[:, b, a] = rho[:, k]
+        cov = corr * sig[:, :, None] * sig[:, None, :]
+        bad = np.flatnonzero(np.linalg.eigvalsh(corr)[:, 0] <= 1e-9)
+        if len(bad):
+            raise ProjectError(t.path, "the correlations give no positive definite "
+                               "covariance matrix", int(t.lines[bad[0]]), "rho_xy")
+    return models, strip, ids, pc, obs_model, obs_point, xyz, sig, cov, t
+
+
+def read_model_project(folder: str | Path) -> ModelBlock:
+    """Read a model project folder (project.toml, models.csv, ground_points.csv)."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ProjectError(str(folder), "not a project folder")
+    settings = read_settings(folder / "project.toml")
+    gpath = folder / "ground_points.csv"
+    if gpath.is_file():
+        gids, gxyz, gsig, grole, _ = read_ground_points(gpath, settings)
+    else:
+        gids, gxyz, gsig, grole = [], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, object)
+    (models, strip, ids, pc, om, op, oxyz, osig, cov,
+     t) = read_model_coordinates(folder / "models.csv", settings, list(gids))
+    n_new = len(ids) - len(gids)
+    xyz = np.vstack([gxyz, np.full((n_new, 3), np.nan)])
+    sigma = np.vstack([gsig, np.full((n_new, 3), np.nan)])
+    role = np.concatenate([grole, np.full(n_new, "tie", dtype=object)])
+    notes = []
+    used = np.bincount(op, minlength=len(ids)) > 0
+    for j in np.flatnonzero(~used):
+        notes.append(f"{role[j]} point {ids[j]} is in no model: left out")
+    z_missing = ~np.isfinite(oxyz[:, 2])
+    if z_missing.any() and not z_missing.all():
+        notes.append(f"{int(z_missing.sum())} model point(s) without z: planimetry only")
+    block = ModelBlock(settings, models, strip, ids, role, pc, xyz, sigma, om, op, oxyz, osig,
+                       cov, source=str(folder), notes=notes)
+    return drop_unused(block)
+
+
+def drop_unused(block: ModelBlock) -> ModelBlock:
+    """The block without points that are in no model."""
+    used = np.bincount(block.obs_point, minlength=block.n_points) > 0
+    if used.all():
+        return block
+    remap = np.cumsum(used) - 1
+    return replace(block, points=[p for p, u in zip(block.points, used, strict=True) if u],
+                   role=block.role[used], pc=block.pc[used], xyz=block.xyz[used],
+                   sigma=block.sigma[used], obs_point=remap[block.obs_point])
+
+
+def write_model_project(block: ModelBlock, folder: str | Path) -> None:
+    """Write `block` as a model project folder (each file atomically)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    s = block.settings
+    toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', "", "[sigma]",
+            f"model_xy_um = {float(s.sigma_model_um[0])!r}",
+            f"model_z_um = {float(s.sigma_model_um[1])!r}",
+            f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]", "",
+            "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", "", "[models]",
+            f"pre_xy_um = {float(s.pre_um[0])!r}", f"pre_z_um = {float(s.pre_um[1])!r}", ""]
+    write_text(folder / "project.toml", "\n".join(toml))
+    head = "model,strip,point,kind,x_mm,y_mm,z_mm,sigma_x_um,sigma_y_um,sigma_z_um"
+    cov = block.obs_cov
+    if cov is not None:
+        head += ",rho_xy,rho_xz,rho_yz"
+    rows = [head]
+    sig = block.obs_sigma * 1e3
+    for i in range(len(block.obs_model)):
+        m, j = block.obs_model[i], block.obs_point[i]
+        vals = [block.models[m], str(block.strip[m]), block.points[j],
+                "pc" if block.pc[j] else "point"]
+        vals += [format_number(v) for v in block.obs_xyz[i]] + [f"{v:.6g}" for v in sig[i]]
+        if cov is not None:
+            d = np.sqrt(np.diagonal(cov[i]))
+            vals += [f"{cov[i][a, b] / (d[a] * d[b]):.9g}" for a, b in ((0, 1), (0, 2), (1, 2))]
+        rows.append(",".join(vals))
+    write_text(folder / "models.csv", "\n".join(rows) + "\n")
+    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
+    for j in np.flatnonzero(block.role != "tie"):
+        rows.append(",".join([block.points[j]] + [format_number(v) for v in block.xyz[j]] +
+                             [format_number(v) for v in block.sigma[j]] + [str(block.role[j])]))
+    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")

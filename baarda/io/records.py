@@ -1,0 +1,134 @@
+"""Reading delimited text records of foreign formats with file/line/field errors.
+
+`Records` splits each non-comment line of a text file into a fixed list of named fields
+(comma or whitespace separated) and converts columns on demand; every problem raises
+ProjectError naming the file, the 1-based line and the field.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from pathlib import Path
+
+import numpy as np
+
+from baarda.errors import ProjectError
+
+
+def read_lines(path: str | Path, encoding: str = "utf-8-sig") -> list[str]:
+    """Lines of a text file without line ends (CRLF or LF); ProjectError if unreadable."""
+    p = Path(path)
+    if not p.is_file():
+        raise ProjectError(str(path), "file not found")
+    try:
+        return p.read_text(encoding=encoding).splitlines()
+    except UnicodeDecodeError as e:
+        raise ProjectError(str(path), f"not a text file ({e.reason} at byte {e.start})") from None
+
+
+class Records:
+    """Named fields of the data lines of a text file.
+
+    sep: ',' (commas, surrounding blanks ignored) or None (any whitespace).  Lines that are
+    blank or start with `comment` are skipped.  `min_fields`..len(fields) fields per line
+    are accepted; missing trailing fields are empty strings.
+    """
+
+    def __init__(self, path: str | Path, fields: list[str], sep: str | None = ",",
+                 comment: str = "#", min_fields: int | None = None,
+                 lines: Iterable[tuple[int, str]] | None = None):
+        self.path = str(path)
+        self.fields = list(fields)
+        need = len(fields) if min_fields is None else min_fields
+        if lines is None:
+            lines = enumerate(read_lines(path), start=1)
+        rows, numbers = [], []
+        for no, line in lines:
+            text = line.strip()
+            if not text or (comment and text.startswith(comment)):
+                continue
+            parts = ([p.strip() for p in text.split(sep)] if sep else text.split())
+            if len(parts) < need or len(parts) > len(fields):
+                expect = (str(len(fields)) if need == len(fields)
+                          else f"{need} to {len(fields)}")
+                raise ProjectError(self.path, f"expected {expect} fields "
+                                   f"({', '.join(fields)}), found {len(parts)}", no)
+            rows.append(parts + [""] * (len(fields) - len(parts)))
+            numbers.append(no)
+        self.lines = np.asarray(numbers, dtype=np.int64)
+        data = np.asarray(rows, dtype=object).reshape(len(rows), len(fields))
+        self.columns = {f: data[:, i].astype(str) for i, f in enumerate(fields)}
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def text(self, name: str, allow_empty: bool = False) -> np.ndarray:
+        col = self.columns[name]
+        if not allow_empty:
+            bad = np.flatnonzero(col == "")
+            if len(bad):
+                raise ProjectError(self.path, "empty value", int(self.lines[bad[0]]), name)
+        return col
+
+    def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
+        return to_numbers(self.columns[name], self.path, self.lines, name, allow_empty)
+
+    def integers(self, name: str) -> np.ndarray:
+        col = self.text(name)
+        out = np.empty(len(col), dtype=np.int64)
+        for i, s in enumerate(col):
+            try:
+                out[i] = int(s)
+            except ValueError:
+                raise ProjectError(self.path, f"'{s}' is not an integer",
+                                   int(self.lines[i]), name) from None
+        return out
+
+
+def to_numbers(col: np.ndarray, path: str, lines: np.ndarray, name: str,
+               allow_empty: bool = False) -> np.ndarray:
+    """Strings to finite floats; ProjectError naming the first bad value."""
+    col = np.asarray(col, dtype=str)
+    empty = col == ""
+    try:
+        out = np.where(empty, "nan", col).astype(float)
+        if (allow_empty or not empty.any()) and np.isfinite(out[~empty]).all():
+            return out
+    except ValueError:
+        pass
+    out = np.full(len(col), np.nan)
+    for i, s in enumerate(col):
+        if s == "":
+            if not allow_empty:
+                raise ProjectError(path, "empty value, a number is required", int(lines[i]),
+                                   name)
+            continue
+        try:
+            out[i] = float(s)
+        except ValueError:
+            raise ProjectError(path, f"'{s}' is not a number", int(lines[i]), name) from None
+        if not np.isfinite(out[i]):
+            raise ProjectError(path, f"'{s}' is not a finite number", int(lines[i]), name)
+    return out
+
+
+def parse_number(text: str, path: str, line: int | None, name: str) -> float:
+    """One finite number from a string, or ProjectError."""
+    try:
+        v = float(text)
+    except (TypeError, ValueError):
+        raise ProjectError(path, f"'{text}' is not a number", line, name) from None
+    if not np.isfinite(v):
+        raise ProjectError(path, f"'{text}' is not a finite number", line, name)
+    return v
+
+
+def numbers_in(text: str, path: str, line: int | None, name: str,
+               count: int | None = None) -> list[float]:
+    """Comma/blank separated numbers of one field (e.g. '26.577,38.811')."""
+    parts = [p for p in re.split(r"[,\s]+", text.strip()) if p]
+    if count is not None and len(parts) != count:
+        raise ProjectError(path, f"expected {count} numbers, found '{text.strip()}'", line,
+                           name)
+    return [parse_number(p, path, line, name) for p in parts]

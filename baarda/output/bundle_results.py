@@ -1,0 +1,113 @@
+"""Writing adjustment results: summary.json, photos.csv, points.csv, observations.csv."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from baarda.block.rotation import rad_to_angle
+from baarda.bundle.bundle_quality import BundleQuality
+from baarda.bundle.bundle_result import BundleResult
+from baarda.output.atomic import write_text
+
+
+def csv_text(df: pd.DataFrame) -> str:
+    """A table as CSV text (10 significant digits, LF line ends)."""
+    buf = io.StringIO()
+    df.to_csv(buf, index=False, float_format="%.10g", lineterminator="\n")
+    return buf.getvalue()
+
+
+def json_default(o):
+    """json.dumps default for NumPy scalars and arrays."""
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o))
+
+
+def photos_table(result: BundleResult) -> pd.DataFrame:
+    blk = result.block
+    unit = blk.settings.angle_unit
+    ang = rad_to_angle(result.eo[:, 3:], unit)
+    std = result.eo_std
+    sang = rad_to_angle(std[:, 3:], unit)
+    cams = np.asarray(blk.cameras.ids, dtype=object)[blk.photos.camera]
+    df = pd.DataFrame({"photo": blk.photos.ids, "strip": blk.photos.strip, "camera": cams,
+                       "X0": result.eo[:, 0], "Y0": result.eo[:, 1], "Z0": result.eo[:, 2],
+                       "omega": ang[:, 0], "phi": ang[:, 1], "kappa": ang[:, 2],
+                       "sigma_X0": std[:, 0], "sigma_Y0": std[:, 1], "sigma_Z0": std[:, 2],
+                       "sigma_omega": sang[:, 0], "sigma_phi": sang[:, 1],
+                       "sigma_kappa": sang[:, 2]})
+    return df
+
+
+def points_table(result: BundleResult) -> pd.DataFrame:
+    blk = result.block
+    pb = result.problem
+    ids = np.asarray(blk.points.ids, dtype=object)[pb.point_ids]
+    std = result.xyz_std
+    given = blk.points.xyz[pb.point_ids]
+    role = blk.points.role[pb.point_ids]
+    df = pd.DataFrame({"point": ids, "role": role, "X": result.xyz[:, 0],
+                       "Y": result.xyz[:, 1], "Z": result.xyz[:, 2], "sigma_X": std[:, 0],
+                       "sigma_Y": std[:, 1], "sigma_Z": std[:, 2],
+                       "rays": blk.rays()[pb.point_ids]})
+    for k, c in enumerate("XYZ"):
+        df[f"d{c}"] = np.where(role != "tie", result.xyz[:, k] - given[:, k], np.nan)
+    return df
+
+
+def write_results(out: str | Path, result: BundleResult,
+                  quality: BundleQuality | None = None) -> list[Path]:
+    """Write the result files into folder `out` (each atomically); returns the paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    blk = result.block
+    cam = blk.cameras
+    summary = {"project": blk.settings.name, "source": blk.source,
+               "angle_unit": blk.settings.angle_unit,
+               "cameras": [{"camera": cam.ids[i], "focal_mm": float(cam.focal_mm[i]),
+                            "x0_mm": float(cam.principal_point_mm[i, 0]),
+                            "y0_mm": float(cam.principal_point_mm[i, 1])}
+                           for i in range(len(cam))]}
+    summary.update(result.to_dict())
+    if quality is not None:
+        summary.update(quality.to_dict())
+        obs = quality.table()
+    else:
+        m = result.problem
+        v = result.image_residuals * 1e3
+        n = len(m.obs)
+        photos = np.asarray(blk.photos.ids, dtype=object)[blk.image.photo[m.obs]]
+        pts = np.asarray(blk.points.ids, dtype=object)
+        cv = result.control_residuals
+        sel = np.isfinite(cv.ravel())
+        obs = pd.DataFrame({
+            "kind": ["image"] * (2 * n) + ["control"] * int(sel.sum()),
+            "photo": np.concatenate([np.repeat(photos, 2), np.full(int(sel.sum()), "")]),
+            "point": np.concatenate([np.repeat(pts[blk.image.point[m.obs]], 2),
+                                     np.repeat(pts[m.control], 3)[sel]]),
+            "component": np.concatenate([np.tile(["x", "y"], n),
+                                         np.tile(["X", "Y", "Z"], len(m.control))[sel]]),
+            "x_mm": np.concatenate([np.repeat(blk.image.xy_mm[m.obs, 0], 2),
+                                    np.full(int(sel.sum()), np.nan)]),
+            "y_mm": np.concatenate([np.repeat(blk.image.xy_mm[m.obs, 1], 2),
+                                    np.full(int(sel.sum()), np.nan)]),
+            "residual": np.concatenate([v.ravel(), cv.ravel()[sel]]),
+        })
+    paths = []
+    for name, text in (
+        ("summary.json", json.dumps(summary, indent=2, default=json_default) + "\n"),
+        ("photos.csv", csv_text(photos_table(result))),
+        ("points.csv", csv_text(points_table(result))),
+        ("observations.csv", csv_text(obs)),
+    ):
+        write_text(out / name, text)
+        paths.append(out / name)
+    return paths

@@ -1,0 +1,93 @@
+"""Result files of a model block: summary.json, models.csv, points.csv, observations.csv,
+hypotheses.csv and preadjustment.csv (each written atomically)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from baarda.block.rotation import rad_to_angle
+from baarda.independent.workflow import BlockQuality
+from baarda.output.atomic import write_text
+from baarda.output.bundle_results import csv_text as _csv
+from baarda.output.bundle_results import json_default as _json_default
+
+
+def models_table(bq: BlockQuality) -> pd.DataFrame:
+    """Transformation of every model: 3d/2d position [m], rotations, scale [m per mm];
+    height: shift and tilts [µm at the model edge]."""
+    bl = bq.block
+    unit = bl.settings.angle_unit
+    df = pd.DataFrame({"model": bl.models, "strip": bl.strip})
+    for part in bq.parts:
+        res = part.adjustment
+        p, sd = res.terrain_params, res.param_std
+        if part.mode == "3d":
+            ang, sang = rad_to_angle(p[:, 3:6], unit), rad_to_angle(sd[:, 3:6], unit)
+            cols = {"TX": p[:, 0], "TY": p[:, 1], "TZ": p[:, 2], "omega": ang[:, 0],
+                    "phi": ang[:, 1], "kappa": ang[:, 2], "scale": 1 / p[:, 6],
+                    "sigma_TX": sd[:, 0], "sigma_TY": sd[:, 1], "sigma_TZ": sd[:, 2],
+                    "sigma_omega": sang[:, 0], "sigma_phi": sang[:, 1],
+                    "sigma_kappa": sang[:, 2], "sigma_scale": sd[:, 6] / p[:, 6] ** 2}
+        elif part.mode == "2d":
+            cols = {"TX": p[:, 0], "TY": p[:, 1], "kappa": rad_to_angle(p[:, 2], unit),
+                    "scale": 1 / p[:, 3], "sigma_TX": sd[:, 0], "sigma_TY": sd[:, 1],
+                    "sigma_kappa": rad_to_angle(sd[:, 2], unit),
+                    "sigma_scale": sd[:, 3] / p[:, 3] ** 2}
+        else:
+            cols = {"h_shift_um": p[:, 0] * 1e3, "h_tilt_x_um": p[:, 1] * 1e3,
+                    "h_tilt_y_um": p[:, 2] * 1e3, "sigma_h_shift_um": sd[:, 0] * 1e3,
+                    "sigma_h_tilt_x_um": sd[:, 1] * 1e3, "sigma_h_tilt_y_um": sd[:, 2] * 1e3}
+        for k, v in cols.items():
+            df[k] = v
+    if bq.tilts is not None:
+        df["levelled_by"] = rad_to_angle(bq.tilts, unit)
+    return df
+
+
+def points_table(bq: BlockQuality) -> pd.DataFrame:
+    bl = bq.block
+    n = bl.n_points
+    xyz = np.full((n, 3), np.nan)
+    std = np.full((n, 3), np.nan)
+    for part in bq.parts:
+        res = part.adjustment
+        pb = res.problem
+        xyz[np.ix_(pb.point_ids, pb.comps)] = res.xyz
+        std[np.ix_(pb.point_ids, pb.comps)] = res.xyz_std
+    df = pd.DataFrame({"point": bl.points, "role": bl.role,
+                       "kind": np.where(bl.pc, "pc", "point"), "models": bl.models_per_point(),
+                       "X": xyz[:, 0], "Y": xyz[:, 1], "Z": xyz[:, 2], "sigma_X": std[:, 0],
+                       "sigma_Y": std[:, 1], "sigma_Z": std[:, 2]})
+    for k, c in enumerate("XYZ"):
+        df[f"d{c}"] = np.where(bl.role != "tie", xyz[:, k] - bl.xyz[:, k], np.nan)
+    return df
+
+
+def write_results(out: str | Path, bq: BlockQuality) -> list[Path]:
+    """Write the result files into folder `out`; returns their paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    pre = pd.DataFrame([f.to_dict() for f in bq.pre.findings],
+                       columns=["step", "kind", "model", "point", "discrepancy", "ratio"])
+    if len(pre):
+        pre["discrepancy"] = [" ".join(f"{v:.6g}" for v in d) for d in pre["discrepancy"]]
+    hyp = [p.hypotheses_table() for p in bq.parts if p.hypotheses]
+    files = {
+        "summary.json": json.dumps(bq.to_dict(), indent=2, default=_json_default) + "\n",
+        "models.csv": _csv(models_table(bq)),
+        "points.csv": _csv(points_table(bq)),
+        "observations.csv": _csv(pd.concat([p.table() for p in bq.parts], ignore_index=True)),
+        "hypotheses.csv": _csv(pd.concat(hyp, ignore_index=True) if hyp else pd.DataFrame(
+            columns=["adjustment", "hypothesis"])),
+        "preadjustment.csv": _csv(pre),
+        "report.txt": bq.summary() + "\n",
+    }
+    paths = []
+    for name, text in files.items():
+        write_text(out / name, text)
+        paths.append(out / name)
+    return paths

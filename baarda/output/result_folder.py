@@ -1,0 +1,165 @@
+"""Reading an adjustment output folder (written by baarda.output.bundle_results) for the report.
+
+The report renders what the adjustment wrote; it never recomputes w, r or MDB.  Bad or
+missing files raise ProjectError naming the file, line and column.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from baarda.errors import ProjectError
+from baarda.io.table import Table
+
+# Units of the residual columns in observations.csv, by observation kind.
+UNITS = {"image": "µm", "control": "m"}
+OBS_REQUIRED = ["kind", "photo", "point", "component", "residual"]
+OBS_NUMBERS = ["x_mm", "y_mm", "residual", "sigma", "sigma_residual", "redundancy", "w", "tau",
+               "p_value", "mdb", "lambda_bar", "external_max", "point_test"]
+OBS_FLAGS = ["rejected", "flagged"]
+
+
+def numbers(t: Table, name: str) -> np.ndarray:
+    """A numeric column; empty cells are NaN, 'inf' is allowed (uncontrolled MDB)."""
+    col = t.columns[name]
+    out = pd.to_numeric(pd.Series(col).replace("", "nan"), errors="coerce").to_numpy(float)
+    bad = np.flatnonzero(np.isnan(out) & (col != "") & (np.char.lower(col) != "nan"))
+    if len(bad):
+        i = int(bad[0])
+        raise ProjectError(t.path, f"'{col[i]}' is not a number", int(t.lines[i]), name)
+    return out
+
+
+def flags(t: Table, name: str) -> np.ndarray:
+    """A True/False column (also 1/0, empty = False)."""
+    col = np.char.lower(t.columns[name])
+    yes = np.isin(col, ["true", "1", "yes"])
+    bad = np.flatnonzero(~yes & ~np.isin(col, ["false", "0", "no", ""]))
+    if len(bad):
+        i = int(bad[0])
+        raise ProjectError(t.path, f"'{t.columns[name][i]}' is not True or False",
+                           int(t.lines[i]), name)
+    return yes
+
+
+def read_observations(path: str | Path) -> pd.DataFrame:
+    """observations.csv as a DataFrame (missing statistics columns become NaN / False)."""
+    t = Table(path, OBS_REQUIRED)
+    df = pd.DataFrame({c: t.text(c, allow_empty=c in ("photo", "point"))
+                       for c in ("kind", "photo", "point", "component")})
+    for c in OBS_NUMBERS:
+        df[c] = numbers(t, c) if t.has(c) else np.nan
+    for c in OBS_FLAGS:
+        df[c] = flags(t, c) if t.has(c) else False
+    df["external_point"] = t.columns["external_point"] if t.has("external_point") else ""
+    df["line"] = t.lines
+    missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
+    if len(missing):
+        raise ProjectError(t.path, "empty residual", int(t.lines[missing[0]]), "residual")
+    return df
+
+
+def _table_frame(path: Path, required: list[str], numeric: list[str]) -> pd.DataFrame:
+    t = Table(path, required)
+    df = pd.DataFrame({c: t.columns[c] for c in t.header})
+    for c in numeric:
+        if t.has(c):
+            df[c] = numbers(t, c)
+    return df
+
+
+@dataclass
+class Results:
+    """Everything the report shows, as read from an output folder."""
+
+    folder: Path
+    summary: dict
+    obs: pd.DataFrame
+    photos: pd.DataFrame | None = None
+    points: pd.DataFrame | None = None
+    cameras: dict[str, dict] = field(default_factory=dict)
+    angle_unit: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def title(self) -> str:
+        return str(self.summary.get("project") or self.folder.name)
+
+    @property
+    def k_w(self) -> float:
+        k = self.summary.get("k_w")
+        return float(k) if k is not None else float("nan")
+
+    def strip_of(self) -> dict[str, str]:
+        """photo id -> strip label ('' when unknown)."""
+        if self.photos is None or "strip" not in self.photos:
+            return {}
+        return dict(zip(self.photos["photo"], self.photos["strip"], strict=True))
+
+
+def _cameras_from_project(source: Path, notes: list[str]) -> tuple[dict, str | None]:
+    """Fallback for folders written before summary.json carried the cameras."""
+    from baarda.io.project import read_project
+
+    try:
+        blk = read_project(source)
+    except (ProjectError, OSError) as e:
+        notes.append(f"project {source} could not be read for the cameras: {e}")
+        return {}, None
+    cams = {c: {"focal_mm": float(blk.cameras.focal_mm[i]),
+                "x0_mm": float(blk.cameras.principal_point_mm[i, 0]),
+                "y0_mm": float(blk.cameras.principal_point_mm[i, 1])}
+            for i, c in enumerate(blk.cameras.ids)}
+    return cams, blk.settings.angle_unit
+
+
+def read_results(folder: str | Path) -> Results:
+    """Read summary.json, observations.csv and (when present) photos.csv, points.csv."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise ProjectError(str(folder), "not an output folder (run baarda adjust -o FOLDER)")
+    sp = folder / "summary.json"
+    if not sp.is_file():
+        raise ProjectError(str(sp), "file not found (not a baarda output folder?)")
+    try:
+        summary = json.loads(sp.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise ProjectError(str(sp), f"not valid JSON: {e.msg}", e.lineno) from None
+    if not isinstance(summary, dict):
+        raise ProjectError(str(sp), "expected a JSON object")
+    obs = read_observations(folder / "observations.csv")
+    notes: list[str] = []
+    photos = points = None
+    if (folder / "photos.csv").is_file():
+        photos = _table_frame(folder / "photos.csv", ["photo", "X0", "Y0", "Z0"],
+                              ["X0", "Y0", "Z0", "omega", "phi", "kappa"])
+        if "strip" not in photos:
+            photos["strip"] = ""
+    else:
+        notes.append("photos.csv missing: no per-strip statistics and no photo footprints")
+    if (folder / "points.csv").is_file():
+        points = _table_frame(folder / "points.csv", ["point", "X", "Y", "Z"],
+                              ["X", "Y", "Z", "dX", "dY", "dZ", "rays"])
+        if "role" not in points:
+            points["role"] = "tie"
+    else:
+        notes.append("points.csv missing: no maps")
+    cams = {c["camera"]: c for c in summary.get("cameras", []) if "camera" in c}
+    unit = summary.get("angle_unit")
+    if not cams and summary.get("source"):
+        src = Path(summary["source"])
+        if not src.is_absolute() and not src.is_dir():
+            src = folder.parent / src
+        if src.is_dir():
+            cams, unit = _cameras_from_project(src, notes)
+    if not cams:
+        notes.append("no camera data (summary.json 'cameras'): photo footprints not drawn")
+    if obs["x_mm"].isna().all() and (obs["kind"] == "image").any():
+        notes.append("observations.csv has no image coordinates (x_mm, y_mm): image-space "
+                     "residual plots not drawn (re-run baarda adjust)")
+    return Results(folder, summary, obs, photos, points, cams, unit, notes)

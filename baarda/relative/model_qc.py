@@ -1,0 +1,75 @@
+"""Quality control of one oriented model: every statistic from the shared quality layer.
+
+Redundancy numbers, standardized residuals (w with sigma0 a priori, or Pope's tau), MDBs come
+from baarda.quality.statistics.analyse on the model's DenseModel; the full Qvv P and the
+critical error transfers from baarda.quality.matrices.  The point to remeasure is the one
+with the largest significant standardized residual (not the largest parallax).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from baarda.quality.matrices import Transfer, critical_transfers, qvv_p_matrix
+from baarda.quality.statistics import QualityResult, analyse
+from baarda.relative.orientation import Orientation
+
+
+@dataclass
+class ModelQC:
+    """QC of one model; arrays aligned with Orientation.residuals (y of all points, x of ties)."""
+
+    orientation: Orientation
+    quality: QualityResult
+    qvvp: np.ndarray  # (k, k) Qvv P
+    transfers: list[Transfer]  # critical transfers (level 1)
+    statistic: str  # "w" or "tau"
+    remeasure_index: int | None  # observation with the largest significant statistic
+
+    @property
+    def significance(self) -> np.ndarray:
+        """The tested statistic (w or tau) of every observation, signed like the error."""
+        return self.quality.w if self.statistic == "w" else self.quality.tau
+
+    @property
+    def critical_value(self) -> float:
+        return self.quality.k_w if self.statistic == "w" else self.quality.k_tau
+
+    @property
+    def flagged(self) -> np.ndarray:
+        s = np.abs(np.nan_to_num(self.significance))
+        return self.quality.controlled & (s > self.critical_value)
+
+    @property
+    def remeasure(self) -> str | None:
+        """Point to remeasure, or None when no observation is significant."""
+        if self.remeasure_index is None:
+            return None
+        return self.orientation.points[self.orientation.obs_point[self.remeasure_index]]
+
+    @property
+    def expected(self) -> np.ndarray:
+        """EXPD: statistically expected size of each parallax, sigma_v = sigma sqrt(r), µm."""
+        return self.quality.sigma_residual
+
+    def label(self, i: int) -> str:
+        o = self.orientation
+        return f"{o.points[o.obs_point[i]]}{o.obs_component[i]}"
+
+
+def assess_model(orientation: Orientation, alpha0: float = 0.001, beta0: float = 0.80,
+                 statistic: str = "w") -> ModelQC:
+    """Data snooping of one model with the quality layer (alpha0 of the w-test, power beta0)."""
+    if statistic not in ("w", "tau"):
+        raise ValueError("statistic must be 'w' or 'tau'")
+    model = orientation.dense_model()
+    q = analyse(model, alpha0, beta0)
+    m = qvv_p_matrix(model)
+    qc = ModelQC(orientation, q, m, critical_transfers(m), statistic, None)
+    s = np.abs(np.nan_to_num(qc.significance))
+    cand = np.flatnonzero(qc.flagged)
+    if len(cand):
+        qc.remeasure_index = int(cand[np.argmax(s[cand])])
+    return qc

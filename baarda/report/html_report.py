@@ -1,0 +1,235 @@
+"""The self-contained HTML report: plots embedded as base64 PNG, no network access.
+
+A small script at the end writes into #render-status whether every image decoded
+(naturalWidth > 0), so a headless browser can check that every plot rendered.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from baarda.output.result_folder import Results
+from baarda.report import maps
+from baarda.report.anaplot import format_log, log_mdb, snooping_table
+from baarda.report.footprint import footprints, image_extent
+from baarda.report.histogram import format_histogram
+from baarda.report.plots import Plot, residual_histograms, w_histogram
+from baarda.report.stats import group_statistics, per_photo, per_strip
+from baarda.report.text_report import (
+    ReportOptions,
+    global_test_line,
+    image_histograms,
+    summary_lines,
+    w_hists,
+)
+
+CSS = """
+body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;margin:0;color:#222}
+header{background:#1f3b5a;color:#fff;padding:14px 24px}
+header h1{margin:0;font-size:22px} header p{margin:4px 0 0;font-size:13px;opacity:.85}
+nav{padding:6px 24px;background:#e8eef5;font-size:13px}
+nav a{margin-right:14px;color:#1f3b5a}
+main{padding:8px 24px 40px;max-width:1400px}
+h2{border-bottom:2px solid #1f3b5a;padding-bottom:2px;margin-top:28px;font-size:18px}
+table{border-collapse:collapse;font-size:12px;margin:6px 0}
+th,td{border:1px solid #ccd;padding:2px 6px;text-align:right;white-space:nowrap}
+th{background:#eef2f7} td.t,th.t{text-align:left}
+tr.rejected td{background:#fbd5d5} tr.flagged td{background:#fde7c8}
+tr.uncontrolled td{color:#888}
+.ok{color:#146c2e;font-weight:bold} .bad{color:#b00020;font-weight:bold}
+pre{font-size:11px;line-height:1.15;background:#f7f7f7;padding:6px;overflow-x:auto}
+figure{margin:10px 0} figcaption{font-size:12px;color:#444;max-width:1100px}
+img{max-width:100%;border:1px solid #ddd}
+.facts{font-size:14px;line-height:1.5} #render-status{font-size:11px;color:#666}
+"""
+
+SCRIPT = """
+<script>
+window.addEventListener('load', function () {
+  var imgs = document.images, ok = 0, bad = [];
+  for (var i = 0; i < imgs.length; i++) {
+    if (imgs[i].complete && imgs[i].naturalWidth > 0) ok++; else bad.push(imgs[i].alt);
+  }
+  var s = document.getElementById('render-status');
+  s.setAttribute('data-rendered', ok);
+  s.setAttribute('data-total', imgs.length);
+  s.textContent = (bad.length ? 'PLOTS FAILED: ' + bad.join(', ') + '; ' : '') +
+                  ok + ' of ' + imgs.length + ' plots rendered';
+});
+</script>
+"""
+
+
+def esc(x) -> str:
+    return html.escape(str(x))
+
+
+def num(x: float, decimals: int) -> str:
+    """Fixed decimals without a negative zero."""
+    return f"{round(float(x), decimals) + 0.0:.{decimals}f}"
+
+
+def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
+          text_cols: tuple[str, ...] = (), attrs: str = "") -> str:
+    """An HTML table of `df`; numbers formatted with `fmt` (column -> format spec)."""
+    fmt = fmt or {}
+    head = "".join(f"<th{' class=t' if c in text_cols else ''}>{esc(c)}</th>"
+                   for c in df.columns)
+    rows = []
+    classes = row_class(df) if row_class is not None else [""] * len(df)
+    for rec, cls in zip(df.itertuples(index=False), classes, strict=True):
+        cells = []
+        for c, v in zip(df.columns, rec, strict=True):
+            if isinstance(v, float | np.floating):
+                f = fmt.get(c, ".4g")
+                s = ("-" if not np.isfinite(v) else num(v, int(f[1:-1])) if f.endswith("f")
+                     else format(v, f))
+            else:
+                s = str(v)
+            cells.append(f"<td{' class=t' if c in text_cols else ''}>{esc(s)}</td>")
+        rows.append(f"<tr{f' class={cls}' if cls else ''}>{''.join(cells)}</tr>")
+    return f"<table {attrs}><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+
+
+def figure(p: Plot | None) -> str:
+    if p is None:
+        return ""
+    b64 = base64.b64encode(p.png).decode("ascii")
+    return (f'<figure id="fig-{esc(p.name)}"><img alt="{esc(p.title)}" '
+            f'src="data:image/png;base64,{b64}"><figcaption>{esc(p.caption)}</figcaption>'
+            "</figure>")
+
+
+def _snoop_table(res: Results, opt: ReportOptions) -> str:
+    t = snooping_table(res.obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
+    show = pd.DataFrame({
+        "kind": t["kind"], "photo": t["photo"], "point": t["point"], "c": t["component"],
+        "RED-N": t["redundancy"], "PARX": t["residual"], "EXPD": t["sigma_residual"],
+        "SIGF (w)": t["w"], "unit": t["unit"], "flag": t["flag"]})
+    cls = {"REJECTED": "rejected", "FLAGGED": "flagged", "uncontrolled": "uncontrolled"}
+    return (f"<p>{len(t)} of {len(res.obs)} observations: those with the {opt.top} largest "
+            f"|w| and every rejected and flagged one. RED-N redundancy number, PARX residual "
+            f"v, EXPD its expected size sigma_v, SIGF w = -v/sigma_v (critical |w| = "
+            f"{res.k_w:.2f}).</p>"
+            + table(show, {"RED-N": ".3f", "PARX": ".4g", "EXPD": ".4g", "SIGF (w)": ".2f"},
+                    lambda d: [cls.get(f, "") for f in d["flag"]],
+                    ("kind", "photo", "point", "c", "unit", "flag"), 'id="snooping-table"'))
+
+
+def _log_table(summary: dict) -> str:
+    log = summary.get("rejection_log") or []
+    if not log:
+        return f"<p>{esc(format_log(summary))}</p>"
+    rows = []
+    for s in log:
+        mdb, unit = log_mdb(s)
+        rows.append({"step": s.get("iteration"), "action": s.get("action"),
+                     "observation": "; ".join(s.get("observations", [])),
+                     "w": s.get("w", np.nan), "MDB": f"{mdb} {unit}",
+                     "sigma0 before": s.get("sigma0", np.nan)})
+    conv = summary.get("snooping_converged")
+    tail = "" if conv is not False else '<p class="bad">snooping did not converge</p>'
+    return table(pd.DataFrame(rows), {"w": ".2f", "sigma0 before": ".3f"},
+                 text_cols=("action", "observation"), attrs='id="snooping-log"') + tail
+
+
+def _group_table(res: Results) -> str:
+    g = group_statistics(res.obs)
+
+    def f(x: float, unit: str) -> str:
+        return "-" if not np.isfinite(x) else num(x, 3 if unit == "m" else 2)
+
+    df = pd.DataFrame([{"group": x.name, "unit": x.unit, "number": x.count,
+                        "mean": f(x.mean, x.unit), "RMS": f(x.rms, x.unit),
+                        "minimum": f(x.minimum, x.unit), "at (min)": x.min_at,
+                        "maximum": f(x.maximum, x.unit), "at (max)": x.max_at,
+                        "rejected": x.rejected} for x in g])
+    return table(df, text_cols=("group", "unit", "at (min)", "at (max)"), attrs='id="groups"')
+
+
+def _image_table(t: pd.DataFrame, by: str) -> str:
+    t = t.rename(columns={"mean_x": "mean x", "mean_y": "mean y", "rms_x": "RMS x",
+                          "rms_y": "RMS y", "rms_xy": "RMS x+y", "max_abs": "max |v|",
+                          "max_at": "at"})
+    return table(t, {c: ".2f" for c in ("mean x", "mean y", "RMS x", "RMS y", "RMS x+y",
+                                        "max |v|")}, text_cols=(by, "at"))
+
+
+def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
+    """Every figure of the report (None where the data for one are missing)."""
+    hists = image_histograms(res.obs, opt)
+    out: dict[str, Plot | None] = {}
+    out["hist_image"] = (residual_histograms(hists, "µm") if hists[2][1].n else None)
+    wh = w_hists(res.obs, opt)
+    out["hist_w"] = w_histogram(wh, res.k_w) if wh else None
+    outlines = {}
+    if res.photos is not None and res.points is not None and res.cameras:
+        ext = image_extent(res.obs, res.photos, res.cameras)
+        zg = float(np.nanmedian(res.points["Z"])) if len(res.points) else 0.0
+        outlines = footprints(res.photos, res.cameras, res.angle_unit, ext, zg)
+    have_pts = res.points is not None and len(res.points)
+    out["block_map"] = maps.block_map(res, outlines) if have_pts else None
+    out["vectors"] = maps.residual_vectors(res, opt.exaggeration, opt.vector_photos)
+    stats = bool(have_pts) and bool(res.obs["redundancy"].notna().any())
+    out["redundancy_map"] = maps.redundancy_map(res) if stats else None
+    out["reliability_map"] = maps.reliability_map(res) if stats else None
+    return out
+
+
+def html_report(res: Results, opt: ReportOptions | None = None) -> str:
+    """The whole report as one HTML string."""
+    opt = opt or ReportOptions()
+    figs = plots(res, opt)
+    gt = res.summary.get("global_test")
+    passed = gt and gt.get("passed")
+    notes = list(res.summary.get("notes", [])) + res.notes
+    sec = []
+    sec.append(("summary", "Project summary",
+                '<div class="facts">' + "<br>".join(esc(x) for x in summary_lines(res))
+                + "</div>" + "".join(f"<p>note: {esc(n)}</p>" for n in notes)))
+    sec.append(("global", "Global test",
+                f'<p class="{"ok" if passed else "bad"}" id="global-test">'
+                f"{esc(global_test_line(res.summary))}</p>"))
+    sec.append(("log", "Data snooping log", _log_table(res.summary)))
+    body = _group_table(res)
+    if res.photos is not None and (res.obs["kind"] == "image").any():
+        body += "<h3>Per strip</h3>" + _image_table(per_strip(res.obs, res.strip_of()), "strip")
+        body += ("<details><summary>Per photo</summary>"
+                 + _image_table(per_photo(res.obs), "photo") + "</details>")
+    sec.append(("groups", "Group statistics (rejected observations left out; image µm, "
+                "control m)", body))
+    texts = "".join(
+        f"<details><summary>text histogram: image {esc(n)}</summary><pre>"
+        f"{esc(format_histogram(h, f'IMAGE {n.upper()} RESIDUALS', 'µm', opt.line_width))}"
+        "</pre></details>" for n, h in image_histograms(res.obs, opt))
+    sec.append(("histograms", "Histograms", figure(figs["hist_image"]) + texts
+                + figure(figs["hist_w"])))
+    sec.append(("maps", "Block map", figure(figs["block_map"])))
+    sec.append(("vectors", "Image residual vectors", figure(figs["vectors"])
+                or "<p>no image coordinates in the results</p>"))
+    sec.append(("reliability", "Redundancy and reliability", figure(figs["redundancy_map"])
+                + figure(figs["reliability_map"]) if figs["redundancy_map"] else
+                "<p>no redundancy numbers in the results (adjusted without statistics)</p>"))
+    sec.append(("table", "Snooping table (ANAPLOT)", _snoop_table(res, opt)))
+    nav = "".join(f'<a href="#{k}">{esc(t.split(" (")[0])}</a>' for k, t, _ in sec)
+    main = "".join(f'<section id="{k}"><h2>{esc(t)}</h2>{b}</section>' for k, t, b in sec)
+    head = (f"<header><h1>Adjustment report: {esc(res.title)}</h1><p>{esc(res.folder)} · "
+            f"global test {'accepted' if passed else 'REJECTED' if gt else 'n/a'} · "
+            f"{res.summary.get('n_rejected', 0)} rejected, {res.summary.get('n_flagged', 0)} "
+            "flagged</p></header>")
+    return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
+            f"<title>baarda report: {esc(res.title)}</title><style>{CSS}</style></head><body>"
+            f"{head}<nav>{nav}</nav><main>{main}"
+            '<p id="render-status" data-rendered="0">plots not checked (no script)</p>'
+            f"</main>{SCRIPT}</body></html>\n")
+
+
+def write_html(path: str | Path, text: str) -> None:
+    from baarda.output.atomic import write_text
+
+    write_text(path, text)

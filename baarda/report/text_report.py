@@ -1,0 +1,187 @@
+"""The text report (`baarda report OUT --text`): summary, global test, snooping log, VAN
+group statistics, histograms and the ANAPLOT table, as printer text."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+
+from baarda.output.result_folder import UNITS, Results
+from baarda.report.anaplot import format_log, format_snooping, snooping_table
+from baarda.report.histogram import Histogram, format_histogram, histogram
+from baarda.report.stats import (
+    format_groups,
+    format_image_groups,
+    group_statistics,
+    obs_label,
+    per_photo,
+    per_strip,
+    vector_statistics,
+    worst,
+)
+
+if TYPE_CHECKING:
+    from baarda.report.residual_readers import ResidualSet
+
+
+@dataclass
+class ReportOptions:
+    """Presentation settings (histogram classes in µm for image residuals, w unitless)."""
+
+    width: float = 1.0
+    lo: float = -25.0
+    hi: float = 25.0
+    line_width: int = 60
+    w_width: float = 0.5
+    w_lo: float = -6.0
+    w_hi: float = 6.0
+    top: int = 50  # rows of the snooping table besides every rejected / flagged one
+    min_abs_w: float | None = None
+    sort: str = "w"
+    exaggeration: float | None = None  # residual vectors; None: automatic
+    vector_photos: int = 12
+    worst: int = 10
+
+
+def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
+    """Histograms of the active image residuals: x, y and x+y together."""
+    act = (obs["kind"] == "image") & ~obs["rejected"]
+    d = obs[act]
+    lab = obs_label(d)
+    out = []
+    for name, sel in (("x", d["component"] == "x"), ("y", d["component"] == "y"),
+                      ("x and y", d["component"].isin(["x", "y"]))):
+        sel = sel.to_numpy()
+        out.append((name, histogram(d["residual"].to_numpy(float)[sel], lab[sel], opt.width,
+                                    opt.lo, opt.hi)))
+    return out
+
+
+def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
+    """Histograms of w of the active, tested observations: image x, y, x and y, and all
+    observations when there are other kinds (control)."""
+    d = obs[~obs["rejected"] & np.isfinite(obs["w"])]
+    lab = obs_label(d)
+    img = (d["kind"] == "image").to_numpy()
+    comp = d["component"].to_numpy(str)
+    sels = [("image x", img & (comp == "x")), ("image y", img & (comp == "y")),
+            ("image x and y", img)]
+    if not img.all():
+        sels.append(("all observations", np.ones(len(d), bool)))
+    w = d["w"].to_numpy(float)
+    return [(n, histogram(w[s], lab[s], opt.w_width, opt.w_lo, opt.w_hi)) for n, s in sels
+            if s.any()]
+
+
+def summary_lines(res: Results) -> list[str]:
+    s = res.summary
+    lines = [f"project {res.title}   (source {s.get('source', '?')}, results {res.folder})"]
+    if res.photos is not None:
+        lines.append(f"photos {len(res.photos)}" + (
+            f" in {res.photos['strip'].nunique()} strip(s)" if "strip" in res.photos else ""))
+    if res.points is not None:
+        roles = res.points["role"].value_counts()
+        lines.append("points " + ", ".join(f"{roles.get(r, 0)} {r}"
+                                          for r in ("control", "check", "tie")))
+
+    def g(k, fmt="{}"):
+        v = s.get(k)
+        return "-" if v is None else fmt.format(v)
+
+    lines += [f"observations {g('n_observations')}, unknowns {g('n_unknowns')}, redundancy "
+              f"{g('redundancy')}; iterations {g('iterations')} "
+              f"({'converged' if s.get('converged') else 'NOT converged'})",
+              f"sigma0 a posteriori {g('sigma0', '{:.4f}')}"]
+    if s.get("n_check_points"):
+        lines.append(f"check points {s['n_check_points']}: RMS X {g('check_rms_X', '{:.3f}')}"
+                     f" m, Y {g('check_rms_Y', '{:.3f}')} m, Z {g('check_rms_Z', '{:.3f}')} m")
+    if "alpha0" in s:
+        lines.append(f"alpha0 {s['alpha0']}, beta0 {s['beta0']}, delta0 {g('delta0', '{:.3f}')}"
+                     f", critical |w| {g('k_w', '{:.3f}')}; sum of redundancy numbers "
+                     f"{g('sum_redundancy_numbers', '{:.2f}')}")
+        lines.append(f"rejected {g('n_rejected')}, flagged {g('n_flagged')}, uncontrolled "
+                     f"{g('n_uncontrolled')}")
+    return lines
+
+
+def global_test_line(summary: dict) -> str:
+    gt = summary.get("global_test")
+    if not gt:
+        return "global test: not available"
+    return (f"global test: sigma0^2 = {gt['statistic']:.4f}, critical value "
+            f"{gt['critical']:.4f} (alpha {gt['alpha']:.3g}, p = {gt['p_value']:.3g}) -> "
+            f"{'ACCEPTED' if gt['passed'] else 'REJECTED'}")
+
+
+def text_report(res: Results, opt: ReportOptions | None = None) -> str:
+    opt = opt or ReportOptions()
+    obs = res.obs
+    out = ["BAARDA ADJUSTMENT REPORT", "=" * 78, *summary_lines(res),
+           global_test_line(res.summary)]
+    out += [f"note: {n}" for n in list(res.summary.get("notes", [])) + res.notes]
+    out += ["", "SNOOPING LOG", "-" * 78, format_log(res.summary)]
+    out += ["", "GROUP STATISTICS (rejected observations left out; image µm, control m)",
+            "-" * 78, format_groups(group_statistics(obs))]
+    if res.photos is not None and (obs["kind"] == "image").any():
+        out += ["", "PER STRIP", "-" * 78, format_image_groups(per_strip(obs, res.strip_of()),
+                                                               "strip")]
+    if (obs["kind"] == "image").any():
+        out += ["", "PER PHOTO", "-" * 78, format_image_groups(per_photo(obs), "photo")]
+    out += ["", f"LARGEST RESIDUALS ({opt.worst} per kind)", "-" * 78,
+            format_worst(worst(obs, opt.worst))]
+    for name, h in image_histograms(obs, opt):
+        out += ["", format_histogram(h, f"IMAGE {name.upper()} RESIDUALS", "µm",
+                                     opt.line_width)]
+    for name, h in w_hists(obs, opt):
+        out += ["", format_histogram(h, f"STANDARDIZED RESIDUALS w, {name.upper()}", "",
+                                     opt.line_width, expected=h.expected_normal(),
+                                     critical=res.k_w)]
+    t = snooping_table(obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
+    out += ["", f"SNOOPING TABLE ({len(t)} of {len(obs)} observations: every rejected and "
+            f"flagged one, and the largest |w|)", "-" * 78, format_snooping(t, res.k_w)]
+    return "\n".join(out) + "\n"
+
+
+def format_worst(t: pd.DataFrame, units: dict[str, str] | None = None) -> str:
+    """The largest residuals, with w where the file has it."""
+    units = {**UNITS, **(units or {})}
+    lines = []
+    for r, la in zip(t.itertuples(index=False), obs_label(t), strict=True):
+        w = f"w {r.w:7.2f}" if "w" in t and np.isfinite(r.w) else ""
+        lines.append(f"{r.kind:<8}{la:<36}{r.residual:>12.4f} {units.get(r.kind, ''):<3} {w}"
+                     .rstrip())
+    return "\n".join(lines) or "none"
+
+
+def residuals_report(rs: ResidualSet, width: float = 1.0, lo: float = -25.0, hi: float = 25.0,
+                     line_width: int = 60, n_worst: int = 10) -> str:
+    """The post-processor's text (`baarda residuals`): VAN statistics and histograms of a
+    ResidualSet read by baarda.report.residual_readers."""
+    obs, unit = rs.obs, rs.units["image"]
+    out = ["RESIDUAL ANALYSIS (VAN)", "=" * 78, *rs.notes]
+    groups = group_statistics(obs, rs.units)
+    vec = vector_statistics(obs, unit)
+    out += ["", f"GROUP STATISTICS (image {unit}, control m)", "-" * 78,
+            format_groups(groups + ([vec] if vec is not None else []))]
+    if vec is not None:
+        out.append(f"image vector: length of the residual vector of each image point; RMS = "
+                   f"sqrt(mean(vx^2 + vy^2)) = {vec.rms:.3f} {unit}")
+    img = obs["kind"] == "image"
+    if img.any():
+        out += ["", "PER PHOTO", "-" * 78, format_image_groups(per_photo(obs), "photo", unit)]
+        strip = obs.loc[img, "strip"].astype(str)
+        if (strip != "").any():
+            key = dict(zip(obs.loc[img, "photo"].astype(str), strip, strict=True))
+            out += ["", "PER STRIP", "-" * 78,
+                    format_image_groups(per_strip(obs, key), "strip", unit)]
+    out += ["", f"LARGEST RESIDUALS ({n_worst} per kind)", "-" * 78,
+            format_worst(worst(obs, n_worst), rs.units)]
+    if img.any():
+        opt = ReportOptions(width=width, lo=lo, hi=hi, line_width=line_width)
+        for name, h in image_histograms(obs, opt):
+            out += ["", format_histogram(h, f"IMAGE {name.upper()} RESIDUALS", unit,
+                                         line_width)]
+    return "\n".join(out) + "\n"
