@@ -12,7 +12,8 @@ from baarda.bundle.bundle_problem import adjust
 from baarda.bundle.bundle_quality import BundleQuality, assess, snoop
 from baarda.bundle.bundle_result import BundleResult
 from baarda.errors import GeometryError, ProjectError
-from baarda.io.project import read_project, write_project
+from baarda.io.project import read_project
+from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 __all__ = ["Block", "BundleQuality", "BundleResult", "FlightPlan", "GeometryError",

@@ -71,6 +71,7 @@ def run_adjust(args) -> int:
 def _screened(args, inp, say) -> int:
     from baarda.cli.screen import options
     from baarda.errors import GeometryError
+    from baarda.output.screening_log import write_screening_log
     from baarda.screening.chain import screen, screen_and_snoop
 
     block = inp.adjusted
@@ -88,7 +89,7 @@ def _screened(args, inp, say) -> int:
         result = adjust(res.block, progress=say)
         qc = assess(result, args.alpha0, args.beta0)
     inp.write(args.out, result, qc)
-    res.log.write(args.out)
+    write_screening_log(args.out, res.log)
     if not args.quiet:
         print(res.summary())
         print(qc.summary())

@@ -7,7 +7,7 @@ from pathlib import Path
 from baarda.cli.common import check_output
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.io.formats import detect
-from baarda.io.project import write_project
+from baarda.output.project_files import write_project
 
 
 def register(sub) -> None:

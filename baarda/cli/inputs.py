@@ -14,9 +14,10 @@ from pathlib import Path
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
-from baarda.io.crs import LocalFrame, localize, write_results_crs
+from baarda.io.crs import LocalFrame, localize
 from baarda.io.formats import FORMATS, read_any
 from baarda.output.bundle_results import write_results
+from baarda.output.crs_results import write_results_crs
 
 
 def add_input_options(p) -> None:

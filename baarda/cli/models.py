@@ -113,8 +113,8 @@ def run(args) -> int:
 def run_simulate(args) -> int:
     import json
 
-    from baarda.io.model_project import write_model_project
     from baarda.output.atomic import write_text
+    from baarda.output.project_files import write_model_project
     from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
     defs = {}

@@ -10,7 +10,6 @@ from pathlib import Path
 
 from baarda.cli.common import add_flight_plan_arguments, check_output, progress
 from baarda.errors import GeometryError
-from baarda.output.atomic import write_text
 from baarda.simulate.aerial import FlightPlan
 
 
@@ -75,7 +74,7 @@ def _flight(args) -> FlightPlan:
 def run_plan(args) -> int:
     from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
-    from baarda.output.plan_files import write_plan
+    from baarda.output.plan_files import write_plan, write_reliability_table
     from baarda.planning.advice import advise, what_if
     from baarda.planning.design import ControlLayout, design_block, design_from_project
     from baarda.planning.design_reliability import analyse_design
@@ -130,8 +129,9 @@ def run_plan(args) -> int:
         else:
             length = flight.photos_per_strip - 1
             cases = simulate_cases(flight, (length / 3, length / 2, float(length)))
-            derive_table(cases, f"baarda plan ({title})").write(
-                args.derive_table, header=f"reliability table derived by baarda plan: {title}")
+            write_reliability_table(args.derive_table,
+                                    derive_table(cases, f"baarda plan ({title})"),
+                                    header=f"reliability table derived by baarda plan: {title}")
             files.append(args.derive_table)
     if not args.quiet:
         print((Path(args.out) / "plan_report.txt").read_text(encoding="utf-8"))
@@ -142,6 +142,7 @@ def run_plan(args) -> int:
 def run_modified(args) -> int:
     from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
+    from baarda.output.plan_files import write_modified_snooping
     from baarda.planning.modified_snoop import modified_snoop
     from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 
@@ -155,14 +156,12 @@ def run_modified(args) -> int:
                         beta0=args.beta0, statistic="tau" if args.tau else "w")
     out = Path(args.out)
     df = ms.table()
-    write_text(out / "modified_snooping.csv",
-               df.to_csv(index=False, float_format="%.6g", lineterminator="\n"))
     text = res.summary() + "\n\n" + ms.summary() + "\n"
     rej = df[df["rejected"]]
     if len(rej):
         text += "rejected:\n" + rej[["kind", "photo", "point", "component", "class", "residual",
                                      "statistic", "exact"]].to_string(index=False) + "\n"
-    write_text(out / "modified_snooping.txt", text)
+    write_modified_snooping(out, df, text)
     if not args.quiet:
         print(text + f"results written to {out}")
     return 0

@@ -6,7 +6,8 @@ from pathlib import Path
 
 from baarda.cli.common import check_output, progress
 from baarda.cli.inputs import add_input_options, read_input
-from baarda.io.project import write_project
+from baarda.output.project_files import write_project
+from baarda.output.screening_log import write_screening_log
 from baarda.screening.chain import ScreeningOptions, screen
 
 
@@ -71,7 +72,7 @@ def run(args) -> int:
         say(f"read {block.summary()}")
     res = screen(block, options(args), progress=say)
     write_project(res.block, args.out)
-    res.log.write(args.out)
+    write_screening_log(args.out, res.log)
     if not args.quiet:
         print(res.summary())
         print(f"cleaned project and screening log written to {args.out}")

@@ -6,8 +6,8 @@ import json
 from pathlib import Path
 
 from baarda.cli.common import add_flight_plan_arguments
-from baarda.io.project import write_project
 from baarda.output.atomic import write_text
+from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

@@ -34,7 +34,6 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
 from baarda.io.records import read_lines, to_numbers
-from baarda.output.atomic import write_text
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
 
@@ -258,48 +257,3 @@ def read_aicon(path: str | Path) -> AiconProject:
 
 def read_aicon_block(path: str | Path, **kw) -> Block:
     return read_aicon(path).to_block(**kw)
-
-
-def write_aicon(project: AiconProject, folder: str | Path, name: str | None = None,
-                eo: np.ndarray | None = None, xyz: np.ndarray | None = None) -> None:
-    """Write the project's five files; optionally with new EO (image order of the .eor,
-    object mm, rad) and point coordinates (order of the .obc, mm)."""
-    folder = Path(folder)
-    name = name or project.name
-    c = project.cameras
-    rows = []
-    for k in range(len(c["id"])):
-        rows += [f"{int(c['id'][k]):8d} {int(c['internal'][k]):8d} {_f(c['ck'][k])} "
-                 f"{_f(c['xh'][k])} {_f(c['yh'][k])} {_f(c['A1'][k])} {_f(c['A2'][k])} "
-                 f"{_f(c['R0'][k])}",
-                 f"    {_f(c['A3'][k])}", f"    {_f(c['B1'][k])} {_f(c['B2'][k])}",
-                 f"    {_f(c['C1'][k])} {_f(c['C2'][k])}",
-                 f"    {_f(c['width_mm'][k])} {_f(c['height_mm'][k])} {int(c['nx'][k])} "
-                 f"{int(c['ny'][k])}"]
-    write_text(folder / f"{name}.ior", "\n".join(rows) + "\n")
-    im = project.images
-    e = (np.column_stack([im[k] for k in ("X0", "Y0", "Z0", "omega", "phi", "kappa")])
-         if eo is None else eo)
-    rows = [f"{int(im['id'][k]):8d} {int(im['camera'][k]):6d} " +
-            " ".join(repr(float(v)) for v in e[k]) +
-            f" {int(im['order'][k])} {int(im['status'][k])} {int(im['orient'][k])}"
-            for k in range(len(im["id"]))]
-    write_text(folder / f"{name}.eor", "\n".join(rows) + "\n")
-    p = project.points
-    x = np.column_stack([p[k] for k in "XYZ"]) if xyz is None else xyz
-    rows = [f"{_id(p['id'][k]):>10} " + " ".join(repr(float(v)) for v in x[k]) + " " +
-            " ".join(repr(float(p[s][k])) for s in ("sX", "sY", "sZ")) +
-            f" {int(p['rays'][k])} {int(p['status'][k])} {int(p['new'][k])} {int(p['datum'][k])}"
-            for k in range(len(p["id"]))]
-    write_text(folder / f"{name}.obc", "\n".join(rows) + "\n")
-    o = project.observations
-    rows = [f"{int(o['image'][k]):8d} {_id(o['point'][k]):>8} " +
-            " ".join(repr(float(o[s][k])) for s in ("x", "y", "sx", "sy", "vx", "vy")) +
-            f" {int(o['method'][k])} {int(o['status'][k])} {int(o['internal'][k])}"
-            for k in range(len(o["image"]))]
-    write_text(folder / f"{name}.phc", "\n".join(rows) + "\n")
-    s = project.scale_bars
-    rows = [f"{int(s['id'][k])} \"{s['name'][k]}\" {_id(s['a'][k])} {_id(s['b'][k])} "
-            f"{_f(s['length'][k])} {_f(s['sigma'][k])} {int(s['status'][k])}"
-            for k in range(len(s["id"]))]
-    write_text(folder / f"{name}.scale", "\n".join(rows) + ("\n" if rows else ""))

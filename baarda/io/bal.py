@@ -27,7 +27,6 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.errors import ProjectError
-from baarda.output.atomic import write_bytes
 
 
 @dataclass
@@ -187,19 +186,6 @@ def read_bal(path: str | Path) -> BalProblem:
         raise ProjectError(sp, f"camera {bad[0]}: focal length must be positive", line, "f")
     return BalProblem(cams, vals[9 * nc:].reshape(npt, 3), cam.astype(np.int64),
                       pt.astype(np.int64), tab[:, 2:4].copy())
-
-
-def write_bal(problem: BalProblem, path: str | Path) -> None:
-    """Write a BAL file (bzip2-compressed when the name ends in .bz2), atomically."""
-    path = Path(path)
-    rows = [f"{len(problem.cameras)} {len(problem.points)} {len(problem.obs_xy)}"]
-    rows += [f"{c} {p} {x!r} {y!r}" for c, p, x, y in zip(
-        problem.obs_camera.tolist(), problem.obs_point.tolist(), problem.obs_xy[:, 0].tolist(),
-        problem.obs_xy[:, 1].tolist(), strict=True)]
-    rows += [repr(v) for v in problem.cameras.ravel().tolist()]
-    rows += [repr(v) for v in problem.points.ravel().tolist()]
-    data = ("\n".join(rows) + "\n").encode("ascii")
-    write_bytes(path, bz2.compress(data) if path.suffix == ".bz2" else data)
 
 
 def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float = 1.0,

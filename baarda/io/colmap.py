@@ -32,7 +32,6 @@ import numpy as np
 
 from baarda.errors import ProjectError
 from baarda.io.records import read_lines
-from baarda.output.atomic import write_bytes, write_text
 
 # model id -> (name, number of parameters)
 MODELS = {0: ("SIMPLE_PINHOLE", 3), 1: ("PINHOLE", 4), 2: ("SIMPLE_RADIAL", 4),
@@ -219,38 +218,6 @@ def _read_points_txt(path: Path) -> dict[int, ColmapPoint]:
     return out
 
 
-def _fmt(v: float) -> str:
-    return repr(float(v))
-
-
-def _write_txt(model: ColmapModel, folder: Path) -> None:
-    rows = ["# Camera list with one line of data per camera:",
-            "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]",
-            f"# Number of cameras: {len(model.cameras)}"]
-    for cid, c in model.cameras.items():
-        rows.append(" ".join([str(cid), c.model, str(c.width), str(c.height)] +
-                             [_fmt(v) for v in c.params]))
-    write_text(folder / "cameras.txt", "\n".join(rows) + "\n")
-    rows = ["# Image list with two lines of data per image:",
-            "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME",
-            "#   POINTS2D[] as (X, Y, POINT3D_ID)", f"# Number of images: {len(model.images)}"]
-    for iid, im in model.images.items():
-        rows.append(" ".join([str(iid)] + [_fmt(v) for v in im.qvec] +
-                             [_fmt(v) for v in im.tvec] + [str(im.camera_id), im.name]))
-        rows.append(" ".join(f"{_fmt(x)} {_fmt(y)} {int(i)}"
-                             for (x, y), i in zip(im.xys, im.point3D_ids, strict=True)))
-    write_text(folder / "images.txt", "\n".join(rows) + "\n")
-    rows = ["# 3D point list with one line of data per point:",
-            "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)",
-            f"# Number of points: {len(model.points3D)}"]
-    for pid, p in model.points3D.items():
-        track = np.column_stack([p.image_ids, p.point2D_idxs]).ravel()
-        rows.append(" ".join([str(pid)] + [_fmt(v) for v in p.xyz] +
-                             [str(int(v)) for v in p.rgb] + [_fmt(p.error)] +
-                             [str(int(v)) for v in track]))
-    write_text(folder / "points3D.txt", "\n".join(rows) + "\n")
-
-
 # --------------------------------------------------------------- binary files
 class _Reader:
     def __init__(self, path: Path):
@@ -334,32 +301,6 @@ def _read_points_bin(path: Path) -> dict[int, ColmapPoint]:
     return out
 
 
-def _write_bin(model: ColmapModel, folder: Path) -> None:
-    out = [struct.pack("<Q", len(model.cameras))]
-    for cid, c in model.cameras.items():
-        mid, npar = MODEL_ID[c.model]
-        out.append(struct.pack("<iiQQ", cid, mid, c.width, c.height))
-        out.append(np.asarray(c.params, "<f8").tobytes())
-    write_bytes(folder / "cameras.bin", b"".join(out))
-    out = [struct.pack("<Q", len(model.images))]
-    for iid, im in model.images.items():
-        out.append(struct.pack("<I7dI", iid, *im.qvec, *im.tvec, im.camera_id))
-        out.append(im.name.encode("utf-8") + b"\0")
-        out.append(struct.pack("<Q", len(im.xys)))
-        rec = np.empty(len(im.xys), [("x", "<f8"), ("y", "<f8"), ("id", "<i8")])
-        rec["x"], rec["y"], rec["id"] = im.xys[:, 0], im.xys[:, 1], im.point3D_ids
-        out.append(rec.tobytes())
-    write_bytes(folder / "images.bin", b"".join(out))
-    out = [struct.pack("<Q", len(model.points3D))]
-    for pid, p in model.points3D.items():
-        out.append(struct.pack("<Q3d3BdQ", pid, *p.xyz, *(int(v) for v in p.rgb), p.error,
-                               len(p.image_ids)))
-        rec = np.empty(len(p.image_ids), [("im", "<u4"), ("idx", "<u4")])
-        rec["im"], rec["idx"] = p.image_ids, p.point2D_idxs
-        out.append(rec.tobytes())
-    write_bytes(folder / "points3D.bin", b"".join(out))
-
-
 # ------------------------------------------------------------------ public API
 def is_colmap_model(path: str | Path) -> bool:
     p = Path(path)
@@ -402,11 +343,3 @@ def _check(model: ColmapModel, src: Path, folder: Path) -> None:
             if im is None or idx >= len(im.xys) or im.point3D_ids[idx] != pid:
                 raise ProjectError(str(pfile), f"point {pid}: track element ({iid}, {idx}) "
                                    "does not point back to this point")
-
-
-def write_colmap(model: ColmapModel, folder: str | Path, binary: bool = False) -> None:
-    """Write the model as text or binary files into `folder` (each file atomically)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    (_write_bin if binary else _write_txt)(model, folder)
-

@@ -21,9 +21,8 @@ import numpy as np
 
 from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.errors import ProjectError
-from baarda.io.project import format_number, load_toml
+from baarda.io.project import load_toml
 from baarda.io.table import Table
-from baarda.output.atomic import write_text
 
 
 def _positive(values, name: str) -> tuple[float, ...]:
@@ -245,38 +244,3 @@ def drop_unused(block: ModelBlock) -> ModelBlock:
     return replace(block, points=[p for p, u in zip(block.points, used, strict=True) if u],
                    role=block.role[used], pc=block.pc[used], xyz=block.xyz[used],
                    sigma=block.sigma[used], obs_point=remap[block.obs_point])
-
-
-def write_model_project(block: ModelBlock, folder: str | Path) -> None:
-    """Write `block` as a model project folder (each file atomically)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    s = block.settings
-    toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', "", "[sigma]",
-            f"model_xy_um = {float(s.sigma_model_um[0])!r}",
-            f"model_z_um = {float(s.sigma_model_um[1])!r}",
-            f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]", "",
-            "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", "", "[models]",
-            f"pre_xy_um = {float(s.pre_um[0])!r}", f"pre_z_um = {float(s.pre_um[1])!r}", ""]
-    write_text(folder / "project.toml", "\n".join(toml))
-    head = "model,strip,point,kind,x_mm,y_mm,z_mm,sigma_x_um,sigma_y_um,sigma_z_um"
-    cov = block.obs_cov
-    if cov is not None:
-        head += ",rho_xy,rho_xz,rho_yz"
-    rows = [head]
-    sig = block.obs_sigma * 1e3
-    for i in range(len(block.obs_model)):
-        m, j = block.obs_model[i], block.obs_point[i]
-        vals = [block.models[m], str(block.strip[m]), block.points[j],
-                "pc" if block.pc[j] else "point"]
-        vals += [format_number(v) for v in block.obs_xyz[i]] + [f"{v:.6g}" for v in sig[i]]
-        if cov is not None:
-            d = np.sqrt(np.diagonal(cov[i]))
-            vals += [f"{cov[i][a, b] / (d[a] * d[b]):.9g}" for a, b in ((0, 1), (0, 2), (1, 2))]
-        rows.append(",".join(vals))
-    write_text(folder / "models.csv", "\n".join(rows) + "\n")
-    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
-    for j in np.flatnonzero(block.role != "tie"):
-        rows.append(",".join([block.points[j]] + [format_number(v) for v in block.xyz[j]] +
-                             [format_number(v) for v in block.sigma[j]] + [str(block.role[j])]))
-    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")

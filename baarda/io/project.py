@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.camera import COEFFICIENTS, KINDS, camera_arrays
+from baarda.block.camera import COEFFICIENTS, KINDS
 from baarda.block.photo_block import (
     ROLES,
     Block,
@@ -21,10 +21,9 @@ from baarda.block.photo_block import (
     Photos,
     Settings,
 )
-from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad, rad_to_angle
+from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad
 from baarda.errors import ProjectError
 from baarda.io.table import Table
-from baarda.output.atomic import write_text
 
 FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
 
@@ -189,53 +188,3 @@ def read_project(folder: str | Path) -> Block:
     block = Block(settings, cameras, photos, image, points, source=str(folder), notes=notes)
     assert set(np.unique(roles)) <= set(ROLES)
     return block
-
-
-def format_number(x: float) -> str:
-    """A CSV field: the shortest exact repr, empty for NaN (an unobserved coordinate)."""
-    return "" if not np.isfinite(x) else repr(float(x))
-
-
-def write_project(block: Block, folder: str | Path) -> None:
-    """Write `block` as a native project folder (each file written atomically)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    s = block.settings
-    toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', 'image_unit = "mm"']
-    if s.crs:
-        toml.append(f'crs = "{s.crs}"')
-    toml += ["", "[sigma]", f"image_um = {s.sigma_image_um!r}",
-             f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]",
-             "", "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", ""]
-    write_text(folder / "project.toml", "\n".join(toml))
-    c = block.cameras
-    kinds, coef = camera_arrays(c)
-    lens = bool(np.any(kinds != "none"))
-    rows = ["camera,focal_mm,x0_mm,y0_mm" + (",model," + ",".join(COEFFICIENTS) if lens
-                                             else "")] + [
-        f"{c.ids[i]},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
-        f"{float(c.principal_point_mm[i, 1])!r}" +
-        (f",{kinds[i]}," + ",".join(repr(float(v)) for v in coef[i]) if lens else "")
-        for i in range(len(c))]
-    write_text(folder / "cameras.csv", "\n".join(rows) + "\n")
-    p = block.photos
-    ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)
-    rows = ["photo,camera,strip,X0,Y0,Z0,omega,phi,kappa"] + [
-        ",".join([p.ids[i], c.ids[p.camera[i]], str(p.strip[i])] +
-                 [repr(float(v)) for v in p.eo[i, :3]] + [repr(float(v)) for v in ang[i]])
-        for i in range(len(p))]
-    write_text(folder / "photos.csv", "\n".join(rows) + "\n")
-    im, pts = block.image, block.points
-    has_model = im.model is not None
-    xy = im.xy_mm.tolist()
-    sig = (im.sigma_mm * 1e3).tolist()
-    rows = ["photo,point,x_mm,y_mm,sigma_um" + (",model" if has_model else "")] + [
-        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{xy[i][0]!r},{xy[i][1]!r},"
-        f"{sig[i]:.6g}" + (f",{im.model[i]}" if has_model else "")
-        for i in range(len(im))]
-    write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
-    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
-    for j in np.flatnonzero(pts.role != "tie"):
-        rows.append(",".join([pts.ids[j]] + [format_number(v) for v in pts.xyz[j]] +
-                             [format_number(v) for v in pts.sigma[j]] + [str(pts.role[j])]))
-    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import io
-import json
 from pathlib import Path
 
 import numpy as np
@@ -13,22 +11,7 @@ from baarda.block.rotation import rad_to_angle
 from baarda.bundle.bundle_quality import BundleQuality
 from baarda.bundle.bundle_result import BundleResult
 from baarda.output.atomic import write_text
-
-
-def csv_text(df: pd.DataFrame) -> str:
-    """A table as CSV text (10 significant digits, LF line ends)."""
-    buf = io.StringIO()
-    df.to_csv(buf, index=False, float_format="%.10g", lineterminator="\n")
-    return buf.getvalue()
-
-
-def json_default(o):
-    """json.dumps default for NumPy scalars and arrays."""
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o))
+from baarda.output.tables import csv_text, json_text
 
 
 def photos_table(result: BundleResult) -> pd.DataFrame:
@@ -103,7 +86,7 @@ def write_results(out: str | Path, result: BundleResult,
         })
     paths = []
     for name, text in (
-        ("summary.json", json.dumps(summary, indent=2, default=json_default) + "\n"),
+        ("summary.json", json_text(summary)),
         ("photos.csv", csv_text(photos_table(result))),
         ("points.csv", csv_text(points_table(result))),
         ("observations.csv", csv_text(obs)),

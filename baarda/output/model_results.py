@@ -3,7 +3,6 @@ hypotheses.csv and preadjustment.csv (each written atomically)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -12,8 +11,8 @@ import pandas as pd
 from baarda.block.rotation import rad_to_angle
 from baarda.independent.workflow import BlockQuality
 from baarda.output.atomic import write_text
-from baarda.output.bundle_results import csv_text as _csv
-from baarda.output.bundle_results import json_default as _json_default
+from baarda.output.tables import csv_text as _csv
+from baarda.output.tables import json_text
 
 
 def models_table(bq: BlockQuality) -> pd.DataFrame:
@@ -77,7 +76,7 @@ def write_results(out: str | Path, bq: BlockQuality) -> list[Path]:
         pre["discrepancy"] = [" ".join(f"{v:.6g}" for v in d) for d in pre["discrepancy"]]
     hyp = [p.hypotheses_table() for p in bq.parts if p.hypotheses]
     files = {
-        "summary.json": json.dumps(bq.to_dict(), indent=2, default=_json_default) + "\n",
+        "summary.json": json_text(bq.to_dict()),
         "models.csv": _csv(models_table(bq)),
         "points.csv": _csv(points_table(bq)),
         "observations.csv": _csv(pd.concat([p.table() for p in bq.parts], ignore_index=True)),

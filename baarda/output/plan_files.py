@@ -20,12 +20,14 @@ import numpy as np
 import pandas as pd
 
 from baarda.output.atomic import write_bytes, write_text
+from baarda.output.tables import csv_text
 from baarda.planning.advice import Advice
 from baarda.planning.design_reliability import PlanResult
+from baarda.planning.reliability_tables import ReliabilityTable
 
 
 def _csv(df: pd.DataFrame) -> str:
-    return df.to_csv(index=False, float_format="%.6g", lineterminator="\n")
+    return csv_text(df, "%.6g")
 
 
 def report_text(plan: PlanResult, advice: list[Advice],
@@ -132,3 +134,17 @@ def write_plan(out: str | Path, plan: PlanResult, advice: list[Advice],
         write_bytes(out / "plan_maps.png", plan_maps(plan))
         written.append(out / "plan_maps.png")
     return written
+
+
+def write_reliability_table(path: str | Path, table: ReliabilityTable, header: str = "") -> None:
+    """A reliability-model table as CSV with '# ' header lines (planning/reliability_tables.py)."""
+    lines = "".join(f"# {h}\n" for h in header.splitlines() if h)
+    write_text(path, lines + csv_text(table.frame, "%.4f"))
+
+
+def write_modified_snooping(out: str | Path, table: pd.DataFrame, text: str) -> list[Path]:
+    """modified_snooping.csv and modified_snooping.txt of `baarda modified-snoop`."""
+    out = Path(out)
+    write_text(out / "modified_snooping.csv", _csv(table))
+    write_text(out / "modified_snooping.txt", text)
+    return [out / "modified_snooping.csv", out / "modified_snooping.txt"]

@@ -131,13 +131,6 @@ class ReliabilityTable:
                     break
         return out
 
-    def write(self, path: str | Path, header: str = "") -> None:
-        from baarda.output.atomic import write_text
-
-        lines = "".join(f"# {h}\n" for h in header.splitlines() if h)
-        write_text(path, lines + self.frame.to_csv(index=False, float_format="%.4f",
-                                                   lineterminator="\n"))
-
 
 def design_key(block: Block, twin_distance: float | None = None) -> DesignKey:
     """The design of an existing block: points per photo, overlaps, stereo, twin control.

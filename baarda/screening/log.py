@@ -2,13 +2,9 @@
 
 from __future__ import annotations
 
-import io
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
 import pandas as pd
-
-from baarda.output.atomic import write_text
 
 STAGES = {1: "photo pairs", 2: "strip formation", 3: "control", 0: "chain",
           4: "bundle snooping"}
@@ -78,11 +74,3 @@ class ScreeningLog:
                          f"{len(ctl)} control point(s) removed")
         lines += ["", *[e.line() for e in self.entries]]
         return "\n".join(lines)
-
-    def write(self, folder: str | Path) -> None:
-        """screening_log.csv (one row per decision) and screening.txt (for people)."""
-        folder = Path(folder)
-        buf = io.StringIO()
-        self.table().to_csv(buf, index=False, float_format="%.6g", lineterminator="\n")
-        write_text(folder / "screening_log.csv", buf.getvalue())
-        write_text(folder / "screening.txt", self.summary() + "\n")

@@ -16,6 +16,7 @@ import time
 import numpy as np
 import pandas as pd
 
+from baarda.output.plan_files import write_reliability_table
 from baarda.planning.gruen_study import (
     GRUEN_ROWS,
     STUDY_BLOCKS,
@@ -134,7 +135,7 @@ def main() -> None:
                                      for k in ("x", "y", "xy") if (r["component"] == k).any()))
             print(f"  {cls:7s} {ctl:6s}  3x3: {vals[0]:32s} 5x5: {vals[1]}")
     if args.write_table:
-        ours.write(args.write_table, header=(
+        write_reliability_table(args.write_table, ours, header=(
             "baarda's reliability table: mean sqrt(qvv) per Gruen class (x, y and pooled xy),\n"
             "from the reproduced study of Gruen (1980): blocks 43, 73, 45, 75, three control\n"
             "distributions each (i = L/3, L/2, L), single and twin control; each block and\n"

@@ -10,7 +10,8 @@ import pytest
 
 from baarda.bundle.collinearity import project
 from baarda.errors import ProjectError
-from baarda.io.aicon import read_aicon, write_aicon
+from baarda.io.aicon import read_aicon
+from baarda.output.format_files import write_aicon
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / \
     "aicon_jaicov_closerange"

@@ -19,8 +19,8 @@ from baarda.io.bal import (
     read_bal,
     rodrigues,
     rotation_vector,
-    write_bal,
 )
+from baarda.output.format_files import write_bal
 
 SHARED = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "bal"
 # README of the data set: counts and the initial reprojection errors (median, mean, 99th

@@ -10,10 +10,12 @@ import pandas as pd
 
 from baarda.block.photo_block import Photos
 from baarda.cli import main
-from baarda.io.bal import bal_to_block, write_bal
+from baarda.io.bal import bal_to_block
 from baarda.io.crs import LocalFrame
 from baarda.io.formats import detect, read_any
-from baarda.io.project import read_project, write_project
+from baarda.io.project import read_project
+from baarda.output.format_files import write_bal
+from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 DATA = Path(__file__).resolve().parents[1] / "data"

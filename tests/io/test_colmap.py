@@ -15,8 +15,9 @@ import pytest
 from baarda.bundle.collinearity import project
 from baarda.bundle.free_network import adjust_free
 from baarda.errors import ProjectError
-from baarda.io.colmap import matrix_to_qvec, qvec_to_matrix, read_colmap, write_colmap
+from baarda.io.colmap import matrix_to_qvec, qvec_to_matrix, read_colmap
 from baarda.io.colmap_block import colmap_to_block, colmap_with_block, eo_to_pose, pose_to_eo
+from baarda.output.format_files import write_colmap
 
 SPARSE = Path(__file__).resolve().parents[1] / "data" / "colmap_maupertuis" / "sparse"
 

@@ -11,7 +11,8 @@ from pyproj import CRS, Proj, Transformer
 from baarda.block.photo_block import Photos
 from baarda.bundle.bundle_problem import adjust
 from baarda.errors import ProjectError
-from baarda.io.crs import LocalFrame, localize, tables_in_crs
+from baarda.io.crs import LocalFrame, localize
+from baarda.output.crs_results import tables_in_crs
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 rng = np.random.default_rng(11)

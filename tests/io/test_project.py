@@ -7,7 +7,8 @@ import pytest
 
 from baarda.bundle.bundle_problem import adjust
 from baarda.errors import GeometryError, ProjectError
-from baarda.io.project import read_project, write_project
+from baarda.io.project import read_project
+from baarda.output.project_files import write_project
 
 
 @pytest.fixture()

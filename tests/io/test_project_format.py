@@ -7,7 +7,8 @@ import pytest
 
 from baarda.errors import ProjectError
 from baarda.io.dbat import read_dbat
-from baarda.io.project import read_project, write_project
+from baarda.io.project import read_project
+from baarda.output.project_files import write_project
 
 SXB = Path(__file__).resolve().parents[1] / "data" / "dbat_sxb_aerial" / "dbat_script" / "sxb.xml"
 

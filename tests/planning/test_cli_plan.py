@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from baarda.cli import main
-from baarda.io.project import write_project
+from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from baarda.errors import ProjectError
+from baarda.output.plan_files import write_reliability_table
 from baarda.planning.design import ControlLayout, design_block
 from baarda.planning.gruen_study import study_plan
 from baarda.planning.reliability_tables import (
@@ -53,7 +54,7 @@ def test_design_key_of_blocks():
 def test_read_table_errors(tmp_path):
     t = baarda_table()
     p = tmp_path / "t.csv"
-    t.write(p, header="test")
+    write_reliability_table(p, t, header="test")
     back = read_table(p)
     assert np.allclose(back.frame["value"], t.frame["value"], atol=1e-4)
     text = p.read_text().replace(",0.0000,", ",1.7,", 1)

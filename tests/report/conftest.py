@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 
 from baarda.bundle.bundle_quality import snoop
-from baarda.io.project import write_project
 from baarda.output.bundle_results import write_results
+from baarda.output.project_files import write_project
 from baarda.output.result_folder import read_results
 from baarda.report.html_report import html_report
 from baarda.report.text_report import ReportOptions

@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 
 from baarda.cli import main
-from baarda.io.project import read_project, write_project
+from baarda.io.project import read_project
+from baarda.output.project_files import write_project
 from baarda.screening.chain import ScreeningOptions, cleaned_block, screen
 from baarda.simulate.aerial import FlightPlan, simulate_block
 

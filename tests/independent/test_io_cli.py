@@ -7,7 +7,8 @@ import pytest
 
 from baarda.cli import main
 from baarda.errors import ProjectError
-from baarda.io.model_project import read_model_project, write_model_project
+from baarda.io.model_project import read_model_project
+from baarda.output.project_files import write_model_project
 from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
 

@@ -1,0 +1,102 @@
+"""Writing projects: the native project folder and the model project folder.
+
+The inverse of baarda.io.project.read_project and baarda.io.model_project.read_model_project
+(docs/format.md); every file is written atomically.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.camera import COEFFICIENTS, camera_arrays
+from baarda.block.model_block import ModelBlock
+from baarda.block.photo_block import Block
+from baarda.block.rotation import rad_to_angle
+from baarda.output.atomic import write_text
+
+
+def format_number(x: float) -> str:
+    """A CSV field: the shortest exact repr, empty for NaN (an unobserved coordinate)."""
+    return "" if not np.isfinite(x) else repr(float(x))
+
+
+def write_project(block: Block, folder: str | Path) -> None:
+    """Write `block` as a native project folder (each file written atomically)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    s = block.settings
+    toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', 'image_unit = "mm"']
+    if s.crs:
+        toml.append(f'crs = "{s.crs}"')
+    toml += ["", "[sigma]", f"image_um = {s.sigma_image_um!r}",
+             f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]",
+             "", "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", ""]
+    write_text(folder / "project.toml", "\n".join(toml))
+    c = block.cameras
+    kinds, coef = camera_arrays(c)
+    lens = bool(np.any(kinds != "none"))
+    rows = ["camera,focal_mm,x0_mm,y0_mm" + (",model," + ",".join(COEFFICIENTS) if lens
+                                             else "")] + [
+        f"{c.ids[i]},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
+        f"{float(c.principal_point_mm[i, 1])!r}" +
+        (f",{kinds[i]}," + ",".join(repr(float(v)) for v in coef[i]) if lens else "")
+        for i in range(len(c))]
+    write_text(folder / "cameras.csv", "\n".join(rows) + "\n")
+    p = block.photos
+    ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)
+    rows = ["photo,camera,strip,X0,Y0,Z0,omega,phi,kappa"] + [
+        ",".join([p.ids[i], c.ids[p.camera[i]], str(p.strip[i])] +
+                 [repr(float(v)) for v in p.eo[i, :3]] + [repr(float(v)) for v in ang[i]])
+        for i in range(len(p))]
+    write_text(folder / "photos.csv", "\n".join(rows) + "\n")
+    im, pts = block.image, block.points
+    has_model = im.model is not None
+    xy = im.xy_mm.tolist()
+    sig = (im.sigma_mm * 1e3).tolist()
+    rows = ["photo,point,x_mm,y_mm,sigma_um" + (",model" if has_model else "")] + [
+        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{xy[i][0]!r},{xy[i][1]!r},"
+        f"{sig[i]:.6g}" + (f",{im.model[i]}" if has_model else "")
+        for i in range(len(im))]
+    write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
+    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
+    for j in np.flatnonzero(pts.role != "tie"):
+        rows.append(",".join([pts.ids[j]] + [format_number(v) for v in pts.xyz[j]] +
+                             [format_number(v) for v in pts.sigma[j]] + [str(pts.role[j])]))
+    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")
+
+
+def write_model_project(block: ModelBlock, folder: str | Path) -> None:
+    """Write `block` as a model project folder (each file atomically)."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    s = block.settings
+    toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', "", "[sigma]",
+            f"model_xy_um = {float(s.sigma_model_um[0])!r}",
+            f"model_z_um = {float(s.sigma_model_um[1])!r}",
+            f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]", "",
+            "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", "", "[models]",
+            f"pre_xy_um = {float(s.pre_um[0])!r}", f"pre_z_um = {float(s.pre_um[1])!r}", ""]
+    write_text(folder / "project.toml", "\n".join(toml))
+    head = "model,strip,point,kind,x_mm,y_mm,z_mm,sigma_x_um,sigma_y_um,sigma_z_um"
+    cov = block.obs_cov
+    if cov is not None:
+        head += ",rho_xy,rho_xz,rho_yz"
+    rows = [head]
+    sig = block.obs_sigma * 1e3
+    for i in range(len(block.obs_model)):
+        m, j = block.obs_model[i], block.obs_point[i]
+        vals = [block.models[m], str(block.strip[m]), block.points[j],
+                "pc" if block.pc[j] else "point"]
+        vals += [format_number(v) for v in block.obs_xyz[i]] + [f"{v:.6g}" for v in sig[i]]
+        if cov is not None:
+            d = np.sqrt(np.diagonal(cov[i]))
+            vals += [f"{cov[i][a, b] / (d[a] * d[b]):.9g}" for a, b in ((0, 1), (0, 2), (1, 2))]
+        rows.append(",".join(vals))
+    write_text(folder / "models.csv", "\n".join(rows) + "\n")
+    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
+    for j in np.flatnonzero(block.role != "tie"):
+        rows.append(",".join([block.points[j]] + [format_number(v) for v in block.xyz[j]] +
+                             [format_number(v) for v in block.sigma[j]] + [str(block.role[j])]))
+    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")
