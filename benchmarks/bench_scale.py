@@ -14,8 +14,7 @@ import argparse
 import resource
 import time
 
-from baarda.bundle.bundle_problem import adjust
-from baarda.bundle.bundle_quality import assess
+from baarda.pipeline import adjust, assess
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

@@ -78,8 +78,7 @@ def profile_text(func, lines: int = 25):
 
 
 def run_baarda(args, block, out: Path) -> dict:
-    from baarda.bundle.bundle_problem import adjust
-    from baarda.bundle.bundle_quality import assess
+    from baarda.pipeline import adjust, assess
     from baarda.simulate.aerial import simulate_block
 
     rec: dict = {"engine": "baarda", "numba_cache": os.environ.get("NUMBA_CACHE_DIR", "default")}
@@ -133,13 +132,10 @@ def run_baarda(args, block, out: Path) -> dict:
 def run_pycolmap(args, block, out: Path) -> dict:
     import colmap_block as cbm
 
-    from baarda.bundle.bundle_problem import BundleProblem, _cost
-    from baarda.bundle.geometry import approximate_points
+    from baarda.bundle.bundle_problem import BundleProblem
 
     pb = BundleProblem(block)
-    keep = np.isin(np.arange(len(block.points)), pb.point_ids)
-    xyz0 = approximate_points(block, keep)[pb.point_ids]
-    eo0 = block.photos.eo.copy()
+    eo0, xyz0 = (a.copy() for a in pb.approximations)
     rec: dict = {"engine": "pycolmap", "pyceres": cbm.pyceres is not None}
     t0 = time.perf_counter()
     cb = cbm.build(block, pb.obs, pb.point_ids, xyz0, eo0, pb.control, args.pixel_mm)
@@ -149,7 +145,7 @@ def run_pycolmap(args, block, out: Path) -> dict:
     if not rec["projection_check_px"] < 1e-6:
         raise SystemExit(f"conversion to pycolmap is wrong: projections differ by "
                          f"{rec['projection_check_px']:.3g} px")
-    rec["baarda_initial_vtpv"] = _cost(pb.linearize(eo0, xyz0))
+    rec["baarda_initial_vtpv"] = pb.linearize((eo0, xyz0)).cost
     template = cb.rec
     runs = []
     for k in range(args.repeat + 1):  # the first run is the cold one
@@ -168,7 +164,7 @@ def run_pycolmap(args, block, out: Path) -> dict:
                                                                 "delta_mb")})
     eo, xyz = cbm.solution(cb)
     # the solution in baarda's terms: its cost by baarda's own equations
-    rec["baarda_vtpv_of_solution"] = _cost(pb.linearize(eo, xyz))
+    rec["baarda_vtpv_of_solution"] = pb.linearize((eo, xyz)).cost
     np.savez(out / "pycolmap.npz", eo=eo, xyz=xyz)
     return rec
 

@@ -9,9 +9,9 @@ from baarda.bundle.bundle_model import BundleModel
 
 def dense_system(model: BundleModel) -> tuple[np.ndarray, np.ndarray]:
     """Dense A (n, u) and weights p (n,) in the flat observation order of a BundleModel."""
-    s = model.system
-    lin = model.lin
-    nf, npn, m = s.nf, s.np, model.m
+    s = model.factor.system
+    lin = model.factor.lin
+    nf, npn, m = s.nf, s.np, model.layout.m
     nc = len(model.result.problem.control)
     a = np.zeros((2 * m + 3 * nc, 6 * nf + 3 * npn))
     for i in range(m):
@@ -20,7 +20,7 @@ def dense_system(model: BundleModel) -> tuple[np.ndarray, np.ndarray]:
     for c in range(nc):
         j = s.control_point[c]
         a[2 * m + 3 * c:2 * m + 3 * c + 3, 6 * nf + 3 * j:6 * nf + 3 * j + 3] = lin.jc[c]
-    keep = np.concatenate([np.arange(2 * m), 2 * m + model.ctrl_sel])
+    keep = np.concatenate([np.arange(2 * m), 2 * m + model.layout.ctrl_sel])
     a = a[keep]
     p = np.where(model.active, 1.0 / model.sigma**2, 0.0)
     return a, p

@@ -26,7 +26,7 @@ from baarda.linalg import BlockCholesky, BlockPattern, NotPositiveDefinite
 from baarda.linalg.threads import single_threaded_blas
 
 
-@dataclass
+@dataclass(frozen=True)
 class Linearization:
     """Jacobians, weights and misclosures e = l - f(x0) at the current estimate."""
 
@@ -40,13 +40,27 @@ class Linearization:
     wf: np.ndarray | None = None  # (nf, b) weights of direct observations of frame unknowns
     ef: np.ndarray | None = None  # (nf, b) their misclosures (observed - current)
 
+    @property
+    def cost(self) -> float:
+        """v'Pv: the weighted sum of squares of the misclosures."""
+        c = float(np.sum(self.w * self.e**2) + np.sum(self.wc * self.ec**2))
+        if self.wf is not None:
+            c += float(np.sum(self.wf * self.ef**2))
+        return c
+
 
 class SchurSystem:
-    """Structure (fixed) and numbers (per iteration) of the reduced normal equations."""
+    """The structure of the reduced normal equations: fixed for a problem, never changed.
+
+    `factorize(lin)` returns the numbers of one linearisation as a new SchurFactor.
+    n_fixed: frame unknowns held by datum constraints (zero Jacobian columns plus a direct
+    observation of weight wf): they are not unknowns of the model (bundle/free_network.py).
+    """
 
     def __init__(self, n_frames: int, b: int, n_points: int, d: int,
                  frame: np.ndarray, point: np.ndarray, control_point: np.ndarray,
-                 frame_names: list[str] | None = None, point_names: list[str] | None = None):
+                 frame_names: list[str] | None = None, point_names: list[str] | None = None,
+                 n_fixed: int = 0):
         self.nf, self.b, self.np, self.d = n_frames, b, n_points, d
         self.frame_names = frame_names or [str(i) for i in range(n_frames)]
         self.point_names = point_names or [str(i) for i in range(n_points)]
@@ -64,73 +78,78 @@ class SchurSystem:
         self.pattern = BlockPattern.from_pairs(n_frames, b, rows, cols)
         self.pair_slot, self.pair_tr = self.pattern.slots(rows, cols)
         diag = np.arange(n_frames)
-        self.diag_slot, diag_tr = self.pattern.slots(diag, diag)
-        self.chol = BlockCholesky(self.pattern)
-        self._sel = None
-        self.factored_at: Linearization | None = None
-        # frame unknowns held by datum constraints (zero Jacobian columns plus a direct
-        # observation of weight wf): they are not unknowns of the model (bundle/free.py)
-        self.n_fixed = 0
+        self.diag_slot, _ = self.pattern.slots(diag, diag)
+        self.n_fixed = int(n_fixed)
 
     @property
     def n_unknowns(self) -> int:
         return self.nf * self.b + self.np * self.d - self.n_fixed
 
-    # ------------------------------------------------------------------ numbers
+    def factorize(self, lin: Linearization, damping: float = 0.0) -> SchurFactor:
+        """Assemble the normal equations of `lin`, reduce them and factor S.
+
+        damping: Levenberg-Marquardt lambda; the diagonal of N is multiplied by 1 + lambda.
+        """
+        return SchurFactor(self, lin, damping)
+
+
+class SchurFactor:
+    """The normal equations of one linearisation, points eliminated and S factored.
+
+    Owned by whoever asked for it (an adjustment result keeps the one at its solution);
+    the covariance blocks of the selected inverse are computed on first use and kept.
+    """
+
     @single_threaded_blas
-    def factorize(self, lin: Linearization) -> None:
-        """Assemble the normal equations of `lin`, reduce them and factor S."""
-        hff = np.zeros((self.nf, self.b, self.b))
-        gf = np.zeros((self.nf, self.b))
-        self.hfp = np.zeros((len(self.order), self.b, self.d))
-        kernels.assemble(self.order, self.frame, lin.jf, lin.jp, lin.w, lin.e, self.hfp, hff,
-                         gf)
+    def __init__(self, system: SchurSystem, lin: Linearization, damping: float = 0.0):
+        s = self.system = system
+        self.lin, self.damping = lin, float(damping)
+        hff = np.zeros((s.nf, s.b, s.b))
+        gf = np.zeros((s.nf, s.b))
+        self.hfp = np.zeros((len(s.order), s.b, s.d))
+        kernels.assemble(s.order, s.frame, lin.jf, lin.jp, lin.w, lin.e, self.hfp, hff, gf)
         if lin.wf is not None:  # direct observations of frame unknowns (e.g. GNSS, datum)
-            hff[:, np.arange(self.b), np.arange(self.b)] += lin.wf
+            hff[:, np.arange(s.b), np.arange(s.b)] += lin.wf
             gf += lin.wf * lin.ef
-        hpp = np.zeros((self.np, self.d, self.d))
-        gp = np.zeros((self.np, self.d))
-        kernels.point_terms(self.ptr, self.order, lin.jp, lin.w, lin.e, self.point_sorted,
-                            hpp, gp)
+        hpp = np.zeros((s.np, s.d, s.d))
+        gp = np.zeros((s.np, s.d))
+        kernels.point_terms(s.ptr, s.order, lin.jp, lin.w, lin.e, s.point_sorted, hpp, gp)
         jcw = lin.jc * lin.wc[:, :, None]
-        np.add.at(hpp, self.control_point, np.einsum("mkd,mke->mde", jcw, lin.jc))
-        np.add.at(gp, self.control_point, np.einsum("mkd,mk->md", jcw, lin.ec))
+        np.add.at(hpp, s.control_point, np.einsum("mkd,mke->mde", jcw, lin.jc))
+        np.add.at(gp, s.control_point, np.einsum("mkd,mk->md", jcw, lin.ec))
+        if damping:
+            hff[:, np.arange(s.b), np.arange(s.b)] *= 1.0 + damping
+            hpp[:, np.arange(s.d), np.arange(s.d)] *= 1.0 + damping
         self.gp = gp
-        self.gf_full = gf.copy()
-        values = self.pattern.new_values()
+        values = s.pattern.new_values()
         self.hpp_l = np.zeros_like(hpp)
         self.hpp_inv = np.zeros_like(hpp)
-        bad = np.zeros(self.np, np.int8)
-        kernels.reduce_points(self.ptr, self.frame_sorted, self.hfp, hpp, gp, gf, values,
-                              self.diag_slot, hff, self.pair_slot, self.pair_tr,
+        bad = np.zeros(s.np, np.int8)
+        kernels.reduce_points(s.ptr, s.frame_sorted, self.hfp, hpp, gp, gf, values,
+                              s.diag_slot, hff, s.pair_slot, s.pair_tr,
                               self.hpp_l, self.hpp_inv, bad)
         if bad.any():
-            names = [self.point_names[j] for j in np.flatnonzero(bad)[:10]]
+            names = [s.point_names[j] for j in np.flatnonzero(bad)[:10]]
             raise GeometryError(
                 f"{int(bad.sum())} point(s) cannot be intersected (their rays are parallel or "
                 f"too few): {', '.join(names)}")
         self.gf = gf
         self._sel = None
-        self.factored_at = None
+        self.chol = BlockCholesky(s.pattern)
         try:
             self.chol.factorize(values)
         except NotPositiveDefinite as err:
             raise GeometryError(
-                f"the exterior orientation of {self.frame_names[err.block]} is not determined: "
+                f"the exterior orientation of {s.frame_names[err.block]} is not determined: "
                 "the block has a datum defect or this photo is not connected well enough "
                 "(check control and tie points)") from None
-        self.factored_at = lin
-
-    def ensure(self, lin: Linearization) -> None:
-        """Factor at `lin` unless S is already factored there (statistics need it exact)."""
-        if self.factored_at is not lin:
-            self.factorize(lin)
 
     @single_threaded_blas
-    def solve(self) -> tuple[np.ndarray, np.ndarray]:
+    def step(self) -> tuple[np.ndarray, np.ndarray]:
         """Corrections to the frame (nf, b) and point (np, d) unknowns."""
-        xf = self.chol.solve(self.gf.reshape(-1)).reshape(self.nf, self.b)
-        xp = kernels.back_substitute(self.ptr, self.frame_sorted, self.hfp, self.hpp_inv,
+        s = self.system
+        xf = self.chol.solve(self.gf.reshape(-1)).reshape(s.nf, s.b)
+        xp = kernels.back_substitute(s.ptr, s.frame_sorted, self.hfp, self.hpp_inv,
                                      self.gp[:, :, None], xf[:, :, None])
         return xf, xp[:, :, 0]
 
@@ -139,14 +158,14 @@ class SchurSystem:
     def covariances(self):
         """Selected inverse: Sigma_ff (pattern storage), Sigma_pf per observation, Sigma_pp."""
         if self._sel is None:
+            s = self.system
             sel = self.chol.selected_inverse()
             values = sel.pattern_values()
-            spf, spp = kernels.point_covariances(self.ptr, self.frame_sorted, self.hfp,
-                                                 self.hpp_inv, values, self.pair_slot,
-                                                 self.pair_tr)
-            inv = np.empty_like(self.order)
-            inv[self.order] = np.arange(len(self.order))
-            self._sel = (sel, values[self.diag_slot], spf[inv], spp)
+            spf, spp = kernels.point_covariances(s.ptr, s.frame_sorted, self.hfp,
+                                                 self.hpp_inv, values, s.pair_slot, s.pair_tr)
+            inv = np.empty_like(s.order)
+            inv[s.order] = np.arange(len(s.order))
+            self._sel = (sel, values[s.diag_slot], spf[inv], spp)
         return self._sel
 
     def frame_covariance(self) -> np.ndarray:
@@ -157,79 +176,82 @@ class SchurSystem:
         """(np, d, d) cofactor blocks of the point unknowns (marginal, not conditional)."""
         return self.covariances()[3]
 
-    def adjusted_cofactors(self, lin: Linearization) -> tuple[np.ndarray, np.ndarray]:
+    def adjusted_cofactors(self) -> tuple[np.ndarray, np.ndarray]:
         """Cofactor blocks of the adjusted observations: (m, k, k) and (mp, kp, kp)."""
-        self.ensure(lin)
+        lin, system = self.lin, self.system
         _, sff, spf, spp = self.covariances()
         jf, jp = lin.jf, lin.jp
-        sf = sff[self.frame]
+        sf = sff[system.frame]
         q = (jf @ sf @ np.swapaxes(jf, 1, 2)
-             + jp @ spp[self.point] @ np.swapaxes(jp, 1, 2))
+             + jp @ spp[system.point] @ np.swapaxes(jp, 1, 2))
         cross = jp @ spf @ np.swapaxes(jf, 1, 2)
         q += cross + np.swapaxes(cross, 1, 2)
-        qc = lin.jc @ spp[self.control_point] @ np.swapaxes(lin.jc, 1, 2)
+        qc = lin.jc @ spp[system.control_point] @ np.swapaxes(lin.jc, 1, 2)
         return q, qc
 
-    def point_effect(self, lin: Linearization) -> tuple[np.ndarray, np.ndarray]:
+    def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
         """Change of the observed point's unknowns per unit error of each observation row.
 
         (m, k, d) for frame-point observations and (mp, kp, d) for point observations:
         dX = Sigma_{X, x} a_i^T p_i, the column of N^-1 A^T P for that row, restricted to
         the point that the observation belongs to.
         """
-        self.ensure(lin)
+        lin, system = self.lin, self.system
         _, _, spf, spp = self.covariances()
-        g = (spf @ np.swapaxes(lin.jf, 1, 2) + spp[self.point] @ np.swapaxes(lin.jp, 1, 2))
+        g = (spf @ np.swapaxes(lin.jf, 1, 2) + spp[system.point] @ np.swapaxes(lin.jp, 1, 2))
         g = np.swapaxes(g, 1, 2) * lin.w[:, :, None]
-        gc = np.swapaxes(spp[self.control_point] @ np.swapaxes(lin.jc, 1, 2), 1, 2)
+        gc = np.swapaxes(spp[system.control_point] @ np.swapaxes(lin.jc, 1, 2), 1, 2)
         gc = gc * lin.wc[:, :, None]
         return g, gc
 
     # ---------------------------------------------------- general columns (H)
-    def apply_AtP(self, lin: Linearization, h: np.ndarray, hc: np.ndarray):
+    def apply_AtP(self, h: np.ndarray, hc: np.ndarray):
         """A^T P [h; hc] for q columns: h (m, k, q), hc (mp, kp, q) -> (nf, b, q), (np, d, q)."""
+        lin, s = self.lin, self.system
         q = h.shape[2]
-        gf = np.zeros((self.nf, self.b, q))
-        gp = np.zeros((self.np, self.d, q))
+        gf = np.zeros((s.nf, s.b, q))
+        gp = np.zeros((s.np, s.d, q))
         hw = h * lin.w[:, :, None]
-        np.add.at(gf, self.frame, np.einsum("mkb,mkq->mbq", lin.jf, hw))
-        np.add.at(gp, self.point, np.einsum("mkd,mkq->mdq", lin.jp, hw))
-        np.add.at(gp, self.control_point,
+        np.add.at(gf, s.frame, np.einsum("mkb,mkq->mbq", lin.jf, hw))
+        np.add.at(gp, s.point, np.einsum("mkd,mkq->mdq", lin.jp, hw))
+        np.add.at(gp, s.control_point,
                   np.einsum("mkd,mkq->mdq", lin.jc, hc * lin.wc[:, :, None]))
         return gf, gp
 
     def _reduce_rhs(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
         """gf - sum Hfp Hpp^-1 gp for q columns, (nf, b, q)."""
-        o = self.order
-        t = np.einsum("mbd,mde->mbe", self.hfp, self.hpp_inv[self.point_sorted])
+        s = self.system
+        t = np.einsum("mbd,mde->mbe", self.hfp, self.hpp_inv[s.point_sorted])
         red = gf.copy()
-        np.add.at(red, self.frame_sorted, -np.einsum("mbd,mdq->mbq", t, gp[self.point_sorted]))
-        del o
+        np.add.at(red, s.frame_sorted, -np.einsum("mbd,mdq->mbq", t, gp[s.point_sorted]))
         return red
 
     @single_threaded_blas
     def solve_normal(self, gf: np.ndarray, gp: np.ndarray):
         """N^-1 [gf; gp] for q columns."""
+        s = self.system
         q = gf.shape[2]
         red = self._reduce_rhs(gf, gp)
-        xf = self.chol.solve(red.reshape(self.nf * self.b, q)).reshape(self.nf, self.b, q)
-        xp = kernels.back_substitute(self.ptr, self.frame_sorted, self.hfp, self.hpp_inv,
+        xf = self.chol.solve(red.reshape(s.nf * s.b, q)).reshape(s.nf, s.b, q)
+        xp = kernels.back_substitute(s.ptr, s.frame_sorted, self.hfp, self.hpp_inv,
                                      np.ascontiguousarray(gp), np.ascontiguousarray(xf))
         return xf, xp
 
     @single_threaded_blas
     def forward(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
         """W with W^T W = g^T N^-1 g for q columns (FOTEF: one forward substitution)."""
+        s = self.system
         q = gf.shape[2]
         red = self._reduce_rhs(gf, gp)
-        wf = self.chol.forward(red.reshape(self.nf * self.b, q))
+        wf = self.chol.forward(red.reshape(s.nf * s.b, q))
         # Hpp = L L^T per point: the point part of the forward substitution is L^-1 gp
         wp = np.linalg.solve(self.hpp_l, gp)
-        return np.concatenate([wp.reshape(self.np * self.d, q), wf.reshape(-1, q)])
+        return np.concatenate([wp.reshape(s.np * s.d, q), wf.reshape(-1, q)])
 
-    def apply_A(self, lin: Linearization, xf: np.ndarray, xp: np.ndarray):
+    def apply_A(self, xf: np.ndarray, xp: np.ndarray):
         """A x for q columns: (m, k, q), (mp, kp, q)."""
-        rows = (np.einsum("mkb,mbq->mkq", lin.jf, xf[self.frame])
-                + np.einsum("mkd,mdq->mkq", lin.jp, xp[self.point]))
-        rows_c = np.einsum("mkd,mdq->mkq", lin.jc, xp[self.control_point])
+        lin, s = self.lin, self.system
+        rows = (np.einsum("mkb,mbq->mkq", lin.jf, xf[s.frame])
+                + np.einsum("mkd,mdq->mkq", lin.jp, xp[s.point]))
+        rows_c = np.einsum("mkd,mdq->mkq", lin.jc, xp[s.control_point])
         return rows, rows_c

@@ -2,80 +2,92 @@
 
 The flat vector is: the k rows of every frame-point observation (image points, model
 coordinates), then the observed rows of the point observations (control), selected by
-`ctrl_sel` from their (n_control * kc) rows.  The bundle and the independent-model
-adjustment describe their observations (labels, sigmas, residuals) in their subclasses;
-the linear algebra they hand to baarda.quality is here, once.
+`ctrl_sel` from their (n_control * kc) rows (`FlatLayout`).  The bundle and the
+independent-model adjustment describe their observations (labels, sigmas, residuals) in
+their subclasses; the linear algebra they hand to baarda.quality is here, once, on the
+SchurFactor of the solution.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.adjustment.schur import SchurFactor
 from baarda.quality.adjusted_model import AdjustedModel
 
 
-class SchurModel(AdjustedModel):
-    """Base of BundleModel and IndependentModel: the AdjustedModel services of a SchurSystem."""
+@dataclass(frozen=True)
+class FlatLayout:
+    """Where the components of the flat observation vector sit in the Schur arrays."""
 
-    system: SchurSystem
-    lin: Linearization
     m: int  # frame-point observations
     k: int  # rows of each
-    kc: int  # rows of each point observation
     n_control: int  # point observations
+    kc: int  # rows of each
     ctrl_sel: np.ndarray  # observed rows among the (n_control * kc) point-observation rows
 
-    def split(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Flat (n, q) -> frame-point rows (m, k, q) and point-observation rows (nc, kc, q)."""
-        q = h.shape[1]
-        hm = h[: self.m * self.k].reshape(self.m, self.k, q)
-        hc = np.zeros((self.n_control * self.kc, q))
+    @property
+    def n(self) -> int:
+        return self.m * self.k + len(self.ctrl_sel)
+
+    def split(self, h: np.ndarray, fill: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Flat (n,) or (n, q) -> frame-point rows (m, k[, q]) and point rows (nc, kc[, q])."""
+        h = np.asarray(h)
+        tail = h.shape[1:]
+        hm = h[: self.m * self.k].reshape(self.m, self.k, *tail)
+        hc = np.full((self.n_control * self.kc, *tail), fill, dtype=h.dtype)
         hc[self.ctrl_sel] = h[self.m * self.k:]
-        return hm, hc.reshape(-1, self.kc, q)
+        return hm, hc.reshape(self.n_control, self.kc, *tail)
 
     def flat(self, rm: np.ndarray, rc: np.ndarray) -> np.ndarray:
-        """Inverse of split for (m, k, q) and (nc, kc, q) arrays."""
-        q = rm.shape[-1]
-        return np.concatenate([rm.reshape(self.m * self.k, q),
-                               rc.reshape(-1, q)[self.ctrl_sel]])
+        """Inverse of split for (m, k[, q]) and (nc, kc[, q]) arrays."""
+        tail = rm.shape[2:]
+        return np.concatenate([rm.reshape(self.m * self.k, *tail),
+                               rc.reshape(-1, *tail)[self.ctrl_sel]])
+
+
+class SchurModel(AdjustedModel):
+    """Base of BundleModel and IndependentModel: the AdjustedModel services of a SchurFactor."""
+
+    factor: SchurFactor
+    layout: FlatLayout
 
     def parameter_effect(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """N^-1 A^T P H: changes of the frame (nf, b, q) and point (np, d, q) unknowns."""
-        hm, hc = self.split(h)
-        self.system.ensure(self.lin)
-        gf, gp = self.system.apply_AtP(self.lin, hm, hc)
-        return self.system.solve_normal(gf, gp)
+        hm, hc = self.layout.split(h)
+        gf, gp = self.factor.apply_AtP(hm, hc)
+        return self.factor.solve_normal(gf, gp)
 
     def _adjusted_cofactors(self) -> tuple[np.ndarray, np.ndarray]:
         """Blocks of A N^-1 A^T, computed once (statistics and grouped tests both need them)."""
         if getattr(self, "_qll", None) is None:
-            self._qll = self.system.adjusted_cofactors(self.lin)
+            self._qll = self.factor.adjusted_cofactors()
         return self._qll
 
     # ------------------------------------------------------------- interface
     def adjusted_cofactor_diag(self) -> np.ndarray:
         q, qc = self._adjusted_cofactors()
-        return np.concatenate([np.diagonal(q, axis1=1, axis2=2).ravel(),
-                               np.diagonal(qc, axis1=1, axis2=2).ravel()[self.ctrl_sel]])
+        return self.layout.flat(np.diagonal(q, axis1=1, axis2=2),
+                                np.diagonal(qc, axis1=1, axis2=2))
 
     def adjusted_cofactor_blocks(self) -> tuple[np.ndarray, np.ndarray]:
         q, _ = self._adjusted_cofactors()
-        return np.arange(self.m * self.k).reshape(self.m, self.k), q
+        lay = self.layout
+        return np.arange(lay.m * lay.k).reshape(lay.m, lay.k), q
 
     def normal_forward(self, h: np.ndarray) -> np.ndarray:
-        hm, hc = self.split(h)
-        self.system.ensure(self.lin)
-        gf, gp = self.system.apply_AtP(self.lin, hm, hc)
-        return self.system.forward(gf, gp)
+        hm, hc = self.layout.split(h)
+        gf, gp = self.factor.apply_AtP(hm, hc)
+        return self.factor.forward(gf, gp)
 
     def solve_columns(self, h: np.ndarray) -> np.ndarray:
         xf, xp = self.parameter_effect(h)
-        rm, rc = self.system.apply_A(self.lin, xf, xp)
-        return self.flat(rm, rc)
+        rm, rc = self.factor.apply_A(xf, xp)
+        return self.layout.flat(rm, rc)
 
     def point_effect_rows(self) -> np.ndarray:
         """Effect of a unit error of each component on its point's unknowns, (n, d)."""
-        g, gc = self.system.point_effect(self.lin)
-        d = g.shape[-1]
-        return np.concatenate([g.reshape(self.m * self.k, d), gc.reshape(-1, d)[self.ctrl_sel]])
+        g, gc = self.factor.point_effect()
+        return self.layout.flat(g, gc)

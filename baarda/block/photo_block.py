@@ -8,8 +8,12 @@ units (µm, gon, deg) on the way in; writers convert back.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from baarda.block.crs import LocalFrame
 
 ROLES = ("control", "check", "tie")
 
@@ -96,6 +100,7 @@ class Block:
     points: GroundPoints
     source: str = ""
     notes: list[str] = field(default_factory=list)
+    frame: LocalFrame | None = None  # ground coordinates are local ENU of this CRS frame
 
     @property
     def photo_index(self) -> dict[str, int]:

@@ -1,80 +1,137 @@
-"""Bundle block adjustment by the collinearity equations (Gauss-Newton, sparse Schur)."""
+"""The bundle block adjustment as a least-squares problem of the one solver.
+
+A BundleProblem is the block in the form of the adjustment: which image points and control
+coordinates are observations, their a-priori standard deviations, the flat observation
+vector of the quality layer and the structure of the reduced normal equations.  It never
+changes: `reweighted(active, factors)` is a new problem with other components switched off
+(data snooping) or re-weighted (robust estimation), sharing everything else, and `fit()`
+returns a new BundleResult.
+"""
 
 from __future__ import annotations
 
+import copy
 import time
-from collections.abc import Callable
 
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.adjustment.schur import Linearization, SchurFactor, SchurSystem
+from baarda.adjustment.schur_model import FlatLayout
+from baarda.adjustment.solve import solve
 from baarda.block.camera import corrected_observations, forward_coefficients
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.collinearity import camera_depth, project_with_jacobians
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
 from baarda.errors import GeometryError
+from baarda.options import Progress, SolveOptions
 
-Progress = Callable[[str], None]
+# converged when the correction is below 1e-7 of the flying height (positions and points)
+# and 1e-10 rad (angles): correction_size weighs angles by 1000 / rad
+SOLVE = SolveOptions(max_iterations=50, tolerance=1e-7, min_step=1e-3)
+HOLD = 1e24  # weight of a datum constraint (free networks)
+XY = np.array(["x", "y"], dtype=object)
+XYZ = np.array(["X", "Y", "Z"], dtype=object)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a)
+    a.flags.writeable = False
+    return a
 
 
 class BundleProblem:
     """The block in the form of the adjustment: index arrays, weights, the Schur structure.
 
-    `image_keep` and `control_keep` switch single observation components off (data snooping
-    rejects them) without changing the structure.  `needs_control` = False (free networks,
-    bundle/free.py) skips the check that the control fixes the datum.
+    Observation vector (flat, the quality layer's): x and y of every adjusted image point
+    (rows `obs` of block.image, mm), then every observed control coordinate (m).
+    held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
+    network, bundle/free_network.py); None: the control fixes the datum (checked here).
     """
 
-    needs_control = True
-
-    def __init__(self, block: Block, image_keep: np.ndarray | None = None,
-                 control_keep: np.ndarray | None = None):
+    def __init__(self, block: Block, *, held: np.ndarray | None = None,
+                 notes: tuple[str, ...] = ()):
         self.block = block
-        ok, self.notes = usable_points(block)
-        im = block.image
-        use_obs = ok[im.point]
-        self.obs = np.flatnonzero(use_obs)  # rows of block.image in the adjustment
+        ok, point_notes = usable_points(block)
+        im, pts = block.image, block.points
+        self.obs = np.flatnonzero(ok[im.point])  # rows of block.image in the adjustment
         self.point_ids = np.flatnonzero(ok)  # block point index of each adjusted point
-        remap = np.full(len(block.points), -1)
+        remap = np.full(len(pts), -1)
         remap[self.point_ids] = np.arange(len(self.point_ids))
         self.remap = remap
-        pts = block.points
-        ctrl = np.flatnonzero((pts.role == "control") & ok)
-        self.control = ctrl  # block point index of each control point
-        sig = pts.sigma[ctrl]
-        self.wc_full = np.where(np.isfinite(sig), 1.0 / np.where(np.isfinite(sig), sig, 1) ** 2,
-                                0.0)
-        s = im.sigma_mm[self.obs]
-        self.w_full = np.repeat((1.0 / s**2)[:, None], 2, axis=1)
-        self.image_keep = (np.ones((len(im), 2), bool) if image_keep is None
-                           else np.asarray(image_keep, bool))
-        self.control_keep = (np.ones((len(pts), 3), bool) if control_keep is None
-                             else np.asarray(control_keep, bool))
-        # weight factors of robust re-weighting (Danish method); 1 = a-priori weight
-        self.image_factor = np.ones((len(im), 2))
-        self.control_factor = np.ones((len(pts), 3))
-        if self.needs_control:
-            check_datum(block, ok & np.isin(np.arange(len(pts)), self.control)
-                        & (self.control_keep.any(axis=1)))
+        self.control = np.flatnonzero((pts.role == "control") & ok)  # block point indices
+        sig_c = pts.sigma[self.control]
+        m, nc = len(self.obs), len(self.control)
+        self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(np.isfinite(sig_c).ravel()))
+        sel = self.layout.ctrl_sel
+        self.sigma_apriori = _read_only(np.concatenate([np.repeat(im.sigma_mm[self.obs], 2),
+                                                        sig_c.ravel()[sel]]))
+        self.held = None if held is None else _read_only(np.asarray(held, bool))
+        if self.held is None:
+            check_datum(block, ok & np.isin(np.arange(len(pts)), self.control))
+        self.notes = tuple(point_notes) + tuple(notes)
+        self._labels(block, m, sel)
         # observations corrected for backward (observation-side) distortion; forward model
         # rows as observed (the projection applies that model)
         self.xy_obs = corrected_observations(block)[self.obs]
-        self.distortion = forward_coefficients(block.cameras,
-                                               block.photos.camera[im.photo[self.obs]])
+        ph = im.photo[self.obs]
+        self.distortion = forward_coefficients(block.cameras, block.photos.camera[ph])
         self.system = SchurSystem(
-            len(block.photos), 6, len(self.point_ids), 3,
-            im.photo[self.obs], remap[im.point[self.obs]], remap[ctrl],
-            frame_names=[f"photo {p}" for p in block.photos.ids],
-            point_names=[pts.ids[j] for j in self.point_ids])
+            len(block.photos), 6, len(self.point_ids), 3, ph, remap[im.point[self.obs]],
+            remap[self.control], frame_names=[f"photo {p}" for p in block.photos.ids],
+            point_names=[pts.ids[j] for j in self.point_ids],
+            n_fixed=0 if self.held is None else int(self.held.sum()))
+        eo = block.photos.eo
+        keep = np.isin(np.arange(len(pts)), self.point_ids)
+        xyz = approximate_points(block, keep)[self.point_ids]
+        self.approximations = (_read_only(eo.copy()), _read_only(xyz))
+        # the size of the block for the convergence test: the flying height
+        self.scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[:, 2])))), 1.0)
+        n = self.layout.n
+        self._set_weights(np.ones(n, bool), np.ones(n))
 
-    @property
-    def weights(self) -> tuple[np.ndarray, np.ndarray]:
-        w = self.w_full * self.image_keep[self.obs] * self.image_factor[self.obs]
-        wc = self.wc_full * self.control_keep[self.control] * self.control_factor[self.control]
-        return w, wc
+    def _labels(self, block: Block, m: int, sel: np.ndarray) -> None:
+        im = block.image
+        nc = len(sel)
+        photos = np.asarray(block.photos.ids, dtype=object)
+        pids = np.asarray(block.points.ids, dtype=object)
+        self.kind = _read_only(np.array(["image"] * (2 * m) + ["control"] * nc, dtype=object))
+        self.component = _read_only(np.concatenate(
+            [np.tile(XY, m), np.tile(XYZ, len(self.control))[sel]]))
+        self.frame = _read_only(np.concatenate([np.repeat(photos[im.photo[self.obs]], 2),
+                                                np.full(nc, "", dtype=object)]))
+        self.point = _read_only(np.concatenate([np.repeat(pids[im.point[self.obs]], 2),
+                                                np.repeat(pids[self.control], 3)[sel]]))
+        self.group = _read_only(np.concatenate([np.repeat(np.arange(m), 2), np.full(nc, -1)]))
+        # index of each component back into block tables
+        self.image_row = _read_only(np.concatenate([np.repeat(self.obs, 2), np.full(nc, -1)]))
+        self.control_index = _read_only(np.concatenate(
+            [np.full(2 * m, -1), np.repeat(self.control, 3)[sel]]))
 
-    def linearize(self, eo: np.ndarray, xyz: np.ndarray) -> Linearization:
+    # ------------------------------------------------------------ weights
+    def _set_weights(self, active: np.ndarray, factors: np.ndarray) -> None:
+        n = self.layout.n
+        active = np.asarray(active, bool)
+        factors = np.asarray(factors, float)
+        if active.shape != (n,) or factors.shape != (n,) or not np.all(factors > 0):
+            raise ValueError(f"active and factors must be {n} values (factors positive)")
+        self.active, self.factors = _read_only(active.copy()), _read_only(factors.copy())
+        p = np.where(active, factors / self.sigma_apriori**2, 0.0)
+        self.w, self.wc = (_read_only(a) for a in self.layout.split(p))
+
+    def reweighted(self, active: np.ndarray | None = None,
+                   factors: np.ndarray | None = None) -> BundleProblem:
+        """The same problem with only the `active` components observed, weights times
+        `factors` (None: all active / a-priori weights)."""
+        new = copy.copy(self)
+        n = self.layout.n
+        new._set_weights(np.ones(n, bool) if active is None else active,
+                         np.ones(n) if factors is None else factors)
+        return new
+
+    # ------------------------------------------------- the solver's protocol
+    def linearize(self, state: tuple[np.ndarray, np.ndarray]) -> Linearization:
+        eo, xyz = state
         b = self.block
         im = b.image
         ph = im.photo[self.obs]
@@ -86,79 +143,61 @@ class BundleProblem:
         e = self.xy_obs - xy
         given = b.points.xyz[self.control]
         ec = np.where(np.isfinite(given), given, 0.0) - xyz[self.remap[self.control]]
-        w, wc = self.weights
         jc = np.broadcast_to(np.eye(3), (len(self.control), 3, 3)).copy()
-        return Linearization(je, jp, w, e, jc, wc, ec)
+        wf = ef = None
+        if self.held is not None:
+            je = np.where(self.held[ph][:, None, :], 0.0, je)
+            wf = np.where(self.held, HOLD, 0.0)
+            ef = np.zeros_like(wf)
+        return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef)
 
+    def factorize(self, lin: Linearization, damping: float = 0.0) -> SchurFactor:
+        return self.system.factorize(lin, damping)
 
-def _cost(lin: Linearization) -> float:
-    return float(np.sum(lin.w * lin.e**2) + np.sum(lin.wc * lin.ec**2))
+    def update(self, state, step, t: float):
+        return state[0] + t * step[0], state[1] + t * step[1]
 
-
-def adjust(block: Block, *, max_iterations: int = 50,
-           image_keep: np.ndarray | None = None, control_keep: np.ndarray | None = None,
-           problem: BundleProblem | None = None, start: tuple | None = None,
-           progress: Progress | None = None) -> BundleResult:
-    """Adjust `block`; returns a BundleResult (arrays plus summary()).
-
-    Gauss-Newton with step halving when the weighted sum of squares grows.  Converged when
-    the next correction is below 1e-7 of the flying height (positions and points) and
-    1e-10 rad (angles); the solution is then the last point of linearisation, so residuals,
-    Jacobians and the factored normal equations used by the statistics belong together.
-    """
-    t0 = time.perf_counter()
-    say = progress or (lambda msg: None)
-    if problem is None:
-        problem = BundleProblem(block, image_keep, control_keep)
-    notes = list(problem.notes)
-    if start is None:
-        eo = block.photos.eo.copy()
-        xyz = approximate_points(block, np.isin(np.arange(len(block.points)),
-                                                problem.point_ids))[problem.point_ids]
-    else:
-        eo, xyz = (a.copy() for a in start)
-    system = problem.system
-    scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[:, 2])))), 1.0)
-    lin = problem.linearize(eo, xyz)
-    cost = _cost(lin)
-    converged = False
-    it = 0
-    for it in range(1, max_iterations + 1):
-        system.factorize(lin)
-        dxf, dxp = system.solve()
+    def _sizes(self, step, t: float = 1.0) -> tuple[float, float]:
+        dxf, dxp = step
         dpos = max(np.max(np.abs(dxf[:, :3]), initial=0.0), np.max(np.abs(dxp), initial=0.0))
-        dang = np.max(np.abs(dxf[:, 3:]), initial=0.0)
-        if dpos < 1e-7 * scale and dang < 1e-10:
-            # the correction is negligible: keep the point of linearisation, whose normal
-            # equations are factored, as the solution (consistent for the quality analysis)
-            say(f"iteration {it}: converged, vTPv = {cost:.6g}, remaining correction "
-                f"{dpos:.3g} m, {dang:.3g} rad")
-            converged = True
-            break
-        step = 1.0
-        for _ in range(30):
-            eo_new, xyz_new = eo + step * dxf, xyz + step * dxp
-            if np.all(camera_depth(eo_new, xyz_new[problem.remap[block.image.point[problem.obs]]],
-                                   block.image.photo[problem.obs]) > 0):
-                lin_new = problem.linearize(eo_new, xyz_new)
-                cost_new = _cost(lin_new)
-                if cost_new <= cost * (1 + 1e-12) or step < 1e-3:
-                    break
-            step *= 0.5
-        else:
+        return t * float(dpos), t * float(np.max(np.abs(dxf[:, 3:]), initial=0.0))
+
+    def correction_size(self, state, step) -> float:
+        dpos, dang = self._sizes(step)
+        return max(dpos / self.scale, 1e3 * dang)
+
+    def describe(self, state, step, t: float) -> str:
+        dpos, dang = self._sizes(step, t)
+        return f"{dpos:.3g} m, {dang:.3g} rad"
+
+    def admissible(self, state) -> bool:
+        eo, xyz = state
+        im = self.block.image
+        return bool(np.all(camera_depth(eo, xyz[self.remap[im.point[self.obs]]],
+                                        im.photo[self.obs]) > 0))
+
+    # ------------------------------------------------------------ fit
+    def fit(self, start: tuple[np.ndarray, np.ndarray] | None = None,
+            options: SolveOptions = SOLVE, progress: Progress | None = None) -> BundleResult:
+        """Adjust; returns a BundleResult (arrays plus summary()).
+
+        start: (eo (n_photos, 6), xyz (n_adjusted_points, 3)); default the approximations
+        (the photos' EO and intersected points).
+        """
+        t0 = time.perf_counter()
+        start = self.approximations if start is None else start
+        sol = solve(self, (np.array(start[0], float), np.array(start[1], float)), options,
+                    progress)
+        if sol.reason == "inadmissible":
             raise GeometryError("the adjustment diverged: no step along the Gauss-Newton "
                                 "direction keeps the points in front of the cameras; check the "
                                 "approximate orientations and the identification of points")
-        eo, xyz, lin = eo_new, xyz_new, lin_new
-        cost = cost_new
-        say(f"iteration {it}: vTPv = {cost:.6g}, max correction {step * dpos:.3g} m, "
-            f"{step * dang:.3g} rad" + ("" if step == 1 else f" (step {step:g})"))
-        if not np.isfinite(cost):
-            raise GeometryError("the adjustment diverged (non-finite residuals)")
-    else:
-        system.factorize(lin)  # normal equations at the last estimate, for the statistics
-    if not converged:
-        notes.append(f"not converged after {max_iterations} iterations")
-    return BundleResult(block=block, problem=problem, eo=eo, xyz=xyz, lin=lin,
-                        iterations=it, converged=converged, notes=notes,
-                        seconds=time.perf_counter() - t0)
+        notes = list(self.notes) + ([] if sol.converged else [sol.message])
+        eo, xyz = sol.state
+        return BundleResult(self, eo, xyz, sol.lin, sol.factor, sol.iterations, sol.converged,
+                            tuple(notes), time.perf_counter() - t0)
+
+
+def adjust_block(block: Block, **kwargs) -> BundleResult:
+    """Adjust a block with control as it is (no datum choice or CRS: see baarda.pipeline)."""
+    return BundleProblem(block).fit(**kwargs)

@@ -9,8 +9,9 @@ import pandas as pd
 
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_model import BundleModel
-from baarda.bundle.bundle_problem import BundleProblem, Progress, adjust
+from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
+from baarda.options import Progress, TestOptions
 from baarda.quality.hypotheses import (
     HypothesisTest,
     group_test,
@@ -41,7 +42,7 @@ class BundleQuality:
         """One row per observation component (observations.csv): image µm, control m."""
         m, q = self.model, self.quality
         scale = np.where(m.kind == "image", UNIT["image"], UNIT["control"])
-        _, t2, _, _, _ = image_point_tests(m, q.alpha0, q.beta0)
+        _, t2, _, _, _ = image_point_tests(m, q.tests)
         point_t = np.full(m.n, np.nan)
         point_t[: len(t2) * 2] = np.repeat(t2, 2)
         img = m.image_row >= 0  # observed image coordinates (mm) for plotting
@@ -63,20 +64,18 @@ class BundleQuality:
         rows = np.flatnonzero(self.model.point == point)
         if not len(rows):
             raise KeyError(f"no observations of point {point}")
-        return group_test(self.model, rows, f"point {point}", self.quality.alpha0,
-                          self.quality.beta0)
+        return group_test(self.model, rows, f"point {point}", self.quality.tests)
 
     def photo_test(self, photo: str) -> HypothesisTest:
         """All image observations of a photo in error together."""
         rows = np.flatnonzero(self.model.frame == photo)
         if not len(rows):
             raise KeyError(f"no observations on photo {photo}")
-        return group_test(self.model, rows, f"photo {photo}", self.quality.alpha0,
-                          self.quality.beta0)
+        return group_test(self.model, rows, f"photo {photo}", self.quality.tests)
 
     def hypothesis_test(self, h: np.ndarray, name: str = "H") -> HypothesisTest:
         """A non-conventional alternative hypothesis: h (n, q) over the observation vector."""
-        return hypothesis_test(self.model, h, name, self.quality.alpha0, self.quality.beta0)
+        return hypothesis_test(self.model, h, name, self.quality.tests)
 
     def to_dict(self) -> dict:
         q = self.quality
@@ -124,69 +123,36 @@ class BundleQuality:
         return "\n".join(lines)
 
 
-def assess(result: BundleResult, alpha0: float | None = None,
-           beta0: float | None = None) -> BundleQuality:
-    """Statistics of every observation of an adjusted block, without rejecting any."""
-    s = result.block.settings
+def assess(result: BundleResult, tests: TestOptions | None = None) -> BundleQuality:
+    """Statistics of every observation of an adjusted block, without rejecting any.
+
+    tests: alpha0 and beta0 (default: the project's settings)."""
     model = BundleModel(result)
-    q = analyse(model, alpha0 or s.alpha0, beta0 or s.beta0)
+    q = analyse(model, tests or TestOptions.resolve(result.block.settings))
     return BundleQuality(result, model, q)
 
 
-def _to_block_arrays(m: BundleModel, flat: np.ndarray, fill, n_image: int, n_points: int):
-    """Scatter a flat per-component array onto (n_image, 2) and (n_points, 3) arrays."""
-    img = m.image_row >= 0
-    image = np.full((n_image, 2), fill, dtype=np.asarray(flat).dtype)
-    image[m.image_row[img], np.where(m.component[img] == "x", 0, 1)] = flat[img]
-    ctrl = np.full((n_points, 3), fill, dtype=np.asarray(flat).dtype)
-    ccomp = np.array(["XYZ".index(c) for c in m.component[~img]], dtype=int)
-    ctrl[m.control_index[~img], ccomp] = flat[~img]
-    return image, ctrl
-
-
-def snoop(block: Block, *, alpha0: float | None = None, beta0: float | None = None,
+def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
           statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
-          robust: bool = False, progress: Progress | None = None,
-          problem: BundleProblem | None = None) -> BundleQuality:
+          robust: bool = False, progress: Progress | None = None) -> BundleQuality:
     """Iterative data snooping of a bundle block (re-adjusting after each rejection).
 
-    With `robust`, the Danish method first down-weights large errors; the components it
-    leaves with (almost) no weight start out rejected and are tested again by snooping.
-    `problem`: the BundleProblem to use (e.g. a free network, bundle/free.py).
+    `block`: a Block with control or a BundleProblem (e.g. a free network,
+    bundle/free_network.py).  With `robust`, the Danish method first down-weights large
+    errors; the components it leaves with (almost) no weight start out rejected and are
+    tested again by snooping.
     """
-    s = block.settings
-    alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
-    problem = problem or BundleProblem(block)
-    n_img, n_pts = len(block.image), len(block.points)
-    state: dict = {}
-
-    def fit() -> BundleModel:
-        res = adjust(block, problem=problem, start=state.get("start"))
-        state["start"] = (res.eo, res.xyz)
-        state["model"] = BundleModel(res)
-        return state["model"]
-
-    def refit(active: np.ndarray) -> BundleModel:
-        problem.image_keep, problem.control_keep = _to_block_arrays(
-            state["model"], active, True, n_img, n_pts)
-        return fit()
-
-    def reweight(factors: np.ndarray) -> BundleModel:
-        problem.image_factor, problem.control_factor = _to_block_arrays(
-            state["model"], factors, 1.0, n_img, n_pts)
-        return fit()
-
-    first = fit()
+    problem = block if isinstance(block, BundleProblem) else BundleProblem(block)
+    tests = tests or TestOptions.resolve(problem.block.settings)
+    first = BundleModel(problem.fit(progress=progress))
     active = first.active.copy()
     if robust:
-        rob = danish_method(reweight, first.sigma_apriori)
-        problem.image_factor[:] = 1.0
-        problem.control_factor[:] = 1.0
+        rob = danish_method(first)
         active &= ~rob.rejected
         if progress:
             progress(f"Danish method: {rob.iterations} re-weightings, "
                      f"{int(rob.rejected.sum())} component(s) down-weighted to rejection")
-    run = iterative_snooping(refit, active, alpha0=alpha0, beta0=beta0,
-                             statistic=statistic, by_group=by_point,
-                             max_iterations=max_iterations, progress=progress)
+    run = iterative_snooping(first, tests, active=active, statistic=statistic,
+                             by_group=by_point, max_iterations=max_iterations,
+                             progress=progress)
     return BundleQuality(run.model.result, run.model, run.quality, run)

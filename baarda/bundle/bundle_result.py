@@ -1,37 +1,47 @@
-"""The result of a bundle adjustment: arrays plus a summary for people."""
+"""The result of a bundle adjustment: arrays plus a summary for people (never changed)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from baarda.adjustment.counts import AdjustmentCounts
-from baarda.adjustment.schur import Linearization
+from baarda.adjustment.schur import Linearization, SchurFactor
 from baarda.block.photo_block import Block
 
 if TYPE_CHECKING:
     from baarda.bundle.bundle_problem import BundleProblem
 
 
-@dataclass
+@dataclass(frozen=True)
 class BundleResult(AdjustmentCounts):
     """Adjusted orientations and points with their precision.
 
     Units: positions in m, angles in rad, image residuals in mm (µm in the outputs).
-    Standard deviations are scaled by the a-posteriori sigma0.
+    Standard deviations are scaled by the a-posteriori sigma0.  `factor` holds the normal
+    equations factored at the solution, from which every cofactor is computed.
     """
 
-    block: Block
     problem: BundleProblem
     eo: np.ndarray  # (n_photos, 6)
     xyz: np.ndarray  # (n_adjusted_points, 3), order of problem.point_ids
     lin: Linearization
+    factor: SchurFactor
     iterations: int
     converged: bool
-    notes: list[str] = field(default_factory=list)
+    notes: tuple[str, ...] = ()
     seconds: float = 0.0
+
+    @property
+    def block(self) -> Block:
+        return self.problem.block
+
+    def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> BundleResult:
+        """Adjust again with only the `active` components of the observation vector (and
+        weight factors), starting from this solution; this result is unchanged."""
+        return self.problem.reweighted(active, factors).fit(start=(self.eo, self.xyz))
 
     # --------------------------------------------------------- residuals
     @property
@@ -48,14 +58,12 @@ class BundleResult(AdjustmentCounts):
     # --------------------------------------------------------- precision
     @property
     def eo_std(self) -> np.ndarray:
-        self.problem.system.ensure(self.lin)
-        q = self.problem.system.frame_covariance()
+        q = self.factor.frame_covariance()
         return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
 
     @property
     def xyz_std(self) -> np.ndarray:
-        self.problem.system.ensure(self.lin)
-        q = self.problem.system.point_covariance()
+        q = self.factor.point_covariance()
         return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
 
     def points_xyz(self) -> np.ndarray:
@@ -90,7 +98,7 @@ class BundleResult(AdjustmentCounts):
             "check_rms_Y": None if np.isnan(rms[1]) else float(rms[1]),
             "check_rms_Z": None if np.isnan(rms[2]) else float(rms[2]),
             "seconds": self.seconds,
-            "notes": self.notes,
+            "notes": list(self.notes),
         }
 
     def summary(self) -> str:

@@ -4,8 +4,8 @@ The seven datum parameters (translation, rotation, scale) are fixed by holding t
 exterior-orientation unknowns of one photo and one projection-centre coordinate of a
 second photo (the coordinate with the largest difference from the first photo).  Held
 unknowns get zero columns in the Jacobian and a direct observation of weight `HOLD`
-(Linearization.wf), so their corrections and cofactors are exactly zero up to 1/HOLD and
-the rest of the normal equations is untouched.
+(BundleProblem, Linearization.wf), so their corrections and cofactors are exactly zero up
+to 1/HOLD and the rest of the normal equations is untouched.
 
 How it counts: the datum observations are not observations and the held unknowns are not
 unknowns (SchurSystem.n_fixed), so redundancy = n - (u - 7), the redundancy of any
@@ -18,13 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from baarda.adjustment.schur import Linearization
 from baarda.block.photo_block import Block
-from baarda.bundle.bundle_problem import BundleProblem, adjust
+from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.errors import GeometryError
-
-HOLD = 1e24  # weight of a datum constraint
 
 
 def choose_datum(block: Block, first: int = 0) -> tuple[int, int, int]:
@@ -44,39 +41,24 @@ def choose_datum(block: Block, first: int = 0) -> tuple[int, int, int]:
 class FreeBundleProblem(BundleProblem):
     """A BundleProblem without control whose datum is held by minimal constraints."""
 
-    needs_control = False
-
-    def __init__(self, block: Block, image_keep=None, control_keep=None,
-                 datum: tuple[int, int, int] | None = None):
+    def __init__(self, block: Block, datum: tuple[int, int, int] | None = None):
         if np.any(block.points.controlled):
             raise GeometryError("the block has control points: adjust it with its control "
                                 "(a free-network datum would over-constrain it)")
-        super().__init__(block, image_keep, control_keep)
         self.datum = choose_datum(block) if datum is None else datum
         a, b, k = self.datum
-        self.held = np.zeros((len(block.photos), 6), bool)
-        self.held[a] = True
-        self.held[b, k] = True
-        self.system.n_fixed = int(self.held.sum())
-        self.notes.append(f"free network: datum held by photo {block.photos.ids[a]} (all six "
-                          f"orientation unknowns) and {'XYZ'[k]}0 of photo "
-                          f"{block.photos.ids[b]} (scale)")
-
-    def linearize(self, eo: np.ndarray, xyz: np.ndarray) -> Linearization:
-        lin = super().linearize(eo, xyz)
-        ph = self.block.image.photo[self.obs]
-        lin.jf = np.where(self.held[ph][:, None, :], 0.0, lin.jf)
-        lin.wf = np.where(self.held, HOLD, 0.0)
-        lin.ef = np.zeros_like(lin.wf)
-        return lin
+        held = np.zeros((len(block.photos), 6), bool)
+        held[a] = True
+        held[b, k] = True
+        super().__init__(block, held=held, notes=(
+            f"free network: datum held by photo {block.photos.ids[a]} (all six orientation "
+            f"unknowns) and {'XYZ'[k]}0 of photo {block.photos.ids[b]} (scale)",))
 
 
 def adjust_free(block: Block, datum: tuple[int, int, int] | None = None,
                 **kwargs) -> BundleResult:
     """Bundle adjustment of a block without control (minimal-constraint datum, see above)."""
-    problem = kwargs.pop("problem", None) or FreeBundleProblem(
-        block, kwargs.pop("image_keep", None), kwargs.pop("control_keep", None), datum)
-    return adjust(block, problem=problem, **kwargs)
+    return FreeBundleProblem(block, datum).fit(**kwargs)
 
 
 def drop_points_behind(block: Block) -> tuple[Block, int]:

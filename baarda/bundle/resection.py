@@ -12,13 +12,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from baarda.adjustment.dense import DenseLeastSquares
+from baarda.adjustment.solve import solve
 from baarda.block.camera import ideal_image_coordinates
 from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix
-from baarda.bundle.collinearity import camera_depth, project, project_with_jacobians
+from baarda.bundle.collinearity import camera_depth, project_with_jacobians
 from baarda.errors import GeometryError
+from baarda.options import SolveOptions
 
 FLIP = np.diag([1.0, 1.0, -1.0])
+# unweighted least squares, column-scaled; done when an accepted step lowers the sum of
+# squares by less than 1e-14 (relative) or no step (down to 1e-6) lowers it
+REFINE = SolveOptions(max_iterations=50, tolerance=0.0, flat_cost=1e-14, min_step=1e-6,
+                      cost_rtol=0.0)
 
 
 def _orthogonal(m: np.ndarray) -> np.ndarray:
@@ -94,37 +101,24 @@ def _vertical(xy: np.ndarray, xyz: np.ndarray, c: float) -> np.ndarray:
     return np.array([centre[0], centre[1], z0, 0.0, 0.0, np.angle(k)])
 
 
-def _refine(eo: np.ndarray, xy: np.ndarray, xyz: np.ndarray, c: float,
-            iterations: int = 50) -> tuple[np.ndarray, float]:
+def _refine(eo: np.ndarray, xy: np.ndarray, xyz: np.ndarray, c: float) -> tuple[np.ndarray, float]:
+    """Least-squares refinement of a direct solution; (EO, RMS image residual [mm]), the RMS
+    infinite when the points do not end in front of the camera."""
     m = len(xy)
     focal, pp = np.full(m, c), np.zeros((m, 2))
 
-    def cost(e):
-        if np.any(camera_depth(np.tile(e, (m, 1)), xyz) <= 0):
-            return np.inf
-        return float(np.sum((xy - project(np.tile(e, (m, 1)), xyz, focal, pp)) ** 2))
+    def func(e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        proj, je, _ = project_with_jacobians(np.tile(e, (m, 1)), xyz, focal, pp)
+        return proj.ravel(), je.reshape(2 * m, 6)
 
-    f = cost(eo)
-    for _ in range(iterations):
-        proj, je, _ = project_with_jacobians(np.tile(eo, (m, 1)), xyz, focal, pp)
-        a = je.reshape(2 * m, 6)
-        r = (xy - proj).ravel()
-        scale = np.maximum(np.linalg.norm(a, axis=0), 1e-300)
-        dx = np.linalg.lstsq(a / scale, r, rcond=None)[0] / scale
-        step = 1.0
-        while step > 1e-6:
-            f_new = cost(eo + step * dx)
-            if f_new <= f:
-                break
-            step *= 0.5
-        else:
-            break
-        eo = eo + step * dx
-        done = f - f_new <= 1e-14 * max(f, 1e-300)
-        f = f_new
-        if done:
-            break
-    return eo, np.sqrt(f / max(m, 1))
+    def in_front(e: np.ndarray) -> bool:
+        return bool(np.all(camera_depth(np.tile(e, (m, 1)), xyz) > 0))
+
+    problem = DenseLeastSquares(func, xy.ravel(), np.ones(2 * m), method="lstsq",
+                                admissible=in_front, what="space resection")
+    sol = solve(problem, np.asarray(eo, float), REFINE)
+    rms = np.sqrt(sol.cost / max(m, 1)) if in_front(sol.state) else np.inf
+    return sol.state, float(rms)
 
 
 def resect(xy: np.ndarray, xyz: np.ndarray, c: float) -> tuple[np.ndarray, float]:
@@ -149,7 +143,10 @@ def resect(xy: np.ndarray, xyz: np.ndarray, c: float) -> tuple[np.ndarray, float
     for eo in starts:
         if not np.all(np.isfinite(eo)):
             continue
-        e, rms = _refine(eo, xy, xyz, c)
+        try:
+            e, rms = _refine(eo, xy, xyz, c)
+        except GeometryError:  # the start projects to infinity
+            continue
         if np.isfinite(rms) and (best is None or rms < best[1]):
             best = (e, rms)
     if best is None:

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.bundle.bundle_problem import adjust
-from baarda.bundle.bundle_quality import assess, snoop
-from baarda.cli.common import check_output, progress
-from baarda.cli.inputs import add_input_options, prepare
+from baarda.cli.common import check_output, progress, tests_option
+from baarda.cli.inputs import add_input_options, read_input
+from baarda.output.bundle_results import write_results
+from baarda.pipeline import adjust, assess, prepare, screen, snoop
 
 
 def _common(p) -> None:
@@ -47,53 +47,37 @@ def register(sub) -> None:
 def run_adjust(args) -> int:
     check_output(args.out, [args.input])
     say = progress(args.quiet)
-    inp = prepare(args, say)
-    block = inp.adjusted
+    block = read_input(args)
+    tests = tests_option(block.settings, args)
     if say:
         say(f"read {block.summary()}")
+    statistic = "tau" if args.tau else "w"
     if getattr(args, "screen", False):
-        return _screened(args, inp, say)
+        from baarda.cli.screen import options
+        from baarda.output.screening_log import write_screening_log
+
+        res, qc = screen(block, options(args), snoop=args.snoop, statistic=statistic,
+                         progress=say)
+        write_results(args.out, qc.adjustment, qc)
+        write_screening_log(args.out, res.log)
+        if not args.quiet:
+            print(res.summary())
+            print(qc.summary())
+            print(f"results and screening log written to {args.out}")
+        return 0
+    problem = prepare(block)
+    if say:
+        for note in problem.block.notes:
+            say(f"note: {note}")
     if args.snoop:
-        qc = snoop(block, alpha0=args.alpha0, beta0=args.beta0,
-                   statistic="tau" if args.tau else "w", by_point=args.by_point,
-                   robust=args.robust, progress=say, problem=inp.problem)
-        result = qc.adjustment
+        qc = snoop(problem, tests, statistic=statistic, by_point=args.by_point,
+                   robust=args.robust, progress=say)
     else:
-        result = adjust(block, progress=say, problem=inp.problem)
-        qc = assess(result, args.alpha0, args.beta0)
-    inp.write(args.out, result, qc)
+        qc = assess(adjust(problem, progress=say), tests)
+    write_results(args.out, qc.adjustment, qc)
     if not args.quiet:
         print(qc.summary())
         print(f"results written to {args.out}")
-    return 0
-
-
-def _screened(args, inp, say) -> int:
-    from baarda.cli.screen import options
-    from baarda.errors import GeometryError
-    from baarda.output.screening_log import write_screening_log
-    from baarda.screening.chain import screen, screen_and_snoop
-
-    block = inp.adjusted
-    if not block.points.controlled.any():
-        raise GeometryError("--screen needs control points (stage 3 and the datum of the "
-                            "bundle adjustment after it); screen a free network with "
-                            "baarda screen --stages 1,2")
-    opts = options(args)
-    if args.snoop:
-        res, qc = screen_and_snoop(block, opts, statistic="tau" if args.tau else "w",
-                                   progress=say)
-        result = qc.adjustment
-    else:
-        res = screen(block, opts, progress=say)
-        result = adjust(res.block, progress=say)
-        qc = assess(result, args.alpha0, args.beta0)
-    inp.write(args.out, result, qc)
-    write_screening_log(args.out, res.log)
-    if not args.quiet:
-        print(res.summary())
-        print(qc.summary())
-        print(f"results and screening log written to {args.out}")
     return 0
 
 

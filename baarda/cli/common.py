@@ -6,6 +6,9 @@ import sys
 import time
 from pathlib import Path
 
+from baarda.errors import ProjectError
+from baarda.options import TestOptions
+
 
 def progress(quiet: bool):
     """A progress printer to stderr with elapsed time, or None when quiet."""
@@ -17,6 +20,16 @@ def progress(quiet: bool):
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     return say
+
+
+def tests_option(settings, args) -> TestOptions:
+    """TestOptions from --alpha0/--beta0 over the project's settings; bad values are input
+    errors."""
+    try:
+        return TestOptions.resolve(settings, getattr(args, "alpha0", None),
+                                   getattr(args, "beta0", None))
+    except ValueError as e:
+        raise ProjectError("command line", str(e)) from None
 
 
 def check_output(out: Path, inputs: list[Path]) -> None:

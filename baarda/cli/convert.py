@@ -8,6 +8,7 @@ from baarda.cli.common import check_output
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.io.formats import detect
 from baarda.output.project_files import write_project
+from baarda.pipeline import with_approximations
 
 
 def register(sub) -> None:
@@ -23,7 +24,7 @@ def register(sub) -> None:
 def run_convert(args) -> int:
     check_output(args.out, [args.input])
     fmt = args.format or detect(args.input)
-    block = read_input(args)
+    block = with_approximations(read_input(args))
     write_project(block, args.out)
     if not args.quiet:
         print(f"read {fmt}: {block.summary()}")

@@ -1,23 +1,10 @@
-"""Reading any supported input for the commands: format, CRS and datum choices.
-
-`add_input_options` adds the options shared by `convert` and `adjust`; `prepare` reads the
-input (io/convert.py), moves it into a local frame when it has a CRS (io/crs.py) and picks
-the datum: the control when there is control, else a free network (bundle/free.py; then
-observations of points behind a camera at the approximations are left out).
-"""
+"""Input options shared by the commands that read a block (`adjust`, `convert`, `screen`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from pathlib import Path
-
 from baarda.block.photo_block import Block
-from baarda.bundle.bundle_problem import BundleProblem
-from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
-from baarda.io.crs import LocalFrame, localize
-from baarda.io.formats import FORMATS, read_any
-from baarda.output.bundle_results import write_results
-from baarda.output.crs_results import write_results_crs
+from baarda.io.formats import FORMATS
+from baarda.pipeline import read
 
 
 def add_input_options(p) -> None:
@@ -34,38 +21,6 @@ def add_input_options(p) -> None:
 
 
 def read_input(args) -> Block:
-    block = read_any(args.input, args.format, pixel_mm=args.pixel_mm, sigma_px=args.sigma_px,
-                     sigma_image_mm=None if args.sigma_image_um is None
-                     else args.sigma_image_um * 1e-3)
-    if args.crs:
-        block = replace(block, settings=replace(block.settings, crs=args.crs))
-    return block
-
-
-@dataclass
-class Prepared:
-    block: Block  # as read (CRS coordinates)
-    adjusted: Block  # what is adjusted (local frame, observations left out)
-    problem: BundleProblem
-    frame: LocalFrame | None
-
-    def write(self, out: Path, result, quality) -> list:
-        if self.frame is None:
-            return write_results(out, result, quality)
-        return write_results_crs(out, result, quality, self.frame, self.block)
-
-
-def prepare(args, say=None) -> Prepared:
-    block = read_input(args)
-    adj, frame = (localize(block) if block.settings.crs else (block, None))
-    if adj.points.controlled.any():
-        problem = BundleProblem(adj)
-    else:
-        adj, dropped = drop_points_behind(adj)
-        if say and dropped:
-            say(f"free network: {dropped} observation(s) of points behind a camera left out")
-        problem = FreeBundleProblem(adj)
-    if say:
-        for note in adj.notes:
-            say(f"note: {note}")
-    return Prepared(block, adj, problem, frame)
+    """baarda.pipeline.read with the command's input options."""
+    return read(args.input, args.format, crs=args.crs, pixel_mm=args.pixel_mm,
+                sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um)

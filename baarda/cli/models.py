@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import check_output, progress
+from baarda.cli.common import check_output, progress, tests_option
 from baarda.errors import ProjectError
 from baarda.independent.deformations import ALL
 from baarda.io.model_project import read_model_project
@@ -98,7 +98,7 @@ def run(args) -> int:
                                f"(known: {', '.join(ALL)})")
     bq = process(block, "2d" if args.planimetric else "3d", do_snoop=not args.no_snoop,
                  statistic="tau" if args.tau else "w", by_point=args.by_point,
-                 alpha0=args.alpha0, beta0=args.beta0, external=args.external,
+                 tests=tests_option(block.settings, args), external=args.external,
                  deformations=defs,
                  clusters=read_clusters(args.clusters) if args.clusters else None,
                  user=UserHypotheses(args.hypotheses) if args.hypotheses else None,

@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from baarda.cli.common import tests_option
 from baarda.errors import GeometryError, ProjectError
 from baarda.output.atomic import write_text
 from baarda.relative.online_commands import Interpreter, LineError, coordinates_csv
@@ -33,7 +34,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     interp = Interpreter(say=print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
-                         qtie=args.qtie, alpha0=args.alpha0, beta0=args.beta0,
+                         qtie=args.qtie, tests=tests_option(None, args),
                          statistic="tau" if args.tau else "w")
     if args.out is not None and args.file is not None and args.file != Path("-") and \
             args.out.resolve() == args.file.resolve():

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from baarda.cli.common import add_flight_plan_arguments, check_output, progress
 from baarda.errors import GeometryError
+from baarda.options import TestOptions
 from baarda.simulate.aerial import FlightPlan
 
 
@@ -72,9 +73,9 @@ def _flight(args) -> FlightPlan:
 
 
 def run_plan(args) -> int:
-    from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
     from baarda.output.plan_files import write_plan, write_reliability_table
+    from baarda.pipeline import adjust
     from baarda.planning.advice import advise, what_if
     from baarda.planning.design import ControlLayout, design_block, design_from_project
     from baarda.planning.design_reliability import analyse_design
@@ -113,7 +114,7 @@ def run_plan(args) -> int:
             wi = what_if(flight, layout)
     say(f"design block: {design.summary()}")
     try:
-        plan = analyse_design(design, alpha0=args.alpha0, beta0=args.beta0)
+        plan = analyse_design(design, TestOptions(args.alpha0, args.beta0))
     except GeometryError as e:
         raise GeometryError(
             f"{e}\nThe planned block cannot be adjusted as designed.  With flat terrain and a "
@@ -140,9 +141,9 @@ def run_plan(args) -> int:
 
 
 def run_modified(args) -> int:
-    from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
     from baarda.output.plan_files import write_modified_snooping
+    from baarda.pipeline import adjust
     from baarda.planning.modified_snoop import modified_snoop
     from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 
@@ -152,8 +153,9 @@ def run_modified(args) -> int:
     table = table() if table else read_table(args.table)
     block = read_project(args.project)
     res = adjust(block, progress=say)
-    ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0, alpha0=args.alpha0,
-                        beta0=args.beta0, statistic="tau" if args.tau else "w")
+    ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,
+                        tests=TestOptions.resolve(block.settings, args.alpha0, args.beta0),
+                        statistic="tau" if args.tau else "w")
     out = Path(args.out)
     df = ms.table()
     text = res.summary() + "\n\n" + ms.summary() + "\n"

@@ -11,9 +11,15 @@ from itertools import combinations
 
 import numpy as np
 
+from baarda.adjustment.dense import DenseLeastSquares
+from baarda.adjustment.solve import solve
 from baarda.independent import similarity
+from baarda.options import SolveOptions
 
 Transform = tuple[float, np.ndarray, np.ndarray]  # (s, R, t): x -> t + s R x
+
+# the rotations converge to 1e-12 rad; ten iterations at most (a start for the adjustment)
+REFINE = SolveOptions(max_iterations=10, tolerance=1e-12, min_step=1e-3, final_step=True)
 
 
 def collinear(dst: np.ndarray) -> bool:
@@ -167,19 +173,20 @@ def initial_control_fit(loc: np.ndarray, given: np.ndarray, ok: np.ndarray,
     return refine((s, r, np.array([t2[0], t2[1], tz])), loc, given, ok)
 
 
-def refine(tr: Transform, loc: np.ndarray, given: np.ndarray, ok: np.ndarray,
-           iterations: int = 10) -> Transform:
-    """Gauss-Newton on the 7 parameters with every usable control component."""
+def refine(tr: Transform, loc: np.ndarray, given: np.ndarray, ok: np.ndarray) -> Transform:
+    """Least squares of the 7 parameters with every usable control component (unweighted)."""
     s, r, t = tr
     p = similarity.params3d(s, r, t, np.zeros(3))
-    for _ in range(iterations):
-        xyz, jac = similarity.forward3d(np.tile(p, (len(loc), 1)), loc, np.zeros((len(loc), 3)))
-        e = np.where(ok, given - xyz, 0.0)[ok]
-        a = jac[ok]
-        if len(e) < 7:
-            break
-        dp, *_ = np.linalg.lstsq(a, e, rcond=None)
-        p = p + dp
-        if np.max(np.abs(dp[3:6])) < 1e-12:
-            break
+    if ok.sum() < 7:
+        return tr
+    zero = np.zeros((len(loc), 3))
+
+    def func(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xyz, jac = similarity.forward3d(np.tile(x, (len(loc), 1)), loc, zero)
+        return xyz[ok], jac[ok]
+
+    problem = DenseLeastSquares(func, given[ok], np.ones(int(ok.sum())), method="lstsq",
+                                correction=lambda x, dx: float(np.max(np.abs(dx[3:6]))),
+                                what="control fit")
+    p = solve(problem, p, REFINE).state
     return 1.0 / p[6], similarity.rotation3d(p), p[:3]

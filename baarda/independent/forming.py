@@ -21,12 +21,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from baarda.adjustment.dense import DenseLeastSquares
+from baarda.adjustment.solve import solve
 from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.bundle.collinearity import project_with_jacobians
 from baarda.bundle.geometry import approximate_points
 from baarda.errors import GeometryError
+from baarda.options import SolveOptions
+
+# converged when the points move by less than 1e-9 of the base and the angles by less than
+# 1e-12 rad (correction weighs angles by 1000), or at the rounding floor (no step lowers
+# v'Pv any more) with corrections below 1e-6
+RO_SOLVE = SolveOptions(max_iterations=30, tolerance=1e-9, stall_tolerance=1e-6, min_step=1e-3,
+                        final_step=True)
 
 
 def model_pairs(block: Block) -> list[tuple[str, int, int]]:
@@ -59,7 +68,7 @@ def _intersect(x1, x2, r2, b, c1, c2, pp1, pp2):
 
 
 def relative_orientation(block: Block, left: int, right: int, eo_approx: np.ndarray,
-                         ground: np.ndarray, iterations: int = 30):
+                         ground: np.ndarray):
     """Relative orientation of one pair; returns (point indices, model xyz (n, 3) mm,
     covariance (n, 3, 3) mm^2, right photo (bx, by, bz, omega, phi, kappa), sigma0)."""
     im, cams = block.image, block.cameras
@@ -95,25 +104,35 @@ def relative_orientation(block: Block, left: int, right: int, eo_approx: np.ndar
     obs = np.concatenate([im.xy_mm[il].ravel(), im.xy_mm[ir].ravel()])
     n = len(pts)
     zero6 = np.zeros((n, 6))
-    for _ in range(iterations):
-        xl, _, jpl = project_with_jacobians(zero6, xyz, np.full(n, c[0]), np.tile(pp[0], (n, 1)))
-        xr, jer, jpr = project_with_jacobians(np.tile(eo_r, (n, 1)), xyz, np.full(n, c[1]),
+
+    def func(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """x = (by, bz, omega, phi, kappa of the right photo, points): image coordinates."""
+        eo = np.concatenate([[bx], x[:5]])
+        p = x[5:].reshape(n, 3)
+        xl, _, jpl = project_with_jacobians(zero6, p, np.full(n, c[0]), np.tile(pp[0], (n, 1)))
+        xr, jer, jpr = project_with_jacobians(np.tile(eo, (n, 1)), p, np.full(n, c[1]),
                                               np.tile(pp[1], (n, 1)))
         a = np.zeros((4 * n, 5 + 3 * n))
         for i in range(n):
             a[2 * i:2 * i + 2, 5 + 3 * i:8 + 3 * i] = jpl[i]
             a[2 * n + 2 * i:2 * n + 2 * i + 2, :5] = jer[i][:, 1:]
             a[2 * n + 2 * i:2 * n + 2 * i + 2, 5 + 3 * i:8 + 3 * i] = jpr[i]
-        e = obs - np.concatenate([xl.ravel(), xr.ravel()])
-        aw = a / sig[:, None]
-        dx, *_ = np.linalg.lstsq(aw, e / sig, rcond=None)
-        eo_r[1:] += dx[:5]
-        xyz += dx[5:].reshape(n, 3)
-        if np.max(np.abs(dx[5:])) < 1e-9 * bx and np.max(np.abs(dx[2:5])) < 1e-12:
-            break
-    else:
-        raise GeometryError(f"relative orientation of photos {block.photos.ids[left]} and "
-                            f"{block.photos.ids[right]} did not converge")
+        return np.concatenate([xl.ravel(), xr.ravel()]), a
+
+    def correction(x: np.ndarray, dx: np.ndarray) -> float:
+        # points relative to the base, angles in rad times 1000
+        return max(float(np.max(np.abs(dx[5:]))) / bx, 1e3 * float(np.max(np.abs(dx[2:5]))))
+
+    pair = f"photos {block.photos.ids[left]} and {block.photos.ids[right]}"
+    problem = DenseLeastSquares(func, obs, 1.0 / sig**2, method="lstsq", correction=correction,
+                                what=f"relative orientation of {pair}")
+    sol = solve(problem, np.concatenate([eo_r[1:], xyz.ravel()]), RO_SOLVE)
+    if not sol.converged:
+        raise GeometryError(f"relative orientation of {pair} did not converge")
+    eo_r = np.concatenate([[bx], sol.state[:5]])
+    xyz = sol.state[5:].reshape(n, 3)
+    e = sol.lin.e
+    aw = sol.lin.a / sig[:, None]
     red = 4 * n - 5 - 3 * n
     s0 = float(np.sqrt(np.sum((e / sig) ** 2) / red)) if red > 0 else np.nan
     qxx = np.linalg.inv(aw.T @ aw)[5:, 5:]

@@ -2,8 +2,8 @@
 
 Observation vector: the k components of every model row of the adjustment (model
 coordinates, mm; decorrelated components when a full covariance was given), then every
-observed control component (m).  Rejected components stay in the vector with active =
-False: they are predicted and tested, not adjusted.
+observed control component (m) (ModelProblem.layout).  Rejected components stay in the
+vector with active = False: they are predicted and tested, not adjusted.
 """
 
 from __future__ import annotations
@@ -11,50 +11,31 @@ from __future__ import annotations
 import numpy as np
 
 from baarda.adjustment.schur_model import SchurModel
-from baarda.independent.model_problem import COMPONENTS, CORRELATED
 from baarda.independent.model_result import ModelResult
 
 
 class IndependentModel(SchurModel):
+    """The quality layer's view of a ModelResult; labels come from its problem."""
+
     def __init__(self, result: ModelResult):
         self.result = result
         pb = result.problem
-        bl = pb.block
-        self.problem, self.system, self.lin = pb, pb.system, result.lin
-        m, k = len(pb.rows), pb.k
-        self.m, self.k, self.kc, self.n_control = m, k, k, len(pb.control)
-        sig_c = np.where(pb.wc_full > 0, 1.0 / np.sqrt(np.where(pb.wc_full > 0, pb.wc_full, 1)),
-                         np.nan)
-        self.ctrl_sel = np.flatnonzero(np.isfinite(sig_c).ravel())  # into (nc * k)
-        nc = len(self.ctrl_sel)
-        self.residuals = np.concatenate([result.model_residuals.ravel(),
-                                         result.control_residuals.ravel()[self.ctrl_sel]])
-        self.sigma = np.concatenate([pb.sigma_obs.ravel(), sig_c.ravel()[self.ctrl_sel]])
-        keep = pb.obs_keep[pb.rows][:, pb.comps].ravel()
-        keep_c = pb.control_keep[pb.control][:, pb.comps].ravel()[self.ctrl_sel]
-        self.active = np.concatenate([keep, keep_c])
+        self.problem, self.factor, self.layout, self.lin = pb, result.factor, pb.layout, result.lin
+        self.m, self.k = pb.layout.m, pb.k
+        self.residuals = self.layout.flat(result.model_residuals,
+                                          np.nan_to_num(result.control_residuals))
+        self.sigma_apriori, self.factors, self.active = pb.sigma_apriori, pb.factors, pb.active
         self.n_unknowns = pb.system.n_unknowns
-        models = np.asarray(bl.models, dtype=object)
-        pids = np.asarray(bl.points, dtype=object)
-        names = CORRELATED[pb.mode] if pb.transform is not None else COMPONENTS[pb.mode]
-        upper = np.array(["X", "Y", "Z"], dtype=object)[pb.comps]
-        self.kind = np.array(["model"] * (m * k) + ["control"] * nc, dtype=object)
-        self.component = np.concatenate([np.tile(np.array(names, dtype=object), m),
-                                         np.tile(upper, len(pb.control))[self.ctrl_sel]])
-        self.frame = np.concatenate([np.repeat(models[pb.frame], k),
-                                     np.full(nc, "", dtype=object)])
-        self.point = np.concatenate([np.repeat(pids[bl.obs_point[pb.rows]], k),
-                                     np.repeat(pids[pb.control], k)[self.ctrl_sel]])
-        self.group = np.concatenate([np.repeat(np.arange(m), k), np.full(nc, -1)])
-        # back into the block tables: model row (or -1), control point (or -1), xyz column
-        self.block_row = np.concatenate([np.repeat(pb.rows, k), np.full(nc, -1)])
-        self.block_point = np.concatenate([np.full(m * k, -1),
-                                           np.repeat(pb.control, k)[self.ctrl_sel]])
-        self.xyz_col = np.concatenate([np.tile(pb.comps, m),
-                                       np.tile(pb.comps, len(pb.control))[self.ctrl_sel]])
+        self.kind, self.component, self.frame = pb.kind, pb.component, pb.frame_label
+        self.point, self.group = pb.point_label, pb.group
+        self.block_row, self.block_point, self.xyz_col = pb.block_row, pb.block_point, pb.xyz_col
         # terrain units per observation unit (model: m per mm = 1 / mu of the model)
         mu = (result.params[:, -1] if pb.mode != "height" else pb.mu)[pb.frame]
-        self.terrain_per_unit = np.concatenate([np.repeat(1.0 / mu, k), np.ones(nc)])
+        nc = len(pb.layout.ctrl_sel)
+        self.terrain_per_unit = np.concatenate([np.repeat(1.0 / mu, self.k), np.ones(nc)])
+
+    def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> IndependentModel:
+        return IndependentModel(self.result.refit(active, factors))
 
     def unit_effect(self, index: np.ndarray):
         """N^-1 A^T P e_i for the components `index` (cheaper than parameter_effect with unit
@@ -70,11 +51,10 @@ class IndependentModel(SchurModel):
         gf[pb.frame[r], :, col[mod]] = lin.jf[r, c] * wt[:, None]
         pts = pb.remap[pb.block.obs_point[pb.rows[r]]]
         gp[pts, :, col[mod]] = lin.jp[r, c] * wt[:, None]
-        flat_c = self.ctrl_sel[index[~mod] - self.m * self.k]
+        flat_c = self.layout.ctrl_sel[index[~mod] - self.m * self.k]
         ci, cc = np.divmod(flat_c, self.k)
         gp[pb.remap[pb.control[ci]], :, col[~mod]] = lin.jc[ci, cc] * lin.wc[ci, cc][:, None]
-        self.system.ensure(self.lin)
-        return self.system.solve_normal(gf, gp)
+        return self.factor.solve_normal(gf, gp)
 
     def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
         out = np.zeros((self.n, 3))

@@ -26,6 +26,7 @@ from baarda.errors import ProjectError
 from baarda.independent.deformations import ALL, deformation_rows
 from baarda.independent.independent_model import IndependentModel
 from baarda.io.table import Table
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.hypotheses import HypothesisTest, hypothesis_test
 from baarda.quality.statistics import R_MIN
@@ -60,8 +61,8 @@ def deformation_h(qm: IndependentModel, name: str, per: str = "block"):
     return _model_part(qm, cols), [f"{name} strip {s}" for s in strips]
 
 
-def _test(qm: IndependentModel, h: np.ndarray, name: str, alpha0: float,
-          beta0: float) -> HypothesisTest:
+def _test(qm: IndependentModel, h: np.ndarray, name: str,
+          tests: TestOptions) -> HypothesisTest:
     """quality.hypotheses.hypothesis_test on the testable columns of h.
 
     A column is testable when the adjustment does not absorb it: its redundancy
@@ -72,13 +73,13 @@ def _test(qm: IndependentModel, h: np.ndarray, name: str, alpha0: float,
     """
     h = np.atleast_2d(h.T).T
     p = np.where(qm.active, 1.0 / qm.sigma**2, 0.0)
-    delta0 = b_method(alpha0, beta0).delta0
+    delta0 = b_method(tests.alpha0, tests.beta0).delta0
     keep = np.zeros(h.shape[1], bool)
     for j in range(h.shape[1]):
         hpj = float(h[:, j] @ (p * h[:, j]))
         if hpj <= 0:
             continue
-        t = hypothesis_test(qm, h[:, j], name, alpha0, beta0)
+        t = hypothesis_test(qm, h[:, j], name, tests)
         if t.q == 1 and t.mdb is not None and np.isfinite(t.mdb):
             keep[j] = (delta0 / t.mdb) ** 2 / hpj >= R_MIN
     if not keep.any():
@@ -86,7 +87,7 @@ def _test(qm: IndependentModel, h: np.ndarray, name: str, alpha0: float,
                               np.nan, np.nan, False, np.full(h.shape[1], np.nan), None, None)
     if not keep.all():
         name += f" ({int((~keep).sum())} absorbed column(s) left out)"
-    t = hypothesis_test(qm, h[:, keep], name, alpha0, beta0)
+    t = hypothesis_test(qm, h[:, keep], name, tests)
     if not keep.all():
         nabla = np.full(h.shape[1], np.nan)
         nabla[keep] = t.nabla
@@ -95,7 +96,7 @@ def _test(qm: IndependentModel, h: np.ndarray, name: str, alpha0: float,
 
 
 def deformation_tests(qm: IndependentModel, names: tuple[str, ...] = ALL,
-                      alpha0: float = 0.001, beta0: float = 0.80) -> list[HypothesisTest]:
+                      tests: TestOptions = DEFAULT_TESTS) -> list[HypothesisTest]:
     """Block-invariant and strip-invariant tests of every deformation, and all together."""
     out, joint, joint_names = [], [], []
     n_strips = len(np.unique(qm.problem.block.strip.astype(str)))
@@ -103,7 +104,7 @@ def deformation_tests(qm: IndependentModel, names: tuple[str, ...] = ALL,
         hb = deformation_h(qm, name, "block")
         if hb is None:
             continue
-        tb = _test(qm, hb[0], f"block-invariant {name}", alpha0, beta0)
+        tb = _test(qm, hb[0], f"block-invariant {name}", tests)
         out.append(tb)
         if tb.q:
             joint.append(hb[0])
@@ -111,10 +112,10 @@ def deformation_tests(qm: IndependentModel, names: tuple[str, ...] = ALL,
         if n_strips > 1:
             hs, _ = deformation_h(qm, name, "strip")
             out.append(_test(qm, hs, f"strip-invariant {name} ({n_strips} strips)",
-                             alpha0, beta0))
+                             tests))
     if len(joint) > 1:
         out.append(_test(qm, np.hstack(joint), "all block-invariant deformations "
-                         f"({', '.join(joint_names)})", alpha0, beta0))
+                         f"({', '.join(joint_names)})", tests))
     return out
 
 
@@ -130,14 +131,14 @@ def control_cluster_h(qm: IndependentModel, points: list[str]) -> np.ndarray:
     return np.column_stack(cols) if cols else np.zeros((qm.n, 0))
 
 
-def cluster_tests(qm: IndependentModel, clusters: dict[str, list[str]], alpha0: float = 0.001,
-                  beta0: float = 0.80) -> list[HypothesisTest]:
+def cluster_tests(qm: IndependentModel, clusters: dict[str, list[str]],
+                  tests: TestOptions = DEFAULT_TESTS) -> list[HypothesisTest]:
     out = []
     for name, pts in clusters.items():
         h = control_cluster_h(qm, pts)
         if h.shape[1]:
             out.append(_test(qm, h, f"control cluster {name} ({len(pts)} points)",
-                             alpha0, beta0))
+                             tests))
     return out
 
 
@@ -209,14 +210,14 @@ class UserHypotheses:
                 hc[hit, q] += self.value[i]
         return _model_part(qm, field) + hc
 
-    def tests(self, qm: IndependentModel, alpha0: float = 0.001,
-              beta0: float = 0.80) -> list[HypothesisTest]:
+    def tests(self, qm: IndependentModel,
+              tests: TestOptions = DEFAULT_TESTS) -> list[HypothesisTest]:
         out = []
         for name in self.names():
             h = self.h(qm, name)
             keep = np.any(h != 0, axis=0)
             if keep.any():
-                out.append(_test(qm, h[:, keep], f"user: {name}", alpha0, beta0))
+                out.append(_test(qm, h[:, keep], f"user: {name}", tests))
         return out
 
 

@@ -20,24 +20,45 @@ standard deviations diag(L); weights stay diagonal.
 
 from __future__ import annotations
 
+import copy
+import time
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.adjustment.schur import Linearization, SchurFactor, SchurSystem
+from baarda.adjustment.schur_model import FlatLayout
+from baarda.adjustment.solve import solve
 from baarda.block.model_block import ModelBlock
 from baarda.errors import GeometryError
 from baarda.independent import similarity
 from baarda.independent.deformations import model_radius
+from baarda.options import SolveOptions
+
+if TYPE_CHECKING:
+    from baarda.independent.model_result import ModelResult
 
 MODES = {"3d": (7, 3, (0, 1, 2)), "2d": (4, 2, (0, 1)), "height": (3, 1, (2,))}
 COMPONENTS = {"3d": ("x", "y", "z"), "2d": ("x", "y"), "height": ("z",)}
 CORRELATED = {"3d": ("x", "y|x", "z|xy"), "2d": ("x", "y|x"), "height": ("z",)}
+XYZ = np.array(["X", "Y", "Z"], dtype=object)
+# converged when the correction is below 1e-9 of the model radius in the terrain and 1e-11
+# rad and relative scale (correction_size weighs those by 100), or when v'Pv stops
+# changing (1e-12) with corrections below 1e-7 of that radius and 1e-9; that last
+# correction is applied (final_step)
+SOLVE = SolveOptions(max_iterations=50, tolerance=1e-9, flat_cost=1e-12, flat_tolerance=1e-7,
+                     min_step=1e-3, final_step=True)
 
 
 class ModelProblem:
     """Index arrays, weights and the Schur structure of one adjustment of a model block.
 
-    `obs_keep` (m, 3) and `control_keep` (np, 3) switch components off (data snooping)
-    without changing the structure.  `mu` (nm,) is required for mode 'height'.
+    Observation vector (flat, the quality layer's): the k components of every model row of
+    the adjustment (mm; decorrelated when a full covariance is given), then every observed
+    control component (m).  `obs_keep` (m, 3) and `control_keep` (np, 3) give the
+    components that start switched off (the pre-adjustment's findings); `mu` (nm,) is
+    required for mode 'height'.  The problem never changes: `reweighted(active, factors)`
+    is a new one with other components switched off or re-weighted.
     """
 
     def __init__(self, block: ModelBlock, mode: str = "3d", *, obs_keep=None,
@@ -83,11 +104,12 @@ class ModelProblem:
             self.sigma_obs = dg.copy()
         else:
             self.sigma_obs = bl.obs_sigma[self.rows][:, self.comps]
-        self.w_full = 1.0 / self.sigma_obs**2
-        self.obs_keep = (np.ones((len(bl.obs_model), 3), bool) if obs_keep is None
-                         else np.asarray(obs_keep, bool))
-        self.control_keep = (np.ones((bl.n_points, 3), bool) if control_keep is None
-                             else np.asarray(control_keep, bool))
+        m, nc = len(self.rows), len(self.control)
+        self.layout = FlatLayout(m, self.k, nc, self.k, np.flatnonzero(self.wc_full.ravel() > 0))
+        sel = self.layout.ctrl_sel
+        sig_c = 1.0 / np.sqrt(np.where(self.wc_full > 0, self.wc_full, 1.0))
+        self.sigma_apriori = np.concatenate([self.sigma_obs.ravel(), sig_c.ravel()[sel]])
+        self._labels(m, sel)
         if mode == "height":
             if mu is None:
                 raise ValueError("the height adjustment needs the scale mu of each model")
@@ -98,17 +120,68 @@ class ModelProblem:
             origin = np.array([np.nanmean(pts[:, c]) if np.isfinite(pts[:, c]).any() else 0.0
                                for c in range(3)])
         self.origin = np.asarray(origin, float)
-        self.check_datum()
         self.system = SchurSystem(
             bl.n_models, self.b, len(self.point_ids), self.d, self.frame,
             remap[bl.obs_point[self.rows]], remap[self.control],
             frame_names=[f"model {m}" for m in bl.models],
             point_names=[bl.points[j] for j in self.point_ids])
+        keep = np.ones((len(bl.obs_model), 3), bool) if obs_keep is None else \
+            np.asarray(obs_keep, bool)
+        ckeep = np.ones((bl.n_points, 3), bool) if control_keep is None else \
+            np.asarray(control_keep, bool)
+        active = self.layout.flat(keep[self.rows][:, self.comps],
+                                  ckeep[self.control][:, self.comps])
+        self._set_weights(active, np.ones(self.layout.n))
+        self.check_datum()
+
+    def _labels(self, m: int, sel: np.ndarray) -> None:
+        bl, k = self.block, self.k
+        nc = len(sel)
+        models = np.asarray(bl.models, dtype=object)
+        pids = np.asarray(bl.points, dtype=object)
+        names = CORRELATED[self.mode] if self.transform is not None else COMPONENTS[self.mode]
+        self.kind = np.array(["model"] * (m * k) + ["control"] * nc, dtype=object)
+        self.component = np.concatenate([np.tile(np.array(names, dtype=object), m),
+                                         np.tile(XYZ[self.comps], len(self.control))[sel]])
+        self.frame_label = np.concatenate([np.repeat(models[self.frame], k),
+                                           np.full(nc, "", dtype=object)])
+        self.point_label = np.concatenate([np.repeat(pids[bl.obs_point[self.rows]], k),
+                                           np.repeat(pids[self.control], k)[sel]])
+        self.group = np.concatenate([np.repeat(np.arange(m), k), np.full(nc, -1)])
+        # back into the block tables: model row (or -1), control point (or -1), xyz column
+        self.block_row = np.concatenate([np.repeat(self.rows, k), np.full(nc, -1)])
+        self.block_point = np.concatenate([np.full(m * k, -1),
+                                           np.repeat(self.control, k)[sel]])
+        self.xyz_col = np.concatenate([np.tile(self.comps, m),
+                                       np.tile(self.comps, len(self.control))[sel]])
+
+    # ------------------------------------------------------------ weights
+    def _set_weights(self, active: np.ndarray, factors: np.ndarray) -> None:
+        n = self.layout.n
+        active = np.asarray(active, bool)
+        factors = np.asarray(factors, float)
+        if active.shape != (n,) or factors.shape != (n,) or not np.all(factors > 0):
+            raise ValueError(f"active and factors must be {n} values (factors positive)")
+        self.active, self.factors = active.copy(), factors.copy()
+        p = np.where(active, factors / self.sigma_apriori**2, 0.0)
+        self.w, self.wc = self.layout.split(p)
+        for a in (self.active, self.factors, self.w, self.wc):
+            a.flags.writeable = False
+
+    def reweighted(self, active: np.ndarray | None = None,
+                   factors: np.ndarray | None = None) -> ModelProblem:
+        """The same problem with only the `active` components observed, weights times
+        `factors` (None: all active / a-priori weights)."""
+        new = copy.copy(self)
+        n = self.layout.n
+        new._set_weights(np.ones(n, bool) if active is None else active,
+                         np.ones(n) if factors is None else factors)
+        return new
 
     # ------------------------------------------------------------------ checks
     def check_datum(self) -> None:
         bl = self.block
-        keep = self.control_keep[self.control][:, self.comps] & (self.wc_full > 0)
+        keep = self.wc.reshape(len(self.control), self.k) > 0
         xyz = bl.xyz[self.control]
         problems = []
         npts = np.bincount(self.frame, minlength=bl.n_models)
@@ -138,12 +211,6 @@ class ModelProblem:
             raise GeometryError("the model block cannot be adjusted: " + "; ".join(problems))
 
     # ------------------------------------------------------------------ numbers
-    @property
-    def weights(self) -> tuple[np.ndarray, np.ndarray]:
-        w = self.w_full * self.obs_keep[self.rows][:, self.comps]
-        wc = self.wc_full * self.control_keep[self.control][:, self.comps]
-        return w, wc
-
     def uv(self) -> np.ndarray:
         """(m, 2) planimetric model coordinates about the centroid / model radius."""
         bl = self.block
@@ -166,8 +233,16 @@ class ModelProblem:
         jp = mu[:, None, None] * np.ones((len(f), 1, 1))
         return f[:, None], jf, jp
 
-    def linearize(self, params: np.ndarray, pts: np.ndarray) -> Linearization:
+    def transform_rows(self, h: np.ndarray) -> np.ndarray:
+        """Apply the decorrelation G to per-row vectors h (m, k, q) (identity if none)."""
+        if self.transform is None:
+            return h
+        return self.transform @ h
+
+    # ------------------------------------------------- the solver's protocol
+    def linearize(self, state: tuple[np.ndarray, np.ndarray]) -> Linearization:
         """Jacobians and misclosures e = l - f at (params, reduced terrain points)."""
+        params, pts = state
         f, jf, jp = self.predict(params, pts)
         e = self.obs - f
         if self.transform is not None:
@@ -176,13 +251,76 @@ class ModelProblem:
             jf, jp = g @ jf, g @ jp
         given = self.block.xyz[self.control][:, self.comps] - self.origin[self.comps]
         ec = np.where(np.isfinite(given), given, 0.0) - pts[self.remap[self.control]]
-        w, wc = self.weights
         jc = np.broadcast_to(np.eye(self.d), (len(self.control), self.d, self.d)).copy()
         # misclosures of rejected components stay (predicted residuals); weight 0 in N
-        return Linearization(jf, jp, w, e, jc, wc, np.where(self.wc_full > 0, ec, 0.0))
+        return Linearization(jf, jp, self.w, e, jc, self.wc, np.where(self.wc_full > 0, ec, 0.0))
 
-    def transform_rows(self, h: np.ndarray) -> np.ndarray:
-        """Apply the decorrelation G to per-row vectors h (m, k, q) (identity if none)."""
-        if self.transform is None:
-            return h
-        return self.transform @ h
+    def factorize(self, lin: Linearization, damping: float = 0.0) -> SchurFactor:
+        return self.system.factorize(lin, damping)
+
+    def update(self, state, step, t: float):
+        return state[0] + t * step[0], state[1] + t * step[1]
+
+    def _sizes(self, state, step, t: float = 1.0) -> tuple[float, float, float]:
+        params = state[0]
+        dxf, dxp = step
+        dpos = np.max(np.abs(dxp), initial=0.0)
+        if self.mode == "3d":
+            dpos = max(dpos, np.max(np.abs(dxf[:, :3]), initial=0.0))
+            dang = np.max(np.abs(dxf[:, 3:6]), initial=0.0)
+            dmu = np.max(np.abs(dxf[:, 6] / params[:, 6]), initial=0.0)
+        elif self.mode == "2d":
+            dpos = max(dpos, np.max(np.abs(dxf[:, :2]), initial=0.0))
+            dang = np.max(np.abs(dxf[:, 2]), initial=0.0)
+            dmu = np.max(np.abs(dxf[:, 3] / params[:, 3]), initial=0.0)
+        else:
+            dang, dmu = 0.0, np.max(np.abs(dxf), initial=0.0) * 1e-3
+        return t * float(dpos), t * float(dang), t * float(dmu)
+
+    def terrain_size(self, params: np.ndarray) -> float:
+        """The typical model radius in the terrain [m]: radius (mm) / median scale mu."""
+        return self.radius / (float(np.median(params[:, -1])) if self.mode != "height"
+                              else 1.0)
+
+    def correction_size(self, state, step) -> float:
+        dpos, dang, dmu = self._sizes(state, step)
+        return max(dpos / self.terrain_size(state[0]), 100.0 * dang, 100.0 * dmu)
+
+    def describe(self, state, step, t: float) -> str:
+        return f"{self._sizes(state, step, t)[0]:.3g} m"
+
+    def admissible(self, state) -> bool:
+        return True
+
+    # ------------------------------------------------------------ fit
+    def fit(self, start: tuple[np.ndarray, np.ndarray] | None = None,
+            options: SolveOptions = SOLVE, progress=None) -> ModelResult:
+        """Adjust; returns a ModelResult.
+
+        `start` = (params (nm, b) with T reduced by origin, points (np_used, d) reduced);
+        without it the approximations come from the pre-adjustment connection of the models
+        (3d, 2d) or zero (height: the model is linear).
+        """
+        from baarda.independent.model_result import ModelResult
+        from baarda.independent.preadjust import approximations  # uses this module
+
+        t0 = time.perf_counter()
+        if start is None:
+            if self.mode == "height":
+                start = (np.zeros((self.block.n_models, 3)), np.zeros((len(self.point_ids), 1)))
+            else:
+                start = approximations(self)
+        sol = solve(self, tuple(np.array(a, float) for a in start), options, progress,
+                    label=f"{self.mode} ")
+        notes = () if sol.converged else (sol.message,)
+        params, pts = sol.state
+        return ModelResult(self, params, pts, sol.lin, sol.factor, sol.iterations,
+                           sol.converged, notes, time.perf_counter() - t0)
+
+
+def adjust_models(block: ModelBlock, mode: str = "3d", *,
+                  start: tuple[np.ndarray, np.ndarray] | None = None,
+                  options: SolveOptions = SOLVE, progress=None, **problem_args) -> ModelResult:
+    """Adjust the model block in `mode` (3d, 2d or height); problem_args go to ModelProblem
+    (obs_keep, control_keep, mu, include_pc, origin)."""
+    return ModelProblem(block, mode, **problem_args).fit(start, options, progress)

@@ -13,12 +13,12 @@ import numpy as np
 import pandas as pd
 
 from baarda.block.model_block import ModelBlock
-from baarda.independent.adjust_models import Progress, adjust_models
 from baarda.independent.external import ExternalReliability, external_reliability
 from baarda.independent.independent_model import IndependentModel
 from baarda.independent.model_hypotheses import decision
 from baarda.independent.model_problem import ModelProblem
 from baarda.independent.model_result import ModelResult
+from baarda.options import Progress, TestOptions
 from baarda.quality.hypotheses import HypothesisTest, image_point_tests
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import QualityResult, analyse
@@ -44,7 +44,7 @@ class ModelQuality:
         m, q = self.model, self.quality
         model_rows = m.kind == "model"
         scale = np.where(model_rows, 1e3, 1.0)
-        _, tg, _, _, _ = image_point_tests(m, q.alpha0, q.beta0)
+        _, tg, _, _, _ = image_point_tests(m, q.tests)
         group_t = np.full(m.n, np.nan)
         group_t[: m.m * m.k] = np.repeat(tg, m.k) if len(tg) else np.nan
         df = pd.DataFrame({
@@ -141,48 +141,34 @@ class ModelQuality:
         return "\n".join(lines)
 
 
-def assess(result: ModelResult, alpha0: float | None = None, beta0: float | None = None,
+def assess(result: ModelResult, tests: TestOptions | None = None,
            external: bool = False) -> ModelQuality:
     """Statistics of every observation of an adjusted model block (nothing rejected)."""
-    s = result.block.settings
     model = IndependentModel(result)
-    q = analyse(model, alpha0 or s.alpha0, beta0 or s.beta0)
+    q = analyse(model, tests or TestOptions.resolve(result.block.settings))
     ext = external_reliability(model, q) if external else None
     return ModelQuality(result, model, q, external=ext)
 
 
-def snoop(block: ModelBlock, mode: str = "3d", *, alpha0: float | None = None,
-          beta0: float | None = None, statistic: str = "w", by_point: bool = False,
+def snoop(block: ModelBlock | ModelResult, mode: str = "3d", tests: TestOptions | None = None,
+          *, statistic: str = "w", by_point: bool = False,
           obs_keep: np.ndarray | None = None, control_keep: np.ndarray | None = None,
           mu: np.ndarray | None = None, start=None, external: bool = False,
           max_iterations: int = 200, progress: Progress | None = None) -> ModelQuality:
-    """Iterative data snooping of one adjustment of the model block.
+    """Iterative data snooping of one adjustment of the model block (or of an adjusted one).
 
     `obs_keep`/`control_keep` give the components that start rejected (e.g. those the
     pre-adjustment set aside); snooping restores those that prove innocent.
     """
-    s = block.settings
-    alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
-    problem = ModelProblem(block, mode, obs_keep=obs_keep, control_keep=control_keep, mu=mu)
-    state: dict = {"start": start}
-
-    def refit(active: np.ndarray) -> IndependentModel:
-        if "model" in state:
-            m: IndependentModel = state["model"]
-            mod = m.block_row >= 0
-            keep = problem.obs_keep.copy()
-            keep[m.block_row[mod], m.xyz_col[mod]] = active[mod]
-            ckeep = problem.control_keep.copy()
-            ckeep[m.block_point[~mod], m.xyz_col[~mod]] = active[~mod]
-            problem.obs_keep, problem.control_keep = keep, ckeep
-        res = adjust_models(block, problem=problem, start=state.get("start"))
-        state["start"] = (res.params, res.pts)
-        state["model"] = IndependentModel(res)
-        return state["model"]
-
-    first = refit(np.ones(0, bool))
-    run = iterative_snooping(refit, first.active, alpha0=alpha0, beta0=beta0,
-                             statistic=statistic, by_group=by_point,
-                             max_iterations=max_iterations, progress=progress)
+    if isinstance(block, ModelResult):
+        result = block
+    else:
+        problem = ModelProblem(block, mode, obs_keep=obs_keep, control_keep=control_keep,
+                               mu=mu)
+        result = problem.fit(start, progress=progress)
+    tests = tests or TestOptions.resolve(result.block.settings)
+    run = iterative_snooping(IndependentModel(result), tests, statistic=statistic,
+                             by_group=by_point, max_iterations=max_iterations,
+                             progress=progress)
     ext = external_reliability(run.model, run.quality) if external else None
     return ModelQuality(run.model.result, run.model, run.quality, run, ext)

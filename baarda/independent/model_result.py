@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from baarda.adjustment.counts import AdjustmentCounts
-from baarda.adjustment.schur import Linearization
+from baarda.adjustment.schur import Linearization, SchurFactor
 from baarda.independent.model_problem import ModelProblem
 
 TITLE = {"3d": "Independent-model block adjustment, spatial (7 parameters per model)",
@@ -15,7 +15,7 @@ TITLE = {"3d": "Independent-model block adjustment, spatial (7 parameters per mo
          "height": "Independent-model height adjustment (3 parameters per model)"}
 
 
-@dataclass
+@dataclass(frozen=True)
 class ModelResult(AdjustmentCounts):
     """Adjusted model transformations and terrain points.
 
@@ -28,10 +28,16 @@ class ModelResult(AdjustmentCounts):
     params: np.ndarray  # reduced: T relative to problem.origin
     pts: np.ndarray  # (np_used, d) reduced terrain coordinates
     lin: Linearization
+    factor: SchurFactor  # normal equations factored at the solution
     iterations: int
     converged: bool
-    notes: list[str] = field(default_factory=list)
+    notes: tuple[str, ...] = ()
     seconds: float = 0.0
+
+    def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> ModelResult:
+        """Adjust again with only the `active` components (and weight factors), starting
+        from this solution; this result is unchanged."""
+        return self.problem.reweighted(active, factors).fit(start=(self.params, self.pts))
 
     @property
     def block(self):
@@ -69,12 +75,12 @@ class ModelResult(AdjustmentCounts):
 
     @property
     def param_std(self) -> np.ndarray:
-        q = self.problem.system.frame_covariance()
+        q = self.factor.frame_covariance()
         return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
 
     @property
     def xyz_std(self) -> np.ndarray:
-        q = self.problem.system.point_covariance()
+        q = self.factor.point_covariance()
         return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
 
     def check_points(self) -> tuple[list[str], np.ndarray]:
@@ -91,7 +97,7 @@ class ModelResult(AdjustmentCounts):
         out = {"mode": self.mode, "sigma0": self.sigma0, "redundancy": self.redundancy,
                "n_observations": self.n_observations, "n_unknowns": self.n_unknowns,
                "iterations": self.iterations, "converged": self.converged, "vtpv": self.vtpv,
-               "n_check_points": len(d), "seconds": self.seconds, "notes": self.notes}
+               "n_check_points": len(d), "seconds": self.seconds, "notes": list(self.notes)}
         for c, r in zip(self.problem.comps, rms, strict=True):
             out[f"check_rms_{names[c]}"] = None if np.isnan(r) else float(r)
         return out

@@ -22,9 +22,10 @@ from __future__ import annotations
 import numpy as np
 
 from baarda.block.model_block import ModelBlock
-from baarda.independent.adjust_models import Progress, adjust_models
+from baarda.independent.model_problem import adjust_models
 from baarda.independent.model_result import ModelResult
 from baarda.independent.similarity import rotation3d
+from baarda.options import Progress
 
 
 def height_possible(block: ModelBlock, control_keep: np.ndarray | None = None) -> str | None:
@@ -87,7 +88,7 @@ def check_tilts(result: ModelResult, factor: float = 30.0) -> None:
     """
     from baarda.errors import GeometryError
 
-    q = result.problem.system.frame_covariance()
+    q = result.factor.frame_covariance()
     std = np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))[:, 1:]
     limit = factor * float(np.max(result.problem.sigma_obs))
     bad = np.flatnonzero(np.max(std, axis=1) > limit)

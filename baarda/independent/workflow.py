@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from baarda.block.model_block import ModelBlock
-from baarda.independent.adjust_models import Progress, adjust_models
 from baarda.independent.deformations import ALL
 from baarda.independent.model_hypotheses import (
     UserHypotheses,
@@ -25,6 +24,7 @@ from baarda.independent.model_problem import ModelProblem
 from baarda.independent.model_quality import ModelQuality, assess, snoop
 from baarda.independent.planimetric import check_tilts, height_possible, level
 from baarda.independent.preadjust import PreAdjustment, preadjust
+from baarda.options import Progress, TestOptions
 
 EXTERNAL_LIMIT = 400  # models: external reliability on detail points by default up to this
 
@@ -76,8 +76,8 @@ class BlockQuality:
 
 
 def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,
-            statistic: str = "w", by_point: bool = False, alpha0: float | None = None,
-            beta0: float | None = None, external: bool | None = None,
+            statistic: str = "w", by_point: bool = False, tests: TestOptions | None = None,
+            external: bool | None = None,
             deformations: tuple[str, ...] | None = ALL,
             clusters: dict[str, list[str]] | None = None,
             user: UserHypotheses | None = None, level_models: bool = False,
@@ -87,8 +87,7 @@ def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,
     level_models (2d): level the models by the tilts of a spatial adjustment first.
     """
     say = progress or (lambda msg: None)
-    s = block.settings
-    alpha0, beta0 = alpha0 or s.alpha0, beta0 or s.beta0
+    tests = tests or TestOptions.resolve(block.settings)
     if external is None:
         external = block.n_models <= EXTERNAL_LIMIT
     notes: list[str] = []
@@ -114,24 +113,21 @@ def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,
             runs.append((block, "2d", {"start": (pre.params, pre.pts)}))
     parts: list[ModelQuality] = []
     for blk, m, extra in runs:
+        mu = parts[0].adjustment.params[:, 3] if m == "height" else None
+        problem = ModelProblem(blk, m, obs_keep=obs_keep, control_keep=control_keep, mu=mu)
+        res = problem.fit(extra.get("start"), progress=say)
         if m == "height":
-            extra = {"mu": parts[0].adjustment.params[:, 3]}
-            first = adjust_models(blk, m, obs_keep=obs_keep, control_keep=control_keep,
-                                  **extra)
-            check_tilts(first)
+            check_tilts(res)
         if do_snoop:
-            qc = snoop(blk, m, alpha0=alpha0, beta0=beta0, statistic=statistic,
-                       by_point=by_point, obs_keep=obs_keep, control_keep=control_keep,
-                       external=external, progress=say, **extra)
+            qc = snoop(res, tests=tests, statistic=statistic, by_point=by_point,
+                       external=external, progress=say)
         else:
-            res = adjust_models(blk, m, obs_keep=obs_keep, control_keep=control_keep,
-                                progress=say, **extra)
-            qc = assess(res, alpha0, beta0, external=external)
+            qc = assess(res, tests, external=external)
         if deformations:
-            qc.hypotheses += deformation_tests(qc.model, deformations, alpha0, beta0)
+            qc.hypotheses += deformation_tests(qc.model, deformations, tests)
         if clusters:
-            qc.hypotheses += cluster_tests(qc.model, clusters, alpha0, beta0)
+            qc.hypotheses += cluster_tests(qc.model, clusters, tests)
         if user is not None:
-            qc.hypotheses += user.tests(qc.model, alpha0, beta0)
+            qc.hypotheses += user.tests(qc.model, tests)
         parts.append(qc)
     return BlockQuality(block, mode, pre, parts, tilts, notes)

@@ -20,8 +20,9 @@ What is read, and how it is converted:
 * control points with sigmas -> control; without sigma (DBAT: fixed) -> control with the
   sigma `fixed_sigma_m` (a note says so); ``<filter id="..">keep|remove</filter>`` applied;
   check points -> role check (coordinates kept, not used in the adjustment).
-* no exterior orientation is given: approximations by space resection and intersection
-  (bundle/resection.py), as DBAT's own script does.
+* no exterior orientation is given: the photos' EO is left NaN and baarda.pipeline finds
+  approximations by space resection and intersection (bundle/resection.py), as DBAT's own
+  script does.
 
 Processing operations of the script are not executed; estimation of the interior
 orientation (self-calibration) is reported in a note and not done.
@@ -35,7 +36,6 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.bundle.resection import orient_block
 from baarda.errors import ProjectError
 from baarda.io.records import Records, numbers_in, parse_number
 from baarda.io.xmltree import Node, parse_xml
@@ -208,13 +208,12 @@ def read_dbat_stations(path: str | Path) -> dict[str, np.ndarray]:
 
 
 def read_dbat(path: str | Path, *, camera: str | Path | None = None,
-              stations: str | Path | None = None, fixed_sigma_m: float = 1e-6,
-              orient: bool = True) -> Block:
+              stations: str | Path | None = None, fixed_sigma_m: float = 1e-6) -> Block:
     """Read a DBAT script project (XML + CSV files) into a Block; see the module docstring.
 
     camera: a DBAT camera file (e.g. a calibration result) replacing the script's camera.
-    stations: a DBAT camera_stations.txt whose EO become the approximations (else: space
-    resection from the control points when `orient`).
+    stations: a DBAT camera_stations.txt whose EO become the approximations (else the EO
+    is left NaN: baarda.pipeline orients the photos by space resection).
     """
     path = Path(path)
     spath = str(path)
@@ -360,8 +359,6 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
         if missing:
             raise ProjectError(str(stations), f"no station for image id '{missing[0]}'")
         block.photos.eo = np.array([st[s] for s in img_ids])
-    elif orient:
-        block.photos.eo = orient_block(block)
     return block
 
 

@@ -105,9 +105,14 @@ def read_project(folder: str | Path) -> Block:
               ["photo", "camera", "strip", "X0", "Y0", "Z0", "omega", "phi", "kappa"])
     photo_ids = t.unique_ids("photo")
     cam = t.lookup("camera", {c: i for i, c in enumerate(cam_ids)}, "camera")
-    eo = np.column_stack([t.numbers(c) for c in ("X0", "Y0", "Z0")] +
-                         [angle_to_rad(t.numbers(c), settings.angle_unit)
-                          for c in ("omega", "phi", "kappa")])
+    eo_cols = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
+    eo = np.column_stack([t.numbers(c, allow_empty=True) for c in eo_cols])
+    part = np.flatnonzero(np.isnan(eo).any(axis=1) & ~np.isnan(eo).all(axis=1))
+    if len(part):  # all six empty: no approximation (the pipeline resects the photo)
+        c = eo_cols[int(np.flatnonzero(np.isnan(eo[part[0]]))[0])]
+        raise ProjectError(t.path, "give all six orientation values or none (none: "
+                           "approximations by space resection)", int(t.lines[part[0]]), c)
+    eo[:, 3:] = angle_to_rad(eo[:, 3:], settings.angle_unit)
     photos = Photos(photo_ids, cam, t.text("strip", allow_empty=True).astype(object), eo)
     if not photo_ids:
         raise ProjectError(t.path, "no photos")

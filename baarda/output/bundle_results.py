@@ -46,9 +46,48 @@ def points_table(result: BundleResult) -> pd.DataFrame:
     return df
 
 
+def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """photos.csv and points.csv of a result adjusted in the local frame of its block, in
+    the CRS (result.block.frame).
+
+    Point standard deviations are propagated with the full covariance blocks; those of
+    positions of photos likewise; angle standard deviations as adjusted.
+    """
+    frame = result.block.frame
+    ph = photos_table(result)
+    eo = frame.eo_from_local(result.eo)
+    unit = result.block.settings.angle_unit
+    ang = rad_to_angle(eo[:, 3:], unit)
+    s2 = result.sigma0**2
+    cf = result.factor.frame_covariance()[:, :3, :3] * s2
+    sf = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(result.eo[:, :3], cf),
+                                        axis1=1, axis2=2), 0))
+    for k, c in enumerate(("X0", "Y0", "Z0")):
+        ph[c] = eo[:, k]
+        ph[f"sigma_{c}"] = sf[:, k]
+    for k, c in enumerate(("omega", "phi", "kappa")):
+        ph[c] = ang[:, k]
+    pt = points_table(result)
+    xyz = frame.from_local(result.xyz)
+    cp = result.factor.point_covariance() * s2
+    sp = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(result.xyz, cp),
+                                        axis1=1, axis2=2), 0))
+    block = result.block
+    given = frame.from_local(block.points.xyz[result.problem.point_ids])
+    role = block.points.role[result.problem.point_ids]
+    for k, c in enumerate("XYZ"):
+        pt[c] = xyz[:, k]
+        pt[f"sigma_{c}"] = sp[:, k]
+        pt[f"d{c}"] = np.where(role != "tie", xyz[:, k] - given[:, k], np.nan)
+    return ph, pt
+
+
 def write_results(out: str | Path, result: BundleResult,
                   quality: BundleQuality | None = None) -> list[Path]:
-    """Write the result files into folder `out` (each atomically); returns the paths."""
+    """Write the result files into folder `out` (each atomically); returns the paths.
+
+    A block adjusted in a local frame of its CRS (block.frame) gets photos.csv and points.csv
+    in the CRS, and the local tables as photos_local.csv and points_local.csv."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     blk = result.block
@@ -84,13 +123,13 @@ def write_results(out: str | Path, result: BundleResult,
                                     np.full(int(sel.sum()), np.nan)]),
             "residual": np.concatenate([v.ravel(), cv.ravel()[sel]]),
         })
-    paths = []
-    for name, text in (
-        ("summary.json", json_text(summary)),
-        ("photos.csv", csv_text(photos_table(result))),
-        ("points.csv", csv_text(points_table(result))),
-        ("observations.csv", csv_text(obs)),
-    ):
+    tables = {"photos.csv": photos_table(result), "points.csv": points_table(result)}
+    if blk.frame is not None:  # adjusted in a local frame: the tables in the CRS as well
+        ph, pt = tables_in_crs(result)
+        tables = {"photos.csv": ph, "points.csv": pt, "photos_local.csv": tables["photos.csv"],
+                  "points_local.csv": tables["points.csv"]}
+    files = {"summary.json": json_text(summary), **{k: csv_text(v) for k, v in tables.items()},
+             "observations.csv": csv_text(obs)}
+    for name, text in files.items():
         write_text(out / name, text)
-        paths.append(out / name)
-    return paths
+    return [out / name for name in files]

@@ -48,7 +48,7 @@ def write_project(block: Block, folder: str | Path) -> None:
     ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)
     rows = ["photo,camera,strip,X0,Y0,Z0,omega,phi,kappa"] + [
         ",".join([p.ids[i], c.ids[p.camera[i]], str(p.strip[i])] +
-                 [repr(float(v)) for v in p.eo[i, :3]] + [repr(float(v)) for v in ang[i]])
+                 [format_number(v) for v in p.eo[i, :3]] + [format_number(v) for v in ang[i]])
         for i in range(len(p))]
     write_text(folder / "photos.csv", "\n".join(rows) + "\n")
     im, pts = block.image, block.points

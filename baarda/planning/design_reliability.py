@@ -16,9 +16,10 @@ import numpy as np
 import pandas as pd
 
 from baarda.block.photo_block import Block
-from baarda.bundle.bundle_problem import adjust
+from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_quality import BundleQuality, assess
 from baarda.bundle.bundle_result import BundleResult
+from baarda.options import TestOptions
 from baarda.planning.point_classes import (
     RowClasses,
     classify,
@@ -66,11 +67,11 @@ def class_means(obs: pd.DataFrame, pooled: bool = True) -> pd.DataFrame:
     return out
 
 
-def analyse_design(block: Block, *, alpha0: float | None = None, beta0: float | None = None,
+def analyse_design(block: Block, tests: TestOptions | None = None, *,
                    partial_as_control: bool = True) -> PlanResult:
     """Adjust the error-free `block` and collect its reliability and precision."""
-    result = adjust(block)
-    qc = assess(result, alpha0, beta0)
+    result = BundleProblem(block).fit()
+    qc = assess(result, tests)
     rc = classify(block, partial_as_control)
     return PlanResult(block, result, qc, rc, observation_table(qc, rc),
                       point_table(result), photo_table(block, qc, rc))
@@ -108,8 +109,7 @@ def point_table(result: BundleResult) -> pd.DataFrame:
     """Expected standard deviations (m) of the adjusted points with sigma0 = 1 a priori."""
     blk = result.block
     pb = result.problem
-    pb.system.ensure(result.lin)
-    cov = pb.system.point_covariance()
+    cov = result.factor.point_covariance()
     std = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     return pd.DataFrame({
         "point": np.asarray(blk.points.ids, dtype=object)[pb.point_ids],

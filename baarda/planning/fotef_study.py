@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from baarda.independent.adjust_models import adjust_models
 from baarda.independent.external import external_reliability
 from baarda.independent.independent_model import IndependentModel
+from baarda.independent.model_problem import adjust_models
 from baarda.quality.statistics import analyse
 from baarda.simulate.model_blocks import ModelPlan, simulate_models
 

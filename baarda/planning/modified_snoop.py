@@ -15,6 +15,7 @@ import pandas as pd
 
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_result import BundleResult
+from baarda.options import TestOptions
 from baarda.planning.point_classes import classify
 from baarda.planning.reliability_tables import DesignKey, ReliabilityTable, baarda_table, design_key
 from baarda.quality.modified import ModifiedSnooping, modified_snooping
@@ -53,17 +54,17 @@ def model_classes(model: BundleModel, partial_as_control: bool = True) -> np.nda
 
 def modified_snoop(result: BundleResult, *, table: ReliabilityTable | None = None,
                    key: DesignKey | None = None, k_q: float = 0.25,
-                   alpha0: float | None = None, beta0: float | None = None,
+                   tests: TestOptions | None = None,
                    statistic: str = "w") -> BlockModifiedSnooping:
-    """One pass of Gruen's modified data snooping of an adjusted block."""
-    s = result.block.settings
+    """One pass of Gruen's modified data snooping of an adjusted block (tests: default the
+    project's alpha0 and beta0)."""
     model = BundleModel(result)
     table = table or baarda_table()
     key = key or design_key(result.block)
     classes = model_classes(model)
     approx = table.lookup(classes, model.component, key)
     approx[model.kind != "image"] = np.nan
-    res = modified_snooping(model, approx, k_q=k_q, alpha0=alpha0 or s.alpha0,
-                            beta0=beta0 or s.beta0, statistic=statistic)
+    res = modified_snooping(model, approx, k_q=k_q, statistic=statistic,
+                            tests=tests or TestOptions.resolve(result.block.settings))
     source = str(table.frame["source"].iloc[0]) if len(table.frame) else "table"
     return BlockModifiedSnooping(model, key, classes, res, source)

@@ -1,11 +1,12 @@
 """What every adjustment model hands to the quality layer.
 
 The quality layer sees a flat vector of n observation components with residuals
-v = adjusted - observed, a-priori standard deviations sigma (the weights are
-p = 1 / sigma^2, sigma0 = 1 a priori) and a flag `active` (False for components that were
-rejected and are only predicted).  A model supplies the cofactors of the adjusted
-observations and products with N^-1; every statistic is computed from them in
-quality/statistics.py, once, for all models.
+v = adjusted - observed, standard deviations sigma (the weights are p = 1 / sigma^2,
+sigma0 = 1 a priori) and a flag `active` (False for components that were rejected and are
+only predicted).  A model supplies the cofactors of the adjusted observations and products
+with N^-1; every statistic is computed from them in quality/statistics.py, once, for all
+models.  A model is immutable: `refit(active, factors)` adjusts the same observation vector
+again and returns a new model; data snooping and robust re-weighting work through it.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ class AdjustedModel(ABC):
     """An adjusted linear(ised) model  l + v = A x  with diagonal weights."""
 
     residuals: np.ndarray  # (n,) observation units
-    sigma: np.ndarray  # (n,) a-priori standard deviations
+    sigma_apriori: np.ndarray  # (n,) a-priori standard deviations
+    factors: np.ndarray  # (n,) weight factors of robust re-weighting (1: a-priori weight)
     active: np.ndarray  # (n,) bool: component is in the adjustment
     n_unknowns: int
     kind: np.ndarray  # (n,) str: observation kind (image, control, model, ...)
@@ -33,8 +35,21 @@ class AdjustedModel(ABC):
         return len(self.residuals)
 
     @property
+    def sigma(self) -> np.ndarray:
+        """(n,) standard deviations of the adjustment's weights: a priori / sqrt(factor)."""
+        return self.sigma_apriori / np.sqrt(self.factors)
+
+    @property
     def redundancy(self) -> int:
         return int(np.count_nonzero(self.active)) - self.n_unknowns
+
+    def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> AdjustedModel:
+        """The same observations adjusted again with only the `active` components, weights
+        p_i * factors_i (None: a-priori weights); a new model, this one is unchanged.
+
+        Raises GeometryError when the active components do not determine the unknowns.
+        """
+        raise NotImplementedError(f"{type(self).__name__} cannot be adjusted again")
 
     @abstractmethod
     def adjusted_cofactor_diag(self) -> np.ndarray:
@@ -74,57 +89,11 @@ class AdjustedModel(ABC):
         return idx, out
 
 
-class DenseModel(AdjustedModel):
-    """A small model held densely: A (n, u), sigma (n,), residuals (n,).
-
-    The brute-force reference for tests, and the engine of the small per-model adjustments
-    (relative orientation, 2D transformations, strip similarity).
-    """
-
-    def __init__(self, a: np.ndarray, sigma: np.ndarray, residuals: np.ndarray,
-                 active: np.ndarray | None = None, *, kind=None, component=None, frame=None,
-                 point=None, group=None, point_rows: np.ndarray | None = None,
-                 point_labels: list[str] | None = None):
-        self.a = np.asarray(a, float)
-        n, u = self.a.shape
-        self.sigma = np.asarray(sigma, float)
-        self.residuals = np.asarray(residuals, float)
-        self.active = np.ones(n, bool) if active is None else np.asarray(active, bool)
-        self.n_unknowns = u
-        self.kind = np.asarray(kind if kind is not None else ["obs"] * n, dtype=object)
-        self.component = np.asarray(component if component is not None else [""] * n,
-                                    dtype=object)
-        self.frame = np.asarray(frame if frame is not None else [""] * n, dtype=object)
-        self.point = np.asarray(point if point is not None else [""] * n, dtype=object)
-        self.group = np.asarray(group if group is not None else np.full(n, -1), dtype=int)
-        self.p = np.where(self.active, 1.0 / self.sigma**2, 0.0)
-        self.nmat = self.a.T @ (self.p[:, None] * self.a)
-        self.qxx = np.linalg.inv(self.nmat)
-        self.chol = np.linalg.cholesky(self.nmat)
-        self.point_rows = point_rows  # (npoints, 3) unknown indices of point coordinates
-        self.point_labels = point_labels
-
-    def adjusted_cofactor_diag(self) -> np.ndarray:
-        return np.sum((self.a @ self.qxx) * self.a, axis=1)
-
-    def qll_hat(self) -> np.ndarray:
-        return self.a @ self.qxx @ self.a.T
-
-    def normal_forward(self, h: np.ndarray) -> np.ndarray:
-        g = self.a.T @ (self.p[:, None] * h)
-        return np.linalg.solve(self.chol, g)
-
-    def solve_columns(self, h: np.ndarray) -> np.ndarray:
-        return self.a @ (self.qxx @ (self.a.T @ (self.p[:, None] * h)))
-
-    def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
-        """Largest effect over all points (dense: every point is checked)."""
-        eff = self.qxx @ (self.a.T * self.p[None, :])  # (u, n) unknowns per unit error
-        if self.point_rows is None:
-            return np.zeros((self.n, 3)), np.array([""] * self.n, dtype=object)
-        per_point = eff[self.point_rows]  # (np, 3, n)
-        size = np.linalg.norm(per_point, axis=1)  # (np, n)
-        best = np.argmax(size, axis=0)
-        effect = per_point[best, :, np.arange(self.n)]
-        labels = np.asarray(self.point_labels, dtype=object)[best]
-        return effect, labels
+def weight_factors(n: int, factors: np.ndarray | None) -> np.ndarray:
+    """(n,) weight factors, ones when None; checked positive."""
+    if factors is None:
+        return np.ones(n)
+    f = np.asarray(factors, float)
+    if f.shape != (n,) or not np.all(f > 0):
+        raise ValueError(f"weight factors must be {n} positive numbers")
+    return f

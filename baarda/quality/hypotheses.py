@@ -19,8 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.distributions import b_method, multidim_test
+from baarda.quality.statistics import R_MIN
 
 
 @dataclass
@@ -44,8 +46,8 @@ class HypothesisTest:
         return s + f"; estimated bias {np.array2string(self.nabla, precision=4)}"
 
 
-def hypothesis_test(model: AdjustedModel, h: np.ndarray, name: str = "H", alpha0: float = 0.001,
-                    beta0: float = 0.80, r_min: float = 1e-3) -> HypothesisTest:
+def hypothesis_test(model: AdjustedModel, h: np.ndarray, name: str = "H",
+                    tests: TestOptions = DEFAULT_TESTS, r_min: float = R_MIN) -> HypothesisTest:
     """Test the alternative hypothesis given by the columns of h (n, q).
 
     The test is carried out in the directions of H that the observations control: with
@@ -63,7 +65,7 @@ def hypothesis_test(model: AdjustedModel, h: np.ndarray, name: str = "H", alpha0
     g = h.T @ (p[:, None] * h)
     m = g - wmat.T @ wmat
     m = 0.5 * (m + m.T)
-    bm = b_method(alpha0, beta0)
+    bm = b_method(tests.alpha0, tests.beta0)
     # whiten by G (restricted to its range), then the eigenvalues are redundancy numbers
     gv, gvec = np.linalg.eigh(0.5 * (g + g.T))
     rng = gv > 1e-12 * max(gv.max(initial=0.0), 1e-300)
@@ -94,15 +96,15 @@ def unit_columns(n: int, rows: np.ndarray) -> np.ndarray:
     return h
 
 
-def group_test(model: AdjustedModel, rows: np.ndarray, name: str, alpha0: float = 0.001,
-              beta0: float = 0.80) -> HypothesisTest:
+def group_test(model: AdjustedModel, rows: np.ndarray, name: str,
+               tests: TestOptions = DEFAULT_TESTS) -> HypothesisTest:
     """All components `rows` in error at once (an image point, a ground point, a photo)."""
     rows = np.asarray(rows)
     rows = rows[model.active[rows]]
-    return hypothesis_test(model, unit_columns(model.n, rows), name, alpha0, beta0)
+    return hypothesis_test(model, unit_columns(model.n, rows), name, tests)
 
 
-def image_point_tests(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80):
+def image_point_tests(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS):
     """Test of every group (an image point: x and y together), vectorised.
 
     T = v^T Qvv^+ v with the k x k block Qvv = diag(sigma^2) - Q_ll^ of the group; a
@@ -125,7 +127,7 @@ def image_point_tests(model: AdjustedModel, alpha0: float = 0.001, beta0: float 
     t = np.sum(np.where(ok, proj**2 / np.where(ok, vals, 1.0), 0.0), axis=1)
     q = ok.sum(axis=1)
     act = model.active[idx].all(axis=1) & (q > 0)
-    bm = b_method(alpha0, beta0)
+    bm = b_method(tests.alpha0, tests.beta0)
     crit_q = {int(d): bm.critical_F(int(d)) for d in np.unique(q[q > 0])}
     crit = np.array([crit_q.get(int(d), np.nan) for d in q])
     stat = np.where(act, t / np.maximum(q, 1), np.nan)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from baarda.errors import GeometryError
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.statistics import QualityResult, analyse
 
@@ -61,35 +62,27 @@ def label(model: AdjustedModel, i: int) -> str:
     return " ".join(parts)
 
 
-def iterative_snooping(refit: Callable[[np.ndarray], AdjustedModel], active: np.ndarray, *,
-                       alpha0: float = 0.001, beta0: float = 0.80, statistic: str = "w",
+def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS, *,
+                       active: np.ndarray | None = None, statistic: str = "w",
                        by_group: bool = False, max_iterations: int = 200,
                        progress: Callable[[str], None] | None = None) -> SnoopingRun:
     """Run Baarda's iterative data snooping with the w-test ("w") or Pope's tau ("tau").
 
-    `refit(active)` re-adjusts with only the components where `active` is True and returns
-    the adjusted model (with the same observation vector).
+    Starts from `model` (adjusted again first when `active`, the components to start with,
+    differs from its own) and re-adjusts it by `model.refit` after every rejection or
+    restoration; `model` itself is not changed.
     """
+    if statistic not in ("w", "tau"):
+        raise ValueError("statistic must be 'w' or 'tau'")
     say = progress or (lambda m: None)
-    active = np.asarray(active, bool).copy()
+    active = np.array(model.active if active is None else active, bool)
+    if not np.array_equal(active, model.active):
+        model = model.refit(active, model.factors)
     restored: set[int] = set()
     needed = np.zeros(len(active), bool)  # cannot be rejected: the block needs them
     log: list[SnoopingStep] = []
-    model = q = None
     for it in range(1, max_iterations + 1):
-        try:
-            model = refit(active)
-        except GeometryError as err:
-            if not log or log[-1].action != "reject" or q is None:
-                raise
-            # the last rejection left the block undetermined (datum, a point or a photo):
-            # keep those components, say so, and go on with the next candidate
-            last = log.pop()
-            active[last.rows] = True
-            needed[last.rows] = True
-            say(f"snooping {it}: {last.labels[0]} kept: without it {err}")
-            model = refit(active)
-        q = analyse(model, alpha0, beta0)
+        q = analyse(model, tests)
         stat = q.w if statistic == "w" else q.tau
         crit = q.k_w if statistic == "w" else q.k_tau
         mag = np.abs(np.nan_to_num(stat))
@@ -97,21 +90,38 @@ def iterative_snooping(refit: Callable[[np.ndarray], AdjustedModel], active: np.
                        "cannot be rejected: the block would be undetermined without it"
                        for i in np.flatnonzero(needed & (mag > crit)))
         cand = np.flatnonzero(active & ~needed & q.controlled & (mag > crit))
-        if len(cand):
+        while len(cand):
             i = int(cand[np.argmax(mag[cand])])
             rows = [i]
             if by_group and model.group[i] >= 0:
                 rows = list(np.flatnonzero(model.group == model.group[i]))
-            active[rows] = False
+            trial = active.copy()
+            trial[rows] = False
+            try:
+                new = model.refit(trial, model.factors)
+            except GeometryError as err:
+                # without it the block is undetermined (datum, a point or a photo): keep
+                # those components, say so, and go on with the next candidate
+                needed[rows] = True
+                say(f"snooping {it}: {label(model, i)} kept: without it {err}")
+                q.notes.append(f"{label(model, i)}: |{statistic}| = {mag[i]:.2f} is "
+                               "significant but it cannot be rejected: the block would be "
+                               "undetermined without it")
+                cand = cand[~np.isin(cand, rows)]
+                continue
             step = SnoopingStep(it, q.sigma0_hat, "reject", rows,
-                                [label(model, r) for r in rows], float(stat[i]), float(q.mdb[i]))
+                                [label(model, r) for r in rows], float(stat[i]),
+                                float(q.mdb[i]))
             log.append(step)
             say(f"snooping {it}: sigma0 {q.sigma0_hat:.3f}, reject {step.labels[0]}"
                 f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}")
-            continue
-        back = np.flatnonzero(~active & q.controlled & (mag < crit))
-        back = np.array([b for b in back if int(b) not in restored], dtype=int)
-        if len(back):
+            active, model = trial, new
+            break
+        else:
+            back = np.flatnonzero(~active & q.controlled & (mag < crit))
+            back = np.array([b for b in back if int(b) not in restored], dtype=int)
+            if not len(back):
+                return SnoopingRun(model, q, active, log, True)
             i = int(back[np.argmin(mag[back])])
             rows = [i]
             if by_group and model.group[i] >= 0:
@@ -119,12 +129,13 @@ def iterative_snooping(refit: Callable[[np.ndarray], AdjustedModel], active: np.
                         if not active[r]]
                 if np.any(mag[rows] >= crit):
                     rows = [i]
+            active = active.copy()
             active[rows] = True
             restored.update(int(r) for r in rows)
             log.append(SnoopingStep(it, q.sigma0_hat, "restore", rows,
                                     [label(model, r) for r in rows], float(stat[i]),
                                     float(q.mdb[i])))
             say(f"snooping {it}: restore {label(model, i)}: {statistic} = {stat[i]:.2f}")
-            continue
-        return SnoopingRun(model, q, active, log, True)
+            model = model.refit(active, model.factors)
+    q = analyse(model, tests)
     return SnoopingRun(model, q, active, log, False)

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.distributions import b_method, tau_critical
 from baarda.quality.statistics import R_MIN, qvv_columns
@@ -83,7 +84,7 @@ def exact_redundancy_numbers(model: AdjustedModel, rows: np.ndarray,
 
 
 def modified_snooping(model: AdjustedModel, approx_sqrt_r: np.ndarray, *, k_q: float = 0.25,
-                      alpha0: float = 0.001, beta0: float = 0.80, statistic: str = "w",
+                      tests: TestOptions = DEFAULT_TESTS, statistic: str = "w",
                       r_min: float = R_MIN, batch: int = 256) -> ModifiedSnooping:
     """Gruen's modified data snooping of `model` with approximate sqrt(r) values.
 
@@ -100,12 +101,12 @@ def modified_snooping(model: AdjustedModel, approx_sqrt_r: np.ndarray, *, k_q: f
     v, s, act = model.residuals, model.sigma, model.active
     red = model.redundancy
     if statistic == "w":
-        s0, crit = 1.0, b_method(alpha0, beta0).k_w
+        s0, crit = 1.0, b_method(tests.alpha0, tests.beta0).k_w
     elif statistic == "tau":
         if red < 2:
             raise ValueError("Pope's tau needs a redundancy of at least 2")
         s0 = float(np.sqrt(np.sum((v[act] / s[act]) ** 2) / red))
-        crit = tau_critical(alpha0, red)
+        crit = tau_critical(tests.alpha0, red)
     else:
         raise ValueError(f"statistic must be 'w' or 'tau', got {statistic!r}")
     usable = act & np.isfinite(approx) & (approx >= np.sqrt(r_min))

@@ -13,7 +13,6 @@ to data snooping as rejected; snooping tests them again and restores those that 
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,16 +29,17 @@ class RobustResult:
     converged: bool
 
 
-def danish_method(refit: Callable[[np.ndarray], AdjustedModel], sigma_apriori: np.ndarray,
-                  c: float = 3.0, max_iterations: int = 20, tol: float = 1e-3,
-                  reject_below: float = 0.01) -> RobustResult:
-    """Iterate weight factors; `refit(factors)` adjusts with weights p_i * factors_i."""
-    f = np.ones(len(sigma_apriori))
+def danish_method(model: AdjustedModel, c: float = 3.0, max_iterations: int = 20,
+                  tol: float = 1e-3, reject_below: float = 0.01) -> RobustResult:
+    """Iterate weight factors from `model` (a-priori weights); each step adjusts again by
+    `model.refit(model.active, factors)`: weights p_i * factors_i."""
+    sigma_apriori = model.sigma_apriori
+    f = np.ones(model.n)
+    current = model if np.all(model.factors == 1.0) else model.refit(model.active, f)
     for it in range(1, max_iterations + 1):
-        model = refit(f)
-        _, r = cofactors(model)
+        _, r = cofactors(current)
         with np.errstate(divide="ignore", invalid="ignore"):
-            w = np.abs(model.residuals) / (sigma_apriori * np.sqrt(r))
+            w = np.abs(current.residuals) / (sigma_apriori * np.sqrt(r))
         w = np.where(np.isfinite(w) & (r > 1e-3), w, 0.0)
         new = np.where(w > c, np.exp(1.0 - (w / c) ** 2), 1.0)
         new = np.maximum(new, 1e-12)
@@ -47,4 +47,5 @@ def danish_method(refit: Callable[[np.ndarray], AdjustedModel], sigma_apriori: n
         f = new
         if done:
             return RobustResult(f, f < reject_below, it, True)
+        current = current.refit(current.active, f)
     return RobustResult(f, f < reject_below, max_iterations, False)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.distributions import (
     b_method,
@@ -65,6 +66,10 @@ class QualityResult:
     notes: list[str] = field(default_factory=list)
 
     @property
+    def tests(self) -> TestOptions:
+        return TestOptions(self.alpha0, self.beta0)
+
+    @property
     def sum_redundancy_numbers(self) -> float:
         return float(np.sum(self.redundancy_number[self.active]))
 
@@ -85,9 +90,10 @@ def cofactors(model: AdjustedModel) -> tuple[np.ndarray, np.ndarray]:
     return qvv, r
 
 
-def analyse(model: AdjustedModel, alpha0: float = 0.001, beta0: float = 0.80,
+def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             r_min: float = R_MIN) -> QualityResult:
     """Every statistic of data snooping and reliability for every component of `model`."""
+    alpha0, beta0 = tests.alpha0, tests.beta0
     bm = b_method(alpha0, beta0)
     v, s, act = model.residuals, model.sigma, model.active
     qvv, r = cofactors(model)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.matrices import Transfer, critical_transfers, qvv_p_matrix
 from baarda.quality.statistics import QualityResult, analyse
 from baarda.relative.orientation import Orientation
@@ -59,13 +60,13 @@ class ModelQC:
         return f"{o.points[o.obs_point[i]]}{o.obs_component[i]}"
 
 
-def assess_model(orientation: Orientation, alpha0: float = 0.001, beta0: float = 0.80,
+def assess_model(orientation: Orientation, tests: TestOptions = DEFAULT_TESTS,
                  statistic: str = "w") -> ModelQC:
-    """Data snooping of one model with the quality layer (alpha0 of the w-test, power beta0)."""
+    """Data snooping of one model with the quality layer (tests: alpha0 and beta0)."""
     if statistic not in ("w", "tau"):
         raise ValueError("statistic must be 'w' or 'tau'")
     model = orientation.dense_model()
-    q = analyse(model, alpha0, beta0)
+    q = analyse(model, tests)
     m = qvv_p_matrix(model)
     qc = ModelQC(orientation, q, m, critical_transfers(m), statistic, None)
     s = np.abs(np.nan_to_num(qc.significance))

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.relative.model_report import model_report
 from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.relative.session import OnlineSession
@@ -77,8 +78,7 @@ class Interpreter:
     sigma: float = 10.0
     qyy: float = DEFAULT_QYY
     qtie: float = DEFAULT_QTIE
-    alpha0: float = 0.001
-    beta0: float = 0.80
+    tests: TestOptions = DEFAULT_TESTS
     statistic: str = "w"
     session: OnlineSession | None = None
     collecting: dict | None = None  # model being typed: name, base, ties, points
@@ -136,8 +136,8 @@ class Interpreter:
             if self.focal is None:
                 raise LineError("the principal distance is unknown: give a 'camera focal=...' "
                                 "line or --focal", "focal")
-            self.session = OnlineSession(self.focal, self.sigma, self.qyy, self.alpha0,
-                                         self.beta0, self.statistic, base, self.qtie)
+            self.session = OnlineSession(self.focal, self.sigma, self.qyy, self.tests,
+                                         self.statistic, base, self.qtie)
         elif base is not None:
             raise LineError("base= is for the first model only (later models take the scale "
                             "from their tie points)", "base")

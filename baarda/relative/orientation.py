@@ -9,25 +9,33 @@ dividing each condition by its a_i, a parametric model in the observations thems
     v_i(g) = -F_i(g) / a_i(g)          (exact: F is linear in the right image coordinates)
 
 with weights 1/sigma_i^2, sigma_x for x'' and sqrt(q_yy/q_xx) sigma_x for y'' (Kratky:
-q_yy = 2 q_xx).  Gauss-Newton on this form; the Jacobian dv/dg is the design matrix handed
-to the quality layer (baarda.quality.adjusted_model.DenseModel), residuals and sigmas in µm.
+q_yy = 2 q_xx), solved by the one solver (adjustment/solve.py); the Jacobian dv/dg is the
+design matrix handed to the quality layer (baarda.quality.dense_model.DenseModel), residuals
+and sigmas in µm.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from baarda.adjustment.dense import DenseLeastSquares
+from baarda.adjustment.solve import solve
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import GeometryError
-from baarda.quality.adjusted_model import DenseModel
+from baarda.options import SolveOptions
+from baarda.quality.dense_model import DenseModel
 from baarda.relative.coplanarity import coplanarity, image_vectors, right_rotation
 from baarda.relative.scale_transfer import collinearity_xz
 
 PARAMETER_NAMES = ("beta_x", "beta_y", "beta_z", "kappa", "phi", "omega")
 DEFAULT_QYY = 2.0  # q_yy / q_xx (Kratky)
 DEFAULT_QTIE = 1.0  # q of x'' at tie points / q_xx (Kratky; see docs/online.md)
+# converged when max |dg| < 1e-12 (rad, base units); at the iteration limit or when no step
+# lowers v'Pv any more, converged if max |dg| <= 1e-9 (the rounding floor)
+SOLVE = SolveOptions(max_iterations=30, tolerance=1e-12, stall_tolerance=1e-9, min_step=1e-6,
+                     final_step=True)
 
 
 @dataclass
@@ -153,7 +161,7 @@ class Orientation:
 def orient(name: str, points: list[str], left_xy: np.ndarray, right_xy: np.ndarray,
            setup: ModelSetup, g0: np.ndarray | None = None, max_iter: int = 30,
            tol: float = 1e-12, delta: np.ndarray | None = None) -> Orientation:
-    """Orient one model by Gauss-Newton from g0 (default: the left photo's attitude).
+    """Orient one model from g0 (default: the left photo's attitude).
 
     left_xy, right_xy (n, 2): image coordinates in mm of the model's points; delta: see
     residual_function.
@@ -173,24 +181,23 @@ def orient(name: str, points: list[str], left_xy: np.ndarray, right_xy: np.ndarr
     g = np.asarray(g0, float).copy()
     sig = np.concatenate([np.full(n, np.sqrt(setup.qyy) * setup.sigma_x),
                           np.full(m, np.sqrt(setup.qtie) * setup.sigma_x)])
-    p = 1.0 / sig**2
-    it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007
-        v, jac = residual_function(g, setup, left_xy, right_xy, delta)
-        a = jac[:, unk]
-        nmat = a.T @ (p[:, None] * a)
-        scale = np.sqrt(np.diag(nmat))
-        if not np.all(scale > 0) or np.linalg.cond(nmat / np.outer(scale, scale)) > 1e12:
-            raise GeometryError(f"model {name}: the orientation is not determined by these "
-                                "points (singular normal equations)")
-        dg = -np.linalg.solve(nmat, a.T @ (p * v))
-        g[unk] += dg
-        if np.max(np.abs(dg)) < tol:
-            break
-    else:
-        if np.max(np.abs(dg)) > 1e-9:  # below: at the rounding floor, converged
-            raise GeometryError(f"model {name}: orientation did not converge in {max_iter} "
-                                "iterations")
+
+    def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        gx = g.copy()
+        gx[unk] = x
+        v, jac = residual_function(gx, setup, left_xy, right_xy, delta)
+        return v, jac[:, unk]  # observed = 0: the misclosure is -v
+
+    problem = DenseLeastSquares(residuals, np.zeros(n + m), 1.0 / sig**2, max_condition=1e12,
+                                correction=lambda x, dx: float(np.max(np.abs(dx))),
+                                what=f"model {name}: the orientation")
+    options = replace(SOLVE, max_iterations=max_iter, tolerance=tol)
+    sol = solve(problem, g[unk].copy(), options)
+    if not sol.converged:
+        raise GeometryError(f"model {name}: orientation did not converge in {max_iter} "
+                            "iterations")
+    g[unk] = sol.state
+    it = sol.iterations
     v, jac = residual_function(g, setup, left_xy, right_xy, delta)
     rot, _ = right_rotation(g[3:6])
     bx = g[0] * setup.base_ref

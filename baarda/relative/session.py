@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.relative.model_qc import ModelQC, assess_model
 from baarda.relative.orientation import (
     DEFAULT_QTIE,
@@ -60,19 +61,19 @@ class OnlineSession:
     """Strip bridging model by model.
 
     focal: principal distance c (mm); sigma_x: a-priori sigma of x'' (µm); qyy: q_yy / q_xx
-    (Kratky: 2); qtie: cofactor of x'' at tie points / q_xx (Kratky: 1); alpha0, beta0: the
-    w-test; statistic: "w" (sigma0 a priori) or "tau"; base: b_x of the first model in model
-    units (default: mean x-parallax).
+    (Kratky: 2); qtie: cofactor of x'' at tie points / q_xx (Kratky: 1); tests: alpha0 and
+    beta0 of the w-test; statistic: "w" (sigma0 a priori) or "tau"; base: b_x of the first
+    model in model units (default: mean x-parallax).
     """
 
     def __init__(self, focal: float, sigma_x: float = 10.0, qyy: float = DEFAULT_QYY,
-                 alpha0: float = 0.001, beta0: float = 0.80, statistic: str = "w",
+                 tests: TestOptions = DEFAULT_TESTS, statistic: str = "w",
                  base: float | None = None, qtie: float = DEFAULT_QTIE):
         if not focal > 0 or not sigma_x > 0 or not qyy > 0 or not qtie > 0:
             raise ValueError("focal, sigma_x, qyy and qtie must be positive")
         self.focal, self.sigma_x, self.qyy = float(focal), float(sigma_x), float(qyy)
         self.qtie = float(qtie)
-        self.alpha0, self.beta0, self.statistic = alpha0, beta0, statistic
+        self.tests, self.statistic = tests, statistic
         self.base = base
         self.accepted: list[AcceptedModel] = []
         self.coordinates: dict[str, np.ndarray] = {}  # strip, first determination
@@ -183,7 +184,7 @@ class OnlineSession:
             g0 = prev.params.copy()
             g0[0] = 1.0
         o = orient(p.name, ids, left_xy, right_xy, setup, g0)
-        p.qc = assess_model(o, self.alpha0, self.beta0, self.statistic)
+        p.qc = assess_model(o, self.tests, self.statistic)
         return p.qc
 
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block, GroundPoints
 from baarda.bundle.bundle_quality import BundleQuality
+from baarda.options import TestOptions
 from baarda.screening.control import ControlCheck, screen_control
 from baarda.screening.log import Entry, ScreeningLog
 from baarda.screening.pairs import PairTest, screen_pairs
@@ -87,8 +88,7 @@ def screen(block: Block, options: ScreeningOptions | None = None,
     """Run the screening stages on `block` (not modified); returns the cleaned block and log."""
     opt = options or ScreeningOptions()
     say = progress or (lambda m: None)
-    alpha0 = opt.alpha0 or block.settings.alpha0
-    beta0 = opt.beta0 or block.settings.beta0
+    tests = TestOptions.resolve(block.settings, opt.alpha0, opt.beta0)
     log = ScreeningLog()
     keep = np.ones(len(block.image), bool)
     pairs: list[PairTest] = []
@@ -97,13 +97,14 @@ def screen(block: Block, options: ScreeningOptions | None = None,
     bad: set[int] = set()
     if 1 in opt.stages:
         keep, pairs = screen_pairs(block, keep, log, kind=opt.pair_transform,
-                                   statistic=opt.pair_statistic, alpha0=opt.pair_alpha0,
-                                   beta0=beta0, min_redundancy=opt.pair_min_redundancy,
+                                   statistic=opt.pair_statistic,
+                                   tests=TestOptions(opt.pair_alpha0, tests.beta0),
+                                   min_redundancy=opt.pair_min_redundancy,
                                    tolerance_mm=opt.pair_tolerance_mm)
         say(f"stage 1: {len(pairs)} photo pairs, {len(log.removed('image', 1))} image "
             "point(s) removed")
     if 2 in opt.stages or 3 in opt.stages:
-        keep2, strips = screen_strips(block, keep, log, alpha0=alpha0, beta0=beta0,
+        keep2, strips = screen_strips(block, keep, log, tests=tests,
                                       rho_max=opt.rho_max)
         if 2 in opt.stages:
             keep = keep2
@@ -112,7 +113,7 @@ def screen(block: Block, options: ScreeningOptions | None = None,
         else:  # strips formed only for the control check: their decisions are not kept
             log.entries = [e for e in log.entries if e.stage != 2]
     if 3 in opt.stages:
-        bad, checks = screen_control(block, strips, log, alpha0=alpha0, beta0=beta0)
+        bad, checks = screen_control(block, strips, log, tests=tests)
         say(f"stage 3: {len(checks)} strip(s) checked, {len(bad)} control point(s) removed")
     _one_ray(block, keep, log, bad)
     return ScreeningResult(cleaned_block(block, keep, bad), block, keep, sorted(bad), log,
@@ -125,12 +126,12 @@ def screen_and_snoop(block: Block, options: ScreeningOptions | None = None, *,
     """Screening, then bundle adjustment with data snooping of the cleaned block.
 
     The snooping removes what it rejects together with the observations it cannot tell from
-    it (screening.snooping); its removals are added to the log (stage 4).  The returned
+    it (screening/separable.py); its removals are added to the log (stage 4).  The returned
     ScreeningResult's block is the block after both.
     """
     res = screen(block, options, progress)
     opt = options or ScreeningOptions()
-    qc, final, _ = snoop_separable(res.block, res.log, alpha0=opt.alpha0, beta0=opt.beta0,
-                                   rho_max=opt.rho_max, statistic=statistic, progress=progress)
-    res.block = final
-    return res, qc
+    tests = TestOptions.resolve(block.settings, opt.alpha0, opt.beta0)
+    qc, final, _ = snoop_separable(res.block, res.log, tests=tests, rho_max=opt.rho_max,
+                                   statistic=statistic, progress=progress)
+    return replace(res, block=final), qc

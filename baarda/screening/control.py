@@ -31,13 +31,15 @@ import numpy as np
 from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_and_derivatives
 from baarda.errors import GeometryError
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import analyse
 from baarda.screening.fit import (
     Observations,
-    dense_model,
-    gauss_newton,
+    SmallModel,
     largest_test,
+    least_squares,
+    small_model,
 )
 from baarda.screening.log import Entry, ScreeningLog
 from baarda.screening.strips import Strip
@@ -146,18 +148,25 @@ class StripSimilarity:
         f, jac = similarity(params, self.d)
         return f[self.j, self.k], jac[self.j, self.k]
 
-    def refit(self, active: np.ndarray):
+    def fit(self, active: np.ndarray, factors: np.ndarray | None = None,
+            start: np.ndarray | None = None) -> SmallModel:
+        """The similarity onto the `active` control, from the closed form of its full points
+        (else from `start`, else the closed form of all points); its model's x = params."""
+        active = np.asarray(active, bool)
         full = self.comp.all(axis=1) & np.array(
             [active[self.j == i].all() for i in range(len(self.points))])
-        start = closed_form(self.d[full], self.given[full]) if full.sum() >= 3 else self.params
-        x, f, a = gauss_newton(self.func, start, self.obs, active,
-                               what=f"strip {self.strip.label} similarity")
-        self.params = x
-        return dense_model(a, self.obs, f, active)
+        if full.sum() >= 3:
+            start = closed_form(self.d[full], self.given[full])
+        elif start is None:
+            start = self.params
+        sol = least_squares(self.func, start, self.obs, active, factors,
+                            f"strip {self.strip.label} similarity")
+        return small_model(sol.lin.a, self.obs, sol.lin.f, active, factors, problem=self,
+                           x=sol.state)
 
 
-def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
-                beta0: float = 0.80) -> ControlCheck | None:
+def check_strip(block: Block, strip: Strip, *,
+                tests: TestOptions = DEFAULT_TESTS) -> ControlCheck | None:
     """Snoop the control of one strip; None when it has fewer than 3 full control points."""
     pts = block.points
     ctrl = [p for p in sorted(strip.xyz) if pts.role[p] == "control"
@@ -173,8 +182,7 @@ def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
     best = None
     for start in starts:
         try:
-            run = iterative_snooping(sim.refit, start, alpha0=alpha0, beta0=beta0,
-                                     by_group=True)
+            run = iterative_snooping(sim.fit(start), tests, by_group=True)
         except GeometryError:
             continue
         q = run.quality
@@ -183,7 +191,7 @@ def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
             continue
         score = (int(np.sum(run.active)), bool(gt is None or gt.passed), -q.vtpv)
         if best is None or score > best[0]:
-            best = (score, run, sim.params.copy())
+            best = (score, run, run.model.x)
     if best is None:
         return None
     _, run, params = best
@@ -193,7 +201,7 @@ def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
         act = run.active.copy()
         act[comps] = True
         try:
-            i, w, crit = largest_test(sim.refit(act), comps, alpha0, beta0)
+            i, w, crit = largest_test(run.model.refit(act), comps, tests)
         except GeometryError:
             continue
         if not abs(w) > crit:  # rejected while other points were out: not an error of its own
@@ -203,25 +211,24 @@ def check_strip(block: Block, strip: Strip, *, alpha0: float = 0.001,
         # that the similarity cannot follow make it exceed 1: they are not errors of a point)
         others = [j for j in range(len(ctrl)) if j != g and sim.comp[j].all()
                   and run.active[sim.obs.group == j].all()]
-        base = _fit(sim, run.active, alpha0, beta0)
+        base = _fit(run.model, run.active, tests)
         if base is None:
             continue
         factor = max(1.0, base.sigma0_hat) if base.redundancy > 0 else 1.0
         alt = [ctrl[j] for j in others
-               if _fits(_fit(sim, act & (sim.obs.group != j), alpha0, beta0), factor)]
+               if _fits(_fit(run.model, act & (sim.obs.group != j), tests), factor)]
         if _fits(base, factor) and not alt:
             rejected.append(ctrl[g])
         else:
             unlocated.append((ctrl[g], w, crit, alt))
-    sim.params = params
     return ControlCheck(strip.label, ctrl, rejected, unlocated, params,
                         float(run.quality.sigma0_hat), run)
 
 
-def _fit(sim: StripSimilarity, active: np.ndarray, alpha0: float, beta0: float):
+def _fit(model: SmallModel, active: np.ndarray, tests: TestOptions):
     """The statistics of the similarity with the `active` control, or None (singular)."""
     try:
-        return analyse(sim.refit(active), alpha0, beta0)
+        return analyse(model.refit(active), tests)
     except GeometryError:
         return None
 
@@ -238,14 +245,14 @@ def _fits(q, factor: float) -> bool:
 
 
 def screen_control(block: Block, strips: list[Strip], log: ScreeningLog, *,
-                   alpha0: float = 0.001, beta0: float = 0.80
+                   tests: TestOptions = DEFAULT_TESTS
                    ) -> tuple[set[int], list[ControlCheck]]:
     """Stage 3 for every strip; returns the control points found in error and the checks."""
     bad: set[int] = set()
     checks = []
     ids = block.points.ids
     for strip in strips:
-        chk = check_strip(block, strip, alpha0=alpha0, beta0=beta0)
+        chk = check_strip(block, strip, tests=tests)
         if chk is None:
             log.note(3, f"strip {strip.label}", "fewer than three full control points formed "
                      "in the strip: control not checked")
@@ -261,7 +268,7 @@ def screen_control(block: Block, strips: list[Strip], log: ScreeningLog, *,
                           "the bundle adjustment"))
         for p in chk.rejected:
             rows = np.flatnonzero(model.point == ids[p])
-            _, w, crit = largest_test(model, rows, alpha0, beta0)
+            _, w, crit = largest_test(model, rows, tests)
             bad.add(p)
             log.add(Entry(3, ctx, "control", ids[p], statistic="w", value=w, critical=crit,
                           reason="disagrees with the strip transformed onto the other control "

@@ -15,7 +15,7 @@ import numpy as np
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.bundle.collinearity import project_with_jacobians
-from baarda.screening.fit import Observations, SmallModel, dense_model, gauss_newton
+from baarda.screening.fit import Observations, SmallModel, least_squares, small_model
 
 XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
@@ -92,14 +92,13 @@ class Intersection:
         self.xyz = np.full((len(self.points), 3), np.nan)
         for p, (x, _) in constraints.items():
             self.xyz[self.pindex[int(p)]] = x
-        self.state: tuple[np.ndarray, np.ndarray] | None = None
 
     # ---------------------------------------------------------------- geometry
-    def start_points(self, active: np.ndarray, eo: np.ndarray) -> None:
-        """Intersect points without coordinates from their active rays."""
-        need = ~np.isfinite(self.xyz).all(axis=1)
+    def start_points(self, active: np.ndarray, eo: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+        """xyz with the points that have no coordinates intersected from their active rays."""
+        need = ~np.isfinite(xyz).all(axis=1)
         if not need.any():
-            return
+            return xyz
         ray = active[0:2 * self.m:2] | active[1:2 * self.m:2]
         im = self.block.image
         cam = self.block.photos.camera[self.photo]
@@ -107,7 +106,9 @@ class Intersection:
                            self.block.cameras.focal_mm[cam][ray],
                            self.block.cameras.principal_point_mm[cam][ray],
                            self.row_point[ray], len(self.points))
-        self.xyz[need] = x[need]
+        out = xyz.copy()
+        out[need] = x[need]
+        return out
 
     def _linearize(self, eo: np.ndarray, xyz: np.ndarray):
         """Computed values (n,), d/d(free orientation) (n, ne), d/d(point) (n, 3)."""
@@ -125,14 +126,14 @@ class Intersection:
         jpt = np.concatenate([jp.reshape(2 * self.m, 3), np.tile(np.eye(3), (nc, 1))])
         return f, jeo, jpt
 
-    def determined(self, active: np.ndarray, eo: np.ndarray) -> np.ndarray:
+    def determined(self, active: np.ndarray, eo: np.ndarray, xyz: np.ndarray) -> np.ndarray:
         """(npoints,) bool: the active components fix the point (3 independent rows)."""
-        _, _, jp = self._linearize(eo, self.xyz)
+        _, _, jp = self._linearize(eo, xyz)
         out = np.zeros(len(self.points), bool)
         rows = np.flatnonzero(active)
         for i in range(len(self.points)):
             sel = rows[self.comp_point[rows] == i]
-            if len(sel) < 3 or not np.all(np.isfinite(self.xyz[i])):
+            if len(sel) < 3 or not np.all(np.isfinite(xyz[i])):
                 continue
             j = jp[sel]
             s = np.linalg.svd(j / np.linalg.norm(j, axis=1, keepdims=True), compute_uv=False)
@@ -140,16 +141,16 @@ class Intersection:
         return out
 
     # ---------------------------------------------------------------- adjustment
-    def refit(self, active: np.ndarray) -> SmallModel:
-        """Adjust with the `active` components; the quality layer's model of the result."""
+    def fit(self, active: np.ndarray, factors: np.ndarray | None = None,
+            start: tuple[np.ndarray, np.ndarray] | None = None) -> SmallModel:
+        """Adjust with the `active` components from `start` (orientations, point coordinates;
+        default the given orientations and constraints): the quality layer's model, whose
+        `x` is the solution (orientations (n_photos, 6), point coordinates)."""
         active = np.asarray(active, bool)
-        if self.state is None:
-            eo = self.eo.copy()
-        else:
-            eo, xyz = self.state
-            eo, self.xyz = eo.copy(), xyz.copy()
-        self.start_points(active, eo)
-        det = self.determined(active, eo)
+        eo, xyz = (self.eo, self.xyz) if start is None else start
+        eo = eo.copy()
+        xyz = self.start_points(active, eo, xyz)
+        det = self.determined(active, eo, xyz)
         und = ~det[self.comp_point]
         pts = np.flatnonzero(det)
         col = np.full(len(self.points), -1)
@@ -162,9 +163,9 @@ class Intersection:
         def unpack(x):
             e = eo.copy()
             e[fr, fc] = x[self.eo_col[fr, fc]]
-            xyz = self.xyz.copy()
-            xyz[pts] = x[self.ne:].reshape(-1, 3)
-            return e, xyz
+            p = xyz.copy()
+            p[pts] = x[self.ne:].reshape(-1, 3)
+            return e, p
 
         def func(x):
             f, jeo, jpt = self._linearize(*unpack(x))
@@ -176,20 +177,17 @@ class Intersection:
 
         x0 = np.zeros(u)
         x0[self.eo_col[fr, fc]] = eo[fr, fc]
-        x0[self.ne:] = self.xyz[pts].ravel()
-        x, f, a = gauss_newton(func, x0, self.obs, active & ~und, what=self.what)
-        self.state = unpack(x)
-        self.last = (func, x)  # the function of the unknowns and the solution (tests)
+        x0[self.ne:] = xyz[pts].ravel()
+        sol = least_squares(func, x0, self.obs, active & ~und, factors, self.what)
         rows3 = (self.ne + 3 * np.arange(len(pts)))[:, None] + np.arange(3)[None, :]
         labels = [self.block.points.ids[int(self.points[p])] for p in pts]
         if not len(pts):
             rows3, labels = None, None
-        return dense_model(a, self.obs, f, active, und, rows3, labels)
-
-    def solution(self) -> tuple[np.ndarray, np.ndarray]:
-        """Orientations (n_photos, 6) and point coordinates of the last refit."""
-        assert self.state is not None
-        return self.state
+        model = small_model(sol.lin.a, self.obs, sol.lin.f, active, factors, problem=self,
+                            x=unpack(sol.state), undetermined=und, point_rows=rows3,
+                            point_labels=labels)
+        model.func, model.unknowns = func, sol.state  # the function of the unknowns (tests)
+        return model
 
     def components(self, point: int) -> np.ndarray:
         """Observation components that belong to block point `point`."""

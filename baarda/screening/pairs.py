@@ -36,13 +36,16 @@ import scipy.sparse as sp
 
 from baarda.block.photo_block import Block
 from baarda.errors import GeometryError
+from baarda.options import TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.statistics import analyse
-from baarda.screening.fit import Observations, dense_model, gauss_newton
+from baarda.screening.fit import Observations, SmallProblem
 from baarda.screening.log import Entry, ScreeningLog
 
 N_PARAMS = {"similarity": 4, "affine": 6, "projective": 8}
+# the 2D model is approximate, so only clear errors count: alpha0 1e-4
+PAIR_TESTS = TestOptions(1e-4, 0.80)
 
 
 def design(xy: np.ndarray, kind: str) -> np.ndarray:
@@ -149,7 +152,7 @@ def common_points(block: Block, keep: np.ndarray, min_points: int) -> list[tuple
 
 
 def fit_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarray, kind: str,
-             *, alpha0: float, beta0: float, statistic: str = "tau",
+             *, tests: TestOptions, statistic: str = "tau",
              sigma_mm: float | None = None, tolerance_mm: float = 0.0) -> PairTest | None:
     """Fit photo b's coordinates to photo a's by `kind`, snooping whole points.
 
@@ -180,23 +183,18 @@ def fit_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarra
         sol = np.linalg.lstsq(aff, xy_b.ravel(), rcond=None)[0]
         start = np.concatenate([sol, [0.0, 0.0]])
 
-    def refit(active: np.ndarray):
-        x, f, jac = gauss_newton(func, start, obs, active, what=what)
-        return dense_model(jac, obs, f, active)
-
     try:
-        first = refit(np.ones(2 * k, bool))
+        first = SmallProblem(func, start, obs, what).fit(np.ones(2 * k, bool))
     except GeometryError:
         return None
-    q = analyse(first, alpha0, beta0)
+    q = analyse(first, tests)
     stat = q.w if statistic == "w" else q.tau
     crit = q.k_w if statistic == "w" else q.k_tau
     tested = q.controlled.reshape(k, 2).any(axis=1)
     value = np.nanmax(np.abs(np.where(q.controlled, stat, np.nan)).reshape(k, 2), axis=1,
                       initial=0.0)
     try:
-        run = iterative_snooping(refit, np.ones(2 * k, bool), alpha0=alpha0, beta0=beta0,
-                                 statistic=statistic, by_group=True)
+        run = iterative_snooping(first, tests, statistic=statistic, by_group=True)
         qf = run.quality
         v = run.model.residuals.reshape(k, 2)
         rejected = (~run.active).reshape(k, 2).any(axis=1)
@@ -270,7 +268,7 @@ def blame(tests: list[PairTest]) -> dict[int, tuple[list[int], list[PairTest]]]:
 
 
 def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str = "auto",
-                 statistic: str = "w", alpha0: float = 1e-4, beta0: float = 0.80,
+                 statistic: str = "w", tests: TestOptions = PAIR_TESTS,
                  min_redundancy: int = 4, tolerance_mm: float | None = None
                  ) -> tuple[np.ndarray, list[PairTest]]:
     """Stage 1 on the image rows where `keep` is True; returns the new keep and the tests.
@@ -289,28 +287,28 @@ def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str
         use = choose_kind(len(ra), kind, min_redundancy)
         if use is not None:
             pairs.append((a, b, ra, rb, use))
-    tests = [fit_pair(block, a, b, ra, rb, use, alpha0=alpha0, beta0=beta0, statistic="tau",
-                      tolerance_mm=np.inf if statistic == "w" else _tol(block, a, b,
-                                                                         tolerance_mm, 0.0))
-             for a, b, ra, rb, use in pairs]
-    final = [t.run.quality.sigma0_hat * t.run.model.sigma[0] for t in tests
+    fits = [fit_pair(block, a, b, ra, rb, use, tests=tests, statistic="tau",
+                     tolerance_mm=np.inf if statistic == "w" else _tol(block, a, b,
+                                                                        tolerance_mm, 0.0))
+            for a, b, ra, rb, use in pairs]
+    final = [t.run.quality.sigma0_hat * t.run.model.sigma[0] for t in fits
              if t is not None and t.run is not None and np.isfinite(t.run.quality.sigma0_hat)]
     if statistic == "w" and final:
         pooled = float(np.median(final))
-        k_w = b_method(alpha0, beta0).k_w
+        k_w = b_method(tests.alpha0, tests.beta0).k_w
         log.note(1, "pairs", f"pooled sigma of the 2D transformations {pooled * 1e3:.0f} µm")
-        tests = [fit_pair(block, a, b, ra, rb, use, alpha0=alpha0, beta0=beta0, statistic="w",
-                          sigma_mm=pooled,
-                          tolerance_mm=_tol(block, a, b, tolerance_mm, k_w * pooled))
-                 for a, b, ra, rb, use in pairs]
-    failed = [f"{ids[a]}-{ids[b]}" for t, (a, b, *_) in zip(tests, pairs, strict=True)
+        fits = [fit_pair(block, a, b, ra, rb, use, tests=tests, statistic="w",
+                         sigma_mm=pooled,
+                         tolerance_mm=_tol(block, a, b, tolerance_mm, k_w * pooled))
+                for a, b, ra, rb, use in pairs]
+    failed = [f"{ids[a]}-{ids[b]}" for t, (a, b, *_) in zip(fits, pairs, strict=True)
               if t is None]
     if failed:
         log.note(1, "pairs", f"not fitted (not tested): {', '.join(failed)}")
-    tests = [t for t in tests if t is not None]
+    fits = [t for t in fits if t is not None]
     im = block.image
     ids = block.photos.ids
-    for p, (photos, bad) in sorted(blame(tests).items()):
+    for p, (photos, bad) in sorted(blame(fits).items()):
         pairs = ", ".join(f"{ids[t.a]}-{ids[t.b]} ({t.kind})" for t in bad)
         worst = max(bad, key=lambda t: t.value[np.flatnonzero(t.points == p)[0]])
         value = float(worst.value[np.flatnonzero(worst.points == p)[0]])
@@ -334,5 +332,5 @@ def screen_pairs(block: Block, keep: np.ndarray, log: ScreeningLog, *, kind: str
             log.add(Entry(1, f"pairs {pairs}", "image", block.points.ids[p], ids[ph],
                           statistic=statistic, value=value, critical=worst.critical,
                           reason=reason))
-    log.note(1, "pairs", f"{len(tests)} photo pair(s) tested")
-    return keep, tests
+    log.note(1, "pairs", f"{len(fits)} photo pair(s) tested")
+    return keep, fits

@@ -18,8 +18,8 @@ import numpy as np
 
 from baarda.block.photo_block import Block, GroundPoints
 from baarda.bundle.bundle_model import BundleModel
-from baarda.bundle.bundle_problem import BundleProblem, adjust
 from baarda.bundle.bundle_quality import BundleQuality, snoop
+from baarda.options import TestOptions
 from baarda.quality.iterative import label
 from baarda.quality.statistics import w_correlation
 from baarda.screening.log import Entry, ScreeningLog
@@ -27,31 +27,14 @@ from baarda.screening.log import Entry, ScreeningLog
 STAGE = 4
 
 
-def keep_masks(block: Block, model: BundleModel,
-               active: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """BundleProblem masks (image (m, 2), control (k, 3)) of a model's active components."""
-    img = model.image_row >= 0
-    keep = np.ones((len(block.image), 2), bool)
-    keep[model.image_row[img], np.where(model.component[img] == "x", 0, 1)] = active[img]
-    ckeep = np.ones((len(block.points), 3), bool)
-    ctl = ~img
-    comp = np.array(["XYZ".index(c) for c in model.component[ctl]], dtype=int)
-    ckeep[model.control_index[ctl], comp] = active[ctl]
-    return keep, ckeep
-
-
 def partners(qc: BundleQuality, i: int, rho_max: float) -> tuple[np.ndarray, np.ndarray]:
     """Active components whose w-tests cannot be told from that of rejected component i.
 
     Adjusts again with i put back (the other rejections stay) and returns (indices, rho).
     """
-    block = qc.adjustment.block
     act = qc.quality.active.copy()
     act[i] = True
-    keep, ckeep = keep_masks(block, qc.model, act)
-    res = adjust(block, problem=BundleProblem(block, keep, ckeep),
-                 start=(qc.adjustment.eo, qc.adjustment.xyz))
-    model = BundleModel(res)
+    model = qc.model.refit(act)
     rho = w_correlation(model, i)
     idx = np.flatnonzero(model.active & (np.abs(rho) >= rho_max))
     idx = idx[idx != i]
@@ -75,7 +58,7 @@ def without(block: Block, rows: set[int], control: set[tuple[int, int]]) -> Bloc
 
 
 def snoop_separable(block: Block, log: ScreeningLog | None = None, *,
-                    alpha0: float | None = None, beta0: float | None = None,
+                    tests: TestOptions | None = None,
                     rho_max: float = 0.9, statistic: str = "w", max_passes: int = 6,
                     progress: Callable[[str], None] | None = None
                     ) -> tuple[BundleQuality, Block, ScreeningLog]:
@@ -88,7 +71,7 @@ def snoop_separable(block: Block, log: ScreeningLog | None = None, *,
     ctrl: set[tuple[int, int]] = set()
     current = block
     for npass in range(1, max_passes + 1):
-        qc = snoop(current, alpha0=alpha0, beta0=beta0, statistic=statistic)
+        qc = snoop(current, tests, statistic=statistic)
         m, q = qc.model, qc.quality
         rejected = np.flatnonzero(~q.active)
         if not len(rejected) or npass == max_passes:

@@ -29,6 +29,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.errors import GeometryError
+from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.iterative import label as obs_label
 from baarda.quality.statistics import w_correlation
@@ -94,7 +95,7 @@ class Decision:
     other: str  # label of the least separable other observation
 
 
-def _examine(prob: Intersection, run: SnoopingRun, alpha0: float, beta0: float,
+def _examine(prob: Intersection, run: SnoopingRun, tests: TestOptions,
              rho_max: float) -> list[Decision]:
     """Separability of every group that the snooping rejected."""
     out = []
@@ -103,12 +104,12 @@ def _examine(prob: Intersection, run: SnoopingRun, alpha0: float, beta0: float,
         comps = np.flatnonzero(obs.group == g)
         act = run.active.copy()
         act[comps] = True
-        model = prob.refit(act)
+        model = run.model.refit(act)
         test = comps[model.active[comps]]
         point = int(prob.points[prob.comp_point[comps[0]]])
         if len(test) == 0:
             continue
-        i, w, crit = largest_test(model, test, alpha0, beta0)
+        i, w, crit = largest_test(model, test, tests)
         others = prob.components(point)
         others = others[model.active[others] & ~np.isin(others, comps)]
         ok, rho = separable(model, i, others, rho_max)
@@ -117,12 +118,11 @@ def _examine(prob: Intersection, run: SnoopingRun, alpha0: float, beta0: float,
             j = others[int(np.argmax(np.abs(w_correlation(model, i)[others])))]
             other = obs_label(model, int(j))
         out.append(Decision(int(g), point, int(i), w, crit, ok, rho, other))
-    prob.refit(run.active)  # back to the solution of the run
     return out
 
 
 def _step(block: Block, strip: Strip, k: int, keep: np.ndarray, log: ScreeningLog,
-          suspended: set[int], alpha0: float, beta0: float, rho_max: float) -> bool:
+          suspended: set[int], tests: TestOptions, rho_max: float) -> bool:
     """Orient photo k of the strip; returns False when it cannot be oriented."""
     im = block.image
     photos = strip.photos
@@ -148,12 +148,11 @@ def _step(block: Block, strip: Strip, k: int, keep: np.ndarray, log: ScreeningLo
     prob = Intersection(block, eo, rows, [pk], {p: (strip.xyz[p], strip.var[p]) for p in old},
                         None if fixed is None else {pk: [fixed]}, what=ctx)
     try:
-        run = iterative_snooping(prob.refit, np.ones(prob.obs.n, bool), alpha0=alpha0,
-                                 beta0=beta0, by_group=True)
+        run = iterative_snooping(prob.fit(np.ones(prob.obs.n, bool)), tests, by_group=True)
     except GeometryError as e:
         strip.notes.append(f"{ctx}: not oriented ({e}); strip formation stops here")
         return False
-    decisions = _examine(prob, run, alpha0, beta0, rho_max)
+    decisions = _examine(prob, run, tests, rho_max)
     ids = block.points.ids
     suspect: set[int] = set()
     for d in decisions:
@@ -176,9 +175,9 @@ def _step(block: Block, strip: Strip, k: int, keep: np.ndarray, log: ScreeningLo
                       ",".join(block.photos.ids[im.photo[r]] for r in rays), action="suspended",
                       statistic="w", value=d.w, critical=d.critical,
                       reason=f"rejected, but {what}: formed again with all its rays later"))
-    eo_all, xyz = prob.solution()
-    strip.eo[pk] = eo_all[pk]
     model = run.model
+    eo_all, xyz = model.x
+    strip.eo[pk] = eo_all[pk]
     qxx = np.diag(model.qxx)
     for r, lab in zip(model.point_rows if model.point_rows is not None else [],
                       model.point_labels or [], strict=True):
@@ -205,8 +204,7 @@ def _base_component(block: Block, photos: list[int]) -> int:
 
 
 def _strip_adjustment(block: Block, strip: Strip, keep: np.ndarray, log: ScreeningLog,
-                      suspended: set[int], alpha0: float, beta0: float,
-                      rho_max: float) -> None:
+                      suspended: set[int], tests: TestOptions, rho_max: float) -> None:
     """All rays of the strip with every photo free but the datum, snooped like a step.
 
     It settles the points suspended in the steps: a separable rejection of a suspended point is
@@ -228,12 +226,11 @@ def _strip_adjustment(block: Block, strip: Strip, keep: np.ndarray, log: Screeni
     prob = Intersection(block, strip.eo, rows, photos[1:], None,
                         {photos[1]: [_base_component(block, photos)]}, what=ctx)
     try:
-        run = iterative_snooping(prob.refit, np.ones(prob.obs.n, bool), alpha0=alpha0,
-                                 beta0=beta0, by_group=True)
+        run = iterative_snooping(prob.fit(np.ones(prob.obs.n, bool)), tests, by_group=True)
     except GeometryError as e:
         strip.notes.append(f"{ctx}: failed ({e}); the strip is kept as formed")
         return
-    decisions = _examine(prob, run, alpha0, beta0, rho_max)
+    decisions = _examine(prob, run, tests, rho_max)
     ids = block.points.ids
     for d in decisions:
         row = prob.rows[d.group]
@@ -252,9 +249,9 @@ def _strip_adjustment(block: Block, strip: Strip, keep: np.ndarray, log: Screeni
                           action="kept", statistic="w", value=d.w, critical=d.critical,
                           reason=f"rejected on photo {block.photos.ids[im.photo[row]]}, but "
                                  f"{why}: left to the bundle adjustment"))
-    eo, xyz = prob.solution()
-    strip.eo[photos] = eo[photos]
     model = run.model
+    eo, xyz = model.x
+    strip.eo[photos] = eo[photos]
     qxx = np.diag(model.qxx)
     strip.xyz.clear()
     strip.var.clear()
@@ -269,7 +266,7 @@ def _strip_adjustment(block: Block, strip: Strip, keep: np.ndarray, log: Screeni
 
 
 def form_strip(block: Block, label: str, photos: list[int], keep: np.ndarray,
-               log: ScreeningLog, *, alpha0: float = 0.001, beta0: float = 0.80,
+               log: ScreeningLog, *, tests: TestOptions = DEFAULT_TESTS,
                rho_max: float = 0.9) -> Strip:
     """Form one strip; updates `keep` (image rows) in place and logs every decision."""
     eo = np.full((len(block.photos), 6), np.nan)
@@ -277,16 +274,17 @@ def form_strip(block: Block, label: str, photos: list[int], keep: np.ndarray,
     strip = Strip(label, list(photos), eo)
     suspended: set[int] = set()
     for k in range(1, len(photos)):
-        if not _step(block, strip, k, keep, log, suspended, alpha0, beta0, rho_max):
+        if not _step(block, strip, k, keep, log, suspended, tests, rho_max):
             break
-    _strip_adjustment(block, strip, keep, log, suspended, alpha0, beta0, rho_max)
+    _strip_adjustment(block, strip, keep, log, suspended, tests, rho_max)
     for n in strip.notes:
         log.note(2, f"strip {label}", n)
     return strip
 
 
-def screen_strips(block: Block, keep: np.ndarray, log: ScreeningLog, *, alpha0: float = 0.001,
-                  beta0: float = 0.80, rho_max: float = 0.9) -> tuple[np.ndarray, list[Strip]]:
+def screen_strips(block: Block, keep: np.ndarray, log: ScreeningLog, *,
+                  tests: TestOptions = DEFAULT_TESTS,
+                  rho_max: float = 0.9) -> tuple[np.ndarray, list[Strip]]:
     """Stage 2 for every labelled strip; returns the new keep mask and the strips."""
     keep = np.asarray(keep, bool).copy()
     strips = []
@@ -297,6 +295,6 @@ def screen_strips(block: Block, keep: np.ndarray, log: ScreeningLog, *, alpha0: 
         if len(photos) < 2:
             log.note(2, f"strip {label}", "one photo only: not formed")
             continue
-        strips.append(form_strip(block, label, photos, keep, log, alpha0=alpha0, beta0=beta0,
+        strips.append(form_strip(block, label, photos, keep, log, tests=tests,
                                  rho_max=rho_max))
     return keep, strips

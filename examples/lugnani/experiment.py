@@ -21,10 +21,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from baarda.block.photo_block import Block, GroundPoints
-from baarda.bundle.bundle_problem import adjust
-from baarda.bundle.bundle_quality import snoop
 from baarda.bundle.bundle_result import BundleResult
 from baarda.errors import GeometryError
+from baarda.pipeline import adjust, snoop
 from baarda.screening.chain import ScreeningResult, screen_and_snoop
 from baarda.screening.log import ScreeningLog
 from baarda.screening.separable import snoop_separable

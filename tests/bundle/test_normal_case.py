@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.bundle.bundle_problem import adjust
 from baarda.bundle.collinearity import project
+from baarda.pipeline import adjust
 
 H, B, C, SIG = 1500.0, 600.0, 150.0, 0.005  # m, m, mm, mm
 
@@ -55,7 +55,7 @@ def test_height_from_parallax_and_precision():
     assert res.xyz[tie] == pytest.approx([x_hand, y_hand, z_hand], abs=1e-6)
     # precision at the exact point (B/2, 0, 0): from the cofactor (sigma0 = 1 a priori)
     res = adjust(make_block())
-    q = res.problem.system.point_covariance()[tie]
+    q = res.factor.point_covariance()[tie]
     s = np.sqrt(np.diag(q))
     assert s[2] == pytest.approx(np.sqrt(2) * SIG * 1e-3 * H**2 / (C * 1e-3 * B), rel=1e-5)
     assert s[0] == pytest.approx(SIG * H / (C * np.sqrt(2)), rel=1e-5)

@@ -5,7 +5,7 @@ import pytest
 from dense import dense_system
 
 from baarda.bundle.bundle_model import BundleModel
-from baarda.bundle.bundle_problem import adjust
+from baarda.pipeline import adjust
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 
@@ -26,10 +26,10 @@ def test_solution_is_stationary(model):
 def test_covariances_equal_dense_inverse(model):
     a, p = dense_system(model)
     qxx = np.linalg.inv(a.T @ (p[:, None] * a))
-    s = model.system
+    s = model.factor.system
     nf = s.nf
-    sff = s.frame_covariance()
-    spp = s.point_covariance()
+    sff = model.factor.frame_covariance()
+    spp = model.factor.point_covariance()
     for k in range(nf):
         ref = qxx[6 * k:6 * k + 6, 6 * k:6 * k + 6]
         assert np.allclose(sff[k], ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from baarda.bundle.bundle_problem import adjust
+from baarda.pipeline import adjust
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

@@ -7,7 +7,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))  # model_dense.py
 
-from baarda.independent.adjust_models import adjust_models  # noqa: E402
+from baarda.independent.model_problem import adjust_models  # noqa: E402
 from baarda.simulate.model_blocks import ModelPlan, simulate_models  # noqa: E402
 
 

@@ -5,7 +5,7 @@ import numpy as np
 
 def dense_design(qm):
     """Dense A (n, u) of an IndependentModel from its linearization (frames, then points)."""
-    pb, lin = qm.problem, qm.lin
+    pb, lin = qm.problem, qm.factor.lin
     nf, b, npnt, d = pb.system.nf, pb.b, pb.system.np, pb.d
     m, k = qm.m, qm.k
     a_rows = np.zeros((m, k, nf * b + npnt * d))
@@ -17,5 +17,5 @@ def dense_design(qm):
     for i, j in enumerate(pb.remap[pb.control]):
         c_rows[i, :, nf * b + j * d: nf * b + (j + 1) * d] = lin.jc[i]
     a = np.concatenate([a_rows.reshape(m * k, -1),
-                        c_rows.reshape(-1, a_rows.shape[-1])[qm.ctrl_sel]])
+                        c_rows.reshape(-1, a_rows.shape[-1])[qm.layout.ctrl_sel]])
     return a

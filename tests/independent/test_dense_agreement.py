@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from model_dense import dense_design
 
-from baarda.independent.adjust_models import adjust_models
 from baarda.independent.independent_model import IndependentModel
+from baarda.independent.model_problem import adjust_models
 from baarda.quality import hypotheses as hyp
-from baarda.quality.adjusted_model import DenseModel
+from baarda.quality.dense_model import DenseModel
 from baarda.quality.statistics import analyse
 from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
@@ -26,8 +26,8 @@ def numeric_design(res, h=1e-6):
     u0 = np.concatenate([res.params.ravel(), res.pts.ravel()])
 
     def flat_e(u):
-        lin = pb.linearize(u[: nf * b].reshape(nf, b), u[nf * b:].reshape(res.pts.shape))
-        return np.concatenate([lin.e.ravel(), lin.ec.ravel()[qm.ctrl_sel]])
+        lin = pb.linearize((u[: nf * b].reshape(nf, b), u[nf * b:].reshape(res.pts.shape)))
+        return np.concatenate([lin.e.ravel(), lin.ec.ravel()[qm.layout.ctrl_sel]])
 
     cols = []
     for i in range(len(u0)):
@@ -65,7 +65,7 @@ def check_against_dense(res, rtol=1e-6):
     pb = qm.problem
     nf_b = pb.system.nf * pb.b
     own = np.concatenate([pb.remap[pb.block.obs_point[pb.rows]].repeat(pb.k),
-                          np.repeat(pb.remap[pb.control], pb.k)[qm.ctrl_sel]])
+                          np.repeat(pb.remap[pb.control], pb.k)[qm.layout.ctrl_sel]])
     cols = nf_b + own[:, None] * pb.d + np.arange(pb.d)[None, :]
     ref = full[cols, np.arange(qm.n)[:, None]]
     np.testing.assert_allclose(eff[:, pb.comps], ref, rtol=1e-6, atol=1e-9 * np.abs(ref).max())

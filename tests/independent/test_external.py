@@ -5,9 +5,9 @@ import pytest
 from model_dense import dense_design
 
 from baarda.independent import similarity
-from baarda.independent.adjust_models import adjust_models
 from baarda.independent.external import external_reliability
 from baarda.independent.independent_model import IndependentModel
+from baarda.independent.model_problem import adjust_models
 from baarda.quality.statistics import analyse
 from baarda.simulate.model_blocks import ModelPlan, simulate_models
 

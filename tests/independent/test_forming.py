@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from baarda.independent import similarity
-from baarda.independent.adjust_models import adjust_models
 from baarda.independent.forming import form_models, model_pairs
+from baarda.independent.model_problem import adjust_models
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

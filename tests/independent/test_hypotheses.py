@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from baarda.errors import ProjectError
-from baarda.independent.adjust_models import adjust_models
 from baarda.independent.deformations import deformation_rows, model_radius
 from baarda.independent.model_hypotheses import (
     UserHypotheses,
@@ -13,9 +12,10 @@ from baarda.independent.model_hypotheses import (
     deformation_h,
     deformation_tests,
 )
+from baarda.independent.model_problem import adjust_models
 from baarda.independent.model_quality import assess, snoop
 from baarda.quality import hypotheses as hyp
-from baarda.quality.adjusted_model import DenseModel
+from baarda.quality.dense_model import DenseModel
 from baarda.simulate.model_blocks import ModelPlan, simulate_models
 
 

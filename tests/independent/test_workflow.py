@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 from baarda.errors import GeometryError
-from baarda.independent.adjust_models import adjust_models
-from baarda.independent.model_problem import ModelProblem
+from baarda.independent.model_problem import ModelProblem, adjust_models
 from baarda.independent.planimetric import check_tilts, level
 from baarda.independent.preadjust import preadjust
 from baarda.independent.workflow import process

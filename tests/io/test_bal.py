@@ -104,7 +104,7 @@ def test_synthetic_adjustment_minimises_the_bal_cost():
     start = BalProblem(p.cameras.copy(), p.points + rng.normal(0, 0.02, p.points.shape),
                        p.obs_camera, p.obs_point, p.obs_xy)
     start.cameras[:, 3:6] += rng.normal(0, 0.02, (len(p.cameras), 3))
-    res = adjust_free(bal_to_block(start), max_iterations=50)
+    res = adjust_free(bal_to_block(start))
     assert res.converged
     out = bal_with_block(start, res.eo, res.points_xyz())
     r = bal_residuals(out)  # residuals of the written-back problem, BAL's own formula

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from baarda.block.crs import LocalFrame
 from baarda.block.photo_block import Photos
 from baarda.cli import main
 from baarda.io.bal import bal_to_block
-from baarda.io.crs import LocalFrame
 from baarda.io.formats import detect, read_any
 from baarda.io.project import read_project
 from baarda.output.format_files import write_bal

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from pyproj import CRS, Proj, Transformer
 
+from baarda.block.crs import LocalFrame, localize
 from baarda.block.photo_block import Photos
-from baarda.bundle.bundle_problem import adjust
 from baarda.errors import ProjectError
-from baarda.io.crs import LocalFrame, localize
-from baarda.output.crs_results import tables_in_crs
+from baarda.output.bundle_results import tables_in_crs
+from baarda.pipeline import adjust
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 rng = np.random.default_rng(11)
@@ -81,18 +81,19 @@ def test_adjustment_in_projected_crs_equals_local_adjustment():
     in_crs = replace(local, points=pts, photos=Photos(local.photos.ids, local.photos.camera,
                                                       local.photos.strip, eo),
                      settings=replace(local.settings, crs="EPSG:32632"))
-    loc2, frame2 = localize(in_crs)
+    loc2 = localize(in_crs)
+    assert loc2.frame is not None and loc2.settings.crs == "EPSG:32632"
     res = adjust(loc2)
     ref = adjust(local)
     # a different origin makes a rigidly moved frame: same observations, same statistics
     assert np.isclose(res.sigma0, ref.sigma0, rtol=1e-7)
     assert np.allclose(res.image_residuals, ref.image_residuals, atol=1e-9)
-    ph, pt = tables_in_crs(res, frame2, in_crs)
+    ph, pt = tables_in_crs(res)
     xyz_ref = frame.from_local(ref.xyz)
     assert np.allclose(pt[["X", "Y", "Z"]].to_numpy(), xyz_ref, atol=1e-5)
     # standard deviations do not depend on the local frame used: those of the reference
     # adjustment (frame at `origin`) propagated to the CRS equal the tables (frame2)
-    cov = ref.problem.system.point_covariance() * ref.sigma0**2
+    cov = ref.factor.point_covariance() * ref.sigma0**2
     s_ref = np.sqrt(np.diagonal(frame.covariance_from_local(ref.xyz, cov), axis1=1, axis2=2))
     assert np.allclose(pt[["sigma_X", "sigma_Y", "sigma_Z"]].to_numpy(), s_ref, rtol=1e-6)
     # the Jacobian is conformal with pyproj's point scale factor k: singular values (1, k, k)

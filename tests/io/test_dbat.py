@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from baarda.block.camera import ideal_image_coordinates
-from baarda.bundle.bundle_problem import adjust
 from baarda.bundle.collinearity import project, project_with_jacobians
 from baarda.errors import ProjectError
 from baarda.io.dbat import read_dbat
+from baarda.pipeline import adjust
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 SXB = DATA / "dbat_sxb_aerial" / "dbat_script"
@@ -125,7 +125,7 @@ def test_sxb_control_and_check_points_match_dbat(sxb):
 
 def test_sxb_pixel_conversion():
     """x_mm - pp = 0.006 x_px - 26.577, y_mm - pp = 38.811 - 0.006 y_px (DBAT's rule)."""
-    block = read_dbat(SXB / "sxb.xml", orient=False)
+    block = read_dbat(SXB / "sxb.xml")
     rel = block.image.xy_mm - block.cameras.principal_point_mm[0]
     j = block.point_index["317"]
     row = np.flatnonzero((block.image.point == j) & (block.image.photo == 0))[0]
@@ -206,7 +206,7 @@ FILES = {"ctrl.txt": "# id, name, X, Y, Z, sx, sy, sz\n1, a, 0, 0, 0, 0.02, 0.02
 
 
 def test_minimal_script_reads(tmp_path):
-    b = read_dbat(_write(tmp_path, XML.format(extra=""), FILES), orient=False)
+    b = read_dbat(_write(tmp_path, XML.format(extra=""), FILES))
     assert b.photos.ids == ["a", "b"] and len(b.image) == 2
 
 
@@ -221,7 +221,7 @@ def test_minimal_script_reads(tmp_path):
 def test_malformed_files_name_file_line_field(tmp_path, change, where):
     files = dict(FILES, **change)
     with pytest.raises(ProjectError) as e:
-        read_dbat(_write(tmp_path, XML.format(extra=""), files), orient=False)
+        read_dbat(_write(tmp_path, XML.format(extra=""), files))
     name, line, col = where
     assert Path(e.value.path).name == name
     assert e.value.line == line
@@ -237,7 +237,7 @@ def test_malformed_camera(tmp_path, extra, text):
     xml = XML.format(extra=extra).replace("<unit>mm</unit>", "") if "unit" in extra else \
         XML.format(extra=extra)
     with pytest.raises(ProjectError, match=text):
-        read_dbat(_write(tmp_path, xml, FILES), orient=False)
+        read_dbat(_write(tmp_path, xml, FILES))
 
 
 def test_broken_xml_names_line(tmp_path):

@@ -9,10 +9,10 @@ choice of the datum photos.
 import numpy as np
 import pytest
 
-from baarda.bundle.bundle_quality import assess
 from baarda.bundle.collinearity import project_with_jacobians
 from baarda.bundle.free_network import adjust_free
 from baarda.errors import GeometryError
+from baarda.pipeline import assess
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 

@@ -5,10 +5,10 @@ import shutil
 import numpy as np
 import pytest
 
-from baarda.bundle.bundle_problem import adjust
 from baarda.errors import GeometryError, ProjectError
 from baarda.io.project import read_project
 from baarda.output.project_files import write_project
+from baarda.pipeline import adjust
 
 
 @pytest.fixture()

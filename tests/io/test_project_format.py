@@ -9,13 +9,14 @@ from baarda.errors import ProjectError
 from baarda.io.dbat import read_dbat
 from baarda.io.project import read_project
 from baarda.output.project_files import write_project
+from baarda.pipeline import with_approximations
 
 SXB = Path(__file__).resolve().parents[1] / "data" / "dbat_sxb_aerial" / "dbat_script" / "sxb.xml"
 
 
 @pytest.fixture()
 def project(tmp_path):
-    b = read_dbat(SXB)
+    b = with_approximations(read_dbat(SXB))  # EO by space resection
     b.cameras.model = np.array(["brown_backward"], dtype=object)
     b.cameras.distortion = np.array([[1e-5, -2e-9, 0.0, 3e-6, -4e-6]])
     write_project(b, tmp_path / "p")
@@ -60,3 +61,21 @@ def test_missing_file(project):
     (folder / "photos.csv").unlink()
     with pytest.raises(ProjectError, match="file not found"):
         read_project(folder)
+
+
+def test_photos_without_approximations_are_resected(tmp_path):
+    """Empty orientation fields: the pipeline finds approximations by space resection."""
+    from baarda.pipeline import adjust
+
+    b = read_dbat(SXB)
+    assert np.isnan(b.photos.eo).all()
+    write_project(b, tmp_path / "p")
+    r = read_project(tmp_path / "p")
+    assert np.isnan(r.photos.eo).all()
+    res = adjust(r)
+    assert f"{res.sigma0:.4f}" == "1.1786"  # DBAT's report (tests/io/test_dbat.py)
+    lines = (tmp_path / "p" / "photos.csv").read_text().splitlines()
+    lines[1] = lines[1].rsplit(",", 1)[0] + ",12.5"  # kappa alone
+    (tmp_path / "p" / "photos.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(ProjectError, match="photos.csv, line 2, column 'X0': give all six"):
+        read_project(tmp_path / "p")

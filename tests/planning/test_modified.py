@@ -3,11 +3,10 @@
 import numpy as np
 import pytest
 
-from baarda.bundle.bundle_problem import adjust
-from baarda.bundle.bundle_quality import assess
+from baarda.pipeline import adjust, assess
 from baarda.planning.modified_snoop import modified_snoop
 from baarda.planning.reliability_tables import baarda_table, gruen_table
-from baarda.quality.adjusted_model import DenseModel
+from baarda.quality.dense_model import DenseModel
 from baarda.quality.modified import exact_redundancy_numbers, modified_snooping
 from baarda.quality.statistics import analyse
 from baarda.simulate.aerial import FlightPlan, simulate_block

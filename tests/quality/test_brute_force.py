@@ -4,9 +4,8 @@ import numpy as np
 import pytest
 from dense import dense_system
 
-from baarda.bundle.bundle_problem import adjust
-from baarda.bundle.bundle_quality import assess
-from baarda.quality.adjusted_model import DenseModel
+from baarda.pipeline import adjust, assess
+from baarda.quality.dense_model import DenseModel
 from baarda.quality.distributions import b_method
 from baarda.quality.hypotheses import group_test, hypothesis_test, image_point_tests
 from baarda.quality.statistics import analyse
@@ -58,7 +57,7 @@ def test_w_tau_mdb_external(qc, dense):
     assert close(q.mdb[ok], d0 / np.sqrt(p[ok] * r[ok]))
     assert close(q.lambda_bar[ok], d0 * np.sqrt((1 - r[ok]) / r[ok]))
     # external: effect of the MDB on the coordinates of the observed point (dense column)
-    nf = qc.model.system.nf
+    nf = qc.model.factor.system.nf
     eff_all = qxx @ (a.T * p[None, :])  # unknowns per unit error
     remap = qc.adjustment.problem.remap
     ids = qc.adjustment.block.point_index
@@ -134,11 +133,11 @@ def test_absorbed_hypothesis_is_not_testable(qc):
     """An H that the adjustment absorbs (a shift of a tie point's ground coordinates seen
     through all its rays, i.e. A times a point correction) has no testable dimension."""
     m = qc.model
-    s = m.system
+    s = m.factor.system
     j = int(np.flatnonzero(np.bincount(s.point) >= 3)[0])
     xp = np.zeros((s.np, 3, 1))
     xp[j, 2, 0] = 1.0  # a height shift of point j
-    ri, rc = s.apply_A(m.lin, np.zeros((s.nf, 6, 1)), xp)
-    h = m.flat(ri, rc)[:, 0]
+    ri, rc = m.factor.apply_A(np.zeros((s.nf, 6, 1)), xp)
+    h = m.layout.flat(ri, rc)[:, 0]
     res = hypothesis_test(m, h)
     assert res.q == 0 and not res.rejected

@@ -4,7 +4,7 @@ observation and watch every residual move (Kratky and El-Hakim 1983, eq. 5)."""
 import numpy as np
 import pytest
 
-from baarda.quality.adjusted_model import DenseModel
+from baarda.quality.dense_model import DenseModel
 from baarda.quality.matrices import critical_transfers, qvv_p_matrix
 
 

@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from baarda.bundle.bundle_problem import adjust
-from baarda.bundle.bundle_quality import assess, snoop
+from baarda.pipeline import adjust, assess, snoop
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 
@@ -53,24 +52,15 @@ def test_snooping_finds_blunders_and_nothing_else():
 
 def test_rejected_observation_returns_when_not_significant():
     """Force a rejection of a good observation: the next snooping step restores it."""
+    from baarda.bundle.bundle_model import BundleModel
     from baarda.quality.iterative import iterative_snooping
     block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=5, relief_m=40, seed=9))
-    from baarda.bundle.bundle_model import BundleModel
-    from baarda.bundle.bundle_problem import BundleProblem
-    problem = BundleProblem(block)
-    first = BundleModel(adjust(block, problem=problem))
+    first = BundleModel(adjust(block))
     good = int(np.flatnonzero(assess(first.result).quality.redundancy_number > 0.5)[0])
-
-    def refit(active):
-        keep = np.ones((len(block.image), 2), bool)
-        img = first.image_row >= 0
-        keep[first.image_row[img], np.where(first.component[img] == "x", 0, 1)] = active[img]
-        problem.image_keep = keep
-        return BundleModel(adjust(block, problem=problem))
-
     start = first.active.copy()
     start[good] = False
-    run = iterative_snooping(refit, start)
+    run = iterative_snooping(first, active=start)
+    assert first.active.all()  # the model snooping started from is unchanged
     assert run.active[good]
     assert [s.action for s in run.log] == ["restore"]
     assert run.log[0].rows == [good]
@@ -97,7 +87,7 @@ def test_danish_prescreening_then_snooping_finds_many_large_blunders():
 def test_component_the_block_needs_is_kept_and_reported():
     """If rejecting the worst component leaves the model undetermined, it stays in."""
     from baarda.errors import GeometryError
-    from baarda.quality.adjusted_model import DenseModel
+    from baarda.quality.dense_model import DenseModel
     from baarda.quality.iterative import iterative_snooping
     rng = np.random.default_rng(3)
     a = rng.normal(size=(30, 3))
@@ -107,13 +97,19 @@ def test_component_the_block_needs_is_kept_and_reported():
     obs[9] -= 0.3  # and one it can
     sigma = np.full(30, 0.01)
 
-    def refit(active):
+    def fit(active):
         if not active[4]:
             raise GeometryError("the exterior orientation of photo 7 is not determined")
         p = active / sigma**2
         xh = np.linalg.solve(a.T @ (p[:, None] * a), a.T @ (p * obs))
-        return DenseModel(a, sigma, a @ xh - obs, active)
+        return NeedsFour(a, sigma, a @ xh - obs, active)
 
-    run = iterative_snooping(refit, np.ones(30, bool))
+    class NeedsFour(DenseModel):
+        """The component 4 determines an unknown of the 'block'."""
+
+        def refit(self, active, factors=None):
+            return fit(active)
+
+    run = iterative_snooping(fit(np.ones(30, bool)))
     assert run.active[4] and not run.active[9]
     assert any("cannot be rejected" in n for n in run.quality.notes)

@@ -159,9 +159,9 @@ def test_missing_files(tmp_path):
 def test_results_without_statistics(report_case, tmp_path):
     """An adjustment written without quality control: residuals only; the extremes of the
     group statistics point at the planted blunders (Salsig's point)."""
-    from baarda.bundle.bundle_problem import adjust
     from baarda.io.project import read_project
     from baarda.output.bundle_results import write_results
+    from baarda.pipeline import adjust
     from baarda.report.html_report import html_report
     from baarda.report.stats import group_statistics
     from baarda.report.text_report import text_report

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from baarda.quality.adjusted_model import DenseModel
+from baarda.quality.dense_model import DenseModel
 from baarda.quality.statistics import w_correlation
 
 

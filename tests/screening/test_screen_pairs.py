@@ -6,6 +6,7 @@ import pytest
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.screening.log import ScreeningLog
 from baarda.screening.pairs import (
+    PAIR_TESTS,
     PairTest,
     blame,
     choose_kind,
@@ -56,8 +57,8 @@ def test_projective_jacobian_and_exact_fit():
     np.testing.assert_allclose(jac, num, rtol=1e-5, atol=1e-6)
     # a plane seen from two tilted photos: the projective fit leaves nothing
     block = pair_block(xy, val.reshape(-1, 2))
-    t = fit_pair(block, 0, 1, np.arange(9), 9 + np.arange(9), "projective", alpha0=1e-4,
-                 beta0=0.8, statistic="w")
+    t = fit_pair(block, 0, 1, np.arange(9), 9 + np.arange(9), "projective", tests=PAIR_TESTS,
+                 statistic="w")
     assert np.max(np.abs(t.run.model.residuals)) < 1e-9
     assert choose_kind(7, "auto", 4) == "projective"
     assert choose_kind(6, "auto", 4) == "affine"
@@ -74,7 +75,7 @@ def test_planted_error_is_found_and_tau_matches_brute_force():
     xy_b[6] += (4.0, -1.0)
     block = pair_block(xy_a, xy_b)
     rows_a, rows_b = np.arange(10), 10 + np.arange(10)
-    t = fit_pair(block, 0, 1, rows_a, rows_b, "affine", alpha0=1e-4, beta0=0.8)
+    t = fit_pair(block, 0, 1, rows_a, rows_b, "affine", tests=PAIR_TESTS)
     assert t.rejected.tolist() == [i == 6 for i in range(10)]
     assert t.size[6] == pytest.approx(np.hypot(4.0, -1.0), rel=0.2)
     # independent: tau of the first adjustment from numpy least squares
@@ -97,8 +98,8 @@ def test_tolerance_keeps_errors_smaller_than_the_relief_parallax():
     xy_b[2, 0] += 1.0
     block = pair_block(xy_a, xy_b)
     rows = np.arange(10), 10 + np.arange(10)
-    assert fit_pair(block, 0, 1, *rows, "similarity", alpha0=1e-4, beta0=0.8).rejected[2]
-    t = fit_pair(block, 0, 1, *rows, "similarity", alpha0=1e-4, beta0=0.8, tolerance_mm=2.0)
+    assert fit_pair(block, 0, 1, *rows, "similarity", tests=PAIR_TESTS).rejected[2]
+    t = fit_pair(block, 0, 1, *rows, "similarity", tests=PAIR_TESTS, tolerance_mm=2.0)
     assert not t.rejected.any()
 
 

@@ -29,8 +29,8 @@ def test_intersection_jacobian_matches_numerical_derivatives():
     im = block.image
     rows = np.flatnonzero(np.isin(im.photo, [0, 1, 2]))
     prob = Intersection(block, block.photos.eo, rows, [1, 2], None, {1: [0]})
-    prob.refit(np.ones(prob.obs.n, bool))
-    func, x = prob.last
+    model = prob.fit(np.ones(prob.obs.n, bool))
+    func, x = model.func, model.unknowns
     x = x + 1e-4  # off the solution
     _, a = func(x)
     num = np.empty_like(a)

@@ -154,8 +154,8 @@ class LocalFrame:
         return j @ cov @ np.swapaxes(j, 1, 2)
 
 
-def localize(block: Block, crs: str | None = None) -> tuple[Block, LocalFrame]:
-    """The block with ground coordinates and EO in a local frame of its CRS.
+def localize(block: Block, crs: str | None = None) -> Block:
+    """The block with ground coordinates and EO in a local frame of its CRS (block.frame).
 
     crs: overrides block.settings.crs.  The origin is the mean of the ground points with
     coordinates (else of the projection centres).  Sigmas of control points are kept (the
@@ -186,4 +186,4 @@ def localize(block: Block, crs: str | None = None) -> tuple[Block, LocalFrame]:
     points = replace(pts, xyz=xyz)
     notes = list(block.notes) + [f"adjusted in a local east-north-up frame of {frame.crs.name} "
                                  "(heights ellipsoidal); results converted back"]
-    return replace(block, photos=photos, points=points, notes=notes), frame
+    return replace(block, photos=photos, points=points, notes=notes, frame=frame)

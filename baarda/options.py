@@ -1,0 +1,85 @@
+"""Options structs, resolved once where the user's input enters (like COLMAP's options).
+
+`TestOptions` holds the B-method's alpha0 and beta0 of every test; `SolveOptions` the
+iteration control of the one solver (baarda/adjustment/solve.py).  Both are frozen: a
+function that needs other values gets another instance (`dataclasses.replace`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+Progress = Callable[[str], None]  # a progress printer: one line per call
+
+
+@dataclass(frozen=True)
+class TestOptions:
+    """Significance level alpha0 of the one-dimensional w-test and power beta0 of every test.
+
+    The B-method (Baarda 1968) couples every other test to these two: delta0 = 4.13 for the
+    defaults, and the multi-dimensional tests get the alpha that gives the same power for the
+    same non-centrality.
+    """
+
+    __test__ = False  # not a pytest class
+
+    alpha0: float = 0.001
+    beta0: float = 0.80
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.alpha0 < 0.5 and 0.5 <= self.beta0 < 1.0):
+            raise ValueError(f"alpha0 must be in (0, 0.5) and beta0 in [0.5, 1) (got "
+                             f"{self.alpha0}, {self.beta0})")
+
+    @classmethod
+    def resolve(cls, settings=None, alpha0: float | None = None,
+                beta0: float | None = None) -> TestOptions:
+        """The user's values where given, else the project's settings, else the defaults."""
+        base = cls() if settings is None else cls(float(settings.alpha0), float(settings.beta0))
+        return cls(base.alpha0 if alpha0 is None else float(alpha0),
+                   base.beta0 if beta0 is None else float(beta0))
+
+
+@dataclass(frozen=True)
+class SolveOptions:
+    """Iteration control of the least-squares solver (Gauss-Newton, optionally damped).
+
+    Every problem measures its correction in its own dimensionless units (the bundle:
+    positions relative to the flying height, 1000 x angles in rad); see each problem's
+    `correction_size`.  The iteration has converged when
+
+    * the correction computed at the current estimate is below `tolerance` (the estimate is
+      then the solution, and its factored normal equations serve the statistics), or
+    * the last step lowered the weighted sum of squares by less than `flat_cost` (relative)
+      and the correction is below `flat_tolerance`, or
+    * no step along the correction lowers the sum of squares any more (or the iterations
+      are used up) while the correction is below `stall_tolerance` (the rounding floor).
+
+    Steps are halved while they raise the sum of squares by more than `cost_rtol`
+    (relative) or leave the admissible region (points behind a camera), down to
+    `min_step`.  `damping` (a number): Levenberg-Marquardt with that initial lambda
+    (Marquardt's scaling of the diagonal) instead of step halving; the final normal
+    equations are always undamped.  `final_step`: at convergence the negligible correction
+    is applied as well and the normal equations are factored there (one more factorisation;
+    the solution is then accurate to the square of the tolerance).
+    """
+
+    max_iterations: int = 50
+    tolerance: float = 1e-7
+    flat_cost: float = 0.0
+    flat_tolerance: float = float("inf")
+    stall_tolerance: float = 0.0
+    min_step: float = 1e-3
+    cost_rtol: float = 1e-12
+    damping: float | None = None
+    final_step: bool = False
+
+    def __post_init__(self) -> None:
+        if self.max_iterations < 1 or self.tolerance < 0 or not 0 < self.min_step <= 1:
+            raise ValueError("max_iterations must be >= 1, tolerance >= 0, min_step in (0, 1]")
+        if self.damping is not None and not self.damping > 0:
+            raise ValueError("damping (Levenberg-Marquardt lambda) must be positive")
+
+
+DEFAULT_TESTS = TestOptions()

@@ -1,0 +1,120 @@
+"""One pipeline for every input: read, prepare (CRS, approximations, datum), adjust.
+
+    block = read("project/")            # native, COLMAP, BAL, DBAT, PhotoModeler, AICON
+    result = adjust(block)              # what `baarda adjust project/` does
+    qc = assess(result)                 # statistics of every observation
+    qc = snoop(block)                   # iterative data snooping
+
+`prepare` makes the choices that the command line used to make on its own: a block with a
+CRS is adjusted in a local east-north-up frame of it (block/crs.py; results are written
+back in the CRS), photos without approximate orientations are resected from the control
+(bundle/resection.py), and the datum is the control when there is control, else a free
+network by minimal constraints (bundle/free_network.py; observations of points behind a
+camera at the approximations are then left out).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.crs import localize
+from baarda.block.photo_block import Block, Photos
+from baarda.bundle.bundle_problem import SOLVE, BundleProblem
+from baarda.bundle.bundle_quality import BundleQuality
+from baarda.bundle.bundle_quality import assess as assess_result
+from baarda.bundle.bundle_quality import snoop as snoop_problem
+from baarda.bundle.bundle_result import BundleResult
+from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
+from baarda.bundle.resection import orient_block
+from baarda.errors import GeometryError
+from baarda.io.formats import read_any
+from baarda.options import Progress, SolveOptions, TestOptions
+from baarda.screening.chain import ScreeningOptions, ScreeningResult, screen_and_snoop
+from baarda.screening.chain import screen as screen_block
+
+
+def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
+         pixel_mm: float = 0.001, sigma_px: float = 1.0,
+         sigma_image_um: float | None = None) -> Block:
+    """Read any supported input (io/formats.py) into a Block, as the files give it.
+
+    crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
+    nominal pixel size [mm] and image sigma [px] of COLMAP and BAL inputs; sigma_image_um:
+    image sigma of AICON inputs (default: the .phc file's).
+    """
+    block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
+                     sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3)
+    if crs:
+        block = replace(block, settings=replace(block.settings, crs=crs))
+    return block
+
+
+def with_approximations(block: Block) -> Block:
+    """The block with approximate orientations of the photos that have none (DBAT scripts),
+    by space resection from the control and intersection (bundle/resection.py)."""
+    missing = ~np.isfinite(block.photos.eo).all(axis=1)
+    if not missing.any():
+        return block
+    eo = orient_block(block)
+    photos = Photos(block.photos.ids, block.photos.camera, block.photos.strip, eo)
+    return replace(block, photos=photos, notes=list(block.notes) + [
+        f"approximate orientations of {int(missing.sum())} photo(s) by space resection"])
+
+
+def localized(block: Block) -> Block:
+    """The block in a local east-north-up frame of its CRS when it has one (block/crs.py)."""
+    return localize(block) if block.settings.crs and block.frame is None else block
+
+
+def prepare(block: Block) -> BundleProblem:
+    """The bundle problem of a block as read: local frame, approximations, datum."""
+    block = with_approximations(localized(block))
+    if block.points.controlled.any():
+        return BundleProblem(block)
+    block, _ = drop_points_behind(block)
+    return FreeBundleProblem(block)
+
+
+def adjust(block: Block | BundleProblem, options: SolveOptions = SOLVE,
+           progress: Progress | None = None) -> BundleResult:
+    """Bundle block adjustment of a block as read (prepare, then the one solver)."""
+    problem = block if isinstance(block, BundleProblem) else prepare(block)
+    return problem.fit(options=options, progress=progress)
+
+
+def assess(result: BundleResult, tests: TestOptions | None = None) -> BundleQuality:
+    """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection."""
+    return assess_result(result, tests)
+
+
+def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
+          statistic: str = "w", by_point: bool = False, robust: bool = False,
+          max_iterations: int = 200, progress: Progress | None = None) -> BundleQuality:
+    """Iterative data snooping of a block as read (see bundle/bundle_quality.py)."""
+    problem = block if isinstance(block, BundleProblem) else prepare(block)
+    return snoop_problem(problem, tests, statistic=statistic, by_point=by_point,
+                         robust=robust, max_iterations=max_iterations, progress=progress)
+
+
+def screen(block: Block, options: ScreeningOptions | None = None, *, snoop: bool = False,
+           statistic: str = "w",
+           progress: Progress | None = None) -> tuple[ScreeningResult, BundleQuality]:
+    """Screening before the bundle (screening/chain.py), then the bundle adjustment of the
+    cleaned block: with `snoop`, data snooping that removes what it rejects together with
+    the observations it cannot be told from (the result's block is then the block after
+    both), else the statistics of every observation (alpha0 and beta0 of the options)."""
+    block = with_approximations(localized(block))
+    if not block.points.controlled.any():
+        raise GeometryError("screening needs control points (stage 3 and the datum of the "
+                            "bundle adjustment after it); screen a free network with "
+                            "baarda screen --stages 1,2")
+    if snoop:
+        return screen_and_snoop(block, options, statistic=statistic, progress=progress)
+    options = options or ScreeningOptions()
+    res = screen_block(block, options, progress=progress)
+    result = BundleProblem(res.block).fit(progress=progress)
+    return res, assess_result(result, TestOptions.resolve(block.settings, options.alpha0,
+                                                          options.beta0))
