@@ -14,10 +14,12 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from baarda.bundle.bundle_problem import SOLVE
 from baarda.bundle.free_network import adjust_free, drop_points_behind
 from baarda.io.bal import bal_to_block, read_bal, rodrigues
 
@@ -99,7 +101,7 @@ def main(paths: list[str]) -> int:
         block = block.select_image(keep)
         im = block.image
         t0 = time.perf_counter()
-        res = adjust_free(block, max_iterations=100)
+        res = adjust_free(block, options=replace(SOLVE, max_iterations=100))
         t_ours = time.perf_counter() - t0
         cost_ours = 0.5 * res.vtpv  # sigma 1 px: residuals in px
         ini, fin, its, t_col, term = run_pycolmap(bal, im.photo, im.point, im.xy_mm / 0.001)
