@@ -4,6 +4,7 @@
     result = adjust(block)              # what `baarda adjust project/` does
     qc = assess(result)                 # statistics of every observation
     qc = snoop(block)                   # iterative data snooping
+    bq = adjust_models(read_models("models/"))   # independent models (FOTEF)
 
 `prepare` makes the choices that the command line used to make on its own: a block with a
 CRS is adjusted in a local east-north-up frame of it (block/crs.py; results are written
@@ -21,17 +22,23 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.crs import localize
+from baarda.block.model_block import ModelBlock
 from baarda.block.photo_block import Block, Photos
 from baarda.bundle.bundle_problem import SOLVE, BundleProblem
-from baarda.bundle.bundle_quality import BundleQuality
 from baarda.bundle.bundle_quality import assess as assess_result
 from baarda.bundle.bundle_quality import snoop as snoop_problem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
 from baarda.bundle.resection import orient_block
 from baarda.errors import GeometryError
+from baarda.independent.deformations import ALL as ALL_DEFORMATIONS
+from baarda.independent.forming import form_models
+from baarda.independent.model_hypotheses import UserHypotheses
+from baarda.independent.workflow import BlockQuality, process
 from baarda.io.formats import read_any
+from baarda.io.model_project import read_model_project
 from baarda.options import Progress, SolveOptions, TestOptions
+from baarda.quality.assessment import Assessment
 from baarda.screening.chain import ScreeningOptions, ScreeningResult, screen_and_snoop
 from baarda.screening.chain import screen as screen_block
 
@@ -85,14 +92,14 @@ def adjust(block: Block | BundleProblem, options: SolveOptions = SOLVE,
     return problem.fit(options=options, progress=progress)
 
 
-def assess(result: BundleResult, tests: TestOptions | None = None) -> BundleQuality:
+def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
     """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection."""
     return assess_result(result, tests)
 
 
 def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
           statistic: str = "w", by_point: bool = False, robust: bool = False,
-          max_iterations: int = 200, progress: Progress | None = None) -> BundleQuality:
+          max_iterations: int = 200, progress: Progress | None = None) -> Assessment:
     """Iterative data snooping of a block as read (see bundle/bundle_quality.py)."""
     problem = block if isinstance(block, BundleProblem) else prepare(block)
     return snoop_problem(problem, tests, statistic=statistic, by_point=by_point,
@@ -101,7 +108,7 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
 
 def screen(block: Block, options: ScreeningOptions | None = None, *, snoop: bool = False,
            statistic: str = "w",
-           progress: Progress | None = None) -> tuple[ScreeningResult, BundleQuality]:
+           progress: Progress | None = None) -> tuple[ScreeningResult, Assessment]:
     """Screening before the bundle (screening/chain.py), then the bundle adjustment of the
     cleaned block: with `snoop`, data snooping that removes what it rejects together with
     the observations it cannot be told from (the result's block is then the block after
@@ -118,3 +125,29 @@ def screen(block: Block, options: ScreeningOptions | None = None, *, snoop: bool
     result = BundleProblem(res.block).fit(progress=progress)
     return res, assess_result(result, TestOptions.resolve(block.settings, options.alpha0,
                                                           options.beta0))
+
+
+def read_models(path: str | Path, *, covariance: bool = False) -> ModelBlock:
+    """A model project (models.csv), or any photo block (a project or another program's
+    input, read by `read`) formed into stereo models by relative orientation; covariance:
+    keep the full covariance of each model point from its relative orientation."""
+    path = Path(path)
+    if path.is_dir() and (path / "models.csv").is_file():
+        return read_model_project(path)
+    block = with_approximations(localized(read(path)))
+    return form_models(block, covariance=covariance)
+
+
+def adjust_models(block: ModelBlock, mode: str = "3d", *, snoop: bool = True,
+                  tests: TestOptions | None = None, statistic: str = "w",
+                  by_point: bool = False, external: bool | None = None,
+                  deformations: tuple[str, ...] | None = ALL_DEFORMATIONS,
+                  clusters: dict[str, list[str]] | None = None,
+                  user: UserHypotheses | None = None, level_models: bool = False,
+                  progress: Progress | None = None) -> BlockQuality:
+    """The FOTEF procedure on a model block (independent/workflow.py): pre-adjustment search,
+    spatial ('3d') or planimetric + height ('2d') adjustment, data snooping, tests of model
+    deformations, control clusters and user hypotheses, external reliability."""
+    return process(block, mode, do_snoop=snoop, statistic=statistic, by_point=by_point,
+                   tests=tests, external=external, deformations=deformations,
+                   clusters=clusters, user=user, level_models=level_models, progress=progress)

@@ -17,6 +17,9 @@ from baarda.bundle.bundle_result import BundleResult
 class BundleModel(SchurModel):
     """The quality layer's view of a BundleResult; labels come from its problem."""
 
+    units = {"image": (1e3, "µm"), "control": (1.0, "m")}
+    frame_kind = "photo"
+
     def __init__(self, result: BundleResult):
         self.result = result
         pb = result.problem
@@ -31,6 +34,12 @@ class BundleModel(SchurModel):
 
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> BundleModel:
         return BundleModel(self.result.refit(active, factors))
+
+    def image_xy(self) -> np.ndarray:
+        xy = np.full((self.n, 2), np.nan)
+        img = self.image_row >= 0
+        xy[img] = self.result.block.image.xy_mm[self.image_row[img]]
+        return xy
 
     def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
         return self.point_effect_rows(), self.point

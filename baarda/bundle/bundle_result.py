@@ -10,6 +10,7 @@ import numpy as np
 from baarda.adjustment.counts import AdjustmentCounts
 from baarda.adjustment.schur import Linearization, SchurFactor
 from baarda.block.photo_block import Block
+from baarda.sections import Section, render, section
 
 if TYPE_CHECKING:
     from baarda.bundle.bundle_problem import BundleProblem
@@ -101,12 +102,10 @@ class BundleResult(AdjustmentCounts):
             "notes": list(self.notes),
         }
 
-    def summary(self) -> str:
+    def sections(self) -> list[Section]:
         d = self.to_dict()
         im = np.where(self.lin.w > 0, self.image_residuals * 1e3, np.nan)
         lines = [
-            "Bundle block adjustment",
-            "=" * 60,
             self.block.summary(),
             f"observations {d['n_observations']}, unknowns {d['n_unknowns']}, "
             f"redundancy {d['redundancy']}",
@@ -119,5 +118,8 @@ class BundleResult(AdjustmentCounts):
         if d["n_check_points"]:
             lines.append(f"check points {d['n_check_points']}: RMS X {d['check_rms_X']:.3f} m, "
                          f"Y {d['check_rms_Y']:.3f} m, Z {d['check_rms_Z']:.3f} m")
-        lines += [f"note: {n}" for n in self.notes]
-        return "\n".join(lines)
+        lines += [f"note: {n}" for n in list(self.block.notes) + list(self.notes)]
+        return [section("Bundle block adjustment", lines)]
+
+    def summary(self) -> str:
+        return render(self.sections())

@@ -58,7 +58,7 @@ def run_adjust(args) -> int:
 
         res, qc = screen(block, options(args), snoop=args.snoop, statistic=statistic,
                          progress=say)
-        write_results(args.out, qc.adjustment, qc)
+        write_results(args.out, qc)
         write_screening_log(args.out, res.log)
         if not args.quiet:
             print(res.summary())
@@ -74,7 +74,7 @@ def run_adjust(args) -> int:
                    robust=args.robust, progress=say)
     else:
         qc = assess(adjust(problem, progress=say), tests)
-    write_results(args.out, qc.adjustment, qc)
+    write_results(args.out, qc)
     if not args.quiet:
         print(qc.summary())
         print(f"results written to {args.out}")

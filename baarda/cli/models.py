@@ -11,7 +11,6 @@ from pathlib import Path
 from baarda.cli.common import check_output, progress, tests_option
 from baarda.errors import ProjectError
 from baarda.independent.deformations import ALL
-from baarda.io.model_project import read_model_project
 
 
 def register(sub) -> None:
@@ -64,26 +63,14 @@ def register(sub) -> None:
     q.set_defaults(func=run_simulate)
 
 
-def load(project: Path, covariance: bool = False):
-    """A model project, or a bundle project formed into models."""
-    if (project / "models.csv").is_file():
-        return read_model_project(project)
-    if (project / "image_points.csv").is_file():
-        from baarda.independent.forming import form_models
-        from baarda.io.project import read_project
-
-        return form_models(read_project(project), covariance=covariance)
-    raise ProjectError(str(project), "neither models.csv nor image_points.csv found")
-
-
 def run(args) -> int:
     from baarda.independent.model_hypotheses import UserHypotheses, read_clusters
-    from baarda.independent.workflow import process
     from baarda.output.model_results import write_results
+    from baarda.pipeline import adjust_models, read_models
 
     check_output(args.out, [args.project])
     say = progress(args.quiet)
-    block = load(args.project, args.covariance)
+    block = read_models(args.project, covariance=args.covariance)
     if say:
         say(f"read {block.summary()}")
     if args.deformations == "all":
@@ -96,7 +83,7 @@ def run(args) -> int:
         if bad:
             raise ProjectError("--deformations", f"unknown deformation(s) {', '.join(bad)} "
                                f"(known: {', '.join(ALL)})")
-    bq = process(block, "2d" if args.planimetric else "3d", do_snoop=not args.no_snoop,
+    bq = adjust_models(block, "2d" if args.planimetric else "3d", snoop=not args.no_snoop,
                  statistic="tau" if args.tau else "w", by_point=args.by_point,
                  tests=tests_option(block.settings, args), external=args.external,
                  deformations=defs,

@@ -17,6 +17,9 @@ from baarda.independent.model_result import ModelResult
 class IndependentModel(SchurModel):
     """The quality layer's view of a ModelResult; labels come from its problem."""
 
+    units = {"model": (1e3, "µm"), "control": (1.0, "m")}
+    frame_kind = "model"
+
     def __init__(self, result: ModelResult):
         self.result = result
         pb = result.problem

@@ -9,6 +9,7 @@ import numpy as np
 from baarda.adjustment.counts import AdjustmentCounts
 from baarda.adjustment.schur import Linearization, SchurFactor
 from baarda.independent.model_problem import ModelProblem
+from baarda.sections import Section, render, section
 
 TITLE = {"3d": "Independent-model block adjustment, spatial (7 parameters per model)",
          "2d": "Independent-model block adjustment, planimetric (4 parameters per model)",
@@ -102,14 +103,14 @@ class ModelResult(AdjustmentCounts):
             out[f"check_rms_{names[c]}"] = None if np.isnan(r) else float(r)
         return out
 
-    def summary(self) -> str:
+    def sections(self) -> list[Section]:
         d = self.to_dict()
         v = np.where(self.lin.w > 0, self.model_residuals * 1e3, np.nan)
         names = ("z",) if self.mode == "height" else ("x", "y", "z")[: v.shape[1]]
         comp = ", ".join(f"{c} {np.sqrt(np.nanmean(v[:, i] ** 2)):.2f} µm"
                          for i, c in enumerate(names))
         status = "converged" if d["converged"] else "NOT converged"
-        lines = [TITLE[self.mode], "=" * 60, self.block.summary(),
+        lines = [self.block.summary(),
                  f"observations {d['n_observations']}, unknowns {d['n_unknowns']}, "
                  f"redundancy {d['redundancy']}",
                  f"iterations {d['iterations']} ({status}), {d['seconds']:.2f} s",
@@ -119,4 +120,7 @@ class ModelResult(AdjustmentCounts):
             rms = ", ".join(f"{k[-1]} {d[k]:.3f} m" for k in d if k.startswith("check_rms"))
             lines.append(f"check points {d['n_check_points']}: RMS {rms}")
         lines += [f"note: {n}" for n in self.notes]
-        return "\n".join(lines)
+        return [section(TITLE[self.mode], lines)]
+
+    def summary(self) -> str:
+        return render(self.sections())

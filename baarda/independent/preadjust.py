@@ -54,11 +54,14 @@ class PreAdjustment:
     order: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
-    def summary(self) -> str:
+    def lines(self) -> list[str]:
         lines = [f"pre-adjustment search: {len(self.findings)} large error(s) set aside"]
         lines += ["  " + f.text() for f in self.findings]
         lines += [f"  note: {n}" for n in self.notes]
-        return "\n".join(lines)
+        return lines
+
+    def summary(self) -> str:
+        return "\n".join(self.lines())
 
 
 class _Component:

@@ -25,6 +25,7 @@ from baarda.independent.model_quality import ModelQuality, assess, snoop
 from baarda.independent.planimetric import check_tilts, height_possible, level
 from baarda.independent.preadjust import PreAdjustment, preadjust
 from baarda.options import Progress, TestOptions
+from baarda.sections import Section, render, section
 
 EXTERNAL_LIMIT = 400  # models: external reliability on detail points by default up to this
 
@@ -47,12 +48,15 @@ class BlockQuality:
         tests = [t for p in self.parts for t in p.hypotheses]
         return decision(tests) if tests else ""
 
+    def preadjustment_dict(self) -> dict:
+        return {"findings": [f.to_dict() for f in self.pre.findings],
+                "connection_order": self.pre.order, "notes": self.pre.notes}
+
     def to_dict(self) -> dict:
-        d = {"project": self.block.settings.name, "source": self.block.source,
-             "mode": self.mode, "summary": self.block.summary(),
-             "preadjustment": {"findings": [f.to_dict() for f in self.pre.findings],
-                               "connection_order": self.pre.order, "notes": self.pre.notes},
-             "adjustments": {p.mode: p.to_dict() for p in self.parts},
+        """The outcome as a dict: the pre-adjustment, each adjustment's to_dict()."""
+        d = {"mode": self.mode, "block": self.block.summary(),
+             "preadjustment": self.preadjustment_dict(),
+             "adjustments": {p.name: p.to_dict() for p in self.parts},
              "notes": self.notes + list(self.block.notes)}
         if self.tilts is not None:
             d["levelling_max_tilt_rad"] = float(np.max(np.abs(self.tilts), initial=0))
@@ -61,18 +65,25 @@ class BlockQuality:
             d["decision"] = dec
         return d
 
-    def summary(self) -> str:
-        lines = [self.pre.summary(), ""]
+    def sections(self) -> list[Section]:
+        lines = self.pre.lines()
         if self.tilts is not None:
             lines.append(f"models levelled by up to {np.max(self.tilts) * 1e3:.3g} mrad "
-                         "(tilts of a spatial adjustment) before the planimetric adjustment\n")
+                         "(tilts of a spatial adjustment) before the planimetric adjustment")
+        out = [section("Pre-adjustment", lines)]
         for p in self.parts:
-            lines += [p.summary(), ""]
+            out += p.sections()
+        end = []
         dec = self.decision()
         if dec:
-            lines.append("Decision: " + dec)
-        lines += [f"note: {n}" for n in self.notes + list(self.block.notes)]
-        return "\n".join(lines)
+            end.append("Decision: " + dec)
+        end += [f"note: {n}" for n in self.notes + list(self.block.notes)]
+        if end:
+            out.append(section("Conclusion", end))
+        return out
+
+    def summary(self) -> str:
+        return render(self.sections())
 
 
 def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,

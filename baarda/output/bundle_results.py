@@ -1,4 +1,5 @@
-"""Writing adjustment results: summary.json, photos.csv, points.csv, observations.csv."""
+"""The result folder of a bundle adjustment: summary.json, photos.csv, points.csv,
+observations.csv (output/results.py), and the tables in the block's CRS."""
 
 from __future__ import annotations
 
@@ -8,10 +9,10 @@ import numpy as np
 import pandas as pd
 
 from baarda.block.rotation import rad_to_angle
-from baarda.bundle.bundle_quality import BundleQuality
+from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_result import BundleResult
-from baarda.output.atomic import write_text
-from baarda.output.tables import csv_text, json_text
+from baarda.output.results import summary_document, write_folder
+from baarda.quality.assessment import Assessment, observation_table
 
 
 def photos_table(result: BundleResult) -> pd.DataFrame:
@@ -82,54 +83,31 @@ def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
     return ph, pt
 
 
-def write_results(out: str | Path, result: BundleResult,
-                  quality: BundleQuality | None = None) -> list[Path]:
-    """Write the result files into folder `out` (each atomically); returns the paths.
+def write_results(out: str | Path, result: Assessment | BundleResult) -> list[Path]:
+    """Write the result folder of a bundle adjustment (output/results.py) with photos.csv
+    and points.csv, each file atomically; returns the paths.  A BundleResult without its
+    assessment gives the residuals only.
 
     A block adjusted in a local frame of its CRS (block.frame) gets photos.csv and points.csv
     in the CRS, and the local tables as photos_local.csv and points_local.csv."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    blk = result.block
+    qc = result if isinstance(result, Assessment) else None
+    res: BundleResult = result.adjustment if qc is not None else result
+    blk = res.block
     cam = blk.cameras
-    summary = {"project": blk.settings.name, "source": blk.source,
-               "angle_unit": blk.settings.angle_unit,
-               "cameras": [{"camera": cam.ids[i], "focal_mm": float(cam.focal_mm[i]),
-                            "x0_mm": float(cam.principal_point_mm[i, 0]),
-                            "y0_mm": float(cam.principal_point_mm[i, 1])}
-                           for i in range(len(cam))]}
-    summary.update(result.to_dict())
-    if quality is not None:
-        summary.update(quality.to_dict())
-        obs = quality.table()
+    if qc is not None:
+        part, sections, obs = qc.to_dict(), qc.sections(), qc.table()
     else:
-        m = result.problem
-        v = result.image_residuals * 1e3
-        n = len(m.obs)
-        photos = np.asarray(blk.photos.ids, dtype=object)[blk.image.photo[m.obs]]
-        pts = np.asarray(blk.points.ids, dtype=object)
-        cv = result.control_residuals
-        sel = np.isfinite(cv.ravel())
-        obs = pd.DataFrame({
-            "kind": ["image"] * (2 * n) + ["control"] * int(sel.sum()),
-            "photo": np.concatenate([np.repeat(photos, 2), np.full(int(sel.sum()), "")]),
-            "point": np.concatenate([np.repeat(pts[blk.image.point[m.obs]], 2),
-                                     np.repeat(pts[m.control], 3)[sel]]),
-            "component": np.concatenate([np.tile(["x", "y"], n),
-                                         np.tile(["X", "Y", "Z"], len(m.control))[sel]]),
-            "x_mm": np.concatenate([np.repeat(blk.image.xy_mm[m.obs, 0], 2),
-                                    np.full(int(sel.sum()), np.nan)]),
-            "y_mm": np.concatenate([np.repeat(blk.image.xy_mm[m.obs, 1], 2),
-                                    np.full(int(sel.sum()), np.nan)]),
-            "residual": np.concatenate([v.ravel(), cv.ravel()[sel]]),
-        })
-    tables = {"photos.csv": photos_table(result), "points.csv": points_table(result)}
+        part, sections = {"adjustment": "bundle", **res.to_dict()}, res.sections()
+        obs = observation_table(BundleModel(res))
+    summary = summary_document(
+        project=blk.settings.name, source=blk.source, method="bundle", sections=sections,
+        parts=[part], angle_unit=blk.settings.angle_unit,
+        cameras=[{"camera": cam.ids[i], "focal_mm": float(cam.focal_mm[i]),
+                  "x0_mm": float(cam.principal_point_mm[i, 0]),
+                  "y0_mm": float(cam.principal_point_mm[i, 1])} for i in range(len(cam))])
+    tables = {"photos.csv": photos_table(res), "points.csv": points_table(res)}
     if blk.frame is not None:  # adjusted in a local frame: the tables in the CRS as well
-        ph, pt = tables_in_crs(result)
+        ph, pt = tables_in_crs(res)
         tables = {"photos.csv": ph, "points.csv": pt, "photos_local.csv": tables["photos.csv"],
                   "points_local.csv": tables["points.csv"]}
-    files = {"summary.json": json_text(summary), **{k: csv_text(v) for k, v in tables.items()},
-             "observations.csv": csv_text(obs)}
-    for name, text in files.items():
-        write_text(out / name, text)
-    return [out / name for name in files]
+    return write_folder(out, summary, {**tables, "observations.csv": obs})

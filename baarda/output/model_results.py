@@ -10,9 +10,7 @@ import pandas as pd
 
 from baarda.block.rotation import rad_to_angle
 from baarda.independent.workflow import BlockQuality
-from baarda.output.atomic import write_text
-from baarda.output.tables import csv_text as _csv
-from baarda.output.tables import json_text
+from baarda.output.results import summary_document, write_folder
 
 
 def models_table(bq: BlockQuality) -> pd.DataFrame:
@@ -67,26 +65,21 @@ def points_table(bq: BlockQuality) -> pd.DataFrame:
 
 
 def write_results(out: str | Path, bq: BlockQuality) -> list[Path]:
-    """Write the result files into folder `out`; returns their paths."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    """Write the result folder of a model block (output/results.py) with models.csv,
+    points.csv, hypotheses.csv, preadjustment.csv and report.txt; returns the paths."""
     pre = pd.DataFrame([f.to_dict() for f in bq.pre.findings],
                        columns=["step", "kind", "model", "point", "discrepancy", "ratio"])
     if len(pre):
         pre["discrepancy"] = [" ".join(f"{v:.6g}" for v in d) for d in pre["discrepancy"]]
-    hyp = [p.hypotheses_table() for p in bq.parts if p.hypotheses]
-    files = {
-        "summary.json": json_text(bq.to_dict()),
-        "models.csv": _csv(models_table(bq)),
-        "points.csv": _csv(points_table(bq)),
-        "observations.csv": _csv(pd.concat([p.table() for p in bq.parts], ignore_index=True)),
-        "hypotheses.csv": _csv(pd.concat(hyp, ignore_index=True) if hyp else pd.DataFrame(
-            columns=["adjustment", "hypothesis"])),
-        "preadjustment.csv": _csv(pre),
-        "report.txt": bq.summary() + "\n",
-    }
-    paths = []
-    for name, text in files.items():
-        write_text(out / name, text)
-        paths.append(out / name)
-    return paths
+    bl = bq.block
+    own = bq.to_dict()
+    del own["adjustments"]  # summary_document makes them from the parts
+    summary = summary_document(
+        project=bl.settings.name, source=bl.source, method=f"independent models ({bq.mode})",
+        sections=bq.sections(), parts=[p.to_dict() for p in bq.parts],
+        notes=own.pop("notes"), angle_unit=bl.settings.angle_unit, **own)
+    hyp = pd.concat([p.hypotheses_table() for p in bq.parts], ignore_index=True)
+    tables = {"models.csv": models_table(bq), "points.csv": points_table(bq),
+              "observations.csv": pd.concat([p.table() for p in bq.parts], ignore_index=True),
+              "hypotheses.csv": hyp, "preadjustment.csv": pre}
+    return write_folder(out, summary, tables, {"report.txt": bq.summary() + "\n"})

@@ -15,10 +15,12 @@ import pandas as pd
 
 from baarda.errors import ProjectError
 from baarda.io.table import Table
+from baarda.sections import Section
 
 # Units of the residual columns in observations.csv, by observation kind.
-UNITS = {"image": "µm", "control": "m"}
-OBS_REQUIRED = ["kind", "photo", "point", "component", "residual"]
+UNITS = {"image": "µm", "model": "µm", "control": "m"}
+OBS_REQUIRED = ["kind", "point", "component", "residual"]
+OBS_FRAMES = ["photo", "model"]  # at least one of them; `frame` is the one that is given
 OBS_NUMBERS = ["x_mm", "y_mm", "residual", "sigma", "sigma_residual", "redundancy", "w", "tau",
                "p_value", "mdb", "lambda_bar", "external_max", "point_test"]
 OBS_FLAGS = ["rejected", "flagged"]
@@ -50,8 +52,12 @@ def flags(t: Table, name: str) -> np.ndarray:
 def read_observations(path: str | Path) -> pd.DataFrame:
     """observations.csv as a DataFrame (missing statistics columns become NaN / False)."""
     t = Table(path, OBS_REQUIRED)
-    df = pd.DataFrame({c: t.text(c, allow_empty=c in ("photo", "point"))
-                       for c in ("kind", "photo", "point", "component")})
+    if not any(t.has(c) for c in OBS_FRAMES):
+        raise ProjectError(t.path, "missing column 'photo' (or 'model')")
+    df = pd.DataFrame({c: t.text(c, allow_empty=c in ("photo", "model", "point"))
+                       if t.has(c) else ""
+                       for c in ("kind", "photo", "model", "point", "component")})
+    df["frame"] = np.where(df["photo"] != "", df["photo"], df["model"])
     for c in OBS_NUMBERS:
         df[c] = numbers(t, c) if t.has(c) else np.nan
     for c in OBS_FLAGS:
@@ -95,6 +101,23 @@ class Results:
         k = self.summary.get("k_w")
         return float(k) if k is not None else float("nan")
 
+    @property
+    def sections(self) -> list[Section]:
+        """The summary's sections as the adjustment wrote them (summary.json)."""
+        return [Section.from_dict(s) for s in self.summary.get("sections", [])]
+
+    def global_test_lines(self) -> list[str]:
+        """The global test of every adjustment, in the words the adjustment wrote."""
+        return [line for s in self.sections for line in s.lines
+                if line.startswith("global test")]
+
+    @property
+    def global_test_passed(self) -> bool | None:
+        """Every adjustment's global test accepted (None: no global test in the results)."""
+        parts = self.summary.get("adjustments") or {"": self.summary}
+        tests = [p.get("global_test") for p in parts.values() if p.get("global_test")]
+        return None if not tests else all(gt.get("passed") for gt in tests)
+
     def strip_of(self) -> dict[str, str]:
         """photo id -> strip label ('' when unknown)."""
         if self.photos is None or "strip" not in self.photos:
@@ -135,12 +158,13 @@ def read_results(folder: str | Path) -> Results:
     obs = read_observations(folder / "observations.csv")
     notes: list[str] = []
     photos = points = None
+    photo_block = (obs["kind"] == "image").any()  # photos, cameras and footprints apply
     if (folder / "photos.csv").is_file():
         photos = _table_frame(folder / "photos.csv", ["photo", "X0", "Y0", "Z0"],
                               ["X0", "Y0", "Z0", "omega", "phi", "kappa"])
         if "strip" not in photos:
             photos["strip"] = ""
-    else:
+    elif photo_block:
         notes.append("photos.csv missing: no per-strip statistics and no photo footprints")
     if (folder / "points.csv").is_file():
         points = _table_frame(folder / "points.csv", ["point", "X", "Y", "Z"],
@@ -151,13 +175,13 @@ def read_results(folder: str | Path) -> Results:
         notes.append("points.csv missing: no maps")
     cams = {c["camera"]: c for c in summary.get("cameras", []) if "camera" in c}
     unit = summary.get("angle_unit")
-    if not cams and summary.get("source"):
+    if not cams and photo_block and summary.get("source"):
         src = Path(summary["source"])
         if not src.is_absolute() and not src.is_dir():
             src = folder.parent / src
         if src.is_dir():
             cams, unit = _cameras_from_project(src, notes)
-    if not cams:
+    if not cams and photo_block:
         notes.append("no camera data (summary.json 'cameras'): photo footprints not drawn")
     if obs["x_mm"].isna().all() and (obs["kind"] == "image").any():
         notes.append("observations.csv has no image coordinates (x_mm, y_mm): image-space "

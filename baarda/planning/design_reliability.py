@@ -17,15 +17,18 @@ import pandas as pd
 
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_problem import BundleProblem
-from baarda.bundle.bundle_quality import BundleQuality, assess
+from baarda.bundle.bundle_quality import assess
 from baarda.bundle.bundle_result import BundleResult
 from baarda.options import TestOptions
+from baarda.planning.design import ControlLayout, design_block
 from baarda.planning.point_classes import (
     RowClasses,
     classify,
     half_coverage_photos,
     points_per_photo,
 )
+from baarda.quality.assessment import Assessment
+from baarda.simulate.aerial import FlightPlan
 
 
 @dataclass
@@ -34,7 +37,7 @@ class PlanResult:
 
     block: Block
     adjustment: BundleResult
-    qc: BundleQuality
+    qc: Assessment
     classes: RowClasses
     observations: pd.DataFrame  # one row per observation component
     points: pd.DataFrame  # expected precision per ground point
@@ -77,7 +80,14 @@ def analyse_design(block: Block, tests: TestOptions | None = None, *,
                       point_table(result), photo_table(block, qc, rc))
 
 
-def observation_table(qc: BundleQuality, rc: RowClasses) -> pd.DataFrame:
+def plan(flight: FlightPlan, layout: ControlLayout | None = None,
+         tests: TestOptions | None = None) -> PlanResult:
+    """Design-stage reliability of a planned block: the error-free block of the flight plan
+    with its control layout, adjusted and assessed (`baarda plan` before its advice)."""
+    return analyse_design(design_block(flight, layout), tests)
+
+
+def observation_table(qc: Assessment, rc: RowClasses) -> pd.DataFrame:
     """Per component: class, rays, r, sqrt(qvv), MDB (µm / m), external reliability (m)."""
     m, q = qc.model, qc.quality
     blk = qc.adjustment.block
@@ -118,7 +128,7 @@ def point_table(result: BundleResult) -> pd.DataFrame:
         "sigma_X": std[:, 0], "sigma_Y": std[:, 1], "sigma_Z": std[:, 2]})
 
 
-def photo_table(block: Block, qc: BundleQuality, rc: RowClasses) -> pd.DataFrame:
+def photo_table(block: Block, qc: Assessment, rc: RowClasses) -> pd.DataFrame:
     """Per photo: measurements, distinct points, half coverage, weakest sqrt(qvv)."""
     m, q = qc.model, qc.quality
     n = len(block.photos)

@@ -29,6 +29,9 @@ class AdjustedModel(ABC):
     frame: np.ndarray  # (n,) str label of photo/model or ""
     point: np.ndarray  # (n,) str label of the point or ""
     group: np.ndarray  # (n,) int: components measured together (one image point), or -1
+    # how tables and summaries show each kind: kind -> (factor to the shown unit, unit)
+    units: dict[str, tuple[float, str]] = {}
+    frame_kind: str = "frame"  # what `frame` labels: photo (bundle) or model
 
     @property
     def n(self) -> int:
@@ -70,6 +73,10 @@ class AdjustedModel(ABC):
         Returns (effect (n, 3) in point units per observation unit, point label (n,)):
         for the bundle, the point that the observation belongs to.
         """
+
+    def image_xy(self) -> np.ndarray:
+        """(n, 2) measured image coordinates [mm] of image components, NaN elsewhere."""
+        return np.full((self.n, 2), np.nan)
 
     def adjusted_cofactor_blocks(self) -> tuple[np.ndarray, np.ndarray]:
         """Blocks of A N^-1 A^T for the groups: (index (g, k), blocks (g, k, k)).

@@ -12,7 +12,7 @@ import pandas as pd
 
 from baarda.output.result_folder import UNITS
 
-COLUMNS = ["kind", "photo", "point", "component", "unit", "redundancy", "residual",
+COLUMNS = ["kind", "frame", "point", "component", "unit", "redundancy", "residual",
            "sigma_residual", "w", "flag"]
 
 
@@ -37,6 +37,9 @@ def snooping_table(df: pd.DataFrame, *, sort: str = "w", min_abs_w: float | None
     """
     units = {**UNITS, **(units or {})}
     t = df.copy()
+    if "frame" not in t:  # the photo, or the model, of each observation
+        model = t["model"] if "model" in t else ""
+        t["frame"] = np.where(t["photo"].astype(str) != "", t["photo"], model)
     t["flag"] = flag_of(t)
     t["unit"] = [units.get(k, "") for k in t["kind"]]
     absw = np.abs(t["w"].to_numpy(float))
@@ -71,11 +74,11 @@ def format_snooping(t: pd.DataFrame, k_w: float | None = None) -> str:
     lines = []
     if k_w is not None and np.isfinite(k_w):
         lines.append(f"critical value |w| = {k_w:.2f}; SIGF = w = -v / sigma_v")
-    lines.append(f"{'KIND':<8}{'PHOTO':<10}{'POINT':<12}{'C':<2}{'RED-N':>7}{'PARX':>11}"
+    lines.append(f"{'KIND':<8}{'FRAME':<10}{'POINT':<12}{'C':<2}{'RED-N':>7}{'PARX':>11}"
                  f"{'EXPD':>10}{'SIGF':>8}  {'UNIT':<4} FLAG")
     for r in t.itertuples(index=False):
         w = f"{r.w:8.2f}" if np.isfinite(r.w) else f"{'-':>8}"
-        lines.append(f"{r.kind:<8}{r.photo:<10}{r.point:<12}{r.component:<2}"
+        lines.append(f"{r.kind:<8}{r.frame:<10}{r.point:<12}{r.component:<2}"
                      f"{r.redundancy:7.3f}{_v(r.residual, r.unit, 11)}"
                      f"{_v(r.sigma_residual, r.unit, 10)}{w}  {r.unit:<4} {r.flag}".rstrip())
     return "\n".join(lines)

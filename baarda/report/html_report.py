@@ -19,12 +19,10 @@ from baarda.report.anaplot import format_log, log_mdb, snooping_table
 from baarda.report.footprint import footprints, image_extent
 from baarda.report.histogram import format_histogram
 from baarda.report.plots import Plot, residual_histograms, w_histogram
-from baarda.report.stats import group_statistics, per_photo, per_strip
+from baarda.report.stats import group_statistics, model_groups, per_photo, per_strip
 from baarda.report.text_report import (
     ReportOptions,
-    global_test_line,
     image_histograms,
-    summary_lines,
     w_hists,
 )
 
@@ -108,7 +106,7 @@ def figure(p: Plot | None) -> str:
 def _snoop_table(res: Results, opt: ReportOptions) -> str:
     t = snooping_table(res.obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
     show = pd.DataFrame({
-        "kind": t["kind"], "photo": t["photo"], "point": t["point"], "c": t["component"],
+        "kind": t["kind"], "photo/model": t["frame"], "point": t["point"], "c": t["component"],
         "RED-N": t["redundancy"], "PARX": t["residual"], "EXPD": t["sigma_residual"],
         "SIGF (w)": t["w"], "unit": t["unit"], "flag": t["flag"]})
     cls = {"REJECTED": "rejected", "FLAGGED": "flagged", "uncontrolled": "uncontrolled"}
@@ -118,7 +116,8 @@ def _snoop_table(res: Results, opt: ReportOptions) -> str:
             f"{res.k_w:.2f}).</p>"
             + table(show, {"RED-N": ".3f", "PARX": ".4g", "EXPD": ".4g", "SIGF (w)": ".2f"},
                     lambda d: [cls.get(f, "") for f in d["flag"]],
-                    ("kind", "photo", "point", "c", "unit", "flag"), 'id="snooping-table"'))
+                    ("kind", "photo/model", "point", "c", "unit", "flag"),
+                    'id="snooping-table"'))
 
 
 def _log_table(summary: dict) -> str:
@@ -185,24 +184,31 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     """The whole report as one HTML string."""
     opt = opt or ReportOptions()
     figs = plots(res, opt)
-    gt = res.summary.get("global_test")
-    passed = gt and gt.get("passed")
-    notes = list(res.summary.get("notes", [])) + res.notes
+    passed = res.global_test_passed
+    summary = "".join(f"<h3>{esc(s.title)}</h3><pre>{esc(chr(10).join(s.lines))}</pre>"
+                      for s in res.sections) or "<p>summary.json has no sections</p>"
     sec = []
     sec.append(("summary", "Project summary",
-                '<div class="facts">' + "<br>".join(esc(x) for x in summary_lines(res))
-                + "</div>" + "".join(f"<p>note: {esc(n)}</p>" for n in notes)))
+                f'<p class="facts">source {esc(res.summary.get("source", "?"))}</p>' + summary
+                + "".join(f"<p>note: {esc(n)}</p>" for n in res.notes)))
+    gt_lines = res.global_test_lines() or ["global test: not available"]
     sec.append(("global", "Global test",
                 f'<p class="{"ok" if passed else "bad"}" id="global-test">'
-                f"{esc(global_test_line(res.summary))}</p>"))
+                + "<br>".join(esc(x) for x in gt_lines) + "</p>"))
     sec.append(("log", "Data snooping log", _log_table(res.summary)))
     body = _group_table(res)
     if res.photos is not None and (res.obs["kind"] == "image").any():
         body += "<h3>Per strip</h3>" + _image_table(per_strip(res.obs, res.strip_of()), "strip")
         body += ("<details><summary>Per photo</summary>"
                  + _image_table(per_photo(res.obs), "photo") + "</details>")
-    sec.append(("groups", "Group statistics (rejected observations left out; image µm, "
-                "control m)", body))
+    if (res.obs["kind"] == "model").any():
+        t = model_groups(res.obs).rename(columns=lambda c: c.replace("rms_", "RMS ").replace(
+            "max_abs", "max |v|").replace("max_at", "at"))
+        body += "<h3>Per model</h3>" + table(
+            t, {c: ".2f" for c in t.columns if c.startswith("RMS") or c == "max |v|"},
+            text_cols=("model", "at"))
+    sec.append(("groups", "Group statistics (rejected observations left out; image and model "
+                "µm, control m)", body))
     texts = "".join(
         f"<details><summary>text histogram: image {esc(n)}</summary><pre>"
         f"{esc(format_histogram(h, f'IMAGE {n.upper()} RESIDUALS', 'µm', opt.line_width))}"
@@ -219,7 +225,7 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     nav = "".join(f'<a href="#{k}">{esc(t.split(" (")[0])}</a>' for k, t, _ in sec)
     main = "".join(f'<section id="{k}"><h2>{esc(t)}</h2>{b}</section>' for k, t, b in sec)
     head = (f"<header><h1>Adjustment report: {esc(res.title)}</h1><p>{esc(res.folder)} · "
-            f"global test {'accepted' if passed else 'REJECTED' if gt else 'n/a'} · "
+            f"global test {'n/a' if passed is None else 'accepted' if passed else 'REJECTED'} · "
             f"{res.summary.get('n_rejected', 0)} rejected, {res.summary.get('n_flagged', 0)} "
             "flagged</p></header>")
     return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"

@@ -2,10 +2,11 @@
 
 For every group: number, mean (the bias; should be near zero), RMS = sqrt(mean(v^2)), and
 the two extremes with the observation where each occurs.  Groups: control X, Y, Z and X+Y,
-image x, y and x+y, every other kind by component and together; also per photo and per
-strip.  Input is an observation table with columns kind, photo, point, component, residual
-(image µm, control m) and optionally rejected; rejected observations are left out (their
-residuals are predicted, not adjusted) and counted separately.
+image x, y and x+y, every other kind by component and together; also per photo, per strip
+and per model.  Input is an observation table with columns kind, photo (or model), point,
+component, residual (image and model µm, control m) and optionally rejected; rejected
+observations are left out (their residuals are predicted, not adjusted) and counted
+separately.
 """
 
 from __future__ import annotations
@@ -38,9 +39,12 @@ class GroupStats:
 
 
 def obs_label(df: pd.DataFrame) -> np.ndarray:
-    """'photo P point Q c' for image rows, 'point Q c' otherwise."""
+    """'photo P point Q c' for image rows, 'model M point Q c' for model rows, 'point Q c'
+    otherwise."""
     photo = df["photo"].astype(str).to_numpy()
-    head = np.where(photo != "", "photo " + photo + " ", "")
+    model = df["model"].astype(str).to_numpy() if "model" in df else np.full(len(df), "")
+    head = np.where(photo != "", "photo " + photo + " ",
+                    np.where(model != "", "model " + model + " ", ""))
     return (head + "point " + df["point"].astype(str).to_numpy() + " "
             + df["component"].astype(str).to_numpy()).astype(object)
 
@@ -161,6 +165,44 @@ def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd
     out["rejected"] = out["rejected"].fillna(0).astype(int)
     out["max_at"] = out["max_at"].fillna("")
     return out[cols].reset_index(drop=True)
+
+
+def model_groups(df: pd.DataFrame) -> pd.DataFrame:
+    """Model-coordinate residual statistics per model (independent models): number of points,
+    RMS of each component, largest |v| and where, rejected components."""
+    sel = (df["kind"].to_numpy(str) == "model") if "model" in df else np.zeros(len(df), bool)
+    d = df.loc[sel, ["model", "point", "component", "residual"]].copy()
+    comps = list(dict.fromkeys(d["component"].astype(str)))
+    cols = ["model", "points", *[f"rms_{c}" for c in comps], "max_abs", "max_at", "rejected"]
+    if d.empty:
+        return pd.DataFrame(columns=cols)
+    d["active"] = _active(df)[sel]
+    d["label"] = obs_label(df[sel])
+    v = d["residual"].to_numpy(float)
+    d["abs"], d["v2"] = np.abs(v), v * v
+    out = pd.DataFrame({"model": sorted(d["model"].unique())}).set_index("model", drop=False)
+    out["points"] = d.groupby("model")["point"].nunique()
+    a = d[d["active"]]
+    for c in comps:
+        out[f"rms_{c}"] = np.sqrt(a[a["component"] == c].groupby("model")["v2"].mean())
+    top = a.loc[a.groupby("model")["abs"].idxmax()].set_index("model") if len(a) else None
+    out["max_abs"] = np.nan if top is None else top["abs"]
+    out["max_at"] = "" if top is None else top["label"]
+    out["rejected"] = (~d["active"]).groupby(d["model"]).sum().astype(int)
+    out["max_at"] = out["max_at"].fillna("")
+    return out[cols].reset_index(drop=True)
+
+
+def format_model_groups(t: pd.DataFrame, unit: str = "µm") -> str:
+    """Per-model table as text."""
+    rms = [c for c in t.columns if c.startswith("rms_")]
+    lines = [f"{'model':<10}{'points':>7}" + "".join(f"{'RMS ' + c[4:]:>9}" for c in rms)
+             + f"{'max |v|':>9}  {'at':<34}{'rej':>4}   ({unit})"]
+    for r in t.to_dict("records"):
+        lines.append(f"{str(r['model']):<10}{r['points']:>7}"
+                     + "".join(f"{_num(r[c], unit):>9}" for c in rms)
+                     + f"{_num(r['max_abs'], unit):>9}  {r['max_at']:<34}{r['rejected']:>4}")
+    return "\n".join(lines)
 
 
 def per_photo(df: pd.DataFrame) -> pd.DataFrame:

@@ -15,13 +15,16 @@ from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
     format_groups,
     format_image_groups,
+    format_model_groups,
     group_statistics,
+    model_groups,
     obs_label,
     per_photo,
     per_strip,
     vector_statistics,
     worst,
 )
+from baarda.sections import render
 
 if TYPE_CHECKING:
     from baarda.report.residual_readers import ResidualSet
@@ -77,59 +80,31 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
 
 
 def summary_lines(res: Results) -> list[str]:
-    s = res.summary
-    lines = [f"project {res.title}   (source {s.get('source', '?')}, results {res.folder})"]
-    if res.photos is not None:
-        lines.append(f"photos {len(res.photos)}" + (
-            f" in {res.photos['strip'].nunique()} strip(s)" if "strip" in res.photos else ""))
-    if res.points is not None:
-        roles = res.points["role"].value_counts()
-        lines.append("points " + ", ".join(f"{roles.get(r, 0)} {r}"
-                                          for r in ("control", "check", "tie")))
-
-    def g(k, fmt="{}"):
-        v = s.get(k)
-        return "-" if v is None else fmt.format(v)
-
-    lines += [f"observations {g('n_observations')}, unknowns {g('n_unknowns')}, redundancy "
-              f"{g('redundancy')}; iterations {g('iterations')} "
-              f"({'converged' if s.get('converged') else 'NOT converged'})",
-              f"sigma0 a posteriori {g('sigma0', '{:.4f}')}"]
-    if s.get("n_check_points"):
-        lines.append(f"check points {s['n_check_points']}: RMS X {g('check_rms_X', '{:.3f}')}"
-                     f" m, Y {g('check_rms_Y', '{:.3f}')} m, Z {g('check_rms_Z', '{:.3f}')} m")
-    if "alpha0" in s:
-        lines.append(f"alpha0 {s['alpha0']}, beta0 {s['beta0']}, delta0 {g('delta0', '{:.3f}')}"
-                     f", critical |w| {g('k_w', '{:.3f}')}; sum of redundancy numbers "
-                     f"{g('sum_redundancy_numbers', '{:.2f}')}")
-        lines.append(f"rejected {g('n_rejected')}, flagged {g('n_flagged')}, uncontrolled "
-                     f"{g('n_uncontrolled')}")
+    """The summary as the adjustment wrote it (summary.json sections), then the files' part."""
+    lines = [f"project {res.title}   (source {res.summary.get('source', '?')}, results "
+             f"{res.folder})"]
+    if res.sections:
+        lines += ["", *render(res.sections, width=78).split("\n")]
+    else:
+        lines.append("summary.json has no sections: the summary is not available")
     return lines
-
-
-def global_test_line(summary: dict) -> str:
-    gt = summary.get("global_test")
-    if not gt:
-        return "global test: not available"
-    return (f"global test: sigma0^2 = {gt['statistic']:.4f}, critical value "
-            f"{gt['critical']:.4f} (alpha {gt['alpha']:.3g}, p = {gt['p_value']:.3g}) -> "
-            f"{'ACCEPTED' if gt['passed'] else 'REJECTED'}")
 
 
 def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     opt = opt or ReportOptions()
     obs = res.obs
-    out = ["BAARDA ADJUSTMENT REPORT", "=" * 78, *summary_lines(res),
-           global_test_line(res.summary)]
-    out += [f"note: {n}" for n in list(res.summary.get("notes", [])) + res.notes]
+    out = ["BAARDA ADJUSTMENT REPORT", "=" * 78, *summary_lines(res)]
+    out += [f"note: {n}" for n in res.notes]
     out += ["", "SNOOPING LOG", "-" * 78, format_log(res.summary)]
-    out += ["", "GROUP STATISTICS (rejected observations left out; image µm, control m)",
-            "-" * 78, format_groups(group_statistics(obs))]
+    out += ["", "GROUP STATISTICS (rejected observations left out; image and model µm, "
+            "control m)", "-" * 78, format_groups(group_statistics(obs))]
     if res.photos is not None and (obs["kind"] == "image").any():
         out += ["", "PER STRIP", "-" * 78, format_image_groups(per_strip(obs, res.strip_of()),
                                                                "strip")]
     if (obs["kind"] == "image").any():
         out += ["", "PER PHOTO", "-" * 78, format_image_groups(per_photo(obs), "photo")]
+    if (obs["kind"] == "model").any():
+        out += ["", "PER MODEL", "-" * 78, format_model_groups(model_groups(obs))]
     out += ["", f"LARGEST RESIDUALS ({opt.worst} per kind)", "-" * 78,
             format_worst(worst(obs, opt.worst))]
     for name, h in image_histograms(obs, opt):

@@ -12,8 +12,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from baarda.block.photo_block import Block, GroundPoints
-from baarda.bundle.bundle_quality import BundleQuality
 from baarda.options import TestOptions
+from baarda.quality.assessment import Assessment
 from baarda.screening.control import ControlCheck, screen_control
 from baarda.screening.log import Entry, ScreeningLog
 from baarda.screening.pairs import PairTest, screen_pairs
@@ -122,7 +122,7 @@ def screen(block: Block, options: ScreeningOptions | None = None,
 
 def screen_and_snoop(block: Block, options: ScreeningOptions | None = None, *,
                      statistic: str = "w", progress: Callable[[str], None] | None = None
-                     ) -> tuple[ScreeningResult, BundleQuality]:
+                     ) -> tuple[ScreeningResult, Assessment]:
     """Screening, then bundle adjustment with data snooping of the cleaned block.
 
     The snooping removes what it rejects together with the observations it cannot tell from

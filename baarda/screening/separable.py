@@ -18,8 +18,9 @@ import numpy as np
 
 from baarda.block.photo_block import Block, GroundPoints
 from baarda.bundle.bundle_model import BundleModel
-from baarda.bundle.bundle_quality import BundleQuality, snoop
+from baarda.bundle.bundle_quality import snoop
 from baarda.options import TestOptions
+from baarda.quality.assessment import Assessment
 from baarda.quality.iterative import label
 from baarda.quality.statistics import w_correlation
 from baarda.screening.log import Entry, ScreeningLog
@@ -27,7 +28,7 @@ from baarda.screening.log import Entry, ScreeningLog
 STAGE = 4
 
 
-def partners(qc: BundleQuality, i: int, rho_max: float) -> tuple[np.ndarray, np.ndarray]:
+def partners(qc: Assessment, i: int, rho_max: float) -> tuple[np.ndarray, np.ndarray]:
     """Active components whose w-tests cannot be told from that of rejected component i.
 
     Adjusts again with i put back (the other rejections stay) and returns (indices, rho).
@@ -61,7 +62,7 @@ def snoop_separable(block: Block, log: ScreeningLog | None = None, *,
                     tests: TestOptions | None = None,
                     rho_max: float = 0.9, statistic: str = "w", max_passes: int = 6,
                     progress: Callable[[str], None] | None = None
-                    ) -> tuple[BundleQuality, Block, ScreeningLog]:
+                    ) -> tuple[Assessment, Block, ScreeningLog]:
     """Snoop `block`; returns the final snooping (nothing left to reject), the block without
     the removed observations, and the log of the removals (stage 4, 'bundle snooping')."""
     log = log if log is not None else ScreeningLog()

@@ -100,4 +100,4 @@ def test_simulate_command_and_bundle_project_input(tmp_path):
     assert main(["models", str(tmp_path / "b"), "-o", str(tmp_path / "bo"), "-q",
                  "--deformations", "none"]) == 0
     s = json.loads((tmp_path / "bo" / "summary.json").read_text())
-    assert s["adjustments"]["3d"]["adjustment"]["converged"]
+    assert s["adjustments"]["3d"]["converged"]

@@ -37,7 +37,7 @@ def report_case(tmp_path_factory) -> Case:
                                              check_points=2, relief_m=30.0, seed=1))
     write_project(block, root / "project")
     qc = snoop(block)
-    write_results(root / "out", qc.adjustment, qc)
+    write_results(root / "out", qc)
     res = read_results(root / "out")
     text = html_report(res, ReportOptions(vector_photos=15))
     (root / "report.html").write_text(text, encoding="utf-8")

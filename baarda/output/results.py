@@ -1,0 +1,46 @@
+"""The parts every result folder shares: summary.json and observations.csv.
+
+summary.json (one schema for every method, docs/format.md): `project`, `source`, `method`,
+`sections` (the text of summary(), which the reports render), `adjustments` (one entry per
+adjustment: counts, sigma0, global test, test settings, rejection log, ...), the first
+adjustment's entries again at the top level, `rejection_log` of all adjustments and
+`notes`; then the method's own entries.  observations.csv: one row per observation
+component in the columns of baarda.quality.assessment.COLUMNS (then a method's own).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+import pandas as pd
+
+from baarda.output.atomic import write_text
+from baarda.output.tables import csv_text, json_text
+from baarda.sections import Section
+
+
+def summary_document(*, project: str, source: str, method: str, sections: Iterable[Section],
+                     parts: list[dict], notes: Iterable[str] = (), **extra) -> dict:
+    """summary.json of a result folder (module docstring); parts: to_dict() of each
+    adjustment (with its name under 'adjustment')."""
+    main = dict(parts[0]) if parts else {}
+    doc = {"project": project, "source": source, "method": method, **main, **extra}
+    doc["rejection_log"] = [s for p in parts for s in p.get("rejection_log", [])]
+    doc["notes"] = list(dict.fromkeys([n for p in parts for n in p.get("notes", [])]
+                                      + list(notes)))
+    doc["adjustments"] = {p["adjustment"]: p for p in parts}
+    doc["sections"] = [s.to_dict() for s in sections]
+    return doc
+
+
+def write_folder(out: str | Path, summary: dict, tables: Mapping[str, pd.DataFrame],
+                 texts: Mapping[str, str] | None = None) -> list[Path]:
+    """summary.json, the tables as CSV and any texts, each written atomically; the paths."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    files = {"summary.json": json_text(summary),
+             **{name: csv_text(df) for name, df in tables.items()}, **(texts or {})}
+    for name, text in files.items():
+        write_text(out / name, text)
+    return [out / name for name in files]

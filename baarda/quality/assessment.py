@@ -1,0 +1,222 @@
+"""The assessment of an adjustment: one results family for every method.
+
+An Assessment holds an adjustment result, the quality layer's view of it (AdjustedModel)
+and every statistic (QualityResult), with the snooping log and tested hypotheses.  Like a
+statsmodels results object it gives arrays, `table()` (one row per observation component,
+the one schema of observations.csv for every method), `to_dict()` (summary.json) and
+`summary()`, built from `sections()` that the reports render too.
+
+Units in tables and summaries: each model says how its kinds of observation are shown
+(`AdjustedModel.units`: image and model coordinates in µm, control in m).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from baarda.quality.adjusted_model import AdjustedModel
+from baarda.quality.hypotheses import (
+    HypothesisTest,
+    group_test,
+    hypothesis_test,
+    image_point_tests,
+)
+from baarda.quality.iterative import SnoopingRun
+from baarda.quality.statistics import QualityResult
+from baarda.sections import Section, render, section
+
+# the columns of observations.csv, in this order, for every method (docs/format.md)
+COLUMNS = ("adjustment", "kind", "photo", "model", "point", "component", "x_mm", "y_mm",
+           "residual", "sigma", "sigma_residual", "redundancy", "w", "tau", "p_value", "mdb",
+           "lambda_bar", "external_max", "external_point", "point_test", "rejected", "flagged")
+
+
+def global_test_line(q: QualityResult) -> str:
+    """The global test of the variance factor in words (the one place that says it)."""
+    gt = q.global_test
+    if gt is None:
+        return "global test: no redundancy"
+    return (f"global test: sigma0^2 = {gt.statistic:.4f}, critical {gt.critical:.4f} (alpha "
+            f"{q.global_alpha:.3g} by the B-method, p = {gt.p_value:.3g}) -> "
+            f"{'accepted' if gt.passed else 'REJECTED'}")
+
+
+def quality_lines(model: AdjustedModel, q: QualityResult,
+                  suffix=lambda kind, sel: "") -> list[str]:
+    """Test settings, global test, redundancy and per-kind reliability for people;
+    suffix(kind, selection) adds a method's words to a kind's line."""
+    lines = [f"alpha0 {q.alpha0}, beta0 {q.beta0}: delta0 {q.delta0:.3f}, critical |w| "
+             f"{q.k_w:.3f}", global_test_line(q),
+             f"sum of redundancy numbers {q.sum_redundancy_numbers:.3f} = redundancy "
+             f"{q.redundancy}"]
+    act = q.active & q.controlled
+    for kind in dict.fromkeys(model.kind):
+        sel = act & (model.kind == kind)
+        if not sel.any():
+            continue
+        u, unit = model.units.get(kind, (1.0, ""))
+        lines.append(f"{kind}: r mean {np.mean(q.redundancy_number[sel]):.3f} min "
+                     f"{np.min(q.redundancy_number[sel]):.3f}; MDB max "
+                     f"{np.max(q.mdb[sel]) * u:.4g} {unit}".rstrip() + "; max |w| "
+                     f"{np.nanmax(np.abs(q.w[sel])):.2f}" + suffix(kind, sel))
+    return lines
+
+
+def observation_table(model: AdjustedModel, q: QualityResult | None = None,
+                      name: str = "bundle") -> pd.DataFrame:
+    """The observation table (COLUMNS) of a model: residuals, and the statistics of `q`
+    (NaN without them: an adjustment written without quality control)."""
+    m = model
+    scale = np.array([m.units.get(k, (1.0, ""))[0] for k in m.kind])
+    frame = np.asarray(m.frame, dtype=object)
+    empty = np.full(m.n, "", dtype=object)
+    xy = m.image_xy()
+    nan = np.full(m.n, np.nan)
+    cols = {"adjustment": name, "kind": m.kind,
+            "photo": frame if m.frame_kind == "photo" else empty,
+            "model": frame if m.frame_kind == "model" else empty,
+            "point": m.point, "component": m.component, "x_mm": xy[:, 0], "y_mm": xy[:, 1],
+            "residual": m.residuals * scale, "sigma": m.sigma * scale, "rejected": ~m.active,
+            "flagged": np.zeros(m.n, bool), "external_point": empty}
+    if q is not None:
+        _, t2, _, _, _ = image_point_tests(m, q.tests)
+        point_t = nan.copy()
+        idx, _ = m.adjusted_cofactor_blocks()
+        if len(t2):
+            point_t[idx] = t2[:, None]
+        cols.update({
+            "sigma_residual": q.sigma_residual * scale, "redundancy": q.redundancy_number,
+            "w": q.w, "tau": q.tau, "p_value": q.p_value, "mdb": q.mdb * scale,
+            "lambda_bar": q.lambda_bar, "external_max": q.external_max,
+            "external_point": q.external_point, "point_test": point_t, "flagged": q.flagged})
+    return pd.DataFrame({c: cols.get(c, nan) for c in COLUMNS}, columns=list(COLUMNS))
+
+
+@dataclass
+class Assessment:
+    """An adjustment with the statistics of every observation (and the snooping log).
+
+    adjustment: the method's result (BundleResult, ModelResult): arrays, counts and its own
+    `sections()` and `to_dict()`; name: the adjustment in tables ("bundle", "3d", "2d",
+    "height").
+    """
+
+    adjustment: object
+    model: AdjustedModel
+    quality: QualityResult
+    run: SnoopingRun | None = None
+    hypotheses: list[HypothesisTest] = field(default_factory=list)
+    name: str = "bundle"
+
+    @property
+    def rejected(self) -> np.ndarray:
+        return ~self.quality.active
+
+    # ------------------------------------------------------------ tests
+    def point_test(self, point: str) -> HypothesisTest:
+        """All observations of a point in error together (image or model, and control)."""
+        rows = np.flatnonzero(self.model.point == point)
+        if not len(rows):
+            raise KeyError(f"no observations of point {point}")
+        return group_test(self.model, rows, f"point {point}", self.quality.tests)
+
+    def frame_test(self, frame: str) -> HypothesisTest:
+        """All observations of a photo (bundle) or a model (independent models) in error."""
+        rows = np.flatnonzero(self.model.frame == frame)
+        if not len(rows):
+            raise KeyError(f"no observations on {self.model.frame_kind} {frame}")
+        return group_test(self.model, rows, f"{self.model.frame_kind} {frame}",
+                          self.quality.tests)
+
+    def photo_test(self, photo: str) -> HypothesisTest:
+        """All image observations of a photo in error together."""
+        return self.frame_test(photo)
+
+    def hypothesis_test(self, h: np.ndarray, name: str = "H") -> HypothesisTest:
+        """A non-conventional alternative hypothesis: h (n, q) over the observation vector."""
+        return hypothesis_test(self.model, h, name, self.quality.tests)
+
+    # ------------------------------------------------------------ tables
+    def table(self) -> pd.DataFrame:
+        """One row per observation component (observations.csv), in the model's units."""
+        df = observation_table(self.model, self.quality, self.name)
+        for k, v in self.extra_columns().items():
+            df[k] = v
+        return df
+
+    def extra_columns(self) -> dict[str, np.ndarray]:
+        """Method-specific columns after the common ones (none by default)."""
+        return {}
+
+    def hypotheses_table(self) -> pd.DataFrame:
+        return pd.DataFrame([{
+            "adjustment": self.name, "hypothesis": t.name, "q": t.q, "statistic": t.statistic,
+            "critical": t.critical, "p_value": t.p_value, "rejected": t.rejected,
+            "w": t.w, "mdb": t.mdb,
+            "nabla": " ".join(f"{v:.6g}" for v in np.atleast_1d(t.nabla))}
+            for t in self.hypotheses], columns=["adjustment", "hypothesis", "q", "statistic",
+                                                "critical", "p_value", "rejected", "w", "mdb",
+                                                "nabla"])
+
+    # ------------------------------------------------------------ summaries
+    def quality_dict(self) -> dict:
+        """The statistics' part of summary.json."""
+        q = self.quality
+        gt = q.global_test
+        return {
+            "global_test": None if gt is None else {
+                "statistic": gt.statistic, "critical": gt.critical, "alpha": q.global_alpha,
+                "p_value": gt.p_value, "passed": bool(gt.passed)},
+            "alpha0": q.alpha0, "beta0": q.beta0, "delta0": q.delta0, "k_w": q.k_w,
+            "k_tau": q.k_tau, "sum_redundancy_numbers": q.sum_redundancy_numbers,
+            "n_rejected": int(np.sum(~q.active)),
+            "n_flagged": int(np.sum(q.flagged)),
+            "n_uncontrolled": int(np.sum(q.active & ~q.controlled)),
+            "rejection_log": [] if self.run is None else
+            [dict(s.to_dict(), adjustment=self.name) for s in self.run.log],
+            "snooping_converged": None if self.run is None else self.run.converged,
+            "hypotheses": [{"name": t.name, "q": t.q, "statistic": t.statistic,
+                            "critical": t.critical, "rejected": t.rejected,
+                            "nabla": np.atleast_1d(t.nabla).tolist()} for t in self.hypotheses],
+        }
+
+    def to_dict(self) -> dict:
+        """summary.json of this adjustment: the adjustment's fields, then the statistics';
+        `notes` are the adjustment's and the statistics' notes."""
+        adj = self.adjustment.to_dict()
+        notes = list(adj.pop("notes", [])) + list(self.quality.notes)
+        return {"adjustment": self.name, **adj, **self.quality_dict(), "notes": notes}
+
+    def quality_sections(self) -> list[Section]:
+        q = self.quality
+        lines = quality_lines(self.model, q, self.kind_suffix) + self.extra_quality_lines()
+        if self.run is not None:
+            lines += self.run.summary_lines()
+        if self.hypotheses:
+            lines.append("alternative hypotheses:")
+            lines += ["  " + t.summary() for t in self.hypotheses]
+            lines += self.conclusion_lines()
+        lines += [f"note: {n}" for n in q.notes]
+        title = "Quality control" + ("" if self.name == "bundle" else f" ({self.name})")
+        return [section(title, lines)]
+
+    def kind_suffix(self, kind: str, sel: np.ndarray) -> str:
+        """Method-specific words after a kind's reliability line (none by default)."""
+        return ""
+
+    def extra_quality_lines(self) -> list[str]:
+        """Method-specific lines of the quality section (none by default)."""
+        return []
+
+    def conclusion_lines(self) -> list[str]:
+        """A method's conclusion from the tested hypotheses (none by default)."""
+        return []
+
+    def sections(self) -> list[Section]:
+        return list(self.adjustment.sections()) + self.quality_sections()
+
+    def summary(self) -> str:
+        return render(self.sections())
