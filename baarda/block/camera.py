@@ -88,20 +88,24 @@ def distort(xy_ideal: np.ndarray, pp: np.ndarray, focal: np.ndarray,
     return pp + focal[:, None] * (n + delta), jac
 
 
-def undistort(xy: np.ndarray, pp: np.ndarray, focal: np.ndarray, d: np.ndarray,
-              iterations: int = 20) -> np.ndarray:
-    """Inverse of `distort` by Newton iteration (for approximations and writers)."""
-    nd = (xy - pp) / focal[:, None]
-    n = nd.copy()
+def _invert(target: np.ndarray, d: np.ndarray, iterations: int = 20) -> np.ndarray:
+    """u with u + delta(u) = target (m, 2) for coefficients d (m, 5), by Newton's method."""
+    u = target.copy()
     for _ in range(iterations):
-        delta, jac = brown_terms(n, d)
+        delta, jac = brown_terms(u, d)
         jac[:, 0, 0] += 1.0
         jac[:, 1, 1] += 1.0
-        step = np.linalg.solve(jac, (nd - n - delta)[:, :, None])[:, :, 0]
-        n += step
+        step = np.linalg.solve(jac, (target - u - delta)[:, :, None])[:, :, 0]
+        u += step
         if np.max(np.abs(step), initial=0.0) < 1e-15:
             break
-    return pp + focal[:, None] * n
+    return u
+
+
+def undistort(xy: np.ndarray, pp: np.ndarray, focal: np.ndarray, d: np.ndarray,
+              iterations: int = 20) -> np.ndarray:
+    """Inverse of `distort` (for approximations and writers)."""
+    return pp + focal[:, None] * _invert((xy - pp) / focal[:, None], d, iterations)
 
 
 def correct_backward(xy: np.ndarray, pp: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -113,18 +117,8 @@ def correct_backward(xy: np.ndarray, pp: np.ndarray, d: np.ndarray) -> np.ndarra
 
 def uncorrect_backward(xy_ideal: np.ndarray, pp: np.ndarray, d: np.ndarray,
                        iterations: int = 20) -> np.ndarray:
-    """Inverse of `correct_backward` (Newton): the observation whose correction is xy_ideal."""
-    target = xy_ideal - pp
-    u = target.copy()
-    for _ in range(iterations):
-        delta, jac = brown_terms(u, d)
-        jac[:, 0, 0] += 1.0
-        jac[:, 1, 1] += 1.0
-        step = np.linalg.solve(jac, (target - u - delta)[:, :, None])[:, :, 0]
-        u += step
-        if np.max(np.abs(step), initial=0.0) < 1e-15:
-            break
-    return pp + u
+    """Inverse of `correct_backward`: the observation whose correction is xy_ideal."""
+    return pp + _invert(xy_ideal - pp, d, iterations)
 
 
 def corrected_observations(block) -> np.ndarray:

@@ -1,0 +1,108 @@
+"""The one solver (adjustment/solve.py): Gauss-Newton with step halving, Levenberg-Marquardt
+damping, convergence rules, and results that never change afterwards."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from baarda.adjustment.dense import DenseLeastSquares
+from baarda.adjustment.solve import solve
+from baarda.bundle.bundle_model import BundleModel
+from baarda.bundle.bundle_problem import SOLVE, BundleProblem
+from baarda.options import SolveOptions
+from baarda.quality.dense_model import DenseModel
+from baarda.quality.statistics import analyse
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+
+@pytest.fixture(scope="module")
+def problem():
+    block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=6, relief_m=60, seed=5))
+    return BundleProblem(block)
+
+
+def test_damped_and_undamped_reach_the_same_minimum(problem):
+    eo, xyz = problem.approximations
+    rng = np.random.default_rng(1)
+    start = (eo + rng.normal(0, [5, 5, 5, 0.02, 0.02, 0.02], eo.shape), xyz.copy())
+    before = (start[0].copy(), start[1].copy())
+    gn = problem.fit(start)
+    lm = problem.fit(start, options=replace(SOLVE, damping=1e-3))
+    assert np.array_equal(start[0], before[0]) and np.array_equal(start[1], before[1])
+    assert gn.converged and lm.converged
+    assert lm.factor.damping == 0.0 and gn.factor.damping == 0.0  # statistics undamped
+    assert lm.vtpv == pytest.approx(gn.vtpv, rel=1e-10)
+    assert np.allclose(lm.eo, gn.eo, atol=1e-6) and np.allclose(lm.xyz, gn.xyz, atol=1e-6)
+
+
+def test_converged_solution_is_the_factored_point(problem):
+    res = problem.fit()
+    dxf, dxp = res.factor.step()  # the correction at the solution is negligible
+    assert problem.correction_size((res.eo, res.xyz), (dxf, dxp)) <= SOLVE.tolerance
+    lin = problem.linearize((res.eo, res.xyz))
+    assert np.array_equal(lin.e, res.lin.e)
+
+
+def test_iteration_limit_is_reported(problem):
+    res = problem.fit(options=replace(SOLVE, max_iterations=1))
+    assert not res.converged
+    assert any("not converged after 1 iterations" in n for n in res.notes)
+
+
+def test_a_result_never_changes(problem):
+    first = problem.fit()
+    model = BundleModel(first)
+    q1 = analyse(model)
+    std = first.eo_std.copy()
+    out = np.flatnonzero(q1.redundancy_number > 0.4)[:10]  # well controlled ones
+    assert len(out) == 10
+    active = model.active.copy()
+    active[out] = False
+    second = model.refit(active)
+    q2 = analyse(second)
+    assert second.redundancy == model.redundancy - 10
+    assert problem.active.all() and first.problem.active.all()  # problems do not change
+    assert not second.result.problem.active[out].any()
+    assert np.array_equal(first.eo_std, std)  # the first factorisation is its own
+    assert np.array_equal(analyse(model).w, q1.w, equal_nan=True)
+    assert q2.sigma0_hat != q1.sigma0_hat
+    with pytest.raises(ValueError):
+        problem.active[0] = False  # read-only
+
+
+def test_dense_refit_is_the_least_squares_solution_with_new_weights():
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(20, 3))
+    obs = a @ [1.0, 2.0, -1.0] + rng.normal(0, 0.1, 20)
+    sigma = np.full(20, 0.1)
+    xh = np.linalg.lstsq(a, obs, rcond=None)[0]
+    model = DenseModel(a, sigma, a @ xh - obs)
+    active = np.ones(20, bool)
+    active[[3, 7]] = False
+    f = rng.uniform(0.5, 2.0, 20)
+    new = model.refit(active, f)
+    p = np.where(active, f / sigma**2, 0.0)
+    x2 = np.linalg.solve(a.T @ (p[:, None] * a), a.T @ (p * obs))
+    assert np.allclose(new.residuals, a @ x2 - obs, atol=1e-12)
+    assert np.allclose(new.sigma, sigma / np.sqrt(f))
+
+
+def test_dense_problem_final_step_and_stall():
+    """Rosenbrock-like curve fit: Gauss-Newton from a poor start; final_step makes the
+    solution accurate to the rounding floor."""
+    t = np.linspace(0, 2, 30)
+    truth = np.array([2.0, -1.3])
+    obs = truth[0] * np.exp(truth[1] * t)
+
+    def func(x):
+        e = np.exp(x[1] * t)
+        return x[0] * e, np.column_stack([e, x[0] * t * e])
+
+    prob = DenseLeastSquares(func, obs, np.ones(30))
+    options = SolveOptions(tolerance=1e-6, min_step=1e-6)
+    loose = solve(prob, np.array([1.0, 0.0]), options)
+    tight = solve(prob, np.array([1.0, 0.0]), replace(options, final_step=True))
+    assert loose.converged and tight.converged
+    assert np.max(np.abs(tight.state - truth)) < 1e-12 < np.max(np.abs(loose.state - truth))
+    assert len(loose.history) == loose.iterations - 1  # the last one found it converged

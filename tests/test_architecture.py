@@ -1,0 +1,109 @@
+"""The layers of baarda import only downward (docs/architecture.md), checked on the source.
+
+Every `import baarda.x` / `from baarda.x import ...` in a module of package P (including the
+ones inside functions and under TYPE_CHECKING) must name a package of a lower floor than P,
+or P itself.  Floors, from the ground up: see FLOORS.
+"""
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1] / "baarda"
+
+FLOORS = [
+    {"errors", "options", "sections", "linalg"},
+    {"block"},
+    {"io", "quality"},
+    {"adjustment"},
+    {"bundle", "relative"},
+    {"screening", "independent"},
+    {"pipeline", "simulate"},
+    {"planning"},
+    {"output"},
+    {"report"},
+    {"cli"},
+    {"__init__", "__main__"},
+]
+FLOOR = {pkg: i for i, floor in enumerate(FLOORS) for pkg in floor}
+READERS_MAY_NOT_IMPORT = {"bundle", "independent", "relative", "screening", "adjustment",
+                          "quality", "output", "report", "pipeline", "planning", "simulate",
+                          "cli"}
+
+
+def package_of(path: Path) -> str:
+    rel = path.relative_to(ROOT)
+    return rel.parts[0] if len(rel.parts) > 1 else rel.stem
+
+
+def baarda_imports(path: Path) -> list[tuple[int, str]]:
+    """(line, package) of every import of a baarda package in the file."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        names = []
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+            if node.module == "baarda":
+                names = [f"baarda.{a.name}" for a in node.names]
+        for name in names:
+            parts = name.split(".")
+            if parts[0] == "baarda" and len(parts) > 1:
+                out.append((node.lineno, parts[1]))
+    return out
+
+
+MODULES = sorted(ROOT.rglob("*.py"))
+
+
+def test_every_package_has_a_floor():
+    pkgs = {package_of(p) for p in MODULES}
+    assert pkgs <= set(FLOOR), f"packages without a floor: {sorted(pkgs - set(FLOOR))}"
+
+
+@pytest.mark.parametrize("path", MODULES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_imports_only_downward(path):
+    own = package_of(path)
+    bad = [f"line {line}: {own} (floor {FLOOR[own]}) imports {pkg} (floor {FLOOR[pkg]})"
+           for line, pkg in baarda_imports(path) if pkg != own and FLOOR[pkg] >= FLOOR[own]]
+    assert not bad, "\n".join(bad)
+
+
+def test_readers_import_no_computation():
+    bad = [f"{p.relative_to(ROOT)} line {line}: imports baarda.{pkg}"
+           for p in sorted((ROOT / "io").rglob("*.py"))
+           for line, pkg in baarda_imports(p) if pkg in READERS_MAY_NOT_IMPORT]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_rule_catches_an_upward_import(tmp_path):
+    """The check itself: an io module that imports the bundle is found."""
+    f = tmp_path / "bad.py"
+    f.write_text("def f():\n    from baarda.bundle.bundle_problem import BundleProblem\n")
+    assert baarda_imports(f) == [(2, "bundle")]
+    assert FLOOR["bundle"] > FLOOR["io"]
+
+
+LOOP_SIGNS = re.compile(r"\b(step|t)\s*\*=\s*0\.5|for _ in range\(iterations\)|"
+                        r"while step >")
+
+
+NOT_ADJUSTMENTS = {
+    "adjustment/solve.py": "the solver",
+    "block/camera.py": "the inverse of the lens model by Newton's method (one equation per "
+                       "point, not a least-squares adjustment)",
+}
+
+
+def test_one_iteration_loop():
+    """Gauss-Newton with step halving lives in adjustment/solve.py only; every adjustment
+    calls solve() (the signs of a loop of its own: halving a step, iterating a count)."""
+    found = [f"{p.relative_to(ROOT)}: {m.group(0)}" for p in MODULES
+             if p.relative_to(ROOT).as_posix() not in NOT_ADJUSTMENTS
+             and package_of(p) != "linalg"
+             for m in LOOP_SIGNS.finditer(p.read_text(encoding="utf-8"))]
+    assert not found, found
+    assert LOOP_SIGNS.search((ROOT / "adjustment" / "solve.py").read_text())
