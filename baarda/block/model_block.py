@@ -11,6 +11,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS
+
 
 @dataclass
 class ModelSettings:
@@ -19,8 +21,8 @@ class ModelSettings:
     name: str = "models"
     sigma_model_um: tuple[float, float] = (10.0, 15.0)  # xy, z (FOTEF's standard)
     sigma_control_m: tuple[float, float, float] = (0.05, 0.05, 0.05)
-    alpha0: float = 0.001
-    beta0: float = 0.80
+    alpha0: float = DEFAULT_TESTS.alpha0
+    beta0: float = DEFAULT_TESTS.beta0
     pre_um: tuple[float, float] = (250.0, 500.0)  # pre-adjustment thresholds xy, z (FOTEF)
     angle_unit: str = "gon"  # of the rotations in the output
 

@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from baarda.options import DEFAULT_TESTS
+
 if TYPE_CHECKING:
     from baarda.block.crs import LocalFrame
 
@@ -26,8 +28,8 @@ class Settings:
     angle_unit: str = "gon"
     sigma_image_um: float = 5.0
     sigma_control_m: tuple[float, float, float] = (0.05, 0.05, 0.05)
-    alpha0: float = 0.001
-    beta0: float = 0.80
+    alpha0: float = DEFAULT_TESTS.alpha0
+    beta0: float = DEFAULT_TESTS.beta0
     crs: str | None = None
 
 

@@ -25,8 +25,8 @@ def register(sub) -> None:
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1 as Kratky; 5 accounts for the errors of the tie "
                    "coordinates, docs/online.md)")
-    p.add_argument("--alpha0", type=float, default=0.001, help="level of the w-test")
-    p.add_argument("--beta0", type=float, default=0.80, help="power of the tests")
+    p.add_argument("--alpha0", type=float, help="level of the w-test (default 0.001)")
+    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
     p.add_argument("--tau", action="store_true", help="test with Pope's tau instead of w")
     p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV)")
     p.set_defaults(func=run)

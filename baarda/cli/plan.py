@@ -8,9 +8,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import add_flight_plan_arguments, check_output, progress
+from baarda.cli.common import (
+    add_flight_plan_arguments,
+    check_output,
+    progress,
+    tests_option,
+)
 from baarda.errors import GeometryError
-from baarda.options import TestOptions
 from baarda.simulate.aerial import FlightPlan
 
 
@@ -36,8 +40,9 @@ def register(sub) -> None:
     p.add_argument("--twin-control", action="store_true")
     p.add_argument("--sigma-control", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="m (default: error-free control)")
-    p.add_argument("--alpha0", type=float, default=0.001)
-    p.add_argument("--beta0", type=float, default=0.80)
+    p.add_argument("--alpha0", type=float, help="significance level of the w-test "
+                   "(default 0.001)")
+    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
     p.add_argument("--what-if", action="store_true", help="recompute the plan with each "
                    "remedy (twin control, 5x5 points, 60 %% side overlap, stereo)")
     p.add_argument("--derive-table", type=Path, metavar="CSV", help="also derive a reliability "
@@ -114,7 +119,7 @@ def run_plan(args) -> int:
             wi = what_if(flight, layout)
     say(f"design block: {design.summary()}")
     try:
-        plan = analyse_design(design, TestOptions(args.alpha0, args.beta0))
+        plan = analyse_design(design, tests_option(None, args))
     except GeometryError as e:
         raise GeometryError(
             f"{e}\nThe planned block cannot be adjusted as designed.  With flat terrain and a "
@@ -154,7 +159,7 @@ def run_modified(args) -> int:
     block = read_project(args.project)
     res = adjust(block, progress=say)
     ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,
-                        tests=TestOptions.resolve(block.settings, args.alpha0, args.beta0),
+                        tests=tests_option(block.settings, args),
                         statistic="tau" if args.tau else "w")
     out = Path(args.out)
     df = ms.table()

@@ -25,6 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, special, stats
 
+from baarda.options import DEFAULT_TESTS
+
 __all__ = [
     "BMethod",
     "GlobalTest",
@@ -197,7 +199,8 @@ def _asymptotic_coefficient(beta0: float, lambda0: float) -> float:
     return q * (_alpha_for_exact(beta0, lambda0, q) - _alpha_for_normal(beta0, lambda0, q))
 
 
-def b_method(alpha0: float = 0.001, beta0: float = 0.80) -> BMethod:
+def b_method(alpha0: float = DEFAULT_TESTS.alpha0,
+             beta0: float = DEFAULT_TESTS.beta0) -> BMethod:
     """Set up Baarda's B-method for w-test level ``alpha0`` and power ``beta0``.
 
     ``lambda0 = noncentrality(alpha0, beta0, 1)``, ``delta0 = sqrt(lambda0)`` and the critical
