@@ -31,3 +31,7 @@ class AdjustmentCounts:
     def sigma0(self) -> float:
         """A-posteriori sigma0 (unitless: 1 means the a-priori precision was right)."""
         return float(np.sqrt(self.vtpv / self.redundancy)) if self.redundancy > 0 else np.nan
+
+    def scaled_std(self, q: np.ndarray) -> np.ndarray:
+        """Standard deviations sigma0 sqrt(diag) of cofactor blocks q (..., d, d)."""
+        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=-2, axis2=-1), 0))

@@ -106,14 +106,14 @@ class SchurFactor:
         self.lin, self.damping = lin, float(damping)
         hff = np.zeros((s.nf, s.b, s.b))
         gf = np.zeros((s.nf, s.b))
+        hpp = np.zeros((s.np, s.d, s.d))
+        gp = np.zeros((s.np, s.d))
         self.hfp = np.zeros((len(s.order), s.b, s.d))
-        kernels.assemble(s.order, s.frame, lin.jf, lin.jp, lin.w, lin.e, self.hfp, hff, gf)
+        kernels.assemble(s.order, s.frame, s.point_sorted, lin.jf, lin.jp, lin.w, lin.e,
+                         self.hfp, hff, gf, hpp, gp)
         if lin.wf is not None:  # direct observations of frame unknowns (e.g. GNSS, datum)
             hff[:, np.arange(s.b), np.arange(s.b)] += lin.wf
             gf += lin.wf * lin.ef
-        hpp = np.zeros((s.np, s.d, s.d))
-        gp = np.zeros((s.np, s.d))
-        kernels.point_terms(s.ptr, s.order, lin.jp, lin.w, lin.e, s.point_sorted, hpp, gp)
         jcw = lin.jc * lin.wc[:, :, None]
         np.add.at(hpp, s.control_point, np.einsum("mkd,mke->mde", jcw, lin.jc))
         np.add.at(gp, s.control_point, np.einsum("mkd,mk->md", jcw, lin.ec))

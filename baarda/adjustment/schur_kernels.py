@@ -80,17 +80,19 @@ def _chol_inv(h, out_l, out_inv):
 
 
 @njit(cache=True)
-def assemble(order, frame, jf, jp, w, e, hfp, hff, gf):
+def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp):
     """Normal-equation pieces of the frame-point observations, with explicit loops.
 
     Observations are visited in point order (`order`); hfp[a] (b, d) is stored at the
-    sorted position a.  Adds to hff (nf, b, b) and gf (nf, b).
+    sorted position a.  Adds Jf^T W Jf to hff (nf, b, b), Jf^T W e to gf (nf, b),
+    Jp^T W Jp to hpp (np, d, d) and Jp^T W e to gp (np, d).
     """
     m, k, b = jf.shape
     d = jp.shape[2]
     for a in range(m):
         i = order[a]
         f = frame[i]
+        j = point_of_sorted[a]
         for r in range(k):
             wr = w[i, r]
             if wr == 0.0:
@@ -103,20 +105,6 @@ def assemble(order, frame, jf, jp, w, e, hfp, hff, gf):
                     hff[f, p, q] += wp * jf[i, r, q]
                 for q in range(d):
                     hfp[a, p, q] += wp * jp[i, r, q]
-    return 0
-
-
-@njit(cache=True)
-def point_terms(ptr, order, jp, w, e, point_of_sorted, hpp, gp):
-    """Add Jp^T W Jp to hpp (np, d, d) and Jp^T W e to gp (np, d), in point order."""
-    m, k, d = jp.shape
-    for a in range(m):
-        i = order[a]
-        j = point_of_sorted[a]
-        for r in range(k):
-            wr = w[i, r]
-            if wr == 0.0:
-                continue
             for p in range(d):
                 wp = wr * jp[i, r, p]
                 gp[j, p] += wp * e[i, r]

@@ -10,13 +10,13 @@ returns a new BundleResult.
 
 from __future__ import annotations
 
-import copy
 import time
 
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurFactor, SchurSystem
+from baarda.adjustment.schur import Linearization, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
+from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.solve import solve
 from baarda.block.camera import corrected_observations, forward_coefficients
 from baarda.block.photo_block import Block
@@ -34,13 +34,7 @@ XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    a = np.asarray(a)
-    a.flags.writeable = False
-    return a
-
-
-class BundleProblem:
+class BundleProblem(SchurProblem):
     """The block in the form of the adjustment: index arrays, weights, the Schur structure.
 
     Observation vector (flat, the quality layer's): x and y of every adjusted image point
@@ -64,9 +58,9 @@ class BundleProblem:
         m, nc = len(self.obs), len(self.control)
         self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(np.isfinite(sig_c).ravel()))
         sel = self.layout.ctrl_sel
-        self.sigma_apriori = _read_only(np.concatenate([np.repeat(im.sigma_mm[self.obs], 2),
+        self.sigma_apriori = read_only(np.concatenate([np.repeat(im.sigma_mm[self.obs], 2),
                                                         sig_c.ravel()[sel]]))
-        self.held = None if held is None else _read_only(np.asarray(held, bool))
+        self.held = None if held is None else read_only(np.asarray(held, bool))
         if self.held is None:
             check_datum(block, ok & np.isin(np.arange(len(pts)), self.control))
         self.notes = tuple(point_notes) + tuple(notes)
@@ -84,7 +78,7 @@ class BundleProblem:
         eo = block.photos.eo
         keep = np.isin(np.arange(len(pts)), self.point_ids)
         xyz = approximate_points(block, keep)[self.point_ids]
-        self.approximations = (_read_only(eo.copy()), _read_only(xyz))
+        self.approximations = (read_only(eo.copy()), read_only(xyz))
         # the size of the block for the convergence test: the flying height
         self.scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[:, 2])))), 1.0)
         n = self.layout.n
@@ -95,39 +89,18 @@ class BundleProblem:
         nc = len(sel)
         photos = np.asarray(block.photos.ids, dtype=object)
         pids = np.asarray(block.points.ids, dtype=object)
-        self.kind = _read_only(np.array(["image"] * (2 * m) + ["control"] * nc, dtype=object))
-        self.component = _read_only(np.concatenate(
+        self.kind = read_only(np.array(["image"] * (2 * m) + ["control"] * nc, dtype=object))
+        self.component = read_only(np.concatenate(
             [np.tile(XY, m), np.tile(XYZ, len(self.control))[sel]]))
-        self.frame = _read_only(np.concatenate([np.repeat(photos[im.photo[self.obs]], 2),
+        self.frame = read_only(np.concatenate([np.repeat(photos[im.photo[self.obs]], 2),
                                                 np.full(nc, "", dtype=object)]))
-        self.point = _read_only(np.concatenate([np.repeat(pids[im.point[self.obs]], 2),
+        self.point = read_only(np.concatenate([np.repeat(pids[im.point[self.obs]], 2),
                                                 np.repeat(pids[self.control], 3)[sel]]))
-        self.group = _read_only(np.concatenate([np.repeat(np.arange(m), 2), np.full(nc, -1)]))
+        self.group = read_only(np.concatenate([np.repeat(np.arange(m), 2), np.full(nc, -1)]))
         # index of each component back into block tables
-        self.image_row = _read_only(np.concatenate([np.repeat(self.obs, 2), np.full(nc, -1)]))
-        self.control_index = _read_only(np.concatenate(
+        self.image_row = read_only(np.concatenate([np.repeat(self.obs, 2), np.full(nc, -1)]))
+        self.control_index = read_only(np.concatenate(
             [np.full(2 * m, -1), np.repeat(self.control, 3)[sel]]))
-
-    # ------------------------------------------------------------ weights
-    def _set_weights(self, active: np.ndarray, factors: np.ndarray) -> None:
-        n = self.layout.n
-        active = np.asarray(active, bool)
-        factors = np.asarray(factors, float)
-        if active.shape != (n,) or factors.shape != (n,) or not np.all(factors > 0):
-            raise ValueError(f"active and factors must be {n} values (factors positive)")
-        self.active, self.factors = _read_only(active.copy()), _read_only(factors.copy())
-        p = np.where(active, factors / self.sigma_apriori**2, 0.0)
-        self.w, self.wc = (_read_only(a) for a in self.layout.split(p))
-
-    def reweighted(self, active: np.ndarray | None = None,
-                   factors: np.ndarray | None = None) -> BundleProblem:
-        """The same problem with only the `active` components observed, weights times
-        `factors` (None: all active / a-priori weights)."""
-        new = copy.copy(self)
-        n = self.layout.n
-        new._set_weights(np.ones(n, bool) if active is None else active,
-                         np.ones(n) if factors is None else factors)
-        return new
 
     # ------------------------------------------------- the solver's protocol
     def linearize(self, state: tuple[np.ndarray, np.ndarray]) -> Linearization:
@@ -150,12 +123,6 @@ class BundleProblem:
             wf = np.where(self.held, HOLD, 0.0)
             ef = np.zeros_like(wf)
         return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef)
-
-    def factorize(self, lin: Linearization, damping: float = 0.0) -> SchurFactor:
-        return self.system.factorize(lin, damping)
-
-    def update(self, state, step, t: float):
-        return state[0] + t * step[0], state[1] + t * step[1]
 
     def _sizes(self, step, t: float = 1.0) -> tuple[float, float]:
         dxf, dxp = step

@@ -59,13 +59,11 @@ class BundleResult(AdjustmentCounts):
     # --------------------------------------------------------- precision
     @property
     def eo_std(self) -> np.ndarray:
-        q = self.factor.frame_covariance()
-        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+        return self.scaled_std(self.factor.frame_covariance())
 
     @property
     def xyz_std(self) -> np.ndarray:
-        q = self.factor.point_covariance()
-        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+        return self.scaled_std(self.factor.point_covariance())
 
     def points_xyz(self) -> np.ndarray:
         """Adjusted coordinates for every block point, (n_points, 3); NaN if left out."""

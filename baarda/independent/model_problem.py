@@ -20,14 +20,14 @@ standard deviations diag(L); weights stay diagonal.
 
 from __future__ import annotations
 
-import copy
 import time
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurFactor, SchurSystem
+from baarda.adjustment.schur import Linearization, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
+from baarda.adjustment.schur_problem import SchurProblem
 from baarda.adjustment.solve import solve
 from baarda.block.model_block import ModelBlock
 from baarda.errors import GeometryError
@@ -50,7 +50,7 @@ SOLVE = SolveOptions(max_iterations=50, tolerance=1e-9, flat_cost=1e-12, flat_to
                      min_step=1e-3, final_step=True)
 
 
-class ModelProblem:
+class ModelProblem(SchurProblem):
     """Index arrays, weights and the Schur structure of one adjustment of a model block.
 
     Observation vector (flat, the quality layer's): the k components of every model row of
@@ -155,29 +155,6 @@ class ModelProblem:
         self.xyz_col = np.concatenate([np.tile(self.comps, m),
                                        np.tile(self.comps, len(self.control))[sel]])
 
-    # ------------------------------------------------------------ weights
-    def _set_weights(self, active: np.ndarray, factors: np.ndarray) -> None:
-        n = self.layout.n
-        active = np.asarray(active, bool)
-        factors = np.asarray(factors, float)
-        if active.shape != (n,) or factors.shape != (n,) or not np.all(factors > 0):
-            raise ValueError(f"active and factors must be {n} values (factors positive)")
-        self.active, self.factors = active.copy(), factors.copy()
-        p = np.where(active, factors / self.sigma_apriori**2, 0.0)
-        self.w, self.wc = self.layout.split(p)
-        for a in (self.active, self.factors, self.w, self.wc):
-            a.flags.writeable = False
-
-    def reweighted(self, active: np.ndarray | None = None,
-                   factors: np.ndarray | None = None) -> ModelProblem:
-        """The same problem with only the `active` components observed, weights times
-        `factors` (None: all active / a-priori weights)."""
-        new = copy.copy(self)
-        n = self.layout.n
-        new._set_weights(np.ones(n, bool) if active is None else active,
-                         np.ones(n) if factors is None else factors)
-        return new
-
     # ------------------------------------------------------------------ checks
     def check_datum(self) -> None:
         bl = self.block
@@ -255,12 +232,6 @@ class ModelProblem:
         # misclosures of rejected components stay (predicted residuals); weight 0 in N
         return Linearization(jf, jp, self.w, e, jc, self.wc, np.where(self.wc_full > 0, ec, 0.0))
 
-    def factorize(self, lin: Linearization, damping: float = 0.0) -> SchurFactor:
-        return self.system.factorize(lin, damping)
-
-    def update(self, state, step, t: float):
-        return state[0] + t * step[0], state[1] + t * step[1]
-
     def _sizes(self, state, step, t: float = 1.0) -> tuple[float, float, float]:
         params = state[0]
         dxf, dxp = step
@@ -288,9 +259,6 @@ class ModelProblem:
 
     def describe(self, state, step, t: float) -> str:
         return f"{self._sizes(state, step, t)[0]:.3g} m"
-
-    def admissible(self, state) -> bool:
-        return True
 
     # ------------------------------------------------------------ fit
     def fit(self, start: tuple[np.ndarray, np.ndarray] | None = None,

@@ -76,13 +76,11 @@ class ModelResult(AdjustmentCounts):
 
     @property
     def param_std(self) -> np.ndarray:
-        q = self.factor.frame_covariance()
-        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+        return self.scaled_std(self.factor.frame_covariance())
 
     @property
     def xyz_std(self) -> np.ndarray:
-        q = self.factor.point_covariance()
-        return self.sigma0 * np.sqrt(np.maximum(np.diagonal(q, axis1=1, axis2=2), 0))
+        return self.scaled_std(self.factor.point_covariance())
 
     def check_points(self) -> tuple[list[str], np.ndarray]:
         """Ids and discrepancies adjusted - given (n, k) [m] of the check points."""

@@ -27,6 +27,7 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.errors import ProjectError
+from baarda.io.records import is_number
 
 
 @dataclass
@@ -87,19 +88,11 @@ def _numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:
     try:
         out = np.array(tokens, dtype=float)
     except ValueError:
-        bad = next(t for t in tokens if not _isfloat(t))
+        bad = next(t for t in tokens if not is_number(t))
         raise ProjectError(path, f"'{bad}' is not a number", line, what) from None
     if not np.isfinite(out).all():
         raise ProjectError(path, "not a finite number", line, what)
     return out
-
-
-def _isfloat(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
 
 
 def is_bal(path: str | Path) -> bool:
@@ -171,7 +164,7 @@ def read_bal(path: str | Path) -> BalProblem:
     try:
         vals = np.array(tokens, dtype=float)
     except ValueError:
-        k = next(i for i, t in enumerate(tokens) if not _isfloat(t))
+        k = next(i for i, t in enumerate(tokens) if not is_number(t))
         line = int(np.searchsorted(np.cumsum(counts), k, side="right")) + 2 + nobs
         raise ProjectError(sp, f"'{tokens[k]}' is not a number", line,
                            "camera" if k < 9 * nc else "point") from None

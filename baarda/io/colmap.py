@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import read_lines
+from baarda.io.records import is_number, parse_number, read_lines
 
 # model id -> (name, number of parameters)
 MODELS = {0: ("SIMPLE_PINHOLE", 3), 1: ("PINHOLE", 4), 2: ("SIMPLE_RADIAL", 4),
@@ -113,14 +113,10 @@ def _data_lines(path: Path) -> list[tuple[int, str]]:
             if s.strip() and not s.lstrip().startswith("#")]
 
 
-def _float(s: str, path: Path, line: int, what: str) -> float:
-    try:
-        v = float(s)
-    except ValueError:
-        raise ProjectError(str(path), f"'{s}' is not a number", line, what) from None
-    if not np.isfinite(v):
-        raise ProjectError(str(path), f"'{s}' is not finite", line, what)
-    return v
+def _floats(values, names, path: Path, line: int) -> np.ndarray:
+    """Finite numbers of the fields `names` of one line."""
+    return np.array([parse_number(v, str(path), line, c)
+                     for v, c in zip(values, names, strict=True)])
 
 
 def _int(s: str, path: Path, line: int, what: str) -> int:
@@ -147,7 +143,7 @@ def _read_cameras_txt(path: Path) -> dict[int, ColmapCamera]:
             raise ProjectError(str(path), f"duplicate camera id {cid}", no, "CAMERA_ID")
         out[cid] = ColmapCamera(p[1], _int(p[2], path, no, "WIDTH"),
                                 _int(p[3], path, no, "HEIGHT"),
-                                np.array([_float(v, path, no, "PARAMS") for v in p[4:]]))
+                                _floats(p[4:], ["PARAMS"] * len(p[4:]), path, no))
     return out
 
 
@@ -166,10 +162,8 @@ def _read_images_txt(path: Path) -> dict[int, ColmapImage]:
             raise ProjectError(str(path), "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID "
                                "NAME", no)
         iid = _int(p[0], path, no, "IMAGE_ID")
-        q = np.array([_float(v, path, no, c) for v, c in zip(p[1:5], ("QW", "QX", "QY", "QZ"),
-                                                              strict=True)])
-        t = np.array([_float(v, path, no, c) for v, c in zip(p[5:8], ("TX", "TY", "TZ"),
-                                                              strict=True)])
+        q = _floats(p[1:5], ("QW", "QX", "QY", "QZ"), path, no)
+        t = _floats(p[5:8], ("TX", "TY", "TZ"), path, no)
         cid = _int(p[8], path, no, "CAMERA_ID")
         pts = raw[i + 1].split() if i + 1 < len(raw) else []
         if len(pts) % 3:
@@ -180,7 +174,7 @@ def _read_images_txt(path: Path) -> dict[int, ColmapImage]:
             xys = arr[:, :2].astype(float)
             ids = arr[:, 2].astype(np.int64)
         except ValueError:
-            bad = next(v for v in pts if not _is_number(v))
+            bad = next(v for v in pts if not is_number(v))
             raise ProjectError(str(path), f"'{bad}' is not a number", no + 1,
                                "POINTS2D") from None
         if iid in out:
@@ -188,14 +182,6 @@ def _read_images_txt(path: Path) -> dict[int, ColmapImage]:
         out[iid] = ColmapImage(q, t, cid, p[9].strip(), xys.reshape(-1, 2), ids)
         i += 2
     return out
-
-
-def _is_number(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
 
 
 def _read_points_txt(path: Path) -> dict[int, ColmapPoint]:
@@ -206,11 +192,11 @@ def _read_points_txt(path: Path) -> dict[int, ColmapPoint]:
             raise ProjectError(str(path), "expected POINT3D_ID X Y Z R G B ERROR and (IMAGE_ID, "
                                "POINT2D_IDX) pairs", no)
         pid = _int(p[0], path, no, "POINT3D_ID")
-        xyz = np.array([_float(v, path, no, c) for v, c in zip(p[1:4], "XYZ", strict=True)])
+        xyz = _floats(p[1:4], "XYZ", path, no)
         rgb = np.array([_int(v, path, no, c) for v, c in zip(p[4:7], "RGB", strict=True)])
         if np.any((rgb < 0) | (rgb > 255)):
             raise ProjectError(str(path), "colour outside 0..255", no, "RGB")
-        err = _float(p[7], path, no, "ERROR")
+        err = parse_number(p[7], str(path), no, "ERROR")
         track = np.array([_int(v, path, no, "TRACK") for v in p[8:]], dtype=np.int64)
         if pid in out:
             raise ProjectError(str(path), f"duplicate point id {pid}", no, "POINT3D_ID")

@@ -37,7 +37,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
-from baarda.io.records import Records, numbers_in, parse_number
+from baarda.io.records import Records, first_appearance, numbers_in, parse_number
 from baarda.io.xmltree import Node, parse_xml
 
 KNOWN_FIELDS = {"id", "label", "name", "x", "y", "z", "sx", "sy", "sz", "sxyz", "im", "sxy",
@@ -313,11 +313,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     sig = np.concatenate(rows_sig)
 
     # every point: control, check, then the rest in order of appearance
-    ids, index = [], {}
-    for pid in list(c_ids) + list(h_ids) + rows_point:
-        if pid not in index:
-            index[pid] = len(ids)
-            ids.append(pid)
+    ids, index = first_appearance(list(c_ids) + list(h_ids) + rows_point)
     k = len(ids)
     pxyz = np.full((k, 3), np.nan)
     psig = np.full((k, 3), np.nan)

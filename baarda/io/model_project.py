@@ -21,7 +21,7 @@ import numpy as np
 
 from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.errors import ProjectError
-from baarda.io.project import load_toml
+from baarda.io.project import load_toml, read_ground_points
 from baarda.io.table import Table
 
 
@@ -59,42 +59,6 @@ def read_settings(path: Path) -> ModelSettings:
         raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "
                            "[0.5, 1)")
     return s
-
-
-def read_ground_points(path: Path, settings: ModelSettings):
-    """ids, xyz (k, 3), sigma (k, 3) [m] (NaN = not observed), role (k,)."""
-    g = Table(path, ["point", "X", "Y", "Z", "role"])
-    ids = [str(p) for p in g.unique_ids("point")]
-    role = g.text("role")
-    for i, r in enumerate(role):
-        if r not in ("control", "check"):
-            raise ProjectError(g.path, f"role '{r}' must be 'control' or 'check'",
-                               int(g.lines[i]), "role")
-    xyz = np.column_stack([g.numbers(c, allow_empty=True) for c in "XYZ"])
-    names = [f"sigma_{c}" for c in "XYZ"]
-    if all(g.has(n) for n in names):
-        sig = np.column_stack([g.numbers(n, allow_empty=True) for n in names])
-    elif any(g.has(n) for n in names):
-        raise ProjectError(g.path, "give all three columns sigma_X, sigma_Y, sigma_Z or none")
-    else:
-        sig = np.tile(np.asarray(settings.sigma_control_m, float), (len(ids), 1))
-    for k, c in enumerate("XYZ"):
-        bad = np.flatnonzero(np.isfinite(sig[:, k]) & ~(sig[:, k] > 0))
-        if len(bad):
-            raise ProjectError(g.path, "standard deviation must be positive",
-                               int(g.lines[bad[0]]), f"sigma_{c}")
-        need = (np.isfinite(sig[:, k]) & (role == "control")) | (role == "check")
-        bad = np.flatnonzero(need & ~np.isfinite(xyz[:, k]))
-        if len(bad):
-            raise ProjectError(g.path, f"coordinate {c} is empty but needed (control with "
-                               f"sigma_{c}, or a check point)", int(g.lines[bad[0]]), c)
-    ctrl = role == "control"
-    bad = np.flatnonzero(ctrl & ~np.isfinite(sig).any(axis=1))
-    if len(bad):
-        raise ProjectError(g.path, "control point without any standard deviation",
-                           int(g.lines[bad[0]]), "sigma_X")
-    sig[~ctrl] = np.nan
-    return ids, xyz, sig, role.astype(object), g
 
 
 def _sigmas(t: Table, settings: ModelSettings) -> np.ndarray:
@@ -214,7 +178,7 @@ def read_model_project(folder: str | Path) -> ModelBlock:
     settings = read_settings(folder / "project.toml")
     gpath = folder / "ground_points.csv"
     if gpath.is_file():
-        gids, gxyz, gsig, grole, _ = read_ground_points(gpath, settings)
+        gids, gxyz, gsig, grole, _ = read_ground_points(gpath, settings.sigma_control_m)
     else:
         gids, gxyz, gsig, grole = [], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, object)
     (models, strip, ids, pc, om, op, oxyz, osig, cov,

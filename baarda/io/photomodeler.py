@@ -41,7 +41,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
-from baarda.io.records import parse_number, read_lines
+from baarda.io.records import first_appearance, parse_number, read_lines
 
 
 def is_photomodeler_export(path: str | Path) -> bool:
@@ -141,12 +141,8 @@ def read_photomodeler(path: str | Path) -> Block:
                        eo)
 
     # points: control first, then object points, then marked-only ids
-    ids, index = [], {}
-    for pid in list(ctrl[:, 0]) + list(objs[:, 0]) + list(marks[:, 1]):
-        key = _pid(pid)
-        if key not in index:
-            index[key] = len(ids)
-            ids.append(key)
+    ids, index = first_appearance(
+        _pid(v) for v in list(ctrl[:, 0]) + list(objs[:, 0]) + list(marks[:, 1]))
     k = len(ids)
     xyz = np.full((k, 3), np.nan)
     sig = np.full((k, 3), np.nan)

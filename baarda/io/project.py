@@ -73,6 +73,45 @@ def _settings(path: Path) -> Settings:
     return s
 
 
+def read_ground_points(path: Path, sigma_control_m) -> tuple[list[str], np.ndarray,
+                                                             np.ndarray, np.ndarray, Table]:
+    """ground_points.csv of a project or a model project: ids, xyz (k, 3), sigma (k, 3) [m]
+    (NaN = not observed; the default sigma_control_m where the columns are missing), role
+    (k,) and the table (for line numbers)."""
+    g = Table(path, ["point", "X", "Y", "Z", "role"])
+    ids = [str(p) for p in g.unique_ids("point")]
+    role = g.text("role")
+    for i, r in enumerate(role):
+        if r not in ("control", "check"):
+            raise ProjectError(g.path, f"role '{r}' must be 'control' or 'check'",
+                               int(g.lines[i]), "role")
+    xyz = np.column_stack([g.numbers(c, allow_empty=True) for c in "XYZ"])
+    names = [f"sigma_{c}" for c in "XYZ"]
+    if all(g.has(n) for n in names):
+        sig = np.column_stack([g.numbers(n, allow_empty=True) for n in names])
+    elif any(g.has(n) for n in names):
+        raise ProjectError(g.path, "give all three columns sigma_X, sigma_Y, sigma_Z or none")
+    else:
+        sig = np.tile(np.asarray(sigma_control_m, float), (len(ids), 1))
+    for k, c in enumerate("XYZ"):
+        bad = np.flatnonzero(np.isfinite(sig[:, k]) & ~(sig[:, k] > 0))
+        if len(bad):
+            raise ProjectError(g.path, "standard deviation must be positive",
+                               int(g.lines[bad[0]]), f"sigma_{c}")
+        need = np.isfinite(sig[:, k]) | (role == "check")
+        bad = np.flatnonzero(need & ~np.isfinite(xyz[:, k]))
+        if len(bad):
+            raise ProjectError(g.path, f"coordinate {c} is empty but needed (control with "
+                               f"sigma_{c}, or a check point)", int(g.lines[bad[0]]), c)
+    ctrl = role == "control"
+    bad = np.flatnonzero(ctrl & ~np.isfinite(sig).any(axis=1))
+    if len(bad):
+        raise ProjectError(g.path, "control point without any standard deviation: nothing "
+                           "is controlled", int(g.lines[bad[0]]), "sigma_X")
+    sig[~ctrl] = np.nan
+    return ids, xyz, sig, role.astype(object), g
+
+
 def read_project(folder: str | Path) -> Block:
     """Read and validate a project folder; see docs/format.md."""
     folder = Path(folder)
@@ -117,36 +156,8 @@ def read_project(folder: str | Path) -> Block:
     if not photo_ids:
         raise ProjectError(t.path, "no photos")
 
-    g = Table(folder / "ground_points.csv", ["point", "X", "Y", "Z", "role"])
-    gids = g.unique_ids("point")
-    role = g.text("role")
-    for i, r in enumerate(role):
-        if r not in ("control", "check"):
-            raise ProjectError(g.path, f"role '{r}' must be 'control' or 'check'",
-                               int(g.lines[i]), "role")
-    gxyz = np.column_stack([g.numbers(c, allow_empty=True) for c in "XYZ"])
-    if all(g.has(f"sigma_{c}") for c in "XYZ"):
-        gsig = np.column_stack([g.numbers(f"sigma_{c}", allow_empty=True) for c in "XYZ"])
-    elif any(g.has(f"sigma_{c}") for c in "XYZ"):
-        raise ProjectError(g.path, "give all three columns sigma_X, sigma_Y, sigma_Z or none")
-    else:
-        gsig = np.tile(np.asarray(settings.sigma_control_m, float), (len(gids), 1))
-    for k, c in enumerate("XYZ"):
-        bad = np.flatnonzero(np.isfinite(gsig[:, k]) & ~(gsig[:, k] > 0))
-        if len(bad):
-            raise ProjectError(g.path, "standard deviation must be positive",
-                               int(g.lines[bad[0]]), f"sigma_{c}")
-        need = np.isfinite(gsig[:, k]) | (role == "check")
-        bad = np.flatnonzero(need & ~np.isfinite(gxyz[:, k]))
-        if len(bad):
-            raise ProjectError(g.path, f"coordinate {c} is empty but needed (control with "
-                               f"sigma_{c}, or a check point)", int(g.lines[bad[0]]), c)
-    is_ctrl = role == "control"
-    bad = np.flatnonzero(is_ctrl & ~np.isfinite(gsig).any(axis=1))
-    if len(bad):
-        raise ProjectError(g.path, "control point without any standard deviation: nothing "
-                           "is controlled", int(g.lines[bad[0]]), "sigma_X")
-    gsig[~is_ctrl] = np.nan
+    gids, gxyz, gsig, role, g = read_ground_points(folder / "ground_points.csv",
+                                                   settings.sigma_control_m)
 
     t = Table(folder / "image_points.csv", ["photo", "point", "x_mm", "y_mm"])
     photo = t.lookup("photo", {p: i for i, p in enumerate(photo_ids)}, "photo")

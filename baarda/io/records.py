@@ -27,7 +27,45 @@ def read_lines(path: str | Path, encoding: str = "utf-8-sig") -> list[str]:
         raise ProjectError(str(path), f"not a text file ({e.reason} at byte {e.start})") from None
 
 
-class Records:
+class Columns:
+    """Columns of a text file as string arrays (`columns`), with the 1-based line number of
+    every row (`lines`), so that each later check names file, line and column."""
+
+    path: str
+    lines: np.ndarray
+    columns: dict[str, np.ndarray]
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def has(self, name: str) -> bool:
+        return name in self.columns
+
+    def text(self, name: str, allow_empty: bool = False) -> np.ndarray:
+        col = self.columns[name]
+        if not allow_empty:
+            bad = np.flatnonzero(col == "")
+            if len(bad):
+                raise ProjectError(self.path, "empty value", int(self.lines[bad[0]]), name)
+        return col
+
+    def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
+        """Column as finite floats; empty cells become NaN when allowed, else an error."""
+        return to_numbers(self.columns[name], self.path, self.lines, name, allow_empty)
+
+    def integers(self, name: str) -> np.ndarray:
+        col = self.text(name)
+        out = np.empty(len(col), dtype=np.int64)
+        for i, s in enumerate(col):
+            try:
+                out[i] = int(s)
+            except ValueError:
+                raise ProjectError(self.path, f"'{s}' is not an integer",
+                                   int(self.lines[i]), name) from None
+        return out
+
+
+class Records(Columns):
     """Named fields of the data lines of a text file.
 
     sep: ',' (commas, surrounding blanks ignored) or None (any whitespace).  Lines that are
@@ -60,30 +98,13 @@ class Records:
         data = np.asarray(rows, dtype=object).reshape(len(rows), len(fields))
         self.columns = {f: data[:, i].astype(str) for i, f in enumerate(fields)}
 
-    def __len__(self) -> int:
-        return len(self.lines)
 
-    def text(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        col = self.columns[name]
-        if not allow_empty:
-            bad = np.flatnonzero(col == "")
-            if len(bad):
-                raise ProjectError(self.path, "empty value", int(self.lines[bad[0]]), name)
-        return col
-
-    def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        return to_numbers(self.columns[name], self.path, self.lines, name, allow_empty)
-
-    def integers(self, name: str) -> np.ndarray:
-        col = self.text(name)
-        out = np.empty(len(col), dtype=np.int64)
-        for i, s in enumerate(col):
-            try:
-                out[i] = int(s)
-            except ValueError:
-                raise ProjectError(self.path, f"'{s}' is not an integer",
-                                   int(self.lines[i]), name) from None
-        return out
+def first_appearance(values: Iterable[str]) -> tuple[list[str], dict[str, int]]:
+    """Distinct values in the order they first appear, and the index of each."""
+    index: dict[str, int] = {}
+    for v in values:
+        index.setdefault(v, len(index))
+    return list(index), index
 
 
 def to_numbers(col: np.ndarray, path: str, lines: np.ndarray, name: str,
@@ -111,6 +132,15 @@ def to_numbers(col: np.ndarray, path: str, lines: np.ndarray, name: str,
         if not np.isfinite(out[i]):
             raise ProjectError(path, f"'{s}' is not a finite number", int(lines[i]), name)
     return out
+
+
+def is_number(text: str) -> bool:
+    """Whether float() reads `text`."""
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
 
 
 def parse_number(text: str, path: str, line: int | None, name: str) -> float:

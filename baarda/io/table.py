@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import to_numbers
+from baarda.io.records import Columns
 
 
-class Table:
+class Table(Columns):
     """Columns of a CSV file as string arrays, with line numbers."""
 
     def __init__(self, path: str | Path, required: list[str]):
@@ -55,24 +55,6 @@ class Table:
         self.lines = np.asarray(lines, dtype=np.int64)
         data = np.asarray(rows, dtype=object).reshape(len(rows), width)
         self.columns = {h: data[:, i].astype(str) for i, h in enumerate(header)}
-
-    def __len__(self) -> int:
-        return len(self.lines)
-
-    def has(self, name: str) -> bool:
-        return name in self.columns
-
-    def text(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        col = self.columns[name]
-        if not allow_empty:
-            empty = np.flatnonzero(col == "")
-            if len(empty):
-                raise ProjectError(self.path, "empty value", int(self.lines[empty[0]]), name)
-        return col
-
-    def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        """Column as float; empty cells become NaN when allowed, else an error."""
-        return to_numbers(self.columns[name], self.path, self.lines, name, allow_empty)
 
     def unique_ids(self, name: str) -> list[str]:
         """Column of identifiers that must be unique."""

@@ -22,6 +22,16 @@ def format_number(x: float) -> str:
     return "" if not np.isfinite(x) else repr(float(x))
 
 
+def write_ground_points(path: Path, ids: list[str], xyz: np.ndarray, sigma: np.ndarray,
+                        role: np.ndarray) -> None:
+    """ground_points.csv of a project or a model project: control and check points."""
+    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
+    for j in np.flatnonzero(role != "tie"):
+        rows.append(",".join([ids[j]] + [format_number(v) for v in xyz[j]] +
+                             [format_number(v) for v in sigma[j]] + [str(role[j])]))
+    write_text(path, "\n".join(rows) + "\n")
+
+
 def write_project(block: Block, folder: str | Path) -> None:
     """Write `block` as a native project folder (each file written atomically)."""
     folder = Path(folder)
@@ -60,11 +70,7 @@ def write_project(block: Block, folder: str | Path) -> None:
         f"{sig[i]:.6g}" + (f",{im.model[i]}" if has_model else "")
         for i in range(len(im))]
     write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
-    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
-    for j in np.flatnonzero(pts.role != "tie"):
-        rows.append(",".join([pts.ids[j]] + [format_number(v) for v in pts.xyz[j]] +
-                             [format_number(v) for v in pts.sigma[j]] + [str(pts.role[j])]))
-    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")
+    write_ground_points(folder / "ground_points.csv", pts.ids, pts.xyz, pts.sigma, pts.role)
 
 
 def write_model_project(block: ModelBlock, folder: str | Path) -> None:
@@ -95,8 +101,5 @@ def write_model_project(block: ModelBlock, folder: str | Path) -> None:
             vals += [f"{cov[i][a, b] / (d[a] * d[b]):.9g}" for a, b in ((0, 1), (0, 2), (1, 2))]
         rows.append(",".join(vals))
     write_text(folder / "models.csv", "\n".join(rows) + "\n")
-    rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
-    for j in np.flatnonzero(block.role != "tie"):
-        rows.append(",".join([block.points[j]] + [format_number(v) for v in block.xyz[j]] +
-                             [format_number(v) for v in block.sigma[j]] + [str(block.role[j])]))
-    write_text(folder / "ground_points.csv", "\n".join(rows) + "\n")
+    write_ground_points(folder / "ground_points.csv", block.points, block.xyz, block.sigma,
+                        block.role)
