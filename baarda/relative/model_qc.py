@@ -8,26 +8,31 @@ with the largest significant standardized residual (not the largest parallax).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from baarda.options import DEFAULT_TESTS, TestOptions
+from baarda.quality.assessment import Assessment
 from baarda.quality.matrices import Transfer, critical_transfers, qvv_p_matrix
-from baarda.quality.statistics import QualityResult, analyse
+from baarda.quality.statistics import analyse
 from baarda.relative.orientation import Orientation
 
 
 @dataclass
-class ModelQC:
-    """QC of one model; arrays aligned with Orientation.residuals (y of all points, x of ties)."""
+class ModelQC(Assessment):
+    """QC of one model: the Assessment of its orientation (arrays aligned with
+    Orientation.residuals: y of all points, x of ties) with the full Qvv P, the critical
+    error transfers and the point to remeasure."""
 
-    orientation: Orientation
-    quality: QualityResult
-    qvvp: np.ndarray  # (k, k) Qvv P
-    transfers: list[Transfer]  # critical transfers (level 1)
-    statistic: str  # "w" or "tau"
-    remeasure_index: int | None  # observation with the largest significant statistic
+    qvvp: np.ndarray | None = None  # (k, k) Qvv P
+    transfers: list[Transfer] = field(default_factory=list)  # critical transfers (level 1)
+    statistic: str = "w"  # "w" or "tau"
+    remeasure_index: int | None = None  # observation with the largest significant statistic
+
+    @property
+    def orientation(self) -> Orientation:
+        return self.adjustment
 
     @property
     def significance(self) -> np.ndarray:
@@ -68,7 +73,8 @@ def assess_model(orientation: Orientation, tests: TestOptions = DEFAULT_TESTS,
     model = orientation.dense_model()
     q = analyse(model, tests)
     m = qvv_p_matrix(model)
-    qc = ModelQC(orientation, q, m, critical_transfers(m), statistic, None)
+    qc = ModelQC(orientation, model, q, name=f"model {orientation.name}", qvvp=m,
+                 transfers=critical_transfers(m), statistic=statistic)
     s = np.abs(np.nan_to_num(qc.significance))
     cand = np.flatnonzero(qc.flagged)
     if len(cand):

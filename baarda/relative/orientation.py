@@ -28,6 +28,7 @@ from baarda.options import SolveOptions
 from baarda.quality.dense_model import DenseModel
 from baarda.relative.coplanarity import coplanarity, image_vectors, right_rotation
 from baarda.relative.scale_transfer import collinearity_xz
+from baarda.sections import Section, section
 
 PARAMETER_NAMES = ("beta_x", "beta_y", "beta_z", "kappa", "phi", "omega")
 DEFAULT_QYY = 2.0  # q_yy / q_xx (Kratky)
@@ -150,12 +151,33 @@ class Orientation:
         return [f"{self.points[i]} {c}" for i, c in zip(self.obs_point, self.obs_component,
                                                         strict=True)]
 
+    def to_dict(self) -> dict:
+        """The orientation's figures (summary.json style)."""
+        n, u = self.design.shape
+        vtpv = float(np.sum((self.residuals / self.sigma) ** 2))
+        return {"model": self.name, "n_observations": n, "n_unknowns": u, "redundancy": n - u,
+                "vtpv": vtpv, "sigma0": float(np.sqrt(vtpv / (n - u))) if n > u else None,
+                "iterations": self.iterations, "converged": True, "base": self.base,
+                "parameters": {PARAMETER_NAMES[k]: float(self.params[k])
+                               for k in self.setup.unknowns}, "notes": []}
+
+    def sections(self) -> list[Section]:
+        d = self.to_dict()
+        kind = "with scale transfer" if self.setup.scale else "first model"
+        params = ", ".join(f"{k} {v:.6g}" for k, v in d["parameters"].items())
+        return [section(f"Relative orientation, model {self.name} ({kind})", [
+            f"{len(self.points)} points, {len(self.setup.tie_index)} tie points: observations "
+            f"{d['n_observations']}, unknowns {d['n_unknowns']}, redundancy {d['redundancy']}",
+            f"iterations {d['iterations']}; b_x {self.base:.6g}; {params} (rad)"])]
+
     def dense_model(self) -> DenseModel:
         """The parametric form as the quality layer's DenseModel (µm)."""
         n = len(self.residuals)
-        return DenseModel(self.design, self.sigma, self.residuals, kind=["model"] * n,
-                          component=list(self.obs_component), frame=[self.name] * n,
-                          point=[self.points[i] for i in self.obs_point])
+        model = DenseModel(self.design, self.sigma, self.residuals, kind=["parallax"] * n,
+                           component=list(self.obs_component), frame=[self.name] * n,
+                           point=[self.points[i] for i in self.obs_point])
+        model.units, model.frame_kind = {"parallax": (1.0, "µm")}, "model"
+        return model
 
 
 def orient(name: str, points: list[str], left_xy: np.ndarray, right_xy: np.ndarray,
