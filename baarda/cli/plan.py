@@ -14,7 +14,6 @@ from baarda.cli.common import (
     progress,
     tests_option,
 )
-from baarda.errors import GeometryError
 from baarda.simulate.aerial import FlightPlan
 
 
@@ -80,10 +79,9 @@ def _flight(args) -> FlightPlan:
 def run_plan(args) -> int:
     from baarda.io.project import read_project
     from baarda.output.plan_files import write_plan, write_reliability_table
-    from baarda.pipeline import adjust
     from baarda.planning.advice import advise, what_if
-    from baarda.planning.design import ControlLayout, design_block, design_from_project
-    from baarda.planning.design_reliability import analyse_design
+    from baarda.planning.design import ControlLayout
+    from baarda.planning.design_reliability import plan as plan_design
     from baarda.planning.gruen_study import derive_table, simulate_cases
 
     inputs = [args.project] if args.project else []
@@ -92,13 +90,7 @@ def run_plan(args) -> int:
     flight = None
     wi = None
     if args.project:
-        block = read_project(args.project)
-        start = None
-        if args.adjusted:
-            res = adjust(block)
-            pts = res.points_xyz()
-            start = (res.eo, pts)
-        design = design_from_project(block, start)
+        subject, layout = read_project(args.project), None
         title = f"design of project {args.project}"
     else:
         flight = _flight(args)
@@ -108,7 +100,7 @@ def run_plan(args) -> int:
         layout = ControlLayout(spacing=args.bridging, spacing_y=by, interior=args.interior,
                                twin=args.twin_control,
                                sigma_m=tuple(args.sigma_control) if args.sigma_control else None)
-        design = design_block(flight, layout)
+        subject = flight
         title = (f"{flight.strips} strips x {flight.photos_per_strip} photos, "
                  f"{flight.forward_overlap:.0%}/{flight.side_overlap:.0%} overlap, "
                  f"{flight.pattern}x{flight.pattern} points, "
@@ -117,16 +109,8 @@ def run_plan(args) -> int:
         if args.what_if:
             say("computing the remedies")
             wi = what_if(flight, layout)
-    say(f"design block: {design.summary()}")
-    try:
-        plan = analyse_design(design, tests_option(None, args))
-    except GeometryError as e:
-        raise GeometryError(
-            f"{e}\nThe planned block cannot be adjusted as designed.  With flat terrain and a "
-            "single row of tie points between neighbouring strips the strips can turn about "
-            "that row (a hinge): add height control on the rows between strips "
-            "(--bridging-y 0.5), fly 60 % side overlap, or model the terrain (--relief)."
-        ) from None
+    plan = plan_design(subject, layout, tests_option(None, args), adjusted=args.adjusted)
+    say(f"design block: {plan.block.summary()}")
     advice = advise(plan, flight)
     files = write_plan(args.out, plan, advice, wi, title, plots=not args.no_plots)
     if args.derive_table:

@@ -19,8 +19,9 @@ from baarda.block.photo_block import Block
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_quality import assess
 from baarda.bundle.bundle_result import BundleResult
+from baarda.errors import GeometryError
 from baarda.options import TestOptions
-from baarda.planning.design import ControlLayout, design_block
+from baarda.planning.design import ControlLayout, design_block, design_from_project
 from baarda.planning.point_classes import (
     RowClasses,
     classify,
@@ -73,18 +74,33 @@ def class_means(obs: pd.DataFrame, pooled: bool = True) -> pd.DataFrame:
 def analyse_design(block: Block, tests: TestOptions | None = None, *,
                    partial_as_control: bool = True) -> PlanResult:
     """Adjust the error-free `block` and collect its reliability and precision."""
-    result = BundleProblem(block).fit()
+    try:
+        result = BundleProblem(block).fit()
+    except GeometryError as e:
+        raise GeometryError(
+            f"{e}\nThe planned block cannot be adjusted as designed.  With flat terrain and a "
+            "single row of tie points between neighbouring strips the strips can turn about "
+            "that row (a hinge): add height control on the rows between strips "
+            "(--bridging-y 0.5), fly 60 % side overlap, or model the terrain (--relief)."
+        ) from None
     qc = assess(result, tests)
     rc = classify(block, partial_as_control)
     return PlanResult(block, result, qc, rc, observation_table(qc, rc),
                       point_table(result), photo_table(block, qc, rc))
 
 
-def plan(flight: FlightPlan, layout: ControlLayout | None = None,
-         tests: TestOptions | None = None) -> PlanResult:
-    """Design-stage reliability of a planned block: the error-free block of the flight plan
-    with its control layout, adjusted and assessed (`baarda plan` before its advice)."""
-    return analyse_design(design_block(flight, layout), tests)
+def plan(flight: FlightPlan | Block, layout: ControlLayout | None = None,
+         tests: TestOptions | None = None, *, adjusted: bool = False) -> PlanResult:
+    """Design-stage reliability (`baarda plan` before its advice) of a flight plan with its
+    control layout, or of a project's block: its error-free observations at the given
+    approximations, or with `adjusted`, at the adjusted orientations and points."""
+    if isinstance(flight, FlightPlan):
+        return analyse_design(design_block(flight, layout), tests)
+    start = None
+    if adjusted:
+        res = BundleProblem(flight).fit()
+        start = (res.eo, res.points_xyz())
+    return analyse_design(design_from_project(flight, start), tests)
 
 
 def observation_table(qc: Assessment, rc: RowClasses) -> pd.DataFrame:
