@@ -100,8 +100,10 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
     drop = np.inf  # relative decrease of the cost by the last accepted step
     history: list[Iteration] = []
     it = 0
+    factor = None
     while it < options.max_iterations:
         it += 1
+        factor = None  # the previous factorisation's storage can serve this one
         factor = problem.factorize(lin, damping)
         step = factor.step()
         size = float(problem.correction_size(state, step))
@@ -146,6 +148,7 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
             + (describe(state, step, t) if describe else f"{t * size:.3g}")
             + ("" if t == 1.0 else f" (step {t:g})"))
     # iterations used up: the normal equations at the last estimate, for the statistics
+    factor = None
     factor = problem.factorize(lin, 0.0)
     size = float(problem.correction_size(state, factor.step()))
     converged = size <= max(options.tolerance, options.stall_tolerance)

@@ -97,6 +97,16 @@ class BlockPattern:
         self.symbolic = symbolic
         self.sn_off, self.slot_pos, self.slot_stride = symbolic.panel_layout(self.b)
         self._plans: dict[tuple[int, float], ParallelPlan | None] = {}  # by (threads, min_work)
+        self._spare: list[np.ndarray] = []  # panel storage of factors no longer in use
+
+    def take_panels(self) -> np.ndarray:
+        """Storage for the panels of one factor: a spare one if there is, else new."""
+        return self._spare.pop() if self._spare else np.empty(self.panel_size)
+
+    def give_back_panels(self, buf: np.ndarray) -> None:
+        """Panel storage a factor no longer needs (kept for the next one; at most two)."""
+        if len(self._spare) < 2 and buf.size == self.panel_size:
+            self._spare.append(buf)
 
     @classmethod
     def from_pairs(
@@ -234,7 +244,7 @@ class BlockCholesky:
         if values.shape != shape:
             raise ValueError(f"values must have shape {shape}, got {values.shape}")
         if self._buf is None:
-            self._buf = np.empty(pat.panel_size)
+            self._buf = pat.take_panels()
         self._factored = False
         sym = pat.symbolic
         bad = scatter_blocks(values, pat.slot_pos, pat.slot_stride, self._buf)
@@ -258,6 +268,13 @@ class BlockCholesky:
                 component=t,
             )
         self._factored = True
+
+    def __del__(self) -> None:
+        # the storage goes back to the pattern: the next factorisation (the next iteration of
+        # an adjustment) reuses it instead of touching new memory
+        buf = getattr(self, "_buf", None)
+        if buf is not None:
+            self.pattern.give_back_panels(buf)
 
     def _check(self) -> np.ndarray:
         if not self._factored or self._buf is None:
