@@ -100,7 +100,6 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
     drop = np.inf  # relative decrease of the cost by the last accepted step
     history: list[Iteration] = []
     it = 0
-    factor = None
     while it < options.max_iterations:
         it += 1
         factor = None  # the previous factorisation's storage can serve this one

@@ -163,8 +163,3 @@ class BundleProblem(SchurProblem):
         eo, xyz = sol.state
         return BundleResult(self, eo, xyz, sol.lin, sol.factor, sol.iterations, sol.converged,
                             tuple(notes), time.perf_counter() - t0)
-
-
-def adjust_block(block: Block, **kwargs) -> BundleResult:
-    """Adjust a block with control as it is (no datum choice or CRS: see baarda.pipeline)."""
-    return BundleProblem(block).fit(**kwargs)

@@ -18,6 +18,7 @@ nabla, one forward substitution on the Cholesky factor) are quality.hypotheses.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -91,7 +92,7 @@ def _test(qm: IndependentModel, h: np.ndarray, name: str,
     if not keep.all():
         nabla = np.full(h.shape[1], np.nan)
         nabla[keep] = t.nabla
-        t.nabla = nabla
+        t = replace(t, nabla=nabla)
     return t
 
 

@@ -23,7 +23,7 @@ from baarda.quality.iterative import iterative_snooping
 from baarda.quality.statistics import analyse
 
 
-@dataclass
+@dataclass(frozen=True)
 class ModelQuality(Assessment):
     """One adjustment (3d, 2d or height) with every observation's statistics, the FOTEF
     external reliability on detail points and distances, and the tested hypotheses."""

@@ -8,7 +8,7 @@ distances.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -30,7 +30,7 @@ from baarda.sections import Section, render, section
 EXTERNAL_LIMIT = 400  # models: external reliability on detail points by default up to this
 
 
-@dataclass
+@dataclass(frozen=True)
 class BlockQuality:
     """Outcome of `process`: the pre-adjustment and one ModelQuality per adjustment."""
 
@@ -134,11 +134,13 @@ def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,
                        external=external, progress=say)
         else:
             qc = assess(res, tests, external=external)
+        hyp = []
         if deformations:
-            qc.hypotheses += deformation_tests(qc.model, deformations, tests)
+            hyp += deformation_tests(qc.model, deformations, tests)
         if clusters:
-            qc.hypotheses += cluster_tests(qc.model, clusters, tests)
+            hyp += cluster_tests(qc.model, clusters, tests)
         if user is not None:
-            qc.hypotheses += user.tests(qc.model, tests)
+            hyp += user.tests(qc.model, tests)
+        qc = replace(qc, hypotheses=tuple(hyp))
         parts.append(qc)
     return BlockQuality(block, mode, pre, parts, tilts, notes)

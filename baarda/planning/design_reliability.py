@@ -32,7 +32,7 @@ from baarda.quality.assessment import Assessment
 from baarda.simulate.aerial import FlightPlan
 
 
-@dataclass
+@dataclass(frozen=True)
 class PlanResult:
     """Reliability and precision of a planned block."""
 

@@ -12,7 +12,7 @@ Units in tables and summaries: each model says how its kinds of observation are 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -95,7 +95,7 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
     return pd.DataFrame({c: cols.get(c, nan) for c in COLUMNS}, columns=list(COLUMNS))
 
 
-@dataclass
+@dataclass(frozen=True)
 class Assessment:
     """An adjustment with the statistics of every observation (and the snooping log).
 
@@ -108,7 +108,7 @@ class Assessment:
     model: AdjustedModel
     quality: QualityResult
     run: SnoopingRun | None = None
-    hypotheses: list[HypothesisTest] = field(default_factory=list)
+    hypotheses: tuple[HypothesisTest, ...] = ()
     name: str = "bundle"
 
     @property

@@ -25,7 +25,7 @@ from baarda.quality.distributions import b_method, multidim_test
 from baarda.quality.statistics import R_MIN
 
 
-@dataclass
+@dataclass(frozen=True)
 class HypothesisTest:
     name: str
     q: int  # testable dimensions

@@ -18,7 +18,7 @@ from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.statistics import QualityResult, analyse
 
 
-@dataclass
+@dataclass(frozen=True)
 class SnoopingStep:
     iteration: int
     sigma0: float
@@ -33,7 +33,7 @@ class SnoopingStep:
                 "observations": self.labels, "w": self.w, "mdb": self.mdb}
 
 
-@dataclass
+@dataclass(frozen=True)
 class SnoopingRun:
     model: AdjustedModel
     quality: QualityResult

@@ -32,7 +32,7 @@ from baarda.quality.distributions import (
 R_MIN = 1e-3  # redundancy numbers below this: uncontrolled, not tested
 
 
-@dataclass
+@dataclass(frozen=True)
 class QualityResult:
     """Per-component statistics, as arrays aligned with the model's observation vector."""
 

@@ -8,7 +8,7 @@ with the largest significant standardized residual (not the largest parallax).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -19,14 +19,14 @@ from baarda.quality.statistics import analyse
 from baarda.relative.orientation import Orientation
 
 
-@dataclass
+@dataclass(frozen=True)
 class ModelQC(Assessment):
     """QC of one model: the Assessment of its orientation (arrays aligned with
     Orientation.residuals: y of all points, x of ties) with the full Qvv P, the critical
     error transfers and the point to remeasure."""
 
     qvvp: np.ndarray | None = None  # (k, k) Qvv P
-    transfers: list[Transfer] = field(default_factory=list)  # critical transfers (level 1)
+    transfers: tuple[Transfer, ...] = ()  # critical transfers (level 1)
     statistic: str = "w"  # "w" or "tau"
     remeasure_index: int | None = None  # observation with the largest significant statistic
 
@@ -74,9 +74,9 @@ def assess_model(orientation: Orientation, tests: TestOptions = DEFAULT_TESTS,
     q = analyse(model, tests)
     m = qvv_p_matrix(model)
     qc = ModelQC(orientation, model, q, name=f"model {orientation.name}", qvvp=m,
-                 transfers=critical_transfers(m), statistic=statistic)
+                 transfers=tuple(critical_transfers(m)), statistic=statistic)
     s = np.abs(np.nan_to_num(qc.significance))
     cand = np.flatnonzero(qc.flagged)
     if len(cand):
-        qc.remeasure_index = int(cand[np.argmax(s[cand])])
+        qc = replace(qc, remeasure_index=int(cand[np.argmax(s[cand])]))
     return qc

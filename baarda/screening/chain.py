@@ -21,7 +21,7 @@ from baarda.screening.separable import snoop_separable
 from baarda.screening.strips import Strip, screen_strips
 
 
-@dataclass
+@dataclass(frozen=True)
 class ScreeningOptions:
     """Settings of the three stages (alpha0/beta0 None: those of the project)."""
 
@@ -36,7 +36,7 @@ class ScreeningOptions:
     rho_max: float = 0.9  # |correlation| of w-tests above which errors are not separable
 
 
-@dataclass
+@dataclass(frozen=True)
 class ScreeningResult:
     block: Block  # the cleaned block
     original: Block
