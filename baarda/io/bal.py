@@ -71,17 +71,77 @@ def rotation_vector(m: np.ndarray) -> np.ndarray:
     return w * theta / (2 * np.sin(theta))
 
 
-def _open_text(path: Path) -> str:
+HEADER_LIMIT = 256  # bytes of the first line
+BYTES_PER_VALUE = 64  # a value with its separator is never longer in a real file
+
+
+def _header(line: bytes, path: str) -> tuple[int, int, int]:
+    head = line.split()
+    if len(head) != 3 or not all(h.isdigit() for h in head):
+        raise ProjectError(path, "first line must be: num_cameras num_points num_observations",
+                           1)
+    nc, npt, nobs = (int(h) for h in head)
+    if nc < 1 or npt < 1 or nobs < 1:
+        raise ProjectError(path, "counts must be positive", 1)
+    return nc, npt, nobs
+
+
+def _read_at_most(f, limit: int, chunk: int = 1 << 20) -> bytes:
+    """Up to `limit` bytes of a stream, read in chunks (memory grows with what is there)."""
+    parts, size = [], 0
+    while size < limit:
+        part = f.read(min(chunk, limit - size))
+        if not part:
+            break
+        parts.append(part)
+        size += len(part)
+    return b"".join(parts)
+
+
+def _too_much(path: str, head: bytes, counts: tuple[int, int, int]) -> ProjectError:
+    """The error for a file with more data than its header announces: the line where the
+    announced values end and more follow, else the line where the limit was reached."""
+    nc, npt, nobs = counts
+    need = 9 * nc + 3 * npt
+    lines = head.split(b"\n")
+    for i, line in enumerate(lines[nobs:-1], start=nobs + 2):
+        need -= len(line.split())
+        if need < 0:
+            return ProjectError(path, f"values after the last point ({-need} too many on this "
+                                "line; the header announces "
+                                f"{nc} cameras, {npt} points, {nobs} observations)", i)
+    return ProjectError(path, f"more data than the header's counts ({nc} cameras, {npt} "
+                        f"points, {nobs} observations) allow", len(lines) + 1)
+
+
+def _read_lines(path: Path) -> tuple[tuple[int, int, int], list[str]]:
+    """The header's counts and the lines of a BAL file, read as a stream: no more than the
+    counts allow is decompressed or read (BYTES_PER_VALUE per announced value)."""
+    sp = str(path)
     if not path.is_file():
-        raise ProjectError(str(path), "file not found")
+        raise ProjectError(sp, "file not found")
+    opener = bz2.open if path.suffix == ".bz2" else open
     try:
-        data = bz2.decompress(path.read_bytes()) if path.suffix == ".bz2" else path.read_bytes()
-    except (OSError, ValueError) as e:
-        raise ProjectError(str(path), f"not a valid bzip2 file ({e})") from None
+        with opener(path, "rb") as f:
+            first = f.readline(HEADER_LIMIT)
+            if not first:
+                raise ProjectError(sp, "empty file", 1)
+            nc, npt, nobs = _header(first, sp)
+            limit = (4 * nobs + 9 * nc + 3 * npt) * BYTES_PER_VALUE + 4096
+            body = _read_at_most(f, limit + 1)
+    except EOFError:
+        raise ProjectError(sp, "the bzip2 data end early (a truncated .bz2 file)") from None
+    except OSError as e:
+        raise ProjectError(sp, f"not a valid bzip2 file ({e})") from None
+    if len(body) > limit:
+        raise _too_much(sp, body[:limit], (nc, npt, nobs))
     try:
-        return data.decode("ascii")
+        text = (first + body).decode("ascii")
     except UnicodeDecodeError as e:
-        raise ProjectError(str(path), f"not a text file (byte {e.start})") from None
+        data = first + body
+        raise ProjectError(sp, f"not a text file (byte 0x{data[e.start]:02x})",
+                           data.count(b"\n", 0, e.start) + 1) from None
+    return (nc, npt, nobs), text.splitlines()
 
 
 def _numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:
@@ -96,13 +156,14 @@ def _numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:
 
 
 def is_bal(path: str | Path) -> bool:
+    """A .bz2, .bal or .txt file whose first line is three counts."""
     p = Path(path)
-    if not p.is_file() or not (p.name.endswith(".txt.bz2") or p.suffix in (".bz2", ".bal")):
+    if not p.is_file() or p.suffix not in (".bz2", ".bal", ".txt"):
         return False
     try:
-        with bz2.open(p, "rt") if p.suffix == ".bz2" else open(p) as f:
-            head = f.readline().split()
-    except (OSError, UnicodeDecodeError):
+        with bz2.open(p, "rb") if p.suffix == ".bz2" else open(p, "rb") as f:
+            head = f.readline(HEADER_LIMIT).split()
+    except (OSError, EOFError):
         return False
     return len(head) == 3 and all(h.isdigit() for h in head)
 
@@ -111,15 +172,7 @@ def read_bal(path: str | Path) -> BalProblem:
     """Read a BAL problem; ProjectError with the line of the first malformed value."""
     path = Path(path)
     sp = str(path)
-    lines = _open_text(path).splitlines()
-    if not lines:
-        raise ProjectError(sp, "empty file", 1)
-    head = lines[0].split()
-    if len(head) != 3 or not all(h.isdigit() for h in head):
-        raise ProjectError(sp, "first line must be: num_cameras num_points num_observations", 1)
-    nc, npt, nobs = (int(h) for h in head)
-    if nc < 1 or npt < 1 or nobs < 1:
-        raise ProjectError(sp, "counts must be positive", 1)
+    (nc, npt, nobs), lines = _read_lines(path)
     if len(lines) < 1 + nobs:
         raise ProjectError(sp, f"{nobs} observation lines announced, file has "
                            f"{len(lines) - 1} lines", len(lines))

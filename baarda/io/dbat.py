@@ -48,7 +48,8 @@ def is_dbat_script(path: str | Path) -> bool:
     p = Path(path)
     if not (p.is_file() and p.suffix.lower() == ".xml"):
         return False
-    head = p.read_bytes()[:4000].decode("utf-8", "replace")
+    with open(p, "rb") as f:
+        head = f.read(4000).decode("utf-8", "replace")
     return "dbat_script_version" in head
 
 

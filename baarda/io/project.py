@@ -10,10 +10,10 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from baarda.block.camera import COEFFICIENTS, KINDS
 from baarda.block.photo_block import (
-    ROLES,
     Block,
     Cameras,
     GroundPoints,
@@ -161,7 +161,7 @@ def read_project(folder: str | Path) -> Block:
 
     t = Table(folder / "image_points.csv", ["photo", "point", "x_mm", "y_mm"])
     photo = t.lookup("photo", {p: i for i, p in enumerate(photo_ids)}, "photo")
-    names = t.text("point")
+    pcode, pnames = t.codes("point")
     xy = np.column_stack([t.numbers("x_mm"), t.numbers("y_mm")])
     sig_um = (t.numbers("sigma_um", allow_empty=True) if t.has("sigma_um")
               else np.full(len(t), np.nan))
@@ -172,25 +172,21 @@ def read_project(folder: str | Path) -> Block:
     sig_um = np.where(np.isfinite(sig_um), sig_um, settings.sigma_image_um)
 
     # every point: ground file points first, then tie points in order of appearance
-    index = {p: i for i, p in enumerate(gids)}
-    ids = list(gids)
-    point = np.empty(len(names), dtype=np.int64)
-    for i, s in enumerate(names):
-        j = index.get(s)
-        if j is None:
-            j = index[s] = len(ids)
-            ids.append(s)
-        point[i] = j
+    of_name = pd.Index(gids).get_indexer(pnames) if len(pnames) else np.zeros(0, np.int64)
+    tie = np.flatnonzero(of_name < 0)  # pnames are in order of first appearance
+    of_name[tie] = len(gids) + np.arange(len(tie))
+    ids = list(gids) + [pnames[k] for k in tie]
+    point = of_name[pcode] if len(pcode) else np.zeros(0, np.int64)
     model = t.text("model", allow_empty=True).astype(object) if t.has("model") else None
     key = photo * len(ids) + point
     if model is not None:  # stereo mode: twin rays of one photo differ in their model
         _, mcode = np.unique(model.astype(str), return_inverse=True)
         key = key * (int(mcode.max(initial=0)) + 1) + mcode
-    order = np.argsort(key, kind="stable")
-    dup = np.flatnonzero(np.diff(key[order]) == 0)
-    if len(dup):
+    if len(key) and np.any(np.diff(np.sort(key)) == 0):  # the rows only when there are some
+        order = np.argsort(key, kind="stable")
+        dup = np.flatnonzero(np.diff(key[order]) == 0)
         i = order[dup[0] + 1]
-        raise ProjectError(t.path, f"point '{names[i]}' measured twice on photo "
+        raise ProjectError(t.path, f"point '{ids[point[i]]}' measured twice on photo "
                            f"'{photo_ids[photo[i]]}'" + (" in the same model" if model is not
                            None else " (give a 'model' column for stereo twin rays)") +
                            f" (first on line {int(t.lines[order[dup[0]]])})",
@@ -201,6 +197,4 @@ def read_project(folder: str | Path) -> Block:
     roles = np.concatenate([role.astype(object), np.full(n_tie, "tie", dtype=object)])
     points = GroundPoints(ids, xyz, sigma, roles)
     image = ImagePoints(photo, point, xy, sig_um * 1e-3, model)
-    block = Block(settings, cameras, photos, image, points, source=str(folder), notes=notes)
-    assert set(np.unique(roles)) <= set(ROLES)
-    return block
+    return Block(settings, cameras, photos, image, points, source=str(folder), notes=notes)

@@ -16,15 +16,22 @@ import numpy as np
 from baarda.errors import ProjectError
 
 
+def decode_text(data: bytes, path: str, encoding: str = "utf-8-sig") -> str:
+    """`data` as text; ProjectError naming the line and the byte that is not `encoding`."""
+    try:
+        return data.decode(encoding)
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise ProjectError(path, f"not {encoding.replace('-sig', '')} text: byte "
+                           f"0x{data[e.start]:02x} (save the file as UTF-8)", line) from None
+
+
 def read_lines(path: str | Path, encoding: str = "utf-8-sig") -> list[str]:
     """Lines of a text file without line ends (CRLF or LF); ProjectError if unreadable."""
     p = Path(path)
     if not p.is_file():
         raise ProjectError(str(path), "file not found")
-    try:
-        return p.read_text(encoding=encoding).splitlines()
-    except UnicodeDecodeError as e:
-        raise ProjectError(str(path), f"not a text file ({e.reason} at byte {e.start})") from None
+    return decode_text(p.read_bytes(), str(path), encoding).splitlines()
 
 
 class Columns:
@@ -41,8 +48,12 @@ class Columns:
     def has(self, name: str) -> bool:
         return name in self.columns
 
+    def column(self, name: str) -> np.ndarray:
+        """The strings of one column."""
+        return self.columns[name]
+
     def text(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        col = self.columns[name]
+        col = self.column(name)
         if not allow_empty:
             bad = np.flatnonzero(col == "")
             if len(bad):
@@ -51,7 +62,7 @@ class Columns:
 
     def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
         """Column as finite floats; empty cells become NaN when allowed, else an error."""
-        return to_numbers(self.columns[name], self.path, self.lines, name, allow_empty)
+        return to_numbers(self.column(name), self.path, self.lines, name, allow_empty)
 
     def integers(self, name: str) -> np.ndarray:
         col = self.text(name)

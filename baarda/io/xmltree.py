@@ -1,4 +1,9 @@
-"""A minimal XML tree that remembers the line of every element (for file/line errors)."""
+"""A minimal XML tree that remembers the line of every element (for file/line errors).
+
+Files come from other people: a document type declaration (DTD) is refused, so that no
+entity can be declared and expanded (a "billion laughs" file of a few hundred bytes would
+otherwise grow to gigabytes), and elements may nest MAX_DEPTH deep at most.
+"""
 
 from __future__ import annotations
 
@@ -31,16 +36,37 @@ class Node:
         return default if c is None else c.text.strip()
 
 
+MAX_DEPTH = 256  # DBAT scripts nest 5 deep
+MAX_BYTES = 256 * 2**20  # project descriptions, not data: 256 MB at most
+
+
+class _Refused(Exception):
+    """Raised inside the expat handlers; carries the ProjectError to raise."""
+
+
 def parse_xml(path: str | Path) -> Node:
     """Parse an XML file into Nodes; ProjectError with the line of a syntax error."""
     p = Path(path)
     if not p.is_file():
         raise ProjectError(str(path), "file not found")
+    if p.stat().st_size > MAX_BYTES:
+        raise ProjectError(str(path), f"{p.stat().st_size} bytes: larger than an XML project "
+                           f"description can be ({MAX_BYTES} bytes)")
     parser = expat.ParserCreate()
+    parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
     stack: list[Node] = []
     root: list[Node] = []
 
+    def refuse(message: str):
+        raise _Refused(ProjectError(str(path), message, parser.CurrentLineNumber))
+
+    def doctype(*_):
+        refuse("the file declares a document type (<!DOCTYPE ...>): refused, because its "
+               "entities could expand without bound; remove the declaration")
+
     def start(tag, attrib):
+        if len(stack) >= MAX_DEPTH:
+            refuse(f"elements nested deeper than {MAX_DEPTH} levels")
         node = Node(tag, dict(attrib), parser.CurrentLineNumber)
         if stack:
             stack[-1].children.append(node)
@@ -55,11 +81,15 @@ def parse_xml(path: str | Path) -> Node:
         if stack:
             stack[-1].text += data
 
+    parser.StartDoctypeDeclHandler = doctype
+    parser.EntityDeclHandler = doctype
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
     try:
         parser.Parse(p.read_bytes(), True)
+    except _Refused as e:
+        raise e.args[0] from None
     except expat.ExpatError as e:
         raise ProjectError(str(path), f"not valid XML: {expat.ErrorString(e.code)}",
                            e.lineno) from None

@@ -1,0 +1,144 @@
+"""Hostile and broken files cost seconds and megabytes, never the machine (issue 19).
+
+Each case is bounded inside the test: wall time, and the peak of Python's allocations
+(tracemalloc, which NumPy and bz2 report to); the command-line cases in a child process by
+its own maximum resident set size."""
+
+import os
+import subprocess
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import pytest
+
+from baarda.errors import ProjectError
+from baarda.io.bal import read_bal
+from baarda.io.dbat import read_dbat
+from baarda.io.project import read_project
+from baarda.io.xmltree import MAX_DEPTH, parse_xml
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+BOMB = DATA / "hostile" / "bal-bomb-2gb.txt.bz2"
+DEMO = Path(__file__).resolve().parents[2] / "examples" / "demo"
+
+
+def bounded(func, seconds: float = 2.0, megabytes: float = 100.0):
+    """Run func(); return its ProjectError, and check time and peak Python memory."""
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    try:
+        with pytest.raises(ProjectError) as e:
+            func()
+    finally:
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+    assert time.perf_counter() - t0 < seconds
+    assert peak < megabytes * 2**20, f"{peak / 2**20:.0f} MB"
+    return e.value
+
+
+def laughs(levels: int = 9) -> str:
+    ents = ['<!ENTITY lol "lol">'] + [
+        f'<!ENTITY lol{i} "{("&lol" + (str(i - 1) if i > 1 else "") + ";") * 10}">'
+        for i in range(1, levels + 1)]
+    return ('<?xml version="1.0"?>\n<!DOCTYPE lolz [\n' + "\n".join(ents) + "\n]>\n"
+            f'<document dbat_script_version="1.0"><project><name>&lol{levels};</name>'
+            "</project></document>\n")
+
+
+def test_billion_laughs_is_refused(tmp_path):
+    f = tmp_path / "bomb.xml"
+    f.write_text(laughs())
+    err = bounded(lambda: read_dbat(f))
+    assert err.path == str(f) and err.line == 2 and "document type" in err.detail
+
+
+def test_quadratic_blowup_and_external_entities_are_refused(tmp_path):
+    big = "x" * 100_000
+    f = tmp_path / "quad.xml"
+    f.write_text(f'<?xml version="1.0"?>\n<!DOCTYPE d [<!ENTITY a "{big}">]>\n'
+                 f'<document dbat_script_version="1.0">{"&a;" * 20_000}</document>\n')
+    assert "document type" in bounded(lambda: parse_xml(f)).detail
+    secret = tmp_path / "secret.txt"
+    secret.write_text("secret")
+    g = tmp_path / "ext.xml"
+    g.write_text(f'<?xml version="1.0"?>\n<!DOCTYPE d [<!ENTITY e SYSTEM "{secret}">]>\n'
+                 '<document dbat_script_version="1.0">&e;</document>\n')
+    assert "document type" in bounded(lambda: parse_xml(g)).detail
+
+
+def test_deeply_nested_xml(tmp_path):
+    f = tmp_path / "deep.xml"
+    f.write_text("<a>" * 100_000 + "</a>" * 100_000)
+    err = bounded(lambda: parse_xml(f))
+    assert f"deeper than {MAX_DEPTH}" in err.detail and err.line == 1
+    ok = tmp_path / "ok.xml"
+    ok.write_text("<a>" * (MAX_DEPTH - 1) + "</a>" * (MAX_DEPTH - 1))
+    assert parse_xml(ok).tag == "a"
+
+
+def test_bz2_bomb_stops_at_the_header_counts():
+    err = bounded(lambda: read_bal(BOMB), seconds=2.0, megabytes=50.0)
+    assert "more data than the header's counts" in err.detail and err.line == 2
+
+
+@pytest.mark.parametrize("text, message, line", [
+    ("2 2 1000000\n0 0 1 2\n0 1 3 4\n", "1000000 observation lines announced", 3),
+    ("1 1 1\n0 0 1 2\n" + "1\n" * 12 + "7\n" * 10_000, "values after the last point", 15),
+    ("1 1 1\n0 0 1 2\n" + "1 " * 10_000_000 + "\n", "more data than the header", 3),
+])
+def test_bal_header_counts_that_lie(tmp_path, text, message, line):
+    f = tmp_path / "lie.txt"
+    f.write_text(text)
+    err = bounded(lambda: read_bal(f), megabytes=200.0)
+    assert message in err.detail and err.line == line
+
+
+def test_a_line_of_ten_million_fields(tmp_path):
+    import shutil
+
+    proj = tmp_path / "p"
+    shutil.copytree(DEMO, proj)
+    with open(proj / "image_points.csv", "a") as f:
+        f.write("01001," + ",".join(["7"] * 10_000_000) + "\n")
+    err = bounded(lambda: read_project(proj), seconds=5.0, megabytes=200.0)
+    assert err.line == 278 and "expected" in err.detail
+
+
+def _run(args, seconds):
+    """(exit code, stderr, wall time, max RSS in MB) of `python -m baarda ARGS`."""
+    t0 = time.perf_counter()
+    p = subprocess.Popen([sys.executable, "-m", "baarda", *args], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = p.communicate(timeout=seconds + 30)
+    finally:
+        p.kill()
+    _, _, usage = os.wait4(p.pid, 0) if p.returncode is None else (0, 0, None)
+    rss = usage.ru_maxrss / 1024 if usage else float("nan")
+    return p.returncode, err, time.perf_counter() - t0, rss
+
+
+def test_command_line_ends_hostile_files_quickly(tmp_path):
+    """The issue's acceptance: exit 2 and a clear message in < 2 s (after the imports) and
+    < 300 MB."""
+    bomb = tmp_path / "bomb.xml"
+    bomb.write_text(laughs())
+    base = _run(["--help"], 30)[2]  # the interpreter and its imports
+    for f in (bomb, BOMB):
+        code, err, wall, _ = _run(["adjust", str(f), "-o", str(tmp_path / "out")], 30)
+        assert code == 2 and str(f) in err and "Traceback" not in err
+        assert wall - base < 2.0
+    rss = _child_rss(["adjust", str(BOMB), "-o", str(tmp_path / "out")])
+    assert rss < 300
+
+
+def _child_rss(args) -> float:
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - the child
+        os.execv(sys.executable, [sys.executable, "-m", "baarda", *args])
+    _, status, usage = os.wait4(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 2
+    return usage.ru_maxrss / 1024
