@@ -76,13 +76,36 @@ def localized(block: Block) -> Block:
     return localize(block) if block.settings.crs and block.frame is None else block
 
 
-def prepare(block: Block) -> BundleProblem:
-    """The bundle problem of a block as read: local frame, approximations, datum."""
+def prepare(block: Block, free: bool | None = None) -> BundleProblem:
+    """The bundle problem of a block as read: local frame, approximations, datum.
+
+    The datum is the control unless the block is a free network (`free`, default: the
+    block's settings.datum: "free" for inputs without control by nature, COLMAP, BAL and
+    AICON, or `datum = "free"` in project.toml).  A block that should have control and has
+    too little is a GeometryError that names what is missing.  In a free network, control
+    points become check points (their differences refer to the free datum)."""
+    free = block.settings.datum == "free" if free is None else free
     block = with_approximations(localized(block))
-    if block.points.controlled.any():
+    if not free:
         return BundleProblem(block)
+    if block.points.controlled.any():
+        block = as_check_points(block)
     block, _ = drop_points_behind(block)
     return FreeBundleProblem(block)
+
+
+def as_check_points(block: Block) -> Block:
+    """The block with its control points turned into check points (a free network)."""
+    pts = block.points
+    ctrl = pts.role == "control"
+    full = np.isfinite(pts.xyz).all(axis=1)
+    role = np.where(ctrl, np.where(full, "check", "tie"), pts.role).astype(object)
+    xyz = np.where((ctrl & ~full)[:, None], np.nan, pts.xyz)  # tie points: intersected
+    points = replace(pts, xyz=xyz, role=role,
+                     sigma=np.where(ctrl[:, None], np.nan, pts.sigma))
+    return replace(block, points=points, notes=list(block.notes) + [
+        f"free network: {int(ctrl.sum())} control point(s) used as check points only (their "
+        "differences refer to the free datum, not to the control's frame)"])
 
 
 def adjust(block: Block | BundleProblem, options: SolveOptions = SOLVE,

@@ -31,6 +31,7 @@ class Settings:
     alpha0: float = DEFAULT_TESTS.alpha0
     beta0: float = DEFAULT_TESTS.beta0
     crs: str | None = None
+    datum: str = "control"  # control: the control fixes the block; free: minimal constraints
 
 
 @dataclass

@@ -34,6 +34,14 @@ XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
 
 
+def _spread(values: np.ndarray) -> str:
+    """'5' or '3 to 8 (median 5)' for a list of standard deviations."""
+    lo, hi = float(values.min()), float(values.max())
+    if np.isclose(lo, hi, rtol=1e-6):
+        return f"{lo:.3g}"
+    return f"{lo:.3g} to {hi:.3g} (median {float(np.median(values)):.3g})"
+
+
 class BundleProblem(SchurProblem):
     """The block in the form of the adjustment: index arrays, weights, the Schur structure.
 
@@ -61,9 +69,9 @@ class BundleProblem(SchurProblem):
         self.sigma_apriori = read_only(np.concatenate([np.repeat(im.sigma_mm[self.obs], 2),
                                                         sig_c.ravel()[sel]]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
-        if self.held is None:
-            check_datum(block, ok & np.isin(np.arange(len(pts)), self.control))
-        self.notes = tuple(point_notes) + tuple(notes)
+        warnings = [] if self.held is not None else check_datum(
+            block, ok & np.isin(np.arange(len(pts)), self.control))
+        self.notes = tuple(warnings) + tuple(point_notes) + tuple(notes)
         self._labels(block, m, sel)
         # observations corrected for backward (observation-side) distortion; forward model
         # rows as observed (the projection applies that model)
@@ -101,6 +109,23 @@ class BundleProblem(SchurProblem):
         self.image_row = read_only(np.concatenate([np.repeat(self.obs, 2), np.full(nc, -1)]))
         self.control_index = read_only(np.concatenate(
             [np.full(2 * m, -1), np.repeat(self.control, 3)[sel]]))
+
+    def datum_text(self) -> str:
+        """What fixes the datum, in words (the summary's second line)."""
+        c = self.block.points.controlled[self.control]
+        return (f"datum: the control, {int((c[:, 0] & c[:, 1]).sum())} planimetric and "
+                f"{int(c[:, 2].sum())} height control point(s)")
+
+    def apriori_text(self) -> str:
+        """The a-priori standard deviations in use (image µm, control m), in words."""
+        sig = self.sigma_apriori
+        img = sig[self.kind == "image"] * 1e3
+        parts = [f"image {_spread(img)} µm"] if len(img) else []
+        for c in "XYZ":
+            s = sig[(self.kind == "control") & (self.component == c)]
+            if len(s):
+                parts.append(f"control {c} {_spread(s)} m")
+        return "a-priori sigmas: " + ", ".join(parts)
 
     # ------------------------------------------------- the solver's protocol
     def linearize(self, state: tuple[np.ndarray, np.ndarray]) -> Linearization:

@@ -6,6 +6,8 @@ every observation.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import BundleProblem
@@ -38,7 +40,13 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
     """
     problem = block if isinstance(block, BundleProblem) else BundleProblem(block)
     tests = tests or TestOptions.resolve(problem.block.settings)
-    first = BundleModel(problem.fit(progress=progress))
+    result = problem.fit(progress=progress)
+    if not result.converged:  # tests on a solution that is none would mislead
+        note = "data snooping not run: the adjustment did not converge"
+        if progress:
+            progress(note)
+        return assess(replace(result, notes=result.notes + (note,)), tests)
+    first = BundleModel(result)
     active = first.active.copy()
     if robust:
         rob = danish_method(first)

@@ -103,8 +103,13 @@ class BundleResult(AdjustmentCounts):
     def sections(self) -> list[Section]:
         d = self.to_dict()
         im = np.where(self.lin.w > 0, self.image_residuals * 1e3, np.nan)
-        lines = [
+        lines = [] if self.converged else [
+            f"NOT CONVERGED after {self.iterations} iterations: the results are not a "
+            "least-squares solution (see the notes)"]
+        lines += [
             self.block.summary(),
+            self.problem.datum_text(),
+            self.problem.apriori_text(),
             f"observations {d['n_observations']}, unknowns {d['n_unknowns']}, "
             f"redundancy {d['redundancy']}",
             f"iterations {d['iterations']} ({'converged' if d['converged'] else 'NOT converged'}"

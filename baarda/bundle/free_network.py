@@ -50,9 +50,16 @@ class FreeBundleProblem(BundleProblem):
         held = np.zeros((len(block.photos), 6), bool)
         held[a] = True
         held[b, k] = True
-        super().__init__(block, held=held, notes=(
-            f"free network: datum held by photo {block.photos.ids[a]} (all six orientation "
-            f"unknowns) and {'XYZ'[k]}0 of photo {block.photos.ids[b]} (scale)",))
+        super().__init__(block, held=held)
+
+
+    def datum_text(self) -> str:
+        a, b, k = self.datum
+        ids = self.block.photos.ids
+        return (f"datum: FREE NETWORK (no control): minimal constraints, photo {ids[a]} held "
+                f"(its six orientation unknowns) and {'XYZ'[k]}0 of photo {ids[b]} (scale); "
+                "coordinates and their standard deviations refer to this datum, the "
+                "observations' statistics do not depend on it")
 
 
 def adjust_free(block: Block, datum: tuple[int, int, int] | None = None,

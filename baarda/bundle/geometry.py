@@ -29,8 +29,9 @@ def usable_points(block: Block) -> tuple[np.ndarray, list[str]]:
     return ok, notes
 
 
-def check_datum(block: Block, keep: np.ndarray) -> None:
-    """Raise GeometryError when the control cannot fix position, scale and orientation."""
+def check_datum(block: Block, keep: np.ndarray) -> list[str]:
+    """Raise GeometryError when the control cannot fix position, scale and orientation;
+    else the warnings about weak control geometry (with their numbers)."""
     ctrl = block.points.controlled & keep[:, None]
     xyz = block.points.xyz
     plan = np.flatnonzero(ctrl[:, 0] & ctrl[:, 1])
@@ -51,8 +52,46 @@ def check_datum(block: Block, keep: np.ndarray) -> None:
             problems.append("the height control points lie on one line: the block can tilt "
                             "about it")
     if problems:
+        unused = np.flatnonzero(block.points.controlled.any(axis=1) & ~keep)
+        left = (f" ({len(unused)} control point(s) are measured on fewer than two photos "
+                "and were left out)") if len(unused) else ""
         raise GeometryError("datum defect: the control does not fix the block: "
-                            + "; ".join(problems) + ".")
+                            + "; ".join(problems) + left + ". Add control points (with "
+                            "sigma_X, sigma_Y, sigma_Z in ground_points.csv), or adjust the "
+                            "block as a free network (baarda adjust --free, or datum = "
+                            "\"free\" in project.toml).")
+    return weak_control(block, xyz[plan, :2], xyz[height, :2])
+
+
+WEAK_WIDTH = 0.25  # control narrower than this share of the block is weak
+
+
+def weak_control(block: Block, plan_xy: np.ndarray, height_xy: np.ndarray) -> list[str]:
+    """Warnings when the control covers the block badly: planimetric control spanning a
+    small part of the block (scale and azimuth extrapolated), height control on a line or
+    along one edge (the block tilts about it)."""
+    centres = block.photos.eo[:, :2]
+    centres = centres[np.isfinite(centres).all(axis=1)]
+    if len(centres) < 2:
+        return []
+    out = []
+    mid = centres.mean(axis=0)
+    axes = np.linalg.svd(centres - mid, full_matrices=False)[2]  # block's main directions
+    extent = np.ptp((centres - mid) @ axes.T, axis=0)
+    for what, xy, k in (("planimetric", plan_xy, 0), ("height", height_xy, 1)):
+        if extent[k] <= 0 or len(xy) == 0:
+            continue
+        span = np.ptp((xy - mid) @ axes.T, axis=0)
+        share = span[k] / extent[k]
+        if share < WEAK_WIDTH:
+            direction = "length" if k == 0 else "width"
+            out.append(f"weak control: the {what} control spans {share:.0%} of the block's "
+                       f"{direction} ({span[k]:.0f} m of {extent[k]:.0f} m between the "
+                       "outer projection centres); " + (
+                           "scale and azimuth are extrapolated" if k == 0 else
+                           "the block can tilt about it and heights far from it are weakly "
+                           "determined") + ": add control on the other side")
+    return out
 
 
 def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:

@@ -34,16 +34,21 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; the exit code: 0 success, 2 bad input (a message names the file,
+    line and field, or the geometry), 3 not converged (results written and marked),
+    130 interrupted (nothing half-written is left)."""
     parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = parser.parse_args(argv)
+    args.argv = argv
     try:
         return int(args.func(args) or 0)
     except (ProjectError, GeometryError) as e:
         print(f"baarda: error: {e}", file=sys.stderr)
         return 2
-    except FileExistsError as e:
-        print(f"baarda: error: {e}", file=sys.stderr)
-        return 2
+    except KeyboardInterrupt:
+        print("\nbaarda: interrupted (nothing of this run was written)", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import check_output, progress, tests_option
+from baarda.cli.common import NOT_CONVERGED, OK, open_run, progress, tests_option
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.output.bundle_results import write_results
 from baarda.pipeline import adjust, assess, prepare, screen, snoop
@@ -45,7 +45,16 @@ def register(sub) -> None:
 
 
 def run_adjust(args) -> int:
-    check_output(args.out, [args.input])
+    with open_run(args, [args.input]) as run:
+        qc, text = _adjust(args, run)
+    if not args.quiet:
+        print(text)
+        print(f"results written to {args.out}")
+    return OK if qc.adjustment.converged else NOT_CONVERGED
+
+
+def _adjust(args, run):
+    """Read, adjust, assess and write into `run`; the assessment and the text to print."""
     say = progress(args.quiet)
     block = read_input(args)
     tests = tests_option(block.settings, args)
@@ -58,13 +67,9 @@ def run_adjust(args) -> int:
 
         res, qc = screen(block, options(args), snoop=args.snoop, statistic=statistic,
                          progress=say)
-        write_results(args.out, qc)
-        write_screening_log(args.out, res.log)
-        if not args.quiet:
-            print(res.summary())
-            print(qc.summary())
-            print(f"results and screening log written to {args.out}")
-        return 0
+        write_results(run, qc)
+        write_screening_log(run, res.log)
+        return qc, res.summary() + "\n" + qc.summary()
     problem = prepare(block)
     if say:
         for note in problem.block.notes:
@@ -74,11 +79,8 @@ def run_adjust(args) -> int:
                    robust=args.robust, progress=say)
     else:
         qc = assess(adjust(problem, progress=say), tests)
-    write_results(args.out, qc)
-    if not args.quiet:
-        print(qc.summary())
-        print(f"results written to {args.out}")
-    return 0
+    write_results(run, qc)
+    return qc, qc.summary()
 
 
 def run_snoop(args) -> int:

@@ -1,13 +1,18 @@
-"""Helpers shared by the commands: progress display and output folder checks."""
+"""Helpers shared by the commands: progress display, test options and the run folder."""
 
 from __future__ import annotations
 
+import shlex
 import sys
 import time
 from pathlib import Path
 
 from baarda.errors import ProjectError
 from baarda.options import TestOptions
+from baarda.output.run_folder import RunFolder
+
+# exit codes (docs/cli.md)
+OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
 
 
 def progress(quiet: bool):
@@ -32,13 +37,12 @@ def tests_option(settings, args) -> TestOptions:
         raise ProjectError("command line", str(e)) from None
 
 
-def check_output(out: Path, inputs: list[Path]) -> None:
-    """Refuse to write results into an input folder (inputs are never overwritten)."""
-    out = out.resolve()
-    for p in inputs:
-        if p.resolve() == out:
-            raise FileExistsError(f"output folder {out} is the input folder; choose another "
-                                  "with -o (inputs are never overwritten)")
+def open_run(args, inputs: list[Path]) -> RunFolder:
+    """The run folder of `args.out`, checked before any work (output/run_folder.py); the
+    manifest records the command line."""
+    argv = getattr(args, "argv", None)
+    command = shlex.join(["baarda", *argv]) if argv is not None else None
+    return RunFolder(args.out, [p for p in inputs if p is not None], command=command)
 
 
 def add_flight_plan_arguments(p, d) -> None:

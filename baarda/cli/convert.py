@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import check_output
+from baarda.cli.common import open_run
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.io.formats import detect
 from baarda.output.project_files import write_project
@@ -22,10 +22,10 @@ def register(sub) -> None:
 
 
 def run_convert(args) -> int:
-    check_output(args.out, [args.input])
-    fmt = args.format or detect(args.input)
-    block = with_approximations(read_input(args))
-    write_project(block, args.out)
+    with open_run(args, [args.input]) as run:
+        fmt = args.format or detect(args.input)
+        block = with_approximations(read_input(args))
+        write_project(block, run)
     if not args.quiet:
         print(f"read {fmt}: {block.summary()}")
         for note in block.notes:

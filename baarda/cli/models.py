@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import check_output, progress, tests_option
+from baarda.cli.common import NOT_CONVERGED, OK, open_run, progress, tests_option
 from baarda.errors import ProjectError
 from baarda.independent.deformations import ALL
 
@@ -64,11 +64,19 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    with open_run(args, [args.project]) as run:
+        bq = _adjust_models(args, run)
+    if not args.quiet:
+        print(bq.summary())
+        print(f"results written to {args.out}")
+    return OK if bq.converged else NOT_CONVERGED
+
+
+def _adjust_models(args, run):
     from baarda.independent.model_hypotheses import UserHypotheses, read_clusters
     from baarda.output.model_results import write_results
     from baarda.pipeline import adjust_models, read_models
 
-    check_output(args.out, [args.project])
     say = progress(args.quiet)
     block = read_models(args.project, covariance=args.covariance)
     if say:
@@ -90,11 +98,8 @@ def run(args) -> int:
                  clusters=read_clusters(args.clusters) if args.clusters else None,
                  user=UserHypotheses(args.hypotheses) if args.hypotheses else None,
                  level_models=args.level, progress=say)
-    write_results(args.out, bq)
-    if not args.quiet:
-        print(bq.summary())
-        print(f"results written to {args.out}")
-    return 0
+    write_results(run, bq)
+    return bq
 
 
 def run_simulate(args) -> int:
@@ -117,8 +122,9 @@ def run_simulate(args) -> int:
                      control_spacing=args.control_spacing, height_chains=args.height_chains,
                      tilt_rad=args.tilt, blunders=args.blunders, deformations=defs,
                      seed=args.seed)
-    block, truth = simulate_models(plan)
-    write_model_project(block, args.out)
-    write_text(Path(args.out) / "truth.json", json.dumps(truth, indent=1, default=float) + "\n")
+    with open_run(args, []) as run:
+        block, truth = simulate_models(plan)
+        write_model_project(block, run)
+        write_text(run.file("truth.json"), json.dumps(truth, indent=1, default=float) + "\n")
     print(f"{block.summary()} -> {args.out}")
     return 0

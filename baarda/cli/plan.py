@@ -8,12 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import (
-    add_flight_plan_arguments,
-    check_output,
-    progress,
-    tests_option,
-)
+from baarda.cli.common import add_flight_plan_arguments, open_run, progress, tests_option
+from baarda.output.run_folder import check_output_file
 from baarda.simulate.aerial import FlightPlan
 
 
@@ -77,6 +73,15 @@ def _flight(args) -> FlightPlan:
 
 
 def run_plan(args) -> int:
+    with open_run(args, [args.project]) as run:
+        files = _plan(args, run)
+    if not args.quiet:
+        print((Path(args.out) / "plan_report.txt").read_text(encoding="utf-8"))
+        print("written: " + ", ".join(str(f) for f in files))
+    return 0
+
+
+def _plan(args, run) -> list:
     from baarda.io.project import read_project
     from baarda.output.plan_files import write_plan, write_reliability_table
     from baarda.planning.advice import advise, what_if
@@ -84,8 +89,8 @@ def run_plan(args) -> int:
     from baarda.planning.design_reliability import plan as plan_design
     from baarda.planning.gruen_study import derive_table, simulate_cases
 
-    inputs = [args.project] if args.project else []
-    check_output(args.out, inputs)
+    if args.derive_table:
+        check_output_file(args.derive_table, [args.project])
     say = progress(args.quiet) or (lambda m: None)
     flight = None
     wi = None
@@ -112,7 +117,7 @@ def run_plan(args) -> int:
     plan = plan_design(subject, layout, tests_option(None, args), adjusted=args.adjusted)
     say(f"design block: {plan.block.summary()}")
     advice = advise(plan, flight)
-    files = write_plan(args.out, plan, advice, wi, title, plots=not args.no_plots)
+    files = write_plan(run, plan, advice, wi, title, plots=not args.no_plots)
     if args.derive_table:
         if flight is None:
             say("--derive-table needs a flight plan (not --project): skipped")
@@ -123,20 +128,24 @@ def run_plan(args) -> int:
                                     derive_table(cases, f"baarda plan ({title})"),
                                     header=f"reliability table derived by baarda plan: {title}")
             files.append(args.derive_table)
-    if not args.quiet:
-        print((Path(args.out) / "plan_report.txt").read_text(encoding="utf-8"))
-        print("written: " + ", ".join(str(f) for f in files))
-    return 0
+    return files
 
 
 def run_modified(args) -> int:
+    with open_run(args, [args.project]) as run:
+        text = _modified(args, run)
+    if not args.quiet:
+        print(text + f"results written to {args.out}")
+    return 0
+
+
+def _modified(args, run) -> str:
     from baarda.io.project import read_project
     from baarda.output.plan_files import write_modified_snooping
     from baarda.pipeline import adjust
     from baarda.planning.modified_snoop import modified_snoop
     from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 
-    check_output(args.out, [args.project])
     say = progress(args.quiet)
     table = {"baarda": baarda_table, "gruen": gruen_table}.get(args.table)
     table = table() if table else read_table(args.table)
@@ -145,14 +154,11 @@ def run_modified(args) -> int:
     ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,
                         tests=tests_option(block.settings, args),
                         statistic="tau" if args.tau else "w")
-    out = Path(args.out)
     df = ms.table()
     text = res.summary() + "\n\n" + ms.summary() + "\n"
     rej = df[df["rejected"]]
     if len(rej):
         text += "rejected:\n" + rej[["kind", "photo", "point", "component", "class", "residual",
                                      "statistic", "exact"]].to_string(index=False) + "\n"
-    write_modified_snooping(out, df, text)
-    if not args.quiet:
-        print(text + f"results written to {out}")
-    return 0
+    write_modified_snooping(run, df, text)
+    return text

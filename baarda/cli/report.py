@@ -57,6 +57,7 @@ def options(args) -> ReportOptions:
 def run(args) -> int:
     from baarda.errors import ProjectError
     from baarda.output.result_folder import read_results
+    from baarda.output.run_folder import check_output_file, run_files
     from baarda.report.histogram import classes
     from baarda.report.text_report import text_report
 
@@ -68,17 +69,14 @@ def run(args) -> int:
             classes(w, lo, hi)
         except ValueError as e:
             raise ProjectError("command line", str(e)) from None
+    if args.out is not None:
+        check_output_file(args.out, [args.results, *run_files(args.results)])
     res = read_results(args.results)
     if args.text:
         print(text_report(res, opt), end="")
     if args.out is not None:
         from baarda.report.html_report import html_report, write_html
 
-        out = args.out.resolve()
-        if out.parent == args.results.resolve() and out.name in (
-                "summary.json", "observations.csv", "photos.csv", "points.csv"):
-            raise FileExistsError(f"{out} is an input of the report (inputs are never "
-                                  "overwritten)")
         say = progress(args.quiet or args.text)
         if say:
             say(f"read {args.results}: {len(res.obs)} observations")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import check_output, progress
+from baarda.cli.common import open_run, progress
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.output.project_files import write_project
 from baarda.output.screening_log import write_screening_log
@@ -65,14 +65,14 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    check_output(args.out, [args.input])
-    say = progress(args.quiet)
-    block = read_input(args)
-    if say:
-        say(f"read {block.summary()}")
-    res = screen(block, options(args), progress=say)
-    write_project(res.block, args.out)
-    write_screening_log(args.out, res.log)
+    with open_run(args, [args.input]) as run:
+        say = progress(args.quiet)
+        block = read_input(args)
+        if say:
+            say(f"read {block.summary()}")
+        res = screen(block, options(args), progress=say)
+        write_project(res.block, run)
+        write_screening_log(run, res.log)
     if not args.quiet:
         print(res.summary())
         print(f"cleaned project and screening log written to {args.out}")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from baarda.cli.common import add_flight_plan_arguments
+from baarda.cli.common import add_flight_plan_arguments, open_run
 from baarda.output.atomic import write_text
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -40,6 +40,13 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    with open_run(args, []) as run:
+        block = _simulate(args, run)
+    print(f"{block.summary()} -> {args.out}")
+    return 0
+
+
+def _simulate(args, run):
     plan = FlightPlan(
         strips=args.strips, photos_per_strip=args.photos, forward_overlap=args.forward_overlap,
         side_overlap=args.side_overlap, image_scale=args.scale, focal_mm=args.focal,
@@ -53,7 +60,6 @@ def run(args) -> int:
         blunder_kinds=tuple(k.strip() for k in args.blunder_kinds.split(",") if k.strip()),
         seed=args.seed, name=args.name)
     block, truth = simulate_block(plan)
-    write_project(block, args.out)
-    write_text(Path(args.out) / "truth.json", json.dumps(truth, indent=1, default=float) + "\n")
-    print(f"{block.summary()} -> {args.out}")
-    return 0
+    write_project(block, run)
+    write_text(run.file("truth.json"), json.dumps(truth, indent=1, default=float) + "\n")
+    return block

@@ -41,6 +41,11 @@ class BlockQuality:
     tilts: np.ndarray | None = None  # (nm,) tilt [rad] removed by levelling (2d)
     notes: list[str] = field(default_factory=list)
 
+    @property
+    def converged(self) -> bool:
+        """Every adjustment converged."""
+        return all(p.adjustment.converged for p in self.parts)
+
     def part(self, mode: str) -> ModelQuality | None:
         return next((p for p in self.parts if p.mode == mode), None)
 

@@ -115,7 +115,7 @@ class AiconProject:
                  f"{int(self.active_scale_bars().sum())} scale bar(s) read but not in the "
                  "block (distance observations are not part of the bundle yet)"]
         settings = Settings(name=self.name, angle_unit="rad",
-                            sigma_image_um=float(np.median(sig)) * 1e3)
+                            sigma_image_um=float(np.median(sig)) * 1e3, datum="free")
         return Block(settings, cameras, photos, image, points,
                      source=str(self.folder / self.name), notes=notes)
 

@@ -262,7 +262,8 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
     m = len(problem.points)
     points = GroundPoints([str(j) for j in range(m)], problem.points.copy(),
                           np.full((m, 3), np.nan), np.full(m, "tie", dtype=object))
-    settings = Settings(name=name, angle_unit="rad", sigma_image_um=sigma_px * pixel_mm * 1e3)
+    settings = Settings(name=name, angle_unit="rad", sigma_image_um=sigma_px * pixel_mm * 1e3,
+                        datum="free")
     return Block(settings, cameras, photos, image, points, source=source, notes=notes)
 
 

@@ -122,7 +122,8 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
     xyz = np.array([model.points3D[p].xyz for p in pt_ids])
     points = GroundPoints([str(p) for p in pt_ids], xyz, np.full((len(pt_ids), 3), np.nan),
                           np.full(len(pt_ids), "tie", dtype=object))
-    settings = Settings(name=name, angle_unit="deg", sigma_image_um=sigma_px * pixel_mm * 1e3)
+    settings = Settings(name=name, angle_unit="deg", sigma_image_um=sigma_px * pixel_mm * 1e3,
+                        datum="free")
     return Block(settings, cameras, photos, image, points, source=source, notes=notes)
 
 

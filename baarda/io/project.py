@@ -44,7 +44,11 @@ def load_toml(path: Path, default_unit: str = "gon") -> tuple[dict, str]:
     return doc, unit
 
 
-def _settings(path: Path) -> Settings:
+DATUMS = ("control", "free")
+
+
+def _settings(path: Path) -> tuple[Settings, dict]:
+    """The settings of project.toml and the document (to tell given from default values)."""
     s = Settings()
     doc, s.angle_unit = load_toml(path, s.angle_unit)
     s.name = str(doc.get("name", path.parent.name))
@@ -70,7 +74,11 @@ def _settings(path: Path) -> Settings:
         raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "
                            "[0.5, 1)")
     s.crs = doc.get("crs")
-    return s
+    s.datum = str(doc.get("datum", s.datum))
+    if s.datum not in DATUMS:
+        raise ProjectError(str(path), f"datum '{s.datum}' is not one of control, free",
+                           column="datum")
+    return s, doc
 
 
 def read_ground_points(path: Path, sigma_control_m) -> tuple[list[str], np.ndarray,
@@ -117,7 +125,7 @@ def read_project(folder: str | Path) -> Block:
     folder = Path(folder)
     if not folder.is_dir():
         raise ProjectError(str(folder), "not a project folder")
-    settings = _settings(folder / "project.toml")
+    settings, doc = _settings(folder / "project.toml")
     notes: list[str] = []
 
     t = Table(folder / "cameras.csv", ["camera", "focal_mm", "x0_mm", "y0_mm"])
@@ -169,7 +177,18 @@ def read_project(folder: str | Path) -> Block:
     if len(bad):
         raise ProjectError(t.path, "standard deviation must be positive",
                            int(t.lines[bad[0]]), "sigma_um")
+    defaulted = int(np.isnan(sig_um).sum())
     sig_um = np.where(np.isfinite(sig_um), sig_um, settings.sigma_image_um)
+    given = doc.get("sigma", {}) if isinstance(doc.get("sigma"), dict) else {}
+    if defaulted and "image_um" not in given:
+        notes.append(f"a-priori image sigma {settings.sigma_image_um:g} µm (the default) for "
+                     f"{defaulted} image point(s): project.toml has no [sigma] image_um and "
+                     "image_points.csv no sigma_um")
+    if (role == "control").any() and "control_m" not in given and not g.has("sigma_X"):
+        notes.append("a-priori control sigmas X, Y, Z "
+                     + "/".join(f"{v:g}" for v in settings.sigma_control_m) + " m (the "
+                     "default): project.toml has no [sigma] control_m and ground_points.csv "
+                     "no sigma columns")
 
     # every point: ground file points first, then tie points in order of appearance
     of_name = pd.Index(gids).get_indexer(pnames) if len(pnames) else np.zeros(0, np.int64)

@@ -12,6 +12,7 @@ from baarda.block.rotation import rad_to_angle
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_result import BundleResult
 from baarda.output.results import summary_document, write_folder
+from baarda.output.run_folder import RunFolder
 from baarda.quality.assessment import Assessment, observation_table
 
 
@@ -83,7 +84,7 @@ def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
     return ph, pt
 
 
-def write_results(out: str | Path, result: Assessment | BundleResult) -> list[Path]:
+def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult) -> list[Path]:
     """Write the result folder of a bundle adjustment (output/results.py) with photos.csv
     and points.csv, each file atomically; returns the paths.  A BundleResult without its
     assessment gives the residuals only.

@@ -11,6 +11,7 @@ import pandas as pd
 from baarda.block.rotation import rad_to_angle
 from baarda.independent.workflow import BlockQuality
 from baarda.output.results import summary_document, write_folder
+from baarda.output.run_folder import RunFolder
 
 
 def models_table(bq: BlockQuality) -> pd.DataFrame:
@@ -64,7 +65,7 @@ def points_table(bq: BlockQuality) -> pd.DataFrame:
     return df
 
 
-def write_results(out: str | Path, bq: BlockQuality) -> list[Path]:
+def write_results(out: str | Path | RunFolder, bq: BlockQuality) -> list[Path]:
     """Write the result folder of a model block (output/results.py) with models.csv,
     points.csv, hypotheses.csv, preadjustment.csv and report.txt; returns the paths."""
     pre = pd.DataFrame([f.to_dict() for f in bq.pre.findings],

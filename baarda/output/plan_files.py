@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.output.atomic import write_bytes, write_text
+from baarda.output.run_folder import RunFolder, staged
 from baarda.output.tables import csv_text
 from baarda.planning.advice import Advice
 from baarda.planning.design_reliability import PlanResult
@@ -112,11 +113,10 @@ def plan_maps(plan: PlanResult) -> bytes:
     return buf.getvalue()
 
 
-def write_plan(out: str | Path, plan: PlanResult, advice: list[Advice],
+def write_plan(out: str | Path | RunFolder, plan: PlanResult, advice: list[Advice],
                what_if: pd.DataFrame | None = None, title: str = "",
                plots: bool = True) -> list[Path]:
-    """Write the planning outputs into folder `out`; returns the files written."""
-    out = Path(out)
+    """Write the planning outputs as one run of folder `out`; the final paths."""
     files = {
         "plan_report.txt": report_text(plan, advice, what_if, title),
         "plan_observations.csv": _csv(plan.observations),
@@ -126,14 +126,13 @@ def write_plan(out: str | Path, plan: PlanResult, advice: list[Advice],
     }
     if what_if is not None:
         files["plan_what_if.csv"] = _csv(what_if)
-    written = []
-    for name, text in files.items():
-        write_text(out / name, text)
-        written.append(out / name)
-    if plots:
-        write_bytes(out / "plan_maps.png", plan_maps(plan))
-        written.append(out / "plan_maps.png")
-    return written
+    with staged(out) as run:
+        for name, text in files.items():
+            write_text(run.file(name), text)
+        if plots:
+            write_bytes(run.file("plan_maps.png"), plan_maps(plan))
+            files["plan_maps.png"] = ""
+        return [run.final / name for name in files]
 
 
 def write_reliability_table(path: str | Path, table: ReliabilityTable, header: str = "") -> None:
@@ -142,9 +141,11 @@ def write_reliability_table(path: str | Path, table: ReliabilityTable, header: s
     write_text(path, lines + csv_text(table.frame, "%.4f"))
 
 
-def write_modified_snooping(out: str | Path, table: pd.DataFrame, text: str) -> list[Path]:
-    """modified_snooping.csv and modified_snooping.txt of `baarda modified-snoop`."""
-    out = Path(out)
-    write_text(out / "modified_snooping.csv", _csv(table))
-    write_text(out / "modified_snooping.txt", text)
-    return [out / "modified_snooping.csv", out / "modified_snooping.txt"]
+def write_modified_snooping(out: str | Path | RunFolder, table: pd.DataFrame,
+                            text: str) -> list[Path]:
+    """modified_snooping.csv and modified_snooping.txt of `baarda modified-snoop`, one
+    run of folder `out`; the final paths."""
+    with staged(out) as run:
+        write_text(run.file("modified_snooping.csv"), _csv(table))
+        write_text(run.file("modified_snooping.txt"), text)
+        return [run.final / "modified_snooping.csv", run.final / "modified_snooping.txt"]

@@ -1,7 +1,7 @@
 """Writing projects: the native project folder and the model project folder.
 
 The inverse of baarda.io.project.read_project and baarda.io.model_project.read_model_project
-(docs/format.md); every file is written atomically.
+(docs/format.md); a folder is written as one run (output/run_folder.py).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from baarda.block.model_block import ModelBlock
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rad_to_angle
 from baarda.output.atomic import write_text
+from baarda.output.run_folder import RunFolder, staged
 
 
 def format_number(x: float) -> str:
@@ -32,14 +33,19 @@ def write_ground_points(path: Path, ids: list[str], xyz: np.ndarray, sigma: np.n
     write_text(path, "\n".join(rows) + "\n")
 
 
-def write_project(block: Block, folder: str | Path) -> None:
-    """Write `block` as a native project folder (each file written atomically)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+def write_project(block: Block, folder: str | Path | RunFolder) -> None:
+    """Write `block` as a native project folder, one run (output/run_folder.py)."""
+    with staged(folder) as run:
+        _write_project(block, run.path)
+
+
+def _write_project(block: Block, folder: Path) -> None:
     s = block.settings
     toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', 'image_unit = "mm"']
     if s.crs:
         toml.append(f'crs = "{s.crs}"')
+    if s.datum != "control":
+        toml.append(f'datum = "{s.datum}"')
     toml += ["", "[sigma]", f"image_um = {s.sigma_image_um!r}",
              f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]",
              "", "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", ""]
@@ -73,10 +79,13 @@ def write_project(block: Block, folder: str | Path) -> None:
     write_ground_points(folder / "ground_points.csv", pts.ids, pts.xyz, pts.sigma, pts.role)
 
 
-def write_model_project(block: ModelBlock, folder: str | Path) -> None:
-    """Write `block` as a model project folder (each file atomically)."""
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+def write_model_project(block: ModelBlock, folder: str | Path | RunFolder) -> None:
+    """Write `block` as a model project folder, one run (output/run_folder.py)."""
+    with staged(folder) as run:
+        _write_model_project(block, run.path)
+
+
+def _write_model_project(block: ModelBlock, folder: Path) -> None:
     s = block.settings
     toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', "", "[sigma]",
             f"model_xy_um = {float(s.sigma_model_um[0])!r}",

@@ -15,6 +15,7 @@ import pandas as pd
 
 from baarda.errors import ProjectError
 from baarda.io.table import Table
+from baarda.output.run_folder import MANIFEST, verify_run
 from baarda.sections import Section
 
 # Units of the residual columns in observations.csv, by observation kind.
@@ -91,6 +92,7 @@ class Results:
     cameras: dict[str, dict] = field(default_factory=dict)
     angle_unit: str | None = None
     notes: list[str] = field(default_factory=list)
+    run: str | None = None  # the run id (run.json), None for folders without one
 
     @property
     def title(self) -> str:
@@ -117,6 +119,14 @@ class Results:
         parts = self.summary.get("adjustments") or {"": self.summary}
         tests = [p.get("global_test") for p in parts.values() if p.get("global_test")]
         return None if not tests else all(gt.get("passed") for gt in tests)
+
+    @property
+    def converged(self) -> bool:
+        """Every adjustment of the run converged (folders without the entry count as
+        converged)."""
+        parts = self.summary.get("adjustments") or {"": self.summary}
+        return all(p.get("converged", True) is not False for p in parts.values()
+                   if isinstance(p, dict))
 
     def strip_of(self) -> dict[str, str]:
         """photo id -> strip label ('' when unknown)."""
@@ -149,6 +159,7 @@ def read_results(folder: str | Path) -> Results:
     sp = folder / "summary.json"
     if not sp.is_file():
         raise ProjectError(str(sp), "file not found (not a baarda output folder?)")
+    run = verify_run(folder, ["summary.json", "observations.csv", "photos.csv", "points.csv"])
     try:
         summary = json.loads(sp.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
@@ -157,6 +168,9 @@ def read_results(folder: str | Path) -> Results:
         raise ProjectError(str(sp), "expected a JSON object")
     obs = read_observations(folder / "observations.csv")
     notes: list[str] = []
+    if run is None:
+        notes.append(f"{folder} has no run manifest ({MANIFEST}: written by an earlier "
+                     "version of baarda): its files were not checked to be of one run")
     photos = points = None
     photo_block = (obs["kind"] == "image").any()  # photos, cameras and footprints apply
     if (folder / "photos.csv").is_file():
@@ -186,4 +200,4 @@ def read_results(folder: str | Path) -> Results:
     if obs["x_mm"].isna().all() and (obs["kind"] == "image").any():
         notes.append("observations.csv has no image coordinates (x_mm, y_mm): image-space "
                      "residual plots not drawn (re-run baarda adjust)")
-    return Results(folder, summary, obs, photos, points, cams, unit, notes)
+    return Results(folder, summary, obs, photos, points, cams, unit, notes, run)

@@ -16,6 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from baarda.output.atomic import write_text
+from baarda.output.run_folder import RunFolder, staged
 from baarda.output.tables import csv_text, json_text
 from baarda.sections import Section
 
@@ -34,13 +35,14 @@ def summary_document(*, project: str, source: str, method: str, sections: Iterab
     return doc
 
 
-def write_folder(out: str | Path, summary: dict, tables: Mapping[str, pd.DataFrame],
+def write_folder(out: str | Path | RunFolder, summary: dict,
+                 tables: Mapping[str, pd.DataFrame],
                  texts: Mapping[str, str] | None = None) -> list[Path]:
-    """summary.json, the tables as CSV and any texts, each written atomically; the paths."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    files = {"summary.json": json_text(summary),
-             **{name: csv_text(df) for name, df in tables.items()}, **(texts or {})}
-    for name, text in files.items():
-        write_text(out / name, text)
-    return [out / name for name in files]
+    """summary.json (with the run id under 'run'), the tables as CSV and any texts, as one
+    run of the folder `out` (output/run_folder.py); the final paths."""
+    with staged(out) as run:
+        files = {"summary.json": json_text({"run": run.run_id, **summary}),
+                 **{name: csv_text(df) for name, df in tables.items()}, **(texts or {})}
+        for name, text in files.items():
+            write_text(run.file(name), text)
+        return [run.final / name for name in files]

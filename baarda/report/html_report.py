@@ -20,11 +20,7 @@ from baarda.report.footprint import footprints, image_extent
 from baarda.report.histogram import format_histogram
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.stats import group_statistics, model_groups, per_photo, per_strip
-from baarda.report.text_report import (
-    ReportOptions,
-    image_histograms,
-    w_hists,
-)
+from baarda.report.text_report import NOT_CONVERGED, ReportOptions, image_histograms, w_hists
 
 CSS = """
 body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;margin:0;color:#222}
@@ -224,7 +220,9 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     sec.append(("table", "Snooping table (ANAPLOT)", _snoop_table(res, opt)))
     nav = "".join(f'<a href="#{k}">{esc(t.split(" (")[0])}</a>' for k, t, _ in sec)
     main = "".join(f'<section id="{k}"><h2>{esc(t)}</h2>{b}</section>' for k, t, b in sec)
-    head = (f"<header><h1>Adjustment report: {esc(res.title)}</h1><p>{esc(res.folder)} · "
+    warn = "" if res.converged else f'<p class="bad">{esc(NOT_CONVERGED)}</p>'
+    head = (f"<header><h1>Adjustment report: {esc(res.title)}</h1>{warn}<p>{esc(res.folder)} · "
+            + (f"run {esc(res.run)} · " if res.run else "") +
             f"global test {'n/a' if passed is None else 'accepted' if passed else 'REJECTED'} · "
             f"{res.summary.get('n_rejected', 0)} rejected, {res.summary.get('n_flagged', 0)} "
             "flagged</p></header>")

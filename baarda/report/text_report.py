@@ -26,6 +26,10 @@ from baarda.report.stats import (
 )
 from baarda.sections import render
 
+NOT_CONVERGED = ("NOT CONVERGED: the adjustment stopped before its corrections became "
+                 "negligible; the coordinates, residuals and tests in this report are not a "
+                 "least-squares solution")
+
 if TYPE_CHECKING:
     from baarda.report.residual_readers import ResidualSet
 
@@ -93,7 +97,12 @@ def summary_lines(res: Results) -> list[str]:
 def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     opt = opt or ReportOptions()
     obs = res.obs
-    out = ["BAARDA ADJUSTMENT REPORT", "=" * 78, *summary_lines(res)]
+    out = ["BAARDA ADJUSTMENT REPORT", "=" * 78]
+    if not res.converged:
+        out.append(NOT_CONVERGED)
+    if res.run:
+        out.append(f"run {res.run}")
+    out += summary_lines(res)
     out += [f"note: {n}" for n in res.notes]
     out += ["", "SNOOPING LOG", "-" * 78, format_log(res.summary)]
     out += ["", "GROUP STATISTICS (rejected observations left out; image and model µm, "

@@ -1,0 +1,220 @@
+"""One run, one folder: results are written into a staging folder beside the output folder
+and moved into place when the run is complete, so a folder holds one whole run or the
+previous one, never a mix.
+
+    with RunFolder(out, inputs=[project]) as run:   # checks the place before computing
+        ...compute...
+        write_results(run, qc)                      # writes into run.path (the staging)
+    # on leaving: run.json (the manifest) is written and the folder moved into place;
+    # on an error or Ctrl-C the staging folder is removed and `out` is untouched
+
+run.json names the run (id, time, baarda version) and every file with its size and SHA-256,
+so that `baarda report` can refuse a folder whose files do not belong to one run
+(`verify_run`).  An output folder may be new, empty, or a folder that baarda wrote (it has
+run.json or summary.json); anything else is refused before any work is done, and so is a
+place that would cover an input.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import secrets
+import shutil
+import sys
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from datetime import UTC, datetime
+from pathlib import Path
+
+from baarda.errors import ProjectError
+
+MANIFEST = "run.json"
+MARKERS = (MANIFEST, "summary.json")  # a folder with one of them was written by baarda
+
+
+def new_run_id() -> str:
+    """A run id: UTC time and 24 random bits (e.g. 20261123T101502Z-3fa9c1)."""
+    return f"{datetime.now(UTC):%Y%m%dT%H%M%SZ}-{secrets.token_hex(3)}"
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("baarda")
+    except PackageNotFoundError:  # pragma: no cover - a source tree without installation
+        return "unknown"
+
+
+def _covers(out: Path, path: Path) -> bool:
+    return out == path or out in path.parents
+
+
+def check_output_folder(out: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
+    """The resolved output folder, or a ProjectError saying why it cannot be one: an
+    existing file, an input or a folder holding an input, a folder that baarda did not
+    write (it would be replaced as a whole)."""
+    out = Path(out).expanduser().resolve()
+    for p in (Path(q).expanduser().resolve() for q in inputs if q is not None):
+        if _covers(out, p):
+            what = "is" if out == p else "holds"
+            raise ProjectError(str(out), f"the output folder {what} the input {p}; choose "
+                               "another with -o (inputs are never overwritten)")
+    if out.exists() and not out.is_dir():
+        raise ProjectError(str(out), "exists and is not a folder; give a folder name with -o")
+    if out.is_dir():
+        try:
+            entries = sorted(e.name for e in out.iterdir())
+        except OSError as e:
+            raise ProjectError(str(out), f"cannot be read ({e.strerror})") from None
+        if entries and not any(m in entries for m in MARKERS):
+            shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
+            raise ProjectError(str(out), f"exists and holds files that baarda did not write "
+                               f"({shown}); a result folder is replaced as a whole: choose a "
+                               "new or empty folder with -o")
+    return out
+
+
+def check_output_file(out: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
+    """The resolved path of a single output file (a report, a drawing), checked before any
+    work: not a folder, not one of the inputs, its folder writable."""
+    out = Path(out).expanduser().resolve()
+    for p in (Path(q).expanduser().resolve() for q in inputs if q is not None):
+        if out == p:
+            raise ProjectError(str(out), "is an input (inputs are never overwritten); choose "
+                               "another file with -o")
+    if out.is_dir():
+        raise ProjectError(str(out), "is a folder; give a file name with -o")
+    parent = out.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ProjectError(str(parent), f"cannot create the folder ({e.strerror})") from None
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ProjectError(str(parent), "the folder is not writable; choose another place "
+                           "with -o")
+    return out
+
+
+def run_files(folder: str | Path) -> list[Path]:
+    """The files of a result folder that a run wrote (those run.json lists, else every
+    .csv, .json and .txt file)."""
+    folder = Path(folder)
+    try:
+        listed = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))["files"]
+        return [folder / MANIFEST] + [folder / name for name in listed]
+    except (OSError, ValueError, KeyError, TypeError):
+        return [p for p in folder.glob("*") if p.suffix in (".csv", ".json", ".txt")]
+
+
+class RunFolder:
+    """The staging folder of one run (module docstring).  `path` is where to write, `final`
+    the output folder, `run_id` the id every file of the run is listed under."""
+
+    def __init__(self, out: str | Path, inputs: Iterable[str | Path] = (),
+                 command: str | None = None):
+        self.final = check_output_folder(out, inputs)
+        self.run_id = new_run_id()
+        self.command = command
+        self.started = datetime.now(UTC)
+        parent = self.final.parent
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+            self.path = parent / f".{self.final.name}.{self.run_id}.partial"
+            self.path.mkdir()
+        except OSError as e:
+            raise ProjectError(str(self.final), "cannot write the output folder here "
+                               f"({e.strerror}); choose another place with -o") from None
+        self.done = False
+
+    def file(self, name: str) -> Path:
+        """Where to write `name` in this run (inside the staging folder)."""
+        return self.path / name
+
+    def __enter__(self) -> RunFolder:
+        return self
+
+    def __exit__(self, kind, value, tb) -> None:
+        if kind is None:
+            self.commit()
+        else:
+            self.discard()
+
+    def discard(self) -> None:
+        """Remove the staging folder; the output folder is left as it was."""
+        shutil.rmtree(self.path, ignore_errors=True)
+
+    def commit(self) -> Path:
+        """Write run.json and move the staging folder into place (replacing an earlier run
+        as a whole); the output folder."""
+        if self.done:
+            return self.final
+        files = {}
+        for f in sorted(self.path.rglob("*")):
+            if f.is_file():
+                files[f.relative_to(self.path).as_posix()] = file_record(f)
+        manifest = {"run": self.run_id, "baarda": _version(),
+                    "started": self.started.isoformat(timespec="seconds"),
+                    "finished": datetime.now(UTC).isoformat(timespec="seconds"),
+                    "command": self.command, "files": files}
+        (self.path / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n",
+                                          encoding="utf-8")
+        old = None
+        if self.final.exists():
+            check_output_folder(self.final)  # still one of ours
+            old = self.final.parent / f".{self.final.name}.{self.run_id}.old"
+            os.replace(self.final, old)
+        os.replace(self.path, self.final)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+        self.done = True
+        return self.final
+
+
+def file_record(path: Path) -> dict:
+    """Size and SHA-256 of a file (read in 1 MB blocks)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return {"bytes": path.stat().st_size, "sha256": h.hexdigest()}
+
+
+@contextmanager
+def staged(out: str | Path | RunFolder) -> Iterator[RunFolder]:
+    """The run to write into: `out` itself when it is a RunFolder (its owner commits it),
+    else a new run of the folder `out`, committed when the block ends."""
+    if isinstance(out, RunFolder):
+        yield out
+        return
+    with RunFolder(out, command=" ".join(sys.argv[:1])) as run:
+        yield run
+
+
+def verify_run(folder: str | Path, names: Iterable[str]) -> str | None:
+    """Check that the files `names` of a result folder belong to the run its run.json
+    lists (same size and SHA-256); the run id, or None for a folder written before run.json
+    existed.  A file that is missing, changed or not of the run is a ProjectError."""
+    folder = Path(folder)
+    mp = folder / MANIFEST
+    if not mp.is_file():
+        return None
+    try:
+        manifest = json.loads(mp.read_text(encoding="utf-8"))
+        run, files = manifest["run"], manifest["files"]
+    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError):
+        raise ProjectError(str(mp), "not a run manifest of baarda (broken JSON or missing "
+                           "'run'/'files')") from None
+    for name in names:
+        p = folder / name
+        if not p.is_file():
+            continue
+        if name not in files:
+            raise ProjectError(str(p), f"does not belong to run {run} of this folder "
+                               f"({MANIFEST} does not list it): the folder mixes runs")
+        if file_record(p) != files[name]:
+            raise ProjectError(str(p), f"is not the file that run {run} wrote (size or "
+                               "checksum differ): the folder mixes runs or was edited")
+    return run
