@@ -45,17 +45,21 @@ from baarda.screening.chain import screen as screen_block
 
 def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          pixel_mm: float = 0.001, sigma_px: float = 1.0,
-         sigma_image_um: float | None = None) -> Block:
+         sigma_image_um: float | None = None, datum: str | None = None) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
     nominal pixel size [mm] and image sigma [px] of COLMAP and BAL inputs; sigma_image_um:
-    image sigma of AICON inputs (default: the .phc file's).
+    image sigma of AICON inputs (default: the .phc file's); datum: "control" or "free"
+    (overrides the input's: see prepare).
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
                      sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3)
-    if crs:
-        block = replace(block, settings=replace(block.settings, crs=crs))
+    if datum not in (None, "control", "free"):
+        raise ValueError(f"datum '{datum}' is not one of control, free")
+    if crs or datum:
+        block = replace(block, settings=replace(block.settings, crs=crs or block.settings.crs,
+                                                datum=datum or block.settings.datum))
     return block
 
 

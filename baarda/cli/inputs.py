@@ -18,9 +18,14 @@ def add_input_options(p) -> None:
                    "BAL input [px] (default 1)")
     p.add_argument("--sigma-image-um", type=float, help="image sigma for AICON input [µm] "
                    "(default: the .phc file's)")
+    p.add_argument("--free", action="store_true", help="adjust as a free network (datum by "
+                   "minimal constraints; control points become check points). Default: "
+                   "free for COLMAP, BAL and AICON input and for projects with datum = "
+                   "\"free\", else the control")
 
 
 def read_input(args) -> Block:
     """baarda.pipeline.read with the command's input options."""
     return read(args.input, args.format, crs=args.crs, pixel_mm=args.pixel_mm,
-                sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um)
+                sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
+                datum="free" if args.free else None)
