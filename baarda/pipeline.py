@@ -28,6 +28,7 @@ from baarda.bundle.bundle_problem import SOLVE, BundleProblem
 from baarda.bundle.bundle_quality import assess as assess_result
 from baarda.bundle.bundle_quality import snoop as snoop_problem
 from baarda.bundle.bundle_result import BundleResult
+from baarda.bundle.diagnostics import diagnose
 from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
 from baarda.bundle.resection import orient_block
 from baarda.errors import GeometryError
@@ -90,12 +91,13 @@ def prepare(block: Block, free: bool | None = None) -> BundleProblem:
     points become check points (their differences refer to the free datum)."""
     free = block.settings.datum == "free" if free is None else free
     block = with_approximations(localized(block))
+    diagnosis = tuple(diagnose(block))
     if not free:
-        return BundleProblem(block)
+        return BundleProblem(block, diagnosis=diagnosis)
     if block.points.controlled.any():
         block = as_check_points(block)
     block, _ = drop_points_behind(block)
-    return FreeBundleProblem(block)
+    return FreeBundleProblem(block, diagnosis=diagnosis)
 
 
 def as_check_points(block: Block) -> Block:

@@ -49,11 +49,14 @@ class BundleProblem(SchurProblem):
     (rows `obs` of block.image, mm), then every observed control coordinate (m).
     held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
     network, bundle/free_network.py); None: the control fixes the datum (checked here).
+    diagnosis: findings about the inputs (bundle/diagnostics.py), printed as notes and added
+    to the message when the adjustment fails.
     """
 
     def __init__(self, block: Block, *, held: np.ndarray | None = None,
-                 notes: tuple[str, ...] = ()):
+                 notes: tuple[str, ...] = (), diagnosis: tuple[str, ...] = ()):
         self.block = block
+        self.diagnosis = tuple(diagnosis)
         ok, point_notes = usable_points(block)
         im, pts = block.image, block.points
         self.obs = np.flatnonzero(ok[im.point])  # rows of block.image in the adjustment
@@ -71,7 +74,7 @@ class BundleProblem(SchurProblem):
         self.held = None if held is None else read_only(np.asarray(held, bool))
         warnings = [] if self.held is not None else check_datum(
             block, ok & np.isin(np.arange(len(pts)), self.control))
-        self.notes = tuple(warnings) + tuple(point_notes) + tuple(notes)
+        self.notes = self.diagnosis + tuple(warnings) + tuple(point_notes) + tuple(notes)
         self._labels(block, m, sel)
         # observations corrected for backward (observation-side) distortion; forward model
         # rows as observed (the projection applies that model)
@@ -178,12 +181,18 @@ class BundleProblem(SchurProblem):
         """
         t0 = time.perf_counter()
         start = self.approximations if start is None else start
-        sol = solve(self, (np.array(start[0], float), np.array(start[1], float)), options,
-                    progress)
-        if sol.reason == "inadmissible":
-            raise GeometryError("the adjustment diverged: no step along the Gauss-Newton "
-                                "direction keeps the points in front of the cameras; check the "
-                                "approximate orientations and the identification of points")
+        try:
+            sol = solve(self, (np.array(start[0], float), np.array(start[1], float)),
+                        options, progress)
+            if sol.reason == "inadmissible":
+                raise GeometryError("the adjustment diverged: no step along the Gauss-Newton "
+                                    "direction keeps the points in front of the cameras; check "
+                                    "the approximate orientations and the identification of "
+                                    "points")
+        except GeometryError as e:
+            if not self.diagnosis:
+                raise
+            raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis)) from None
         notes = list(self.notes) + ([] if sol.converged else [sol.message])
         eo, xyz = sol.state
         return BundleResult(self, eo, xyz, sol.lin, sol.factor, sol.iterations, sol.converged,

@@ -17,9 +17,13 @@ from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
 
 
 def project(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray, pp: np.ndarray,
-            distortion: np.ndarray | None = None) -> np.ndarray:
-    """Image coordinates (m, 2) in mm of points xyz (m, 3) on photos eo (m, 6)."""
+            distortion: np.ndarray | None = None, photo: np.ndarray | None = None
+            ) -> np.ndarray:
+    """Image coordinates (m, 2) in mm of points xyz (m, 3) on photos eo (m, 6); with
+    `photo`, eo holds one row per photo and photo[i] names the photo of point i."""
     r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+    if photo is not None:
+        r, eo = r[photo], eo[photo]
     u = np.einsum("mji,mj->mi", r, xyz - eo[:, :3])
     xy = pp - focal[:, None] * u[:, :2] / u[:, 2:3]
     return xy if distortion is None else distort(xy, pp, focal, distortion)[0]

@@ -41,7 +41,8 @@ def choose_datum(block: Block, first: int = 0) -> tuple[int, int, int]:
 class FreeBundleProblem(BundleProblem):
     """A BundleProblem without control whose datum is held by minimal constraints."""
 
-    def __init__(self, block: Block, datum: tuple[int, int, int] | None = None):
+    def __init__(self, block: Block, datum: tuple[int, int, int] | None = None,
+                 diagnosis: tuple[str, ...] = ()):
         if np.any(block.points.controlled):
             raise GeometryError("the block has control points: adjust it with its control "
                                 "(a free-network datum would over-constrain it)")
@@ -50,7 +51,7 @@ class FreeBundleProblem(BundleProblem):
         held = np.zeros((len(block.photos), 6), bool)
         held[a] = True
         held[b, k] = True
-        super().__init__(block, held=held)
+        super().__init__(block, held=held, diagnosis=diagnosis)
 
 
     def datum_text(self) -> str:

@@ -101,23 +101,25 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
     with NaN where fewer than two rays exist.
     """
     im = block.image
-    cam = block.photos.camera[im.photo]
+    sel = np.flatnonzero(np.isin(im.point, points))  # the rays of these points only
+    photo, point = im.photo[sel], im.point[sel]
+    cam = block.photos.camera[photo]
     c = block.cameras.focal_mm[cam]
     pp = block.cameras.principal_point_mm[cam]
-    r = rotation_matrix(eo[im.photo, 3], eo[im.photo, 4], eo[im.photo, 5])
-    dirs_cam = np.column_stack([ideal_image_coordinates(block) - pp, -c])
+    r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])[photo]
+    dirs_cam = np.column_stack([ideal_image_coordinates(block)[sel] - pp, -c])
     dirs = np.einsum("mij,mj->mi", r, dirs_cam)
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     proj = np.eye(3)[None] - dirs[:, :, None] * dirs[:, None, :]
-    centre = eo[im.photo, :3]
+    pc = np.einsum("mij,mj->mi", proj, eo[photo, :3])
     n = len(block.points)
-    a = np.zeros((n, 3, 3))
-    b = np.zeros((n, 3))
-    np.add.at(a, im.point, proj)
-    np.add.at(b, im.point, np.einsum("mij,mj->mi", proj, centre))
-    a, b = a[points], b[points]
+    a = np.stack([np.bincount(point, proj[:, i, j], n) for i in range(3) for j in range(3)],
+                 axis=1).reshape(n, 3, 3)[points]
+    b = np.stack([np.bincount(point, pc[:, i], n) for i in range(3)], axis=1)[points]
     out = np.full((len(points), 3), np.nan)
-    good = np.linalg.cond(a) < 1e10
+    with np.errstate(all="ignore"):
+        lam = np.linalg.eigvalsh(a)  # a is a sum of projectors: symmetric, semi-definite
+        good = lam[:, 0] > 1e-10 * lam[:, 2]
     out[good] = np.linalg.solve(a[good], b[good][:, :, None])[:, :, 0]
     return out
 

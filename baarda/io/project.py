@@ -168,6 +168,8 @@ def read_project(folder: str | Path) -> Block:
                                                    settings.sigma_control_m)
 
     t = Table(folder / "image_points.csv", ["photo", "point", "x_mm", "y_mm"])
+    if len(t) == 0:
+        raise ProjectError(t.path, "no image points (the file holds only its header)")
     photo = t.lookup("photo", {p: i for i, p in enumerate(photo_ids)}, "photo")
     pcode, pnames = t.codes("point")
     xy = np.column_stack([t.numbers("x_mm"), t.numbers("y_mm")])
