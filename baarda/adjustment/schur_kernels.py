@@ -11,10 +11,11 @@ gives the storage slot of block (frame[a], frame[c]) for each such pair and
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from baarda.linalg._jit import kernel
 
 
-@njit(cache=True)
+@kernel
 def count_pairs(ptr, frame):
     n = 0
     for j in range(len(ptr) - 1):
@@ -25,7 +26,7 @@ def count_pairs(ptr, frame):
     return n
 
 
-@njit(cache=True)
+@kernel
 def list_pairs(ptr, frame, n):
     """Frame pairs (rows >= cols) in the kernels' loop order."""
     rows = np.empty(n, np.int64)
@@ -41,7 +42,7 @@ def list_pairs(ptr, frame, n):
     return rows, cols
 
 
-@njit(cache=True)
+@kernel
 def _chol_inv(h, out_l, out_inv):
     """Cholesky factor and inverse of a small SPD matrix; returns False if not SPD."""
     d = h.shape[0]
@@ -79,7 +80,7 @@ def _chol_inv(h, out_l, out_inv):
     return True
 
 
-@njit(cache=True)
+@kernel
 def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp):
     """Normal-equation pieces of the frame-point observations, with explicit loops.
 
@@ -113,7 +114,7 @@ def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp)
     return 0
 
 
-@njit(cache=True)
+@kernel
 def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slot, pair_tr,
                   hpp_l, hpp_inv, bad):
     """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side.
@@ -177,7 +178,7 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
     return d
 
 
-@njit(cache=True)
+@kernel
 def back_substitute(ptr, frame, hfp, hpp_inv, gp, xf):
     """Point unknowns x_p = Hpp^-1 (g_p - sum_a Hpf_a x_f[f_a]); gp (np, d, q), xf (nf, b, q)."""
     npnt = len(ptr) - 1
@@ -207,7 +208,7 @@ def back_substitute(ptr, frame, hfp, hpp_inv, gp, xf):
     return xp
 
 
-@njit(cache=True)
+@kernel
 def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
     """Sigma_pf for every observation (m, d, b) and Sigma_pp per point (np, d, d).
 

@@ -15,8 +15,9 @@ from baarda.output.run_folder import RunFolder
 OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
 
 
-def progress(quiet: bool):
-    """A progress printer to stderr with elapsed time, or None when quiet."""
+def progress(quiet: bool, computes: bool = True):
+    """A progress printer to stderr with elapsed time, or None when quiet.  A command that
+    `computes` says first when the numerical kernels have yet to be compiled."""
     if quiet:
         return None
     t0 = time.perf_counter()
@@ -24,6 +25,11 @@ def progress(quiet: bool):
     def say(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
+    if computes:
+        from baarda.linalg._jit import compile_pending
+
+        if compile_pending():
+            say("compiling the numerical kernels once (about 20 s; later runs start at once)")
     return say
 
 

@@ -77,7 +77,7 @@ def run(args) -> int:
     if args.out is not None:
         from baarda.report.html_report import html_report, write_html
 
-        say = progress(args.quiet or args.text)
+        say = progress(args.quiet or args.text, computes=False)
         if say:
             say(f"read {args.results}: {len(res.obs)} observations")
         write_html(args.out, html_report(res, opt))

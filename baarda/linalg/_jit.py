@@ -1,40 +1,79 @@
-"""``njit(cache=True)`` that degrades gracefully where numba cannot cache.
+"""``njit(cache=True)`` that works wherever baarda is installed, and knows when the first
+compile is still to come.
 
-Numba writes its cache next to the module (``__pycache__``) or under ``NUMBA_CACHE_DIR``; when
-neither is writable (read-only installs, some CI runners) ``njit(cache=True)`` raises at
-decoration time. :func:`kernel` then compiles in memory instead and warns once.
+Numba caches compiled kernels beside their module (``__pycache__``), else in the user's
+cache folder, or under ``NUMBA_CACHE_DIR``.  Where none is writable (a read-only install
+and no writable HOME) ``njit(cache=True)`` raises "no locator available"; :func:`kernel`
+then points numba at a private folder in the temporary directory
+(``baarda-numba-<uid>``) and caches there, and only if even that fails compiles in memory.
+:func:`compile_pending` tells whether any kernel still has to be compiled (its cache index
+is missing), so that the command line can say so before the first, slow run.
 """
 
 from __future__ import annotations
 
+import os
+import tempfile
 import warnings
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from numba import njit
+from numba.core import config
 
-__all__ = ["kernel", "parallel_kernel"]
+__all__ = ["compile_pending", "kernel", "parallel_kernel"]
 
-_warned = False
+# every cached kernel of the package (numba dispatchers), for compile_pending
+KERNELS: list[Any] = []
+
+
+def fallback_cache_dir() -> Path:
+    """The private cache folder in the temporary directory (created, mode 0700)."""
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    path = Path(tempfile.gettempdir()) / f"baarda-numba-{uid}"
+    path.mkdir(mode=0o700, exist_ok=True)
+    return path
 
 
 def kernel(fn: Callable[..., Any], **options: Any) -> Callable[..., Any]:
-    """Decorate ``fn`` with ``numba.njit(cache=True)``, falling back to ``cache=False``."""
-    global _warned
+    """``numba.njit(cache=True)``; where numba finds no writable cache, a cache in the
+    temporary directory; where that fails too, compiled in memory (with a warning)."""
     try:
-        return njit(cache=True, **options)(fn)
+        disp = njit(cache=True, **options)(fn)
     except RuntimeError as exc:  # "cannot cache function ...: no locator available"
-        if not _warned:
-            warnings.warn(
-                f"numba cannot cache compiled kernels ({exc}); compiling in memory. Set "
-                "NUMBA_CACHE_DIR to a writable folder to avoid recompiling in every process.",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            _warned = True
-        return njit(cache=False, **options)(fn)
+        try:
+            if config.CACHE_DIR:
+                raise
+            config.CACHE_DIR = str(fallback_cache_dir())
+            disp = njit(cache=True, **options)(fn)
+        except (RuntimeError, OSError):
+            warnings.warn(f"numba cannot cache compiled kernels ({exc}); compiling in "
+                          "memory in every run. Set NUMBA_CACHE_DIR to a writable folder.",
+                          RuntimeWarning, stacklevel=2)
+            return njit(cache=False, **options)(fn)
+    KERNELS.append(disp)
+    return disp
 
 
 def parallel_kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
     """:func:`kernel` with ``parallel=True`` (``numba.prange`` loops run on numba's threads)."""
     return kernel(fn, parallel=True)
+
+
+# kernels that every adjustment runs: while one of them is not cached, a run compiles
+CORE = ("assemble", "reduce_points", "elimination_tree", "supernodal_cholesky")
+
+
+def compile_pending() -> bool:
+    """True when a kernel that every adjustment runs has no compiled code in the cache yet
+    (the run compiles them first: tens of seconds)."""
+    for disp in KERNELS:
+        if disp.py_func.__name__ not in CORE:
+            continue
+        try:
+            if not Path(disp._cache._cache_file._index_path).is_file():
+                return True
+        except AttributeError:  # pragma: no cover - numba's internals changed
+            return False
+    return False
