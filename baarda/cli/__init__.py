@@ -23,14 +23,43 @@ COMMANDS = [
 ]
 
 
+class Formatter(argparse.HelpFormatter):
+    """Help that shows every option's default unless its text already says it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        d = action.default
+        if ("default" in text or d is None or d is False or d is argparse.SUPPRESS
+                or d == [] or action.const is not None and d is True):
+            return text
+        shown = " ".join(str(v) for v in d) if isinstance(d, (list, tuple)) else str(d)
+        return f"{text} (default: {shown.replace('%', '%%')})"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="baarda", description="Quality-controlled aerial triangulation: bundle adjustment, "
-        "data snooping and reliability.")
+        "data snooping and reliability.", epilog="exit codes: 0 success, 2 bad input (the "
+        "message names the file, line and field, or the geometry), 3 not converged (results "
+        "written and marked NOT CONVERGED), 130 interrupted (nothing written)")
+    parser.add_argument("--version", action="version", version=f"baarda {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
         importlib.import_module(name).register(sub)
+    for p in sub.choices.values():
+        p.formatter_class = Formatter
     return parser
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("baarda")
+    except PackageNotFoundError:  # pragma: no cover - a source tree without installation
+        from baarda import __version__
+
+        return __version__
 
 
 def main(argv: list[str] | None = None) -> int:

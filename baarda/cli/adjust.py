@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import NOT_CONVERGED, OK, open_run, progress, tests_option
+from baarda.cli.common import FOLDER_HELP, NOT_CONVERGED, OK, open_run, progress, tests_option
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.output.bundle_results import write_results
 from baarda.pipeline import adjust, assess, prepare, screen, snoop
@@ -13,7 +13,8 @@ from baarda.pipeline import adjust, assess, prepare, screen, snoop
 def _common(p) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
-    p.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    p.add_argument("-o", "--out", type=Path, required=True,
+                   help=FOLDER_HELP.format("output folder"))
     p.add_argument("--alpha0", type=float, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")

@@ -11,7 +11,10 @@ from baarda.errors import ProjectError
 from baarda.options import TestOptions
 from baarda.output.run_folder import RunFolder
 
-# exit codes (docs/cli.md)
+FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (replaced whole at the end "
+               "of the run; an interrupted run leaves it as it was)")
+
+# exit codes (the parser's epilog)
 OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
 
 
@@ -53,10 +56,12 @@ def open_run(args, inputs: list[Path]) -> RunFolder:
 
 def add_flight_plan_arguments(p, d) -> None:
     """Options of a regular block shared by `simulate` and `plan` (defaults from FlightPlan d)."""
-    p.add_argument("--strips", type=int, default=d.strips)
+    p.add_argument("--strips", type=int, default=d.strips, help="number of strips")
     p.add_argument("--photos", type=int, default=d.photos_per_strip, help="photos per strip")
-    p.add_argument("--forward-overlap", type=float, default=d.forward_overlap)
-    p.add_argument("--side-overlap", type=float, default=d.side_overlap)
+    p.add_argument("--forward-overlap", type=float, default=d.forward_overlap,
+                   help="forward overlap of neighbouring photos (0..1)")
+    p.add_argument("--side-overlap", type=float, default=d.side_overlap,
+                   help="side overlap of neighbouring strips (0..1)")
     p.add_argument("--scale", type=float, default=d.image_scale, help="image scale 1:SCALE")
     p.add_argument("--focal", type=float, default=d.focal_mm, help="focal length in mm")
     p.add_argument("--format", type=float, default=d.format_mm, help="image format in mm")

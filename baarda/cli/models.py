@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import NOT_CONVERGED, OK, open_run, progress, tests_option
+from baarda.cli.common import FOLDER_HELP, NOT_CONVERGED, OK, open_run, progress, tests_option
 from baarda.errors import ProjectError
 from baarda.independent.deformations import ALL
 
@@ -17,7 +17,8 @@ def register(sub) -> None:
     p = sub.add_parser("models", help="independent-model block adjustment with data snooping "
                        "and tests of model deformations (FOTEF)")
     p.add_argument("project", type=Path, help="model project (models.csv) or bundle project")
-    p.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    p.add_argument("-o", "--out", type=Path, required=True,
+                   help=FOLDER_HELP.format("output folder"))
     p.add_argument("--2d", dest="planimetric", action="store_true",
                    help="planimetric adjustment (4 parameters) with a separate height "
                    "adjustment instead of the spatial one (7 parameters)")
@@ -27,13 +28,16 @@ def register(sub) -> None:
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau")
     p.add_argument("--by-point", action="store_true",
                    help="reject the coordinates of a model point together")
-    p.add_argument("--alpha0", type=float, help="significance level of the w-test")
-    p.add_argument("--beta0", type=float, help="power of the tests")
+    p.add_argument("--alpha0", type=float, help="significance level of the w-test "
+                   "(default: project.toml, else 0.001)")
+    p.add_argument("--beta0", type=float, help="power of the tests (default: project.toml, "
+                   "else 0.80)")
     ext = p.add_mutually_exclusive_group()
     ext.add_argument("--external", dest="external", action="store_true", default=None,
                      help="external reliability on detail points and distances (default "
                      "up to 400 models)")
-    ext.add_argument("--no-external", dest="external", action="store_false")
+    ext.add_argument("--no-external", dest="external", action="store_false",
+                     help="no external reliability (faster on large blocks)")
     p.add_argument("--deformations", default="all", help="comma list of model deformations "
                    f"to test ({', '.join(ALL)}), 'all' or 'none'")
     p.add_argument("--clusters", type=Path, help="clusters.csv (cluster, point): control "
@@ -45,21 +49,25 @@ def register(sub) -> None:
     p.set_defaults(func=run)
     q = sub.add_parser("simulate-models", help="simulate an independent-model block with "
                        "known truth (truth.json)")
-    q.add_argument("-o", "--out", type=Path, required=True, help="model project to write")
-    q.add_argument("--strips", type=int, default=2)
+    q.add_argument("-o", "--out", type=Path, required=True,
+                   help=FOLDER_HELP.format("model project to write"))
+    q.add_argument("--strips", type=int, default=2, help="number of strips")
     q.add_argument("--models", type=int, default=4, help="models per strip")
-    q.add_argument("--layout", default="fotef", choices=["fotef", "grid"])
+    q.add_argument("--layout", default="fotef", choices=["fotef", "grid"],
+                   help="point layout: FOTEF's study or a regular grid")
     q.add_argument("--scale", type=float, default=5000.0, help="image scale 1:SCALE")
     q.add_argument("--sigma-model", type=float, nargs=2, default=[10.0, 15.0],
                    metavar=("XY", "Z"), help="µm")
     q.add_argument("--sigma-control", type=float, default=0.05, help="m")
-    q.add_argument("--control-spacing", type=int, default=2)
-    q.add_argument("--height-chains", type=int, default=1)
+    q.add_argument("--control-spacing", type=int, default=2,
+                   help="planimetric control on the long borders every k bases")
+    q.add_argument("--height-chains", type=int, default=1,
+                   help="height control chains across the strips every k bases")
     q.add_argument("--tilt", type=float, default=0.01, help="model tilts, rad (std)")
-    q.add_argument("--blunders", type=int, default=0)
+    q.add_argument("--blunders", type=int, default=0, help="gross errors planted")
     q.add_argument("--deformation", action="append", default=[], metavar="NAME=UM",
                    help=f"plant a block-invariant deformation ({', '.join(ALL)})")
-    q.add_argument("--seed", type=int, default=0)
+    q.add_argument("--seed", type=int, default=0, help="random seed")
     q.set_defaults(func=run_simulate)
 
 

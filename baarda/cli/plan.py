@@ -8,7 +8,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import add_flight_plan_arguments, open_run, progress, tests_option
+from baarda.cli.common import (
+    FOLDER_HELP,
+    add_flight_plan_arguments,
+    open_run,
+    progress,
+    tests_option,
+)
 from baarda.output.run_folder import check_output_file
 from baarda.simulate.aerial import FlightPlan
 
@@ -17,7 +23,8 @@ def register(sub) -> None:
     d = FlightPlan()
     p = sub.add_parser("plan", help="design-stage reliability of a planned block (no "
                        "measurements): sqrt(qvv), MDB, external reliability, precision, advice")
-    p.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    p.add_argument("-o", "--out", type=Path, required=True,
+                   help=FOLDER_HELP.format("output folder"))
     p.add_argument("--project", type=Path, help="take the design (photos, points, stereo "
                    "models, control, weights) of this project instead of a flight plan")
     p.add_argument("--adjusted", action="store_true", help="with --project: geometry from an "
@@ -32,7 +39,8 @@ def register(sub) -> None:
     p.add_argument("--relief", type=float, default=0.0, help="terrain relief in m (flat)")
     p.add_argument("--interior", default="height", choices=["height", "full", "none"],
                    help="control at the interior grid positions")
-    p.add_argument("--twin-control", action="store_true")
+    p.add_argument("--twin-control", action="store_true",
+                   help="each control point with a close companion")
     p.add_argument("--sigma-control", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="m (default: error-free control)")
     p.add_argument("--alpha0", type=float, help="significance level of the w-test "
@@ -43,24 +51,29 @@ def register(sub) -> None:
     p.add_argument("--derive-table", type=Path, metavar="CSV", help="also derive a reliability "
                    "table for this flight plan (control every L/3, L/2, L; single and twin) "
                    "for `modified-snoop --table`")
-    p.add_argument("--no-plots", action="store_true")
-    p.add_argument("--name", default="plan")
-    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("--no-plots", action="store_true", help="no plan_maps.png")
+    p.add_argument("--name", default="plan", help="name of the design block")
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress display and no printed report")
     p.set_defaults(func=run_plan)
 
     m = sub.add_parser("modified-snoop", help="Gruen's modified data snooping: approximate "
                        "sqrt(qvv) from a reliability table, exact values only where needed")
     m.add_argument("project", type=Path, help="project folder")
-    m.add_argument("-o", "--out", type=Path, required=True, help="output folder")
+    m.add_argument("-o", "--out", type=Path, required=True,
+                   help=FOLDER_HELP.format("output folder"))
     m.add_argument("--table", default="baarda", help="'baarda' (our study table), 'gruen' "
                    "(Table 2 of Gruen 1980) or a CSV written by `plan --derive-table`")
     m.add_argument("--k-q", type=float, default=25.0, help="tolerance of the approximations "
                    "in %% (Gruen: 25)")
     m.add_argument("--tau", action="store_true", help="Pope's tau (sigma0 a posteriori) "
                    "instead of Baarda's w")
-    m.add_argument("--alpha0", type=float)
-    m.add_argument("--beta0", type=float)
-    m.add_argument("-q", "--quiet", action="store_true")
+    m.add_argument("--alpha0", type=float, help="significance level of the w-test "
+                   "(default: project.toml, else 0.001)")
+    m.add_argument("--beta0", type=float, help="power of the tests (default: project.toml, "
+                   "else 0.80)")
+    m.add_argument("-q", "--quiet", action="store_true",
+                   help="no progress display and nothing printed")
     m.set_defaults(func=run_modified)
 
 

@@ -27,7 +27,8 @@ def register(sub) -> None:
     p.add_argument("--text", action="store_true", help="print the text report")
     add_histogram_options(p)
     p.add_argument("--w-class-width", type=float, default=0.5, help="class width for w")
-    p.add_argument("--w-range", type=float, nargs=2, default=[-6.0, 6.0], metavar=("LO", "HI"))
+    p.add_argument("--w-range", type=float, nargs=2, default=[-6.0, 6.0], metavar=("LO", "HI"),
+                   help="centres of the first and last class of the w histogram")
     p.add_argument("--top", type=int, default=50,
                    help="snooping table: rows with the largest |w| shown besides every "
                    "rejected and flagged observation (default 50)")
@@ -40,7 +41,7 @@ def register(sub) -> None:
     p.add_argument("--vector-photos", type=int, default=12,
                    help="photos drawn with residual vectors (those with rejected or flagged "
                    "observations first)")
-    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=run)
 
 

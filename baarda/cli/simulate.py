@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from baarda.cli.common import add_flight_plan_arguments, open_run
+from baarda.cli.common import FOLDER_HELP, add_flight_plan_arguments, open_run
 from baarda.output.atomic import write_text
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -13,29 +13,37 @@ from baarda.simulate.aerial import FlightPlan, simulate_block
 
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="simulate an aerial block with known truth")
-    p.add_argument("-o", "--out", type=Path, required=True, help="project folder to write")
+    p.add_argument("-o", "--out", type=Path, required=True,
+                   help=FOLDER_HELP.format("project folder to write"))
     d = FlightPlan()
     add_flight_plan_arguments(p, d)
     p.add_argument("--neat-area", action="store_true",
                    help="points only between the outer nadir lines")
-    p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"])
+    p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"],
+                   help="control layout: XYZ points along the block border, at the four "
+                   "corners, or none")
     p.add_argument("--control-spacing", type=int, default=d.control_spacing,
                    help="perimeter control every k base lengths")
     p.add_argument("--height-chains", type=int, default=d.height_chains,
                    help="height control chains across the strips every k bases (0: none)")
-    p.add_argument("--twin-control", action="store_true")
-    p.add_argument("--check-points", type=int, default=d.check_points)
+    p.add_argument("--twin-control", action="store_true",
+                   help="each control point with a close companion (a blunder in one shows)")
+    p.add_argument("--check-points", type=int, default=d.check_points,
+                   help="check points (not used in the adjustment, compared with it)")
     p.add_argument("--relief", type=float, default=d.relief_m, help="terrain relief in m")
     p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
     p.add_argument("--sigma-control", type=float, nargs=3, default=list(d.sigma_control_m),
                    metavar=("X", "Y", "Z"), help="m")
-    p.add_argument("--no-noise", action="store_true")
-    p.add_argument("--blunders", type=int, default=0)
+    p.add_argument("--no-noise", action="store_true",
+                   help="error-free observations (for checks of the adjustment itself)")
+    p.add_argument("--blunders", type=int, default=0,
+                   help="gross errors planted (listed in truth.json)")
     p.add_argument("--blunder-size", type=float, nargs=2, default=list(d.blunder_sigma),
                    metavar=("MIN", "MAX"), help="in a-priori sigmas")
     p.add_argument("--blunder-kinds", default="x,y", help="comma list of x,y,X,Y,Z")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--name", default="simulated")
+    p.add_argument("--seed", type=int, default=0,
+                   help="random seed (the same seed gives the same project)")
+    p.add_argument("--name", default="simulated", help="project name")
     p.set_defaults(func=run)
 
 

@@ -56,3 +56,42 @@ def test_help_lists_commands(capsys):
     out = capsys.readouterr().out
     for cmd in ("adjust", "snoop", "simulate"):
         assert cmd in out
+
+
+def test_version(capsys):
+    from importlib.metadata import version
+
+    import pytest
+
+    with pytest.raises(SystemExit) as e:
+        main(["--version"])
+    assert e.value.code == 0
+    assert capsys.readouterr().out.strip() == f"baarda {version('baarda')}"
+
+
+def test_every_option_has_help_with_its_default():
+    """Every option of every command says what it does and, when it has one, its default."""
+    import argparse
+
+    from baarda.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    missing = []
+    for name, p in sub.choices.items():
+        text = p.format_help()
+        for a in p._actions:
+            if isinstance(a, argparse._HelpAction):
+                continue
+            flag = a.option_strings[0] if a.option_strings else a.dest
+            if not a.help:
+                missing.append(f"{name} {flag}: no help")
+                continue
+            d = a.default
+            meaningful = d not in (None, False, [], argparse.SUPPRESS) and not (
+                d is True and a.const is not None)
+            formatted = p._get_formatter()._get_help_string(a) if meaningful else a.help
+            if meaningful and "default" not in formatted:
+                missing.append(f"{name} {flag}: default {d!r} not shown")
+        assert "(default: " in text or name in ("online",), name
+    assert not missing, "\n".join(missing)
