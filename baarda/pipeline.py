@@ -38,6 +38,7 @@ from baarda.independent.model_hypotheses import UserHypotheses
 from baarda.independent.workflow import BlockQuality, process
 from baarda.io.formats import read_any
 from baarda.io.model_project import read_model_project
+from baarda.io.records import ENCODING
 from baarda.options import Progress, SolveOptions, TestOptions
 from baarda.quality.assessment import Assessment
 from baarda.screening.chain import ScreeningOptions, ScreeningResult, screen_and_snoop
@@ -46,16 +47,19 @@ from baarda.screening.chain import screen as screen_block
 
 def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          pixel_mm: float = 0.001, sigma_px: float = 1.0,
-         sigma_image_um: float | None = None, datum: str | None = None) -> Block:
+         sigma_image_um: float | None = None, datum: str | None = None,
+         encoding: str = ENCODING) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
     nominal pixel size [mm] and image sigma [px] of COLMAP and BAL inputs; sigma_image_um:
     image sigma of AICON inputs (default: the .phc file's); datum: "control" or "free"
-    (overrides the input's: see prepare).
+    (overrides the input's: see prepare); encoding: of the input's text files (default
+    UTF-8).
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
-                     sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3)
+                     sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
+                     encoding=encoding)
     if datum not in (None, "control", "free"):
         raise ValueError(f"datum '{datum}' is not one of control, free")
     if crs or datum:
@@ -156,14 +160,15 @@ def screen(block: Block, options: ScreeningOptions | None = None, *, snoop: bool
                                                           options.beta0))
 
 
-def read_models(path: str | Path, *, covariance: bool = False) -> ModelBlock:
+def read_models(path: str | Path, *, covariance: bool = False,
+                encoding: str = ENCODING) -> ModelBlock:
     """A model project (models.csv), or any photo block (a project or another program's
     input, read by `read`) formed into stereo models by relative orientation; covariance:
     keep the full covariance of each model point from its relative orientation."""
     path = Path(path)
     if path.is_dir() and (path / "models.csv").is_file():
-        return read_model_project(path)
-    block = with_approximations(localized(read(path)))
+        return read_model_project(path, encoding)
+    block = with_approximations(localized(read(path, encoding=encoding)))
     return form_models(block, covariance=covariance)
 
 

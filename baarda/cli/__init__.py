@@ -8,6 +8,7 @@ import importlib
 import sys
 
 from baarda.errors import GeometryError, ProjectError
+from baarda.output.run_folder import package_version
 
 COMMANDS = [
     "baarda.cli.adjust",
@@ -42,24 +43,13 @@ def build_parser() -> argparse.ArgumentParser:
         "data snooping and reliability.", epilog="exit codes: 0 success, 2 bad input (the "
         "message names the file, line and field, or the geometry), 3 not converged (results "
         "written and marked NOT CONVERGED), 130 interrupted (nothing written)")
-    parser.add_argument("--version", action="version", version=f"baarda {_version()}")
+    parser.add_argument("--version", action="version", version=f"baarda {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name in COMMANDS:
         importlib.import_module(name).register(sub)
     for p in sub.choices.values():
         p.formatter_class = Formatter
     return parser
-
-
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("baarda")
-    except PackageNotFoundError:  # pragma: no cover - a source tree without installation
-        from baarda import __version__
-
-        return __version__
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,6 +64,10 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.func(args) or 0)
     except (ProjectError, GeometryError) as e:
         print(f"baarda: error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # a file that cannot be read or written (disk full, permissions)
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"baarda: error: {where}{e.strerror or e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("\nbaarda: interrupted (nothing of this run was written)", file=sys.stderr)

@@ -54,6 +54,12 @@ def open_run(args, inputs: list[Path]) -> RunFolder:
     return RunFolder(args.out, [p for p in inputs if p is not None], command=command)
 
 
+def add_encoding_option(p) -> None:
+    p.add_argument("--encoding", default="utf-8", help="text encoding of the input files "
+                   "(e.g. cp1252 or latin-1 for files saved by older Windows programs; a "
+                   "UTF-8 byte-order mark is always accepted)")
+
+
 def add_flight_plan_arguments(p, d) -> None:
     """Options of a regular block shared by `simulate` and `plan` (defaults from FlightPlan d)."""
     p.add_argument("--strips", type=int, default=d.strips, help="number of strips")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from baarda.block.photo_block import Block
+from baarda.cli.common import add_encoding_option
 from baarda.io.formats import FORMATS
 from baarda.pipeline import read
 
@@ -18,6 +19,7 @@ def add_input_options(p) -> None:
                    "BAL input [px] (default 1)")
     p.add_argument("--sigma-image-um", type=float, help="image sigma for AICON input [µm] "
                    "(default: the .phc file's)")
+    add_encoding_option(p)
     p.add_argument("--free", action="store_true", help="adjust as a free network (datum by "
                    "minimal constraints; control points become check points). Default: "
                    "free for COLMAP, BAL and AICON input and for projects with datum = "
@@ -28,4 +30,4 @@ def read_input(args) -> Block:
     """baarda.pipeline.read with the command's input options."""
     return read(args.input, args.format, crs=args.crs, pixel_mm=args.pixel_mm,
                 sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
-                datum="free" if args.free else None)
+                datum="free" if args.free else None, encoding=args.encoding)

@@ -8,7 +8,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import FOLDER_HELP, NOT_CONVERGED, OK, open_run, progress, tests_option
+from baarda.cli.common import (
+    FOLDER_HELP,
+    NOT_CONVERGED,
+    OK,
+    add_encoding_option,
+    open_run,
+    progress,
+    tests_option,
+)
 from baarda.errors import ProjectError
 from baarda.independent.deformations import ALL
 
@@ -43,6 +51,7 @@ def register(sub) -> None:
     p.add_argument("--clusters", type=Path, help="clusters.csv (cluster, point): control "
                    "clusters to test")
     p.add_argument("--hypotheses", type=Path, help="hypotheses.csv: user-defined H")
+    add_encoding_option(p)
     p.add_argument("--covariance", action="store_true", help="bundle project: use the full "
                    "covariance of each model point from the relative orientation")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
@@ -86,7 +95,7 @@ def _adjust_models(args, run):
     from baarda.pipeline import adjust_models, read_models
 
     say = progress(args.quiet)
-    block = read_models(args.project, covariance=args.covariance)
+    block = read_models(args.project, covariance=args.covariance, encoding=args.encoding)
     if say:
         say(f"read {block.summary()}")
     if args.deformations == "all":

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from baarda.cli.common import (
     FOLDER_HELP,
+    add_encoding_option,
     add_flight_plan_arguments,
     open_run,
     progress,
@@ -27,6 +28,7 @@ def register(sub) -> None:
                    help=FOLDER_HELP.format("output folder"))
     p.add_argument("--project", type=Path, help="take the design (photos, points, stereo "
                    "models, control, weights) of this project instead of a flight plan")
+    add_encoding_option(p)
     p.add_argument("--adjusted", action="store_true", help="with --project: geometry from an "
                    "adjustment of the project (default: its approximate orientations)")
     add_flight_plan_arguments(p, d)
@@ -60,6 +62,7 @@ def register(sub) -> None:
     m = sub.add_parser("modified-snoop", help="Gruen's modified data snooping: approximate "
                        "sqrt(qvv) from a reliability table, exact values only where needed")
     m.add_argument("project", type=Path, help="project folder")
+    add_encoding_option(m)
     m.add_argument("-o", "--out", type=Path, required=True,
                    help=FOLDER_HELP.format("output folder"))
     m.add_argument("--table", default="baarda", help="'baarda' (our study table), 'gruen' "
@@ -108,7 +111,7 @@ def _plan(args, run) -> list:
     flight = None
     wi = None
     if args.project:
-        subject, layout = read_project(args.project), None
+        subject, layout = read_project(args.project, args.encoding), None
         title = f"design of project {args.project}"
     else:
         flight = _flight(args)
@@ -162,7 +165,7 @@ def _modified(args, run) -> str:
     say = progress(args.quiet)
     table = {"baarda": baarda_table, "gruen": gruen_table}.get(args.table)
     table = table() if table else read_table(args.table)
-    block = read_project(args.project)
+    block = read_project(args.project, args.encoding)
     res = adjust(block, progress=say)
     ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,
                         tests=tests_option(block.settings, args),

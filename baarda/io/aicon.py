@@ -33,7 +33,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
-from baarda.io.records import read_lines, to_numbers
+from baarda.io.records import ENCODING, read_lines, to_numbers
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
 
@@ -150,9 +150,10 @@ def is_aicon(path: str | Path) -> bool:
     return all((folder / f"{stem}.{e}").is_file() for e in ("ior", "eor", "obc", "phc"))
 
 
-def _table(path: Path, names: list[str], ints: tuple[str, ...] = ()) -> dict:
+def _table(path: Path, names: list[str], ints: tuple[str, ...] = (),
+           encoding: str = ENCODING) -> dict:
     rows, lines = [], []
-    for no, s in enumerate(read_lines(path), start=1):
+    for no, s in enumerate(read_lines(path, encoding), start=1):
         t = s.strip()
         if not t or t.startswith("#"):
             continue
@@ -174,8 +175,8 @@ def _table(path: Path, names: list[str], ints: tuple[str, ...] = ()) -> dict:
     return out
 
 
-def _read_ior(path: Path) -> dict:
-    lines = [(no, s.split()) for no, s in enumerate(read_lines(path), start=1)
+def _read_ior(path: Path, encoding: str = ENCODING) -> dict:
+    lines = [(no, s.split()) for no, s in enumerate(read_lines(path, encoding), start=1)
              if s.strip() and not s.lstrip().startswith("#")]
     if not lines or len(lines) % 5:
         raise ProjectError(str(path), f"expected 5 lines per camera, found {len(lines)} lines",
@@ -198,11 +199,11 @@ def _read_ior(path: Path) -> dict:
     return res
 
 
-def _read_scale(path: Path) -> dict:
+def _read_scale(path: Path, encoding: str = ENCODING) -> dict:
     out = {k: [] for k in ("id", "name", "a", "b", "length", "sigma", "status")}
     if not path.is_file():
         return {k: np.array(v) for k, v in out.items()}
-    for no, s in enumerate(read_lines(path), start=1):
+    for no, s in enumerate(read_lines(path, encoding), start=1):
         t = s.strip()
         if not t or t.startswith("#"):
             continue
@@ -224,17 +225,17 @@ def _read_scale(path: Path) -> dict:
     return {k: np.array(v) for k, v in out.items()}
 
 
-def read_aicon(path: str | Path) -> AiconProject:
-    """Read an AICON project given its folder or any of its files."""
+def read_aicon(path: str | Path, encoding: str = ENCODING) -> AiconProject:
+    """Read an AICON project given its folder or any of its files (text in `encoding`)."""
     folder, stem = _stem(Path(path))
     f = {e: folder / f"{stem}.{e}" for e in EXTENSIONS}
-    cams = _read_ior(f["ior"])
+    cams = _read_ior(f["ior"], encoding)
     images = _table(f["eor"], ["id", "camera", "X0", "Y0", "Z0", "omega", "phi", "kappa",
-                               "order", "status", "orient"], ints=("id", "camera"))
+                               "order", "status", "orient"], ("id", "camera"), encoding)
     points = _table(f["obc"], ["id", "X", "Y", "Z", "sX", "sY", "sZ", "rays", "status", "new",
-                               "datum"])
+                               "datum"], (), encoding)
     obs = _table(f["phc"], ["image", "point", "x", "y", "sx", "sy", "vx", "vy", "method",
-                            "status", "internal"], ints=("image",))
+                            "status", "internal"], ("image",), encoding)
     for what, t, key in (("image", images, "id"), ("point", points, "id")):
         u, first = np.unique(t[key], return_index=True)
         if len(u) != len(t[key]):
@@ -250,8 +251,8 @@ def read_aicon(path: str | Path) -> AiconProject:
     if len(bad):
         raise ProjectError(str(f["phc"]), "standard deviation must be positive",
                            int(obs["_lines"][bad[0]]), "sx")
-    scale = _read_scale(f["scale"])
-    lines = {e: read_lines(p) for e, p in f.items() if p.is_file()}
+    scale = _read_scale(f["scale"], encoding)
+    lines = {e: read_lines(p, encoding) for e, p in f.items() if p.is_file()}
     return AiconProject(stem, folder, cams, images, points, obs, scale, lines)
 
 

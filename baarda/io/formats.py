@@ -23,6 +23,7 @@ from baarda.io.colmap_block import read_colmap_block
 from baarda.io.dbat import is_dbat_script, read_dbat
 from baarda.io.photomodeler import is_photomodeler_export, read_photomodeler
 from baarda.io.project import read_project
+from baarda.io.records import ENCODING
 
 FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal")
 
@@ -57,26 +58,29 @@ def detect(path: str | Path) -> str:
 
 
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.001,
-             sigma_px: float = 1.0, sigma_image_mm: float | None = None) -> Block:
+             sigma_px: float = 1.0, sigma_image_mm: float | None = None,
+             encoding: str = ENCODING) -> Block:
     """Read any supported input into a Block.
 
     pixel_mm, sigma_px: nominal pixel size and image sigma for formats without a physical
-    pixel size (COLMAP, BAL); sigma_image_mm: image sigma for AICON (default: the file's).
+    pixel size (COLMAP, BAL); sigma_image_mm: image sigma for AICON (default: the file's);
+    encoding: of the text files of a project, AICON or PhotoModeler input (COLMAP and BAL
+    are UTF-8 / ASCII by definition, DBAT's XML names its own).
     """
     p = Path(path)
     fmt = fmt or detect(p)
     if fmt not in FORMATS:
         raise ProjectError(str(p), f"unknown format '{fmt}' (one of {', '.join(FORMATS)})")
     if fmt == "project":
-        return read_project(p)
+        return read_project(p, encoding)
     if fmt == "colmap":
         folder = _colmap_folder(p) or p
         return read_colmap_block(folder, pixel_mm=pixel_mm, sigma_px=sigma_px,
                                  name=p.name)
     if fmt == "aicon":
-        return read_aicon(p).to_block(sigma_image_mm=sigma_image_mm)
+        return read_aicon(p, encoding).to_block(sigma_image_mm=sigma_image_mm)
     if fmt == "dbat":
         return read_dbat(p)
     if fmt == "photomodeler":
-        return read_photomodeler(p)
+        return read_photomodeler(p, encoding)
     return read_bal_block(p, pixel_mm=pixel_mm, sigma_px=sigma_px)

@@ -22,6 +22,7 @@ import numpy as np
 from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.errors import ProjectError
 from baarda.io.project import load_toml, read_ground_points
+from baarda.io.records import ENCODING
 from baarda.io.table import Table
 
 
@@ -32,10 +33,10 @@ def _positive(values, name: str) -> tuple[float, ...]:
     return vals
 
 
-def read_settings(path: Path) -> ModelSettings:
+def read_settings(path: Path, encoding: str = ENCODING) -> ModelSettings:
     """Read project.toml of a model project (missing keys take FOTEF's defaults)."""
     s = ModelSettings()
-    doc, s.angle_unit = load_toml(path, s.angle_unit)
+    doc, s.angle_unit = load_toml(path, s.angle_unit, encoding)
     s.name = str(doc.get("name", path.parent.name))
     sig = doc.get("sigma", {})
     tests = doc.get("tests", {})
@@ -88,9 +89,10 @@ def _sigmas(t: Table, settings: ModelSettings) -> np.ndarray:
     return out
 
 
-def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[str]):
+def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[str],
+                           encoding: str = ENCODING):
     """Rows of models.csv; new point ids are appended to `point_ids` (tie points)."""
-    t = Table(path, ["model", "point", "x_mm", "y_mm", "z_mm"])
+    t = Table(path, ["model", "point", "x_mm", "y_mm", "z_mm"], encoding)
     if len(t) == 0:
         raise ProjectError(t.path, "no model coordinates")
     model_names = t.text("model")
@@ -170,19 +172,21 @@ def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[
     return models, strip, ids, pc, obs_model, obs_point, xyz, sig, cov, t
 
 
-def read_model_project(folder: str | Path) -> ModelBlock:
-    """Read a model project folder (project.toml, models.csv, ground_points.csv)."""
+def read_model_project(folder: str | Path, encoding: str = ENCODING) -> ModelBlock:
+    """Read a model project folder (project.toml, models.csv, ground_points.csv); encoding:
+    of its text files (default UTF-8)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ProjectError(str(folder), "not a project folder")
-    settings = read_settings(folder / "project.toml")
+    settings = read_settings(folder / "project.toml", encoding)
     gpath = folder / "ground_points.csv"
     if gpath.is_file():
-        gids, gxyz, gsig, grole, _ = read_ground_points(gpath, settings.sigma_control_m)
+        gids, gxyz, gsig, grole, _ = read_ground_points(gpath, settings.sigma_control_m,
+                                                        encoding)
     else:
         gids, gxyz, gsig, grole = [], np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, object)
     (models, strip, ids, pc, om, op, oxyz, osig, cov,
-     t) = read_model_coordinates(folder / "models.csv", settings, list(gids))
+     t) = read_model_coordinates(folder / "models.csv", settings, list(gids), encoding)
     n_new = len(ids) - len(gids)
     xyz = np.vstack([gxyz, np.full((n_new, 3), np.nan)])
     sigma = np.vstack([gsig, np.full((n_new, 3), np.nan)])

@@ -41,7 +41,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
-from baarda.io.records import first_appearance, parse_number, read_lines
+from baarda.io.records import ENCODING, first_appearance, parse_number, read_lines
 
 
 def is_photomodeler_export(path: str | Path) -> bool:
@@ -72,10 +72,10 @@ def _section(lines: list[str], i: int, path: str, width: int, what: str):
     return np.asarray(rows, float).reshape(-1, width), nos, i + 1
 
 
-def read_photomodeler(path: str | Path) -> Block:
+def read_photomodeler(path: str | Path, encoding: str = ENCODING) -> Block:
     """Read a PhotoModeler export into a Block (see the module docstring)."""
     spath = str(path)
-    lines = read_lines(path)
+    lines = read_lines(path, encoding)
     if len(lines) < 6 or not lines[0].strip().lower().startswith("bundle soln"):
         raise ProjectError(spath, "not a PhotoModeler export (first line 'Bundle Soln')", 1)
     head = _nums(lines[1], spath, 2, "tolerance line", at_least=2)

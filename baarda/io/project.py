@@ -23,18 +23,19 @@ from baarda.block.photo_block import (
 )
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad
 from baarda.errors import ProjectError
+from baarda.io.records import ENCODING, decode_text
 from baarda.io.table import Table
 
 FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
 
 
-def load_toml(path: Path, default_unit: str = "gon") -> tuple[dict, str]:
+def load_toml(path: Path, default_unit: str = "gon",
+              encoding: str = ENCODING) -> tuple[dict, str]:
     """project.toml as a dict and its checked angle unit; errors name the file."""
     if not path.is_file():
         raise ProjectError(str(path), "file not found (a project folder needs project.toml)")
     try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
+        doc = tomllib.loads(decode_text(path.read_bytes(), str(path), encoding))
     except tomllib.TOMLDecodeError as e:
         raise ProjectError(str(path), f"not valid TOML: {e}") from None
     unit = str(doc.get("angle_unit", default_unit))
@@ -47,10 +48,10 @@ def load_toml(path: Path, default_unit: str = "gon") -> tuple[dict, str]:
 DATUMS = ("control", "free")
 
 
-def _settings(path: Path) -> tuple[Settings, dict]:
+def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     """The settings of project.toml and the document (to tell given from default values)."""
     s = Settings()
-    doc, s.angle_unit = load_toml(path, s.angle_unit)
+    doc, s.angle_unit = load_toml(path, s.angle_unit, encoding)
     s.name = str(doc.get("name", path.parent.name))
     unit = str(doc.get("image_unit", "mm"))
     if unit != "mm":
@@ -81,12 +82,12 @@ def _settings(path: Path) -> tuple[Settings, dict]:
     return s, doc
 
 
-def read_ground_points(path: Path, sigma_control_m) -> tuple[list[str], np.ndarray,
-                                                             np.ndarray, np.ndarray, Table]:
+def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
+                       ) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray, Table]:
     """ground_points.csv of a project or a model project: ids, xyz (k, 3), sigma (k, 3) [m]
     (NaN = not observed; the default sigma_control_m where the columns are missing), role
     (k,) and the table (for line numbers)."""
-    g = Table(path, ["point", "X", "Y", "Z", "role"])
+    g = Table(path, ["point", "X", "Y", "Z", "role"], encoding)
     ids = [str(p) for p in g.unique_ids("point")]
     role = g.text("role")
     for i, r in enumerate(role):
@@ -120,15 +121,16 @@ def read_ground_points(path: Path, sigma_control_m) -> tuple[list[str], np.ndarr
     return ids, xyz, sig, role.astype(object), g
 
 
-def read_project(folder: str | Path) -> Block:
-    """Read and validate a project folder; see docs/format.md."""
+def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
+    """Read and validate a project folder; see docs/format.md.  encoding: of its text
+    files (default UTF-8, with or without a byte-order mark)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ProjectError(str(folder), "not a project folder")
-    settings, doc = _settings(folder / "project.toml")
+    settings, doc = _settings(folder / "project.toml", encoding)
     notes: list[str] = []
 
-    t = Table(folder / "cameras.csv", ["camera", "focal_mm", "x0_mm", "y0_mm"])
+    t = Table(folder / "cameras.csv", ["camera", "focal_mm", "x0_mm", "y0_mm"], encoding)
     cam_ids = t.unique_ids("camera")
     focal = t.numbers("focal_mm")
     bad = np.flatnonzero(focal <= 0)
@@ -149,7 +151,7 @@ def read_project(folder: str | Path) -> Block:
         raise ProjectError(t.path, "no cameras")
 
     t = Table(folder / "photos.csv",
-              ["photo", "camera", "strip", "X0", "Y0", "Z0", "omega", "phi", "kappa"])
+              ["photo", "camera", "strip", "X0", "Y0", "Z0", "omega", "phi", "kappa"], encoding)
     photo_ids = t.unique_ids("photo")
     cam = t.lookup("camera", {c: i for i, c in enumerate(cam_ids)}, "camera")
     eo_cols = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
@@ -165,9 +167,9 @@ def read_project(folder: str | Path) -> Block:
         raise ProjectError(t.path, "no photos")
 
     gids, gxyz, gsig, role, g = read_ground_points(folder / "ground_points.csv",
-                                                   settings.sigma_control_m)
+                                                   settings.sigma_control_m, encoding)
 
-    t = Table(folder / "image_points.csv", ["photo", "point", "x_mm", "y_mm"])
+    t = Table(folder / "image_points.csv", ["photo", "point", "x_mm", "y_mm"], encoding)
     if len(t) == 0:
         raise ProjectError(t.path, "no image points (the file holds only its header)")
     photo = t.lookup("photo", {p: i for i, p in enumerate(photo_ids)}, "photo")

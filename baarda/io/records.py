@@ -15,18 +15,32 @@ import numpy as np
 
 from baarda.errors import ProjectError
 
+ENCODING = "utf-8"  # of every text input unless the user names another (--encoding)
 
-def decode_text(data: bytes, path: str, encoding: str = "utf-8-sig") -> str:
-    """`data` as text; ProjectError naming the line and the byte that is not `encoding`."""
+
+def is_utf8(encoding: str) -> bool:
+    return encoding.lower().replace("_", "-") in ("utf-8", "utf8", "utf-8-sig")
+
+
+def decode_text(data: bytes, path: str, encoding: str = ENCODING) -> str:
+    """`data` as text (a UTF-8 byte-order mark is dropped); ProjectError naming the line and
+    the byte that is not `encoding`, or the encoding that Python does not know."""
+    if is_utf8(encoding):
+        encoding = "utf-8-sig"
     try:
         return data.decode(encoding)
+    except LookupError:
+        raise ProjectError(path, f"unknown text encoding '{encoding}' (e.g. utf-8, cp1252, "
+                           "latin-1)") from None
     except UnicodeDecodeError as e:
         line = data.count(b"\n", 0, e.start) + 1
-        raise ProjectError(path, f"not {encoding.replace('-sig', '')} text: byte "
-                           f"0x{data[e.start]:02x} (save the file as UTF-8)", line) from None
+        name = encoding.replace("-sig", "")
+        raise ProjectError(path, f"not {name} text: byte 0x{data[e.start]:02x} (save the "
+                           "file as UTF-8, or name its encoding, e.g. --encoding cp1252)",
+                           line) from None
 
 
-def read_lines(path: str | Path, encoding: str = "utf-8-sig") -> list[str]:
+def read_lines(path: str | Path, encoding: str = ENCODING) -> list[str]:
     """Lines of a text file without line ends (CRLF or LF); ProjectError if unreadable."""
     p = Path(path)
     if not p.is_file():

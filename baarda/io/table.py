@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import Columns, decode_text
+from baarda.io.records import ENCODING, Columns, decode_text, is_utf8
 
 # quotes, blanks, comments, CR, blank lines, lines that start with a comma (or consist of
 # commas): the line-by-line reader
@@ -29,7 +29,7 @@ MAX_FIELDS_FACTOR = 4  # a line with more than this many times the header's fiel
 class Table(Columns):
     """Columns of a CSV file as string arrays, with line numbers."""
 
-    def __init__(self, path: str | Path, required: list[str]):
+    def __init__(self, path: str | Path, required: list[str], encoding: str = ENCODING):
         self.path = str(path)
         p = Path(path)
         if not p.is_file():
@@ -37,6 +37,8 @@ class Table(Columns):
         data = p.read_bytes()
         if data.startswith(b"\xef\xbb\xbf"):
             data = data[3:]
+        if not is_utf8(encoding):  # the readers below take UTF-8
+            data = decode_text(data, self.path, encoding).encode("utf-8")
         self._arrow = None
         if plain(data):
             self._arrow = _read_arrow(data)

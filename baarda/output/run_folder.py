@@ -39,7 +39,8 @@ def new_run_id() -> str:
     return f"{datetime.now(UTC):%Y%m%dT%H%M%SZ}-{secrets.token_hex(3)}"
 
 
-def _version() -> str:
+def package_version() -> str:
+    """The installed version of baarda."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:
@@ -155,7 +156,7 @@ class RunFolder:
         for f in sorted(self.path.rglob("*")):
             if f.is_file():
                 files[f.relative_to(self.path).as_posix()] = file_record(f)
-        manifest = {"run": self.run_id, "baarda": _version(),
+        manifest = {"run": self.run_id, "baarda": package_version(),
                     "started": self.started.isoformat(timespec="seconds"),
                     "finished": datetime.now(UTC).isoformat(timespec="seconds"),
                     "command": self.command, "files": files}
