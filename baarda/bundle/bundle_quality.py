@@ -56,5 +56,6 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
                      f"{int(rob.rejected.sum())} component(s) down-weighted to rejection")
     run = iterative_snooping(first, tests, active=active, statistic=statistic,
                              by_group=by_point, max_iterations=max_iterations,
+                             started_by="Danish method" if robust else "",
                              progress=progress)
     return Assessment(run.model.result, run.model, run.quality, run)

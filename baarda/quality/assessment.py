@@ -176,12 +176,19 @@ class Assessment:
             "n_flagged": int(np.sum(q.flagged)),
             "n_uncontrolled": int(np.sum(q.active & ~q.controlled)),
             "rejection_log": [] if self.run is None else
-            [dict(s.to_dict(), adjustment=self.name) for s in self.run.log],
+            [self._log_entry(s) for s in self.run.log],
             "snooping_converged": None if self.run is None else self.run.converged,
             "hypotheses": [{"name": t.name, "q": t.q, "statistic": t.statistic,
                             "critical": t.critical, "rejected": t.rejected,
                             "nabla": np.atleast_1d(t.nabla).tolist()} for t in self.hypotheses],
         }
+
+    def _log_entry(self, step) -> dict:
+        """A snooping step for summary.json, its MDB in the units of observations.csv
+        (image and model coordinates µm, control m)."""
+        scale, unit = self.model.units.get(str(self.model.kind[step.rows[0]]), (1.0, ""))
+        return dict(step.to_dict(), mdb=step.mdb * scale, mdb_unit=unit,
+                    adjustment=self.name)
 
     def to_dict(self) -> dict:
         """summary.json of this adjustment: the adjustment's fields, then the statistics';

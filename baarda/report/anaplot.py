@@ -90,24 +90,38 @@ def format_log(summary: dict) -> str:
     if not log:
         return "no observation rejected" if summary.get("snooping_converged") is not None \
             else "no data snooping run (baarda adjust without --snoop)"
-    lines = [f"{'step':>4}  {'action':<8}{'sigma0':>8}{'w':>8}{'MDB':>10}  observation"]
+    lines = [f"{'step':>4}  {'action':<8}{'sigma0':>8}{'test':>6}{'value':>8}{'MDB':>10}  "
+             "observation"]
     for s in log:
         obs = "; ".join(s.get("observations", []))
         mdb, unit = log_mdb(s)
+        test, value = log_test(s)
         lines.append(f"{s.get('iteration', ''):>4}  {s.get('action', ''):<8}"
-                     f"{s.get('sigma0', np.nan):8.3f}{s.get('w', np.nan):8.2f}"
+                     f"{s.get('sigma0', np.nan):8.3f}{test:>6}{value:8.2f}"
                      f"{mdb:>10} {unit:<3} {obs}")
     if summary.get("snooping_converged") is False:
         lines.append("snooping did NOT converge (iteration limit)")
     return "\n".join(lines)
 
 
+def log_test(step: dict) -> tuple[str, float]:
+    """(test, value) of a log step: w or tau, or the method that rejected before snooping
+    (with the component's w); folders of earlier versions have only 'w'."""
+    stat = step.get("statistic", "w")
+    value = step.get("value", step.get("w", np.nan))
+    return (stat if stat in ("w", "tau") else "robust"), float(value)
+
+
 def log_mdb(step: dict) -> tuple[str, str]:
-    """MDB of a log step in report units (the log stores model units: image mm, control m)."""
+    """MDB of a log step in report units (image µm, control m; folders of earlier versions
+    stored model units: image mm)."""
     mdb = step.get("mdb")
     obs = step.get("observations") or [""]
     if mdb is None or not np.isfinite(mdb):
         return "-", ""
+    if "mdb_unit" in step:
+        unit = step["mdb_unit"]
+        return (f"{mdb:.3f}" if unit == "m" else f"{mdb:.1f}" if unit else f"{mdb:.4g}"), unit
     if obs[0].startswith("image"):
         return f"{mdb * 1e3:.1f}", "µm"
     if obs[0].startswith("control"):

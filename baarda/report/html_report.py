@@ -15,7 +15,7 @@ import pandas as pd
 
 from baarda.output.result_folder import Results
 from baarda.report import maps
-from baarda.report.anaplot import format_log, log_mdb, snooping_table
+from baarda.report.anaplot import format_log, log_mdb, log_test, snooping_table
 from baarda.report.footprint import footprints, image_extent
 from baarda.report.histogram import format_histogram
 from baarda.report.plots import Plot, residual_histograms, w_histogram
@@ -123,14 +123,15 @@ def _log_table(summary: dict) -> str:
     rows = []
     for s in log:
         mdb, unit = log_mdb(s)
+        test, value = log_test(s)
         rows.append({"step": s.get("iteration"), "action": s.get("action"),
                      "observation": "; ".join(s.get("observations", [])),
-                     "w": s.get("w", np.nan), "MDB": f"{mdb} {unit}",
+                     "test": test, "value": value, "MDB": f"{mdb} {unit}",
                      "sigma0 before": s.get("sigma0", np.nan)})
     conv = summary.get("snooping_converged")
     tail = "" if conv is not False else '<p class="bad">snooping did not converge</p>'
-    return table(pd.DataFrame(rows), {"w": ".2f", "sigma0 before": ".3f"},
-                 text_cols=("action", "observation"), attrs='id="snooping-log"') + tail
+    return table(pd.DataFrame(rows), {"value": ".2f", "sigma0 before": ".3f"},
+                 text_cols=("action", "test", "observation"), attrs='id="snooping-log"') + tail
 
 
 def _group_table(res: Results) -> str:
