@@ -74,6 +74,8 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
                     name: str = "colmap", source: str = "") -> Block:
     """Block of a COLMAP model: photos = images (EO from the poses), tie points = points3D
     (both in model order); image points = the keypoints with a 3D point, image by image."""
+    from baarda.io import colmap_kernels as ck  # numba, loaded only for COLMAP models
+
     im, pt = model.images, model.points
     if not len(im) or not len(pt):
         raise ProjectError(source or name, "the model has no images or no 3D points")
@@ -90,19 +92,17 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
                  len(names) else [str(i) for i in im.ids.tolist()])
     eo = np.array([pose_to_eo(q, t) for q, t in zip(im.qvec, im.tvec, strict=True)])
     # keypoints with a 3D point; a point repeated in one image keeps its first keypoint
-    sel = np.flatnonzero(im.point3D_ids != -1)
-    photo = im.image_of_keypoint()[sel]
-    pids = im.point3D_ids[sel]
-    order = np.lexsort((sel, pids, photo))
-    again = np.zeros(len(sel), bool)
-    again[order[1:]] = ((photo[order[1:]] == photo[order[:-1]]) &
-                        (pids[order[1:]] == pids[order[:-1]]))
-    dropped = [f"{p} in {names[k]}" for p, k in zip(pids[again].tolist(),
-                                                     photo[again].tolist(), strict=True)]
-    sel, photo, pids = sel[~again], photo[~again], pids[~again]
-    point = pt.rows(pids)
-    if np.any(point < 0):
-        raise ProjectError(source or name, f"unknown 3D point {pids[np.argmax(point < 0)]}")
+    has = im.point3D_ids != -1
+    rows = np.where(has, pt.rows(im.point3D_ids), -1)
+    unknown = has & (rows < 0)
+    if unknown.any():
+        raise ProjectError(source or name, f"unknown 3D point {im.point3D_ids[unknown][0]}")
+    again = ck.repeated_in_image(im.offsets, rows, len(pt))
+    photo_of = im.image_of_keypoint()
+    dropped = [f"{p} in {names[k]}" for p, k in zip(im.point3D_ids[again].tolist(),
+                                                     photo_of[again].tolist(), strict=True)]
+    sel = np.flatnonzero((rows >= 0) & ~again)
+    photo, point = photo_of[sel], rows[sel]
     cam = cam_of_image[photo]
     width = np.array([model.cameras[c].width for c in cam_ids], float)[cam]
     height = np.array([model.cameras[c].height for c in cam_ids], float)[cam]

@@ -258,3 +258,20 @@ def interleave(a, a_off, b, b_off):
         out[o:o + ln] = b[b_off[k]:b_off[k + 1]]
         o += ln
     return out
+
+
+@njit(cache=True)
+def repeated_in_image(offsets, rows, n_rows):
+    """(K,) True for a keypoint whose point row (rows >= 0) an earlier keypoint of the same
+    image already has; the keypoints of image k are offsets[k]:offsets[k + 1]."""
+    out = np.zeros(len(rows), np.bool_)
+    last = np.full(n_rows, -1, np.int64)  # the last image that saw each point row
+    for k in range(len(offsets) - 1):
+        for e in range(offsets[k], offsets[k + 1]):
+            r = rows[e]
+            if r >= 0:
+                if last[r] == k:
+                    out[e] = True
+                else:
+                    last[r] = k
+    return out

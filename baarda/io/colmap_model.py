@@ -27,6 +27,12 @@ def lookup(ids: np.ndarray, wanted: np.ndarray) -> np.ndarray:
     wanted = np.asarray(wanted, np.int64)
     if not len(ids):
         return np.full(wanted.shape, -1, np.int64)
+    lo, hi = int(ids.min()), int(ids.max())
+    if hi - lo <= 4 * len(ids) + 1024:  # compact ids (COLMAP's are 1..n): a table
+        table = np.full(hi - lo + 1, -1, np.int64)
+        table[ids - lo] = np.arange(len(ids))
+        inside = (wanted >= lo) & (wanted <= hi)
+        return np.where(inside, table[np.where(inside, wanted - lo, 0)], -1)
     order = np.argsort(ids, kind="stable")
     srt = ids[order]
     pos = np.minimum(np.searchsorted(srt, wanted), len(srt) - 1)
