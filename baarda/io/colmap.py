@@ -133,15 +133,16 @@ def _check(model: ColmapModel, ifile: Path, pfile: Path) -> None:
         _, ids = im.keypoints(k)
         bad = ids[(ids != -1) & (pt.rows(ids) < 0)]
         raise ProjectError(str(ifile), f"image {im.ids[k]} refers to unknown 3D point {bad[0]}")
+    # track elements: image known, keypoint index inside it, keypoint refers to the point
+    wrong = np.ones(len(pt.image_ids), bool)
     row = im.rows(pt.image_ids)
-    idx = pt.point2D_idxs
-    count = im.keypoint_counts[row]
-    ok = (row >= 0) & (idx >= 0) & (idx < count)
-    back = np.full(len(idx), -2, np.int64)
-    back[ok] = pid[im.offsets[row[ok]] + idx[ok]]
-    wrong = np.flatnonzero(back != np.repeat(pt.ids, pt.track_lengths))
-    if len(wrong):
-        e = wrong[0]
+    e = np.flatnonzero(row >= 0)
+    row, idx = row[e], pt.point2D_idxs[e]
+    inside = (idx >= 0) & (idx < im.keypoint_counts[row])
+    e, row, idx = e[inside], row[inside], idx[inside]
+    wrong[e] = pid[im.offsets[row] + idx] != np.repeat(pt.ids, pt.track_lengths)[e]
+    if wrong.any():
+        e = int(np.argmax(wrong))
         j = int(np.searchsorted(pt.offsets, e, side="right")) - 1
         raise ProjectError(str(pfile), f"point {pt.ids[j]}: track element ({pt.image_ids[e]}, "
-                           f"{idx[e]}) does not point back to this point")
+                           f"{pt.point2D_idxs[e]}) does not point back to this point")
