@@ -1,9 +1,11 @@
 """COLMAP sparse models: cameras, images, points3D in text (.txt) or binary (.bin) form.
 
-`read_colmap(folder)` returns a `ColmapModel` that holds the files faithfully (ids, camera
-models and parameters, poses, all 2D keypoints, tracks, colours, errors), so that
-`write_colmap` writes them back unchanged (round trip).  The conversion to and from a
-baarda Block (conventions below) is in colmap_block.py.
+`read_colmap(folder)` returns a `ColmapModel` (colmap_model.py: images and points as
+arrays) that holds the files faithfully (ids, camera models and parameters, poses, all 2D
+keypoints, tracks, colours, errors), so that `write_colmap` writes them back unchanged
+(round trip).  The files are read by colmap_text.py and colmap_binary.py; `read_colmap`
+then checks that the three files agree.  The conversion to and from a baarda Block
+(conventions below) is in colmap_block.py.
 
 Conventions (https://colmap.github.io/format.html) and their conversion:
 
@@ -24,56 +26,28 @@ Conventions (https://colmap.github.io/format.html) and their conversion:
 
 from __future__ import annotations
 
-import struct
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import is_number, parse_number, read_lines
+from baarda.io.colmap_binary import read_cameras_bin, read_images_bin, read_points_bin
+from baarda.io.colmap_model import (
+    FILES,
+    MODEL_ID,
+    MODELS,
+    ColmapCamera,
+    ColmapImages,
+    ColmapModel,
+    ColmapPoints,
+    first_repeated,
+    lookup,
+)
+from baarda.io.colmap_text import read_cameras_txt, read_images_txt, read_points_txt
 
-# model id -> (name, number of parameters)
-MODELS = {0: ("SIMPLE_PINHOLE", 3), 1: ("PINHOLE", 4), 2: ("SIMPLE_RADIAL", 4),
-          3: ("RADIAL", 5), 4: ("OPENCV", 8), 5: ("OPENCV_FISHEYE", 8), 6: ("FULL_OPENCV", 12),
-          7: ("FOV", 5), 8: ("SIMPLE_RADIAL_FISHEYE", 4), 9: ("RADIAL_FISHEYE", 5),
-          10: ("THIN_PRISM_FISHEYE", 12), 11: ("RAD_TAN_THIN_PRISM_FISHEYE", 16)}
-MODEL_ID = {name: (i, n) for i, (name, n) in MODELS.items()}
-FILES = ("cameras", "images", "points3D")
-
-
-@dataclass
-class ColmapCamera:
-    model: str
-    width: int
-    height: int
-    params: np.ndarray
-
-
-@dataclass
-class ColmapImage:
-    qvec: np.ndarray  # (4,) qw, qx, qy, qz
-    tvec: np.ndarray  # (3,)
-    camera_id: int
-    name: str
-    xys: np.ndarray  # (k, 2) pixels
-    point3D_ids: np.ndarray  # (k,) int64, -1 = none
-
-
-@dataclass
-class ColmapPoint:
-    xyz: np.ndarray
-    rgb: np.ndarray  # (3,) uint8
-    error: float
-    image_ids: np.ndarray  # (n,) int64
-    point2D_idxs: np.ndarray  # (n,) int64
-
-
-@dataclass
-class ColmapModel:
-    cameras: dict[int, ColmapCamera] = field(default_factory=dict)
-    images: dict[int, ColmapImage] = field(default_factory=dict)
-    points3D: dict[int, ColmapPoint] = field(default_factory=dict)
+__all__ = ["FILES", "MODELS", "MODEL_ID", "ColmapCamera", "ColmapImages", "ColmapModel",
+           "ColmapPoints", "is_colmap_model", "matrix_to_qvec", "qvec_to_matrix",
+           "read_colmap"]
 
 
 # ----------------------------------------------------------------- rotations
@@ -107,186 +81,6 @@ def matrix_to_qvec(r: np.ndarray) -> np.ndarray:
     return q if q[0] >= 0 else -q
 
 
-# ----------------------------------------------------------------- text files
-def _data_lines(path: Path) -> list[tuple[int, str]]:
-    return [(i, s) for i, s in enumerate(read_lines(path), start=1)
-            if s.strip() and not s.lstrip().startswith("#")]
-
-
-def _floats(values, names, path: Path, line: int) -> np.ndarray:
-    """Finite numbers of the fields `names` of one line."""
-    return np.array([parse_number(v, str(path), line, c)
-                     for v, c in zip(values, names, strict=True)])
-
-
-def _int(s: str, path: Path, line: int, what: str) -> int:
-    try:
-        return int(s)
-    except ValueError:
-        raise ProjectError(str(path), f"'{s}' is not an integer", line, what) from None
-
-
-def _read_cameras_txt(path: Path) -> dict[int, ColmapCamera]:
-    out = {}
-    for no, s in _data_lines(path):
-        p = s.split()
-        if len(p) < 4:
-            raise ProjectError(str(path), "expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]", no)
-        cid = _int(p[0], path, no, "CAMERA_ID")
-        if p[1] not in MODEL_ID:
-            raise ProjectError(str(path), f"unknown camera model '{p[1]}'", no, "MODEL")
-        n = MODEL_ID[p[1]][1]
-        if len(p) != 4 + n:
-            raise ProjectError(str(path), f"{p[1]} has {n} parameters, found {len(p) - 4}", no,
-                               "PARAMS")
-        if cid in out:
-            raise ProjectError(str(path), f"duplicate camera id {cid}", no, "CAMERA_ID")
-        out[cid] = ColmapCamera(p[1], _int(p[2], path, no, "WIDTH"),
-                                _int(p[3], path, no, "HEIGHT"),
-                                _floats(p[4:], ["PARAMS"] * len(p[4:]), path, no))
-    return out
-
-
-def _read_images_txt(path: Path) -> dict[int, ColmapImage]:
-    raw = read_lines(path)
-    out = {}
-    i = 0
-    while i < len(raw):
-        s = raw[i]
-        if not s.strip() or s.lstrip().startswith("#"):
-            i += 1
-            continue
-        no = i + 1
-        p = s.split(maxsplit=9)
-        if len(p) < 10:
-            raise ProjectError(str(path), "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID "
-                               "NAME", no)
-        iid = _int(p[0], path, no, "IMAGE_ID")
-        q = _floats(p[1:5], ("QW", "QX", "QY", "QZ"), path, no)
-        t = _floats(p[5:8], ("TX", "TY", "TZ"), path, no)
-        cid = _int(p[8], path, no, "CAMERA_ID")
-        pts = raw[i + 1].split() if i + 1 < len(raw) else []
-        if len(pts) % 3:
-            raise ProjectError(str(path), "POINTS2D must be triples (X, Y, POINT3D_ID)", no + 1,
-                               "POINTS2D")
-        arr = np.array(pts, dtype=object).reshape(-1, 3)
-        try:
-            xys = arr[:, :2].astype(float)
-            ids = arr[:, 2].astype(np.int64)
-        except ValueError:
-            bad = next(v for v in pts if not is_number(v))
-            raise ProjectError(str(path), f"'{bad}' is not a number", no + 1,
-                               "POINTS2D") from None
-        if iid in out:
-            raise ProjectError(str(path), f"duplicate image id {iid}", no, "IMAGE_ID")
-        out[iid] = ColmapImage(q, t, cid, p[9].strip(), xys.reshape(-1, 2), ids)
-        i += 2
-    return out
-
-
-def _read_points_txt(path: Path) -> dict[int, ColmapPoint]:
-    out = {}
-    for no, s in _data_lines(path):
-        p = s.split()
-        if len(p) < 8 or (len(p) - 8) % 2:
-            raise ProjectError(str(path), "expected POINT3D_ID X Y Z R G B ERROR and (IMAGE_ID, "
-                               "POINT2D_IDX) pairs", no)
-        pid = _int(p[0], path, no, "POINT3D_ID")
-        xyz = _floats(p[1:4], "XYZ", path, no)
-        rgb = np.array([_int(v, path, no, c) for v, c in zip(p[4:7], "RGB", strict=True)])
-        if np.any((rgb < 0) | (rgb > 255)):
-            raise ProjectError(str(path), "colour outside 0..255", no, "RGB")
-        err = parse_number(p[7], str(path), no, "ERROR")
-        track = np.array([_int(v, path, no, "TRACK") for v in p[8:]], dtype=np.int64)
-        if pid in out:
-            raise ProjectError(str(path), f"duplicate point id {pid}", no, "POINT3D_ID")
-        out[pid] = ColmapPoint(xyz, rgb.astype(np.uint8), err, track[0::2], track[1::2])
-    return out
-
-
-# --------------------------------------------------------------- binary files
-class _Reader:
-    def __init__(self, path: Path):
-        if not path.is_file():
-            raise ProjectError(str(path), "file not found")
-        self.path, self.data, self.pos = path, path.read_bytes(), 0
-
-    def take(self, fmt: str, what: str):
-        size = struct.calcsize(fmt)
-        if self.pos + size > len(self.data):
-            raise ProjectError(str(self.path), f"file ends inside {what} (byte {self.pos})")
-        out = struct.unpack_from(fmt, self.data, self.pos)
-        self.pos += size
-        return out
-
-    def array(self, dtype: str, count: int, what: str) -> np.ndarray:
-        dt = np.dtype(dtype)
-        size = dt.itemsize * count
-        if count < 0 or self.pos + size > len(self.data):
-            raise ProjectError(str(self.path), f"file ends inside {what} (byte {self.pos})")
-        out = np.frombuffer(self.data, dt, count, self.pos).copy()
-        self.pos += size
-        return out
-
-    def string(self, what: str) -> str:
-        end = self.data.find(b"\0", self.pos)
-        if end < 0:
-            raise ProjectError(str(self.path), f"unterminated {what} (byte {self.pos})")
-        s = self.data[self.pos:end].decode("utf-8", "replace")
-        self.pos = end + 1
-        return s
-
-    def done(self) -> None:
-        if self.pos != len(self.data):
-            raise ProjectError(str(self.path), f"{len(self.data) - self.pos} bytes after the "
-                               "last record")
-
-
-def _read_cameras_bin(path: Path) -> dict[int, ColmapCamera]:
-    r = _Reader(path)
-    (n,) = r.take("<Q", "the camera count")
-    out = {}
-    for k in range(n):
-        cid, mid, w, h = r.take("<iiQQ", f"camera {k}")
-        if mid not in MODELS:
-            raise ProjectError(str(path), f"camera {cid}: unknown model id {mid}")
-        name, npar = MODELS[mid]
-        out[cid] = ColmapCamera(name, int(w), int(h), r.array("<f8", npar, f"camera {cid}"))
-    r.done()
-    return out
-
-
-def _read_images_bin(path: Path) -> dict[int, ColmapImage]:
-    r = _Reader(path)
-    (n,) = r.take("<Q", "the image count")
-    out = {}
-    for k in range(n):
-        vals = r.take("<I7dI", f"image {k}")
-        iid = vals[0]
-        name = r.string(f"name of image {iid}")
-        (npts,) = r.take("<Q", f"keypoint count of image {iid}")
-        rec = r.array([("x", "<f8"), ("y", "<f8"), ("id", "<i8")], npts,
-                      f"keypoints of image {iid}")
-        out[iid] = ColmapImage(np.array(vals[1:5]), np.array(vals[5:8]), vals[8], name,
-                               np.column_stack([rec["x"], rec["y"]]), rec["id"].astype(np.int64))
-    r.done()
-    return out
-
-
-def _read_points_bin(path: Path) -> dict[int, ColmapPoint]:
-    r = _Reader(path)
-    (n,) = r.take("<Q", "the point count")
-    out = {}
-    for k in range(n):
-        vals = r.take("<Q3d3BdQ", f"point {k}")
-        pid = vals[0]
-        rec = r.array([("im", "<u4"), ("idx", "<u4")], vals[8], f"track of point {pid}")
-        out[pid] = ColmapPoint(np.array(vals[1:4]), np.array(vals[4:7], np.uint8), vals[7],
-                               rec["im"].astype(np.int64), rec["idx"].astype(np.int64))
-    r.done()
-    return out
-
-
 # ------------------------------------------------------------------ public API
 def is_colmap_model(path: str | Path) -> bool:
     p = Path(path)
@@ -298,34 +92,57 @@ def read_colmap(folder: str | Path) -> ColmapModel:
     """Read a COLMAP sparse model folder (binary files preferred when both exist)."""
     folder = Path(folder)
     if all((folder / f"{f}.bin").is_file() for f in FILES):
-        model = ColmapModel(_read_cameras_bin(folder / "cameras.bin"),
-                            _read_images_bin(folder / "images.bin"),
-                            _read_points_bin(folder / "points3D.bin"))
-        src = folder / "images.bin"
+        ext = ".bin"
+        model = ColmapModel(read_cameras_bin(folder / "cameras.bin"),
+                            read_images_bin(folder / "images.bin"),
+                            read_points_bin(folder / "points3D.bin"))
     elif all((folder / f"{f}.txt").is_file() for f in FILES):
-        model = ColmapModel(_read_cameras_txt(folder / "cameras.txt"),
-                            _read_images_txt(folder / "images.txt"),
-                            _read_points_txt(folder / "points3D.txt"))
-        src = folder / "images.txt"
+        ext = ".txt"
+        model = ColmapModel(read_cameras_txt(folder / "cameras.txt"),
+                            read_images_txt(folder / "images.txt"),
+                            read_points_txt(folder / "points3D.txt"))
     else:
         raise ProjectError(str(folder), "not a COLMAP model folder (cameras, images, points3D "
                            ".txt or .bin)")
-    _check(model, src, folder)
+    _check(model, folder / f"images{ext}", folder / f"points3D{ext}")
     return model
 
 
-def _check(model: ColmapModel, src: Path, folder: Path) -> None:
-    for iid, im in model.images.items():
-        if im.camera_id not in model.cameras:
-            raise ProjectError(str(src), f"image {iid} uses unknown camera {im.camera_id}")
-        bad = im.point3D_ids[(im.point3D_ids != -1) &
-                             ~np.isin(im.point3D_ids, list(model.points3D))]
-        if len(bad):
-            raise ProjectError(str(src), f"image {iid} refers to unknown 3D point {bad[0]}")
-    pfile = folder / ("points3D.bin" if src.suffix == ".bin" else "points3D.txt")
-    for pid, p in model.points3D.items():
-        for iid, idx in zip(p.image_ids, p.point2D_idxs, strict=True):
-            im = model.images.get(int(iid))
-            if im is None or idx >= len(im.xys) or im.point3D_ids[idx] != pid:
-                raise ProjectError(str(pfile), f"point {pid}: track element ({iid}, {idx}) "
-                                   "does not point back to this point")
+def _check(model: ColmapModel, ifile: Path, pfile: Path) -> None:
+    """The files agree: distinct ids, every image's camera and 3D points exist, every track
+    element is a keypoint of its image that refers back to the point.  The first problem
+    in file order is named (images before points)."""
+    im, pt = model.images, model.points
+    k = first_repeated(im.ids)  # the text reader names the line of a repeated id itself
+    if k >= 0:
+        raise ProjectError(str(ifile), f"duplicate image id {im.ids[k]}")
+    k = first_repeated(pt.ids)
+    if k >= 0:
+        raise ProjectError(str(pfile), f"duplicate point id {pt.ids[k]}")
+    bad_cam = lookup(np.fromiter(model.cameras, np.int64, len(model.cameras)),
+                     im.camera_id) < 0
+    pid = im.point3D_ids
+    unknown = (pid != -1) & (pt.rows(pid) < 0)
+    seen = np.concatenate([[0], np.cumsum(unknown)])  # unknown points before each keypoint
+    bad_img = bad_cam | (seen[im.offsets[1:]] > seen[im.offsets[:-1]])
+    if bad_img.any():
+        k = int(np.argmax(bad_img))
+        if bad_cam[k]:
+            raise ProjectError(str(ifile), f"image {im.ids[k]} uses unknown camera "
+                               f"{im.camera_id[k]}")
+        _, ids = im.keypoints(k)
+        bad = ids[(ids != -1) & (pt.rows(ids) < 0)]
+        raise ProjectError(str(ifile), f"image {im.ids[k]} refers to unknown 3D point {bad[0]}")
+    # track elements: image known, keypoint index inside it, keypoint refers to the point
+    wrong = np.ones(len(pt.image_ids), bool)
+    row = im.rows(pt.image_ids)
+    e = np.flatnonzero(row >= 0)
+    row, idx = row[e], pt.point2D_idxs[e]
+    inside = (idx >= 0) & (idx < im.keypoint_counts[row])
+    e, row, idx = e[inside], row[inside], idx[inside]
+    wrong[e] = pid[im.offsets[row] + idx] != np.repeat(pt.ids, pt.track_lengths)[e]
+    if wrong.any():
+        e = int(np.argmax(wrong))
+        j = int(np.searchsorted(pt.offsets, e, side="right")) - 1
+        raise ProjectError(str(pfile), f"point {pt.ids[j]}: track element ({pt.image_ids[e]}, "
+                           f"{pt.point2D_idxs[e]}) does not point back to this point")

@@ -7,6 +7,7 @@ the upper-left corner, y down) become mm with a nominal pixel size.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,13 +17,12 @@ from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.errors import ProjectError
 from baarda.io.colmap import (
     ColmapCamera,
-    ColmapImage,
     ColmapModel,
-    ColmapPoint,
     matrix_to_qvec,
     qvec_to_matrix,
     read_colmap,
 )
+from baarda.io.colmap_model import lookup
 
 # camera models with a baarda lens model
 CONVERTIBLE = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
@@ -41,7 +41,6 @@ def eo_to_pose(eo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rb = rotation_matrix(eo[3], eo[4], eo[5])
     r = FLIP @ rb.T
     return matrix_to_qvec(r), -r @ np.asarray(eo[:3], float)
-
 
 
 def _camera_to_baarda(c: ColmapCamera, pm: float, where: str):
@@ -73,37 +72,43 @@ def _camera_to_baarda(c: ColmapCamera, pm: float, where: str):
 
 def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float = 1.0,
                     name: str = "colmap", source: str = "") -> Block:
-    """Block of a COLMAP model: photos = images (EO from the poses), tie points = points3D."""
-    if not model.images or not model.points3D:
+    """Block of a COLMAP model: photos = images (EO from the poses), tie points = points3D
+    (both in model order); image points = the keypoints with a 3D point, image by image."""
+    from baarda.io import colmap_kernels as ck  # numba, loaded only for COLMAP models
+
+    im, pt = model.images, model.points
+    if not len(im) or not len(pt):
         raise ProjectError(source or name, "the model has no images or no 3D points")
     cam_ids = list(model.cameras)
     cams = [_camera_to_baarda(model.cameras[c], pixel_mm, f"{source or name}: camera {c}")
             for c in cam_ids]
-    cam_index = {c: i for i, c in enumerate(cam_ids)}
-    img_ids = list(model.images)
-    names = [model.images[i].name for i in img_ids]
+    cam_of_image = lookup(np.array(cam_ids, np.int64), im.camera_id)
+    if np.any(cam_of_image < 0):
+        k = int(np.argmax(cam_of_image < 0))
+        raise ProjectError(source or name, f"image {im.ids[k]} uses unknown camera "
+                           f"{im.camera_id[k]}")
+    names = im.names
     photo_ids = ([Path(n).stem for n in names] if len({Path(n).stem for n in names}) ==
-                 len(names) else [str(i) for i in img_ids])
-    eo = np.array([pose_to_eo(model.images[i].qvec, model.images[i].tvec) for i in img_ids])
-    pt_ids = list(model.points3D)
-    pt_index = {p: j for j, p in enumerate(pt_ids)}
-    photo, point, xy, dropped = [], [], [], []
-    for k, iid in enumerate(img_ids):
-        im = model.images[iid]
-        sel = np.flatnonzero(im.point3D_ids != -1)
-        pids = im.point3D_ids[sel]
-        _, first = np.unique(pids, return_index=True)
-        keep = np.zeros(len(sel), bool)
-        keep[first] = True
-        dropped += [f"{pid} in {im.name}" for pid in pids[~keep]]
-        sel = sel[keep]
-        ci = cam_index[im.camera_id]
-        c = model.cameras[im.camera_id]
-        pmy = cams[ci][2]
-        photo.append(np.full(len(sel), k))
-        point.append(np.array([pt_index[int(p)] for p in im.point3D_ids[sel]], dtype=np.int64))
-        xy.append(np.column_stack([(im.xys[sel, 0] - c.width / 2) * pixel_mm,
-                                   (c.height / 2 - im.xys[sel, 1]) * pmy]))
+                 len(names) else [str(i) for i in im.ids.tolist()])
+    eo = np.array([pose_to_eo(q, t) for q, t in zip(im.qvec, im.tvec, strict=True)])
+    # keypoints with a 3D point; a point repeated in one image keeps its first keypoint
+    has = im.point3D_ids != -1
+    rows = np.where(has, pt.rows(im.point3D_ids), -1)
+    unknown = has & (rows < 0)
+    if unknown.any():
+        raise ProjectError(source or name, f"unknown 3D point {im.point3D_ids[unknown][0]}")
+    again = ck.repeated_in_image(im.offsets, rows, len(pt))
+    photo_of = im.image_of_keypoint()
+    dropped = [f"{p} in {names[k]}" for p, k in zip(im.point3D_ids[again].tolist(),
+                                                     photo_of[again].tolist(), strict=True)]
+    sel = np.flatnonzero((rows >= 0) & ~again)
+    photo, point = photo_of[sel], rows[sel]
+    cam = cam_of_image[photo]
+    width = np.array([model.cameras[c].width for c in cam_ids], float)[cam]
+    height = np.array([model.cameras[c].height for c in cam_ids], float)[cam]
+    pmy = np.array([c[2] for c in cams])[cam]
+    xy = np.column_stack([(im.xys[sel, 0] - width / 2) * pixel_mm,
+                          (height / 2 - im.xys[sel, 1]) * pmy])
     notes = [f"COLMAP model: nominal pixel size {pixel_mm:g} mm (1 px = {pixel_mm * 1e3:g} µm), "
              "image origin at the image centre, y up; poses converted from world-to-camera"]
     if dropped:
@@ -113,15 +118,11 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
                       np.array([c[1] for c in cams]),
                       np.array([c[3] for c in cams], dtype=object),
                       np.array([c[4] for c in cams]))
-    photos = Photos(photo_ids, np.array([cam_index[model.images[i].camera_id]
-                                         for i in img_ids], dtype=np.int64),
-                    np.full(len(img_ids), "", dtype=object), eo)
-    photo_a = np.concatenate(photo)
-    image = ImagePoints(photo_a, np.concatenate(point), np.vstack(xy),
-                        np.full(len(photo_a), sigma_px * pixel_mm))
-    xyz = np.array([model.points3D[p].xyz for p in pt_ids])
-    points = GroundPoints([str(p) for p in pt_ids], xyz, np.full((len(pt_ids), 3), np.nan),
-                          np.full(len(pt_ids), "tie", dtype=object))
+    photos = Photos(photo_ids, cam_of_image, np.full(len(im), "", dtype=object), eo)
+    image = ImagePoints(photo, point, xy, np.full(len(photo), sigma_px * pixel_mm))
+    points = GroundPoints([str(p) for p in pt.ids.tolist()], pt.xyz.copy(),
+                          np.full((len(pt), 3), np.nan),
+                          np.full(len(pt), "tie", dtype=object))
     settings = Settings(name=name, angle_unit="deg", sigma_image_um=sigma_px * pixel_mm * 1e3,
                         datum="free")
     return Block(settings, cameras, photos, image, points, source=source, notes=notes)
@@ -131,17 +132,22 @@ def colmap_with_block(model: ColmapModel, eo: np.ndarray, xyz: np.ndarray,
                       errors: np.ndarray | None = None) -> ColmapModel:
     """A copy of `model` with the poses of `eo` (image order) and coordinates `xyz` (point
     order of the model, NaN = keep) and, if given, new per-point errors [px]."""
-    images = {}
-    for k, (iid, im) in enumerate(model.images.items()):
-        q, t = eo_to_pose(eo[k])
-        images[iid] = ColmapImage(q, t, im.camera_id, im.name, im.xys.copy(),
-                                  im.point3D_ids.copy())
-    points = {}
-    for j, (pid, p) in enumerate(model.points3D.items()):
-        new = xyz[j] if np.isfinite(xyz[j]).all() else p.xyz
-        err = p.error if errors is None or not np.isfinite(errors[j]) else float(errors[j])
-        points[pid] = ColmapPoint(np.array(new, float), p.rgb.copy(), err, p.image_ids.copy(),
-                                  p.point2D_idxs.copy())
+    im, pt = model.images, model.points
+    poses = [eo_to_pose(e) for e in eo[:len(im)]]
+    qvec = np.array([q for q, _ in poses]).reshape(len(im), 4)
+    tvec = np.array([t for _, t in poses]).reshape(len(im), 3)
+    images = replace(im, qvec=qvec, tvec=tvec, camera_id=im.camera_id.copy(),
+                     ids=im.ids.copy(), names=list(im.names), offsets=im.offsets.copy(),
+                     xys=im.xys.copy(), point3D_ids=im.point3D_ids.copy())
+    xyz = np.asarray(xyz, float)
+    new = np.where(np.isfinite(xyz).all(axis=1)[:, None], xyz, pt.xyz)
+    error = pt.error.copy()
+    if errors is not None:
+        errors = np.asarray(errors, float)
+        error = np.where(np.isfinite(errors), errors, error)
+    points = replace(pt, ids=pt.ids.copy(), xyz=new, rgb=pt.rgb.copy(), error=error,
+                     offsets=pt.offsets.copy(), image_ids=pt.image_ids.copy(),
+                     point2D_idxs=pt.point2D_idxs.copy())
     return ColmapModel(dict(model.cameras), images, points)
 
 

@@ -7,6 +7,7 @@
 * an adjusted model written back and read again carries the adjusted poses and points.
 """
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,15 @@ import pytest
 from baarda.bundle.collinearity import project
 from baarda.bundle.free_network import adjust_free
 from baarda.errors import ProjectError
-from baarda.io.colmap import matrix_to_qvec, qvec_to_matrix, read_colmap
+from baarda.io.colmap import (
+    ColmapCamera,
+    ColmapImages,
+    ColmapModel,
+    ColmapPoints,
+    matrix_to_qvec,
+    qvec_to_matrix,
+    read_colmap,
+)
 from baarda.io.colmap_block import colmap_to_block, colmap_with_block, eo_to_pose, pose_to_eo
 from baarda.output.format_files import write_colmap
 
@@ -34,34 +43,31 @@ def _errors(block):
 
 
 def _same(a, b):
-    assert list(a.cameras) == list(b.cameras) and list(a.images) == list(b.images)
-    assert list(a.points3D) == list(b.points3D)
+    assert list(a.cameras) == list(b.cameras)
     for k, c in a.cameras.items():
         d = b.cameras[k]
         assert (c.model, c.width, c.height) == (d.model, d.width, d.height)
         assert np.array_equal(c.params, d.params)
-    for k, i in a.images.items():
-        j = b.images[k]
-        assert (i.name, i.camera_id) == (j.name, j.camera_id)
-        for f in ("qvec", "tvec", "xys", "point3D_ids"):
-            assert np.array_equal(getattr(i, f), getattr(j, f)), (k, f)
-    for k, p in a.points3D.items():
-        q = b.points3D[k]
-        assert p.error == q.error
-        for f in ("xyz", "rgb", "image_ids", "point2D_idxs"):
-            assert np.array_equal(getattr(p, f), getattr(q, f)), (k, f)
+    assert a.images.names == b.images.names
+    for f in ("ids", "qvec", "tvec", "camera_id", "offsets", "xys", "point3D_ids"):
+        x, y = getattr(a.images, f), getattr(b.images, f)
+        assert x.dtype == y.dtype and np.array_equal(x, y), f
+    for f in ("ids", "xyz", "rgb", "error", "offsets", "image_ids", "point2D_idxs"):
+        x, y = getattr(a.points, f), getattr(b.points, f)
+        assert x.dtype == y.dtype and np.array_equal(x, y), f
 
 
 def test_maupertuis_counts_and_stored_errors():
     model = read_colmap(SPARSE)
-    assert (len(model.cameras), len(model.images), len(model.points3D)) == (1, 4, 1039)
-    assert sum(int(np.sum(i.point3D_ids >= 0)) for i in model.images.values()) == 3355
-    assert sum(len(i.xys) for i in model.images.values()) == 24010
+    assert (len(model.cameras), len(model.images), len(model.points)) == (1, 4, 1039)
+    assert int(np.sum(model.images.point3D_ids >= 0)) == 3355
+    assert len(model.images.xys) == model.images.offsets[-1] == 24010
+    assert model.points.offsets[-1] == 3355
     block = colmap_to_block(model)
     # 3355 track elements, 5 repeated keypoints of 4 points in one image are left out
     assert len(block.image) == 3350 and "repeated" in block.notes[-1]
     e, per = _errors(block)
-    stored = np.array([model.points3D[int(p)].error for p in block.points.ids])
+    stored = model.points.error[model.points.rows(np.array(block.points.ids, np.int64))]
     dup = np.isin(block.points.ids, ["1014", "943", "952", "1042"])
     # the file rounds poses and points to 6 digits: agreement to 0.005 px per point
     assert np.abs(per - stored)[~dup].max() < 0.005
@@ -82,8 +88,9 @@ def test_text_and_binary_round_trips(tmp_path):
 def test_pycolmap_reads_what_we_write(tmp_path):
     pycolmap = pytest.importorskip("pycolmap")
     model = read_colmap(SPARSE)
-    for im in model.images.values():  # pycolmap does not normalise quaternions
-        im.qvec = im.qvec / np.linalg.norm(im.qvec)
+    q = model.images.qvec  # pycolmap does not normalise quaternions
+    model = replace(model, images=replace(model.images,
+                                          qvec=q / np.linalg.norm(q, axis=1, keepdims=True)))
     write_colmap(model, tmp_path, binary=True)
     rec = pycolmap.Reconstruction(str(tmp_path))
     assert rec.num_points3D() == 1039 and rec.num_images() == 4
@@ -92,7 +99,7 @@ def test_pycolmap_reads_what_we_write(tmp_path):
     cam = block.photos.camera[im.photo]
     p = project(block.photos.eo[im.photo], block.points.xyz[im.point],
                 block.cameras.focal_mm[cam], block.cameras.principal_point_mm[cam])
-    img_ids = list(model.images)
+    img_ids = model.images.ids.tolist()
     c = rec.cameras[1]
     worst = 0.0
     for k in range(0, len(im), 7):
@@ -183,3 +190,162 @@ def test_unsupported_camera_model_is_not_converted(tmp_path):
         "FOV 1919 1079 1847.53 1847.53 959.5 539.5 0.1")))
     with pytest.raises(ProjectError, match="FOV"):
         colmap_to_block(model)
+
+
+# ------------------------------------------------------------- arrays, fast paths, checks
+def _synthetic(n_images=4, n_points=6, track=3, seed=0) -> ColmapModel:
+    """A consistent model: every point seen in `track` consecutive images (mod n_images),
+    keypoints of an image in point order, then 2 keypoints without a point."""
+    rng = np.random.default_rng(seed)
+    point = np.repeat(np.arange(n_points), track)
+    image = ((rng.integers(n_images, size=n_points)[:, None] + np.arange(track)) %
+             n_images).ravel()
+    order = np.lexsort((point, image))
+    per = np.bincount(image, minlength=n_images) + 2
+    offsets = np.concatenate([[0], np.cumsum(per)])
+    slot = np.arange(len(order)) - np.concatenate([[0], np.cumsum(per - 2)])[image[order]]
+    idx = np.empty(len(point), np.int64)
+    idx[order] = slot
+    pids = np.full(offsets[-1], -1, np.int64)
+    pids[offsets[image[order]] + slot] = point[order] + 1
+    images = ColmapImages(np.arange(1, n_images + 1), np.tile([1.0, 0, 0, 0], (n_images, 1)),
+                          rng.normal(size=(n_images, 3)), np.ones(n_images, np.int64),
+                          [f"img{i}.jpg" for i in range(n_images)], offsets,
+                          rng.uniform(0, 1000, (offsets[-1], 2)), pids)
+    points = ColmapPoints(np.arange(1, n_points + 1), rng.normal(size=(n_points, 3)),
+                          rng.integers(0, 256, (n_points, 3)).astype(np.uint8),
+                          rng.uniform(0, 2, n_points), track * np.arange(n_points + 1),
+                          image + 1, idx)
+    cams = {1: ColmapCamera("PINHOLE", 1000, 800, np.array([900.0, 900, 500, 400]))}
+    return ColmapModel(cams, images, points)
+
+
+def test_arrays_and_helpers(tmp_path):
+    model = _synthetic()
+    for binary in (False, True):
+        write_colmap(model, tmp_path / str(binary), binary=binary)
+        _same(model, read_colmap(tmp_path / str(binary)))
+    im, pt = model.images, model.points
+    xys, ids = im.keypoints(2)
+    assert np.array_equal(xys, im.xys[im.offsets[2]:im.offsets[3]]) and len(ids) == len(xys)
+    assert np.array_equal(im.image_of_keypoint(), np.repeat(np.arange(4), im.keypoint_counts))
+    assert np.array_equal(im.rows([3, 9, 1]), [2, -1, 0])
+    images, idxs = pt.track(5)
+    assert len(images) == pt.track_lengths[5] == 3
+    # every track element points back to its point
+    rows = im.rows(pt.image_ids)
+    assert np.array_equal(im.point3D_ids[im.offsets[rows] + pt.point2D_idxs],
+                          pt.ids[pt.point_of_element()])
+
+
+def _broken(tmp_path, binary, images=None, points=None):
+    model = _synthetic()
+    model = replace(model, images=replace(model.images, **(images or {})),
+                    points=replace(model.points, **(points or {})))
+    folder = tmp_path / ("bin" if binary else "txt")
+    write_colmap(model, folder, binary=binary)
+    with pytest.raises(ProjectError) as e:
+        read_colmap(folder)
+    return e.value
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_model_checks(tmp_path, binary):
+    m = _synthetic()
+    im, pt = m.images, m.points
+    ext = ".bin" if binary else ".txt"
+    pid = im.point3D_ids.copy()
+    k = im.offsets[2]  # the first keypoint of image 3
+    pid[k] = 99
+    err = _broken(tmp_path, binary, images={"point3D_ids": pid})
+    assert err.detail == "image 3 refers to unknown 3D point 99"
+    assert Path(err.path).name == f"images{ext}"
+    cam = im.camera_id.copy()
+    cam[3] = 5  # a later image with an unknown camera: the first problem is named
+    err = _broken(tmp_path, binary, images={"point3D_ids": pid, "camera_id": cam})
+    assert err.detail == "image 3 refers to unknown 3D point 99"
+    cam[1] = 5
+    err = _broken(tmp_path, binary, images={"point3D_ids": pid, "camera_id": cam})
+    assert err.detail == "image 2 uses unknown camera 5"
+    # track elements: a keypoint of another point, beyond the image's keypoints, of an
+    # unknown image
+    for field, value in (("point2D_idxs", 1), ("point2D_idxs", 50), ("image_ids", 9)):
+        arr = getattr(pt, field).copy()
+        e = pt.offsets[4] + 1  # the second element of point 5
+        arr[e] = value if field == "image_ids" else (pt.point2D_idxs[e] + 1
+                                                     if value == 1 else value)
+        iid = arr[e] if field == "image_ids" else pt.image_ids[e]
+        idx = arr[e] if field == "point2D_idxs" else pt.point2D_idxs[e]
+        err = _broken(tmp_path, binary, points={field: arr})
+        assert err.detail == (f"point 5: track element ({iid}, {idx}) does not point back "
+                              "to this point")
+        assert Path(err.path).name == f"points3D{ext}"
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_duplicate_ids(tmp_path, binary):
+    m = _synthetic()
+    ids = m.images.ids.copy()
+    ids[2] = ids[0]
+    err = _broken(tmp_path, binary, images={"ids": ids})
+    assert "duplicate image id 1" in err.detail
+    assert err.line == (None if binary else 9)  # the third image's header line
+    ids = m.points.ids.copy()
+    ids[4] = ids[1]
+    err = _broken(tmp_path, binary, points={"ids": ids})
+    assert "duplicate point id 2" in err.detail and err.line == (None if binary else 8)
+
+
+def test_bad_number_in_a_big_points_file(tmp_path):
+    model = _synthetic(n_images=50, n_points=30_000, track=4)
+    write_colmap(model, tmp_path)
+    good = read_colmap(tmp_path)
+    _same(model, good)
+    lines = (tmp_path / "points3D.txt").read_text().splitlines()
+    no = 3 + 17_345  # 3 comment lines, then point row 17,344 (1-based line 17,348)
+    for tok, col, field in (("1.5e", 2, "Y"), ("x", 6, "B"), ("0x10", 9, "TRACK"),
+                            ("inf", 7, "ERROR")):
+        p = lines[no - 1].split()
+        p[col] = tok
+        (tmp_path / "points3D.txt").write_text("\n".join(lines[:no - 1] + [" ".join(p)] +
+                                                         lines[no:]) + "\n")
+        with pytest.raises(ProjectError) as e:
+            read_colmap(tmp_path)
+        assert (e.value.line, e.value.column) == (no, field), tok
+
+
+def test_fast_text_readers_agree_with_the_line_reader(tmp_path, monkeypatch):
+    """The tokeniser reads plain files itself (the line reader is not called) and gives
+    what the line reader gives (tabs, CRLF, comment lines, signs); a file it does not take
+    (underscores in numbers, a no-break space) is read line by line with the same result."""
+    from baarda.io import colmap_text
+
+    model = _synthetic(n_images=5, n_points=40)
+    write_colmap(model, tmp_path)
+    calls = []
+    for name in ("_images_lines", "_points_lines"):
+        orig = getattr(colmap_text, name)
+        monkeypatch.setattr(colmap_text, name,
+                            lambda *a, _o=orig, _n=name: calls.append(_n) or _o(*a))
+    _same(model, read_colmap(tmp_path))
+    (tmp_path / "m").mkdir()
+    _same(read_colmap(SPARSE), read_colmap(_copy(tmp_path / "m", "cameras", CAM)))
+    assert calls == []
+    pts = (tmp_path / "points3D.txt").read_text()
+    img = (tmp_path / "images.txt").read_text()
+    variants = [
+        ("points3D", pts.replace(" ", "\t").replace("\n", "\r\n"), False),
+        ("points3D", pts.replace("\n1 ", "\n# a comment\n\n  1 ", 1), False),
+        ("images", img.replace("\n", "\r\n"), False),
+        ("points3D", pts.replace("\n1 ", "\n+1 ", 1), False),
+        ("points3D", pts.replace("\n1 ", "\n0_1 ", 1), True),
+        ("images", img.replace(" -1", " -0_1"), True),
+        ("images", img.replace(" -1", " -1\u00a0", 1), True),
+    ]
+    for name, text, slow in variants:
+        calls.clear()
+        (tmp_path / f"{name}.txt").write_bytes(text.encode())
+        _same(model, read_colmap(tmp_path))
+        assert bool(calls) == slow, (name, text[:200])
+        (tmp_path / "points3D.txt").write_text(pts)
+        (tmp_path / "images.txt").write_text(img)

@@ -4,6 +4,8 @@ Each case is bounded inside the test: wall time, and the peak of Python's alloca
 (tracemalloc, which NumPy and bz2 report to); the command-line cases in a child process by
 its own maximum resident set size."""
 
+import shutil
+import struct
 import subprocess
 import sys
 import time
@@ -14,13 +16,16 @@ import pytest
 
 from baarda.errors import ProjectError
 from baarda.io.bal import read_bal
+from baarda.io.colmap import read_colmap
 from baarda.io.dbat import read_dbat
 from baarda.io.project import read_project
 from baarda.io.xmltree import MAX_DEPTH, parse_xml
+from baarda.output.format_files import write_colmap
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 BOMB = DATA / "hostile" / "bal-bomb-2gb.txt.bz2"
 DEMO = Path(__file__).resolve().parents[2] / "examples" / "demo"
+COLMAP = DATA / "colmap_maupertuis" / "sparse"
 
 
 def bounded(func, seconds: float = 2.0, megabytes: float = 100.0):
@@ -104,6 +109,72 @@ def test_a_line_of_ten_million_fields(tmp_path):
         f.write("01001," + ",".join(["7"] * 10_000_000) + "\n")
     err = bounded(lambda: read_project(proj), seconds=5.0, megabytes=200.0)
     assert err.line == 278 and "expected" in err.detail
+
+
+def _colmap_bin(tmp_path) -> Path:
+    """The Maupertuis model as binary files (and the COLMAP kernels compiled or loaded)."""
+    folder = tmp_path / "bin"
+    write_colmap(read_colmap(COLMAP), folder, binary=True)
+    read_colmap(folder)
+    return folder
+
+
+HUGE = 10**12
+
+
+@pytest.mark.parametrize("case, message", [
+    ("keypoints", "file ends inside keypoints of image 7 (byte 86)"),
+    ("images", "file ends inside image 1 (byte 110)"),
+    ("all_ones", "file ends inside image 0 (byte 8)"),
+    ("track", "file ends inside track of point 9 (byte 59)"),
+    ("points", "file ends inside point 1 (byte 59)"),
+    ("unterminated", "unterminated name of image 7 (byte 72)"),
+    ("count", "file ends inside keypoint count of image 7 (byte 78)"),
+    ("after", "3 bytes after the last record"),
+])
+def test_colmap_binary_counts_that_lie(tmp_path, case, message):
+    """A count field that claims 10**12 keypoints, track elements or records is an error
+    before anything of that size is allocated; truncated records are named as before."""
+    folder = _colmap_bin(tmp_path)
+    head = struct.pack("<I7dI", 7, 1, 0, 0, 0, 0, 0, 0, 1) + b"a.jpg\0"
+    if case == "keypoints":
+        name, data = "images", struct.pack("<Q", 1) + head + struct.pack("<Q", HUGE) + bytes(99)
+    elif case == "images":
+        name, data = "images", struct.pack("<Q", HUGE) + head + struct.pack("<Q", 1) + bytes(
+            24 + 10)
+    elif case == "all_ones":
+        name, data = "images", b"\xff" * 8 + bytes(50)
+    elif case == "unterminated":
+        name, data = "images", struct.pack("<Q", 1) + head[:64] + b"abc"
+    elif case == "count":
+        name, data = "images", struct.pack("<Q", 1) + head + b"\1\0"
+    elif case == "after":
+        name, data = "images", struct.pack("<Q", 1) + head + bytes(8) + b"xyz"
+    elif case == "track":
+        name, data = "points3D", struct.pack("<Q", 1) + struct.pack(
+            "<Q3d3BdQ", 9, 0, 0, 0, 1, 2, 3, 0.5, HUGE) + bytes(99)
+    else:
+        name, data = "points3D", struct.pack("<Q", HUGE) + struct.pack(
+            "<Q3d3BdQ", 9, 0, 0, 0, 1, 2, 3, 0.5, 0) + bytes(10)
+    (folder / f"{name}.bin").write_bytes(data)
+    err = bounded(lambda: read_colmap(folder), seconds=2.0, megabytes=20.0)
+    assert Path(err.path).name == f"{name}.bin" and err.detail == message
+
+
+def test_colmap_huge_binary_keypoint_count_in_a_real_file(tmp_path):
+    """The last image of a real images.bin claims 10**12 keypoints."""
+    folder = _colmap_bin(tmp_path)
+    data = bytearray((folder / "images.bin").read_bytes())
+    model = read_colmap(folder)
+    last = model.images.keypoint_counts[-1]
+    at = len(data) - 24 * int(last) - 8  # the count of the last image
+    assert struct.unpack_from("<Q", data, at)[0] == last
+    data[at:at + 8] = struct.pack("<Q", HUGE)
+    (folder / "images.bin").write_bytes(bytes(data))
+    err = bounded(lambda: read_colmap(folder), seconds=2.0, megabytes=20.0)
+    assert err.detail == f"file ends inside keypoints of image {model.images.ids[-1]} " \
+                         f"(byte {at + 8})"
+    shutil.rmtree(folder)
 
 
 def _run(args, seconds):
