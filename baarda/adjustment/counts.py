@@ -16,6 +16,19 @@ class AdjustmentCounts:
         return int(np.count_nonzero(self.lin.w) + np.count_nonzero(self.lin.wc))
 
     @property
+    def n_left_out(self) -> int:
+        """Components of the observation vector without weight (rejected by snooping)."""
+        return int(self.problem.layout.n) - self.n_observations
+
+    def observations_text(self) -> str:
+        """'observations 594 (4 rejected components left out), unknowns 426, redundancy
+        168' for the summaries."""
+        out = self.n_left_out
+        return (f"observations {self.n_observations}"
+                + (f" ({out} rejected component(s) left out)" if out else "")
+                + f", unknowns {self.n_unknowns}, redundancy {self.redundancy}")
+
+    @property
     def n_unknowns(self) -> int:
         return self.problem.system.n_unknowns
 

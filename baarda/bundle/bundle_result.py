@@ -110,8 +110,7 @@ class BundleResult(AdjustmentCounts):
             self.block.summary(),
             self.problem.datum_text(),
             self.problem.apriori_text(),
-            f"observations {d['n_observations']}, unknowns {d['n_unknowns']}, "
-            f"redundancy {d['redundancy']}",
+            self.observations_text(),
             f"iterations {d['iterations']} ({'converged' if d['converged'] else 'NOT converged'}"
             f"), {d['seconds']:.2f} s",
             f"sigma0 a posteriori {d['sigma0']:.4f}",

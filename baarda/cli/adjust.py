@@ -50,7 +50,7 @@ def run_adjust(args) -> int:
         qc, text = _adjust(args, run)
     if not args.quiet:
         print(text)
-        print(f"results written to {args.out}")
+        print(f"results written to {run.describe()}")
     return OK if qc.adjustment.converged else NOT_CONVERGED
 
 

@@ -31,5 +31,5 @@ def run_convert(args) -> int:
         print(f"read {fmt}: {block.summary()}")
         for note in block.notes:
             print(f"note: {note}")
-        print(f"project written to {args.out}")
+        print(f"project written to {run.describe()}")
     return 0

@@ -85,7 +85,7 @@ def run(args) -> int:
         bq = _adjust_models(args, run)
     if not args.quiet:
         print(bq.summary())
-        print(f"results written to {args.out}")
+        print(f"results written to {run.describe()}")
     return OK if bq.converged else NOT_CONVERGED
 
 
@@ -143,5 +143,5 @@ def run_simulate(args) -> int:
         block, truth = simulate_models(plan)
         write_model_project(block, run)
         write_text(run.file("truth.json"), json.dumps(truth, indent=1, default=float) + "\n")
-    print(f"{block.summary()} -> {args.out}")
+    print(f"{block.summary()} -> {run.describe()}")
     return 0

@@ -9,6 +9,7 @@ from pathlib import Path
 from baarda.cli.common import tests_option
 from baarda.errors import GeometryError, ProjectError
 from baarda.output.atomic import write_text
+from baarda.output.run_folder import check_output_file
 from baarda.relative.online_commands import Interpreter, LineError, coordinates_csv
 from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
 
@@ -17,7 +18,8 @@ def register(sub) -> None:
     p = sub.add_parser("online", help="on-line strip bridging with data snooping per model "
                        "(relative orientation with scale transfer)")
     p.add_argument("file", nargs="?", type=Path,
-                   help="measurement file ('-' or none: read lines from the prompt/stdin)")
+                   help="measurement file, e.g. examples/online/strip.txt ('-' or none: "
+                   "read lines from the prompt or from stdin)")
     p.add_argument("--focal", type=float, help="principal distance in mm (or a camera line)")
     p.add_argument("--sigma", type=float, default=10.0, help="sigma of x'' in µm (default 10)")
     p.add_argument("--qyy", type=float, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
@@ -36,10 +38,8 @@ def run(args) -> int:
     interp = Interpreter(say=print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
                          qtie=args.qtie, tests=tests_option(None, args),
                          statistic="tau" if args.tau else "w")
-    if args.out is not None and args.file is not None and args.file != Path("-") and \
-            args.out.resolve() == args.file.resolve():
-        raise FileExistsError(f"output {args.out} is the input file (inputs are never "
-                              "overwritten)")
+    if args.out is not None:
+        check_output_file(args.out, [] if args.file in (None, Path("-")) else [args.file])
     if args.file is None or str(args.file) == "-":
         if sys.stdin.isatty():
             _prompt(interp)
@@ -69,6 +69,10 @@ def _batch(interp: Interpreter, lines, name: str) -> None:
             raise ProjectError(name, str(e), n) from None
         if interp.done:
             break
+    if n == 0:
+        raise ProjectError(name, "no measurements: give a measurement file (e.g. "
+                           "examples/online/strip.txt, format in docs/online.md) or run "
+                           "baarda online in a terminal to type them")
     try:
         interp.finish()
     except LineError as e:

@@ -151,7 +151,7 @@ def run_modified(args) -> int:
     with open_run(args, [args.project]) as run:
         text = _modified(args, run)
     if not args.quiet:
-        print(text + f"results written to {args.out}")
+        print(text + f"results written to {run.describe()}")
     return 0
 
 

@@ -80,7 +80,9 @@ def run(args) -> int:
 
         say = progress(args.quiet or args.text, computes=False)
         if say:
-            say(f"read {args.results}: {len(res.obs)} observations")
+            n_rej = int(res.obs["rejected"].sum())
+            say(f"read {args.results}: {len(res.obs)} observation components, "
+                f"{len(res.obs) - n_rej} used and {n_rej} rejected")
         write_html(args.out, html_report(res, opt))
         if not args.quiet:
             print(f"report written to {args.out}")

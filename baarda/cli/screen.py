@@ -76,5 +76,5 @@ def run(args) -> int:
         write_screening_log(run, res.log)
     if not args.quiet:
         print(res.summary())
-        print(f"cleaned project and screening log written to {args.out}")
+        print(f"cleaned project and screening log written to {run.describe()}")
     return 0

@@ -50,7 +50,7 @@ def register(sub) -> None:
 def run(args) -> int:
     with open_run(args, []) as run:
         block = _simulate(args, run)
-    print(f"{block.summary()} -> {args.out}")
+    print(f"{block.summary()} -> {run.describe()}")
     return 0
 
 

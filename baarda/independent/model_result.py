@@ -108,12 +108,14 @@ class ModelResult(AdjustmentCounts):
         comp = ", ".join(f"{c} {np.sqrt(np.nanmean(v[:, i] ** 2)):.2f} µm"
                          for i, c in enumerate(names))
         status = "converged" if d["converged"] else "NOT converged"
-        lines = [self.block.summary(),
-                 f"observations {d['n_observations']}, unknowns {d['n_unknowns']}, "
-                 f"redundancy {d['redundancy']}",
-                 f"iterations {d['iterations']} ({status}), {d['seconds']:.2f} s",
-                 f"sigma0 a posteriori {d['sigma0']:.4f}",
-                 f"RMS model residuals {comp} (rejected ones left out)"]
+        lines = [] if self.converged else [
+            f"NOT CONVERGED after {self.iterations} iterations: the results are not a "
+            "least-squares solution (see the notes)"]
+        lines += [self.block.summary(),
+                  self.observations_text(),
+                  f"iterations {d['iterations']} ({status}), {d['seconds']:.2f} s",
+                  f"sigma0 a posteriori {d['sigma0']:.4f}",
+                  f"RMS model residuals {comp} (rejected ones left out)"]
         if d["n_check_points"]:
             rms = ", ".join(f"{k[-1]} {d[k]:.3f} m" for k in d if k.startswith("check_rms"))
             lines.append(f"check points {d['n_check_points']}: RMS {rms}")

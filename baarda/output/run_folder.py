@@ -116,7 +116,9 @@ class RunFolder:
 
     def __init__(self, out: str | Path, inputs: Iterable[str | Path] = (),
                  command: str | None = None):
+        self.given = Path(out)
         self.final = check_output_folder(out, inputs)
+        self.replaces = earlier_run(self.final)
         self.run_id = new_run_id()
         self.command = command
         self.started = datetime.now(UTC)
@@ -129,6 +131,10 @@ class RunFolder:
             raise ProjectError(str(self.final), "cannot write the output folder here "
                                f"({e.strerror}); choose another place with -o") from None
         self.done = False
+
+    def describe(self) -> str:
+        """Where the run went, for people: 'OUT' or 'OUT (replacing run X)'."""
+        return str(self.given) + (f" (replacing {self.replaces})" if self.replaces else "")
 
     def file(self, name: str) -> Path:
         """Where to write `name` in this run (inside the staging folder)."""
@@ -172,6 +178,17 @@ class RunFolder:
             shutil.rmtree(old, ignore_errors=True)
         self.done = True
         return self.final
+
+
+def earlier_run(folder: Path) -> str | None:
+    """'run ID' of the run an existing output folder holds, 'an earlier run' for a folder
+    written before run.json existed, None for a new or empty folder."""
+    if not folder.is_dir() or not any(folder.iterdir()):
+        return None
+    try:
+        return "run " + str(json.loads((folder / MANIFEST).read_text(encoding="utf-8"))["run"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return "an earlier run"
 
 
 def file_record(path: Path) -> dict:
