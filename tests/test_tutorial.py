@@ -1,0 +1,62 @@
+"""docs/tutorial.md prints what the program prints: every `console` block is run and its
+output compared (`[...]` within a line and a line `...` match anything)."""
+
+import contextlib
+import io
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+from baarda.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+TUTORIAL = ROOT / "docs" / "tutorial.md"
+
+
+def console_blocks(text: str) -> list[list[tuple[str, list[str]]]]:
+    """Each ```console block as [(command, expected output lines)]."""
+    blocks = []
+    for body in re.findall(r"```console\n(.*?)```", text, flags=re.S):
+        steps: list[tuple[str, list[str]]] = []
+        for line in body.splitlines():
+            if line.startswith("$ "):
+                steps.append((line[2:], []))
+            else:
+                steps[-1][1].append(line)
+        blocks.append(steps)
+    return blocks
+
+
+def pattern(expected: list[str]) -> str:
+    parts = []
+    for line in expected:
+        if line == "...":
+            parts.append(r"(?:[^\n]*\n)*?")
+        else:
+            parts.append(".*?".join(re.escape(p) for p in line.split("[...]")) + r"\n")
+    return "".join(parts)
+
+
+def test_the_tutorial_has_console_blocks():
+    blocks = console_blocks(TUTORIAL.read_text(encoding="utf-8"))
+    assert len(blocks) >= 3 and sum(len(b) for b in blocks) >= 5
+
+
+def test_the_tutorial_prints_what_the_program_prints(tmp_path, monkeypatch):
+    (tmp_path / "examples").symlink_to(ROOT / "examples")
+    monkeypatch.chdir(tmp_path)
+    for block in console_blocks(TUTORIAL.read_text(encoding="utf-8")):
+        for command, expected in block:
+            argv = shlex.split(command)
+            assert argv[0] == "baarda"
+            out, err = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                code = main(argv[1:])
+            shown = out.getvalue() if code == 0 else err.getvalue()
+            if code == 0:  # progress lines on stderr are not part of the tutorial
+                assert not err.getvalue() or "[" in err.getvalue()
+            if not re.fullmatch(pattern(expected), shown):
+                pytest.fail(f"{command}: the tutorial shows\n" + "\n".join(expected)
+                            + "\nbut baarda printed\n" + shown)
