@@ -1,17 +1,29 @@
 """Sparse normal equations with points eliminated by the Schur complement.
 
-Unknowns: `n_frames` frames of `b` unknowns (photos: 6; independent models: 7 or 4) and
-`n_points` points of `d` unknowns (3 or 2).  Observations come in two sets:
+Unknowns: `n_frames` frames of `b` unknowns (photos: 6; independent models: 7 or 4),
+`n_points` points of `d` unknowns (3 or 2), and optionally `ng` global unknowns that many
+observations share (the border: camera parameters of a self-calibration, points tied by
+distance observations, offsets).  Observations come in these sets:
 
 * frame-point observations, `k` rows each, tied to one frame and one point (image points,
-  model coordinates);
+  model coordinates), and through `jg` to a few global unknowns (`SchurSystem.gcol`);
 * point observations, `kp` rows each, tied to one point (ground control);
-* optionally, direct observations of frame unknowns (diagonal weights per frame unknown).
+* extra observations, `kx` rows each, tied to at most one frame and to the global unknowns
+  (observations of border points, distances);
+* direct observations of frame, point or global unknowns with diagonal weights (datum
+  constraints, held coordinates: not part of the observation vector).
 
 Weights are diagonal (1 / sigma^2, zero for a row that is not observed).  The reduced
 frame system S is factored by the block Cholesky of baarda.linalg; its selected inverse
-gives every covariance block that the residual cofactors need.  No matrix whose size
-grows with the block is ever dense.
+gives every covariance block that the residual cofactors need.  Global unknowns are
+eliminated last by a dense Schur complement of their own (C, ng x ng): with
+N0 the normal matrix of frames and points and Y = N0^-1 N0g,
+
+    C = Ngg - N0g^T Y,    N^-1 = [[N0^-1 + Y C^-1 Y^T, -Y C^-1], [-C^-1 Y^T, C^-1]],
+
+so every cofactor is the one with the globals held plus a rank-ng term a C^-1 a^T with
+a = A0 Y - Ag per observation row.  No matrix whose size grows with the block is ever
+dense (Y is n_unknowns x ng, ng small).
 """
 
 from __future__ import annotations
@@ -19,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import cho_factor, cho_solve, solve_triangular
 
 from baarda.adjustment import schur_kernels as kernels
 from baarda.errors import GeometryError
@@ -39,13 +52,24 @@ class Linearization:
     ec: np.ndarray  # (mp, kp)
     wf: np.ndarray | None = None  # (nf, b) weights of direct observations of frame unknowns
     ef: np.ndarray | None = None  # (nf, b) their misclosures (observed - current)
+    jg: np.ndarray | None = None  # (m, k, kg) frame-point rows wrt their globals (system.gcol)
+    jxf: np.ndarray | None = None  # (mx, kx, b) extra rows wrt their frame (system.x_frame)
+    jxg: np.ndarray | None = None  # (mx, kx, ng) extra rows wrt the global unknowns
+    wx: np.ndarray | None = None  # (mx, kx)
+    ex: np.ndarray | None = None  # (mx, kx)
+    wp: np.ndarray | None = None  # (np, d) direct observations of point unknowns (held)
+    ep: np.ndarray | None = None  # (np, d)
+    wg: np.ndarray | None = None  # (ng,) direct observations of global unknowns (held)
+    eg: np.ndarray | None = None  # (ng,)
 
     @property
     def cost(self) -> float:
         """v'Pv: the weighted sum of squares of the misclosures."""
         c = float(np.sum(self.w * self.e**2) + np.sum(self.wc * self.ec**2))
-        if self.wf is not None:
-            c += float(np.sum(self.wf * self.ef**2))
+        for w, e in ((self.wf, self.ef), (self.wx, self.ex), (self.wp, self.ep),
+                     (self.wg, self.eg)):
+            if w is not None:
+                c += float(np.sum(w * e**2))
         return c
 
 
@@ -53,14 +77,18 @@ class SchurSystem:
     """The structure of the reduced normal equations: fixed for a problem, never changed.
 
     `factorize(lin)` returns the numbers of one linearisation as a new SchurFactor.
-    n_fixed: frame unknowns held by datum constraints (zero Jacobian columns plus a direct
-    observation of weight wf): they are not unknowns of the model (bundle/free_network.py).
+    n_fixed: unknowns held by direct constraints (zero Jacobian columns plus a direct
+    observation of large weight): they are not unknowns of the model
+    (bundle/free_network.py, fixed control).  ng: global unknowns; gcol (m, kg): the global
+    column of each of the kg `jg` columns of a frame-point observation (-1: none); x_frame
+    (mx,): the frame of each extra observation (-1: none).
     """
 
     def __init__(self, n_frames: int, b: int, n_points: int, d: int,
                  frame: np.ndarray, point: np.ndarray, control_point: np.ndarray,
                  frame_names: list[str] | None = None, point_names: list[str] | None = None,
-                 n_fixed: int = 0):
+                 n_fixed: int = 0, ng: int = 0, gcol: np.ndarray | None = None,
+                 x_frame: np.ndarray | None = None, global_names: list[str] | None = None):
         self.nf, self.b, self.np, self.d = n_frames, b, n_points, d
         self.frame_names = frame_names or [str(i) for i in range(n_frames)]
         self.point_names = point_names or [str(i) for i in range(n_points)]
@@ -80,10 +108,20 @@ class SchurSystem:
         diag = np.arange(n_frames)
         self.diag_slot, _ = self.pattern.slots(diag, diag)
         self.n_fixed = int(n_fixed)
+        self.ng = int(ng)
+        self.gcol = (np.zeros((len(frame), 0), np.int64) if gcol is None
+                     else np.asarray(gcol, np.int64).reshape(len(frame), -1))
+        self.x_frame = (np.zeros(0, np.int64) if x_frame is None
+                        else np.asarray(x_frame, np.int64))
+        self.global_names = global_names or [f"global {i}" for i in range(self.ng)]
 
     @property
     def n_unknowns(self) -> int:
-        return self.nf * self.b + self.np * self.d - self.n_fixed
+        return self.nf * self.b + self.np * self.d + self.ng - self.n_fixed
+
+    @property
+    def mx(self) -> int:
+        return len(self.x_frame)
 
     def factorize(self, lin: Linearization, damping: float = 0.0) -> SchurFactor:
         """Assemble the normal equations of `lin`, reduce them and factor S.
@@ -98,6 +136,9 @@ class SchurFactor:
 
     Owned by whoever asked for it (an adjustment result keeps the one at its solution);
     the covariance blocks of the selected inverse are computed on first use and kept.
+    Observation-side arguments and results come in three parts (frame-point rows, point
+    rows, extra rows), unknown-side ones in three parts (frames, points, globals) when the
+    system has global unknowns or extra observations, else in two.
     """
 
     @single_threaded_blas
@@ -114,12 +155,24 @@ class SchurFactor:
         if lin.wf is not None:  # direct observations of frame unknowns (e.g. GNSS, datum)
             hff[:, np.arange(s.b), np.arange(s.b)] += lin.wf
             gf += lin.wf * lin.ef
+        if lin.wp is not None:  # held point coordinates
+            hpp[:, np.arange(s.d), np.arange(s.d)] += lin.wp
+            gp += lin.wp * lin.ep
         jcw = lin.jc * lin.wc[:, :, None]
         np.add.at(hpp, s.control_point, np.einsum("mkd,mke->mde", jcw, lin.jc))
         np.add.at(gp, s.control_point, np.einsum("mkd,mk->md", jcw, lin.ec))
+        if s.mx:  # extra observations: their frame part
+            xf = s.x_frame >= 0
+            jxw = lin.jxf[xf] * lin.wx[xf][:, :, None]
+            np.add.at(hff, s.x_frame[xf], np.einsum("xkb,xkc->xbc", jxw, lin.jxf[xf]))
+            np.add.at(gf, s.x_frame[xf], np.einsum("xkb,xk->xb", jxw, lin.ex[xf]))
+        if s.ng:
+            self._assemble_globals(lin)
         if damping:
             hff[:, np.arange(s.b), np.arange(s.b)] *= 1.0 + damping
             hpp[:, np.arange(s.d), np.arange(s.d)] *= 1.0 + damping
+            if s.ng:
+                self.hgg[np.arange(s.ng), np.arange(s.ng)] *= 1.0 + damping
         self.gp = gp
         values = s.pattern.new_values()
         self.hpp_l = np.zeros_like(hpp)
@@ -143,20 +196,106 @@ class SchurFactor:
                 f"the exterior orientation of {s.frame_names[err.block]} is not determined: "
                 "the block has a datum defect or this photo is not connected well enough "
                 "(check control and tie points)") from None
+        if s.ng:
+            self._eliminate_globals()
+
+    # ----------------------------------------------------------- global unknowns
+    def _assemble_globals(self, lin: Linearization) -> None:
+        """Hgg (ng, ng), gg (ng,), Hfg (nf, b, ng), Hpg (np, d, ng) of the border."""
+        s = self.system
+        ng = s.ng
+        hgg, gg = np.zeros((ng, ng)), np.zeros(ng)
+        hfg, hpg = np.zeros((s.nf, s.b, ng)), np.zeros((s.np, s.d, ng))
+        if lin.jg is not None and s.gcol.shape[1]:
+            col = s.gcol
+            jgw = lin.jg * lin.w[:, :, None]
+            ok = col >= 0
+            blk = np.einsum("mka,mkc->mac", jgw, lin.jg)
+            both = ok[:, :, None] & ok[:, None, :]
+            r = np.broadcast_to(col[:, :, None], blk.shape)[both]
+            c = np.broadcast_to(col[:, None, :], blk.shape)[both]
+            np.add.at(hgg, (r, c), blk[both])
+            np.add.at(gg, col[ok], np.einsum("mka,mk->ma", jgw, lin.e)[ok])
+            mi, ai = np.nonzero(ok)
+            np.add.at(hfg, (s.frame[mi], slice(None), col[mi, ai]),
+                      np.einsum("mkb,mk->mb", lin.jf[mi], jgw[mi, :, ai]))
+            np.add.at(hpg, (s.point[mi], slice(None), col[mi, ai]),
+                      np.einsum("mkd,mk->md", lin.jp[mi], jgw[mi, :, ai]))
+        if s.mx:
+            jxw = lin.jxg * lin.wx[:, :, None]
+            hgg += np.einsum("xka,xkc->ac", jxw, lin.jxg)
+            gg += np.einsum("xka,xk->a", jxw, lin.ex)
+            xf = s.x_frame >= 0
+            np.add.at(hfg, s.x_frame[xf], np.einsum("xkb,xka->xba", lin.jxf[xf], jxw[xf]))
+        if lin.wg is not None:
+            hgg[np.arange(ng), np.arange(ng)] += lin.wg
+            gg += lin.wg * lin.eg
+        self.hgg, self.gg, self.hfg, self.hpg = hgg, gg, hfg, hpg
+
+    def _eliminate_globals(self) -> None:
+        """Y = N0^-1 N0g and the Cholesky factor of C = Ngg - N0g^T Y."""
+        s = self.system
+        self.yf, self.yp = self._solve0(self.hfg, self.hpg)
+        c = (self.hgg - np.einsum("fbg,fbh->gh", self.hfg, self.yf)
+             - np.einsum("pdg,pdh->gh", self.hpg, self.yp))
+        c = 0.5 * (c + c.T)
+        try:
+            self.c_chol = cho_factor(c, lower=True)
+        except np.linalg.LinAlgError:
+            d = np.diag(c)
+            worst = int(np.argmin(d / np.maximum(np.diag(self.hgg), 1e-300)))
+            raise GeometryError(
+                f"{s.global_names[worst]} is not determined by the observations (it cannot "
+                "be told apart from the orientations, the points or other parameters: hold "
+                "it fixed or strengthen the network)") from None
+        if not np.all(np.diag(self.c_chol[0]) > 1e-12 * np.sqrt(np.maximum(np.diag(
+                self.hgg), 1e-300))):
+            worst = int(np.argmin(np.diag(self.c_chol[0])))
+            raise GeometryError(
+                f"{s.global_names[worst]} is not determined by the observations (it cannot "
+                "be told apart from the orientations, the points or other parameters: hold "
+                "it fixed or strengthen the network)")
+
+    def _solve0(self, gf: np.ndarray, gp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """N0^-1 [gf; gp] for q columns (the globals held)."""
+        s = self.system
+        q = gf.shape[2]
+        red = self._reduce_rhs(gf, gp)
+        xf = self.chol.solve(red.reshape(s.nf * s.b, q)).reshape(s.nf, s.b, q)
+        xp = kernels.back_substitute(s.ptr, s.frame_sorted, self.hfp, self.hpp_inv,
+                                     np.ascontiguousarray(gp), np.ascontiguousarray(xf))
+        return xf, xp
+
+    def _global_part(self, gg: np.ndarray, xf0: np.ndarray, xp0: np.ndarray):
+        """xg = C^-1 (gg - N0g^T x0) and the corrected (xf, xp) for q columns."""
+        r = gg - np.einsum("fbg,fbq->gq", self.hfg, xf0) - np.einsum("pdg,pdq->gq",
+                                                                      self.hpg, xp0)
+        xg = cho_solve(self.c_chol, r)
+        return (xf0 - np.einsum("fbg,gq->fbq", self.yf, xg),
+                xp0 - np.einsum("pdg,gq->pdq", self.yp, xg), xg)
+
+    @property
+    def has_border(self) -> bool:
+        return bool(self.system.ng or self.system.mx)
 
     @single_threaded_blas
-    def step(self) -> tuple[np.ndarray, np.ndarray]:
-        """Corrections to the frame (nf, b) and point (np, d) unknowns."""
+    def step(self) -> tuple[np.ndarray, ...]:
+        """Corrections to the frame (nf, b) and point (np, d) unknowns (and the global ones,
+        (ng,), when the system has any)."""
         s = self.system
         xf = self.chol.solve(self.gf.reshape(-1)).reshape(s.nf, s.b)
         xp = kernels.back_substitute(s.ptr, s.frame_sorted, self.hfp, self.hpp_inv,
                                      self.gp[:, :, None], xf[:, :, None])
-        return xf, xp[:, :, 0]
+        if not s.ng:
+            return xf, xp[:, :, 0]
+        xf, xp, xg = self._global_part(self.gg[:, None], xf[:, :, None], xp)
+        return xf[:, :, 0], xp[:, :, 0], xg[:, 0]
 
     # ------------------------------------------------------------ covariances
     @single_threaded_blas
     def covariances(self):
-        """Selected inverse: Sigma_ff (pattern storage), Sigma_pf per observation, Sigma_pp."""
+        """Selected inverse of N0 (the globals held): Sigma_ff (pattern storage), its
+        diagonal blocks, Sigma_pf per observation, Sigma_pp."""
         if self._sel is None:
             s = self.system
             sel = self.chol.selected_inverse()
@@ -168,16 +307,50 @@ class SchurFactor:
             self._sel = (sel, values[s.diag_slot], spf[inv], spp)
         return self._sel
 
+    def _c_inv(self) -> np.ndarray:
+        return cho_solve(self.c_chol, np.eye(self.system.ng))
+
     def frame_covariance(self) -> np.ndarray:
         """(nf, b, b) cofactor blocks of the frame unknowns."""
-        return self.covariances()[1]
+        q = self.covariances()[1]
+        if self.system.ng:
+            q = q + np.einsum("fbg,gh,fch->fbc", self.yf, self._c_inv(), self.yf)
+        return q
 
     def point_covariance(self) -> np.ndarray:
         """(np, d, d) cofactor blocks of the point unknowns (marginal, not conditional)."""
-        return self.covariances()[3]
+        q = self.covariances()[3]
+        if self.system.ng:
+            q = q + np.einsum("pdg,gh,peh->pde", self.yp, self._c_inv(), self.yp)
+        return q
 
-    def adjusted_cofactors(self) -> tuple[np.ndarray, np.ndarray]:
-        """Cofactor blocks of the adjusted observations: (m, k, k) and (mp, kp, kp)."""
+    def global_covariance(self) -> np.ndarray:
+        """(ng, ng) cofactor matrix of the global unknowns."""
+        return self._c_inv()
+
+    def frame_global_covariance(self) -> np.ndarray:
+        """(nf, b, ng) cofactors between frame and global unknowns."""
+        return -np.einsum("fbg,gh->fbh", self.yf, self._c_inv())
+
+    def _border_rows(self):
+        """a = A0 Y - Ag for the three row sets: (m, k, ng), (mp, kp, ng), (mx, kx, ng)."""
+        s, lin = self.system, self.lin
+        a = (np.einsum("mkb,mbg->mkg", lin.jf, self.yf[s.frame])
+             + np.einsum("mkd,mdg->mkg", lin.jp, self.yp[s.point]))
+        if lin.jg is not None and s.gcol.shape[1]:
+            mi, ai = np.nonzero(s.gcol >= 0)
+            np.subtract.at(a, (mi, slice(None), s.gcol[mi, ai]), lin.jg[mi, :, ai])
+        ac = np.einsum("mkd,mdg->mkg", lin.jc, self.yp[s.control_point])
+        ax = -lin.jxg if s.mx else np.zeros((0, 0, s.ng))
+        if s.mx:
+            xf = s.x_frame >= 0
+            ax = ax.copy()
+            ax[xf] += np.einsum("xkb,xbg->xkg", lin.jxf[xf], self.yf[s.x_frame[xf]])
+        return a, ac, ax
+
+    def adjusted_cofactors(self) -> tuple[np.ndarray, ...]:
+        """Cofactor blocks of the adjusted observations: (m, k, k) and (mp, kp, kp) (and
+        (mx, kx, kx) for the extra observations when the system has a border)."""
         lin, system = self.lin, self.system
         _, sff, spf, spp = self.covariances()
         jf, jp = lin.jf, lin.jp
@@ -187,12 +360,25 @@ class SchurFactor:
         cross = jp @ spf @ np.swapaxes(jf, 1, 2)
         q += cross + np.swapaxes(cross, 1, 2)
         qc = lin.jc @ spp[system.control_point] @ np.swapaxes(lin.jc, 1, 2)
-        return q, qc
+        if not self.has_border:
+            return q, qc
+        kx = lin.jxg.shape[1] if system.mx else 0
+        qx = np.zeros((system.mx, kx, kx))
+        if system.mx:
+            xf = system.x_frame >= 0
+            jx = lin.jxf[xf]
+            qx[xf] = jx @ sff[system.x_frame[xf]] @ np.swapaxes(jx, 1, 2)
+        if system.ng:
+            cinv = self._c_inv()
+            for rows, out in zip(self._border_rows(), (q, qc, qx), strict=True):
+                out += np.einsum("mkg,gh,mlh->mkl", rows, cinv, rows)
+        return q, qc, qx
 
-    def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
+    def point_effect(self) -> tuple[np.ndarray, ...]:
         """Change of the observed point's unknowns per unit error of each observation row.
 
-        (m, k, d) for frame-point observations and (mp, kp, d) for point observations:
+        (m, k, d) for frame-point observations and (mp, kp, d) for point observations
+        (and (mx, kx, 0) for the extra observations, which have no eliminated point):
         dX = Sigma_{X, x} a_i^T p_i, the column of N^-1 A^T P for that row, restricted to
         the point that the observation belongs to.
         """
@@ -202,11 +388,22 @@ class SchurFactor:
         g = np.swapaxes(g, 1, 2) * lin.w[:, :, None]
         gc = np.swapaxes(spp[system.control_point] @ np.swapaxes(lin.jc, 1, 2), 1, 2)
         gc = gc * lin.wc[:, :, None]
-        return g, gc
+        if not self.has_border:
+            return g, gc
+        if system.ng:
+            cinv = self._c_inv()
+            a, ac, _ = self._border_rows()
+            g += np.einsum("mdg,gh,mkh->mkd", self.yp[system.point], cinv, a) * \
+                lin.w[:, :, None]
+            gc += np.einsum("mdg,gh,mkh->mkd", self.yp[system.control_point], cinv, ac) * \
+                lin.wc[:, :, None]
+        kx = lin.jxg.shape[1] if system.mx else 0
+        return g, gc, np.zeros((system.mx, kx, system.d))
 
     # ---------------------------------------------------- general columns (H)
-    def apply_AtP(self, h: np.ndarray, hc: np.ndarray):
-        """A^T P [h; hc] for q columns: h (m, k, q), hc (mp, kp, q) -> (nf, b, q), (np, d, q)."""
+    def apply_AtP(self, h: np.ndarray, hc: np.ndarray, hx: np.ndarray | None = None):
+        """A^T P [h; hc; hx] for q columns: h (m, k, q), hc (mp, kp, q), hx (mx, kx, q) ->
+        (nf, b, q), (np, d, q) (and (ng, q) when the system has a border)."""
         lin, s = self.lin, self.system
         q = h.shape[2]
         gf = np.zeros((s.nf, s.b, q))
@@ -216,7 +413,18 @@ class SchurFactor:
         np.add.at(gp, s.point, np.einsum("mkd,mkq->mdq", lin.jp, hw))
         np.add.at(gp, s.control_point,
                   np.einsum("mkd,mkq->mdq", lin.jc, hc * lin.wc[:, :, None]))
-        return gf, gp
+        if not self.has_border:
+            return gf, gp
+        gg = np.zeros((s.ng, q))
+        if lin.jg is not None and s.gcol.shape[1]:
+            mi, ai = np.nonzero(s.gcol >= 0)
+            np.add.at(gg, s.gcol[mi, ai], np.einsum("mk,mkq->mq", lin.jg[mi, :, ai], hw[mi]))
+        if s.mx:
+            hxw = hx * lin.wx[:, :, None]
+            gg += np.einsum("xkg,xkq->gq", lin.jxg, hxw)
+            xf = s.x_frame >= 0
+            np.add.at(gf, s.x_frame[xf], np.einsum("xkb,xkq->xbq", lin.jxf[xf], hxw[xf]))
+        return gf, gp, gg
 
     def _reduce_rhs(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
         """gf - sum Hfp Hpp^-1 gp for q columns, (nf, b, q)."""
@@ -227,18 +435,18 @@ class SchurFactor:
         return red
 
     @single_threaded_blas
-    def solve_normal(self, gf: np.ndarray, gp: np.ndarray):
-        """N^-1 [gf; gp] for q columns."""
-        s = self.system
-        q = gf.shape[2]
-        red = self._reduce_rhs(gf, gp)
-        xf = self.chol.solve(red.reshape(s.nf * s.b, q)).reshape(s.nf, s.b, q)
-        xp = kernels.back_substitute(s.ptr, s.frame_sorted, self.hfp, self.hpp_inv,
-                                     np.ascontiguousarray(gp), np.ascontiguousarray(xf))
-        return xf, xp
+    def solve_normal(self, gf: np.ndarray, gp: np.ndarray, gg: np.ndarray | None = None):
+        """N^-1 [gf; gp; gg] for q columns (gg only when the system has a border)."""
+        xf, xp = self._solve0(gf, gp)
+        if not self.has_border:
+            return xf, xp
+        if not self.system.ng:
+            return xf, xp, np.zeros((0, gf.shape[2]))
+        return self._global_part(gg, xf, xp)
 
     @single_threaded_blas
-    def forward(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
+    def forward(self, gf: np.ndarray, gp: np.ndarray, gg: np.ndarray | None = None
+                ) -> np.ndarray:
         """W with W^T W = g^T N^-1 g for q columns (FOTEF: one forward substitution)."""
         s = self.system
         q = gf.shape[2]
@@ -246,12 +454,31 @@ class SchurFactor:
         wf = self.chol.forward(red.reshape(s.nf * s.b, q))
         # Hpp = L L^T per point: the point part of the forward substitution is L^-1 gp
         wp = np.linalg.solve(self.hpp_l, gp)
-        return np.concatenate([wp.reshape(s.np * s.d, q), wf.reshape(-1, q)])
+        out = np.concatenate([wp.reshape(s.np * s.d, q), wf.reshape(-1, q)])
+        if not s.ng:
+            return out
+        xf0, xp0 = self._solve0(gf, gp)
+        r = gg - np.einsum("fbg,fbq->gq", self.hfg, xf0) - np.einsum("pdg,pdq->gq",
+                                                                      self.hpg, xp0)
+        wg = solve_triangular(self.c_chol[0], r, lower=True)
+        return np.concatenate([out, wg])
 
-    def apply_A(self, xf: np.ndarray, xp: np.ndarray):
-        """A x for q columns: (m, k, q), (mp, kp, q)."""
+    def apply_A(self, xf: np.ndarray, xp: np.ndarray, xg: np.ndarray | None = None):
+        """A x for q columns: (m, k, q), (mp, kp, q) (and (mx, kx, q) with a border)."""
         lin, s = self.lin, self.system
         rows = (np.einsum("mkb,mbq->mkq", lin.jf, xf[s.frame])
                 + np.einsum("mkd,mdq->mkq", lin.jp, xp[s.point]))
         rows_c = np.einsum("mkd,mdq->mkq", lin.jc, xp[s.control_point])
-        return rows, rows_c
+        if not self.has_border:
+            return rows, rows_c
+        q = xf.shape[2]
+        if lin.jg is not None and s.gcol.shape[1] and s.ng:
+            mi, ai = np.nonzero(s.gcol >= 0)
+            np.add.at(rows, mi, np.einsum("mk,mq->mkq", lin.jg[mi, :, ai], xg[s.gcol[mi, ai]]))
+        kx = lin.jxg.shape[1] if s.mx else 0
+        rows_x = np.zeros((s.mx, kx, q))
+        if s.mx:
+            rows_x += np.einsum("xkg,gq->xkq", lin.jxg, xg)
+            xfm = s.x_frame >= 0
+            rows_x[xfm] += np.einsum("xkb,xbq->xkq", lin.jxf[xfm], xf[s.x_frame[xfm]])
+        return rows, rows_c, rows_x

@@ -20,32 +20,43 @@ from baarda.quality.adjusted_model import AdjustedModel
 
 @dataclass(frozen=True)
 class FlatLayout:
-    """Where the components of the flat observation vector sit in the Schur arrays."""
+    """Where the components of the flat observation vector sit in the Schur arrays: the k
+    rows of each frame-point observation, the observed point-observation rows, then the kx
+    rows of each extra observation (SchurSystem: observations of border unknowns)."""
 
     m: int  # frame-point observations
     k: int  # rows of each
     n_control: int  # point observations
     kc: int  # rows of each
     ctrl_sel: np.ndarray  # observed rows among the (n_control * kc) point-observation rows
+    mx: int = 0  # extra observations
+    kx: int = 0  # rows of each
 
     @property
     def n(self) -> int:
-        return self.m * self.k + len(self.ctrl_sel)
+        return self.m * self.k + len(self.ctrl_sel) + self.mx * self.kx
 
-    def split(self, h: np.ndarray, fill: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-        """Flat (n,) or (n, q) -> frame-point rows (m, k[, q]) and point rows (nc, kc[, q])."""
+    def split(self, h: np.ndarray, fill: float = 0.0) -> tuple[np.ndarray, ...]:
+        """Flat (n,) or (n, q) -> frame-point rows (m, k[, q]) and point rows (nc, kc[, q])
+        (and extra rows (mx, kx[, q]) when there are any)."""
         h = np.asarray(h)
         tail = h.shape[1:]
-        hm = h[: self.m * self.k].reshape(self.m, self.k, *tail)
+        nm, ncs = self.m * self.k, len(self.ctrl_sel)
+        hm = h[:nm].reshape(self.m, self.k, *tail)
         hc = np.full((self.n_control * self.kc, *tail), fill, dtype=h.dtype)
-        hc[self.ctrl_sel] = h[self.m * self.k:]
-        return hm, hc.reshape(self.n_control, self.kc, *tail)
+        hc[self.ctrl_sel] = h[nm:nm + ncs]
+        hc = hc.reshape(self.n_control, self.kc, *tail)
+        if not self.mx:
+            return hm, hc
+        return hm, hc, h[nm + ncs:].reshape(self.mx, self.kx, *tail)
 
-    def flat(self, rm: np.ndarray, rc: np.ndarray) -> np.ndarray:
-        """Inverse of split for (m, k[, q]) and (nc, kc[, q]) arrays."""
+    def flat(self, rm: np.ndarray, rc: np.ndarray, rx: np.ndarray | None = None) -> np.ndarray:
+        """Inverse of split for (m, k[, q]), (nc, kc[, q]) and (mx, kx[, q]) arrays."""
         tail = rm.shape[2:]
-        return np.concatenate([rm.reshape(self.m * self.k, *tail),
-                               rc.reshape(-1, *tail)[self.ctrl_sel]])
+        parts = [rm.reshape(self.m * self.k, *tail), rc.reshape(-1, *tail)[self.ctrl_sel]]
+        if self.mx:
+            parts.append(rx.reshape(self.mx * self.kx, *tail))
+        return np.concatenate(parts)
 
 
 class SchurModel(AdjustedModel):
@@ -54,13 +65,12 @@ class SchurModel(AdjustedModel):
     factor: SchurFactor
     layout: FlatLayout
 
-    def parameter_effect(self, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """N^-1 A^T P H: changes of the frame (nf, b, q) and point (np, d, q) unknowns."""
-        hm, hc = self.layout.split(h)
-        gf, gp = self.factor.apply_AtP(hm, hc)
-        return self.factor.solve_normal(gf, gp)
+    def parameter_effect(self, h: np.ndarray) -> tuple[np.ndarray, ...]:
+        """N^-1 A^T P H: changes of the frame (nf, b, q) and point (np, d, q) unknowns (and
+        the global ones (ng, q) when the adjustment has any)."""
+        return self.factor.solve_normal(*self.factor.apply_AtP(*self.layout.split(h)))
 
-    def _adjusted_cofactors(self) -> tuple[np.ndarray, np.ndarray]:
+    def _adjusted_cofactors(self) -> tuple[np.ndarray, ...]:
         """Blocks of A N^-1 A^T, computed once (statistics and grouped tests both need them)."""
         if getattr(self, "_qll", None) is None:
             self._qll = self.factor.adjusted_cofactors()
@@ -68,26 +78,20 @@ class SchurModel(AdjustedModel):
 
     # ------------------------------------------------------------- interface
     def adjusted_cofactor_diag(self) -> np.ndarray:
-        q, qc = self._adjusted_cofactors()
-        return self.layout.flat(np.diagonal(q, axis1=1, axis2=2),
-                                np.diagonal(qc, axis1=1, axis2=2))
+        return self.layout.flat(*(np.diagonal(q, axis1=1, axis2=2)
+                                  for q in self._adjusted_cofactors()))
 
     def adjusted_cofactor_blocks(self) -> tuple[np.ndarray, np.ndarray]:
-        q, _ = self._adjusted_cofactors()
+        q = self._adjusted_cofactors()[0]
         lay = self.layout
         return np.arange(lay.m * lay.k).reshape(lay.m, lay.k), q
 
     def normal_forward(self, h: np.ndarray) -> np.ndarray:
-        hm, hc = self.layout.split(h)
-        gf, gp = self.factor.apply_AtP(hm, hc)
-        return self.factor.forward(gf, gp)
+        return self.factor.forward(*self.factor.apply_AtP(*self.layout.split(h)))
 
     def solve_columns(self, h: np.ndarray) -> np.ndarray:
-        xf, xp = self.parameter_effect(h)
-        rm, rc = self.factor.apply_A(xf, xp)
-        return self.layout.flat(rm, rc)
+        return self.layout.flat(*self.factor.apply_A(*self.parameter_effect(h)))
 
     def point_effect_rows(self) -> np.ndarray:
         """Effect of a unit error of each component on its point's unknowns, (n, d)."""
-        g, gc = self.factor.point_effect()
-        return self.layout.flat(g, gc)
+        return self.layout.flat(*self.factor.point_effect())

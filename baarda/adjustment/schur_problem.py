@@ -40,7 +40,9 @@ class SchurProblem:
             raise ValueError(f"active and factors must be {n} values (factors positive)")
         self.active, self.factors = read_only(active.copy()), read_only(factors.copy())
         p = np.where(active, factors / self.sigma_apriori**2, 0.0)
-        self.w, self.wc = (read_only(a) for a in self.layout.split(p))
+        parts = [read_only(a) for a in self.layout.split(p)]
+        self.w, self.wc = parts[:2]
+        self.wx = parts[2] if len(parts) == 3 else None  # extra observations (a border)
 
     def reweighted(self, active: np.ndarray | None = None,
                    factors: np.ndarray | None = None):
@@ -57,8 +59,8 @@ class SchurProblem:
         return self.system.factorize(lin, damping)
 
     def update(self, state, step, t: float):
-        """(frames, points) + t (frame step, point step)."""
-        return state[0] + t * step[0], state[1] + t * step[1]
+        """(frames, points[, globals]) + t (frame step, point step[, global step])."""
+        return tuple(x + t * dx for x, dx in zip(state, step, strict=True))
 
     def admissible(self, state) -> bool:
         return True
