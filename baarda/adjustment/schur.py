@@ -38,6 +38,8 @@ from baarda.errors import GeometryError
 from baarda.linalg import BlockCholesky, BlockPattern, NotPositiveDefinite
 from baarda.linalg.threads import single_threaded_blas
 
+HOLD = 1e24  # weight of a direct constraint that holds an unknown (datum, fixed control)
+
 
 @dataclass(frozen=True)
 class Linearization:

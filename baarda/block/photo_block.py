@@ -64,11 +64,25 @@ class ImagePoints:
     photo: np.ndarray  # (m,) index into Photos
     point: np.ndarray  # (m,) index into GroundPoints
     xy_mm: np.ndarray  # (m, 2)
-    sigma_mm: np.ndarray  # (m,) standard deviation of x and of y
+    sigma_mm: np.ndarray  # (m,) standard deviation of x and of y (RMS of the two)
     model: np.ndarray | None = None  # (m,) stereo model label (twin rays), or None
+    sigma_xy_mm: np.ndarray | None = None  # (m, 2) when x and y have their own sigmas
 
     def __len__(self) -> int:
         return len(self.photo)
+
+    @property
+    def sigma_xy(self) -> np.ndarray:
+        """(m, 2) standard deviations of x and y in mm."""
+        if self.sigma_xy_mm is not None:
+            return self.sigma_xy_mm
+        return np.repeat(np.asarray(self.sigma_mm, float)[:, None], 2, axis=1)
+
+    def take(self, keep: np.ndarray) -> ImagePoints:
+        """The rows `keep` (a boolean mask or indices)."""
+        return ImagePoints(self.photo[keep], self.point[keep], self.xy_mm[keep],
+                           self.sigma_mm[keep], None if self.model is None else self.model[keep],
+                           None if self.sigma_xy_mm is None else self.sigma_xy_mm[keep])
 
 
 @dataclass
@@ -95,6 +109,25 @@ class GroundPoints:
 
 
 @dataclass
+class Distances:
+    """Observed distances between ground points (scale bars, taped distances), in m."""
+
+    ids: list[str]  # a name of each distance (scale bar name or 'A-B')
+    point_a: np.ndarray  # (n,) index into GroundPoints
+    point_b: np.ndarray  # (n,)
+    length_m: np.ndarray  # (n,)
+    sigma_m: np.ndarray  # (n,) a-priori standard deviation
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+def no_distances() -> Distances:
+    return Distances([], np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0),
+                     np.zeros(0))
+
+
+@dataclass
 class Block:
     settings: Settings
     cameras: Cameras
@@ -104,6 +137,7 @@ class Block:
     source: str = ""
     notes: list[str] = field(default_factory=list)
     frame: LocalFrame | None = None  # ground coordinates are local ENU of this CRS frame
+    distances: Distances = field(default_factory=no_distances)
 
     @property
     def photo_index(self) -> dict[str, int]:
@@ -119,14 +153,12 @@ class Block:
 
     def select_image(self, keep: np.ndarray) -> Block:
         """A copy of the block with only the image points where `keep` is True."""
-        im = self.image
-        image = ImagePoints(im.photo[keep], im.point[keep], im.xy_mm[keep], im.sigma_mm[keep],
-                            None if im.model is None else im.model[keep])
-        return replace(self, image=image, notes=list(self.notes))
+        return replace(self, image=self.image.take(keep), notes=list(self.notes))
 
     def summary(self) -> str:
         roles = self.points.role
         return (f"{self.settings.name}: {len(self.cameras)} camera(s), {len(self.photos)} photos, "
                 f"{len(self.image)} image points, {len(self.points)} ground points "
                 f"({int(np.sum(roles == 'control'))} control, {int(np.sum(roles == 'check'))} "
-                f"check, {int(np.sum(roles == 'tie'))} tie)")
+                f"check, {int(np.sum(roles == 'tie'))} tie)"
+                + (f", {len(self.distances)} distance(s)" if len(self.distances) else ""))

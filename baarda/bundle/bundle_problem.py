@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.adjustment.schur import HOLD, Linearization, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.solve import solve
@@ -29,7 +29,6 @@ from baarda.options import Progress, SolveOptions
 # converged when the correction is below 1e-7 of the flying height (positions and points)
 # and 1e-10 rad (angles): correction_size weighs angles by 1000 / rad
 SOLVE = SolveOptions(max_iterations=50, tolerance=1e-7, min_step=1e-3)
-HOLD = 1e24  # weight of a datum constraint (free networks)
 XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
 
@@ -69,7 +68,7 @@ class BundleProblem(SchurProblem):
         m, nc = len(self.obs), len(self.control)
         self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(np.isfinite(sig_c).ravel()))
         sel = self.layout.ctrl_sel
-        self.sigma_apriori = read_only(np.concatenate([np.repeat(im.sigma_mm[self.obs], 2),
+        self.sigma_apriori = read_only(np.concatenate([im.sigma_xy[self.obs].ravel(),
                                                         sig_c.ravel()[sel]]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
         warnings = [] if self.held is not None else check_datum(

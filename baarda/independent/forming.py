@@ -100,7 +100,7 @@ def relative_orientation(block: Block, left: int, right: int, eo_approx: np.ndar
     rot = rotation_matrix(*ang)
     xyz = _intersect(im.xy_mm[il], im.xy_mm[ir], rot, b, c[0], c[1], pp[0], pp[1])
     eo_r = np.concatenate([b, ang])
-    sig = np.concatenate([im.sigma_mm[il], im.sigma_mm[il], im.sigma_mm[ir], im.sigma_mm[ir]])
+    sig = np.concatenate([im.sigma_xy[il].ravel(), im.sigma_xy[ir].ravel()])  # as obs
     obs = np.concatenate([im.xy_mm[il].ravel(), im.xy_mm[ir].ravel()])
     n = len(pts)
     zero6 = np.zeros((n, 6))

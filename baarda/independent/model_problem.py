@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.adjustment.schur import HOLD, Linearization, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem
 from baarda.adjustment.solve import solve
@@ -87,7 +87,10 @@ class ModelProblem(SchurProblem):
         ctrl = bl.controlled[:, self.comps].any(axis=1) & (remap >= 0)
         self.control = np.flatnonzero(ctrl)
         sig = bl.sigma[self.control][:, self.comps]
-        ok = np.isfinite(sig) & (bl.role[self.control] == "control")[:, None]
+        given = np.isfinite(sig) & (bl.role[self.control] == "control")[:, None]
+        ok = given & (sig > 0)
+        self.held = np.zeros((len(self.point_ids), self.d), bool)  # fixed control (sigma 0)
+        self.held[remap[self.control]] = given & (sig == 0)
         self.wc_full = np.where(ok, 1.0 / np.where(ok, sig, 1.0) ** 2, 0.0)
         self.model_ids = np.unique(bl.obs_model[self.rows])
         self.frame = bl.obs_model[self.rows]
@@ -124,7 +127,7 @@ class ModelProblem(SchurProblem):
             bl.n_models, self.b, len(self.point_ids), self.d, self.frame,
             remap[bl.obs_point[self.rows]], remap[self.control],
             frame_names=[f"model {m}" for m in bl.models],
-            point_names=[bl.points[j] for j in self.point_ids])
+            point_names=[bl.points[j] for j in self.point_ids], n_fixed=int(self.held.sum()))
         keep = np.ones((len(bl.obs_model), 3), bool) if obs_keep is None else \
             np.asarray(obs_keep, bool)
         ckeep = np.ones((bl.n_points, 3), bool) if control_keep is None else \
@@ -158,7 +161,8 @@ class ModelProblem(SchurProblem):
     # ------------------------------------------------------------------ checks
     def check_datum(self) -> None:
         bl = self.block
-        keep = self.wc.reshape(len(self.control), self.k) > 0
+        keep = (self.wc.reshape(len(self.control), self.k) > 0) | \
+            self.held[self.remap[self.control]]
         xyz = bl.xyz[self.control]
         problems = []
         npts = np.bincount(self.frame, minlength=bl.n_models)
@@ -229,8 +233,17 @@ class ModelProblem(SchurProblem):
         given = self.block.xyz[self.control][:, self.comps] - self.origin[self.comps]
         ec = np.where(np.isfinite(given), given, 0.0) - pts[self.remap[self.control]]
         jc = np.broadcast_to(np.eye(self.d), (len(self.control), self.d, self.d)).copy()
+        wp = ep = None
+        if self.held.any():  # fixed control: not unknowns (zero columns, held exactly)
+            jp = np.where(self.held[self.remap[self.block.obs_point[self.rows]]][:, None, :],
+                          0.0, jp)
+            wp = np.where(self.held, HOLD, 0.0)
+            ep = np.zeros_like(wp)
+            ep[self.remap[self.control]] = np.where(self.held[self.remap[self.control]], ec,
+                                                    0.0)
         # misclosures of rejected components stay (predicted residuals); weight 0 in N
-        return Linearization(jf, jp, self.w, e, jc, self.wc, np.where(self.wc_full > 0, ec, 0.0))
+        return Linearization(jf, jp, self.w, e, jc, self.wc, np.where(self.wc_full > 0, ec, 0.0),
+                             wp=wp, ep=ep)
 
     def _sizes(self, state, step, t: float = 1.0) -> tuple[float, float, float]:
         params = state[0]

@@ -31,7 +31,15 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import (
+    Block,
+    Cameras,
+    Distances,
+    GroundPoints,
+    ImagePoints,
+    Photos,
+    Settings,
+)
 from baarda.errors import ProjectError
 from baarda.io.records import ENCODING, read_lines, to_numbers
 
@@ -106,18 +114,31 @@ class AiconProject:
         qi = {p: j for j, p in enumerate(pid.tolist())}
         sig = (np.full(len(o["x"]), sigma_image_mm) if sigma_image_mm is not None
                else np.sqrt(0.5 * (o["sx"] ** 2 + o["sy"] ** 2)))
+        per_axis = None if sigma_image_mm is not None else np.column_stack([o["sx"], o["sy"]])
         image = ImagePoints(np.array([pi[int(i)] for i in o["image"]], dtype=np.int64),
                             np.array([qi[p] for p in o["point"].tolist()], dtype=np.int64),
-                            np.column_stack([o["x"], o["y"]]), sig)
+                            np.column_stack([o["x"], o["y"]]), sig, None, per_axis)
+        distances = self.distances(points.ids)
         notes = [f"AICON project {self.name}: object coordinates mm -> m; c = -ck",
                  "AICON lens distortion (A1..A3, R0, B1, B2, C1, C2) is NOT applied (lens model "
                  "'none'): its effect reaches 0.1 mm in this kind of camera",
-                 f"{int(self.active_scale_bars().sum())} scale bar(s) read but not in the "
-                 "block (distance observations are not part of the bundle yet)"]
+                 f"{len(distances)} scale bar(s) as distance observations (mm -> m)"]
         settings = Settings(name=self.name, angle_unit="rad",
                             sigma_image_um=float(np.median(sig)) * 1e3, datum="free")
         return Block(settings, cameras, photos, image, points,
-                     source=str(self.folder / self.name), notes=notes)
+                     source=str(self.folder / self.name), notes=notes, distances=distances)
+
+    def distances(self, point_ids: list[str]) -> Distances:
+        """The active scale bars between active points, in m."""
+        sb = self.scale_bars
+        index = {p: i for i, p in enumerate(point_ids)}
+        keep = [k for k in np.flatnonzero(self.active_scale_bars())
+                if _id(sb["a"][k]) in index and _id(sb["b"][k]) in index]
+        return Distances([str(sb["name"][k]) for k in keep],
+                         np.array([index[_id(sb["a"][k])] for k in keep], dtype=np.int64),
+                         np.array([index[_id(sb["b"][k])] for k in keep], dtype=np.int64),
+                         np.array([sb["length"][k] for k in keep], float) * 1e-3,
+                         np.array([sb["sigma"][k] for k in keep], float) * 1e-3)
 
 
 def _f(v) -> str:

@@ -16,10 +16,12 @@ from baarda.block.camera import COEFFICIENTS, KINDS
 from baarda.block.photo_block import (
     Block,
     Cameras,
+    Distances,
     GroundPoints,
     ImagePoints,
     Photos,
     Settings,
+    no_distances,
 )
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad
 from baarda.errors import ProjectError
@@ -91,8 +93,8 @@ def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
     ids = [str(p) for p in g.unique_ids("point")]
     role = g.text("role")
     for i, r in enumerate(role):
-        if r not in ("control", "check"):
-            raise ProjectError(g.path, f"role '{r}' must be 'control' or 'check'",
+        if r not in ("control", "check", "fixed"):
+            raise ProjectError(g.path, f"role '{r}' must be 'control', 'fixed' or 'check'",
                                int(g.lines[i]), "role")
     xyz = np.column_stack([g.numbers(c, allow_empty=True) for c in "XYZ"])
     names = [f"sigma_{c}" for c in "XYZ"]
@@ -102,11 +104,14 @@ def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
         raise ProjectError(g.path, "give all three columns sigma_X, sigma_Y, sigma_Z or none")
     else:
         sig = np.tile(np.asarray(sigma_control_m, float), (len(ids), 1))
+    fixed = role == "fixed"  # every given coordinate held: sigma 0
+    sig[fixed] = np.where(np.isfinite(xyz[fixed]), 0.0, np.nan)
+    role = np.where(fixed, "control", role)
     for k, c in enumerate("XYZ"):
-        bad = np.flatnonzero(np.isfinite(sig[:, k]) & ~(sig[:, k] > 0))
+        bad = np.flatnonzero(np.isfinite(sig[:, k]) & ~(sig[:, k] >= 0))
         if len(bad):
-            raise ProjectError(g.path, "standard deviation must be positive",
-                               int(g.lines[bad[0]]), f"sigma_{c}")
+            raise ProjectError(g.path, "standard deviation must be positive (0: the "
+                               "coordinate is fixed)", int(g.lines[bad[0]]), f"sigma_{c}")
         need = np.isfinite(sig[:, k]) | (role == "check")
         bad = np.flatnonzero(need & ~np.isfinite(xyz[:, k]))
         if len(bad):
@@ -119,6 +124,26 @@ def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
                            "is controlled", int(g.lines[bad[0]]), "sigma_X")
     sig[~ctrl] = np.nan
     return ids, xyz, sig, role.astype(object), g
+
+
+def _image_sigmas(t: Table, default_um: float) -> np.ndarray:
+    """(m, 2) a-priori sigmas of x and y in µm from `sigma_um` or `sigma_x_um` and
+    `sigma_y_um` (NaN where empty: the project default)."""
+    both = [t.has(c) for c in ("sigma_x_um", "sigma_y_um")]
+    if any(both) and not all(both):
+        raise ProjectError(t.path, "give both sigma_x_um and sigma_y_um (or sigma_um)")
+    if all(both) and t.has("sigma_um"):
+        raise ProjectError(t.path, "give sigma_um or sigma_x_um and sigma_y_um, not both")
+    names = ("sigma_x_um", "sigma_y_um") if all(both) else ("sigma_um", "sigma_um")
+    out = np.full((len(t), 2), np.nan)
+    for k, name in enumerate(names):
+        if t.has(name):
+            out[:, k] = t.numbers(name, allow_empty=True)
+            bad = np.flatnonzero(np.isfinite(out[:, k]) & ~(out[:, k] > 0))
+            if len(bad):
+                raise ProjectError(t.path, "standard deviation must be positive",
+                                   int(t.lines[bad[0]]), name)
+    return out
 
 
 def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
@@ -175,14 +200,10 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
     photo = t.lookup("photo", {p: i for i, p in enumerate(photo_ids)}, "photo")
     pcode, pnames = t.codes("point")
     xy = np.column_stack([t.numbers("x_mm"), t.numbers("y_mm")])
-    sig_um = (t.numbers("sigma_um", allow_empty=True) if t.has("sigma_um")
-              else np.full(len(t), np.nan))
-    bad = np.flatnonzero(np.isfinite(sig_um) & ~(sig_um > 0))
-    if len(bad):
-        raise ProjectError(t.path, "standard deviation must be positive",
-                           int(t.lines[bad[0]]), "sigma_um")
-    defaulted = int(np.isnan(sig_um).sum())
-    sig_um = np.where(np.isfinite(sig_um), sig_um, settings.sigma_image_um)
+    sig_xy = _image_sigmas(t, settings.sigma_image_um)  # (m, 2) µm, NaN: the default
+    defaulted = int(np.isnan(sig_xy).any(axis=1).sum())
+    sig_xy = np.where(np.isfinite(sig_xy), sig_xy, settings.sigma_image_um)
+    sig_um = np.sqrt(0.5 * (sig_xy**2).sum(axis=1))
     given = doc.get("sigma", {}) if isinstance(doc.get("sigma"), dict) else {}
     if defaulted and "image_um" not in given:
         notes.append(f"a-priori image sigma {settings.sigma_image_um:g} µm (the default) for "
@@ -219,5 +240,40 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
     sigma = np.vstack([gsig, np.full((n_tie, 3), np.nan)])
     roles = np.concatenate([role.astype(object), np.full(n_tie, "tie", dtype=object)])
     points = GroundPoints(ids, xyz, sigma, roles)
-    image = ImagePoints(photo, point, xy, sig_um * 1e-3, model)
-    return Block(settings, cameras, photos, image, points, source=str(folder), notes=notes)
+    per_axis = None if np.array_equal(sig_xy[:, 0], sig_xy[:, 1]) else sig_xy * 1e-3
+    image = ImagePoints(photo, point, xy, sig_um * 1e-3, model, per_axis)
+    dist = folder / "distances.csv"
+    distances = (read_distances(dist, ids, float(doc.get("sigma", {}).get("distance_m", 0.001))
+                                if isinstance(doc.get("sigma"), dict) else 0.001, encoding)
+                 if dist.is_file() else no_distances())
+    return Block(settings, cameras, photos, image, points, source=str(folder), notes=notes,
+                 distances=distances)
+
+
+def read_distances(path: Path, point_ids: list[str], default_sigma_m: float,
+                   encoding: str = ENCODING) -> Distances:
+    """distances.csv: `point_from, point_to, distance_m` and optionally `sigma_m` (empty:
+    `default_sigma_m`, project.toml [sigma] distance_m) and `name`."""
+    t = Table(path, ["point_from", "point_to", "distance_m"], encoding)
+    index = {p: i for i, p in enumerate(point_ids)}
+    a = t.lookup("point_from", index, "point")
+    b = t.lookup("point_to", index, "point")
+    same = np.flatnonzero(a == b)
+    if len(same):
+        raise ProjectError(t.path, "a distance from a point to itself", int(t.lines[same[0]]),
+                           "point_to")
+    length = t.numbers("distance_m")
+    bad = np.flatnonzero(~(length > 0))
+    if len(bad):
+        raise ProjectError(t.path, "distance must be positive", int(t.lines[bad[0]]),
+                           "distance_m")
+    sig = (t.numbers("sigma_m", allow_empty=True) if t.has("sigma_m")
+           else np.full(len(t), np.nan))
+    bad = np.flatnonzero(np.isfinite(sig) & ~(sig > 0))
+    if len(bad):
+        raise ProjectError(t.path, "standard deviation must be positive", int(t.lines[bad[0]]),
+                           "sigma_m")
+    sig = np.where(np.isfinite(sig), sig, default_sigma_m)
+    names = (list(t.text("name", allow_empty=True)) if t.has("name") else
+             [f"{point_ids[i]}-{point_ids[j]}" for i, j in zip(a, b, strict=True)])
+    return Distances(names, a.astype(np.int64), b.astype(np.int64), length, sig)

@@ -70,13 +70,22 @@ def _write_project(block: Block, folder: Path) -> None:
     im, pts = block.image, block.points
     has_model = im.model is not None
     xy = im.xy_mm.tolist()
-    sig = (im.sigma_mm * 1e3).tolist()
-    rows = ["photo,point,x_mm,y_mm,sigma_um" + (",model" if has_model else "")] + [
-        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{xy[i][0]!r},{xy[i][1]!r},"
-        f"{sig[i]:.6g}" + (f",{im.model[i]}" if has_model else "")
+    per_axis = im.sigma_xy_mm is not None
+    sig = ([f"{sx * 1e3:.6g},{sy * 1e3:.6g}" for sx, sy in im.sigma_xy_mm.tolist()] if per_axis
+           else [f"{s * 1e3:.6g}" for s in im.sigma_mm.tolist()])
+    head = "photo,point,x_mm,y_mm," + ("sigma_x_um,sigma_y_um" if per_axis else "sigma_um")
+    rows = [head + (",model" if has_model else "")] + [
+        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{xy[i][0]!r},{xy[i][1]!r},{sig[i]}"
+        + (f",{im.model[i]}" if has_model else "")
         for i in range(len(im))]
     write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
     write_ground_points(folder / "ground_points.csv", pts.ids, pts.xyz, pts.sigma, pts.role)
+    d = block.distances
+    if len(d):
+        rows = ["name,point_from,point_to,distance_m,sigma_m"] + [
+            f"{d.ids[i]},{pts.ids[d.point_a[i]]},{pts.ids[d.point_b[i]]},"
+            f"{float(d.length_m[i])!r},{float(d.sigma_m[i])!r}" for i in range(len(d))]
+        write_text(folder / "distances.csv", "\n".join(rows) + "\n")
 
 
 def write_model_project(block: ModelBlock, folder: str | Path | RunFolder) -> None:

@@ -94,8 +94,7 @@ def exact_observations(block: Block, eo: np.ndarray, xyz: np.ndarray) -> Block:
     cam = block.photos.camera[im.photo]
     xy = project(eo[im.photo], xyz[im.point], block.cameras.focal_mm[cam],
                  block.cameras.principal_point_mm[cam])
-    image = ImagePoints(im.photo.copy(), im.point.copy(), xy, im.sigma_mm.copy(),
-                        None if im.model is None else im.model.copy())
+    image = replace(im, xy_mm=xy)
     pts = block.points
     given = np.where((pts.role == "tie")[:, None], np.nan, xyz)
     points = GroundPoints(list(pts.ids), given, pts.sigma.copy(), pts.role.copy())
@@ -167,7 +166,9 @@ def add_twins(block: Block, xyz: np.ndarray, points: np.ndarray,
                         np.concatenate([im.point, twin_index[im.point[rows]]]),
                         np.vstack([im.xy_mm, im.xy_mm[rows]]),
                         np.concatenate([im.sigma_mm, im.sigma_mm[rows]]),
-                        None if im.model is None else np.concatenate([im.model, im.model[rows]]))
+                        None if im.model is None else np.concatenate([im.model, im.model[rows]]),
+                        None if im.sigma_xy_mm is None else
+                        np.vstack([im.sigma_xy_mm, im.sigma_xy_mm[rows]]))
     points_new = GroundPoints(list(pts.ids) + [pts.ids[j] + "T" for j in points],
                               np.vstack([pts.xyz, new_xyz]),
                               np.vstack([pts.sigma, pts.sigma[points]]),

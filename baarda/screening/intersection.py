@@ -78,7 +78,7 @@ class Intersection:
         var = np.array([constraints[int(p)][1] for p in self.cpoints]).reshape(nc, 3)
         self.obs = Observations(
             np.concatenate([im.xy_mm[self.rows].ravel(), con.ravel()]),
-            np.concatenate([np.repeat(im.sigma_mm[self.rows], 2), np.sqrt(var).ravel()]),
+            np.concatenate([im.sigma_xy[self.rows].ravel(), np.sqrt(var).ravel()]),
             np.array(["image"] * (2 * m) + ["constraint"] * (3 * nc), dtype=object),
             np.concatenate([np.tile(XY, m), np.tile(XYZ, nc)]),
             np.concatenate([np.repeat(photos[self.photo], 2),

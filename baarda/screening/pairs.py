@@ -168,7 +168,7 @@ def fit_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarra
     pts = im.point[rows_a]
     k = len(pts)
     xy_a, xy_b = im.xy_mm[rows_a], im.xy_mm[rows_b]
-    sig = np.repeat(np.hypot(im.sigma_mm[rows_a], im.sigma_mm[rows_b]), 2)
+    sig = np.hypot(im.sigma_xy[rows_a], im.sigma_xy[rows_b]).ravel()
     if sigma_mm is not None:
         sig = np.full(2 * k, float(sigma_mm))
     pid = np.asarray(block.points.ids, dtype=object)[pts]

@@ -108,7 +108,7 @@ def test_bad_settings(project):
 
 def test_bad_role_and_sigma(project):
     edit(project / "ground_points.csv", ",control", ",contrl")
-    with pytest.raises(ProjectError, match="role 'contrl' must be 'control' or 'check'"):
+    with pytest.raises(ProjectError, match="role 'contrl' must be 'control', 'fixed' or 'check'"):
         read_project(project)
     edit(project / "ground_points.csv", ",contrl", ",control")
     f = project / "ground_points.csv"

@@ -45,7 +45,7 @@ def _edit(folder: Path, name: str, old: str, new: str, count: int = 1):
     ("cameras.csv", "123.9392", "-1", 2, "focal_mm"),
     ("photos.csv", "8811,Aerial camera", "8811,Other camera", 2, "camera"),
     ("image_points.csv", "8811,317,", "8811,317,x", 2, "x_mm"),
-    ("ground_points.csv", ",control\n", ",fixed\n", 2, "role"),
+    ("ground_points.csv", ",control\n", ",fxed\n", 2, "role"),
 ])
 def test_malformed(project, name, old, new, line, column):
     _, folder = project
