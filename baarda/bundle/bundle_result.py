@@ -10,6 +10,7 @@ import numpy as np
 from baarda.adjustment.counts import AdjustmentCounts
 from baarda.adjustment.schur import Linearization, SchurFactor
 from baarda.block.photo_block import Block
+from baarda.bundle.geometry import similarity
 from baarda.sections import Section, render, section
 
 if TYPE_CHECKING:
@@ -71,12 +72,44 @@ class BundleResult(AdjustmentCounts):
         out[self.problem.point_ids] = self.xyz
         return out
 
+    @property
+    def free_network(self) -> bool:
+        """The datum is not the control but minimal constraints (bundle/free_network.py)."""
+        return self.problem.held is not None
+
     def check_points(self) -> tuple[list[str], np.ndarray]:
-        """Ids and discrepancies adjusted - given (n, 3) in m of the check points."""
+        """Ids and discrepancies adjusted - given (n, 3) in m of the check points; in a free
+        network after the 7-parameter similarity that fits them best (`check_similarity`)."""
         pts = self.block.points
         idx = np.flatnonzero((pts.role == "check") & (self.problem.remap >= 0))
-        d = self.xyz[self.problem.remap[idx]] - pts.xyz[idx]
-        return [pts.ids[j] for j in idx], d
+        if self.free_network and self.check_similarity() is None:
+            return [], np.zeros((0, 3))  # an arbitrary datum: nothing to compare
+        adjusted = self.compared_xyz()[self.problem.remap[idx]]
+        return [pts.ids[j] for j in idx], adjusted - pts.xyz[idx]
+
+    def compared_xyz(self) -> np.ndarray:
+        """Adjusted coordinates as compared with given ones: in a free network mapped by
+        `check_similarity` onto the check points, else as adjusted (n_adjusted_points, 3)."""
+        sim = self.check_similarity()
+        if sim is None:
+            return self.xyz
+        s, r, t = sim
+        return s * self.xyz @ r.T + t
+
+    def check_similarity(self) -> tuple[float, np.ndarray, np.ndarray] | None:
+        """In a free network, (scale, R, t) of the similarity from the adjusted check points
+        onto their given coordinates (None with control or fewer than 3 check points)."""
+        if not self.free_network:
+            return None
+        pts = self.block.points
+        idx = np.flatnonzero((pts.role == "check") & (self.problem.remap >= 0))
+        if len(idx) < 3:
+            return None
+        adjusted = self.xyz[self.problem.remap[idx]]
+        if np.linalg.matrix_rank(adjusted - adjusted.mean(axis=0), tol=1e-9 * max(
+                float(np.ptp(adjusted)), 1e-12)) < 2:
+            return None
+        return similarity(adjusted, pts.xyz[idx])
 
     def check_rms(self) -> np.ndarray:
         _, d = self.check_points()
@@ -118,8 +151,11 @@ class BundleResult(AdjustmentCounts):
             f"y {np.sqrt(np.nanmean(im[:, 1]**2)):.2f} µm (rejected ones left out)",
         ]
         if d["n_check_points"]:
-            lines.append(f"check points {d['n_check_points']}: RMS X {d['check_rms_X']:.3f} m, "
-                         f"Y {d['check_rms_Y']:.3f} m, Z {d['check_rms_Z']:.3f} m")
+            after = (" after a 7-parameter similarity onto them (free network)"
+                     if self.check_similarity() is not None else "")
+            lines.append(f"check points {d['n_check_points']}{after}: RMS X "
+                         f"{d['check_rms_X']:.3f} m, Y {d['check_rms_Y']:.3f} m, Z "
+                         f"{d['check_rms_Z']:.3f} m")
         lines += [f"note: {n}" for n in list(self.block.notes) + list(self.notes)]
         return [section("Bundle block adjustment", lines)]
 

@@ -43,8 +43,9 @@ def points_table(result: BundleResult) -> pd.DataFrame:
                        "Y": result.xyz[:, 1], "Z": result.xyz[:, 2], "sigma_X": std[:, 0],
                        "sigma_Y": std[:, 1], "sigma_Z": std[:, 2],
                        "rays": blk.rays()[pb.point_ids]})
+    compared = result.compared_xyz()
     for k, c in enumerate("XYZ"):
-        df[f"d{c}"] = np.where(role != "tie", result.xyz[:, k] - given[:, k], np.nan)
+        df[f"d{c}"] = np.where(role != "tie", compared[:, k] - given[:, k], np.nan)
     return df
 
 

@@ -79,3 +79,44 @@ def test_free_network_refuses_control():
     b, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=3, seed=1))
     with pytest.raises(GeometryError, match="control"):
         adjust_free(b)
+
+
+def test_similarity_recovers_a_known_transformation():
+    from baarda.block.rotation import rotation_matrix
+    from baarda.bundle.geometry import similarity
+
+    rng = np.random.default_rng(5)
+    src = rng.normal(size=(6, 3)) * 100
+    r = rotation_matrix(0.3, -0.2, 1.1)
+    dst = 1.7 * src @ r.T + np.array([10.0, -20.0, 5.0])
+    s, r2, t = similarity(src, dst)
+    assert np.isclose(s, 1.7, rtol=1e-12) and np.allclose(r2, r, atol=1e-12)
+    assert np.allclose(t, [10.0, -20.0, 5.0], atol=1e-9)
+
+
+def test_free_network_check_points_after_a_similarity(tmp_path, capsys):
+    """`--free` on the demo: the control becomes check points compared after a 7-parameter
+    similarity, so the comparison does not depend on where the free datum put the block:
+    the same block moved, turned and scaled as a whole gives the same check RMS."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from baarda.block.photo_block import Photos
+    from baarda.block.rotation import angles_from_matrix, rotation_matrix
+    from baarda.pipeline import adjust, read
+
+    demo = Path(__file__).parents[2] / "examples" / "demo"
+    block = read(demo, datum="free")
+    first = adjust(block)
+    assert first.check_similarity() is not None
+    r = rotation_matrix(0.0, 0.0, 0.5)
+    eo = block.photos.eo.copy()
+    eo[:, :3] = 1.3 * eo[:, :3] @ r.T + np.array([5000.0, -300.0, 40.0])
+    for i in range(len(eo)):
+        eo[i, 3:] = angles_from_matrix(r @ rotation_matrix(*eo[i, 3:]))
+    moved = replace(block, photos=Photos(block.photos.ids, block.photos.camera,
+                                         block.photos.strip, eo))
+    second = adjust(moved)
+    assert np.allclose(second.check_rms(), first.check_rms(), rtol=1e-6)
+    raw = second.xyz[second.problem.remap[np.flatnonzero(block.points.role == "check")]]
+    assert np.abs(raw - block.points.xyz[block.points.role == "check"]).max() > 1000
