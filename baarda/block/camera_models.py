@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from functools import cache
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 Terms = tuple[np.ndarray, np.ndarray, np.ndarray]
 BROWN = ("k1", "k2", "k3", "p1", "p2")
@@ -56,7 +57,8 @@ class CameraModel:
     def n_params(self) -> int:
         return len(self.params)
 
-    def correction(self, u, coef, const=None) -> Terms:
+    def correction(self, u: ArrayLike, coef: ArrayLike | None,
+                   const: ArrayLike | None = None) -> Terms:
         """delta (m, 2) [mm, or dimensionless if normalized], d delta / d u (m, 2, 2) and
         d delta / d coef (m, 2, k) at u (m, 2) for coefficients coef (m, k) and constants
         const (m, len(constants)); coef and const broadcast (one row for all is fine)."""
@@ -73,7 +75,7 @@ class CameraModel:
         return self.terms(u, coef, const)
 
 
-def _rows(a, m: int, k: int, what: str, name: str) -> np.ndarray:
+def _rows(a: ArrayLike | None, m: int, k: int, what: str, name: str) -> np.ndarray:
     if a is None:
         if k:
             raise ValueError(f"{what} of camera model '{name}' is missing")
@@ -411,20 +413,23 @@ def get_model(name: str) -> CameraModel:
                          f"{', '.join(MODELS)})") from None
 
 
-def apply(model: CameraModel, u, coef, const=None) -> tuple[np.ndarray, np.ndarray]:
+def apply(model: CameraModel, u: ArrayLike, coef: ArrayLike | None,
+          const: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
     """u + delta(u) (m, 2) and its Jacobian I + d delta / du (m, 2, 2)."""
     delta, jac, _ = model.correction(u, coef, const)
     return np.asarray(u, dtype=float) + delta, jac + np.eye(2)
 
 
-def apply_forward(model: CameraModel, u, coef, const=None) -> tuple[np.ndarray, np.ndarray]:
+def apply_forward(model: CameraModel, u: ArrayLike, coef: ArrayLike | None,
+                  const: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
     """`apply` for a forward model: projected = pp + s (u + delta(u)), s = c if normalized."""
     if model.side != "forward":
         raise ValueError(f"camera model '{model.name}' is a backward model")
     return apply(model, u, coef, const)
 
 
-def invert(model: CameraModel, target, coef, const=None, iterations: int = 20) -> np.ndarray:
+def invert(model: CameraModel, target: ArrayLike, coef: ArrayLike | None,
+           const: ArrayLike | None = None, iterations: int = 20) -> np.ndarray:
     """u (m, 2) with u + delta(u) = target (m, 2), by Newton's method (one 2x2 system per
     row; for approximations and writers).  Backward models: the reduced observation whose
     correction is target; forward: the reduced ideal coordinate that projects to target."""
@@ -442,7 +447,8 @@ def invert(model: CameraModel, target, coef, const=None, iterations: int = 20) -
 
 
 # ------------------------------------------------------------------ DBAT's principal point
-def principal_point_from_dbat(pp_dbat, b1, format_mm, model: str = "dbat5") -> np.ndarray:
+def principal_point_from_dbat(pp_dbat: ArrayLike, b1: ArrayLike, format_mm: ArrayLike,
+                              model: str = "dbat5") -> np.ndarray:
     """baarda's principal point (n, 2) [mm, image centre, y up] of DBAT's pp (n, 2) [mm from
     the upper-left image corner, y down, as in DBAT's camera files and reports], DBAT's
     aspect parameter b1 ('as', (n,)) and the format (W, H) (n, 2) [mm].
@@ -455,7 +461,8 @@ def principal_point_from_dbat(pp_dbat, b1, format_mm, model: str = "dbat5") -> n
     return np.column_stack([pp_dbat[:, 0] / sx - fmt[:, 0] / 2, fmt[:, 1] / 2 - pp_dbat[:, 1]])
 
 
-def principal_point_to_dbat(pp, b1, format_mm, model: str = "dbat5") -> np.ndarray:
+def principal_point_to_dbat(pp: ArrayLike, b1: ArrayLike, format_mm: ArrayLike,
+                            model: str = "dbat5") -> np.ndarray:
     """DBAT's pp (n, 2) of baarda's principal point pp (n, 2): inverse of
     `principal_point_from_dbat`."""
     pp, fmt = np.atleast_2d(pp).astype(float), np.atleast_2d(format_mm)
@@ -463,7 +470,7 @@ def principal_point_to_dbat(pp, b1, format_mm, model: str = "dbat5") -> np.ndarr
     return np.column_stack([(pp[:, 0] + fmt[:, 0] / 2) * sx, fmt[:, 1] / 2 - pp[:, 1]])
 
 
-def _dbat_scale(b1, model: str) -> np.ndarray:
+def _dbat_scale(b1: ArrayLike, model: str) -> np.ndarray:
     if model == "dbat5":
         return 1.0 + np.asarray(b1, dtype=float)
     if model == "dbat3":
