@@ -95,6 +95,8 @@ NOT_ADJUSTMENTS = {
     "adjustment/solve.py": "the solver",
     "block/camera.py": "the inverse of the lens model by Newton's method (one equation per "
                        "point, not a least-squares adjustment)",
+    "block/camera_models.py": "the inverse of a camera model by Newton's method (one 2x2 "
+                              "system per point, not a least-squares adjustment)",
 }
 
 

@@ -1,0 +1,478 @@
+"""Camera models for self-calibration: corrections and their analytic Jacobians.
+
+Pure, vectorised functions; the bundle does the chain rule with the projection
+(docs/camera_models.md has the formulas, units, sources and sign conventions).  Image
+coordinates are in mm in baarda's image frame (x right, y up); pp is the principal point, c
+the camera constant.  Every model gives a correction delta(u) of a reduced coordinate u:
+
+* backward (photogrammetric): u = observed - pp (mm), ideal = pp + u + delta(u);
+* forward: u = ideal - pp (mm), or (ideal - pp) / c for a ``normalized`` model, and
+  projected = pp + s (u + delta(u)) with s = c if normalized, else 1.
+
+Models (coefficients in the order of ``params``; units for u in mm):
+
+* ``none``: no coefficients.
+* ``brown``: backward, Fraser's form: Brown radial k1..k3 (mm^-2, mm^-4, mm^-6), decentring
+  p1, p2 (mm^-1), affinity and shear b1, b2 (dimensionless).
+* ``dbat3``, ``dbat5``: backward, DBAT's models 3 (res_euler_brown_1: affine [1+b1, b2; 0, 1]
+  after pp, then Brown) and 5 (res_euler_brown_3: x scaled by 1 + b1 before pp, Brown,
+  then skew [1, b2; 0, 1]); delta includes the affine part.  `principal_point_from_dbat`
+  and `principal_point_to_dbat` map DBAT's pp to baarda's.
+* ``brown_forward``: forward, normalised: Brown on n = (ideal - pp)/c, then the aspect a
+  multiplies y by 1 + a (OpenCV/COLMAP with y up: their (p1, p2) are baarda's (p2, -p1)).
+* ``aicon``: forward, mm: AICON 3D Studio's A1..A3 (zero crossing at the constant r0),
+  B1, B2, C1, C2.
+* ``ebner``: backward, mm: Ebner's 12 additional parameters on a 3x3 grid of spacing b.
+* ``gruen``: backward, mm: 44 fields orthonormal over a 5x5 grid of spacing b that span the
+  space of Gruen's 44 parameters (a documented construction, not Gruen's numbering).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cache
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+Terms = tuple[np.ndarray, np.ndarray, np.ndarray]
+BROWN = ("k1", "k2", "k3", "p1", "p2")
+
+
+@dataclass(frozen=True)
+class CameraModel:
+    """A camera model: the correction delta(u) and its derivatives, vectorised over rows."""
+
+    name: str
+    side: str  # "backward" or "forward"
+    params: tuple[str, ...]
+    constants: tuple[str, ...]
+    normalized: bool
+    description: str
+    terms: Callable[[np.ndarray, np.ndarray, np.ndarray], Terms] = field(
+        repr=False, compare=False)
+
+    @property
+    def n_params(self) -> int:
+        return len(self.params)
+
+    def correction(self, u: ArrayLike, coef: ArrayLike | None,
+                   const: ArrayLike | None = None) -> Terms:
+        """delta (m, 2) [mm, or dimensionless if normalized], d delta / d u (m, 2, 2) and
+        d delta / d coef (m, 2, k) at u (m, 2) for coefficients coef (m, k) and constants
+        const (m, len(constants)); coef and const broadcast (one row for all is fine)."""
+        u = np.asarray(u, dtype=float)
+        if u.ndim != 2 or u.shape[1] != 2:
+            raise ValueError(f"u must be (m, 2), not {u.shape}")
+        m = len(u)
+        coef = _rows(coef, m, self.n_params, "coef", self.name)
+        if self.constants and const is None:
+            raise ValueError(f"camera model '{self.name}' needs the constants "
+                             f"{', '.join(self.constants)}")
+        const = (np.zeros((m, 0)) if not self.constants
+                 else _rows(const, m, len(self.constants), "const", self.name))
+        return self.terms(u, coef, const)
+
+
+def _rows(a: ArrayLike | None, m: int, k: int, what: str, name: str) -> np.ndarray:
+    if a is None:
+        if k:
+            raise ValueError(f"{what} of camera model '{name}' is missing")
+        a = 0.0
+    a = np.asarray(a, dtype=float)
+    try:
+        return np.broadcast_to(a, (m, k))
+    except ValueError:
+        raise ValueError(f"{what} of camera model '{name}' must be ({m}, {k}), "
+                         f"not {a.shape}") from None
+
+
+# ------------------------------------------------------------------ the building blocks
+def _brown(u: np.ndarray, c: np.ndarray) -> Terms:
+    """Brown terms of baarda's camera.py on u (m, 2) with c = (k1, k2, k3, p1, p2) (m, 5):
+    delta (m, 2), d delta / du (m, 2, 2), d delta / dc (m, 2, 5)."""
+    x, y = u[:, 0], u[:, 1]
+    k1, k2, k3, p1, p2 = c[:, 0], c[:, 1], c[:, 2], c[:, 3], c[:, 4]
+    r2 = x * x + y * y
+    radial = r2 * (k1 + r2 * (k2 + r2 * k3))
+    g = k1 + r2 * (2 * k2 + 3 * k3 * r2)  # d radial / d r2
+    tx = (r2 + 2 * x * x, 2 * x * y)  # d delta / d p1
+    ty = (2 * x * y, r2 + 2 * y * y)  # d delta / d p2
+    delta = np.empty_like(u)
+    delta[:, 0] = x * radial + p1 * tx[0] + p2 * ty[0]
+    delta[:, 1] = y * radial + p1 * tx[1] + p2 * ty[1]
+    jac = np.empty((len(u), 2, 2))
+    cross = 2 * g * x * y + 2 * p1 * y + 2 * p2 * x
+    jac[:, 0, 0] = radial + 2 * g * x * x + 6 * p1 * x + 2 * p2 * y
+    jac[:, 0, 1] = cross
+    jac[:, 1, 0] = cross
+    jac[:, 1, 1] = radial + 2 * g * y * y + 2 * p1 * x + 6 * p2 * y
+    dc = np.empty((len(u), 2, 5))
+    r4 = r2 * r2
+    for i, rp in enumerate((r2, r4, r4 * r2)):
+        dc[:, :, i] = u * rp[:, None]
+    dc[:, 0, 3], dc[:, 1, 3] = tx
+    dc[:, 0, 4], dc[:, 1, 4] = ty
+    return delta, jac, dc
+
+
+def _linear(f: np.ndarray, df: np.ndarray, coef: np.ndarray) -> Terms:
+    """A model linear in its coefficients: fields f (m, 2, k), their derivatives
+    df (m, 2, 2, k) [component, d/dx or d/dy, field]."""
+    return (np.einsum("mck,mk->mc", f, coef), np.einsum("mcdk,mk->mcd", df, coef), f)
+
+
+# ------------------------------------------------------------------ the models
+def _none(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    m = len(u)
+    return np.zeros((m, 2)), np.zeros((m, 2, 2)), np.zeros((m, 2, 0))
+
+
+def _brown_fraser(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    delta, jac, dc = _brown(u, coef[:, :5])
+    b1, b2 = coef[:, 5], coef[:, 6]
+    delta[:, 0] += b1 * u[:, 0] + b2 * u[:, 1]
+    jac[:, 0, 0] += b1
+    jac[:, 0, 1] += b2
+    dcoef = np.zeros((len(u), 2, 7))
+    dcoef[:, :, :5] = dc
+    dcoef[:, 0, 5] = u[:, 0]
+    dcoef[:, 0, 6] = u[:, 1]
+    return delta, jac, dcoef
+
+
+def _dbat3(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    """DBAT model 3: ideal - pp = D(A u), A = [[1 + b1, b2], [0, 1]], D(w) = w + brown(w).
+
+    delta = brown(w) + (A - I) u and d delta / du = brown'(w) A + (A - I), written so that
+    nothing cancels when the coefficients are small."""
+    b1, b2 = coef[:, 5], coef[:, 6]
+    w = np.column_stack([(1 + b1) * u[:, 0] + b2 * u[:, 1], u[:, 1]])
+    delta, bj, bc = _brown(w, coef[:, :5])
+    delta[:, 0] += b1 * u[:, 0] + b2 * u[:, 1]
+    jac = np.empty((len(u), 2, 2))
+    jac[:, :, 0] = bj[:, :, 0] * (1 + b1)[:, None]
+    jac[:, :, 1] = bj[:, :, 0] * b2[:, None] + bj[:, :, 1]
+    jac[:, 0, 0] += b1
+    jac[:, 0, 1] += b2
+    jd0 = bj[:, :, 0].copy()  # d D / d w_x
+    jd0[:, 0] += 1.0
+    dcoef = np.empty((len(u), 2, 7))
+    dcoef[:, :, :5] = bc
+    dcoef[:, :, 5] = jd0 * u[:, 0:1]
+    dcoef[:, :, 6] = jd0 * u[:, 1:2]
+    return delta, jac, dcoef
+
+
+def _dbat5(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    """DBAT model 5: ideal - pp = S D(A u), A = diag(1 + b1, 1), S = [[1, b2], [0, 1]].
+
+    delta = S brown(w) + (S A - I) u and d delta / du = S brown'(w) A + (S A - I), with
+    S A - I = [[b1, b2], [0, 0]]: nothing cancels when the coefficients are small."""
+    b1, b2 = coef[:, 5], coef[:, 6]
+    w = np.column_stack([(1 + b1) * u[:, 0], u[:, 1]])
+    bd, bj, bc = _brown(w, coef[:, :5])
+    ly = w[:, 1] + bd[:, 1]  # y after the lens distortion
+    delta = bd.copy()
+    delta[:, 0] += b1 * u[:, 0] + b2 * ly
+    ja = bj.copy()
+    ja[:, :, 0] *= (1 + b1)[:, None]  # brown'(w) A
+    jac = ja.copy()
+    jac[:, 0, :] += b2[:, None] * ja[:, 1, :]
+    jac[:, 0, 0] += b1
+    jac[:, 0, 1] += b2
+    dcoef = np.empty((len(u), 2, 7))
+    dcoef[:, :, :5] = bc
+    dcoef[:, 0, :5] += b2[:, None] * bc[:, 1, :]
+    dl_db1 = bj[:, :, 0] * u[:, 0:1]  # d D / d w_x * u_x
+    dl_db1[:, 0] += u[:, 0]
+    dcoef[:, :, 5] = dl_db1
+    dcoef[:, 0, 5] += b2 * dl_db1[:, 1]
+    dcoef[:, 0, 6] = ly
+    dcoef[:, 1, 6] = 0.0
+    return delta, jac, dcoef
+
+
+def _brown_forward(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    """n_d = n + brown(n); u + delta = (n_d_x, (1 + a) n_d_y)."""
+    a = coef[:, 5]
+    bd, bj, bc = _brown(u, coef[:, :5])
+    s = 1 + a
+    delta = bd.copy()
+    delta[:, 1] = s * bd[:, 1] + a * u[:, 1]
+    jac = bj.copy()
+    jac[:, 1, :] *= s[:, None]
+    jac[:, 1, 1] += a
+    dcoef = np.empty((len(u), 2, 6))
+    dcoef[:, :, :5] = bc
+    dcoef[:, 1, :5] *= s[:, None]
+    dcoef[:, 0, 5] = 0.0
+    dcoef[:, 1, 5] = u[:, 1] + bd[:, 1]
+    return delta, jac, dcoef
+
+
+def _aicon(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    """AICON: radial A1..A3 with zero crossing r0, decentring B1, B2, affinity C1, C2."""
+    x, y = u[:, 0], u[:, 1]
+    a1, a2, a3, c1, c2 = coef[:, 0], coef[:, 1], coef[:, 2], coef[:, 5], coef[:, 6]
+    r02 = const[:, 0] ** 2
+    r2 = x * x + y * y
+    dr = (r2 - r02, r2 * r2 - r02 * r02, r2**3 - r02**3)  # d radial / d A_i
+    radial = a1 * dr[0] + a2 * dr[1] + a3 * dr[2]
+    g = a1 + r2 * (2 * a2 + 3 * a3 * r2)
+    # the decentring terms are Brown's with p1 = B1, p2 = B2
+    td, tj, tc = _brown(u, np.column_stack([np.zeros((len(u), 3)), coef[:, 3:5]]))
+    delta = td + u * radial[:, None]
+    delta[:, 0] += c1 * x + c2 * y
+    jac = tj
+    jac[:, 0, 0] += radial + 2 * g * x * x + c1
+    jac[:, 0, 1] += 2 * g * x * y + c2
+    jac[:, 1, 0] += 2 * g * x * y
+    jac[:, 1, 1] += radial + 2 * g * y * y
+    dcoef = np.zeros((len(u), 2, 7))
+    for i in range(3):
+        dcoef[:, :, i] = u * dr[i][:, None]
+    dcoef[:, :, 3:5] = tc[:, :, 3:5]
+    dcoef[:, 0, 5] = x
+    dcoef[:, 0, 6] = y
+    return delta, jac, dcoef
+
+
+def ebner_fields(u: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ebner's 12 fields (m, 2, 12) and their derivatives (m, 2, 2, 12) at u (m, 2) [mm],
+    grid spacing b (m,) [mm]."""
+    x, y = u[:, 0], u[:, 1]
+    q = 2 * b * b / 3
+    xq, yq = x * x - q, y * y - q
+    m = len(u)
+    f = np.zeros((m, 2, 12))
+    df = np.zeros((m, 2, 2, 12))
+    one = np.ones(m)
+    # (field index, component, value, d/dx, d/dy)
+    entries = [
+        (0, 0, x, one, 0), (0, 1, -y, 0, -one),
+        (1, 0, y, 0, one), (1, 1, x, one, 0),
+        (2, 0, -2 * xq, -4 * x, 0), (2, 1, x * y, y, x),
+        (3, 0, x * y, y, x), (3, 1, -2 * yq, 0, -4 * y),
+        (4, 0, yq, 0, 2 * y),
+        (5, 1, xq, 2 * x, 0),
+        (6, 0, x * yq, yq, 2 * x * y),
+        (7, 1, y * xq, 2 * x * y, xq),
+        (8, 0, y * xq, 2 * x * y, xq),
+        (9, 1, x * yq, yq, 2 * x * y),
+        (10, 0, xq * yq, 2 * x * yq, 2 * y * xq),
+        (11, 1, xq * yq, 2 * x * yq, 2 * y * xq),
+    ]
+    for k, c, val, ddx, ddy in entries:
+        f[:, c, k] = val
+        df[:, c, 0, k] = ddx
+        df[:, c, 1, k] = ddy
+    return f, df
+
+
+def _ebner(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    return _linear(*ebner_fields(u, const[:, 0]), coef)
+
+
+# ------------------------------------------------------------------ Gruen's 44 (a construction)
+GRID5 = np.array([(i, j) for j in range(-2, 3) for i in range(-2, 3)], dtype=float)
+
+
+def exterior_fields(u: np.ndarray) -> np.ndarray:
+    """The 6 fields (m, 2, 6) that the exterior orientation absorbs: translations x, y,
+    rotation (-y, x), scale (x, y), projective tilts (x^2, xy), (xy, y^2)."""
+    x, y = u[:, 0], u[:, 1]
+    one, zero = np.ones(len(u)), np.zeros(len(u))
+    return np.stack([np.stack(p, axis=1) for p in
+                     ((one, zero), (zero, one), (-y, x), (x, y), (x * x, x * y),
+                      (x * y, y * y))], axis=2)
+
+
+def _monomials(s: np.ndarray) -> np.ndarray:
+    """x^i y^j (m, 5, 5) of s (m, 2), 0 <= i, j <= 4."""
+    p = s[:, :, None] ** np.arange(5)
+    return p[:, 0, :, None] * p[:, 1, None, :]
+
+
+@cache
+def gruen_coefficients() -> np.ndarray:
+    """Polynomial coefficients (44, 2, 5, 5) of the 44 fields in s = u / b:
+    field k = (sum_ij A[k,0,i,j] s_x^i s_y^j, sum_ij A[k,1,i,j] s_x^i s_y^j).
+
+    Gram-Schmidt over the 25 points of the grid {-2..2}^2 (inner product: the sum over the
+    points of the dot product of the two vectors), starting from the 6 exterior-orientation
+    fields (dropped afterwards), then Ebner's 12 fields in Ebner's order (spacing 1), then
+    the fields (x^i y^j, 0) and (0, x^i y^j) in the order (i + j, j), x before y, each
+    skipped when it adds nothing.  Each field is scaled to an RMS of 1 over the grid (a
+    coefficient of 1 um moves the grid points by 1 um RMS).
+    """
+    seeds = []  # (2, 5, 5) coefficient arrays
+
+    def mono(terms):
+        a = np.zeros((2, 5, 5))
+        for c, i, j, v in terms:
+            a[c, i, j] += v
+        return a
+
+    q = 2.0 / 3.0
+    seeds += [mono([(0, 0, 0, 1)]), mono([(1, 0, 0, 1)]), mono([(0, 0, 1, -1), (1, 1, 0, 1)]),
+              mono([(0, 1, 0, 1), (1, 0, 1, 1)]), mono([(0, 2, 0, 1), (1, 1, 1, 1)]),
+              mono([(0, 1, 1, 1), (1, 0, 2, 1)])]
+    seeds += [
+        mono([(0, 1, 0, 1), (1, 0, 1, -1)]),
+        mono([(0, 0, 1, 1), (1, 1, 0, 1)]),
+        mono([(0, 2, 0, -2), (0, 0, 0, 2 * q), (1, 1, 1, 1)]),
+        mono([(0, 1, 1, 1), (1, 0, 2, -2), (1, 0, 0, 2 * q)]),
+        mono([(0, 0, 2, 1), (0, 0, 0, -q)]),
+        mono([(1, 2, 0, 1), (1, 0, 0, -q)]),
+        mono([(0, 1, 2, 1), (0, 1, 0, -q)]),
+        mono([(1, 2, 1, 1), (1, 0, 1, -q)]),
+        mono([(0, 2, 1, 1), (0, 0, 1, -q)]),
+        mono([(1, 1, 2, 1), (1, 1, 0, -q)]),
+        mono([(0, 2, 2, 1), (0, 2, 0, -q), (0, 0, 2, -q), (0, 0, 0, q * q)]),
+        mono([(1, 2, 2, 1), (1, 2, 0, -q), (1, 0, 2, -q), (1, 0, 0, q * q)]),
+    ]
+    for i, j in sorted(((i, j) for i in range(5) for j in range(5)),
+                       key=lambda ij: (ij[0] + ij[1], ij[1])):
+        seeds += [mono([(0, i, j, 1)]), mono([(1, i, j, 1)])]
+    mon = _monomials(GRID5)  # (25, 5, 5)
+
+    def values(a):
+        return np.einsum("pij,cij->pc", mon, a).ravel()
+
+    basis_v, basis_a = [], []
+    for a in seeds:
+        v = values(a)
+        norm0 = np.linalg.norm(v)
+        for _ in range(2):  # Gram-Schmidt twice, for orthogonality to rounding
+            for bv, ba in zip(basis_v, basis_a, strict=True):
+                t = bv @ v / (bv @ bv)
+                v = v - t * bv
+                a = a - t * ba
+        if np.linalg.norm(v) > 1e-9 * norm0:
+            scale = np.sqrt(len(GRID5)) / np.linalg.norm(v)
+            basis_v.append(v * scale)
+            basis_a.append(a * scale)
+    out = np.array(basis_a[6:])
+    assert out.shape == (44, 2, 5, 5), out.shape
+    return out
+
+
+def gruen_fields(u: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The 44 fields (m, 2, 44) at u (m, 2) [mm] for grid spacing b (m,) [mm]."""
+    return np.einsum("kcij,mij->mck", gruen_coefficients(), _monomials(u / b[:, None]))
+
+
+def _gruen(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    b = const[:, 0]
+    s = u / b[:, None]
+    a = gruen_coefficients()
+    p = s[:, :, None] ** np.arange(5)  # (m, 2, 5)
+    dp = np.zeros_like(p)
+    dp[:, :, 1:] = p[:, :, :-1] * np.arange(1, 5)
+    mon = p[:, 0, :, None] * p[:, 1, None, :]
+    f = np.einsum("kcij,mij->mck", a, mon)
+    per_row = np.einsum("kcij,mk->mcij", a, coef)  # the polynomial of each row
+    delta = np.einsum("mcij,mij->mc", per_row, mon)
+    jac = np.empty((len(u), 2, 2))
+    jac[:, :, 0] = np.einsum("mcij,mi,mj->mc", per_row, dp[:, 0], p[:, 1]) / b[:, None]
+    jac[:, :, 1] = np.einsum("mcij,mi,mj->mc", per_row, p[:, 0], dp[:, 1]) / b[:, None]
+    return delta, jac, f
+
+
+# ------------------------------------------------------------------ the registry
+MODELS: dict[str, CameraModel] = {m.name: m for m in (
+    CameraModel("none", "backward", (), (), False, "no distortion", _none),
+    CameraModel("brown", "backward", (*BROWN, "b1", "b2"), (), False,
+                "Brown radial and decentring with affinity and shear (Fraser)", _brown_fraser),
+    CameraModel("dbat3", "backward", (*BROWN, "b1", "b2"), (), False,
+                "DBAT model 3: affine [1+b1, b2; 0, 1] before Brown", _dbat3),
+    CameraModel("dbat5", "backward", (*BROWN, "b1", "b2"), (), False,
+                "DBAT model 5: x scaled by 1+b1 before pp, Brown, skew b2 after", _dbat5),
+    CameraModel("brown_forward", "forward", (*BROWN, "a"), (), True,
+                "Brown on normalised coordinates with aspect (OpenCV/COLMAP/BAL)",
+                _brown_forward),
+    CameraModel("aicon", "forward", ("a1", "a2", "a3", "b1", "b2", "c1", "c2"), ("r0",), False,
+                "AICON 3D Studio: radial with zero crossing r0, decentring, affinity",
+                _aicon),
+    CameraModel("ebner", "backward", tuple(f"b{i}" for i in range(1, 13)), ("b",), False,
+                "Ebner's 12 orthogonal additional parameters (3x3 grid, spacing b)", _ebner),
+    CameraModel("gruen", "backward", tuple(f"g{i}" for i in range(1, 45)), ("b",), False,
+                "44 orthonormal fields of a 5x5 grid (spacing b), the space of Gruen's 44",
+                _gruen),
+)}
+
+
+def get_model(name: str) -> CameraModel:
+    """The model called name; ValueError naming the known models otherwise."""
+    try:
+        return MODELS[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown camera model '{name}' (known: "
+                         f"{', '.join(MODELS)})") from None
+
+
+def apply(model: CameraModel, u: ArrayLike, coef: ArrayLike | None,
+          const: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """u + delta(u) (m, 2) and its Jacobian I + d delta / du (m, 2, 2)."""
+    delta, jac, _ = model.correction(u, coef, const)
+    return np.asarray(u, dtype=float) + delta, jac + np.eye(2)
+
+
+def apply_forward(model: CameraModel, u: ArrayLike, coef: ArrayLike | None,
+                  const: ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """`apply` for a forward model: projected = pp + s (u + delta(u)), s = c if normalized."""
+    if model.side != "forward":
+        raise ValueError(f"camera model '{model.name}' is a backward model")
+    return apply(model, u, coef, const)
+
+
+def invert(model: CameraModel, target: ArrayLike, coef: ArrayLike | None,
+           const: ArrayLike | None = None, iterations: int = 20) -> np.ndarray:
+    """u (m, 2) with u + delta(u) = target (m, 2), by Newton's method (one 2x2 system per
+    row; for approximations and writers).  Backward models: the reduced observation whose
+    correction is target; forward: the reduced ideal coordinate that projects to target."""
+    target = np.asarray(target, dtype=float)
+    u = target.copy()
+    tol = 1e-14 * max(1.0, float(np.max(np.abs(target), initial=0.0)))
+    for _ in range(iterations):
+        delta, jac, _ = model.correction(u, coef, const)
+        jac += np.eye(2)
+        step = np.linalg.solve(jac, (target - u - delta)[:, :, None])[:, :, 0]
+        u += step
+        if np.max(np.abs(step), initial=0.0) <= tol:
+            break
+    return u
+
+
+# ------------------------------------------------------------------ DBAT's principal point
+def principal_point_from_dbat(pp_dbat: ArrayLike, b1: ArrayLike, format_mm: ArrayLike,
+                              model: str = "dbat5") -> np.ndarray:
+    """baarda's principal point (n, 2) [mm, image centre, y up] of DBAT's pp (n, 2) [mm from
+    the upper-left image corner, y down, as in DBAT's camera files and reports], DBAT's
+    aspect parameter b1 ('as', (n,)) and the format (W, H) (n, 2) [mm].
+
+    dbat5 scales x by 1 + b1 before DBAT subtracts pp: x0 = pp_x / (1 + b1) - W/2;
+    dbat3 (affine after pp): x0 = pp_x - W/2.  Both: y0 = H/2 - pp_y.
+    """
+    pp_dbat, fmt = np.atleast_2d(pp_dbat).astype(float), np.atleast_2d(format_mm)
+    sx = _dbat_scale(b1, model)
+    return np.column_stack([pp_dbat[:, 0] / sx - fmt[:, 0] / 2, fmt[:, 1] / 2 - pp_dbat[:, 1]])
+
+
+def principal_point_to_dbat(pp: ArrayLike, b1: ArrayLike, format_mm: ArrayLike,
+                            model: str = "dbat5") -> np.ndarray:
+    """DBAT's pp (n, 2) of baarda's principal point pp (n, 2): inverse of
+    `principal_point_from_dbat`."""
+    pp, fmt = np.atleast_2d(pp).astype(float), np.atleast_2d(format_mm)
+    sx = _dbat_scale(b1, model)
+    return np.column_stack([(pp[:, 0] + fmt[:, 0] / 2) * sx, fmt[:, 1] / 2 - pp[:, 1]])
+
+
+def _dbat_scale(b1: ArrayLike, model: str) -> np.ndarray:
+    if model == "dbat5":
+        return 1.0 + np.asarray(b1, dtype=float)
+    if model == "dbat3":
+        return np.ones_like(np.asarray(b1, dtype=float))
+    raise ValueError(f"not a DBAT model: '{model}' (dbat3, dbat5)")
