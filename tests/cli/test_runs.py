@@ -107,8 +107,10 @@ def test_ctrl_c_in_a_real_process(tmp_path):
     out = tmp_path / "out"
     p = subprocess.Popen([sys.executable, "-m", "baarda", "snoop", str(proj), "-o", str(out)],
                          stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
-    line = p.stderr.readline()  # the first progress line: reading is done
-    assert "read" in line, line
+    line = p.stderr.readline()  # progress lines: wait until reading is done
+    while line and " read " not in line:
+        line = p.stderr.readline()
+    assert " read " in line, line
     time.sleep(0.2)
     p.send_signal(signal.SIGINT)
     err = p.communicate(timeout=60)[1]
