@@ -13,7 +13,10 @@ class AdjustmentCounts:
 
     @property
     def n_observations(self) -> int:
-        return int(np.count_nonzero(self.lin.w) + np.count_nonzero(self.lin.wc))
+        n = np.count_nonzero(self.lin.w) + np.count_nonzero(self.lin.wc)
+        if self.lin.wx is not None:
+            n += np.count_nonzero(self.lin.wx)
+        return int(n)
 
     @property
     def n_left_out(self) -> int:

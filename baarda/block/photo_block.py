@@ -36,11 +36,15 @@ class Settings:
 
 @dataclass
 class Cameras:
+    """Interior orientation and camera model of every camera (block/camera.py)."""
+
     ids: list[str]
-    focal_mm: np.ndarray  # (n,)
+    focal_mm: np.ndarray  # (n,) camera constant c
     principal_point_mm: np.ndarray  # (n, 2): x0, y0
-    model: np.ndarray | None = None  # (n,) lens model kind (block/camera.py), None = none
-    distortion: np.ndarray | None = None  # (n, 5) k1, k2, k3, p1, p2 of that model
+    model: np.ndarray | None = None  # (n,) model kind (block/camera.py), None = none
+    coefficients: np.ndarray | None = None  # (n, k) the model's params in order, 0-padded
+    constants: np.ndarray | None = None  # (n, kc) the model's constants (R0, grid spacing)
+    free: tuple[tuple[str, ...], ...] | None = None  # per camera: the parameters estimated
 
     def __len__(self) -> int:
         return len(self.ids)

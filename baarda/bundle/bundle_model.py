@@ -17,7 +17,7 @@ from baarda.bundle.bundle_result import BundleResult
 class BundleModel(SchurModel):
     """The quality layer's view of a BundleResult; labels come from its problem."""
 
-    units = {"image": (1e3, "µm"), "control": (1.0, "m")}
+    units = {"image": (1e3, "µm"), "control": (1.0, "m"), "distance": (1.0, "m")}
     frame_kind = "photo"
 
     def __init__(self, result: BundleResult):
@@ -25,7 +25,8 @@ class BundleModel(SchurModel):
         pb = result.problem
         self.factor, self.layout = result.factor, pb.layout
         self.residuals = self.layout.flat(result.image_residuals,
-                                          np.nan_to_num(result.control_residuals))
+                                          np.nan_to_num(result.control_residuals),
+                                          result.extra_residuals)
         self.sigma_apriori, self.factors, self.active = pb.sigma_apriori, pb.factors, pb.active
         self.n_unknowns = pb.system.n_unknowns
         self.kind, self.component, self.frame = pb.kind, pb.component, pb.frame

@@ -18,10 +18,10 @@ from baarda.adjustment.schur import HOLD, Linearization, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.solve import solve
-from baarda.block.camera import corrected_observations, forward_coefficients
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_result import BundleResult
-from baarda.bundle.collinearity import camera_depth, project_with_jacobians
+from baarda.bundle.calibration import Calibration
+from baarda.bundle.collinearity import camera_depth, camera_projection
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
 from baarda.errors import GeometryError
 from baarda.options import Progress, SolveOptions
@@ -44,8 +44,16 @@ def _spread(values: np.ndarray) -> str:
 class BundleProblem(SchurProblem):
     """The block in the form of the adjustment: index arrays, weights, the Schur structure.
 
-    Observation vector (flat, the quality layer's): x and y of every adjusted image point
-    (rows `obs` of block.image, mm), then every observed control coordinate (m).
+    Unknowns: the photos' orientations (frames), the ground points eliminated point by point,
+    and the global unknowns (adjustment/schur.py): the camera parameters that a
+    self-calibration estimates (bundle/calibration.py), then the coordinates of the points
+    that distance observations tie together (border points).
+
+    Observation vector (flat, the quality layer's): x and y of every adjusted image point of
+    an eliminated point (rows `obs` of block.image, mm), every observed control coordinate of
+    an eliminated point (m), then one row each for the x and y of the image points of border
+    points (rows `border_obs`), their observed control coordinates and the distances (m).
+    Control with sigma 0 is fixed: held exactly, not an unknown, not an observation.
     held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
     network, bundle/free_network.py); None: the control fixes the datum (checked here).
     diagnosis: findings about the inputs (bundle/diagnostics.py), printed as notes and added
@@ -57,66 +65,129 @@ class BundleProblem(SchurProblem):
         self.block = block
         self.diagnosis = tuple(diagnosis)
         ok, point_notes = usable_points(block)
-        im, pts = block.image, block.points
-        self.obs = np.flatnonzero(ok[im.point])  # rows of block.image in the adjustment
+        im, pts, dist = block.image, block.points, block.distances
         self.point_ids = np.flatnonzero(ok)  # block point index of each adjusted point
         remap = np.full(len(pts), -1)
         remap[self.point_ids] = np.arange(len(self.point_ids))
         self.remap = remap
-        self.control = np.flatnonzero((pts.role == "control") & ok)  # block point indices
-        sig_c = pts.sigma[self.control]
+        # distances between adjusted points; their end points are border (global) unknowns
+        self.distances = np.flatnonzero(ok[dist.point_a] & ok[dist.point_b])
+        border = np.zeros(len(pts), bool)
+        border[dist.point_a[self.distances]] = border[dist.point_b[self.distances]] = True
+        self.border_ids = np.flatnonzero(border)  # block indices, global points
+        self.elim_ids = np.flatnonzero(ok & ~border)  # block indices, eliminated points
+        self.eremap = np.full(len(pts), -1)
+        self.eremap[self.elim_ids] = np.arange(len(self.elim_ids))
+        self.bremap = np.full(len(pts), -1)
+        self.bremap[self.border_ids] = np.arange(len(self.border_ids))
+        rows = np.flatnonzero(ok[im.point])
+        self.obs = rows[~border[im.point[rows]]]  # rows of block.image, eliminated points
+        self.border_obs = rows[border[im.point[rows]]]
+        is_control = (pts.role == "control") & ok
+        self.control = np.flatnonzero(is_control & ~border)  # block indices
+        self.border_control = np.flatnonzero(is_control & border)
+        sig_c, sig_b = pts.sigma[self.control], pts.sigma[self.border_control]
+        observed_c = np.isfinite(sig_c) & (sig_c > 0)
+        self.border_ctrl_sel = np.flatnonzero((np.isfinite(sig_b) & (sig_b > 0)).ravel())
+        # fixed control (sigma 0): held exactly
+        self.held_points = np.zeros((len(self.elim_ids), 3), bool)
+        self.held_points[self.eremap[self.control]] = np.isfinite(sig_c) & (sig_c == 0)
+        self.held_border = np.zeros((len(self.border_ids), 3), bool)
+        self.held_border[self.bremap[self.border_control]] = np.isfinite(sig_b) & (sig_b == 0)
+        # global unknowns: free camera parameters, then border point coordinates
+        self.calibration = Calibration(block.cameras)
+        self.g_points = self.calibration.n  # first global column of the border points
+        ng = self.calibration.n + 3 * len(self.border_ids)
         m, nc = len(self.obs), len(self.control)
-        self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(np.isfinite(sig_c).ravel()))
+        mb, nbc, nd = len(self.border_obs), len(self.border_ctrl_sel), len(self.distances)
+        self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(observed_c.ravel()),
+                                 2 * mb + nbc + nd, 1)
         sel = self.layout.ctrl_sel
-        self.sigma_apriori = read_only(np.concatenate([im.sigma_xy[self.obs].ravel(),
-                                                        sig_c.ravel()[sel]]))
+        self.sigma_apriori = read_only(np.concatenate([
+            im.sigma_xy[self.obs].ravel(), sig_c.ravel()[sel],
+            im.sigma_xy[self.border_obs].ravel(), sig_b.ravel()[self.border_ctrl_sel],
+            dist.sigma_m[self.distances]]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
         warnings = [] if self.held is not None else check_datum(
-            block, ok & np.isin(np.arange(len(pts)), self.control))
+            block, ok & np.isin(np.arange(len(pts)), np.concatenate(
+                [self.control, self.border_control])))
         self.notes = self.diagnosis + tuple(warnings) + tuple(point_notes) + tuple(notes)
-        self._labels(block, m, sel)
-        # observations corrected for backward (observation-side) distortion; forward model
-        # rows as observed (the projection applies that model)
-        self.xy_obs = corrected_observations(block)[self.obs]
+        self._labels(block, sel)
         ph = im.photo[self.obs]
-        self.distortion = forward_coefficients(block.cameras, block.photos.camera[ph])
+        self.camera_of = block.photos.camera  # camera of each photo
+        cam = self.camera_of[ph]
+        gcol = np.full((m, self.calibration.width), -1, np.int64)
+        for i, cols in enumerate(self.calibration.columns):
+            gcol[cam == i, :len(cols)] = cols
+        x_frame = np.concatenate([np.repeat(im.photo[self.border_obs], 2),
+                                  np.full(nbc + nd, -1)])
+        n_fixed = (0 if self.held is None else int(self.held.sum())) + \
+            int(self.held_points.sum()) + int(self.held_border.sum())
         self.system = SchurSystem(
-            len(block.photos), 6, len(self.point_ids), 3, ph, remap[im.point[self.obs]],
-            remap[self.control], frame_names=[f"photo {p}" for p in block.photos.ids],
-            point_names=[pts.ids[j] for j in self.point_ids],
-            n_fixed=0 if self.held is None else int(self.held.sum()))
+            len(block.photos), 6, len(self.elim_ids), 3, ph, self.eremap[im.point[self.obs]],
+            self.eremap[self.control], frame_names=[f"photo {p}" for p in block.photos.ids],
+            point_names=[pts.ids[j] for j in self.elim_ids], n_fixed=n_fixed, ng=ng,
+            gcol=gcol, x_frame=x_frame,
+            global_names=self.calibration.labels + [
+                f"coordinate {c} of point {pts.ids[j]}" for j in self.border_ids for c in "XYZ"])
         eo = block.photos.eo
         keep = np.isin(np.arange(len(pts)), self.point_ids)
-        xyz = approximate_points(block, keep)[self.point_ids]
-        self.approximations = (read_only(eo.copy()), read_only(xyz))
+        xyz = approximate_points(block, keep)
+        start = (read_only(eo.copy()), read_only(xyz[self.elim_ids]))
+        if ng:
+            start += (read_only(np.concatenate([self.calibration.start(),
+                                                xyz[self.border_ids].ravel()])),)
+        self.approximations = start
         # the size of the block for the convergence test: the flying height
-        self.scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[:, 2])))), 1.0)
+        self.scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[keep, 2])))), 1.0)
         n = self.layout.n
         self._set_weights(np.ones(n, bool), np.ones(n))
+        self._parameter_scale = self._camera_effect()
 
-    def _labels(self, block: Block, m: int, sel: np.ndarray) -> None:
-        im = block.image
-        nc = len(sel)
+    def _labels(self, block: Block, sel: np.ndarray) -> None:
+        im, dist = block.image, block.distances
+        m, nc = len(self.obs), len(sel)
+        mb, nd = len(self.border_obs), len(self.distances)
+        bsel = self.border_ctrl_sel
         photos = np.asarray(block.photos.ids, dtype=object)
         pids = np.asarray(block.points.ids, dtype=object)
-        self.kind = read_only(np.array(["image"] * (2 * m) + ["control"] * nc, dtype=object))
+        empty = np.full(len(bsel) + nd, "", dtype=object)
+        self.kind = read_only(np.array(["image"] * (2 * m) + ["control"] * nc
+                                       + ["image"] * (2 * mb) + ["control"] * len(bsel)
+                                       + ["distance"] * nd, dtype=object))
         self.component = read_only(np.concatenate(
-            [np.tile(XY, m), np.tile(XYZ, len(self.control))[sel]]))
-        self.frame = read_only(np.concatenate([np.repeat(photos[im.photo[self.obs]], 2),
-                                                np.full(nc, "", dtype=object)]))
-        self.point = read_only(np.concatenate([np.repeat(pids[im.point[self.obs]], 2),
-                                                np.repeat(pids[self.control], 3)[sel]]))
-        self.group = read_only(np.concatenate([np.repeat(np.arange(m), 2), np.full(nc, -1)]))
+            [np.tile(XY, m), np.tile(XYZ, len(self.control))[sel], np.tile(XY, mb),
+             np.tile(XYZ, len(self.border_control))[bsel], np.full(nd, "d", dtype=object)]))
+        self.frame = read_only(np.concatenate([
+            np.repeat(photos[im.photo[self.obs]], 2), np.full(nc, "", dtype=object),
+            np.repeat(photos[im.photo[self.border_obs]], 2), empty]))
+        names = np.array([dist.ids[k] for k in self.distances], dtype=object)
+        self.point = read_only(np.concatenate([
+            np.repeat(pids[im.point[self.obs]], 2), np.repeat(pids[self.control], 3)[sel],
+            np.repeat(pids[im.point[self.border_obs]], 2),
+            np.repeat(pids[self.border_control], 3)[bsel], names]))
+        self.group = read_only(np.concatenate([
+            np.repeat(np.arange(m), 2), np.full(nc, -1), np.repeat(m + np.arange(mb), 2),
+            np.full(len(bsel) + nd, -1)]))
         # index of each component back into block tables
-        self.image_row = read_only(np.concatenate([np.repeat(self.obs, 2), np.full(nc, -1)]))
-        self.control_index = read_only(np.concatenate(
-            [np.full(2 * m, -1), np.repeat(self.control, 3)[sel]]))
+        none = np.full(len(bsel) + nd, -1)
+        self.image_row = read_only(np.concatenate([
+            np.repeat(self.obs, 2), np.full(nc, -1), np.repeat(self.border_obs, 2), none]))
+        self.control_index = read_only(np.concatenate([
+            np.full(2 * m, -1), np.repeat(self.control, 3)[sel], np.full(2 * mb, -1),
+            np.repeat(self.border_control, 3)[bsel], np.full(nd, -1)]))
+        self.distance_index = read_only(np.concatenate([
+            np.full(2 * m + nc + 2 * mb + len(bsel), -1), self.distances]))
 
     def datum_text(self) -> str:
         """What fixes the datum, in words (the summary's second line)."""
-        c = self.block.points.controlled[self.control]
+        pts = self.block.points
+        ctrl = np.concatenate([self.control, self.border_control])
+        c = pts.controlled[ctrl]
+        fixed = int((pts.sigma[ctrl] == 0).any(axis=1).sum())
         return (f"datum: the control, {int((c[:, 0] & c[:, 1]).sum())} planimetric and "
-                f"{int(c[:, 2].sum())} height control point(s)")
+                f"{int(c[:, 2].sum())} height control point(s)"
+                + (f", {fixed} of them fixed" if fixed else ""))
 
     def apriori_text(self) -> str:
         """The a-priori standard deviations in use (image µm, control m), in words."""
@@ -127,62 +198,197 @@ class BundleProblem(SchurProblem):
             s = sig[(self.kind == "control") & (self.component == c)]
             if len(s):
                 parts.append(f"control {c} {_spread(s)} m")
+        d = sig[self.kind == "distance"]
+        if len(d):
+            parts.append(f"distances {_spread(d)} m")
         return "a-priori sigmas: " + ", ".join(parts)
 
     # ------------------------------------------------- the solver's protocol
-    def linearize(self, state: tuple[np.ndarray, np.ndarray]) -> Linearization:
-        eo, xyz = state
+    def _split(self, state):
+        """(eo, eliminated points, camera parameters per camera, border points (nb, 3))."""
+        eo, xyz = state[0], state[1]
+        g = state[2] if len(state) == 3 else np.zeros(0)
+        return (eo, xyz, self.calibration.current(g),
+                g[self.g_points:].reshape(-1, 3))
+
+    def _image_rows(self, rows, eo, xyz_rows, params):
+        """f, je, jp, jpar (3 + k columns of its camera) of image rows, camera by camera."""
         b = self.block
         im = b.image
+        m = len(rows)
+        ph = im.photo[rows]
+        cam = self.camera_of[ph]
+        f = np.zeros((m, 2))
+        je, jp = np.zeros((m, 2, 6)), np.zeros((m, 2, 3))
+        jpar = np.zeros((m, 2, 3 + max((mo.n_params for mo in self.calibration.models),
+                                       default=0)))
+        cal = self.calibration
+        for i in np.unique(cam):
+            sel = np.flatnonzero(cam == i)
+            out = camera_projection(eo, xyz_rows[sel], ph[sel], params[i], cal.models[i],
+                                    cal.constants[i], im.xy_mm[rows[sel]])
+            f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
+            jpar[sel, :, :out[3].shape[2]] = out[3]
+        return f, je, jp, jpar
+
+    def _free_columns(self, rows, jpar) -> np.ndarray:
+        """jpar restricted to the free parameters of each row's camera, (m, 2, width)."""
+        cam = self.camera_of[self.block.image.photo[rows]]
+        out = np.zeros((len(rows), 2, self.calibration.width))
+        for i, idx in enumerate(self.calibration.free_index):
+            sel = cam == i
+            if sel.any() and len(idx):
+                out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
+        return out
+
+    def linearize(self, state) -> Linearization:
+        eo, xyz, params, bxyz = self._split(state)
+        b = self.block
+        im, pts = b.image, b.points
         ph = im.photo[self.obs]
-        cam = b.photos.camera[ph]
-        xy, je, jp = project_with_jacobians(eo, xyz[self.remap[im.point[self.obs]]],
-                                            b.cameras.focal_mm[cam],
-                                            b.cameras.principal_point_mm[cam],
-                                            self.distortion, photo=ph)
-        e = self.xy_obs - xy
-        given = b.points.xyz[self.control]
-        ec = np.where(np.isfinite(given), given, 0.0) - xyz[self.remap[self.control]]
+        f, je, jp, jpar = self._image_rows(self.obs, eo, xyz[self.eremap[im.point[self.obs]]],
+                                           params)
+        e = im.xy_mm[self.obs] - f
+        given = pts.xyz[self.control]
+        cur = xyz[self.eremap[self.control]]
+        ec = np.where(np.isfinite(given), given, 0.0) - cur
         jc = np.broadcast_to(np.eye(3), (len(self.control), 3, 3)).copy()
-        wf = ef = None
+        wf = ef = wp = ep = None
         if self.held is not None:
             je = np.where(self.held[ph][:, None, :], 0.0, je)
             wf = np.where(self.held, HOLD, 0.0)
             ef = np.zeros_like(wf)
-        return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef)
+        if self.held_points.any():  # fixed control: not unknowns (zero columns, held)
+            jp = np.where(self.held_points[self.eremap[im.point[self.obs]]][:, None, :], 0.0,
+                          jp)
+            wp = np.where(self.held_points, HOLD, 0.0)
+            ep = np.zeros_like(wp)
+            rows = self.eremap[self.control]
+            ep[rows] = np.where(self.held_points[rows], ec, 0.0)
+        lin = dict(jg=self._free_columns(self.obs, jpar) if self.system.ng else None)
+        if self.system.ng:
+            lin.update(self._border_rows(eo, params, bxyz))
+        return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef, wp=wp, ep=ep, **lin)
+
+    def _border_rows(self, eo, params, bxyz) -> dict:
+        """The extra rows (image points of border points, their control, distances) and the
+        held global unknowns."""
+        b = self.block
+        im, pts, dist = b.image, b.points, b.distances
+        ng, gp = self.system.ng, self.g_points
+        rows = self.border_obs
+        mb = len(rows)
+        bidx = self.bremap[im.point[rows]]
+        f, je, jp, jpar = self._image_rows(rows, eo, bxyz[bidx], params)
+        jg = np.zeros((mb, 2, ng))
+        free = self._free_columns(rows, jpar)
+        cam = self.camera_of[im.photo[rows]]
+        for i, cols in enumerate(self.calibration.columns):
+            sel = np.flatnonzero(cam == i)
+            if len(sel) and len(cols):
+                jg[sel[:, None, None], np.arange(2)[None, :, None], cols[None, None, :]] = \
+                    free[sel][:, :, :len(cols)]
+        held_b = self.held_border
+        jp = np.where(held_b[bidx][:, None, :], 0.0, jp)
+        for k in range(3):
+            jg[np.arange(mb), :, gp + 3 * bidx + k] = jp[:, :, k]
+        if self.held is not None:
+            je = np.where(self.held[im.photo[rows]][:, None, :], 0.0, je)
+        ex = [(im.xy_mm[rows] - f).ravel()]
+        jxf = [je.reshape(2 * mb, 1, 6)]
+        jxg = [jg.reshape(2 * mb, 1, ng)]
+        # observed control coordinates of border points
+        given = pts.xyz[self.border_control]
+        cur = bxyz[self.bremap[self.border_control]]
+        sel = self.border_ctrl_sel
+        ci, cc = np.divmod(sel, 3)
+        jc = np.zeros((len(sel), 1, ng))
+        jc[np.arange(len(sel)), 0, gp + 3 * self.bremap[self.border_control[ci]] + cc] = 1.0
+        ex.append((given - cur).ravel()[sel])
+        jxf.append(np.zeros((len(sel), 1, 6)))
+        jxg.append(jc)
+        # distances
+        a = self.bremap[dist.point_a[self.distances]]
+        bb = self.bremap[dist.point_b[self.distances]]
+        diff = bxyz[bb] - bxyz[a]
+        length = np.linalg.norm(diff, axis=1)
+        unit = diff / length[:, None]
+        jd = np.zeros((len(a), 1, ng))
+        for k in range(3):
+            jd[np.arange(len(a)), 0, gp + 3 * a + k] = np.where(held_b[a, k], 0.0, -unit[:, k])
+            jd[np.arange(len(a)), 0, gp + 3 * bb + k] = np.where(held_b[bb, k], 0.0,
+                                                                 unit[:, k])
+        ex.append(dist.length_m[self.distances] - length)
+        jxf.append(np.zeros((len(a), 1, 6)))
+        jxg.append(jd)
+        wg = np.zeros(ng)
+        eg = np.zeros(ng)
+        held_cols = gp + np.flatnonzero(held_b.ravel())
+        wg[held_cols] = HOLD
+        full = np.where(np.isfinite(pts.xyz[self.border_ids]), pts.xyz[self.border_ids], 0.0)
+        eg[gp:] = np.where(held_b, full - bxyz, 0.0).ravel()
+        return dict(jxf=np.concatenate(jxf), jxg=np.concatenate(jxg), wx=self.wx,
+                    ex=np.concatenate(ex)[:, None], wg=wg, eg=eg)
+
+    def _camera_effect(self) -> np.ndarray:
+        """Size in the image (mm) of a unit change of each global unknown, for the
+        convergence test: camera parameters by their largest effect, points by the image
+        scale (a change dX moves the image by about c dX / flying height)."""
+        ng = self.system.ng
+        out = np.zeros(ng)
+        if not ng:
+            return out
+        lin = self.linearize(self.approximations)
+        if lin.jg is not None and self.system.gcol.shape[1]:
+            mi, ai = np.nonzero(self.system.gcol >= 0)
+            np.maximum.at(out, self.system.gcol[mi, ai], np.abs(lin.jg[mi, :, ai]).max(axis=1))
+        c = float(np.median(self.block.cameras.focal_mm))
+        out[self.g_points:] = c / self.scale
+        return out
 
     def _sizes(self, step, t: float = 1.0) -> tuple[float, float]:
-        dxf, dxp = step
+        dxf, dxp = step[0], step[1]
         dpos = max(np.max(np.abs(dxf[:, :3]), initial=0.0), np.max(np.abs(dxp), initial=0.0))
+        if len(step) == 3:
+            dpos = max(dpos, np.max(np.abs(step[2][self.g_points:]), initial=0.0))
         return t * float(dpos), t * float(np.max(np.abs(dxf[:, 3:]), initial=0.0))
 
     def correction_size(self, state, step) -> float:
         dpos, dang = self._sizes(step)
-        return max(dpos / self.scale, 1e3 * dang)
+        size = max(dpos / self.scale, 1e3 * dang)
+        if len(step) == 3 and self.calibration.n:
+            c = float(np.median(self.block.cameras.focal_mm))
+            cam = np.abs(step[2][:self.g_points]) * self._parameter_scale[:self.g_points]
+            size = max(size, float(np.max(cam, initial=0.0)) / c)
+        return size
 
     def describe(self, state, step, t: float) -> str:
         dpos, dang = self._sizes(step, t)
         return f"{dpos:.3g} m, {dang:.3g} rad"
 
     def admissible(self, state) -> bool:
-        eo, xyz = state
+        eo, xyz, _, bxyz = self._split(state)
         im = self.block.image
-        return bool(np.all(camera_depth(eo, xyz[self.remap[im.point[self.obs]]],
-                                        im.photo[self.obs]) > 0))
+        ok = bool(np.all(camera_depth(eo, xyz[self.eremap[im.point[self.obs]]],
+                                      im.photo[self.obs]) > 0))
+        if len(self.border_obs):
+            ok &= bool(np.all(camera_depth(eo, bxyz[self.bremap[im.point[self.border_obs]]],
+                                           im.photo[self.border_obs]) > 0))
+        return ok
 
     # ------------------------------------------------------------ fit
-    def fit(self, start: tuple[np.ndarray, np.ndarray] | None = None,
+    def fit(self, start: tuple[np.ndarray, ...] | None = None,
             options: SolveOptions = SOLVE, progress: Progress | None = None) -> BundleResult:
         """Adjust; returns a BundleResult (arrays plus summary()).
 
-        start: (eo (n_photos, 6), xyz (n_adjusted_points, 3)); default the approximations
-        (the photos' EO and intersected points).
+        start: (eo (n_photos, 6), xyz (n_adjusted_points, 3)) or the state of an earlier
+        result (`BundleResult.state`); default the approximations (the photos' EO,
+        intersected points and the cameras' nominal parameters).
         """
         t0 = time.perf_counter()
-        start = self.approximations if start is None else start
+        start = self.approximations if start is None else self._start(start)
         try:
-            sol = solve(self, (np.array(start[0], float), np.array(start[1], float)),
-                        options, progress)
+            sol = solve(self, tuple(np.array(s, float) for s in start), options, progress)
             if sol.reason == "inadmissible":
                 raise GeometryError("the adjustment diverged: no step along the Gauss-Newton "
                                     "direction keeps the points in front of the cameras; check "
@@ -193,6 +399,16 @@ class BundleProblem(SchurProblem):
                 raise
             raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis)) from None
         notes = list(self.notes) + ([] if sol.converged else [sol.message])
-        eo, xyz = sol.state
-        return BundleResult(self, eo, xyz, sol.lin, sol.factor, sol.iterations, sol.converged,
-                            tuple(notes), time.perf_counter() - t0)
+        return BundleResult(self, sol.state, sol.lin, sol.factor, sol.iterations,
+                            sol.converged, tuple(notes), time.perf_counter() - t0)
+
+    def _start(self, start) -> tuple[np.ndarray, ...]:
+        """A start given as (eo, xyz of every adjusted point) in this problem's state."""
+        if len(start) == len(self.approximations) and len(start[1]) == len(self.elim_ids):
+            return tuple(start)
+        eo, xyz = start[0], np.asarray(start[1])
+        out = (eo, xyz[self.remap[self.elim_ids]])
+        if self.system.ng:
+            out += (np.concatenate([self.calibration.start(),
+                                    xyz[self.remap[self.border_ids]].ravel()]),)
+        return out

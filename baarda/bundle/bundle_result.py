@@ -19,16 +19,16 @@ if TYPE_CHECKING:
 
 @dataclass(frozen=True)
 class BundleResult(AdjustmentCounts):
-    """Adjusted orientations and points with their precision.
+    """Adjusted orientations, points and camera parameters with their precision.
 
     Units: positions in m, angles in rad, image residuals in mm (µm in the outputs).
     Standard deviations are scaled by the a-posteriori sigma0.  `factor` holds the normal
-    equations factored at the solution, from which every cofactor is computed.
+    equations factored at the solution, from which every cofactor is computed.  `state`:
+    (eo, eliminated points[, global unknowns]) of the problem (bundle/bundle_problem.py).
     """
 
     problem: BundleProblem
-    eo: np.ndarray  # (n_photos, 6)
-    xyz: np.ndarray  # (n_adjusted_points, 3), order of problem.point_ids
+    state: tuple[np.ndarray, ...]
     lin: Linearization
     factor: SchurFactor
     iterations: int
@@ -40,15 +40,38 @@ class BundleResult(AdjustmentCounts):
     def block(self) -> Block:
         return self.problem.block
 
+    @property
+    def eo(self) -> np.ndarray:
+        """(n_photos, 6) adjusted orientations."""
+        return self.state[0]
+
+    @property
+    def xyz(self) -> np.ndarray:
+        """(n_adjusted_points, 3) adjusted coordinates, order of problem.point_ids."""
+        pb = self.problem
+        out = np.empty((len(pb.point_ids), 3))
+        out[pb.remap[pb.elim_ids]] = self.state[1]
+        if len(pb.border_ids):
+            out[pb.remap[pb.border_ids]] = self.state[2][pb.g_points:].reshape(-1, 3)
+        return out
+
+    @property
+    def cameras(self):
+        """The cameras with their adjusted parameters (block.cameras where none is free)."""
+        g = self.state[2] if len(self.state) == 3 else np.zeros(0)
+        return self.problem.calibration.adjusted_cameras(g) if self.problem.calibration.n \
+            else self.block.cameras
+
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> BundleResult:
         """Adjust again with only the `active` components of the observation vector (and
         weight factors), starting from this solution; this result is unchanged."""
-        return self.problem.reweighted(active, factors).fit(start=(self.eo, self.xyz))
+        return self.problem.reweighted(active, factors).fit(start=self.state)
 
     # --------------------------------------------------------- residuals
     @property
     def image_residuals(self) -> np.ndarray:
-        """v = adjusted - observed image coordinates, (m_adjusted, 2) in mm."""
+        """v = adjusted - observed image coordinates of the eliminated points' image rows
+        (problem.obs), (m, 2) in mm."""
         return -self.lin.e
 
     @property
@@ -57,14 +80,36 @@ class BundleResult(AdjustmentCounts):
         given = self.block.points.xyz[self.problem.control]
         return np.where(np.isfinite(given), -self.lin.ec, np.nan)
 
+    @property
+    def extra_residuals(self) -> np.ndarray:
+        """v of the rows of border points and distances (mx,) (mm for image rows, m else)."""
+        return np.zeros(0) if self.lin.ex is None else -self.lin.ex[:, 0]
+
     # --------------------------------------------------------- precision
     @property
     def eo_std(self) -> np.ndarray:
         return self.scaled_std(self.factor.frame_covariance())
 
+    def point_covariance(self) -> np.ndarray:
+        """(n_adjusted_points, 3, 3) cofactor blocks of every adjusted point."""
+        pb = self.problem
+        out = np.zeros((len(pb.point_ids), 3, 3))
+        out[pb.remap[pb.elim_ids]] = self.factor.point_covariance()
+        if len(pb.border_ids):
+            q = self.factor.global_covariance()
+            cols = pb.g_points + 3 * np.arange(len(pb.border_ids))[:, None] + np.arange(3)
+            out[pb.remap[pb.border_ids]] = q[cols[:, :, None], cols[:, None, :]]
+        return out
+
     @property
     def xyz_std(self) -> np.ndarray:
-        return self.scaled_std(self.factor.point_covariance())
+        return self.scaled_std(self.point_covariance())
+
+    def camera_covariance(self) -> np.ndarray:
+        """(n_free, n_free) cofactor matrix of the estimated camera parameters (order of
+        problem.calibration.labels)."""
+        n = self.problem.calibration.n
+        return self.factor.global_covariance()[:n, :n] if n else np.zeros((0, 0))
 
     def points_xyz(self) -> np.ndarray:
         """Adjusted coordinates for every block point, (n_points, 3); NaN if left out."""

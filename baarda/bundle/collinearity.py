@@ -4,29 +4,28 @@
     x = x0 - c * u1 / u3,   y = y0 - c * u2 / u3      (mm)
 
 Parameters of a photo: X0, Y0, Z0 [m], omega, phi, kappa [rad]; of a point: X, Y, Z [m].
-With `distortion` (m, 5) the forward lens model of block/camera.py is applied to (x, y) and
-the Jacobians follow by the chain rule.
+`camera_projection` adds a camera model (block/camera_models.py) and the Jacobians with
+respect to the camera's parameters c, x0, y0 and coefficients, by the chain rule.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from baarda.block.camera import distort
+from baarda.block.camera_models import CameraModel
 from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
 
 
 def project(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray, pp: np.ndarray,
-            distortion: np.ndarray | None = None, photo: np.ndarray | None = None
-            ) -> np.ndarray:
-    """Image coordinates (m, 2) in mm of points xyz (m, 3) on photos eo (m, 6); with
-    `photo`, eo holds one row per photo and photo[i] names the photo of point i."""
+            photo: np.ndarray | None = None) -> np.ndarray:
+    """Image coordinates (m, 2) in mm of points xyz (m, 3) on photos eo (m, 6) (no lens
+    model); with `photo`, eo holds one row per photo and photo[i] names the photo of
+    point i."""
     r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
     if photo is not None:
         r, eo = r[photo], eo[photo]
     u = np.einsum("mji,mj->mi", r, xyz - eo[:, :3])
-    xy = pp - focal[:, None] * u[:, :2] / u[:, 2:3]
-    return xy if distortion is None else distort(xy, pp, focal, distortion)[0]
+    return pp - focal[:, None] * u[:, :2] / u[:, 2:3]
 
 
 def camera_depth(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray | None = None) -> np.ndarray:
@@ -41,9 +40,9 @@ def camera_depth(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray | None = Non
 
 
 def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
-                           pp: np.ndarray, distortion: np.ndarray | None = None,
-                           photo: np.ndarray | None = None):
-    """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3).
+                           pp: np.ndarray, photo: np.ndarray | None = None):
+    """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3)
+    (no lens model).
 
     With `photo`, eo holds one row per photo (rotations are computed once per photo) and
     photo[i] names the photo of observation i.
@@ -71,7 +70,47 @@ def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
     for k, dr in enumerate((dro, drp, drk)):
         du = np.einsum("mji,mj->mi", dr, d)
         je[:, :, 3 + k] = np.einsum("mab,mb->ma", ju, du)
-    if distortion is not None:
-        xy, dd = distort(xy, pp, c, distortion)
-        je, jp = dd @ je, dd @ jp
     return xy, je, jp
+
+
+def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
+                      params: np.ndarray, model: CameraModel, const: np.ndarray,
+                      observed: np.ndarray):
+    """The observation equations of the image points of one camera, with its model.
+
+    eo (n_photos, 6); xyz (m, 3) the observed points; photo (m,) the photo of each row;
+    params = [c, x0, y0, coefficients...] of the camera (mm; the model's units); const its
+    model's constants; observed (m, 2) the measured coordinates (mm).  Returns f (m, 2),
+    the value the observation is compared with (e = observed - f), and its Jacobians with
+    respect to the photo (m, 2, 6), the point (m, 2, 3) and the camera parameters
+    (m, 2, 3 + k):
+
+    * forward models: f = pp + s (u + delta(u)), u = (ideal - pp) / s (s = c if normalised,
+      else 1), delta evaluated at the projection;
+    * backward models: f = ideal - delta(observed - pp): the corrected observation equals
+      the projection, with delta evaluated at the observation (DBAT's and the
+      photogrammetric programs' formulation; the observation keeps its own weight).
+    """
+    c, pp, coef = float(params[0]), params[1:3], params[3:]
+    m = len(photo)
+    xy, je, jp = project_with_jacobians(eo, xyz, np.full(m, c), np.tile(pp, (m, 1)),
+                                        photo=photo)
+    ideal = xy - pp  # reduced to the principal point, mm
+    jpar = np.zeros((m, 2, 3 + len(coef)))
+    if model.side == "backward":
+        delta, ddu, ddc = model.correction(observed - pp, coef[None, :], const[None, :])
+        f = xy - delta
+        jpar[:, :, 0] = ideal / c
+        jpar[:, :, 1:3] = np.eye(2) + ddu  # d(-delta(observed - pp)) / d pp = + d delta/du
+        jpar[:, :, 3:] = -ddc
+        return f, je, jp, jpar
+    s = c if model.normalized else 1.0
+    delta, ddu, ddc = model.correction(ideal / s, coef[None, :], const[None, :])
+    f = pp + ideal + s * delta
+    dd = np.eye(2) + ddu  # d f / d ideal
+    je, jp = dd @ je, dd @ jp
+    jpar[:, :, 0] = ideal / c + delta if model.normalized else np.einsum(
+        "mab,mb->ma", dd, ideal / c)
+    jpar[:, :, 1:3] = np.eye(2)
+    jpar[:, :, 3:] = s * ddc
+    return f, je, jp, jpar

@@ -50,17 +50,21 @@ class FreeBundleProblem(BundleProblem):
         a, b, k = self.datum
         held = np.zeros((len(block.photos), 6), bool)
         held[a] = True
-        held[b, k] = True
+        self.scaled = bool(len(block.distances))  # a distance fixes the scale
+        if not self.scaled:
+            held[b, k] = True
         super().__init__(block, held=held, diagnosis=diagnosis)
 
 
     def datum_text(self) -> str:
         a, b, k = self.datum
         ids = self.block.photos.ids
+        scale = ("the scale by the distance observations" if self.scaled else
+                 f"{'XYZ'[k]}0 of photo {ids[b]} (scale)")
         return (f"datum: FREE NETWORK (no control): minimal constraints, photo {ids[a]} held "
-                f"(its six orientation unknowns) and {'XYZ'[k]}0 of photo {ids[b]} (scale); "
-                "coordinates and their standard deviations refer to this datum, the "
-                "observations' statistics do not depend on it")
+                f"(its six orientation unknowns) and {scale}; coordinates and their standard "
+                "deviations refer to this datum, the observations' statistics do not depend "
+                "on it")
 
 
 def adjust_free(block: Block, datum: tuple[int, int, int] | None = None,

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from baarda.block.camera import ideal_image_coordinates
+from baarda.block.camera import constants, ideal_image_coordinates, kinds, model_of, parameters
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
+from baarda.bundle.collinearity import camera_projection
 from baarda.errors import GeometryError
 
 
@@ -91,6 +92,26 @@ def weak_control(block: Block, plan_xy: np.ndarray, height_xy: np.ndarray) -> li
                            "scale and azimuth are extrapolated" if k == 0 else
                            "the block can tilt about it and heights far from it are weakly "
                            "determined") + ": add control on the other side")
+    return out
+
+
+def predicted_observations(block: Block, eo: np.ndarray | None = None,
+                           xyz: np.ndarray | None = None) -> np.ndarray:
+    """What each image observation is compared with (m, 2) in mm: the projection of the
+    point with its camera's model (for backward models minus the correction of the
+    observation, bundle/collinearity.py camera_projection), so observed - predicted is the
+    misclosure.  eo (n_photos, 6) and xyz (n_points, 3) default to the block's."""
+    eo = block.photos.eo if eo is None else eo
+    xyz = block.points.xyz if xyz is None else xyz
+    im = block.image
+    out = np.full((len(im), 2), np.nan)
+    cam = block.photos.camera[im.photo]
+    for i in np.unique(cam):
+        rows = np.flatnonzero(cam == i)
+        out[rows] = camera_projection(eo, xyz[im.point[rows]], im.photo[rows],
+                                      parameters(block.cameras, i),
+                                      model_of(kinds(block.cameras)[i]),
+                                      constants(block.cameras, i), im.xy_mm[rows])[0]
     return out
 
 

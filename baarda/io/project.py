@@ -7,12 +7,13 @@ file, line and column of the first problem; `write_project` writes atomically.
 from __future__ import annotations
 
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from baarda.block.camera import COEFFICIENTS, KINDS
+from baarda.block.camera import KINDS, model_of, parameter_names
 from baarda.block.photo_block import (
     Block,
     Cameras,
@@ -126,6 +127,64 @@ def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
     return ids, xyz, sig, role.astype(object), g
 
 
+def _camera_models(t: Table, cameras: Cameras) -> Cameras:
+    """The `model` column and the columns named as the models' parameters and constants
+    (docs/camera_models.md); a coefficient left empty is 0, a constant is required."""
+    kinds = t.text("model").astype(object)
+    models = []
+    for i, k in enumerate(kinds):
+        try:
+            models.append(model_of(k))
+        except ValueError:
+            raise ProjectError(t.path, f"camera model '{k}' is not one of {', '.join(KINDS)}",
+                               int(t.lines[i]), "model") from None
+    width = max([m.n_params for m in models] + [0])
+    cwidth = max([len(m.constants) for m in models] + [0])
+    coef, const = np.zeros((len(t), width)), np.full((len(t), cwidth), np.nan)
+    values: dict[str, np.ndarray] = {}
+    for name in {p for m in models for p in m.params + m.constants}:
+        if t.has(name):
+            values[name] = t.numbers(name, allow_empty=True)
+    for i, m in enumerate(models):
+        for j, p in enumerate(m.params):
+            v = values.get(p, np.zeros(len(t)))[i]
+            coef[i, j] = v if np.isfinite(v) else 0.0
+        for j, p in enumerate(m.constants):
+            v = values.get(p, np.full(len(t), np.nan))[i]
+            if not np.isfinite(v):
+                raise ProjectError(t.path, f"camera model '{kinds[i]}' needs its constant "
+                                   f"'{p}'", int(t.lines[i]), p)
+            const[i, j] = v
+    return replace(cameras, model=kinds, coefficients=coef,
+                   constants=const if cwidth else None)
+
+
+def _calibration(doc: dict, cameras: Cameras, path: Path) -> tuple[tuple[str, ...], ...] | None:
+    """The parameters to estimate per camera from project.toml's [calibration]: `free = [..]`
+    for every camera, or a table per camera id with its own `free`."""
+    cal = doc.get("calibration")
+    if cal is None:
+        return None
+    if not isinstance(cal, dict):
+        raise ProjectError(str(path), "[calibration] must be a table", column="calibration")
+    every = cal.get("free", [])
+    out = []
+    for i, cid in enumerate(cameras.ids):
+        own = cal.get(cid, {})
+        free = own.get("free", every) if isinstance(own, dict) else every
+        if not isinstance(free, list) or not all(isinstance(p, str) for p in free):
+            raise ProjectError(str(path), "calibration 'free' must be a list of parameter "
+                               "names, e.g. [\"c\", \"x0\", \"y0\", \"k1\"]",
+                               column="calibration")
+        names = parameter_names(cameras, i)
+        bad = [p for p in free if p not in names]
+        if bad:
+            raise ProjectError(str(path), f"camera {cid}: '{bad[0]}' is not a parameter of its "
+                               f"model ({', '.join(names)})", column="calibration")
+        out.append(tuple(free))
+    return tuple(out)
+
+
 def _image_sigmas(t: Table, default_um: float) -> np.ndarray:
     """(m, 2) a-priori sigmas of x and y in µm from `sigma_um` or `sigma_x_um` and
     `sigma_y_um` (NaN where empty: the project default)."""
@@ -163,17 +222,11 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
         raise ProjectError(t.path, "focal length must be positive", int(t.lines[bad[0]]),
                            "focal_mm")
     cameras = Cameras(cam_ids, focal, np.column_stack([t.numbers("x0_mm"), t.numbers("y0_mm")]))
-    if t.has("model"):  # optional lens model (block/camera.py), coefficients default 0
-        kinds = t.text("model").astype(object)
-        for i, k in enumerate(kinds):
-            if k not in KINDS:
-                raise ProjectError(t.path, f"lens model '{k}' is not one of {', '.join(KINDS)}",
-                                   int(t.lines[i]), "model")
-        coef = np.column_stack([t.numbers(c, allow_empty=True) if t.has(c)
-                                else np.zeros(len(t)) for c in COEFFICIENTS])
-        cameras.model, cameras.distortion = kinds, np.nan_to_num(coef)
+    if t.has("model"):  # optional camera model (block/camera.py), coefficients default 0
+        cameras = _camera_models(t, cameras)
     if not cam_ids:
         raise ProjectError(t.path, "no cameras")
+    cameras = replace(cameras, free=_calibration(doc, cameras, folder / "project.toml"))
 
     t = Table(folder / "photos.csv",
               ["photo", "camera", "strip", "X0", "Y0", "Z0", "omega", "phi", "kappa"], encoding)

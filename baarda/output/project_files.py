@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.camera import COEFFICIENTS, camera_arrays
+from baarda.block.camera import coefficients, constants, model_of
+from baarda.block.camera import kinds as camera_kinds
 from baarda.block.model_block import ModelBlock
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rad_to_angle
@@ -33,6 +34,31 @@ def write_ground_points(path: Path, ids: list[str], xyz: np.ndarray, sigma: np.n
     write_text(path, "\n".join(rows) + "\n")
 
 
+def cameras_csv(c) -> str:
+    """cameras.csv: interior orientation, and with any camera model the `model` column and
+    one column per parameter or constant name of the models used (empty where a camera's
+    model has no such parameter)."""
+    kinds = camera_kinds(c)
+    lens = bool(np.any(kinds != "none"))
+    names: list[str] = []
+    for k in kinds:
+        m = model_of(k)
+        names += [p for p in m.params + m.constants if p not in names]
+    rows = ["camera,focal_mm,x0_mm,y0_mm" + (",model" + "".join(f",{n}" for n in names)
+                                             if lens else "")]
+    for i in range(len(c)):
+        row = (f"{c.ids[i]},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
+               f"{float(c.principal_point_mm[i, 1])!r}")
+        if lens:
+            m = model_of(kinds[i])
+            value = dict(zip(m.params, coefficients(c, i), strict=True))
+            value.update(zip(m.constants, constants(c, i), strict=True))
+            row += f",{kinds[i]}" + "".join(
+                f",{float(value[n])!r}" if n in value else "," for n in names)
+        rows.append(row)
+    return "\n".join(rows) + "\n"
+
+
 def write_project(block: Block, folder: str | Path | RunFolder) -> None:
     """Write `block` as a native project folder, one run (output/run_folder.py)."""
     with staged(folder) as run:
@@ -49,17 +75,13 @@ def _write_project(block: Block, folder: Path) -> None:
     toml += ["", "[sigma]", f"image_um = {s.sigma_image_um!r}",
              f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]",
              "", "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", ""]
-    write_text(folder / "project.toml", "\n".join(toml))
     c = block.cameras
-    kinds, coef = camera_arrays(c)
-    lens = bool(np.any(kinds != "none"))
-    rows = ["camera,focal_mm,x0_mm,y0_mm" + (",model," + ",".join(COEFFICIENTS) if lens
-                                             else "")] + [
-        f"{c.ids[i]},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
-        f"{float(c.principal_point_mm[i, 1])!r}" +
-        (f",{kinds[i]}," + ",".join(repr(float(v)) for v in coef[i]) if lens else "")
-        for i in range(len(c))]
-    write_text(folder / "cameras.csv", "\n".join(rows) + "\n")
+    if c.free is not None and any(c.free):  # the parameters a self-calibration estimates
+        for i, cid in enumerate(c.ids):
+            names = ", ".join(f'"{p}"' for p in c.free[i])
+            toml += [f'[calibration."{cid}"]', f"free = [{names}]", ""]
+    write_text(folder / "project.toml", "\n".join(toml))
+    write_text(folder / "cameras.csv", cameras_csv(c))
     p = block.photos
     ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)
     rows = ["photo,camera,strip,X0,Y0,Z0,omega,phi,kappa"] + [

@@ -1,82 +1,103 @@
-"""Lens models of block/camera.py and their use in the collinearity projection.
-
-Jacobians are checked against central differences; the forward model against the BAL
-formula written out independently and against pycolmap's OPENCV camera; inverses by
-round trips.
-"""
+"""The projection with a camera model (bundle/collinearity.py camera_projection): analytic
+Jacobians with respect to orientation, point and every camera parameter against central
+differences for every model; the forward model against the BAL formula written out
+independently and against pycolmap's OPENCV camera; a-priori lens corrections of the block
+(block/camera.py)."""
 
 import numpy as np
 import pytest
 
-from baarda.block.camera import (
-    brown_terms,
-    correct_backward,
-    distort,
-    uncorrect_backward,
-    undistort,
-)
+from baarda.block.camera import corrected_observations, ideal_image_coordinates, model_of
+from baarda.block.camera_models import MODELS
 from baarda.block.rotation import rotation_matrix
-from baarda.bundle.collinearity import project, project_with_jacobians
+from baarda.bundle.collinearity import camera_projection, project
 
 rng = np.random.default_rng(7)
+
+COEF = {  # plausible coefficients per model (mm units for the photogrammetric ones)
+    "none": [],
+    "brown": [2e-4, -3e-7, 1e-10, 4e-6, -3e-6, 2e-4, -1e-4],
+    "dbat3": [2e-4, -3e-7, 1e-10, 4e-6, -3e-6, 2e-4, -1e-4],
+    "dbat5": [2e-4, -3e-7, 1e-10, 4e-6, -3e-6, 2e-4, -1e-4],
+    "brown_forward": [-0.12, 0.05, -0.01, 1e-3, -2e-3, 3e-3],
+    "aicon": [-1.1e-4, 1.5e-7, 1e-11, 5.8e-6, -8.6e-6, -7e-5, -3e-5],
+    "ebner": list(rng.normal(0, 1e-4, 12)),
+    "gruen": list(rng.normal(0, 1e-3, 44)),
+}
+CONST = {"aicon": [13.5], "ebner": [8.0], "gruen": [4.0]}
+
+
+def _scene(m=30):
+    eo = np.column_stack([rng.normal(0, 5, (4, 3)) + [0, 0, 100], rng.normal(0, 0.1, (4, 3))])
+    photo = rng.integers(0, 4, m)
+    r = rotation_matrix(eo[photo, 3], eo[photo, 4], eo[photo, 5])
+    # points in front of each photo, within about a 60 degree cone
+    d = np.column_stack([rng.uniform(-0.5, 0.5, (m, 2)), -np.ones(m)]) * rng.uniform(60, 90, (
+        m, 1))
+    xyz = eo[photo, :3] + np.einsum("mij,mj->mi", r, d)
+    return eo, xyz, photo
 
 
 def _numeric(f, x, h):
     cols = []
-    for k in range(x.shape[1]):
-        e = np.zeros_like(x)
-        e[:, k] = h
-        cols.append((f(x + e) - f(x - e)) / (2 * h))
+    for k in range(x.size):
+        e = np.zeros(x.size)
+        e[k] = h
+        cols.append((f(x + e.reshape(x.shape)) - f(x - e.reshape(x.shape))) / (2 * h))
     return np.stack(cols, axis=-1)
 
 
-def test_brown_terms_jacobian():
-    u = rng.uniform(-0.8, 0.8, (50, 2))
-    d = rng.normal(0, 0.1, (50, 5))
-    _, jac = brown_terms(u, d)
-    num = _numeric(lambda v: brown_terms(v, d)[0], u, 1e-6)
-    assert np.allclose(jac, num, atol=1e-8)
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_jacobians_of_every_model(name):
+    model = MODELS[name]
+    eo, xyz, photo = _scene()
+    c = 24.0
+    params = np.concatenate([[c, 0.12, -0.08], COEF[name]])
+    const = np.array(CONST.get(name, []), float)
+    observed = project(eo, xyz, np.full(len(photo), c), np.zeros((len(photo), 2)),
+                       photo=photo) + rng.normal(0, 0.01, (len(photo), 2))
 
+    def f_of(eo_=eo, xyz_=xyz, p_=params):
+        return camera_projection(eo_, xyz_, photo, p_, model, const, observed)[0]
 
-def _setup(m=40):
-    eo = np.column_stack([rng.normal(0, 5, (m, 3)) + [0, 0, 100],
-                          rng.normal(0, 0.1, (m, 3))])
-    xyz = rng.normal(0, 20, (m, 3))
-    focal = rng.uniform(20, 60, m)
-    pp = rng.normal(0, 0.5, (m, 2))
-    d = np.column_stack([rng.normal(0, 0.1, m), rng.normal(0, 0.05, m),
-                         rng.normal(0, 0.01, m), rng.normal(0, 0.01, (m, 2))])
-    return eo, xyz, focal, pp, d
+    f, je, jp, jpar = camera_projection(eo, xyz, photo, params, model, const, observed)
+    assert np.allclose(f, f_of())
+    # per row: the photo's 6 unknowns, the point's 3 unknowns
+    for i in range(5):
+        def with_eo(e, i=i):
+            return f_of(eo_=np.vstack([eo[:photo[i]], e[None, :], eo[photo[i] + 1:]]))[i]
 
+        def with_point(p, i=i):
+            return f_of(xyz_=np.vstack([xyz[:i], p[None, :], xyz[i + 1:]]))[i]
 
-def test_projection_jacobians_with_forward_distortion():
-    eo, xyz, focal, pp, d = _setup()
-    xy, je, jp = project_with_jacobians(eo, xyz, focal, pp, d)
-    assert np.allclose(xy, project(eo, xyz, focal, pp, d), atol=1e-12)
-    ne = _numeric(lambda e: project(e, xyz, focal, pp, d), eo, 1e-7)
-    npt = _numeric(lambda p: project(eo, p, focal, pp, d), xyz, 1e-6)
-    scale = np.abs(je).max()
-    assert np.allclose(je, ne, atol=1e-7 * scale)
-    assert np.allclose(jp, npt, atol=1e-7 * np.abs(jp).max())
-    # zero coefficients: identical to the undistorted projection
-    assert np.allclose(project(eo, xyz, focal, pp, np.zeros_like(d)), project(eo, xyz, focal, pp))
+        ne = _numeric(with_eo, eo[photo[i]], 1e-7)
+        assert np.allclose(je[i], ne, rtol=1e-6, atol=1e-9 * np.abs(je[i]).max())
+        npt = _numeric(with_point, xyz[i], 1e-5)
+        assert np.allclose(jp[i], npt, rtol=1e-6, atol=1e-9 * np.abs(jp[i]).max())
+    steps = np.maximum(np.abs(params), 1e-3) * 1e-4
+    for k in range(len(params)):
+        e = np.zeros(len(params))
+        e[k] = steps[k]
+        num = (f_of(p_=params + e) - f_of(p_=params - e)) / (2 * steps[k])
+        scale = max(np.abs(num).max(), np.abs(jpar[:, :, k]).max(), 1e-12)
+        assert np.allclose(jpar[:, :, k], num, rtol=1e-5, atol=1e-7 * scale), (name, k)
+    assert model.side in ("forward", "backward")
 
 
 def test_forward_model_is_bal_formula():
     """BAL: P = R X + t, p = -P/P.z, x = f (1 + k1 |p|^2 + k2 |p|^4) p (independent code)."""
     m = 30
-    eo, xyz, focal, _, _ = _setup(m)
-    k1, k2 = rng.normal(0, 0.2, m), rng.normal(0, 0.05, m)
-    r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+    eo, xyz, photo = _scene(m)
+    f, k1, k2 = 500.0, -0.2, 0.05
+    r = rotation_matrix(eo[photo, 3], eo[photo, 4], eo[photo, 5])
     rb = np.swapaxes(r, 1, 2)  # BAL rotation maps world -> camera
-    t = -np.einsum("mij,mj->mi", rb, eo[:, :3])
-    pc = np.einsum("mij,mj->mi", rb, xyz) + t
+    pc = np.einsum("mij,mj->mi", rb, xyz - eo[photo, :3])
     p = -pc[:, :2] / pc[:, 2:3]
     n2 = np.sum(p**2, axis=1)
-    expect = (focal * (1 + k1 * n2 + k2 * n2**2))[:, None] * p
-    d = np.column_stack([k1, k2, np.zeros((m, 3))])
-    got = project(eo, xyz, focal, np.zeros((m, 2)), d)
-    assert np.allclose(got, expect, rtol=1e-12, atol=1e-12)
+    expect = (f * (1 + k1 * n2 + k2 * n2**2))[:, None] * p
+    got = camera_projection(eo, xyz, photo, np.array([f, 0, 0, k1, k2, 0, 0, 0, 0]),
+                            MODELS["brown_forward"], np.zeros(0), np.zeros((m, 2)))[0]
+    assert np.allclose(got, expect, rtol=1e-12, atol=1e-9)
 
 
 def test_forward_model_matches_pycolmap_opencv():
@@ -87,22 +108,33 @@ def test_forward_model_matches_pycolmap_opencv():
                           params=[f, f, cx, cy, k1, k2, p1, p2])
     pts = np.column_stack([rng.uniform(-0.4, 0.4, (20, 2)), np.ones(20)])
     pix = cam.img_from_cam(pts)
-    # baarda frame: x right, y up, pixel size 1 (units of pixels), c = f
-    n = pts[:, :2]
-    ideal = np.column_stack([n[:, 0], -n[:, 1]]) * f
-    d = np.tile([k1, k2, 0.0, p2, -p1], (20, 1))  # OpenCV order, y flipped
-    got, _ = distort(ideal, np.zeros((20, 2)), np.full(20, f), d)
+    # baarda: camera looking down -z with y up; a point at camera coordinates (x, -y, -1)
+    eo = np.zeros((1, 6))
+    xyz = np.column_stack([pts[:, 0], -pts[:, 1], -np.ones(20)])
+    params = np.array([f, 0.0, 0.0, k1, k2, 0.0, p2, -p1, 0.0])  # OpenCV order, y flipped
+    got = camera_projection(eo, xyz, np.zeros(20, int), params, MODELS["brown_forward"],
+                            np.zeros(0), np.zeros((20, 2)))[0]
     assert np.allclose(got[:, 0] + cx, pix[:, 0], atol=1e-9)
     assert np.allclose(cy - got[:, 1], pix[:, 1], atol=1e-9)
 
 
-def test_inverses():
-    m = 25
-    _, _, focal, pp, d = _setup(m)
-    d = d * 0.3
-    xy = pp + rng.uniform(-10, 10, (m, 2))
-    assert np.allclose(undistort(distort(xy, pp, focal, d)[0], pp, focal, d), xy, atol=1e-10)
-    db = np.column_stack([rng.normal(0, 1e-4, m), rng.normal(0, 1e-7, m), np.zeros(m),
-                          rng.normal(0, 1e-5, (m, 2))])
-    assert np.allclose(uncorrect_backward(correct_backward(xy, pp, db), pp, db), xy,
-                       atol=1e-10)
+def test_backward_residual_is_corrected_minus_projected():
+    """For a backward model e = observed - f is the corrected observation minus the
+    projection (the residual DBAT forms), and the block's corrected observations agree."""
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    block, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=3, seed=1))
+    block.cameras.model = np.array(["brown"], dtype=object)
+    block.cameras.coefficients = np.array([COEF["brown"]])
+    corrected = corrected_observations(block)
+    im = block.image
+    pts = block.points
+    xyz = np.where(np.isfinite(pts.xyz), pts.xyz, 0.0)[im.point]
+    c = block.cameras
+    params = np.concatenate([[c.focal_mm[0]], c.principal_point_mm[0], COEF["brown"]])
+    f = camera_projection(block.photos.eo, xyz, im.photo, params, model_of("brown"),
+                          np.zeros(0), im.xy_mm)[0]
+    proj = project(block.photos.eo, xyz, np.full(len(im), c.focal_mm[0]),
+                   np.tile(c.principal_point_mm[0], (len(im), 1)), photo=im.photo)
+    assert np.allclose(im.xy_mm - f, corrected - proj, atol=1e-12)
+    assert np.allclose(ideal_image_coordinates(block), corrected)

@@ -10,9 +10,9 @@ import zlib
 
 import numpy as np
 import pytest
+from lens_reference import brown_terms, distort
 
 from baarda.block import camera_models as cm
-from baarda.block.camera import brown_terms, distort
 
 M = 300
 

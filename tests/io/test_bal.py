@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from baarda.block.camera import forward_coefficients
-from baarda.bundle.collinearity import camera_depth, project
+from baarda.bundle.collinearity import camera_depth
 from baarda.bundle.free_network import adjust_free
+from baarda.bundle.geometry import predicted_observations
 from baarda.errors import ProjectError
 from baarda.io.bal import (
     BalProblem,
@@ -51,9 +51,7 @@ def test_read_real_problems(name, ncam, npt, nobs, errors, behind):
     assert np.all(np.bincount(p.obs_point, minlength=npt) > 0)
     b = bal_to_block(p)
     im = b.image
-    cam = b.photos.camera[im.photo]
-    xy = project(b.photos.eo[im.photo], b.points.xyz[im.point], b.cameras.focal_mm[cam],
-                 b.cameras.principal_point_mm[cam], forward_coefficients(b.cameras, cam))
+    xy = predicted_observations(b)
     e = np.hypot(*((xy - im.xy_mm) / 0.001).T)
     assert np.allclose(e, np.hypot(*bal_residuals(p).T), rtol=1e-9, atol=1e-9)
     stats = (np.median(e), np.mean(e), np.percentile(e, 99), np.max(e))

@@ -48,7 +48,7 @@ def test_camcal_distortion_sign_from_photomodeler_solution():
     assert b.cameras.model[0] == "brown_backward"
     py = 5.43764 / 1704
     rms = np.sqrt(np.mean(_residuals_px(b, py) ** 2))
-    b.cameras.distortion = -b.cameras.distortion
+    b.cameras.coefficients = -b.cameras.coefficients
     rms_flipped = np.sqrt(np.mean(_residuals_px(b, py) ** 2))
     assert rms < 0.5 and rms_flipped > 10
 
