@@ -103,8 +103,16 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
     role = np.full(len(ids), "tie", dtype=object)
     sigma = np.full((len(ids), 3), np.nan)
 
-    # control layout on the grid
-    ext = (xyz[:, 0].min(), xyz[:, 0].max(), xyz[:, 1].min(), xyz[:, 1].max())
+    # control layout on the grid, on the extent of the nodes inside the pattern windows: the
+    # outermost rows and columns of the grid can lie outside every window (always with an even
+    # pattern, whose nodes straddle the window edges; with an odd one where floor and ceil
+    # round a ratio such as -7.000000000000001 to -8), are never measured and are dropped
+    # below, and control placed on them would be lost with them
+    tol = 1e-6 * min(dx, dy)
+    in_windows = ((xyz[:, 0] >= -ex - tol) & (xyz[:, 0] <= X0.max() + ex + tol) &
+                  (xyz[:, 1] >= -ey - tol) & (xyz[:, 1] <= Y0.max() + ey + tol))
+    ext = (xyz[in_windows, 0].min(), xyz[in_windows, 0].max(),
+           xyz[in_windows, 1].min(), xyz[in_windows, 1].max())
     on_border = (np.isclose(xyz[:, 0], ext[0]) | np.isclose(xyz[:, 0], ext[1]) |
                   np.isclose(xyz[:, 1], ext[2]) | np.isclose(xyz[:, 1], ext[3]))
     full = np.zeros(len(ids), bool)
