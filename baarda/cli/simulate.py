@@ -20,8 +20,8 @@ def register(sub) -> None:
     p.add_argument("--neat-area", action="store_true",
                    help="points only between the outer nadir lines")
     p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"],
-                   help="control layout: XYZ points along the block border, at the four "
-                   "corners, or none")
+                   help="full (XYZ) control: every --control-spacing bases along the border of "
+                        "the block, each corner photo measuring one; at the four corners; none")
     p.add_argument("--control-spacing", type=int, default=d.control_spacing,
                    help="perimeter control every k base lengths")
     p.add_argument("--height-chains", type=int, default=d.height_chains,
