@@ -8,12 +8,15 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.options import Progress, TestOptions
 from baarda.quality.assessment import Assessment
+from baarda.quality.hypotheses import HypothesisTest, parameter_test
 from baarda.quality.iterative import iterative_snooping
 from baarda.quality.robust import danish_method
 from baarda.quality.statistics import analyse
@@ -23,9 +26,31 @@ def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment
     """Statistics of every observation of an adjusted block, without rejecting any.
 
     tests: alpha0 and beta0 (default: the project's settings)."""
+    tests = tests or TestOptions.resolve(result.block.settings)
     model = BundleModel(result)
-    q = analyse(model, tests or TestOptions.resolve(result.block.settings))
-    return Assessment(result, model, q)
+    q = analyse(model, tests)
+    return Assessment(result, model, q, hypotheses=calibration_tests(result, tests))
+
+
+def calibration_tests(result: BundleResult, tests: TestOptions) -> tuple[HypothesisTest, ...]:
+    """The significance test of each group of estimated camera parameters (interior
+    orientation, radial, decentring, affinity; Ebner's or Gruen's set), camera by camera."""
+    cal = result.problem.calibration
+    if not cal.n:
+        return ()
+    g = result.state[2]
+    q = result.camera_covariance()
+    out = []
+    for i, cid in enumerate(result.block.cameras.ids):
+        cols = cal.columns[i]
+        for label, rows in cal.groups(i):
+            c = cols[rows]
+            if label == "interior orientation":  # tested against the nominal values
+                est = g[c] - cal.nominal[i][cal.free_index[i][rows]]
+            else:
+                est = g[c]
+            out.append(parameter_test(f"{label} of camera {cid}", est, q[np.ix_(c, c)], tests))
+    return tuple(out)
 
 
 def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
@@ -58,4 +83,5 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
                              by_group=by_point, max_iterations=max_iterations,
                              started_by="Danish method" if robust else "",
                              progress=progress)
-    return Assessment(run.model.result, run.model, run.quality, run)
+    return Assessment(run.model.result, run.model, run.quality, run,
+                      hypotheses=calibration_tests(run.model.result, run.quality.tests))

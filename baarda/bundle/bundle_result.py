@@ -16,6 +16,8 @@ from baarda.sections import Section, render, section
 if TYPE_CHECKING:
     from baarda.bundle.bundle_problem import BundleProblem
 
+HIGH_CORRELATION = 0.95  # camera parameters correlated beyond this are reported
+
 
 @dataclass(frozen=True)
 class BundleResult(AdjustmentCounts):
@@ -202,7 +204,73 @@ class BundleResult(AdjustmentCounts):
                          f"{d['check_rms_X']:.3f} m, Y {d['check_rms_Y']:.3f} m, Z "
                          f"{d['check_rms_Z']:.3f} m")
         lines += [f"note: {n}" for n in list(self.block.notes) + list(self.notes)]
-        return [section("Bundle block adjustment", lines)]
+        out = [section("Bundle block adjustment", lines)]
+        if self.problem.calibration.n:
+            out.append(section("Camera calibration", self.calibration_lines()))
+        return out
+
+    # --------------------------------------------------------- self-calibration
+    def camera_table(self) -> list[dict]:
+        """Every parameter of every camera: value, standard deviation (None when held),
+        estimated or not (units: mm for c, x0, y0; the model's units else)."""
+        cal = self.problem.calibration
+        g = self.state[2] if len(self.state) == 3 else np.zeros(0)
+        params = cal.current(g)
+        std = np.sqrt(np.maximum(np.diag(self.camera_covariance()), 0)) * self.sigma0
+        out = []
+        for i, cid in enumerate(self.block.cameras.ids):
+            free = dict(zip(cal.free_index[i].tolist(), cal.columns[i].tolist(), strict=True))
+            for j, name in enumerate(cal.names[i]):
+                out.append({"camera": cid, "model": cal.models[i].name, "parameter": name,
+                            "value": float(params[i][j]),
+                            "sigma": float(std[free[j]]) if j in free else None,
+                            "estimated": j in free})
+        return out
+
+    def high_correlations(self, limit: float = HIGH_CORRELATION) -> list[str]:
+        """Pairs of estimated camera parameters, and camera parameters with orientation
+        unknowns of a photo, correlated beyond `limit` (by the largest |r|)."""
+        cal = self.problem.calibration
+        q = self.camera_covariance()
+        if not len(q):
+            return []
+        s = np.sqrt(np.maximum(np.diag(q), 1e-300))
+        r = q / np.outer(s, s)
+        out = []
+        for a, b in zip(*np.triu_indices(len(q), 1), strict=True):
+            if abs(r[a, b]) > limit:
+                out.append((abs(r[a, b]), f"{cal.labels[a]} with {cal.labels[b]} "
+                                          f"{r[a, b]:+.3f}"))
+        qf = self.factor.frame_covariance()
+        sf = np.sqrt(np.maximum(np.diagonal(qf, axis1=1, axis2=2), 1e-300))
+        qfg = self.factor.frame_global_covariance()[:, :, :cal.n]
+        rfg = qfg / (sf[:, :, None] * s[None, None, :])
+        eo_names = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
+        for g in range(cal.n):
+            f, b = np.unravel_index(int(np.argmax(np.abs(rfg[:, :, g]))), rfg.shape[:2])
+            if abs(rfg[f, b, g]) > limit:
+                out.append((abs(rfg[f, b, g]), f"{cal.labels[g]} with {eo_names[b]} of photo "
+                                                f"{self.block.photos.ids[f]} {rfg[f, b, g]:+.3f}"))
+        return [text for _, text in sorted(out, reverse=True)]
+
+    def calibration_lines(self) -> list[str]:
+        """The estimated camera parameters with standard deviations, and the high
+        correlations (the significance tests are in the quality section)."""
+        lines = []
+        table = self.camera_table()
+        for cid in self.block.cameras.ids:
+            rows = [r for r in table if r["camera"] == cid]
+            est = [f"{r['parameter']} {r['value']:.6g} +- {r['sigma']:.2g}" for r in rows
+                   if r["estimated"]]
+            held = [f"{r['parameter']} {r['value']:.6g}" for r in rows
+                    if not r["estimated"] and r["value"] != 0]
+            lines.append(f"camera {cid} ({rows[0]['model']}): " + (", ".join(est) or "held")
+                         + (f"; held: {', '.join(held)}" if held else ""))
+        high = self.high_correlations()
+        if high:
+            lines.append(f"high correlations (|r| > {HIGH_CORRELATION}): " + "; ".join(high[:8])
+                         + (f"; and {len(high) - 8} more" if len(high) > 8 else ""))
+        return lines
 
     def summary(self) -> str:
         return render(self.sections())

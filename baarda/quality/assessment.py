@@ -202,9 +202,15 @@ class Assessment:
         lines = quality_lines(self.model, q, self.kind_suffix) + self.extra_quality_lines()
         if self.run is not None:
             lines += self.run.summary_lines()
-        if self.hypotheses:
+        params = [t for t in self.hypotheses if t.parameters]
+        others = [t for t in self.hypotheses if not t.parameters]
+        if params:
+            lines.append("significance of the estimated parameters (H0: no effect; the "
+                         "interior orientation against its given values):")
+            lines += ["  " + t.summary() for t in params]
+        if others:
             lines.append("alternative hypotheses:")
-            lines += ["  " + t.summary() for t in self.hypotheses]
+            lines += ["  " + t.summary() for t in others]
             lines += self.conclusion_lines()
         lines += [f"note: {n}" for n in q.notes]
         title = "Quality control" + ("" if self.name == "bundle" else f" ({self.name})")

@@ -36,11 +36,13 @@ class HypothesisTest:
     nabla: np.ndarray  # (q_given,) estimated bias in the units of H's columns
     w: float | None  # one-dimensional test statistic (q = 1)
     mdb: float | None  # boundary value along H (q = 1)
+    parameters: bool = False  # a test of estimated parameters (significant or not)
 
     def summary(self) -> str:
+        verdict = (("significant" if self.rejected else "not significant: may be dropped")
+                   if self.parameters else ("REJECTED" if self.rejected else "accepted"))
         s = (f"{self.name}: T/q = {self.statistic:.3f} (q = {self.q}), critical "
-             f"{self.critical:.3f}, p = {self.p_value:.3g} -> "
-             f"{'REJECTED' if self.rejected else 'accepted'}")
+             f"{self.critical:.3f}, p = {self.p_value:.3g} -> {verdict}")
         if self.w is not None:
             s += f"; w = {self.w:.2f}, MDB = {self.mdb:.4g}"
         return s + f"; estimated bias {np.array2string(self.nabla, precision=4)}"
@@ -87,6 +89,28 @@ def hypothesis_test(model: AdjustedModel, h: np.ndarray, name: str = "H",
         mdb = float(bm.delta0 / np.sqrt(m[0, 0]))
     return HypothesisTest(name, q, res.statistic, res.critical, res.p_value, bool(res.rejected),
                           nabla, w, mdb)
+
+
+def parameter_test(name: str, estimate: np.ndarray, cofactor: np.ndarray,
+                   tests: TestOptions = DEFAULT_TESTS) -> HypothesisTest:
+    """Are estimated parameters (additional parameters of a self-calibration) significant?
+
+    T = x^T Q_xx^-1 x with their cofactor matrix Q_xx (sigma0 a priori), chi2(q) under
+    H0: x = 0; T/q against the B-method's critical value of F(q, inf), as every other test.
+    At the linear level this equals the test of the alternative hypothesis H = the
+    parameters' design columns in the adjustment without them (Baarda's non-conventional
+    hypothesis)."""
+    x = np.atleast_1d(np.asarray(estimate, float))
+    q = np.atleast_2d(np.asarray(cofactor, float))
+    t = float(x @ np.linalg.solve(q, x))
+    bm = b_method(tests.alpha0, tests.beta0)
+    res = multidim_test(t, len(x), bm.alpha_for(len(x)))
+    w = mdb = None
+    if len(x) == 1:
+        w = float(x[0] / np.sqrt(q[0, 0]))
+        mdb = float(bm.delta0 * np.sqrt(q[0, 0]))
+    return HypothesisTest(name, len(x), res.statistic, res.critical, res.p_value,
+                          bool(res.rejected), x, w, mdb, parameters=True)
 
 
 def unit_columns(n: int, rows: np.ndarray) -> np.ndarray:
