@@ -28,10 +28,11 @@ from baarda.bundle.bundle_problem import SOLVE, BundleProblem
 from baarda.bundle.bundle_quality import assess as assess_result
 from baarda.bundle.bundle_quality import snoop as snoop_problem
 from baarda.bundle.bundle_result import BundleResult
+from baarda.bundle.calibration import with_calibration
 from baarda.bundle.diagnostics import diagnose
 from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
 from baarda.bundle.resection import orient_block
-from baarda.errors import GeometryError
+from baarda.errors import GeometryError, ProjectError
 from baarda.independent.deformations import ALL as ALL_DEFORMATIONS
 from baarda.independent.forming import form_models
 from baarda.independent.model_hypotheses import UserHypotheses
@@ -48,14 +49,18 @@ from baarda.screening.chain import screen as screen_block
 def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          pixel_mm: float = 0.001, sigma_px: float = 1.0,
          sigma_image_um: float | None = None, datum: str | None = None,
-         encoding: str = ENCODING) -> Block:
+         encoding: str = ENCODING, camera_model: str | None = None,
+         calibrate=None) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
     nominal pixel size [mm] and image sigma [px] of COLMAP and BAL inputs; sigma_image_um:
     image sigma of AICON inputs (default: the .phc file's); datum: "control" or "free"
     (overrides the input's: see prepare); encoding: of the input's text files (default
-    UTF-8).
+    UTF-8); camera_model: put every camera on this model (block/camera_models.py);
+    calibrate: the camera parameters to estimate, a list of names ('c', 'x0', 'y0', the
+    model's coefficients) for every camera, "all" or "none" (default: what the input says:
+    project.toml [calibration], or what the source program estimated).
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
                      sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
@@ -65,6 +70,11 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     if crs or datum:
         block = replace(block, settings=replace(block.settings, crs=crs or block.settings.crs,
                                                 datum=datum or block.settings.datum))
+    if camera_model is not None or calibrate is not None:
+        try:
+            block = with_calibration(block, camera_model, calibrate)
+        except ValueError as e:
+            raise ProjectError("command line", str(e)) from None
     return block
 
 

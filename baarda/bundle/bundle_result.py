@@ -178,6 +178,9 @@ class BundleResult(AdjustmentCounts):
             "check_rms_Z": None if np.isnan(rms[2]) else float(rms[2]),
             "seconds": self.seconds,
             "notes": list(self.notes),
+            **({"calibration": self.camera_table(),
+                "high_correlations": self.high_correlations()}
+               if self.problem.calibration.n else {}),
         }
 
     def sections(self) -> list[Section]:

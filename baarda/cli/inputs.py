@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
 from baarda.cli.common import add_encoding_option
 from baarda.io.formats import FORMATS
@@ -20,6 +21,14 @@ def add_input_options(p) -> None:
     p.add_argument("--sigma-image-um", type=float, help="image sigma for AICON input [µm] "
                    "(default: the .phc file's)")
     add_encoding_option(p)
+    p.add_argument("--camera-model", choices=[k for k in KINDS if k != "brown_backward"],
+                   help="put every camera on this model (docs/camera_models.md; coefficients "
+                   "start at 0). Default: the input's")
+    p.add_argument("--calibrate", metavar="NAMES", help="self-calibration: the camera "
+                   "parameters to estimate for every camera, a comma list of c, x0, y0 and "
+                   "the model's coefficients (e.g. c,x0,y0,k1,k2,p1,p2), 'all' or 'none'. "
+                   "Default: project.toml [calibration], or what the source program "
+                   "estimated (AICON, DBAT, BAL)")
     p.add_argument("--free", action="store_true", help="adjust as a free network (datum by "
                    "minimal constraints; control points become check points). Default: "
                    "free for COLMAP, BAL and AICON input and for projects with datum = "
@@ -30,4 +39,12 @@ def read_input(args) -> Block:
     """baarda.pipeline.read with the command's input options."""
     return read(args.input, args.format, crs=args.crs, pixel_mm=args.pixel_mm,
                 sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
-                datum="free" if args.free else None, encoding=args.encoding)
+                datum="free" if args.free else None, encoding=args.encoding,
+                camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate))
+
+
+def calibrate_option(text: str | None):
+    """--calibrate: None, 'all', 'none' or a tuple of parameter names."""
+    if text is None or text in ("all", "none"):
+        return text
+    return tuple(p.strip() for p in text.split(",") if p.strip())

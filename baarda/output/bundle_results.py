@@ -95,7 +95,7 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
     qc = result if isinstance(result, Assessment) else None
     res: BundleResult = result.adjustment if qc is not None else result
     blk = res.block
-    cam = blk.cameras
+    cam = res.cameras  # as adjusted (self-calibration) or as given
     if qc is not None:
         part, sections, obs = qc.to_dict(), qc.sections(), qc.table()
     else:
@@ -112,4 +112,6 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
         ph, pt = tables_in_crs(res)
         tables = {"photos.csv": ph, "points.csv": pt, "photos_local.csv": tables["photos.csv"],
                   "points_local.csv": tables["points.csv"]}
+    if res.problem.calibration.n:  # self-calibration: every camera parameter
+        tables["cameras.csv"] = pd.DataFrame(res.camera_table())
     return write_folder(out, summary, {**tables, "observations.csv": obs})
