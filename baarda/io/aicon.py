@@ -41,9 +41,12 @@ from baarda.block.photo_block import (
     Settings,
 )
 from baarda.errors import ProjectError
+from baarda.io.aicon_protocol import AiconProtocol, read_protocol
 from baarda.io.records import ENCODING, read_lines, to_numbers
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
+# the camera parameters AICON 3D Studio estimates by default (A3, C1, C2 held)
+DEFAULT_FREE = ("c", "x0", "y0", "a1", "a2", "b1", "b2")
 
 
 @dataclass
@@ -91,7 +94,12 @@ class AiconProject:
         """
         cams = self.cameras
         cam_ids = [str(int(c)) for c in cams["id"]]
-        cameras = Cameras(cam_ids, -cams["ck"], np.column_stack([cams["xh"], cams["yh"]]))
+        protocol = self.protocol()
+        free = protocol.free if protocol is not None else DEFAULT_FREE
+        coef = np.column_stack([cams[k] for k in ("A1", "A2", "A3", "B1", "B2", "C1", "C2")])
+        cameras = Cameras(cam_ids, -cams["ck"], np.column_stack([cams["xh"], cams["yh"]]),
+                          np.full(len(cam_ids), "aicon", dtype=object), coef,
+                          cams["R0"][:, None].astype(float), (free,) * len(cam_ids))
         act_i = self.active_images()
         im = {k: v[act_i] for k, v in self.images.items()}
         cam_index = {int(c): i for i, c in enumerate(cams["id"])}
@@ -112,21 +120,41 @@ class AiconProject:
         o = {k: v[self.active_observations()] for k, v in self.observations.items()}
         pi = {int(p): i for i, p in enumerate(im["id"])}
         qi = {p: j for j, p in enumerate(pid.tolist())}
+        sxy = np.column_stack([o["sx"], o["sy"]])
+        if protocol is not None and len(protocol.observations["sx"]):  # AICON's a-priori
+            po = protocol.observations
+            key = {(int(i), str(p)): k for k, (i, p) in enumerate(zip(
+                po["image"].tolist(), po["point"].tolist(), strict=True))}
+            rows = np.array([key.get((int(i), _id(p)), -1) for i, p in zip(
+                o["image"].tolist(), o["point"].tolist(), strict=True)])
+            found = rows >= 0
+            sxy[found] = np.column_stack([po["sx"], po["sy"]])[rows[found]]
         sig = (np.full(len(o["x"]), sigma_image_mm) if sigma_image_mm is not None
-               else np.sqrt(0.5 * (o["sx"] ** 2 + o["sy"] ** 2)))
-        per_axis = None if sigma_image_mm is not None else np.column_stack([o["sx"], o["sy"]])
+               else np.sqrt(0.5 * (sxy ** 2).sum(axis=1)))
+        per_axis = None if sigma_image_mm is not None else sxy
         image = ImagePoints(np.array([pi[int(i)] for i in o["image"]], dtype=np.int64),
                             np.array([qi[p] for p in o["point"].tolist()], dtype=np.int64),
                             np.column_stack([o["x"], o["y"]]), sig, None, per_axis)
         distances = self.distances(points.ids)
-        notes = [f"AICON project {self.name}: object coordinates mm -> m; c = -ck",
-                 "AICON lens distortion (A1..A3, R0, B1, B2, C1, C2) is NOT applied (lens model "
-                 "'none'): its effect reaches 0.1 mm in this kind of camera",
+        notes = [f"AICON project {self.name}: object coordinates mm -> m; c = -ck; camera "
+                 "model 'aicon' (A1..A3 with R0, B1, B2, C1, C2), estimating "
+                 + ", ".join(free),
                  f"{len(distances)} scale bar(s) as distance observations (mm -> m)"]
+        if protocol is not None:
+            notes.append(f"AICON protocol {protocol.path.name}: the estimated camera parameters "
+                         "and the a-priori sigmas of the image coordinates taken from it")
+        else:
+            notes.append("no AICON protocol (.htm) beside the project: the camera parameters "
+                         "AICON estimates by default are estimated (" + ", ".join(free) + ")")
         settings = Settings(name=self.name, angle_unit="rad",
                             sigma_image_um=float(np.median(sig)) * 1e3, datum="free")
         return Block(settings, cameras, photos, image, points,
                      source=str(self.folder / self.name), notes=notes, distances=distances)
+
+    def protocol(self) -> AiconProtocol | None:
+        """The AICON bundle protocol beside the project (<name>.htm), if there is one."""
+        path = self.folder / f"{self.name}.htm"
+        return read_protocol(path) if path.is_file() else None
 
     def distances(self, point_ids: list[str]) -> Distances:
         """The active scale bars between active points, in m."""
