@@ -15,17 +15,22 @@ What is read, and how it is converted:
   are rejected.  The aspect enters through the pixel sizes: DBAT scales pixels by the pixel
   height and multiplies x by px/py after subtracting pp, so the x of pp is in units of the
   pixel height and becomes pp_x px/py.  Skew must be 0.
+* self-calibration: when the script's ``set_bundle_estimate_params`` estimates the interior
+  orientation (``<io><all>true</all>``, or ``cc``, ``pp``, ``aspect``, ``skew``, ``K``, ``P``),
+  the camera becomes baarda's ``dbat3`` model (DBAT's model 3 exactly: the affine
+  [1 + b1, b2; 0, 1] after pp, then Brown) in DBAT's own frame: pixels scaled by the pixel
+  height in x and y, b1 = 1 - aspect (DBAT's 'as'), and the estimated parameters are those
+  of the script (``nK`` K and ``nP`` P coefficients; skew only when asked).
 * image sigma ``sxy`` (pixels; the ``sxy`` attribute of the file element overrides the
   column) -> mm with the pixel height (DBAT's pixel size).
-* control points with sigmas -> control; without sigma (DBAT: fixed) -> control with the
-  sigma `fixed_sigma_m` (a note says so); ``<filter id="..">keep|remove</filter>`` applied;
-  check points -> role check (coordinates kept, not used in the adjustment).
+* control points with sigmas -> control; without sigma -> fixed control (sigma 0, as DBAT
+  holds them); ``<filter id="..">keep|remove</filter>`` applied; check points -> role check
+  (coordinates kept, not used in the adjustment).
 * no exterior orientation is given: the photos' EO is left NaN and baarda.pipeline finds
   approximations by space resection and intersection (bundle/resection.py), as DBAT's own
   script does.
 
-Processing operations of the script are not executed; estimation of the interior
-orientation (self-calibration) is reported in a note and not done.
+Other processing operations of the script are not executed.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera_models import principal_point_from_dbat
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
 from baarda.io.records import Records, first_appearance, numbers_in, parse_number
@@ -182,7 +188,48 @@ def _camera(node: Node, path: str) -> dict:
     # after subtracting pp: the x of pp is in units of the pixel height
     return {"id": node.value("id") or node.value("name") or "1", "c": c,
             "pp": np.array([pp[0] * px / py - sw / 2, sh / 2 - pp[1]]), "px": px, "py": py,
-            "size_px": (iw, ih), "kind": kind, "coef": coef}
+            "size_px": (iw, ih), "kind": kind, "coef": coef, "k": k, "p": p,
+            "aspect": aspect, "pp_dbat": np.array(pp, float), "skew": skew,
+            "n_k": int(parse_number(node.value("nK", str(len(k))), path, node.line, "nK")),
+            "n_p": int(parse_number(node.value("nP", str(len(p))), path, node.line, "nP"))}
+
+
+def calibrated_camera(cam: dict) -> dict:
+    """The camera of a self-calibrating DBAT script as baarda's `dbat3` model in DBAT's own
+    frame: pixels scaled by the pixel height in x and y (the aspect is the model's b1 =
+    1 - aspect, DBAT's 'as'), the principal point reduced to the image centre, y up."""
+    iw, ih = cam["size_px"]
+    py = cam["py"]
+    b1 = 1.0 - cam["aspect"]
+    pp = principal_point_from_dbat(cam["pp_dbat"][None, :], [b1],
+                                   np.array([[iw * py, ih * py]]), "dbat3")[0]
+    return {**cam, "kind": "dbat3", "coef": [*cam["k"], *cam["p"], b1, cam["skew"]],
+            "pp": pp, "px": py}
+
+
+def estimated_io(ops: Node | None, n_k: int, n_p: int) -> tuple[str, ...]:
+    """The interior orientation that a script's set_bundle_estimate_params estimates, as
+    baarda's parameter names of the `dbat3` model (empty: none)."""
+    if ops is None:
+        return ()
+    names: tuple[str, ...] = ()
+    for op in ops.findall("operation"):
+        sbe = op.find("set_bundle_estimate_params")
+        io = None if sbe is None else sbe.find("io")
+        if io is None:
+            continue
+        flags = {c.tag: (c.text or "").strip().lower() == "true" for c in io.children}
+        every = flags.get("all", (io.text or "").strip().lower() == "true")
+        ks = tuple(f"k{i + 1}" for i in range(n_k))
+        ps = tuple(f"p{i + 1}" for i in range(n_p))
+        parts = {"cc": ("c",), "pp": ("x0", "y0"), "aspect": ("b1",), "skew": ("b2",),
+                 "k": ks, "p": ps}
+        chosen = []
+        for tag, group in parts.items():
+            if flags.get(tag, every and tag != "skew"):
+                chosen += list(group)
+        names = tuple(chosen)
+    return names
 
 
 def read_dbat_camera(path: str | Path) -> dict:
@@ -209,12 +256,14 @@ def read_dbat_stations(path: str | Path) -> dict[str, np.ndarray]:
 
 
 def read_dbat(path: str | Path, *, camera: str | Path | None = None,
-              stations: str | Path | None = None, fixed_sigma_m: float = 1e-6) -> Block:
+              stations: str | Path | None = None, calibrate: bool = True) -> Block:
     """Read a DBAT script project (XML + CSV files) into a Block; see the module docstring.
 
     camera: a DBAT camera file (e.g. a calibration result) replacing the script's camera.
     stations: a DBAT camera_stations.txt whose EO become the approximations (else the EO
-    is left NaN: baarda.pipeline orients the photos by space resection).
+    is left NaN: baarda.pipeline orients the photos by space resection).  calibrate: when the
+    script estimates the interior orientation, estimate it too (the camera as DBAT's
+    model 3, `dbat3`); False holds the camera as given.
     """
     path = Path(path)
     spath = str(path)
@@ -273,14 +322,18 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     fixed = (c_sig == 0)
     if fixed.any():
         notes.append(f"{int(fixed.any(axis=1).sum())} control point(s) without standard "
-                     f"deviation (fixed in DBAT) entered with sigma {fixed_sigma_m:g} m")
-        c_sig = np.where(fixed, fixed_sigma_m, c_sig)
+                     "deviation: fixed, as in DBAT")
 
     # image measurements
     ip_node = inp.find("image_pts")
     if ip_node is None or ip_node.find("file") is None:
         raise ProjectError(spath, "no <image_pts><file> in <input>", inp.line)
     cam = cams[0]
+    free = estimated_io(root.find("operations"), cam["n_k"], cam["n_p"]) if calibrate else ()
+    if free:
+        cam = calibrated_camera(cam)
+        notes.append("the script estimates the interior orientation (" + ", ".join(free)
+                     + "): self-calibration with DBAT's model 3 (camera model 'dbat3')")
     rows_photo, rows_point, rows_xy, rows_sig = [], [], [], []
     for f in ip_node.findall("file"):
         fields = _fields(f, spath)
@@ -337,14 +390,15 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
                         sigma_control_m=tuple(float(v) for v in (np.nanmedian(psig, axis=0)
                                               if np.isfinite(psig).any() else (0.05,) * 3)))
     cameras = Cameras(cam_ids, np.array([cam["c"]]), cam["pp"][None, :],
-                      np.array([cam["kind"]], dtype=object), np.array([cam["coef"]], float))
+                      np.array([cam["kind"]], dtype=object), np.array([cam["coef"]], float),
+                      None, (free,) if free else None)
     photos = Photos(photo_ids, np.zeros(len(photo_ids), np.int64),
                     np.full(len(photo_ids), "", dtype=object),
                     np.full((len(photo_ids), 6), np.nan))
     image = ImagePoints(photo, point, xy, sig)
     points = GroundPoints(ids, pxyz, psig, role)
     est = root.find("operations")
-    if est is not None and "<io>" in _flat(est) and "true" in _io_flag(est):
+    if not free and est is not None and "<io>" in _flat(est) and "true" in _io_flag(est):
         notes.append("the script estimates the interior orientation (self-calibration); "
                      "baarda holds it fixed at the given values")
     notes.append(f"DBAT script {path.name}: pixel size {cam['px']:.6g} x {cam['py']:.6g} mm, "
