@@ -1,13 +1,13 @@
 """baarda vs pycolmap (COLMAP's bundle adjustment on Ceres) on BAL problems, same run.
 
-    PYTHONPATH=. python benchmarks/bench_bal.py [FILE.bz2 ...]
+    PYTHONPATH=. python benchmarks/bench_bal.py [--intrinsics] [FILE.bz2 ...]
 
 Both solve the same least-squares problem: the observations of the BAL file (those of points
 behind a camera at the "pre" values left out in both, as baarda keeps points in front),
-sigma 1 px, the BAL radial model with f, k1, k2 held fixed at the file's values, trivial
-loss, all poses and points free (baarda: minimal-constraint datum; COLMAP: its two-camera
-gauge).  Printed: final cost 0.5 * sum(r^2) [px^2] of each, iterations and wall time.
-Not a test (it takes minutes); the files are read from ../shared/data/bal/ by default.
+sigma 1 px, the BAL radial model with f, k1, k2 held fixed at the file's values (with
+--intrinsics estimated per camera by both), trivial loss, all poses and points free
+(baarda: minimal-constraint datum; COLMAP: its two-camera gauge).  Printed: final cost
+0.5 * sum(r^2) [px^2] of each, iterations and wall time.  Not a test (it takes minutes); the files are read from ../shared/data/bal/ by default.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ FILES = ["problem-49-7776-pre.txt.bz2", "problem-21-11315-pre.txt.bz2",
          "problem-16-22106-pre.txt.bz2"]
 
 
-def run_pycolmap(bal, cam_idx, pt_idx, xy, max_iterations=200):
+def run_pycolmap(bal, cam_idx, pt_idx, xy, max_iterations=200, refine=False):
     """COLMAP BA of the given observations; returns (initial cost, final cost, iters, s)."""
     import pycolmap
 
@@ -63,9 +63,9 @@ def run_pycolmap(bal, cam_idx, pt_idx, xy, max_iterations=200):
             track.add_element(int(cam_idx[k]) + 1, int(point2d_of[k]))
         rec.add_point3D(bal.points[pt_idx[group[0]]], track)
     opts = pycolmap.BundleAdjustmentOptions()
-    opts.refine_focal_length = False
+    opts.refine_focal_length = refine
     opts.refine_principal_point = False
-    opts.refine_extra_params = False
+    opts.refine_extra_params = refine
     opts.print_summary = False
     opts.ceres.loss_function_type = pycolmap.LossFunctionType.TRIVIAL
     so = opts.ceres.solver_options
@@ -87,6 +87,8 @@ def run_pycolmap(bal, cam_idx, pt_idx, xy, max_iterations=200):
 
 
 def main(paths: list[str]) -> int:
+    refine = "--intrinsics" in paths
+    paths = [p for p in paths if p != "--intrinsics"]
     files = [Path(p) for p in paths] or [DEFAULT / f for f in FILES]
     rows = []
     for path in files:
@@ -94,7 +96,8 @@ def main(paths: list[str]) -> int:
             print(f"{path}: not found (BAL files are not in the repository)")
             continue
         bal = read_bal(path)
-        block, dropped = drop_points_behind(bal_to_block(bal, name=path.name))
+        block, dropped = drop_points_behind(bal_to_block(bal, name=path.name,
+                                                         calibrate=refine))
         # the observations both solvers use: points with two or more rays
         rays = np.bincount(block.image.point, minlength=len(block.points))
         keep = rays[block.image.point] >= 2
@@ -104,7 +107,8 @@ def main(paths: list[str]) -> int:
         res = adjust_free(block, options=replace(SOLVE, max_iterations=100))
         t_ours = time.perf_counter() - t0
         cost_ours = 0.5 * res.vtpv  # sigma 1 px: residuals in px
-        ini, fin, its, t_col, term = run_pycolmap(bal, im.photo, im.point, im.xy_mm / 0.001)
+        ini, fin, its, t_col, term = run_pycolmap(bal, im.photo, im.point, im.xy_mm / 0.001,
+                                                  refine=refine)
         rows.append((path.name, len(im), dropped, ini, cost_ours, res.iterations, t_ours, fin,
                      its, t_col, term, res.converged))
     print(f"{'file':32s} {'obs':>7s} {'drop':>5s} {'initial':>12s} {'baarda cost':>14s} "

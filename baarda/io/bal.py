@@ -235,8 +235,9 @@ def read_bal(path: str | Path) -> BalProblem:
 
 
 def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float = 1.0,
-                 name: str = "bal", source: str = "") -> Block:
-    """A Block of a BAL problem (conventions in the module docstring)."""
+                 name: str = "bal", source: str = "", calibrate: bool = True) -> Block:
+    """A Block of a BAL problem (conventions in the module docstring); calibrate: f, k1, k2
+    of every camera are unknowns, as the BAL problems intend (False: held at the file's)."""
     cams = problem.cameras
     n = len(cams)
     r = rodrigues(cams[:, :3])  # world -> camera
@@ -245,14 +246,16 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
     eo = np.column_stack([x0, angles_from_matrix(rt)])
     ids = [str(i) for i in range(n)]
     dist = np.column_stack([cams[:, 7], cams[:, 8], np.zeros((n, 3))])
-    kinds = np.where(np.any(dist != 0, axis=1), "brown_forward", "none").astype(object)
-    cameras = Cameras(ids, cams[:, 6] * pixel_mm, np.zeros((n, 2)), kinds, dist)
+    kinds = np.full(n, "brown_forward", dtype=object)
+    cameras = Cameras(ids, cams[:, 6] * pixel_mm, np.zeros((n, 2)), kinds, dist, None,
+                      (("c", "k1", "k2"),) * n if calibrate else None)
     photos = Photos(ids, np.arange(n), np.full(n, "", dtype=object), eo)
     key = problem.obs_camera * len(problem.points) + problem.obs_point
     _, first = np.unique(key, return_index=True)
     keep = np.sort(first)
     notes = [f"BAL problem: nominal pixel size {pixel_mm:g} mm (1 px = {pixel_mm * 1e3:g} µm); "
-             "BAL radial distortion (k1, k2) per camera held fixed"]
+             "the focal length and the radial distortion (k1, k2) of every camera "
+             + ("estimated, as the BAL problems intend" if calibrate else "held fixed")]
     if len(keep) < len(key):
         notes.append(f"{len(key) - len(keep)} repeated observation(s) of a point in one image "
                      "left out (first kept)")
@@ -267,9 +270,16 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
     return Block(settings, cameras, photos, image, points, source=source, notes=notes)
 
 
-def bal_with_block(problem: BalProblem, eo: np.ndarray, xyz: np.ndarray) -> BalProblem:
-    """A copy of `problem` with new orientations (EO per camera) and points (NaN = keep)."""
+def bal_with_block(problem: BalProblem, eo: np.ndarray, xyz: np.ndarray,
+                   cameras=None, pixel_mm: float = 0.001) -> BalProblem:
+    """A copy of `problem` with new orientations (EO per camera) and points (NaN = keep),
+    and with `cameras` (baarda Cameras, e.g. self-calibrated) their f, k1, k2."""
     cams = problem.cameras.copy()
+    if cameras is not None:
+        from baarda.block.camera import coefficients
+
+        cams[:, 6] = np.asarray(cameras.focal_mm) / pixel_mm
+        cams[:, 7:9] = [coefficients(cameras, i)[:2] for i in range(len(cams))]
     for i in range(len(cams)):
         rb = rotation_matrix(eo[i, 3], eo[i, 4], eo[i, 5])
         r = rb.T

@@ -53,7 +53,7 @@ def test_adjust_colmap_free_network(tmp_path):
 
 
 def test_bal_with_lens_model_through_native_project(tmp_path):
-    from test_bal import _synthetic
+    from bal_reference import _synthetic
 
     p = _synthetic(seed=4)
     write_bal(p, tmp_path / "p.txt.bz2")
