@@ -7,7 +7,8 @@ behind a camera at the "pre" values left out in both, as baarda keeps points in 
 sigma 1 px, the BAL radial model with f, k1, k2 held fixed at the file's values (with
 --intrinsics estimated per camera by both), trivial loss, all poses and points free
 (baarda: minimal-constraint datum; COLMAP: its two-camera gauge).  Printed: final cost
-0.5 * sum(r^2) [px^2] of each, iterations and wall time.  Not a test (it takes minutes); the files are read from ../shared/data/bal/ by default.
+0.5 * sum(r^2) [px^2] of each, iterations and wall time.  Not a test (it takes minutes);
+the files are read from ../shared/data/bal/ by default.
 """
 
 from __future__ import annotations
