@@ -205,8 +205,8 @@ class Assessment:
         params = [t for t in self.hypotheses if t.parameters]
         others = [t for t in self.hypotheses if not t.parameters]
         if params:
-            lines.append("significance of the estimated parameters (H0: no effect; the "
-                         "interior orientation against its given values):")
+            lines.append("significance of the estimated parameters at the 5 % level (H0: no "
+                         "effect; the interior orientation against its given values):")
             lines += ["  " + t.summary() for t in params]
         if others:
             lines.append("alternative hypotheses:")

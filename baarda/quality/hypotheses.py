@@ -91,20 +91,26 @@ def hypothesis_test(model: AdjustedModel, h: np.ndarray, name: str = "H",
                           nabla, w, mdb)
 
 
+PARAMETER_ALPHA = 0.05  # level of the significance tests of estimated parameters
+
+
 def parameter_test(name: str, estimate: np.ndarray, cofactor: np.ndarray,
-                   tests: TestOptions = DEFAULT_TESTS) -> HypothesisTest:
+                   tests: TestOptions = DEFAULT_TESTS,
+                   alpha: float = PARAMETER_ALPHA) -> HypothesisTest:
     """Are estimated parameters (additional parameters of a self-calibration) significant?
 
     T = x^T Q_xx^-1 x with their cofactor matrix Q_xx (sigma0 a priori), chi2(q) under
-    H0: x = 0; T/q against the B-method's critical value of F(q, inf), as every other test.
+    H0: x = 0; T/q against the critical value of F(q, inf) at the conventional level
+    `alpha` (the question is whether to keep parameters, not to find an error: the
+    B-method's level grows with q and would keep more of a large set such as Ebner's 12).
     At the linear level this equals the test of the alternative hypothesis H = the
     parameters' design columns in the adjustment without them (Baarda's non-conventional
-    hypothesis)."""
+    hypothesis); the MDB (q = 1) is the B-method's."""
     x = np.atleast_1d(np.asarray(estimate, float))
     q = np.atleast_2d(np.asarray(cofactor, float))
     t = float(x @ np.linalg.solve(q, x))
     bm = b_method(tests.alpha0, tests.beta0)
-    res = multidim_test(t, len(x), bm.alpha_for(len(x)))
+    res = multidim_test(t, len(x), alpha)
     w = mdb = None
     if len(x) == 1:
         w = float(x[0] / np.sqrt(q[0, 0]))

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
+from baarda.block.camera_models import ebner_fields, get_model, invert
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
 
@@ -68,6 +69,12 @@ class FlightPlan:
     blunders: int = 0  # number of blunders injected
     blunder_sigma: tuple[float, float] = (6.0, 20.0)  # size range in a-priori sigmas
     blunder_kinds: tuple[str, ...] = ("x", "y")  # x, y (image) and/or X, Y, Z (control)
+    # a systematic image deformation, the same on every photo: Ebner's fields (numbers 1..12)
+    # on the grid spacing b = format / 2.5, each with the same RMS over the 3 x 3 grid, their
+    # sum scaled to this RMS (µm); the observations carry it as a backward model's
+    # distortion would.  The default fields b3, b4 (quadratic) bend a block.
+    image_deformation_um: float = 0.0
+    deformation_fields: tuple[int, ...] = (3, 4)
     seed: int = 0
     name: str = "simulated"
     extra: dict = field(default_factory=dict)
@@ -98,6 +105,29 @@ def ground_layout(plan: FlightPlan) -> GroundLayout:
     g = _ground(plan)
     kept = np.flatnonzero(_kept(g.seen, plan, len(g.ids)))
     return GroundLayout([g.ids[j] for j in kept], g.xyz[kept], g.role[kept], g.sigma[kept])
+
+
+def deformation_coefficients(plan: FlightPlan) -> tuple[np.ndarray, float]:
+    """(Ebner coefficients (12,), grid spacing b [mm]) of the plan's image deformation: each
+    of the chosen Ebner fields with the same RMS over the 3 x 3 grid, the sum scaled to
+    `image_deformation_um` RMS."""
+    b = plan.format_mm / 2.5
+    grid = np.array([(x, y) for x in (-b, 0.0, b) for y in (-b, 0.0, b)])
+    fields, _ = ebner_fields(grid, np.full(len(grid), b))
+    each = np.sqrt(np.mean(np.sum(fields**2, axis=1), axis=0))  # RMS of each field
+    chosen = np.zeros(12, bool)
+    chosen[[k - 1 for k in plan.deformation_fields]] = True
+    coef = np.where(chosen, 1.0 / each, 0.0)
+    shift = fields @ coef
+    rms = float(np.sqrt(np.mean(np.sum(shift**2, axis=1))))
+    return coef * plan.image_deformation_um * 1e-3 / rms, b
+
+
+def deformed(xy: np.ndarray, plan: FlightPlan) -> np.ndarray:
+    """The observations of ideal image coordinates xy (mm, principal point 0) under the
+    plan's deformation: u with u + delta(u) = xy for Ebner's backward model."""
+    coef, b = deformation_coefficients(plan)
+    return invert(get_model("ebner"), xy, coef[None, :], np.array([[b]]))
 
 
 def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
@@ -158,6 +188,8 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
     focal = np.full(len(ph), plan.focal_mm)
     pp = np.zeros((len(ph), 2))
     xy_true = project(eo_true[ph], xyz[pt], focal, pp)
+    if plan.image_deformation_um:
+        xy_true = deformed(xy_true, plan)
     sig_mm = plan.sigma_image_um * 1e-3
     xy = xy_true + (rng.normal(0, sig_mm, xy_true.shape) if plan.noise else 0.0)
     ctrl_given = xyz.copy()
@@ -226,6 +258,9 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
         "blunders": log,
         "units": {"angles": "rad", "coordinates": "m"},
     }
+    if plan.image_deformation_um:
+        coef, b = deformation_coefficients(plan)
+        truth["camera"] = {"model": "ebner", "b": b, "coefficients": coef.tolist()}
     return block, truth
 
 
