@@ -116,3 +116,26 @@ def test_fixed_control_is_held_and_not_tested(case):
     assert np.allclose(res.xyz[pb.remap[j]], pb.block.points.xyz[j], atol=1e-9)
     assert np.allclose(res.xyz_std[pb.remap[j]], 0.0, atol=1e-6)
     assert not np.any(model.control_index == j)  # not an observation
+
+
+def test_statistics_equal_the_dense_system_of_the_same_jacobians(case):
+    """With the linearisation's own Jacobians the sparse statistics equal dense brute force
+    to 1e-9 (the algebra of global unknowns, extra rows and held unknowns)."""
+    from dense import dense_system
+
+    res, model = case
+    a, p = dense_system(model)
+    qxx = np.linalg.inv(a.T @ (p[:, None] * a))
+    qll = np.einsum("ij,jk,ik->i", a, qxx, a)
+    assert np.allclose(model.adjusted_cofactor_diag(), qll, rtol=1e-9, atol=1e-12 * qll.max())
+    q = assess(res).quality
+    r = 1 - p * qll
+    ok = q.controlled
+    assert np.allclose(q.redundancy_number[ok], r[ok], atol=1e-9)
+    sv = model.sigma * np.sqrt(np.maximum(r, 0))
+    w = np.where(ok, -model.residuals / np.where(ok, sv, 1.0), np.nan)
+    assert np.allclose(q.w[ok], w[ok], rtol=1e-8, atol=1e-9)
+    assert np.allclose(q.mdb[ok], q.delta0 * model.sigma[ok] / np.sqrt(r[ok]), rtol=1e-8)
+    n = res.problem.calibration.n
+    assert np.allclose(res.camera_covariance(), qxx[-res.problem.system.ng:, :][:, -res.problem
+                       .system.ng:][:n, :n], rtol=1e-8, atol=1e-12 * np.abs(qxx).max())
