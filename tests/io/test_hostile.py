@@ -186,8 +186,9 @@ def _run(args, seconds):
 
 
 def test_command_line_ends_hostile_files_quickly(tmp_path):
-    """The issue's acceptance: exit 2 and a clear message in < 2 s (after the imports) and
-    < 300 MB."""
+    """The issue's acceptance: exit 2 and a clear message in < 2 s and < 60 MB, both over what
+    `baarda --help` costs (the interpreter and its imports: about 240 MB on 2 cores, more where
+    OpenBLAS starts more threads, 340 MB on CI)."""
     bomb = tmp_path / "bomb.xml"
     bomb.write_text(laughs())
     base = _run(["--help"], 30)[2]  # the interpreter and its imports
@@ -195,11 +196,11 @@ def test_command_line_ends_hostile_files_quickly(tmp_path):
         code, err, wall = _run(["adjust", str(f), "-o", str(tmp_path / "out")], 30)
         assert code == 2 and str(f) in err and "Traceback" not in err
         assert wall - base < 2.0
-    rss = _child_rss(["adjust", str(BOMB), "-o", str(tmp_path / "out")])
-    assert rss < 300
+    rss = _child_rss(["adjust", str(BOMB), "-o", str(tmp_path / "out")], code=2)
+    assert rss - _child_rss(["--help"], code=0) < 60
 
 
-def _child_rss(args) -> float:
+def _child_rss(args, code: int) -> float:
     """Maximum resident set size in MB of `python -m baarda ARGS`, started from a small
     interpreter: Linux carries a process's peak across fork and exec, so a child forked
     from pytest would report pytest's own size."""
@@ -208,6 +209,6 @@ def _child_rss(args) -> float:
               "print(code, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)\n")
     out = subprocess.run([sys.executable, "-c", script, sys.executable, "-m", "baarda", *args],
                          capture_output=True, text=True, timeout=60, check=True).stdout
-    code, kb = map(int, out.split())
-    assert code == 2
+    returned, kb = map(int, out.split())
+    assert returned == code
     return kb / 1024
