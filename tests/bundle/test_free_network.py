@@ -120,3 +120,33 @@ def test_free_network_check_points_after_a_similarity(tmp_path, capsys):
     assert np.allclose(second.check_rms(), first.check_rms(), rtol=1e-6)
     raw = second.xyz[second.problem.remap[np.flatnonzero(block.points.role == "check")]]
     assert np.abs(raw - block.points.xyz[block.points.role == "check"]).max() > 1000
+
+
+def test_inner_datum_is_the_same_from_every_minimal_datum():
+    """The S-transformation to the inner datum gives the same point covariances whichever
+    minimal constraints the adjustment used, with the least trace; redundancy numbers, w
+    and MDB are the same under every datum."""
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.bundle.free_network import FreeBundleProblem
+    from baarda.bundle.inner_datum import inner_datum
+    from baarda.pipeline import assess
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=5, relief_m=60.0,
+                                         control="none", height_chains=0, seed=4))
+    a = FreeBundleProblem(block).fit()
+    b = FreeBundleProblem(block, datum=(7, 12, 1)).fit()
+    assert a.problem.datum != b.problem.datum
+    qa, qb = assess(a).quality, assess(b).quality
+    for name in ("redundancy_number", "w", "mdb"):
+        assert np.allclose(getattr(qa, name), getattr(qb, name), rtol=1e-7, atol=1e-9,
+                           equal_nan=True)
+    xa, ca, _ = inner_datum(a)
+    xb, cb, _ = inner_datum(b)
+    scale = np.abs(ca).max()
+    assert np.allclose(ca, cb, rtol=1e-6, atol=1e-9 * scale)
+    assert np.allclose(xa, xb, atol=1e-6)
+    trace = lambda q: float(np.trace(q, axis1=1, axis2=2).sum())  # noqa: E731
+    assert trace(ca) < trace(a.point_covariance()) and trace(ca) < trace(b.point_covariance())
+    # S is a projector: the inner datum of the inner datum is itself (dense check)
+    assert BundleModel(a).n == BundleModel(b).n

@@ -1,0 +1,128 @@
+"""The inner-constraint datum of a free network (Baarda's S-transformation).
+
+A free network is adjusted with minimal constraints (bundle/free_network.py); its residuals,
+redundancy numbers, w-tests and MDBs do not depend on that choice, its coordinates and their
+covariances do.  The inner datum is the one in which the chosen datum points (default all
+adjusted points) move least: their coordinates best fit (7-parameter similarity, 6 when
+distances fix the scale) the approximate ones, and their covariance has the smallest trace.
+
+With G (u x d) the datum directions of every unknown (a translation, a small rotation about
+the datum points' centroid and, without distances, a scale change: points and projection
+centres move by t + w x (X - c) + s (X - c), a photo's angles follow the rotation, camera
+parameters do not move) and Gp its rows of the datum points,
+
+    S = I - G (Gp' Gp)^-1 Gp',    Sigma_inner = S Sigma S'
+
+(Baarda 1973, S-transformations).  Only the 3 x 3 blocks of every point are formed: with
+Z = Sigma Gp (d columns of N^-1, one solve each),
+
+    Sigma_inner,jj = Sigma_jj - G_j K Z_j' - Z_j K G_j' + G_j K (Gp' Z) K G_j',  K = (Gp' Gp)^-1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baarda.block.rotation import angles_from_matrix, rotation_matrix
+from baarda.bundle.geometry import similarity
+
+
+def _cross(v: np.ndarray) -> np.ndarray:
+    """[v]x (n, 3, 3): [v]x w = v x w."""
+    out = np.zeros((len(v), 3, 3))
+    out[:, 0, 1], out[:, 0, 2] = -v[:, 2], v[:, 1]
+    out[:, 1, 0], out[:, 1, 2] = v[:, 2], -v[:, 0]
+    out[:, 2, 0], out[:, 2, 1] = -v[:, 1], v[:, 0]
+    return out
+
+
+def position_directions(xyz: np.ndarray, centre: np.ndarray, scale: bool) -> np.ndarray:
+    """(n, 3, d) datum directions of positions: translation, rotation w (dX = w x (X - c)),
+    scale (dX = s (X - c))."""
+    v = xyz - centre
+    g = [np.broadcast_to(np.eye(3), (len(v), 3, 3)), -_cross(v)]
+    if scale:
+        g.append(v[:, :, None])
+    return np.concatenate(g, axis=2)
+
+
+def angle_directions(angles: np.ndarray, h: float = 1e-7) -> np.ndarray:
+    """(n, 3, 3) derivatives of omega, phi, kappa of each photo when the object frame turns
+    by a small rotation w (R -> (I + [w]x) R), by central differences of the angles."""
+    r = rotation_matrix(angles[:, 0], angles[:, 1], angles[:, 2])
+    out = np.zeros((len(angles), 3, 3))
+    for k in range(3):
+        w = np.zeros(3)
+        w[k] = h
+        plus = angles_from_matrix(rotation_matrix(*w) @ r)
+        minus = angles_from_matrix(rotation_matrix(*(-w)) @ r)
+        d = plus - minus
+        d = (d + np.pi) % (2 * np.pi) - np.pi  # across the +-pi seam
+        out[:, :, k] = d / (2 * h)
+    return out
+
+
+def inner_datum(result, points: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(xyz (n_adjusted, 3), point cofactor blocks (n_adjusted, 3, 3), eo (n_photos, 6)) of
+    a free-network result in the inner datum of `points` (indices of adjusted points,
+    default all).  Coordinates: the adjusted ones moved by the similarity that best fits
+    the datum points onto their approximations (the nonlinear form of the inner
+    constraints); cofactors: the S-transformation (module docstring)."""
+    pb, factor = result.problem, result.factor
+    s = factor.system
+    scale = not bool(len(pb.distances))  # distances fix the scale
+    d = 7 if scale else 6
+    xyz = result.xyz
+    sel = np.arange(len(xyz)) if points is None else np.asarray(points)
+    centre = xyz[sel].mean(axis=0)
+    # G of every unknown in the order of the Schur system: frames, eliminated points, globals
+    gf = np.zeros((s.nf, 6, d))
+    gf[:, :3] = position_directions(result.eo[:, :3], centre, scale)
+    gf[:, 3:, 3:6] = angle_directions(result.eo[:, 3:])
+    elim_rows = pb.remap[pb.elim_ids]
+    gp = position_directions(xyz[elim_rows], centre, scale)
+    gg = np.zeros((s.ng, d))
+    if len(pb.border_ids):
+        border_rows = pb.remap[pb.border_ids]
+        gg[pb.g_points:] = position_directions(xyz[border_rows], centre, scale).reshape(-1, d)
+    # Gp: the rows of the datum points only
+    is_datum = np.zeros(len(xyz), bool)
+    is_datum[sel] = True
+    gp_sel = np.where(is_datum[elim_rows][:, None, None], gp, 0.0)
+    gg_sel = gg.copy()
+    if len(pb.border_ids):
+        mask = np.repeat(is_datum[pb.remap[pb.border_ids]], 3)
+        gg_sel[pb.g_points:] = np.where(mask[:, None], gg[pb.g_points:], 0.0)
+    gtg = np.einsum("pdi,pdj->ij", gp_sel, gp_sel) + gg_sel.T @ gg_sel
+    k = np.linalg.inv(gtg)
+    zs = factor.solve_normal(np.zeros((s.nf, 6, d)), gp_sel, gg_sel) if s.ng else \
+        factor.solve_normal(np.zeros((s.nf, 6, d)), gp_sel)
+    zp = zs[1]
+    zg = zs[2] if s.ng else np.zeros((0, d))
+    gz = np.einsum("pdi,pdj->ij", gp_sel, zp) + gg_sel.T @ zg
+    # cofactor blocks of every adjusted point
+    q = result.point_covariance()
+    g_all = np.zeros((len(xyz), 3, d))
+    z_all = np.zeros((len(xyz), 3, d))
+    g_all[elim_rows], z_all[elim_rows] = gp, zp
+    if len(pb.border_ids):
+        g_all[pb.remap[pb.border_ids]] = gg[pb.g_points:].reshape(-1, 3, d)
+        z_all[pb.remap[pb.border_ids]] = zg[pb.g_points:].reshape(-1, 3, d)
+    gk = g_all @ k
+    q_inner = (q - gk @ np.swapaxes(z_all, 1, 2) - z_all @ np.swapaxes(gk, 1, 2)
+               + gk @ gz @ np.swapaxes(gk, 1, 2))
+    # coordinates: the best-fitting similarity onto the approximations of the datum points
+    approx = np.empty_like(xyz)
+    approx[elim_rows] = pb.approximations[1]
+    if len(pb.border_ids):
+        approx[pb.remap[pb.border_ids]] = \
+            pb.approximations[2][pb.g_points:].reshape(-1, 3)
+    sc, r, t = similarity(xyz[sel], approx[sel])
+    if not scale:
+        sc = 1.0
+        t = approx[sel].mean(axis=0) - r @ xyz[sel].mean(axis=0)
+    eo = result.eo.copy()
+    eo[:, :3] = sc * eo[:, :3] @ r.T + t
+    eo[:, 3:] = angles_from_matrix(r @ rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5]))
+    return sc * xyz @ r.T + t, sc**2 * r @ q_inner @ r.T, eo
