@@ -181,7 +181,10 @@ def _read_arrow(data: bytes):
     import pyarrow.csv as pcsv
 
     head = data[:data.find(b"\n")] if b"\n" in data else data
-    names = head.decode("utf-8", "replace").split(",")
+    try:  # pyarrow checks the values, not the column names
+        names = head.decode("utf-8").split(",")
+    except UnicodeDecodeError:
+        return None
     try:
         return pcsv.read_csv(
             io.BytesIO(data), read_options=pcsv.ReadOptions(use_threads=True),

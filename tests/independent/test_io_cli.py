@@ -69,6 +69,21 @@ def test_bad_settings(project):
         read_model_project(path)
 
 
+@pytest.mark.parametrize("toml, match", [
+    ("models = 1\n", "'models' must be a table"),  # was AttributeError
+    ("sigma = [1, 2]\n", "'sigma' must be a table"),
+    ("[sigma]\nmodel_xy_um = nan\n", "finite positive"),  # NaN was accepted
+    ("[models]\npre_z_um = inf\n", "finite positive"),
+])
+def test_settings_of_the_wrong_type_or_not_finite(project, toml, match):
+    """Fuzz finds (issue 15)."""
+    _, path = project
+    (path / "project.toml").write_text(toml)
+    with pytest.raises(ProjectError, match=match) as e:
+        read_model_project(path)
+    assert e.value.path.endswith("project.toml")
+
+
 def test_command_writes_every_output(project, tmp_path, capsys):
     _, path = project
     out = tmp_path / "out"
