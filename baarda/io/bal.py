@@ -27,7 +27,7 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.errors import ProjectError
-from baarda.io.records import is_number
+from baarda.io.records import is_number, split_lines
 
 
 @dataclass
@@ -141,7 +141,7 @@ def _read_lines(path: Path) -> tuple[tuple[int, int, int], list[str]]:
         data = first + body
         raise ProjectError(sp, f"not a text file (byte 0x{data[e.start]:02x})",
                            data.count(b"\n", 0, e.start) + 1) from None
-    return (nc, npt, nobs), text.splitlines()
+    return (nc, npt, nobs), split_lines(text)
 
 
 def _numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:

@@ -116,7 +116,8 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING) -> Block:
     objs, obj_lines, i = _section(lines, i, spath, 7, "object point")
     marks, mark_lines, i = _section(lines, i, spath, 6, "marked point")
     if not len(marks):
-        raise ProjectError(spath, "no marked points", i)
+        raise ProjectError(spath, "no marked points (expected after the control and object "
+                           "point sections, each ended by a blank line)", min(i, len(lines)))
 
     # cameras: one per distinct set of inner parameters
     inner = np.array([p[2] for p in photos])

@@ -40,12 +40,26 @@ def decode_text(data: bytes, path: str, encoding: str = ENCODING) -> str:
                            line) from None
 
 
+LINE_END = re.compile(r"\r\n|\r|\n")
+
+
+def split_lines(text: str) -> list[str]:
+    """Lines without their ends (LF, CRLF or CR; no line after a final line end).  Unlike
+    str.splitlines, form feeds, vertical tabs, U+2028 and the like are not line ends, so
+    that line numbers are those an editor shows."""
+    lines = LINE_END.split(text)
+    if lines[-1] == "":
+        lines.pop()
+    return lines
+
+
 def read_lines(path: str | Path, encoding: str = ENCODING) -> list[str]:
-    """Lines of a text file without line ends (CRLF or LF); ProjectError if unreadable."""
+    """Lines of a text file without line ends (CRLF, LF or CR); ProjectError if
+    unreadable."""
     p = Path(path)
     if not p.is_file():
         raise ProjectError(str(path), "file not found")
-    return decode_text(p.read_bytes(), str(path), encoding).splitlines()
+    return split_lines(decode_text(p.read_bytes(), str(path), encoding))
 
 
 class Columns:

@@ -111,6 +111,9 @@ def test_minimal_project(tmp_path):
     ({"obc": OBC.replace("6 1 2 3", "6 1 2")}, "obc", 1, None),
     ({"ior": IOR.replace(" 0\n", " 0 1\n")}, "ior", 2, None),
     ({"scale": '0 bar 6 7 1000.0 0.01 1\n'}, "scale", 1, None),
+    # fuzz find (issue 15): a form feed or U+2028 is no line end (the line numbers were off)
+    ({"phc": "\x0c" + PHC.replace("2 6 1.5", "2 6 x")}, "phc", 2, "x"),
+    ({"scale": '\u2028\n0 bar 6 7 1000.0 0.01 1\n'}, "scale", 2, None),
 ])
 def test_malformed(tmp_path, over, ext, line, column):
     with pytest.raises(ProjectError) as e:

@@ -143,6 +143,20 @@ def test_malformed(tmp_path, text, line, field):
     assert e.value.line == line and e.value.column == field
 
 
+def test_form_feed_is_no_line_end(tmp_path):
+    """Fuzz find (issue 15): a form feed or vertical tab (whitespace inside a line) split
+    the line, so later lines were misnumbered or misread."""
+    path = tmp_path / "p.txt"
+    path.write_text(GOOD.replace("0 0 1.5 -2.5\n", "0 0 1.5 -2.5\x0c\n")
+                    .replace("\n500\n", "\n\x0b500\n", 1))
+    assert np.allclose(read_bal(path).cameras[0, 6], 500)
+    path.write_text(GOOD.replace("0 0 1.5 -2.5\n", "0 0 1.5 -2.5\x0c\n")
+                    .replace("\n500\n", "\nabc\n", 1))
+    with pytest.raises(ProjectError) as e:
+        read_bal(path)
+    assert e.value.line == 10 and e.value.column == "camera"
+
+
 def test_minimal_file_and_bad_bzip2(tmp_path):
     (tmp_path / "p.txt").write_text(GOOD)
     p = read_bal(tmp_path / "p.txt")
