@@ -93,6 +93,10 @@ def parse_xml(path: str | Path) -> Node:
     except expat.ExpatError as e:
         raise ProjectError(str(path), f"not valid XML: {expat.ErrorString(e.code)}",
                            e.lineno) from None
+    except (LookupError, ValueError) as e:  # the encoding of <?xml ... encoding="..."?>
+        raise ProjectError(str(path), f"the encoding that the XML declaration names cannot "
+                           f"be read ({e}); use UTF-8", parser.CurrentLineNumber or 1,
+                           "encoding") from None
     if not root:
         raise ProjectError(str(path), "no XML element")
     return root[0]

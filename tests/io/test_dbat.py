@@ -245,3 +245,14 @@ def test_broken_xml_names_line(tmp_path):
     with pytest.raises(ProjectError) as e:
         read_dbat(p)
     assert e.value.line == 8 and "XML" in str(e.value)
+
+
+@pytest.mark.parametrize("encoding", ["nan", "shift_jis", "rot13", "idna"])
+def test_xml_declaration_naming_an_unreadable_encoding(tmp_path, encoding):
+    """Fuzz find (issue 15): expat's LookupError / ValueError escaped (unknown encodings,
+    codecs that are not text encodings, multi-byte encodings)."""
+    xml = XML.format(extra="").replace('"1.0"?>', f'"1.0" encoding="{encoding}"?>', 1)
+    p = _write(tmp_path, xml, FILES)
+    with pytest.raises(ProjectError, match="encoding") as e:
+        read_dbat(p)
+    assert e.value.path == str(p) and e.value.line == 1
