@@ -27,6 +27,7 @@ from baarda.io.colmap import (
 )
 from baarda.io.colmap_block import colmap_to_block, colmap_with_block, eo_to_pose, pose_to_eo
 from baarda.output.format_files import write_colmap
+from baarda.pipeline import read
 
 SPARSE = Path(__file__).resolve().parents[1] / "data" / "colmap_maupertuis" / "sparse"
 
@@ -280,6 +281,46 @@ def test_model_checks(tmp_path, binary):
         assert err.detail == (f"point 5: track element ({iid}, {idx}) does not point back "
                               "to this point")
         assert Path(err.path).name == f"points3D{ext}"
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_numbers_that_are_not_finite(tmp_path, binary):
+    """Fuzz find (issue 15): the binary reader took NaN and inf (the text reader refuses
+    them), which reached the geometry as numpy's LinAlgError."""
+    m = _synthetic()
+    im, pt = m.images, m.points
+    qvec, xys, xyz = im.qvec.copy(), im.xys.copy(), pt.xyz.copy()
+    qvec[1, 2] = np.nan
+    err = _broken(tmp_path, binary, images={"qvec": qvec})
+    assert ("image 2: QW QX QY QZ TX TY TZ: not a finite number" if binary else
+            "'nan' is not a finite number") in err.detail
+    xys[im.offsets[2] + 1, 1] = np.inf
+    err = _broken(tmp_path, binary, images={"xys": xys})
+    assert ("image 3: keypoint 1 is not a finite number" if binary else
+            "'inf' is not a finite number") in err.detail
+    xyz[3, 0] = -np.inf
+    err = _broken(tmp_path, binary, points={"xyz": xyz})
+    assert ("point 4: X Y Z ERROR: not a finite number" if binary else
+            "'-inf' is not a finite number") in err.detail
+    model = replace(m, cameras={1: ColmapCamera("PINHOLE", 1000, 800,
+                                                np.array([900.0, np.inf, 500, 400]))})
+    write_colmap(model, tmp_path / "cam", binary=binary)
+    with pytest.raises(ProjectError, match="not a finite number") as e:
+        read_colmap(tmp_path / "cam")
+    assert Path(e.value.path).name == f"cameras{'.bin' if binary else '.txt'}"
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_conversion_errors_name_the_file(tmp_path, binary):
+    """Fuzz find (issue 15): errors of the conversion named '<folder>: camera 1', no file."""
+    m = _synthetic()
+    model = replace(m, cameras={1: ColmapCamera("PINHOLE", 1000, 800,
+                                                np.array([0.0, 900, 500, 400]))})
+    write_colmap(model, tmp_path, binary=binary)
+    with pytest.raises(ProjectError) as e:
+        read(tmp_path)
+    assert e.value.path == str(tmp_path / f"cameras{'.bin' if binary else '.txt'}")
+    assert e.value.detail == "camera 1: focal length must be positive"
 
 
 @pytest.mark.parametrize("binary", [False, True])
