@@ -117,9 +117,10 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
                  axis=1).reshape(n, 3, 3)[points]
     b = np.stack([np.bincount(point, pc[:, i], n) for i in range(3)], axis=1)[points]
     out = np.full((len(points), 3), np.nan)
+    good = np.isfinite(a).all(axis=(1, 2)) & np.isfinite(b).all(axis=1)  # not from inf/NaN
     with np.errstate(all="ignore"):
-        lam = np.linalg.eigvalsh(a)  # a is a sum of projectors: symmetric, semi-definite
-        good = lam[:, 0] > 1e-10 * lam[:, 2]
+        lam = np.linalg.eigvalsh(a[good])  # a is a sum of projectors: symmetric, semi-definite
+        good[good] = lam[:, 0] > 1e-10 * lam[:, 2]
     out[good] = np.linalg.solve(a[good], b[good][:, :, None])[:, :, 0]
     return out
 

@@ -120,3 +120,17 @@ def test_photo_medians_equal_numpy_medians():
     ref = [np.median(d[(block.image.photo == i) & np.isfinite(d)])
            for i in range(len(block.photos))]
     assert np.allclose(_photo_medians(block, d), ref, rtol=0, atol=0)
+
+
+def test_intersection_of_rays_that_are_not_finite(small_block):
+    """Fuzz find (issue 15): a NaN or inf ray (an orientation or image coordinate that
+    overflows) made numpy's eigvalsh raise LinAlgError; such points are not intersected."""
+    from baarda.bundle.geometry import intersect
+
+    block, _ = small_block
+    eo = block.photos.eo.copy()
+    eo[0, 3] = np.inf
+    points = np.unique(block.image.point)
+    xyz = intersect(block, eo, points)
+    on_first = np.isin(points, block.image.point[block.image.photo == 0])
+    assert np.isnan(xyz[on_first]).all() and np.isfinite(xyz[~on_first]).all()
