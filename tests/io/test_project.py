@@ -128,6 +128,28 @@ def test_settings_of_the_wrong_type_or_not_finite(tmp_path, first, old, new, col
     assert e.value.path.endswith("project.toml") and e.value.column == column
 
 
+def test_carriage_returns_and_quotes(tmp_path):
+    """Fuzz find (issue 15): a file with CR line ends and a quote was one line with CRs
+    inside, which the csv module refused with its own error (_csv.Error)."""
+    shutil.copytree(DEMO, tmp_path / "demo")
+    ref = read_project(tmp_path / "demo")
+    for name in ("cameras.csv", "photos.csv"):
+        f = tmp_path / "demo" / name
+        f.write_bytes(f.read_bytes().replace(b"\n", b"\r").replace(b"cam,", b'"cam",'))
+    block = read_project(tmp_path / "demo")  # CR-only line ends, as the other readers take
+    assert block.photos.ids == ref.photos.ids
+    assert np.array_equal(block.photos.eo, ref.photos.eo)
+    f = tmp_path / "demo" / "cameras.csv"
+    f.write_bytes(b'camera,focal_mm,x0_mm,y0_mm\ncam,"153.0\r",0,0\n')
+    with pytest.raises(ProjectError, match="expected 4 fields, found 2") as e:
+        read_project(tmp_path / "demo")
+    assert e.value.path == str(f) and e.value.line == 2
+    f.write_bytes(b'camera,focal_mm,x0_mm,y0_mm\ncam,"' + b"1" * 200_000 + b'",0,0\n')
+    with pytest.raises(ProjectError, match="not a CSV record: field larger") as e:
+        read_project(tmp_path / "demo")  # the csv module's limit, was _csv.Error
+    assert e.value.path == str(f) and e.value.line == 2
+
+
 def test_header_that_is_not_utf8(tmp_path):
     """Fuzz find (issue 15): a byte that is not UTF-8 in the header line of a plain CSV
     file escaped the fast reader as a UnicodeDecodeError."""
