@@ -52,8 +52,11 @@ __all__ = ["FILES", "MODELS", "MODEL_ID", "ColmapCamera", "ColmapImages", "Colma
 
 # ----------------------------------------------------------------- rotations
 def qvec_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a unit quaternion (qw, qx, qy, qz) (normalised first)."""
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    """Rotation matrix of a unit quaternion (qw, qx, qy, qz) (normalised first; scaled by
+    its largest component before, so that no square overflows)."""
+    q = np.asarray(q, float)
+    q = q / np.max(np.abs(q))
+    w, x, y, z = q / np.linalg.norm(q)
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])

@@ -95,6 +95,10 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
     names = im.names
     photo_ids = ([Path(n).stem for n in names] if len({Path(n).stem for n in names}) ==
                  len(names) else [str(i) for i in im.ids.tolist()])
+    zero = ~(np.abs(im.qvec).max(axis=1) > 0)
+    if zero.any():
+        raise ProjectError(where["images"], f"image {im.ids[int(np.argmax(zero))]}: the "
+                           "quaternion QW QX QY QZ is zero (no rotation)")
     eo = np.array([pose_to_eo(q, t) for q, t in zip(im.qvec, im.tvec, strict=True)])
     # keypoints with a 3D point; a point repeated in one image keeps its first keypoint
     has = im.point3D_ids != -1

@@ -7,6 +7,7 @@
 * an adjusted model written back and read again carries the adjusted poses and points.
 """
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -308,6 +309,26 @@ def test_numbers_that_are_not_finite(tmp_path, binary):
     with pytest.raises(ProjectError, match="not a finite number") as e:
         read_colmap(tmp_path / "cam")
     assert Path(e.value.path).name == f"cameras{'.bin' if binary else '.txt'}"
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_zero_and_huge_quaternions(tmp_path, binary):
+    """Fuzz finds (issue 15): a zero quaternion gave NaN orientations, a huge one overflowed
+    in its norm (numpy's RuntimeWarnings); zero is refused, any other is normalised."""
+    m = _synthetic()
+    qvec = m.images.qvec.copy()
+    qvec[2] = 0.0
+    write_colmap(replace(m, images=replace(m.images, qvec=qvec)), tmp_path / "z", binary=binary)
+    with pytest.raises(ProjectError, match="image 3: the quaternion QW QX QY QZ is zero") as e:
+        read(tmp_path / "z")
+    assert Path(e.value.path).name == f"images{'.bin' if binary else '.txt'}"
+    qvec[2] = [1e300, 0, 0, 1e300]
+    write_colmap(replace(m, images=replace(m.images, qvec=qvec)), tmp_path / "h", binary=binary)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        block = read(tmp_path / "h")
+    assert np.allclose(qvec_to_matrix(qvec[2]), qvec_to_matrix([1, 0, 0, 1]))
+    assert np.isfinite(block.photos.eo).all()
 
 
 @pytest.mark.parametrize("binary", [False, True])
