@@ -102,6 +102,10 @@ class AiconProject:
         points = GroundPoints([_id(p) for p in pid], xyz, np.full(xyz.shape, np.nan),
                               np.full(len(pid), "tie", dtype=object))
         o = {k: v[self.active_observations()] for k, v in self.observations.items()}
+        if not len(o["x"]):
+            raise ProjectError(str(self.folder / f"{self.name}.phc"), "no active observations "
+                               "(status > 0, of an image with status != 0 and a point with "
+                               "status 1)")
         pi = {int(p): i for i, p in enumerate(im["id"])}
         qi = {p: j for j, p in enumerate(pid.tolist())}
         sig = (np.full(len(o["x"]), sigma_image_mm) if sigma_image_mm is not None

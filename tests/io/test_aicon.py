@@ -100,6 +100,14 @@ def test_minimal_project(tmp_path):
                                                                     [1e-3, 2e-3, 3e-3])
 
 
+def test_no_active_observations(tmp_path):
+    """Fuzz find (issue 15): a project without active observations gave a block with a NaN
+    image sigma (the median of nothing, with numpy's RuntimeWarning)."""
+    with pytest.raises(ProjectError, match="no active observations") as e:
+        read_aicon(_project(tmp_path, obc="")).to_block()
+    assert e.value.path.endswith("t.phc")
+
+
 @pytest.mark.parametrize("over, ext, line, column", [
     ({"phc": PHC.replace("1.0 2.0", "1.0 x")}, "phc", 1, "y"),
     ({"phc": PHC.replace(" 1 1 1\n2", " 1 1\n2")}, "phc", 1, None),

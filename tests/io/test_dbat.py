@@ -210,6 +210,15 @@ def test_minimal_script_reads(tmp_path):
     assert b.photos.ids == ["a", "b"] and len(b.image) == 2
 
 
+def test_no_image_measurements(tmp_path):
+    """Fuzz find (issue 15): empty image point files gave a block with a NaN image sigma
+    (the median of nothing, with numpy's RuntimeWarning)."""
+    p = _write(tmp_path, XML.format(extra=""), dict(FILES, **{"pts.txt": "# id, im, x, y\n"}))
+    with pytest.raises(ProjectError, match="no image measurements") as e:
+        read_dbat(p)
+    assert e.value.path == str(p) and e.value.line == 6
+
+
 @pytest.mark.parametrize("change, where", [
     ({"pts.txt": "1, 1, 100.5, abc\n"}, ("pts.txt", 1, "y")),
     ({"pts.txt": "1, 1, 100.5\n"}, ("pts.txt", 1, None)),
