@@ -108,8 +108,13 @@ class AiconProject:
                                "status 1)")
         pi = {int(p): i for i, p in enumerate(im["id"])}
         qi = {p: j for j, p in enumerate(pid.tolist())}
-        sig = (np.full(len(o["x"]), sigma_image_mm) if sigma_image_mm is not None
-               else np.sqrt(0.5 * (o["sx"] ** 2 + o["sy"] ** 2)))
+        if sigma_image_mm is not None:
+            sig = np.full(len(o["x"]), sigma_image_mm)
+        else:
+            with np.errstate(over="ignore"):
+                sig = np.sqrt(0.5 * (o["sx"] ** 2 + o["sy"] ** 2))
+            big = ~np.isfinite(sig)  # the squares overflowed
+            sig[big] = np.hypot(o["sx"][big], o["sy"][big]) / np.sqrt(2.0)
         image = ImagePoints(np.array([pi[int(i)] for i in o["image"]], dtype=np.int64),
                             np.array([qi[p] for p in o["point"].tolist()], dtype=np.int64),
                             np.column_stack([o["x"], o["y"]]), sig)

@@ -16,6 +16,7 @@ import numpy as np
 
 from baarda.errors import ProjectError
 from baarda.io.colmap_model import MODELS, ColmapCamera, ColmapImages, ColmapPoints
+from baarda.io.records import file_bytes
 
 IMAGE_HEADER = np.dtype([("id", "<u4"), ("qvec", "<f8", 4), ("tvec", "<f8", 3),
                          ("camera_id", "<u4")])  # 64 bytes, then the name
@@ -28,9 +29,7 @@ NAME_AND_COUNT = 1 + 8  # the shortest name (its NUL) and the keypoint count
 
 class _Reader:
     def __init__(self, path: Path):
-        if not path.is_file():
-            raise ProjectError(str(path), "file not found")
-        self.path, self.data, self.pos = path, path.read_bytes(), 0
+        self.path, self.data, self.pos = path, file_bytes(path), 0
 
     def take(self, fmt: str, what: str):
         size = struct.calcsize(fmt)

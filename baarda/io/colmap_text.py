@@ -21,7 +21,7 @@ from baarda.io.colmap_model import (
     ColmapPoints,
     first_repeated,
 )
-from baarda.io.records import parse_number, read_lines
+from baarda.io.records import file_bytes, parse_number, read_lines
 
 INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
 BOM = b"\xef\xbb\xbf"
@@ -104,9 +104,7 @@ def _tokens(data: bytes, head: tuple[int, ...], tail: tuple[int, ...], skip_blan
 
 
 def _file_bytes(path: Path) -> bytes:
-    if not path.is_file():
-        raise ProjectError(str(path), "file not found")
-    data = path.read_bytes()
+    data = file_bytes(path)
     return data[len(BOM):] if data.startswith(BOM) else data
 
 

@@ -54,7 +54,7 @@ def read_settings(path: Path, encoding: str = ENCODING) -> ModelSettings:
         s.beta0 = float(tests.get("beta0", s.beta0))
         s.pre_um = _positive((pre.get("pre_xy_um", s.pre_um[0]),
                               pre.get("pre_z_um", s.pre_um[1])), "models.pre_xy_um / pre_z_um")
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise ProjectError(str(path), f"bad setting: {e}") from None
     if not (0 < s.alpha0 < 0.5 and 0.5 <= s.beta0 < 1):
         raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "

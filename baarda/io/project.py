@@ -23,7 +23,7 @@ from baarda.block.photo_block import (
 )
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, decode_text
+from baarda.io.records import ENCODING, decode_text, file_bytes
 from baarda.io.table import Table
 
 FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
@@ -32,10 +32,9 @@ FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "groun
 def load_toml(path: Path, default_unit: str = "gon",
               encoding: str = ENCODING) -> tuple[dict, str]:
     """project.toml as a dict and its checked angle unit; errors name the file."""
-    if not path.is_file():
-        raise ProjectError(str(path), "file not found (a project folder needs project.toml)")
+    data = file_bytes(path, "file not found (a project folder needs project.toml)")
     try:
-        doc = tomllib.loads(decode_text(path.read_bytes(), str(path), encoding))
+        doc = tomllib.loads(decode_text(data, str(path), encoding))
     except tomllib.TOMLDecodeError as e:
         raise ProjectError(str(path), f"not valid TOML: {e}") from None
     unit = str(doc.get("angle_unit", default_unit))
@@ -83,7 +82,7 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
         ctrl = [float(ctrl)] * 3 if np.isscalar(ctrl) else [float(c) for c in ctrl]
         s.alpha0 = float(tests.get("alpha0", s.alpha0))
         s.beta0 = float(tests.get("beta0", s.beta0))
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise ProjectError(str(path), f"a setting is not a number: {e}") from None
     if len(ctrl) != 3:
         raise ProjectError(str(path), "sigma.control_m must be one number or [X, Y, Z]",

@@ -53,13 +53,22 @@ def split_lines(text: str) -> list[str]:
     return lines
 
 
+def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
+    """The bytes of a file; ProjectError naming it when it is not a file (`what`) or cannot
+    be read (permissions, a name too long for the file system, ...)."""
+    p = Path(path)
+    try:
+        if not p.is_file():
+            raise ProjectError(str(path), what)
+        return p.read_bytes()
+    except OSError as e:
+        raise ProjectError(str(path), f"cannot be read ({e.strerror or e})") from None
+
+
 def read_lines(path: str | Path, encoding: str = ENCODING) -> list[str]:
     """Lines of a text file without line ends (CRLF, LF or CR); ProjectError if
     unreadable."""
-    p = Path(path)
-    if not p.is_file():
-        raise ProjectError(str(path), "file not found")
-    return split_lines(decode_text(p.read_bytes(), str(path), encoding))
+    return split_lines(decode_text(file_bytes(path), str(path), encoding))
 
 
 class Columns:

@@ -18,7 +18,14 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, Columns, decode_text, is_utf8, split_lines
+from baarda.io.records import (
+    ENCODING,
+    Columns,
+    decode_text,
+    file_bytes,
+    is_utf8,
+    split_lines,
+)
 
 # quotes, blanks, comments, CR, blank lines, lines that start with a comma (or consist of
 # commas): the line-by-line reader
@@ -31,10 +38,7 @@ class Table(Columns):
 
     def __init__(self, path: str | Path, required: list[str], encoding: str = ENCODING):
         self.path = str(path)
-        p = Path(path)
-        if not p.is_file():
-            raise ProjectError(self.path, "file not found")
-        data = p.read_bytes()
+        data = file_bytes(path)
         if data.startswith(b"\xef\xbb\xbf"):
             data = data[3:]
         if not is_utf8(encoding):  # the readers below take UTF-8

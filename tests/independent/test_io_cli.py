@@ -74,6 +74,7 @@ def test_bad_settings(project):
     ("sigma = [1, 2]\n", "'sigma' must be a table"),
     ("[sigma]\nmodel_xy_um = nan\n", "finite positive"),  # NaN was accepted
     ("[models]\npre_z_um = inf\n", "finite positive"),
+    ("[tests]\nalpha0 = 1" + "0" * 400 + "\n", "not a number|int too large"),  # OverflowError
 ])
 def test_settings_of_the_wrong_type_or_not_finite(project, toml, match):
     """Fuzz finds (issue 15)."""

@@ -3,6 +3,7 @@ repository: the tests read it from ../shared/data/aicon_jaicov_closerange and sk
 so, when it is absent."""
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -98,6 +99,15 @@ def test_minimal_project(tmp_path):
     b = proj.to_block()
     assert np.isclose(b.cameras.focal_mm[0], 28.7) and np.allclose(b.points.xyz[0],
                                                                     [1e-3, 2e-3, 3e-3])
+
+
+def test_huge_sigmas_do_not_overflow(tmp_path):
+    """Fuzz find (issue 15): the mean square of sx and sy overflowed for sx = 1e200."""
+    phc = PHC.replace("1.0 2.0 0.0005 0.0005", "1.0 2.0 1e200 1e200")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        b = read_aicon(_project(tmp_path, phc=phc)).to_block()
+    assert np.allclose(b.image.sigma_mm, [1e200, 0.0005])
 
 
 def test_no_active_observations(tmp_path):

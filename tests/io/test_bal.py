@@ -132,6 +132,7 @@ GOOD = "2 1 2\n0 0 1.5 -2.5\n1 0 3.5 4.5\n" + "0\n0\n0\n0\n0\n-5\n500\n0\n0\n" \
     (GOOD.replace("1 0 3.5 4.5", "1 0 x 4.5"), 3, "observation"),
     (GOOD.replace("\n500\n", "\nabc\n", 1), 10, "camera"),
     (GOOD.replace("\n500\n", "\n-500\n", 1), 10, "f"),
+    (GOOD.replace("0\n0\n0\n0\n0\n-5", "1e200\n0\n0\n0\n0\n-5", 1), 4, "r"),  # fuzz
     (GOOD[:-4], 23, None),
     (GOOD + "7\n", 25, None),
 ])

@@ -210,6 +210,15 @@ def test_minimal_script_reads(tmp_path):
     assert b.photos.ids == ["a", "b"] and len(b.image) == 2
 
 
+def test_unreadable_file_names(tmp_path):
+    """Fuzz find (issue 15): a file name too long for the file system escaped as OSError."""
+    name = "1" * 400 + ".txt"
+    p = _write(tmp_path, XML.format(extra="").replace("pts.txt", name), FILES)
+    with pytest.raises(ProjectError, match="cannot be read") as e:
+        read_dbat(p)
+    assert Path(e.value.path).name == name
+
+
 def test_no_image_measurements(tmp_path):
     """Fuzz find (issue 15): empty image point files gave a block with a NaN image sigma
     (the median of nothing, with numpy's RuntimeWarning)."""

@@ -116,6 +116,7 @@ def test_bad_settings(project):
      "sigma.control_m[1]"),
     ("", "control_m = [0.05, 0.05, 0.1]", "control_m = [0.05, 0.05]", "sigma.control_m"),
     ("crs = 5", "", "", "crs"),
+    ("", "image_um = 5.0", "image_um = 1" + "0" * 400, None),  # was OverflowError
 ])
 def test_settings_of_the_wrong_type_or_not_finite(tmp_path, first, old, new, column):
     """Fuzz finds (issue 15): a key that should hold a table holding a value, NaN or inf
