@@ -134,3 +134,17 @@ def test_intersection_of_rays_that_are_not_finite(small_block):
     xyz = intersect(block, eo, points)
     on_first = np.isin(points, block.image.point[block.image.photo == 0])
     assert np.isnan(xyz[on_first]).all() and np.isfinite(xyz[~on_first]).all()
+
+
+def test_height_control_without_x_and_y(demo, capsys):
+    """Fuzz find (issue 15): a height control point with empty X and Y (docs/format.md
+    allows it) made the test whether the height control lies on one line a numpy
+    LinAlgError (SVD of NaN)."""
+    def height_only(t):
+        t.loc[t.point == "002005", ["X", "Y"]] = ""
+
+    edit(demo, "ground_points.csv", height_only)
+    block = read(demo)
+    assert np.isnan(block.points.xyz[block.points.ids.index("002005"), :2]).all()
+    assert main(["adjust", str(demo), "-o", str(demo.parent / "out"), "-q"]) == 0
+    assert "Traceback" not in capsys.readouterr().err
