@@ -13,7 +13,7 @@ from baarda.bundle.diagnostics import _photo_medians, diagnose
 from baarda.cli import main
 from baarda.errors import GeometryError, ProjectError
 from baarda.io.project import read_project
-from baarda.pipeline import read
+from baarda.pipeline import adjust, read
 
 DEMO = Path(__file__).parents[2] / "examples" / "demo"
 
@@ -148,3 +148,14 @@ def test_height_control_without_x_and_y(demo, capsys):
     assert np.isnan(block.points.xyz[block.points.ids.index("002005"), :2]).all()
     assert main(["adjust", str(demo), "-o", str(demo.parent / "out"), "-q"]) == 0
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_sigma_so_small_that_its_weight_overflows(demo, capsys):
+    """Fuzz find (issue 15): sigma_um = 5e-324 gave an infinite weight (numpy's divide by
+    zero warning) and then 'the residuals at the approximate values are not finite'."""
+    def tiny(t):
+        t.loc[0, "sigma_um"] = "5e-324"
+
+    edit(demo, "image_points.csv", tiny)
+    with pytest.raises(GeometryError, match="standard deviation 0 .* too small: its weight"):
+        adjust(read(demo))

@@ -117,3 +117,23 @@ def test_simulate_command_and_bundle_project_input(tmp_path):
                  "--deformations", "none"]) == 0
     s = json.loads((tmp_path / "bo" / "summary.json").read_text())
     assert s["adjustments"]["3d"]["converged"]
+
+
+@pytest.mark.parametrize("row, value, message", [
+    (40, "1e160", "the normal equations overflow"),  # was ValueError of the Cholesky
+    (1, "1e200", "the similarity of the models to the control has scale 0"),  # ZeroDivision
+])
+def test_model_coordinates_far_too_large(tmp_path, capsys, row, value, message):
+    """Fuzz finds (issue 15): model coordinates far beyond any model reached numpy and the
+    Cholesky factorisation as inf; now exit 2 with a GeometryError."""
+    assert main(["simulate-models", "-o", str(tmp_path / "p")]) == 0
+    f = tmp_path / "p" / "models.csv"
+    lines = f.read_text().split("\n")
+    parts = lines[row].split(",")
+    parts[lines[0].split(",").index("x_mm")] = value
+    lines[row] = ",".join(parts)
+    f.write_text("\n".join(lines))
+    capsys.readouterr()
+    assert main(["models", str(tmp_path / "p"), "-o", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and not (tmp_path / "out").exists()
