@@ -79,7 +79,7 @@ def _finite(r: _Reader, values: np.ndarray, starts: np.ndarray, ids: np.ndarray,
             what: str, fields: str) -> None:
     """ProjectError naming the record (its id and byte) of the first non-finite value of
     `values` (one row per record, starting at byte `starts` + the field's offset)."""
-    bad = ~np.isfinite(values.reshape(len(values), -1)).all(axis=1)
+    bad = ~np.isfinite(values).all(axis=1)
     if bad.any():
         k = int(np.argmax(bad))
         r.fail(f"{what} {ids[k]}: {fields} not a finite number (record at byte "

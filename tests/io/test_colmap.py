@@ -309,6 +309,11 @@ def test_numbers_that_are_not_finite(tmp_path, binary):
     with pytest.raises(ProjectError, match="not a finite number") as e:
         read_colmap(tmp_path / "cam")
     assert Path(e.value.path).name == f"cameras{'.bin' if binary else '.txt'}"
+    empty = ColmapModel(m.cameras)  # no images, no points: read, refused by the conversion
+    write_colmap(empty, tmp_path / "empty", binary=binary)
+    assert len(read_colmap(tmp_path / "empty").images) == 0
+    with pytest.raises(ProjectError, match="no images or no 3D points"):
+        read(tmp_path / "empty")
 
 
 @pytest.mark.parametrize("binary", [False, True])
