@@ -191,6 +191,14 @@ class SchurFactor:
         self.gf = gf
         self._sel = None
         self.chol = BlockCholesky(s.pattern)
+        finite = np.isfinite(values).all(axis=(1, 2))
+        if not finite.all():
+            first = ~finite[s.diag_slot]
+            raise GeometryError(
+                "the normal equations overflow (coordinates, image coordinates or weights far "
+                "too large: check their units)" + (
+                    f"; first at {s.frame_names[int(np.argmax(first))]}" if first.any()
+                    else ""))
         try:
             self.chol.factorize(values)
         except NotPositiveDefinite as err:

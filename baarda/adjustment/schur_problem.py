@@ -15,6 +15,7 @@ import numpy as np
 
 from baarda.adjustment.schur import Linearization, SchurFactor, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
+from baarda.errors import GeometryError
 
 
 def read_only(a: np.ndarray) -> np.ndarray:
@@ -39,7 +40,13 @@ class SchurProblem:
         if active.shape != (n,) or factors.shape != (n,) or not np.all(factors > 0):
             raise ValueError(f"active and factors must be {n} values (factors positive)")
         self.active, self.factors = read_only(active.copy()), read_only(factors.copy())
-        p = np.where(active, factors / self.sigma_apriori**2, 0.0)
+        with np.errstate(over="ignore", divide="ignore"):
+            p = np.where(active, factors / self.sigma_apriori**2, 0.0)
+        if not np.isfinite(p).all():
+            raise GeometryError(
+                f"a-priori standard deviation {float(np.min(self.sigma_apriori)):.3g} (in the "
+                "units of its observation, mm or m) is too small: its weight 1/sigma^2 "
+                "overflows (check the standard deviations of the input)")
         parts = [read_only(a) for a in self.layout.split(p)]
         self.w, self.wc = parts[:2]
         self.wx = parts[2] if len(parts) == 3 else None  # extra observations (a border)

@@ -37,6 +37,8 @@ def check_datum(block: Block, keep: np.ndarray) -> list[str]:
     xyz = block.points.xyz
     plan = np.flatnonzero(ctrl[:, 0] & ctrl[:, 1])
     height = np.flatnonzero(ctrl[:, 2])
+    height_xy = xyz[height, :2]
+    height_xy = height_xy[np.isfinite(height_xy).all(axis=1)]  # height-only: X, Y may be empty
     problems = []
     if len(plan) < 2:
         problems.append(f"{len(plan)} planimetric (X, Y) control point(s); at least two are "
@@ -46,9 +48,10 @@ def check_datum(block: Block, keep: np.ndarray) -> list[str]:
     if len(height) < 3:
         problems.append(f"{len(height)} height control point(s); at least three not on one "
                         "line are needed to fix the tilt of the block")
-    else:
-        p = xyz[height, :2] - xyz[height, :2].mean(axis=0)
-        s = np.linalg.svd(p, compute_uv=False)
+    elif len(height_xy) >= 3:  # on one line? (only those with X and Y can be placed)
+        with np.errstate(over="ignore", invalid="ignore"):
+            p = height_xy - height_xy.mean(axis=0)
+        s = np.linalg.svd(p, compute_uv=False) if np.isfinite(p).all() else np.ones(2)
         if s[-1] <= 1e-6 * max(s[0], 1e-9):
             problems.append("the height control points lie on one line: the block can tilt "
                             "about it")
@@ -61,7 +64,7 @@ def check_datum(block: Block, keep: np.ndarray) -> list[str]:
                             "sigma_X, sigma_Y, sigma_Z in ground_points.csv), or adjust the "
                             "block as a free network (baarda adjust --free, or datum = "
                             "\"free\" in project.toml).")
-    return weak_control(block, xyz[plan, :2], xyz[height, :2])
+    return weak_control(block, xyz[plan, :2], height_xy)
 
 
 WEAK_WIDTH = 0.25  # control narrower than this share of the block is weak
@@ -76,7 +79,11 @@ def weak_control(block: Block, plan_xy: np.ndarray, height_xy: np.ndarray) -> li
     if len(centres) < 2:
         return []
     out = []
-    mid = centres.mean(axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        mid = centres.mean(axis=0)
+        finite = all(np.isfinite(a - mid).all() for a in (centres, plan_xy, height_xy))
+    if not finite:
+        return []  # coordinates beyond any map: diagnose says so
     axes = np.linalg.svd(centres - mid, full_matrices=False)[2]  # block's main directions
     extent = np.ptp((centres - mid) @ axes.T, axis=0)
     for what, xy, k in (("planimetric", plan_xy, 0), ("height", height_xy, 1)):
@@ -152,9 +159,10 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
                  axis=1).reshape(n, 3, 3)[points]
     b = np.stack([np.bincount(point, pc[:, i], n) for i in range(3)], axis=1)[points]
     out = np.full((len(points), 3), np.nan)
+    good = np.isfinite(a).all(axis=(1, 2)) & np.isfinite(b).all(axis=1)  # not from inf/NaN
     with np.errstate(all="ignore"):
-        lam = np.linalg.eigvalsh(a)  # a is a sum of projectors: symmetric, semi-definite
-        good = lam[:, 0] > 1e-10 * lam[:, 2]
+        lam = np.linalg.eigvalsh(a[good])  # a is a sum of projectors: symmetric, semi-definite
+        good[good] = lam[:, 0] > 1e-10 * lam[:, 2]
     out[good] = np.linalg.solve(a[good], b[good][:, :, None])[:, :, 0]
     return out
 

@@ -132,15 +132,23 @@ def resect(xy: np.ndarray, xyz: np.ndarray, c: float) -> tuple[np.ndarray, float
     if k < 3:
         raise GeometryError(f"space resection needs at least 3 points, got {k}")
     n = xy / c
-    starts = []
-    sv = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
+    if not (np.isfinite(n).all() and np.isfinite(xyz).all()):
+        raise GeometryError("space resection: image or object coordinates are not finite")
+    methods = []
+    with np.errstate(all="ignore"):
+        sv = np.linalg.svd(xyz - xyz.mean(axis=0), compute_uv=False)
     if k >= 6 and sv[2] > 1e-3 * sv[0]:
-        starts.append(_dlt(n, xyz))
+        methods.append(lambda: _dlt(n, xyz))
     if k >= 4:
-        starts.append(_homography(n, xyz))
-    starts.append(_vertical(xy, xyz, c))
+        methods.append(lambda: _homography(n, xyz))
+    methods.append(lambda: _vertical(xy, xyz, c))
     best = None
-    for eo in starts:
+    for method in methods:
+        try:  # absurd numbers (a coordinate of 1e300) overflow a direct solution
+            with np.errstate(all="ignore"):
+                eo = method()
+        except np.linalg.LinAlgError:
+            continue
         if not np.all(np.isfinite(eo)):
             continue
         try:

@@ -13,6 +13,7 @@ import numpy as np
 
 from baarda.adjustment.dense import DenseLeastSquares
 from baarda.adjustment.solve import solve
+from baarda.errors import GeometryError
 from baarda.independent import similarity
 from baarda.options import SolveOptions
 
@@ -176,6 +177,10 @@ def initial_control_fit(loc: np.ndarray, given: np.ndarray, ok: np.ndarray,
 def refine(tr: Transform, loc: np.ndarray, given: np.ndarray, ok: np.ndarray) -> Transform:
     """Least squares of the 7 parameters with every usable control component (unweighted)."""
     s, r, t = tr
+    if not (np.isfinite(s) and s > 0 and np.isfinite(t).all()):
+        raise GeometryError(f"the similarity of the models to the control has scale {s:.3g}: "
+                            "model or control coordinates far too large or too small (check "
+                            "their units)")
     p = similarity.params3d(s, r, t, np.zeros(3))
     if ok.sum() < 7:
         return tr

@@ -135,7 +135,12 @@ def relative_orientation(block: Block, left: int, right: int, eo_approx: np.ndar
     aw = sol.lin.a / sig[:, None]
     red = 4 * n - 5 - 3 * n
     s0 = float(np.sqrt(np.sum((e / sig) ** 2) / red)) if red > 0 else np.nan
-    qxx = np.linalg.inv(aw.T @ aw)[5:, 5:]
+    try:
+        qxx = np.linalg.inv(aw.T @ aw)[5:, 5:]
+    except np.linalg.LinAlgError:
+        raise GeometryError(f"relative orientation of {pair}: the normal equations are "
+                            "singular (check the image points and the cameras of both "
+                            "photos)") from None
     cov = datum_free(qxx, xyz)
     return pts, xyz, cov, eo_r, s0
 

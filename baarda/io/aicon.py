@@ -118,6 +118,10 @@ class AiconProject:
         points = GroundPoints([_id(p) for p in pid], xyz, np.full(xyz.shape, np.nan),
                               np.full(len(pid), "tie", dtype=object))
         o = {k: v[self.active_observations()] for k, v in self.observations.items()}
+        if not len(o["x"]):
+            raise ProjectError(str(self.folder / f"{self.name}.phc"), "no active observations "
+                               "(status > 0, of an image with status != 0 and a point with "
+                               "status 1)")
         pi = {int(p): i for i, p in enumerate(im["id"])}
         qi = {p: j for j, p in enumerate(pid.tolist())}
         sxy = np.column_stack([o["sx"], o["sy"]])
@@ -129,8 +133,13 @@ class AiconProject:
                 o["image"].tolist(), o["point"].tolist(), strict=True)])
             found = rows >= 0
             sxy[found] = np.column_stack([po["sx"], po["sy"]])[rows[found]]
-        sig = (np.full(len(o["x"]), sigma_image_mm) if sigma_image_mm is not None
-               else np.sqrt(0.5 * (sxy ** 2).sum(axis=1)))
+        if sigma_image_mm is not None:
+            sig = np.full(len(o["x"]), sigma_image_mm)
+        else:
+            with np.errstate(over="ignore"):
+                sig = np.sqrt(0.5 * (sxy ** 2).sum(axis=1))
+            big = ~np.isfinite(sig)  # the squares overflowed
+            sig[big] = np.hypot(sxy[big, 0], sxy[big, 1]) / np.sqrt(2.0)
         per_axis = None if sigma_image_mm is not None else sxy
         image = ImagePoints(np.array([pi[int(i)] for i in o["image"]], dtype=np.int64),
                             np.array([qi[p] for p in o["point"].tolist()], dtype=np.int64),

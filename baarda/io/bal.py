@@ -27,7 +27,7 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.errors import ProjectError
-from baarda.io.records import is_number
+from baarda.io.records import is_number, split_lines
 
 
 @dataclass
@@ -72,6 +72,7 @@ def rotation_vector(m: np.ndarray) -> np.ndarray:
 
 
 HEADER_LIMIT = 256  # bytes of the first line
+MAX_ANGLE = 1e6  # rad: the largest rotation angle |r| taken (real files hold up to ~2 pi)
 BYTES_PER_VALUE = 64  # a value with its separator is never longer in a real file
 
 
@@ -132,7 +133,8 @@ def _read_lines(path: Path) -> tuple[tuple[int, int, int], list[str]]:
     except EOFError:
         raise ProjectError(sp, "the bzip2 data end early (a truncated .bz2 file)") from None
     except OSError as e:
-        raise ProjectError(sp, f"not a valid bzip2 file ({e})") from None
+        raise ProjectError(sp, f"not a valid bzip2 file ({e})" if opener is bz2.open else
+                           f"cannot be read ({e.strerror or e})") from None
     if len(body) > limit:
         raise _too_much(sp, body[:limit], (nc, npt, nobs))
     try:
@@ -141,7 +143,7 @@ def _read_lines(path: Path) -> tuple[tuple[int, int, int], list[str]]:
         data = first + body
         raise ProjectError(sp, f"not a text file (byte 0x{data[e.start]:02x})",
                            data.count(b"\n", 0, e.start) + 1) from None
-    return (nc, npt, nobs), text.splitlines()
+    return (nc, npt, nobs), split_lines(text)
 
 
 def _numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:
@@ -226,6 +228,14 @@ def read_bal(path: str | Path) -> BalProblem:
         line = int(np.searchsorted(np.cumsum(counts), k, side="right")) + 2 + nobs
         raise ProjectError(sp, "not a finite number", line, "camera" if k < 9 * nc else "point")
     cams = vals[:9 * nc].reshape(nc, 9)
+    with np.errstate(over="ignore"):
+        angle = np.linalg.norm(cams[:, :3], axis=1)
+    bad = np.flatnonzero(~(angle <= MAX_ANGLE))
+    if len(bad):
+        line = int(np.searchsorted(np.cumsum(counts), 9 * bad[0], side="right")) + 2 + nobs
+        raise ProjectError(sp, f"camera {bad[0]}: a rotation vector of {angle[bad[0]]:.3g} rad "
+                           f"(more than {MAX_ANGLE:g} rad is no rotation a program writes)",
+                           line, "r")
     bad = np.flatnonzero(cams[:, 6] <= 0)
     if len(bad):
         line = int(np.searchsorted(np.cumsum(counts), 9 * bad[0] + 6, side="right")) + 2 + nobs

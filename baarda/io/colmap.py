@@ -46,14 +46,17 @@ from baarda.io.colmap_model import (
 from baarda.io.colmap_text import read_cameras_txt, read_images_txt, read_points_txt
 
 __all__ = ["FILES", "MODELS", "MODEL_ID", "ColmapCamera", "ColmapImages", "ColmapModel",
-           "ColmapPoints", "is_colmap_model", "matrix_to_qvec", "qvec_to_matrix",
+           "ColmapPoints", "is_colmap_model", "matrix_to_qvec", "model_files", "qvec_to_matrix",
            "read_colmap"]
 
 
 # ----------------------------------------------------------------- rotations
 def qvec_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a unit quaternion (qw, qx, qy, qz) (normalised first)."""
-    w, x, y, z = np.asarray(q, float) / np.linalg.norm(q)
+    """Rotation matrix of a unit quaternion (qw, qx, qy, qz) (normalised first; scaled by
+    its largest component before, so that no square overflows)."""
+    q = np.asarray(q, float)
+    q = q / np.max(np.abs(q))
+    w, x, y, z = q / np.linalg.norm(q)
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
                      [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
@@ -88,23 +91,29 @@ def is_colmap_model(path: str | Path) -> bool:
                            all((p / f"{f}.bin").is_file() for f in FILES))
 
 
+def model_files(folder: str | Path) -> dict[str, Path]:
+    """The files of a model folder that read_colmap reads (binary preferred when both
+    exist), by name (cameras, images, points3D); ProjectError if there is no model."""
+    folder = Path(folder)
+    for ext in (".bin", ".txt"):
+        if all((folder / f"{f}{ext}").is_file() for f in FILES):
+            return {f: folder / f"{f}{ext}" for f in FILES}
+    raise ProjectError(str(folder), "not a COLMAP model folder (cameras, images, points3D "
+                       ".txt or .bin)")
+
+
 def read_colmap(folder: str | Path) -> ColmapModel:
     """Read a COLMAP sparse model folder (binary files preferred when both exist)."""
-    folder = Path(folder)
-    if all((folder / f"{f}.bin").is_file() for f in FILES):
-        ext = ".bin"
-        model = ColmapModel(read_cameras_bin(folder / "cameras.bin"),
-                            read_images_bin(folder / "images.bin"),
-                            read_points_bin(folder / "points3D.bin"))
-    elif all((folder / f"{f}.txt").is_file() for f in FILES):
-        ext = ".txt"
-        model = ColmapModel(read_cameras_txt(folder / "cameras.txt"),
-                            read_images_txt(folder / "images.txt"),
-                            read_points_txt(folder / "points3D.txt"))
+    files = model_files(folder)
+    if files["cameras"].suffix == ".bin":
+        model = ColmapModel(read_cameras_bin(files["cameras"]),
+                            read_images_bin(files["images"]),
+                            read_points_bin(files["points3D"]))
     else:
-        raise ProjectError(str(folder), "not a COLMAP model folder (cameras, images, points3D "
-                           ".txt or .bin)")
-    _check(model, folder / f"images{ext}", folder / f"points3D{ext}")
+        model = ColmapModel(read_cameras_txt(files["cameras"]),
+                            read_images_txt(files["images"]),
+                            read_points_txt(files["points3D"]))
+    _check(model, files["images"], files["points3D"])
     return model
 
 

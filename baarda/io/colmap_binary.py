@@ -16,6 +16,7 @@ import numpy as np
 
 from baarda.errors import ProjectError
 from baarda.io.colmap_model import MODELS, ColmapCamera, ColmapImages, ColmapPoints
+from baarda.io.records import file_bytes
 
 IMAGE_HEADER = np.dtype([("id", "<u4"), ("qvec", "<f8", 4), ("tvec", "<f8", 3),
                          ("camera_id", "<u4")])  # 64 bytes, then the name
@@ -28,9 +29,7 @@ NAME_AND_COUNT = 1 + 8  # the shortest name (its NUL) and the keypoint count
 
 class _Reader:
     def __init__(self, path: Path):
-        if not path.is_file():
-            raise ProjectError(str(path), "file not found")
-        self.path, self.data, self.pos = path, path.read_bytes(), 0
+        self.path, self.data, self.pos = path, file_bytes(path), 0
 
     def take(self, fmt: str, what: str):
         size = struct.calcsize(fmt)
@@ -66,9 +65,25 @@ def read_cameras_bin(path: Path) -> dict[int, ColmapCamera]:
         if mid not in MODELS:
             r.fail(f"camera {cid}: unknown model id {mid}")
         name, npar = MODELS[mid]
-        out[cid] = ColmapCamera(name, int(w), int(h), r.array("<f8", npar, f"camera {cid}"))
+        at = r.pos
+        params = r.array("<f8", npar, f"camera {cid}")
+        if not np.isfinite(params).all():
+            r.fail(f"camera {cid}: a parameter is not a finite number (byte "
+                   f"{at + 8 * int(np.argmin(np.isfinite(params)))})")
+        out[cid] = ColmapCamera(name, int(w), int(h), params)
     r.done(r.pos)
     return out
+
+
+def _finite(r: _Reader, values: np.ndarray, starts: np.ndarray, ids: np.ndarray,
+            what: str, fields: str) -> None:
+    """ProjectError naming the record (its id and byte) of the first non-finite value of
+    `values` (one row per record, starting at byte `starts` + the field's offset)."""
+    bad = ~np.isfinite(values).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        r.fail(f"{what} {ids[k]}: {fields} not a finite number (record at byte "
+               f"{int(starts[k])})")
 
 
 def _records(buf: np.ndarray, starts: np.ndarray, dtype: np.dtype) -> np.ndarray:
@@ -104,6 +119,15 @@ def read_images_bin(path: Path) -> ColmapImages:
     kp = ck.gather(buf, name_end + NAME_AND_COUNT, kp_bytes, int(kp_bytes.sum())).view(KEYPOINT)
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(count, out=offsets[1:])
+    _finite(r, np.column_stack([head["qvec"], head["tvec"]]), rec, head["id"], "image",
+            "QW QX QY QZ TX TY TZ:")
+    kx = np.column_stack([kp["x"], kp["y"]])
+    bad = ~np.isfinite(kx).all(axis=1)
+    if bad.any():
+        j = int(np.argmax(bad))
+        k = int(np.searchsorted(offsets, j, side="right")) - 1
+        r.fail(f"image {head['id'][k]}: keypoint {j - offsets[k]} is not a finite number "
+               f"(byte {int(name_end[k]) + NAME_AND_COUNT + KEYPOINT.itemsize * (j - offsets[k])})")
     return ColmapImages(head["id"].astype(np.int64), head["qvec"].copy(), head["tvec"].copy(),
                         head["camera_id"].astype(np.int64), names, offsets,
                         np.column_stack([kp["x"], kp["y"]]), kp["id"].astype(np.int64))
@@ -129,6 +153,8 @@ def read_points_bin(path: Path) -> ColmapPoints:
                       int(tr_bytes.sum())).view(TRACK_ELEMENT)
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(count, out=offsets[1:])
+    _finite(r, np.column_stack([head["xyz"], head["error"]]), rec, head["id"], "point",
+            "X Y Z ERROR:")
     return ColmapPoints(head["id"].astype(np.int64), head["xyz"].copy(), head["rgb"].copy(),
                         head["error"].copy(), offsets, track["image_id"].astype(np.int64),
                         track["point2D_idx"].astype(np.int64))

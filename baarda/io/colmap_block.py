@@ -16,9 +16,11 @@ from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, 
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.errors import ProjectError
 from baarda.io.colmap import (
+    FILES,
     ColmapCamera,
     ColmapModel,
     matrix_to_qvec,
+    model_files,
     qvec_to_matrix,
     read_colmap,
 )
@@ -43,7 +45,7 @@ def eo_to_pose(eo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return matrix_to_qvec(r), -r @ np.asarray(eo[:3], float)
 
 
-def _camera_to_baarda(c: ColmapCamera, pm: float, where: str):
+def _camera_to_baarda(c: ColmapCamera, pm: float, where: str, cid: int):
     p = c.params
     k = np.zeros(5)
     if c.model in ("SIMPLE_PINHOLE", "SIMPLE_RADIAL", "RADIAL"):
@@ -57,46 +59,53 @@ def _camera_to_baarda(c: ColmapCamera, pm: float, where: str):
             k[:] = [k1, k2, 0.0, p2, -p1]
         if c.model == "FULL_OPENCV":
             if np.any(p[9:12] != 0):
-                raise ProjectError(where, "FULL_OPENCV with k4..k6 (rational model) is not "
-                                   "supported")
+                raise ProjectError(where, f"camera {cid}: FULL_OPENCV with k4..k6 (rational "
+                                   "model) is not supported")
             k[2] = p[8]
     else:
-        raise ProjectError(where, f"camera model {c.model} cannot be converted (supported: "
-                           f"{', '.join(CONVERTIBLE)})")
+        raise ProjectError(where, f"camera {cid}: camera model {c.model} cannot be converted "
+                           f"(supported: {', '.join(CONVERTIBLE)})")
     if fx <= 0 or fy <= 0:
-        raise ProjectError(where, "focal length must be positive")
+        raise ProjectError(where, f"camera {cid}: focal length must be positive")
     pmy = pm * fx / fy
     pp = ((cx - c.width / 2) * pm, (c.height / 2 - cy) * pmy)
     return fx * pm, pp, pmy, ("brown_forward" if np.any(k) else "none"), k
 
 
 def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float = 1.0,
-                    name: str = "colmap", source: str = "") -> Block:
+                    name: str = "colmap", source: str = "",
+                    files: dict[str, Path] | None = None) -> Block:
     """Block of a COLMAP model: photos = images (EO from the poses), tie points = points3D
-    (both in model order); image points = the keypoints with a 3D point, image by image."""
+    (both in model order); image points = the keypoints with a 3D point, image by image.
+    files: the model's files by name (colmap.model_files), named by the errors."""
     from baarda.io import colmap_kernels as ck  # numba, loaded only for COLMAP models
 
     im, pt = model.images, model.points
+    where = {f: str(files[f]) if files else source or name for f in FILES}
     if not len(im) or not len(pt):
         raise ProjectError(source or name, "the model has no images or no 3D points")
     cam_ids = list(model.cameras)
-    cams = [_camera_to_baarda(model.cameras[c], pixel_mm, f"{source or name}: camera {c}")
+    cams = [_camera_to_baarda(model.cameras[c], pixel_mm, where["cameras"], c)
             for c in cam_ids]
     cam_of_image = lookup(np.array(cam_ids, np.int64), im.camera_id)
     if np.any(cam_of_image < 0):
         k = int(np.argmax(cam_of_image < 0))
-        raise ProjectError(source or name, f"image {im.ids[k]} uses unknown camera "
+        raise ProjectError(where["images"], f"image {im.ids[k]} uses unknown camera "
                            f"{im.camera_id[k]}")
     names = im.names
     photo_ids = ([Path(n).stem for n in names] if len({Path(n).stem for n in names}) ==
                  len(names) else [str(i) for i in im.ids.tolist()])
+    zero = ~(np.abs(im.qvec).max(axis=1) > 0)
+    if zero.any():
+        raise ProjectError(where["images"], f"image {im.ids[int(np.argmax(zero))]}: the "
+                           "quaternion QW QX QY QZ is zero (no rotation)")
     eo = np.array([pose_to_eo(q, t) for q, t in zip(im.qvec, im.tvec, strict=True)])
     # keypoints with a 3D point; a point repeated in one image keeps its first keypoint
     has = im.point3D_ids != -1
     rows = np.where(has, pt.rows(im.point3D_ids), -1)
     unknown = has & (rows < 0)
     if unknown.any():
-        raise ProjectError(source or name, f"unknown 3D point {im.point3D_ids[unknown][0]}")
+        raise ProjectError(where["images"], f"unknown 3D point {im.point3D_ids[unknown][0]}")
     again = ck.repeated_in_image(im.offsets, rows, len(pt))
     photo_of = im.image_of_keypoint()
     dropped = [f"{p} in {names[k]}" for p, k in zip(im.point3D_ids[again].tolist(),
@@ -154,4 +163,4 @@ def colmap_with_block(model: ColmapModel, eo: np.ndarray, xyz: np.ndarray,
 def read_colmap_block(folder: str | Path, **kw) -> Block:
     folder = Path(folder)
     return colmap_to_block(read_colmap(folder), name=kw.pop("name", folder.name),
-                           source=str(folder), **kw)
+                           source=str(folder), files=model_files(folder), **kw)

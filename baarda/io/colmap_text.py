@@ -21,7 +21,7 @@ from baarda.io.colmap_model import (
     ColmapPoints,
     first_repeated,
 )
-from baarda.io.records import is_number, parse_number, read_lines
+from baarda.io.records import file_bytes, parse_number, read_lines
 
 INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
 BOM = b"\xef\xbb\xbf"
@@ -104,9 +104,7 @@ def _tokens(data: bytes, head: tuple[int, ...], tail: tuple[int, ...], skip_blan
 
 
 def _file_bytes(path: Path) -> bytes:
-    if not path.is_file():
-        raise ProjectError(str(path), "file not found")
-    data = path.read_bytes()
+    data = file_bytes(path)
     return data[len(BOM):] if data.startswith(BOM) else data
 
 
@@ -144,7 +142,7 @@ def _images_fast(raw: list[str]) -> ColmapImages | None:
     if not np.isfinite(floats).all() or first_repeated(ints[:, 0]) >= 0:
         return None
     counts, ids, xys = kp
-    if np.any(counts % 3):
+    if np.any(counts % 3) or not np.isfinite(xys).all():
         return None
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(counts // 3, out=offsets[1:])
@@ -212,13 +210,14 @@ def _images_lines(raw: list[str], path: Path) -> ColmapImages:
         try:
             xy = arr[:, :2].astype(float)
             ids3 = np.array([int(v) for v in arr[:, 2]], np.int64)
+            if not np.isfinite(xy).all():
+                raise ValueError
         except (ValueError, OverflowError):
             for k, v in enumerate(pts):
-                if not is_number(v):
-                    raise ProjectError(str(path), f"'{v}' is not a number", no + 1,
-                                       "POINTS2D") from None
                 if k % 3 == 2:
                     _int(v, path, no + 1, "POINTS2D")
+                else:
+                    parse_number(v, str(path), no + 1, "POINTS2D")
             raise
         if iid in seen:
             raise ProjectError(str(path), f"duplicate image id {iid}", no, "IMAGE_ID")

@@ -363,6 +363,9 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
                                         (cam["size_px"][1] / 2 - y) * cam["py"]]))
         rows_sig.append(s * cam["py"])
     photo = np.concatenate(rows_photo)
+    if not len(photo):
+        raise ProjectError(spath, "no image measurements in the <image_pts> files",
+                           ip_node.line)
     xy = np.vstack(rows_xy)
     sig = np.concatenate(rows_sig)
 

@@ -21,15 +21,15 @@ import numpy as np
 
 from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.errors import ProjectError
-from baarda.io.project import load_toml, read_ground_points
+from baarda.io.project import load_toml, read_ground_points, toml_table
 from baarda.io.records import ENCODING
 from baarda.io.table import Table
 
 
 def _positive(values, name: str) -> tuple[float, ...]:
     vals = tuple(float(v) for v in values)
-    if min(vals) <= 0:
-        raise ValueError(f"{name} must be positive")
+    if not all(np.isfinite(v) and v > 0 for v in vals):
+        raise ValueError(f"{name} must be finite positive numbers")
     return vals
 
 
@@ -38,9 +38,9 @@ def read_settings(path: Path, encoding: str = ENCODING) -> ModelSettings:
     s = ModelSettings()
     doc, s.angle_unit = load_toml(path, s.angle_unit, encoding)
     s.name = str(doc.get("name", path.parent.name))
-    sig = doc.get("sigma", {})
-    tests = doc.get("tests", {})
-    pre = doc.get("models", {})
+    sig = toml_table(doc, "sigma", path)
+    tests = toml_table(doc, "tests", path)
+    pre = toml_table(doc, "models", path)
     try:
         s.sigma_model_um = _positive((sig.get("model_xy_um", s.sigma_model_um[0]),
                                       sig.get("model_z_um", s.sigma_model_um[1])),
@@ -54,7 +54,7 @@ def read_settings(path: Path, encoding: str = ENCODING) -> ModelSettings:
         s.beta0 = float(tests.get("beta0", s.beta0))
         s.pre_um = _positive((pre.get("pre_xy_um", s.pre_um[0]),
                               pre.get("pre_z_um", s.pre_um[1])), "models.pre_xy_um / pre_z_um")
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise ProjectError(str(path), f"bad setting: {e}") from None
     if not (0 < s.alpha0 < 0.5 and 0.5 <= s.beta0 < 1):
         raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "

@@ -116,7 +116,8 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING) -> Block:
     objs, obj_lines, i = _section(lines, i, spath, 7, "object point")
     marks, mark_lines, i = _section(lines, i, spath, 6, "marked point")
     if not len(marks):
-        raise ProjectError(spath, "no marked points", i)
+        raise ProjectError(spath, "no marked points (expected after the control and object "
+                           "point sections, each ended by a blank line)", min(i, len(lines)))
 
     # cameras: one per distinct set of inner parameters
     inner = np.array([p[2] for p in photos])
@@ -157,11 +158,12 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING) -> Block:
         raise ProjectError(spath, f"control point {ids[bad[0]]}: standard deviations must be "
                            "positive")
 
-    photo = marks[:, 0].astype(np.int64)
-    bad = np.flatnonzero((photo < 0) | (photo >= len(photos)) | (marks[:, 0] != photo))
+    bad = np.flatnonzero(~((marks[:, 0] >= 0) & (marks[:, 0] < len(photos)) &
+                           (marks[:, 0] == np.round(marks[:, 0]))))
     if len(bad):
         raise ProjectError(spath, f"unknown photo number {marks[bad[0], 0]:g}",
                            mark_lines[bad[0]], "photo")
+    photo = marks[:, 0].astype(np.int64)
     point = np.array([index[_pid(v)] for v in marks[:, 1]], dtype=np.int64)
     cam = cam_of[photo]
     xy = np.column_stack([(marks[:, 2] - iw / 2) * px[cam], (ih / 2 - marks[:, 3]) * py[cam]])

@@ -26,7 +26,7 @@ from baarda.block.photo_block import (
 )
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, decode_text
+from baarda.io.records import ENCODING, decode_text, file_bytes
 from baarda.io.table import Table
 
 FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
@@ -35,10 +35,9 @@ FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "groun
 def load_toml(path: Path, default_unit: str = "gon",
               encoding: str = ENCODING) -> tuple[dict, str]:
     """project.toml as a dict and its checked angle unit; errors name the file."""
-    if not path.is_file():
-        raise ProjectError(str(path), "file not found (a project folder needs project.toml)")
+    data = file_bytes(path, "file not found (a project folder needs project.toml)")
     try:
-        doc = tomllib.loads(decode_text(path.read_bytes(), str(path), encoding))
+        doc = tomllib.loads(decode_text(data, str(path), encoding))
     except tomllib.TOMLDecodeError as e:
         raise ProjectError(str(path), f"not valid TOML: {e}") from None
     unit = str(doc.get("angle_unit", default_unit))
@@ -51,6 +50,24 @@ def load_toml(path: Path, default_unit: str = "gon",
 DATUMS = ("control", "free")
 
 
+def toml_table(doc: dict, key: str, path: Path) -> dict:
+    """The table `key` of a project.toml document ({} when absent); ProjectError when the
+    key holds a value that is not a table."""
+    value = doc.get(key, {})
+    if not isinstance(value, dict):
+        raise ProjectError(str(path), f"'{key}' must be a table ([{key}] followed by its "
+                           f"keys), not a {type(value).__name__}", column=key)
+    return value
+
+
+def positive_settings(path: Path, values: dict[str, float]) -> None:
+    """ProjectError naming the first setting that is not a finite positive number."""
+    for name, v in values.items():
+        if not (np.isfinite(v) and v > 0):
+            raise ProjectError(str(path), f"{name} = {v!r}: standard deviations and thresholds "
+                               "must be finite positive numbers", column=name)
+
+
 def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     """The settings of project.toml and the document (to tell given from default values)."""
     s = Settings()
@@ -60,24 +77,29 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     if unit != "mm":
         raise ProjectError(str(path), f"image_unit '{unit}': image coordinates must be in mm",
                            column="image_unit")
-    sigma = doc.get("sigma", {})
+    sigma = toml_table(doc, "sigma", path)
+    tests = toml_table(doc, "tests", path)
     try:
         s.sigma_image_um = float(sigma.get("image_um", s.sigma_image_um))
         ctrl = sigma.get("control_m", s.sigma_control_m)
         ctrl = [float(ctrl)] * 3 if np.isscalar(ctrl) else [float(c) for c in ctrl]
-        tests = doc.get("tests", {})
         s.alpha0 = float(tests.get("alpha0", s.alpha0))
         s.beta0 = float(tests.get("beta0", s.beta0))
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise ProjectError(str(path), f"a setting is not a number: {e}") from None
-    if len(ctrl) != 3 or min(ctrl) <= 0 or s.sigma_image_um <= 0:
-        raise ProjectError(str(path), "standard deviations must be positive "
-                           "(sigma.image_um, sigma.control_m = [X, Y, Z])")
+    if len(ctrl) != 3:
+        raise ProjectError(str(path), "sigma.control_m must be one number or [X, Y, Z]",
+                           column="sigma.control_m")
+    positive_settings(path, {"sigma.image_um": s.sigma_image_um,
+                             **{f"sigma.control_m[{k}]": c for k, c in enumerate(ctrl)}})
     s.sigma_control_m = tuple(ctrl)
     if not (0 < s.alpha0 < 0.5 and 0.5 <= s.beta0 < 1):
         raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "
                            "[0.5, 1)")
-    s.crs = doc.get("crs")
+    s.crs = doc.get("crs") or None
+    if s.crs is not None and not isinstance(s.crs, str):
+        raise ProjectError(str(path), "crs must be a string such as \"EPSG:25832\"",
+                           column="crs")
     s.datum = str(doc.get("datum", s.datum))
     if s.datum not in DATUMS:
         raise ProjectError(str(path), f"datum '{s.datum}' is not one of control, free",

@@ -40,12 +40,35 @@ def decode_text(data: bytes, path: str, encoding: str = ENCODING) -> str:
                            line) from None
 
 
-def read_lines(path: str | Path, encoding: str = ENCODING) -> list[str]:
-    """Lines of a text file without line ends (CRLF or LF); ProjectError if unreadable."""
+LINE_END = re.compile(r"\r\n|\r|\n")
+
+
+def split_lines(text: str) -> list[str]:
+    """Lines without their ends (LF, CRLF or CR; no line after a final line end).  Unlike
+    str.splitlines, form feeds, vertical tabs, U+2028 and the like are not line ends, so
+    that line numbers are those an editor shows."""
+    lines = LINE_END.split(text)
+    if lines[-1] == "":
+        lines.pop()
+    return lines
+
+
+def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
+    """The bytes of a file; ProjectError naming it when it is not a file (`what`) or cannot
+    be read (permissions, a name too long for the file system, ...)."""
     p = Path(path)
-    if not p.is_file():
-        raise ProjectError(str(path), "file not found")
-    return decode_text(p.read_bytes(), str(path), encoding).splitlines()
+    try:
+        if not p.is_file():
+            raise ProjectError(str(path), what)
+        return p.read_bytes()
+    except OSError as e:
+        raise ProjectError(str(path), f"cannot be read ({e.strerror or e})") from None
+
+
+def read_lines(path: str | Path, encoding: str = ENCODING) -> list[str]:
+    """Lines of a text file without line ends (CRLF, LF or CR); ProjectError if
+    unreadable."""
+    return split_lines(decode_text(file_bytes(path), str(path), encoding))
 
 
 class Columns:

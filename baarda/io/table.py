@@ -18,7 +18,14 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, Columns, decode_text, is_utf8
+from baarda.io.records import (
+    ENCODING,
+    Columns,
+    decode_text,
+    file_bytes,
+    is_utf8,
+    split_lines,
+)
 
 # quotes, blanks, comments, CR, blank lines, lines that start with a comma (or consist of
 # commas): the line-by-line reader
@@ -31,10 +38,7 @@ class Table(Columns):
 
     def __init__(self, path: str | Path, required: list[str], encoding: str = ENCODING):
         self.path = str(path)
-        p = Path(path)
-        if not p.is_file():
-            raise ProjectError(self.path, "file not found")
-        data = p.read_bytes()
+        data = file_bytes(path)
         if data.startswith(b"\xef\xbb\xbf"):
             data = data[3:]
         if not is_utf8(encoding):  # the readers below take UTF-8
@@ -57,16 +61,18 @@ class Table(Columns):
         text = decode_text(data, self.path)
         header, header_line, width = None, 0, 0
         rows, lines = [], []
-        for no, raw in enumerate(text.split("\n"), start=1):
-            line = raw.rstrip("\r")
+        for no, line in enumerate(split_lines(text), start=1):
             s = line.strip()
             if not s.replace(",", "").strip() or s.startswith("#"):
                 continue
             if header is not None and line.count(",") + 1 > MAX_FIELDS_FACTOR * width:
                 raise ProjectError(self.path, f"expected {width} fields, found "
                                    f"{line.count(',') + 1}", no)
-            row = ([c.strip() for c in line.split(",")] if '"' not in line else
-                   [c.strip() for c in next(csv.reader([line], skipinitialspace=True))])
+            try:
+                row = ([c.strip() for c in line.split(",")] if '"' not in line else
+                       [c.strip() for c in next(csv.reader([line], skipinitialspace=True))])
+            except csv.Error as e:
+                raise ProjectError(self.path, f"not a CSV record: {e}", no) from None
             if header is None:
                 header, header_line, width = row, no, len(row)
                 continue
@@ -181,7 +187,10 @@ def _read_arrow(data: bytes):
     import pyarrow.csv as pcsv
 
     head = data[:data.find(b"\n")] if b"\n" in data else data
-    names = head.decode("utf-8", "replace").split(",")
+    try:  # pyarrow checks the values, not the column names
+        names = head.decode("utf-8").split(",")
+    except UnicodeDecodeError:
+        return None
     try:
         return pcsv.read_csv(
             io.BytesIO(data), read_options=pcsv.ReadOptions(use_threads=True),

@@ -12,6 +12,7 @@ from pathlib import Path
 from xml.parsers import expat
 
 from baarda.errors import ProjectError
+from baarda.io.records import file_bytes
 
 
 @dataclass
@@ -47,11 +48,14 @@ class _Refused(Exception):
 def parse_xml(path: str | Path) -> Node:
     """Parse an XML file into Nodes; ProjectError with the line of a syntax error."""
     p = Path(path)
-    if not p.is_file():
-        raise ProjectError(str(path), "file not found")
-    if p.stat().st_size > MAX_BYTES:
-        raise ProjectError(str(path), f"{p.stat().st_size} bytes: larger than an XML project "
+    try:
+        size = p.stat().st_size if p.is_file() else 0
+    except OSError as e:
+        raise ProjectError(str(path), f"cannot be read ({e.strerror or e})") from None
+    if size > MAX_BYTES:
+        raise ProjectError(str(path), f"{size} bytes: larger than an XML project "
                            f"description can be ({MAX_BYTES} bytes)")
+    data = file_bytes(p)
     parser = expat.ParserCreate()
     parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
     stack: list[Node] = []
@@ -87,12 +91,16 @@ def parse_xml(path: str | Path) -> Node:
     parser.EndElementHandler = end
     parser.CharacterDataHandler = chars
     try:
-        parser.Parse(p.read_bytes(), True)
+        parser.Parse(data, True)
     except _Refused as e:
         raise e.args[0] from None
     except expat.ExpatError as e:
         raise ProjectError(str(path), f"not valid XML: {expat.ErrorString(e.code)}",
                            e.lineno) from None
+    except (LookupError, ValueError) as e:  # the encoding of <?xml ... encoding="..."?>
+        raise ProjectError(str(path), f"the encoding that the XML declaration names cannot "
+                           f"be read ({e}); use UTF-8", parser.CurrentLineNumber or 1,
+                           "encoding") from None
     if not root:
         raise ProjectError(str(path), "no XML element")
     return root[0]

@@ -13,7 +13,7 @@ from baarda.bundle.diagnostics import _photo_medians, diagnose
 from baarda.cli import main
 from baarda.errors import GeometryError, ProjectError
 from baarda.io.project import read_project
-from baarda.pipeline import read
+from baarda.pipeline import adjust, read
 
 DEMO = Path(__file__).parents[2] / "examples" / "demo"
 
@@ -120,3 +120,42 @@ def test_photo_medians_equal_numpy_medians():
     ref = [np.median(d[(block.image.photo == i) & np.isfinite(d)])
            for i in range(len(block.photos))]
     assert np.allclose(_photo_medians(block, d), ref, rtol=0, atol=0)
+
+
+def test_intersection_of_rays_that_are_not_finite(small_block):
+    """Fuzz find (issue 15): a NaN or inf ray (an orientation or image coordinate that
+    overflows) made numpy's eigvalsh raise LinAlgError; such points are not intersected."""
+    from baarda.bundle.geometry import intersect
+
+    block, _ = small_block
+    eo = block.photos.eo.copy()
+    eo[0, 3] = np.inf
+    points = np.unique(block.image.point)
+    xyz = intersect(block, eo, points)
+    on_first = np.isin(points, block.image.point[block.image.photo == 0])
+    assert np.isnan(xyz[on_first]).all() and np.isfinite(xyz[~on_first]).all()
+
+
+def test_height_control_without_x_and_y(demo, capsys):
+    """Fuzz find (issue 15): a height control point with empty X and Y (docs/format.md
+    allows it) made the test whether the height control lies on one line a numpy
+    LinAlgError (SVD of NaN)."""
+    def height_only(t):
+        t.loc[t.point == "002005", ["X", "Y"]] = ""
+
+    edit(demo, "ground_points.csv", height_only)
+    block = read(demo)
+    assert np.isnan(block.points.xyz[block.points.ids.index("002005"), :2]).all()
+    assert main(["adjust", str(demo), "-o", str(demo.parent / "out"), "-q"]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def test_sigma_so_small_that_its_weight_overflows(demo, capsys):
+    """Fuzz find (issue 15): sigma_um = 5e-324 gave an infinite weight (numpy's divide by
+    zero warning) and then 'the residuals at the approximate values are not finite'."""
+    def tiny(t):
+        t.loc[0, "sigma_um"] = "5e-324"
+
+    edit(demo, "image_points.csv", tiny)
+    with pytest.raises(GeometryError, match="standard deviation 0 .* too small: its weight"):
+        adjust(read(demo))

@@ -1,12 +1,19 @@
 """Models formed from image coordinates by relative orientation."""
 
+import shutil
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from baarda.errors import GeometryError
 from baarda.independent import similarity
 from baarda.independent.forming import form_models, model_pairs
 from baarda.independent.model_problem import adjust_models
+from baarda.pipeline import read_models
 from baarda.simulate.aerial import FlightPlan, simulate_block
+
+DEMO = Path(__file__).parents[2] / "examples" / "demo"
 
 
 def test_noise_free_models_are_similar_to_the_terrain():
@@ -63,3 +70,17 @@ def test_datum_free_removes_the_similarity_part():
     np.testing.assert_allclose(both, datum_free(noise, xyz), atol=1e-12)
     assert np.all(np.linalg.eigvalsh(both) > -1e-15)
     assert np.all(np.diagonal(both, axis1=1, axis2=2) < 0.01**2)
+
+
+def test_singular_relative_orientation_is_a_geometry_error(tmp_path):
+    """Fuzz find (issue 15): an image coordinate of 3.7e85 mm made the covariance of a
+    relative orientation a numpy LinAlgError (singular matrix)."""
+    shutil.copytree(DEMO, tmp_path / "demo")
+    f = tmp_path / "demo" / "image_points.csv"
+    lines = f.read_text().split("\n")
+    parts = lines[1].split(",")
+    parts[3] = "3.735227700714507e+85"
+    lines[1] = ",".join(parts)
+    f.write_text("\n".join(lines))
+    with pytest.raises(GeometryError, match="relative orientation of photos 01001 and 01002"):
+        read_models(tmp_path / "demo")

@@ -69,6 +69,22 @@ def test_bad_settings(project):
         read_model_project(path)
 
 
+@pytest.mark.parametrize("toml, match", [
+    ("models = 1\n", "'models' must be a table"),  # was AttributeError
+    ("sigma = [1, 2]\n", "'sigma' must be a table"),
+    ("[sigma]\nmodel_xy_um = nan\n", "finite positive"),  # NaN was accepted
+    ("[models]\npre_z_um = inf\n", "finite positive"),
+    ("[tests]\nalpha0 = 1" + "0" * 400 + "\n", "not a number|int too large"),  # OverflowError
+])
+def test_settings_of_the_wrong_type_or_not_finite(project, toml, match):
+    """Fuzz finds (issue 15)."""
+    _, path = project
+    (path / "project.toml").write_text(toml)
+    with pytest.raises(ProjectError, match=match) as e:
+        read_model_project(path)
+    assert e.value.path.endswith("project.toml")
+
+
 def test_command_writes_every_output(project, tmp_path, capsys):
     _, path = project
     out = tmp_path / "out"
@@ -101,3 +117,23 @@ def test_simulate_command_and_bundle_project_input(tmp_path):
                  "--deformations", "none"]) == 0
     s = json.loads((tmp_path / "bo" / "summary.json").read_text())
     assert s["adjustments"]["3d"]["converged"]
+
+
+@pytest.mark.parametrize("row, value, message", [
+    (40, "1e160", "the normal equations overflow"),  # was ValueError of the Cholesky
+    (1, "1e200", "the similarity of the models to the control has scale 0"),  # ZeroDivision
+])
+def test_model_coordinates_far_too_large(tmp_path, capsys, row, value, message):
+    """Fuzz finds (issue 15): model coordinates far beyond any model reached numpy and the
+    Cholesky factorisation as inf; now exit 2 with a GeometryError."""
+    assert main(["simulate-models", "-o", str(tmp_path / "p")]) == 0
+    f = tmp_path / "p" / "models.csv"
+    lines = f.read_text().split("\n")
+    parts = lines[row].split(",")
+    parts[lines[0].split(",").index("x_mm")] = value
+    lines[row] = ",".join(parts)
+    f.write_text("\n".join(lines))
+    capsys.readouterr()
+    assert main(["models", str(tmp_path / "p"), "-o", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and not (tmp_path / "out").exists()

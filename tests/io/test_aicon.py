@@ -3,6 +3,7 @@ repository: the tests read it from ../shared/data/aicon_jaicov_closerange and sk
 so, when it is absent."""
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -100,6 +101,23 @@ def test_minimal_project(tmp_path):
                                                                     [1e-3, 2e-3, 3e-3])
 
 
+def test_huge_sigmas_do_not_overflow(tmp_path):
+    """Fuzz find (issue 15): the mean square of sx and sy overflowed for sx = 1e200."""
+    phc = PHC.replace("1.0 2.0 0.0005 0.0005", "1.0 2.0 1e200 1e200")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        b = read_aicon(_project(tmp_path, phc=phc)).to_block()
+    assert np.allclose(b.image.sigma_mm, [1e200, 0.0005])
+
+
+def test_no_active_observations(tmp_path):
+    """Fuzz find (issue 15): a project without active observations gave a block with a NaN
+    image sigma (the median of nothing, with numpy's RuntimeWarning)."""
+    with pytest.raises(ProjectError, match="no active observations") as e:
+        read_aicon(_project(tmp_path, obc="")).to_block()
+    assert e.value.path.endswith("t.phc")
+
+
 @pytest.mark.parametrize("over, ext, line, column", [
     ({"phc": PHC.replace("1.0 2.0", "1.0 x")}, "phc", 1, "y"),
     ({"phc": PHC.replace(" 1 1 1\n2", " 1 1\n2")}, "phc", 1, None),
@@ -111,6 +129,9 @@ def test_minimal_project(tmp_path):
     ({"obc": OBC.replace("6 1 2 3", "6 1 2")}, "obc", 1, None),
     ({"ior": IOR.replace(" 0\n", " 0 1\n")}, "ior", 2, None),
     ({"scale": '0 bar 6 7 1000.0 0.01 1\n'}, "scale", 1, None),
+    # fuzz find (issue 15): a form feed or U+2028 is no line end (the line numbers were off)
+    ({"phc": "\x0c" + PHC.replace("2 6 1.5", "2 6 x")}, "phc", 2, "x"),
+    ({"scale": '\u2028\n0 bar 6 7 1000.0 0.01 1\n'}, "scale", 2, None),
 ])
 def test_malformed(tmp_path, over, ext, line, column):
     with pytest.raises(ProjectError) as e:

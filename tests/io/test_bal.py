@@ -102,6 +102,7 @@ GOOD = "2 1 2\n0 0 1.5 -2.5\n1 0 3.5 4.5\n" + "0\n0\n0\n0\n0\n-5\n500\n0\n0\n" \
     (GOOD.replace("1 0 3.5 4.5", "1 0 x 4.5"), 3, "observation"),
     (GOOD.replace("\n500\n", "\nabc\n", 1), 10, "camera"),
     (GOOD.replace("\n500\n", "\n-500\n", 1), 10, "f"),
+    (GOOD.replace("0\n0\n0\n0\n0\n-5", "1e200\n0\n0\n0\n0\n-5", 1), 4, "r"),  # fuzz
     (GOOD[:-4], 23, None),
     (GOOD + "7\n", 25, None),
 ])
@@ -111,6 +112,20 @@ def test_malformed(tmp_path, text, line, field):
     with pytest.raises(ProjectError) as e:
         read_bal(path)
     assert e.value.line == line and e.value.column == field
+
+
+def test_form_feed_is_no_line_end(tmp_path):
+    """Fuzz find (issue 15): a form feed or vertical tab (whitespace inside a line) split
+    the line, so later lines were misnumbered or misread."""
+    path = tmp_path / "p.txt"
+    path.write_text(GOOD.replace("0 0 1.5 -2.5\n", "0 0 1.5 -2.5\x0c\n")
+                    .replace("\n500\n", "\n\x0b500\n", 1))
+    assert np.allclose(read_bal(path).cameras[0, 6], 500)
+    path.write_text(GOOD.replace("0 0 1.5 -2.5\n", "0 0 1.5 -2.5\x0c\n")
+                    .replace("\n500\n", "\nabc\n", 1))
+    with pytest.raises(ProjectError) as e:
+        read_bal(path)
+    assert e.value.line == 10 and e.value.column == "camera"
 
 
 def test_minimal_file_and_bad_bzip2(tmp_path):

@@ -7,6 +7,7 @@
 * an adjusted model written back and read again carries the adjusted poses and points.
 """
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -27,6 +28,7 @@ from baarda.io.colmap import (
 )
 from baarda.io.colmap_block import colmap_to_block, colmap_with_block, eo_to_pose, pose_to_eo
 from baarda.output.format_files import write_colmap
+from baarda.pipeline import read
 
 SPARSE = Path(__file__).resolve().parents[1] / "data" / "colmap_maupertuis" / "sparse"
 
@@ -280,6 +282,71 @@ def test_model_checks(tmp_path, binary):
         assert err.detail == (f"point 5: track element ({iid}, {idx}) does not point back "
                               "to this point")
         assert Path(err.path).name == f"points3D{ext}"
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_numbers_that_are_not_finite(tmp_path, binary):
+    """Fuzz find (issue 15): the binary reader took NaN and inf (the text reader refuses
+    them), which reached the geometry as numpy's LinAlgError."""
+    m = _synthetic()
+    im, pt = m.images, m.points
+    qvec, xys, xyz = im.qvec.copy(), im.xys.copy(), pt.xyz.copy()
+    qvec[1, 2] = np.nan
+    err = _broken(tmp_path, binary, images={"qvec": qvec})
+    assert ("image 2: QW QX QY QZ TX TY TZ: not a finite number" if binary else
+            "'nan' is not a finite number") in err.detail
+    xys[im.offsets[2] + 1, 1] = np.inf
+    err = _broken(tmp_path, binary, images={"xys": xys})
+    assert ("image 3: keypoint 1 is not a finite number" if binary else
+            "'inf' is not a finite number") in err.detail
+    xyz[3, 0] = -np.inf
+    err = _broken(tmp_path, binary, points={"xyz": xyz})
+    assert ("point 4: X Y Z ERROR: not a finite number" if binary else
+            "'-inf' is not a finite number") in err.detail
+    model = replace(m, cameras={1: ColmapCamera("PINHOLE", 1000, 800,
+                                                np.array([900.0, np.inf, 500, 400]))})
+    write_colmap(model, tmp_path / "cam", binary=binary)
+    with pytest.raises(ProjectError, match="not a finite number") as e:
+        read_colmap(tmp_path / "cam")
+    assert Path(e.value.path).name == f"cameras{'.bin' if binary else '.txt'}"
+    empty = ColmapModel(m.cameras)  # no images, no points: read, refused by the conversion
+    write_colmap(empty, tmp_path / "empty", binary=binary)
+    assert len(read_colmap(tmp_path / "empty").images) == 0
+    with pytest.raises(ProjectError, match="no images or no 3D points"):
+        read(tmp_path / "empty")
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_zero_and_huge_quaternions(tmp_path, binary):
+    """Fuzz finds (issue 15): a zero quaternion gave NaN orientations, a huge one overflowed
+    in its norm (numpy's RuntimeWarnings); zero is refused, any other is normalised."""
+    m = _synthetic()
+    qvec = m.images.qvec.copy()
+    qvec[2] = 0.0
+    write_colmap(replace(m, images=replace(m.images, qvec=qvec)), tmp_path / "z", binary=binary)
+    with pytest.raises(ProjectError, match="image 3: the quaternion QW QX QY QZ is zero") as e:
+        read(tmp_path / "z")
+    assert Path(e.value.path).name == f"images{'.bin' if binary else '.txt'}"
+    qvec[2] = [1e300, 0, 0, 1e300]
+    write_colmap(replace(m, images=replace(m.images, qvec=qvec)), tmp_path / "h", binary=binary)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        block = read(tmp_path / "h")
+    assert np.allclose(qvec_to_matrix(qvec[2]), qvec_to_matrix([1, 0, 0, 1]))
+    assert np.isfinite(block.photos.eo).all()
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_conversion_errors_name_the_file(tmp_path, binary):
+    """Fuzz find (issue 15): errors of the conversion named '<folder>: camera 1', no file."""
+    m = _synthetic()
+    model = replace(m, cameras={1: ColmapCamera("PINHOLE", 1000, 800,
+                                                np.array([0.0, 900, 500, 400]))})
+    write_colmap(model, tmp_path, binary=binary)
+    with pytest.raises(ProjectError) as e:
+        read(tmp_path)
+    assert e.value.path == str(tmp_path / f"cameras{'.bin' if binary else '.txt'}")
+    assert e.value.detail == "camera 1: focal length must be positive"
 
 
 @pytest.mark.parametrize("binary", [False, True])

@@ -210,6 +210,24 @@ def test_minimal_script_reads(tmp_path):
     assert b.photos.ids == ["a", "b"] and len(b.image) == 2
 
 
+def test_unreadable_file_names(tmp_path):
+    """Fuzz find (issue 15): a file name too long for the file system escaped as OSError."""
+    name = "1" * 400 + ".txt"
+    p = _write(tmp_path, XML.format(extra="").replace("pts.txt", name), FILES)
+    with pytest.raises(ProjectError, match="cannot be read") as e:
+        read_dbat(p)
+    assert Path(e.value.path).name == name
+
+
+def test_no_image_measurements(tmp_path):
+    """Fuzz find (issue 15): empty image point files gave a block with a NaN image sigma
+    (the median of nothing, with numpy's RuntimeWarning)."""
+    p = _write(tmp_path, XML.format(extra=""), dict(FILES, **{"pts.txt": "# id, im, x, y\n"}))
+    with pytest.raises(ProjectError, match="no image measurements") as e:
+        read_dbat(p)
+    assert e.value.path == str(p) and e.value.line == 6
+
+
 @pytest.mark.parametrize("change, where", [
     ({"pts.txt": "1, 1, 100.5, abc\n"}, ("pts.txt", 1, "y")),
     ({"pts.txt": "1, 1, 100.5\n"}, ("pts.txt", 1, None)),
@@ -245,3 +263,14 @@ def test_broken_xml_names_line(tmp_path):
     with pytest.raises(ProjectError) as e:
         read_dbat(p)
     assert e.value.line == 8 and "XML" in str(e.value)
+
+
+@pytest.mark.parametrize("encoding", ["nan", "shift_jis", "rot13", "idna"])
+def test_xml_declaration_naming_an_unreadable_encoding(tmp_path, encoding):
+    """Fuzz find (issue 15): expat's LookupError / ValueError escaped (unknown encodings,
+    codecs that are not text encodings, multi-byte encodings)."""
+    xml = XML.format(extra="").replace('"1.0"?>', f'"1.0" encoding="{encoding}"?>', 1)
+    p = _write(tmp_path, xml, FILES)
+    with pytest.raises(ProjectError, match="encoding") as e:
+        read_dbat(p)
+    assert e.value.path == str(p) and e.value.line == 1

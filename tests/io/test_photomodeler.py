@@ -73,9 +73,13 @@ def test_minimal_export(tmp_path):
     (GOOD.replace(" 0.0005 20 100 80", " 0.0005 20"), 2),
     (GOOD.replace("   0 1 2 30 0.5 0.1 0.2", "   0 1 2 x 0.5 0.1 0.2"), 7),
     (GOOD.replace(" 0 1 50 40 1 1", " 3 1 50 40 1 1"), 17),
+    (GOOD.replace(" 0 1 50 40 1 1", " 9.3e18 1 50 40 1 1"), 17),  # cast overflowed (fuzz)
     (GOOD.replace(" 0 1 50 40 1 1", " 0 1 50 40 1"), 17),
     (GOOD.replace("   0 a.jpg", "   1 a.jpg"), 6),
     ("Something else\n" + GOOD[15:], 1),
+    (HEADER + PHOTO, 11),  # no marked points: named the line after the end (fuzz, issue 15)
+    (GOOD.replace(" 20 20 20\n", " 20 20 20\x0c\n").replace(" 0 1 50 40 1 1", " 0 1 50 40 1"),
+     17),  # a form feed is no line end
 ])
 def test_malformed(tmp_path, text, line):
     p = tmp_path / "x.txt"

@@ -1,6 +1,7 @@
 """Reading, validation messages and round trip of the native project format."""
 
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +11,7 @@ from baarda.io.project import read_project
 from baarda.output.project_files import write_project
 from baarda.pipeline import adjust
 
+DEMO = Path(__file__).parents[2] / "examples" / "demo"
 
 @pytest.fixture()
 def project(tmp_path, small_block):
@@ -104,6 +106,60 @@ def test_bad_settings(project):
     edit(project / "project.toml", 'angle_unit = "gon"', 'angle_unit = "grad"')
     with pytest.raises(ProjectError, match="angle_unit 'grad'"):
         read_project(project)
+
+
+@pytest.mark.parametrize("first, old, new, column", [
+    ('sigma = "gon"', "[sigma]", "[x]", "sigma"),  # was AttributeError
+    ("tests = 5", "[tests]", "[x]", "tests"),
+    ("", "image_um = 5.0", "image_um = nan", "sigma.image_um"),  # NaN, inf were accepted
+    ("", "control_m = [0.05, 0.05, 0.1]", "control_m = [0.05, inf, 0.1]",
+     "sigma.control_m[1]"),
+    ("", "control_m = [0.05, 0.05, 0.1]", "control_m = [0.05, 0.05]", "sigma.control_m"),
+    ("crs = 5", "", "", "crs"),
+    ("", "image_um = 5.0", "image_um = 1" + "0" * 400, None),  # was OverflowError
+])
+def test_settings_of_the_wrong_type_or_not_finite(tmp_path, first, old, new, column):
+    """Fuzz finds (issue 15): a key that should hold a table holding a value, NaN or inf
+    standard deviations, a CRS that is not a string."""
+    shutil.copytree(DEMO, tmp_path / "demo")
+    f = tmp_path / "demo" / "project.toml"
+    f.write_text(first + "\n" + f.read_text().replace(old, new))
+    with pytest.raises(ProjectError) as e:
+        read_project(tmp_path / "demo")
+    assert e.value.path.endswith("project.toml") and e.value.column == column
+
+
+def test_carriage_returns_and_quotes(tmp_path):
+    """Fuzz find (issue 15): a file with CR line ends and a quote was one line with CRs
+    inside, which the csv module refused with its own error (_csv.Error)."""
+    shutil.copytree(DEMO, tmp_path / "demo")
+    ref = read_project(tmp_path / "demo")
+    for name in ("cameras.csv", "photos.csv"):
+        f = tmp_path / "demo" / name
+        f.write_bytes(f.read_bytes().replace(b"\n", b"\r").replace(b"cam,", b'"cam",'))
+    block = read_project(tmp_path / "demo")  # CR-only line ends, as the other readers take
+    assert block.photos.ids == ref.photos.ids
+    assert np.array_equal(block.photos.eo, ref.photos.eo)
+    f = tmp_path / "demo" / "cameras.csv"
+    f.write_bytes(b'camera,focal_mm,x0_mm,y0_mm\ncam,"153.0\r",0,0\n')
+    with pytest.raises(ProjectError, match="expected 4 fields, found 2") as e:
+        read_project(tmp_path / "demo")
+    assert e.value.path == str(f) and e.value.line == 2
+    f.write_bytes(b'camera,focal_mm,x0_mm,y0_mm\ncam,"' + b"1" * 200_000 + b'",0,0\n')
+    with pytest.raises(ProjectError, match="not a CSV record: field larger") as e:
+        read_project(tmp_path / "demo")  # the csv module's limit, was _csv.Error
+    assert e.value.path == str(f) and e.value.line == 2
+
+
+def test_header_that_is_not_utf8(tmp_path):
+    """Fuzz find (issue 15): a byte that is not UTF-8 in the header line of a plain CSV
+    file escaped the fast reader as a UnicodeDecodeError."""
+    shutil.copytree(DEMO, tmp_path / "demo")
+    f = tmp_path / "demo" / "cameras.csv"
+    f.write_bytes(b"\xff" + f.read_bytes())
+    with pytest.raises(ProjectError, match="not utf-8 text: byte 0xff") as e:
+        read_project(tmp_path / "demo")
+    assert e.value.path == str(f) and e.value.line == 1
 
 
 def test_bad_role_and_sigma(project):
