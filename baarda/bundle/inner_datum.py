@@ -21,6 +21,8 @@ Z = Sigma Gp (d columns of N^-1, one solve each),
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
@@ -62,13 +64,44 @@ def angle_directions(angles: np.ndarray, h: float = 1e-7) -> np.ndarray:
     return out
 
 
-def inner_datum(result, points: np.ndarray | None = None
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(xyz (n_adjusted, 3), point cofactor blocks (n_adjusted, 3, 3), eo (n_photos, 6)) of
-    a free-network result in the inner datum of `points` (indices of adjusted points,
-    default all).  Coordinates: the adjusted ones moved by the similarity that best fits
-    the datum points onto their approximations (the nonlinear form of the inner
-    constraints); cofactors: the S-transformation (module docstring)."""
+@dataclass(frozen=True)
+class InnerDatum:
+    """A free network's coordinates and cofactors in the inner datum of its datum points.
+
+    xyz (n_adjusted_points, 3) m, order of problem.point_ids; point_cofactors (n, 3, 3);
+    eo (n_photos, 6) m and rad; frame_cofactors (n_photos, 6, 6); n_datum_points; scale
+    (whether the datum includes the scale: False when distances fix it); similarity
+    (s, R (3, 3), t (3,)) from the adjusted datum onto the inner one, X' = s R X + t.
+    Cofactors are unscaled (multiply by sigma0^2)."""
+
+    xyz: np.ndarray
+    point_cofactors: np.ndarray
+    eo: np.ndarray
+    frame_cofactors: np.ndarray
+    n_datum_points: int
+    scale: bool
+    similarity: tuple[float, np.ndarray, np.ndarray]
+
+
+def _angle_jacobian(r: np.ndarray, angles: np.ndarray, h: float = 1e-7) -> np.ndarray:
+    """(n, 3, 3) d angles(r R(a)) / d a by central differences."""
+    out = np.zeros((len(angles), 3, 3))
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = h
+        plus = angles_from_matrix(r @ rotation_matrix(*(angles + e).T))
+        minus = angles_from_matrix(r @ rotation_matrix(*(angles - e).T))
+        d = (plus - minus + np.pi) % (2 * np.pi) - np.pi
+        out[:, :, k] = d / (2 * h)
+    return out
+
+
+def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
+    """A free-network result in the inner datum of `points` (indices of adjusted points in
+    the order of problem.point_ids, default all).  Coordinates and orientations: the
+    adjusted ones moved by the similarity that best fits the datum points onto their
+    approximations (the nonlinear form of the inner constraints); cofactors: the
+    S-transformation (module docstring), then carried through that similarity."""
     pb, factor = result.problem, result.factor
     s = factor.system
     scale = not bool(len(pb.distances))  # distances fix the scale
@@ -98,7 +131,7 @@ def inner_datum(result, points: np.ndarray | None = None
     k = np.linalg.inv(gtg)
     zs = factor.solve_normal(np.zeros((s.nf, 6, d)), gp_sel, gg_sel) if s.ng else \
         factor.solve_normal(np.zeros((s.nf, 6, d)), gp_sel)
-    zp = zs[1]
+    zf, zp = zs[0], zs[1]
     zg = zs[2] if s.ng else np.zeros((0, d))
     gz = np.einsum("pdi,pdj->ij", gp_sel, zp) + gg_sel.T @ zg
     # cofactor blocks of every adjusted point
@@ -122,7 +155,18 @@ def inner_datum(result, points: np.ndarray | None = None
     if not scale:
         sc = 1.0
         t = approx[sel].mean(axis=0) - r @ xyz[sel].mean(axis=0)
+    # cofactor blocks of every photo, then through the similarity (positions turn and scale,
+    # angles change by the Jacobian of the rotated attitude)
+    fk = gf @ k
+    qf = result.factor.frame_covariance()
+    qf_inner = (qf - fk @ np.swapaxes(zf, 1, 2) - zf @ np.swapaxes(fk, 1, 2)
+                + fk @ gz @ np.swapaxes(fk, 1, 2))
     eo = result.eo.copy()
     eo[:, :3] = sc * eo[:, :3] @ r.T + t
     eo[:, 3:] = angles_from_matrix(r @ rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5]))
-    return sc * xyz @ r.T + t, sc**2 * r @ q_inner @ r.T, eo
+    tf = np.zeros((len(eo), 6, 6))
+    tf[:, :3, :3] = sc * r
+    tf[:, 3:, 3:] = _angle_jacobian(r, result.eo[:, 3:])
+    return InnerDatum(xyz=sc * xyz @ r.T + t, point_cofactors=sc**2 * r @ q_inner @ r.T, eo=eo,
+                      frame_cofactors=tf @ qf_inner @ np.swapaxes(tf, 1, 2),
+                      n_datum_points=len(sel), scale=scale, similarity=(float(sc), r, t))

@@ -141,12 +141,77 @@ def test_inner_datum_is_the_same_from_every_minimal_datum():
     for name in ("redundancy_number", "w", "mdb"):
         assert np.allclose(getattr(qa, name), getattr(qb, name), rtol=1e-7, atol=1e-9,
                            equal_nan=True)
-    xa, ca, _ = inner_datum(a)
-    xb, cb, _ = inner_datum(b)
+    ia, ib = inner_datum(a), inner_datum(b)
+    xa, ca, xb, cb = ia.xyz, ia.point_cofactors, ib.xyz, ib.point_cofactors
     scale = np.abs(ca).max()
     assert np.allclose(ca, cb, rtol=1e-6, atol=1e-9 * scale)
     assert np.allclose(xa, xb, atol=1e-6)
+    assert np.allclose(ia.eo, ib.eo, atol=1e-7)
+    fs = np.abs(ia.frame_cofactors).max()
+    assert np.allclose(ia.frame_cofactors, ib.frame_cofactors, rtol=1e-6, atol=1e-9 * fs)
     trace = lambda q: float(np.trace(q, axis1=1, axis2=2).sum())  # noqa: E731
     assert trace(ca) < trace(a.point_covariance()) and trace(ca) < trace(b.point_covariance())
     # S is a projector: the inner datum of the inner datum is itself (dense check)
     assert BundleModel(a).n == BundleModel(b).n
+
+
+def test_inner_datum_equals_the_dense_inner_constraint_solution():
+    """Independent oracle: the design matrix of every orientation and point unknown (the
+    held ones too) by central differences of the problem's own misclosures, its null space
+    (the 7 datum directions) from the dense normal matrix, and the cofactors of the
+    solution constrained to move the points least: top-left of [[N, C], [C', 0]]^-1 with C
+    the null space restricted to the points (Baarda's inner constraints)."""
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.bundle.free_network import FreeBundleProblem
+    from baarda.bundle.inner_datum import inner_datum
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=4, relief_m=150.0,
+                                         side_overlap=0.6, control="none", height_chains=0,
+                                         seed=5))
+    res = FreeBundleProblem(block).fit()
+    pb = res.problem
+    inner = inner_datum(res)
+    rows = pb.remap[pb.elim_ids]
+    # linearised at the inner-datum solution (the same solution moved by a similarity)
+    state = [inner.eo.copy(), inner.xyz[rows].copy()]
+    nf, npt = len(state[0]), len(state[1])
+
+    def misclosure(st):
+        lin = pb.linearize(tuple(st))
+        return pb.layout.flat(lin.e, lin.ec, lin.ex)
+
+    e0 = misclosure(state)
+    assert np.allclose(e0, misclosure(res.state), atol=1e-9)  # the same residuals
+    cols = [(0, k) for k in range(6 * nf)] + [(1, k) for k in range(3 * npt)]
+    a = np.zeros((len(e0), len(cols)))
+    for j, (part, k) in enumerate(cols):
+        h = 1e-6 * max(1.0, abs(state[part].ravel()[k]))
+        plus, minus = [x.copy() for x in state], [x.copy() for x in state]
+        plus[part].ravel()[k] += h
+        minus[part].ravel()[k] -= h
+        a[:, j] = (misclosure(plus) - misclosure(minus)) / (2 * h)
+    model = BundleModel(res)
+    p = np.where(model.active, 1.0 / model.sigma**2, 0.0)
+    dcol = np.sqrt(p @ a**2)  # column scaling (metres and radians)
+    n = (a / dcol).T @ (p[:, None] * (a / dcol))
+    val, vec = np.linalg.eigh(n)
+    assert val[6] < 1e-12 * val[-1] and val[7] > 1e-10 * val[-1]  # a 7-parameter defect
+    c = vec[:, :7] / dcol[:, None] ** 2  # the datum directions, as constraints on y = D x
+    c[:6 * nf] = 0.0  # the datum points: every point
+    u = len(cols)
+    bordered = np.block([[n, c], [c.T, np.zeros((7, 7))]])
+    q = np.linalg.inv(bordered)[:u, :u] / np.outer(dcol, dcol)
+    for i in range(npt):
+        qi = q[6 * nf + 3 * i:6 * nf + 3 * i + 3, 6 * nf + 3 * i:6 * nf + 3 * i + 3]
+        assert np.allclose(inner.point_cofactors[rows[i]], qi, rtol=1e-6,
+                           atol=1e-6 * np.abs(qi).max())
+    for f in range(nf):
+        qf = q[6 * f:6 * f + 6, 6 * f:6 * f + 6]
+        sd = np.sqrt(np.diag(qf))
+        assert np.allclose(inner.frame_cofactors[f] / np.outer(sd, sd), qf / np.outer(sd, sd),
+                           atol=1e-6)
+    # the inner datum moves the points least: their mean correction from the approximations
+    # is zero and so is their mean rotation (linear inner constraints, to first order)
+    d = inner.xyz[rows] - pb.approximations[1]
+    assert np.abs(d.mean(axis=0)).max() < 1e-9
