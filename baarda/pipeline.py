@@ -39,6 +39,7 @@ from baarda.independent.model_hypotheses import UserHypotheses
 from baarda.independent.workflow import BlockQuality, process
 from baarda.io.formats import read_any
 from baarda.io.model_project import read_model_project
+from baarda.io.project import DATUMS
 from baarda.io.records import ENCODING
 from baarda.options import Progress, SolveOptions, TestOptions
 from baarda.quality.assessment import Assessment
@@ -55,8 +56,8 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
     nominal pixel size [mm] and image sigma [px] of COLMAP and BAL inputs; sigma_image_um:
-    image sigma of AICON inputs (default: the .phc file's); datum: "control" or "free"
-    (overrides the input's: see prepare); encoding: of the input's text files (default
+    image sigma of AICON inputs (default: the .phc file's); datum: "control", "free" or
+    "inner" (overrides the input's: see prepare); encoding: of the input's text files (default
     UTF-8); camera_model: put every camera on this model (block/camera_models.py);
     calibrate: the camera parameters to estimate, a list of names ('c', 'x0', 'y0', the
     model's coefficients) for every camera, "all" or "none" (default: what the input says:
@@ -65,8 +66,8 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
                      sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
                      encoding=encoding)
-    if datum not in (None, "control", "free"):
-        raise ValueError(f"datum '{datum}' is not one of control, free")
+    if datum not in (None, *DATUMS):
+        raise ValueError(f"datum '{datum}' is not one of {', '.join(DATUMS)}")
     if crs or datum:
         block = replace(block, settings=replace(block.settings, crs=crs or block.settings.crs,
                                                 datum=datum or block.settings.datum))
@@ -100,10 +101,13 @@ def prepare(block: Block, free: bool | None = None) -> BundleProblem:
 
     The datum is the control unless the block is a free network (`free`, default: the
     block's settings.datum: "free" for inputs without control by nature, COLMAP, BAL and
-    AICON, or `datum = "free"` in project.toml).  A block that should have control and has
-    too little is a GeometryError that names what is missing.  In a free network, control
-    points become check points (their differences refer to the free datum)."""
-    free = block.settings.datum == "free" if free is None else free
+    AICON, or `datum = "free"` in project.toml; "inner": a free network whose coordinates
+    are given in the inner datum of all its points, bundle/inner_datum.py).  A block that
+    should have control and has too little is a GeometryError that names what is missing.
+    In a free network, control points become check points (their differences refer to the
+    free datum)."""
+    inner = block.settings.datum == "inner"
+    free = block.settings.datum in ("free", "inner") if free is None else free
     block = with_approximations(localized(block))
     diagnosis = tuple(diagnose(block))
     if not free:
@@ -111,7 +115,7 @@ def prepare(block: Block, free: bool | None = None) -> BundleProblem:
     if block.points.controlled.any():
         block = as_check_points(block)
     block, _ = drop_points_behind(block)
-    return FreeBundleProblem(block, diagnosis=diagnosis)
+    return FreeBundleProblem(block, diagnosis=diagnosis, inner=inner)
 
 
 def as_check_points(block: Block) -> Block:

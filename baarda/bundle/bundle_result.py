@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,6 +18,22 @@ if TYPE_CHECKING:
     from baarda.bundle.bundle_problem import BundleProblem
 
 HIGH_CORRELATION = 0.95  # camera parameters correlated beyond this are reported
+
+
+@dataclass(frozen=True)
+class Coordinates:
+    """Orientations and points in the datum the results are given in.
+
+    eo (n_photos, 6) m and rad; frame_cofactors (n_photos, 6, 6); xyz (n_adjusted_points, 3)
+    m in the order of problem.point_ids; point_cofactors (n_adjusted_points, 3, 3); datum:
+    "adjusted" (the control, or a free network's minimal constraints) or "inner".
+    Cofactors are unscaled (times sigma0^2: covariances)."""
+
+    eo: np.ndarray
+    frame_cofactors: np.ndarray
+    xyz: np.ndarray
+    point_cofactors: np.ndarray
+    datum: str
 
 
 @dataclass(frozen=True)
@@ -91,6 +108,20 @@ class BundleResult(AdjustmentCounts):
     @property
     def eo_std(self) -> np.ndarray:
         return self.scaled_std(self.factor.frame_covariance())
+
+    @cached_property
+    def coordinates(self) -> Coordinates:
+        """Orientations and points with their cofactors as the results give them: as
+        adjusted, or for a free network asked for in its inner datum (datum "inner")
+        S-transformed to it (bundle/inner_datum.py).  `eo`, `xyz` and the other members of
+        this result stay as adjusted (the state the statistics were computed at)."""
+        if getattr(self.problem, "inner", False):
+            from baarda.bundle.inner_datum import inner_datum
+
+            i = inner_datum(self)
+            return Coordinates(i.eo, i.frame_cofactors, i.xyz, i.point_cofactors, "inner")
+        return Coordinates(self.eo, self.factor.frame_covariance(), self.xyz,
+                           self.point_covariance(), "adjusted")
 
     def point_covariance(self) -> np.ndarray:
         """(n_adjusted_points, 3, 3) cofactor blocks of every adjusted point."""

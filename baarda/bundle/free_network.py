@@ -42,11 +42,12 @@ class FreeBundleProblem(BundleProblem):
     """A BundleProblem without control whose datum is held by minimal constraints."""
 
     def __init__(self, block: Block, datum: tuple[int, int, int] | None = None,
-                 diagnosis: tuple[str, ...] = ()):
+                 diagnosis: tuple[str, ...] = (), inner: bool = False):
         if np.any(block.points.controlled):
             raise GeometryError("the block has control points: adjust it with its control "
                                 "(a free-network datum would over-constrain it)")
         self.datum = choose_datum(block) if datum is None else datum
+        self.inner = inner  # results given in the inner datum of all points
         a, b, k = self.datum
         held = np.zeros((len(block.photos), 6), bool)
         held[a] = True
@@ -61,6 +62,14 @@ class FreeBundleProblem(BundleProblem):
         ids = self.block.photos.ids
         scale = ("the scale by the distance observations" if self.scaled else
                  f"{'XYZ'[k]}0 of photo {ids[b]} (scale)")
+        if self.inner:
+            return ("datum: FREE NETWORK (no control) in the INNER DATUM of all adjusted "
+                    "points: adjusted with minimal constraints (photo "
+                    f"{ids[a]} held and {scale}), coordinates and standard deviations then "
+                    "S-transformed to the datum in which the points move least from their "
+                    "approximations (" + ("6 parameters, the distances fix the scale"
+                                          if self.scaled else "7 parameters") + "); the "
+                    "observations' statistics do not depend on the datum")
         return (f"datum: FREE NETWORK (no control): minimal constraints, photo {ids[a]} held "
                 f"(its six orientation unknowns) and {scale}; coordinates and their standard "
                 "deviations refer to this datum, the observations' statistics do not depend "

@@ -5,7 +5,9 @@ from __future__ import annotations
 from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
 from baarda.cli.common import add_encoding_option
+from baarda.errors import ProjectError
 from baarda.io.formats import FORMATS
+from baarda.io.project import DATUMS
 from baarda.pipeline import read
 
 
@@ -29,18 +31,28 @@ def add_input_options(p) -> None:
                    "the model's coefficients (e.g. c,x0,y0,k1,k2,p1,p2), 'all' or 'none'. "
                    "Default: project.toml [calibration], or what the source program "
                    "estimated (AICON, DBAT, BAL)")
-    p.add_argument("--free", action="store_true", help="adjust as a free network (datum by "
-                   "minimal constraints; control points become check points). Default: "
-                   "free for COLMAP, BAL and AICON input and for projects with datum = "
-                   "\"free\", else the control")
+    p.add_argument("--datum", choices=DATUMS, help="control: the control fixes the block; "
+                   "free: a free network (minimal constraints; control points become check "
+                   "points); inner: a free network whose coordinates and standard deviations "
+                   "are given in the inner datum of all its points (S-transformation). "
+                   "Default: free for COLMAP, BAL and AICON input, else project.toml's datum "
+                   "(default control)")
+    p.add_argument("--free", action="store_true", help="the same as --datum free")
 
 
 def read_input(args) -> Block:
     """baarda.pipeline.read with the command's input options."""
     return read(args.input, args.format, crs=args.crs, pixel_mm=args.pixel_mm,
                 sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
-                datum="free" if args.free else None, encoding=args.encoding,
+                datum=datum_option(args), encoding=args.encoding,
                 camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate))
+
+
+def datum_option(args) -> str | None:
+    """--datum or --free (None: the input's datum)."""
+    if args.free and args.datum not in (None, "free"):
+        raise ProjectError("command line", f"--free and --datum {args.datum} contradict")
+    return "free" if args.free else args.datum
 
 
 def calibrate_option(text: str | None):

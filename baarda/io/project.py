@@ -47,7 +47,7 @@ def load_toml(path: Path, default_unit: str = "gon",
     return doc, unit
 
 
-DATUMS = ("control", "free")
+DATUMS = ("control", "free", "inner")  # inner: a free network in its inner datum
 
 
 def toml_table(doc: dict, key: str, path: Path) -> dict:
@@ -102,7 +102,7 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
                            column="crs")
     s.datum = str(doc.get("datum", s.datum))
     if s.datum not in DATUMS:
-        raise ProjectError(str(path), f"datum '{s.datum}' is not one of control, free",
+        raise ProjectError(str(path), f"datum '{s.datum}' is not one of control, free, inner",
                            column="datum")
     return s, doc
 

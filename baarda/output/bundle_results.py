@@ -19,12 +19,13 @@ from baarda.quality.assessment import Assessment, observation_table
 def photos_table(result: BundleResult) -> pd.DataFrame:
     blk = result.block
     unit = blk.settings.angle_unit
-    ang = rad_to_angle(result.eo[:, 3:], unit)
-    std = result.eo_std
+    c = result.coordinates
+    ang = rad_to_angle(c.eo[:, 3:], unit)
+    std = result.scaled_std(c.frame_cofactors)
     sang = rad_to_angle(std[:, 3:], unit)
     cams = np.asarray(blk.cameras.ids, dtype=object)[blk.photos.camera]
     df = pd.DataFrame({"photo": blk.photos.ids, "strip": blk.photos.strip, "camera": cams,
-                       "X0": result.eo[:, 0], "Y0": result.eo[:, 1], "Z0": result.eo[:, 2],
+                       "X0": c.eo[:, 0], "Y0": c.eo[:, 1], "Z0": c.eo[:, 2],
                        "omega": ang[:, 0], "phi": ang[:, 1], "kappa": ang[:, 2],
                        "sigma_X0": std[:, 0], "sigma_Y0": std[:, 1], "sigma_Z0": std[:, 2],
                        "sigma_omega": sang[:, 0], "sigma_phi": sang[:, 1],
@@ -36,11 +37,12 @@ def points_table(result: BundleResult) -> pd.DataFrame:
     blk = result.block
     pb = result.problem
     ids = np.asarray(blk.points.ids, dtype=object)[pb.point_ids]
-    std = result.xyz_std
+    c = result.coordinates
+    std = result.scaled_std(c.point_cofactors)
     given = blk.points.xyz[pb.point_ids]
     role = blk.points.role[pb.point_ids]
-    df = pd.DataFrame({"point": ids, "role": role, "X": result.xyz[:, 0],
-                       "Y": result.xyz[:, 1], "Z": result.xyz[:, 2], "sigma_X": std[:, 0],
+    df = pd.DataFrame({"point": ids, "role": role, "X": c.xyz[:, 0],
+                       "Y": c.xyz[:, 1], "Z": c.xyz[:, 2], "sigma_X": std[:, 0],
                        "sigma_Y": std[:, 1], "sigma_Z": std[:, 2],
                        "rays": blk.rays()[pb.point_ids]})
     compared = result.compared_xyz()
@@ -58,12 +60,13 @@ def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
     """
     frame = result.block.frame
     ph = photos_table(result)
-    eo = frame.eo_from_local(result.eo)
+    co = result.coordinates
+    eo = frame.eo_from_local(co.eo)
     unit = result.block.settings.angle_unit
     ang = rad_to_angle(eo[:, 3:], unit)
     s2 = result.sigma0**2
-    cf = result.factor.frame_covariance()[:, :3, :3] * s2
-    sf = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(result.eo[:, :3], cf),
+    cf = co.frame_cofactors[:, :3, :3] * s2
+    sf = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(co.eo[:, :3], cf),
                                         axis1=1, axis2=2), 0))
     for k, c in enumerate(("X0", "Y0", "Z0")):
         ph[c] = eo[:, k]
@@ -71,17 +74,18 @@ def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
     for k, c in enumerate(("omega", "phi", "kappa")):
         ph[c] = ang[:, k]
     pt = points_table(result)
-    xyz = frame.from_local(result.xyz)
-    cp = result.factor.point_covariance() * s2
-    sp = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(result.xyz, cp),
+    xyz = frame.from_local(co.xyz)
+    cp = co.point_cofactors * s2
+    sp = np.sqrt(np.maximum(np.diagonal(frame.covariance_from_local(co.xyz, cp),
                                         axis1=1, axis2=2), 0))
     block = result.block
     given = frame.from_local(block.points.xyz[result.problem.point_ids])
+    compared = frame.from_local(result.compared_xyz())  # free networks: after the similarity
     role = block.points.role[result.problem.point_ids]
     for k, c in enumerate("XYZ"):
         pt[c] = xyz[:, k]
         pt[f"sigma_{c}"] = sp[:, k]
-        pt[f"d{c}"] = np.where(role != "tie", xyz[:, k] - given[:, k], np.nan)
+        pt[f"d{c}"] = np.where(role != "tie", compared[:, k] - given[:, k], np.nan)
     return ph, pt
 
 

@@ -215,3 +215,33 @@ def test_inner_datum_equals_the_dense_inner_constraint_solution():
     # is zero and so is their mean rotation (linear inner constraints, to first order)
     d = inner.xyz[rows] - pb.approximations[1]
     assert np.abs(d.mean(axis=0)).max() < 1e-9
+
+
+def test_inner_datum_from_the_command_line(tmp_path):
+    """`--datum inner`: the same residuals and check-point differences as `--free`, points.csv
+    and photos.csv in the inner datum (the least sum of point variances), the summary says
+    so; project.toml datum = "inner" does the same."""
+    import pandas as pd
+
+    from baarda.cli import main
+
+    proj = tmp_path / "proj"
+    assert main(["simulate", "-o", str(proj), "--pattern", "5", "--relief", "100"]) == 0
+    assert main(["adjust", str(proj), "-o", str(tmp_path / "inner"), "--datum", "inner",
+                 "-q"]) == 0
+    assert main(["adjust", str(proj), "-o", str(tmp_path / "free"), "--free", "-q"]) == 0
+    pi, pf = (pd.read_csv(tmp_path / f / "points.csv") for f in ("inner", "free"))
+    var = lambda d: float((d[["sigma_X", "sigma_Y", "sigma_Z"]] ** 2).sum().sum())  # noqa
+    assert var(pi) < 0.1 * var(pf)
+    assert np.allclose(pi[["dX", "dY", "dZ"]], pf[["dX", "dY", "dZ"]], atol=1e-6,
+                       equal_nan=True)
+    oi, of = (pd.read_csv(tmp_path / f / "observations.csv") for f in ("inner", "free"))
+    assert np.allclose(oi["w"], of["w"], atol=1e-6, equal_nan=True)
+    assert "INNER DATUM" in (tmp_path / "inner" / "summary.json").read_text()
+    toml = proj / "project.toml"
+    toml.write_text('datum = "inner"\n' + toml.read_text())
+    assert main(["adjust", str(proj), "-o", str(tmp_path / "toml"), "-q"]) == 0
+    pt = pd.read_csv(tmp_path / "toml" / "points.csv")
+    assert np.allclose(pt[["X", "Y", "Z"]], pi[["X", "Y", "Z"]], atol=1e-9)
+    assert main(["adjust", str(proj), "-o", str(tmp_path / "x"), "--free", "--datum",
+                 "control"]) == 2
