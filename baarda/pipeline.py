@@ -51,7 +51,7 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          pixel_mm: float = 0.001, sigma_px: float = 1.0,
          sigma_image_um: float | None = None, datum: str | None = None,
          encoding: str = ENCODING, camera_model: str | None = None,
-         calibrate=None) -> Block:
+         calibrate=None, camera: str | Path | None = None) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
@@ -61,11 +61,13 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     UTF-8); camera_model: put every camera on this model (block/camera_models.py);
     calibrate: the camera parameters to estimate, a list of names ('c', 'x0', 'y0', the
     model's coefficients) for every camera, "all" or "none" (default: what the input says:
-    project.toml [calibration], or what the source program estimated).
+    project.toml [calibration], or what the source program estimated); camera: a DBAT
+    camera file (e.g. DBAT's calibration result) replacing a DBAT script's camera (it is
+    still estimated where the script estimates it, unless calibrate="none").
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
                      sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
-                     encoding=encoding)
+                     encoding=encoding, camera=camera)
     if datum not in (None, *DATUMS):
         raise ValueError(f"datum '{datum}' is not one of {', '.join(DATUMS)}")
     if crs or datum:

@@ -31,6 +31,9 @@ def add_input_options(p) -> None:
                    "the model's coefficients (e.g. c,x0,y0,k1,k2,p1,p2), 'all' or 'none'. "
                    "Default: project.toml [calibration], or what the source program "
                    "estimated (AICON, DBAT, BAL)")
+    p.add_argument("--camera", metavar="FILE", help="a DBAT camera file (e.g. DBAT's "
+                   "calibration result) replacing a DBAT script's camera; with --calibrate "
+                   "none it is held fixed. Default: the script's camera")
     p.add_argument("--datum", choices=DATUMS, help="control: the control fixes the block; "
                    "free: a free network (minimal constraints; control points become check "
                    "points); inner: a free network whose coordinates and standard deviations "
@@ -45,7 +48,8 @@ def read_input(args) -> Block:
     return read(args.input, args.format, crs=args.crs, pixel_mm=args.pixel_mm,
                 sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
                 datum=datum_option(args), encoding=args.encoding,
-                camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate))
+                camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate),
+                camera=args.camera)
 
 
 def datum_option(args) -> str | None:

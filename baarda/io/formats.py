@@ -59,18 +59,22 @@ def detect(path: str | Path) -> str:
 
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.001,
              sigma_px: float = 1.0, sigma_image_mm: float | None = None,
-             encoding: str = ENCODING) -> Block:
+             encoding: str = ENCODING, camera: str | Path | None = None) -> Block:
     """Read any supported input into a Block.
 
     pixel_mm, sigma_px: nominal pixel size and image sigma for formats without a physical
     pixel size (COLMAP, BAL); sigma_image_mm: image sigma for AICON (default: the file's);
     encoding: of the text files of a project, AICON or PhotoModeler input (COLMAP and BAL
-    are UTF-8 / ASCII by definition, DBAT's XML names its own).
+    are UTF-8 / ASCII by definition, DBAT's XML names its own); camera: a DBAT camera file
+    (a calibration result) replacing a DBAT script's camera.
     """
     p = Path(path)
     fmt = fmt or detect(p)
     if fmt not in FORMATS:
         raise ProjectError(str(p), f"unknown format '{fmt}' (one of {', '.join(FORMATS)})")
+    if camera is not None and fmt != "dbat":
+        raise ProjectError(str(camera), f"a camera file replaces the camera of a DBAT script; "
+                           f"{p.name} is {fmt} input (give its cameras in its own files)")
     if fmt == "project":
         return read_project(p, encoding)
     if fmt == "colmap":
@@ -80,7 +84,7 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.00
     if fmt == "aicon":
         return read_aicon(p, encoding).to_block(sigma_image_mm=sigma_image_mm)
     if fmt == "dbat":
-        return read_dbat(p)
+        return read_dbat(p, camera=camera)
     if fmt == "photomodeler":
         return read_photomodeler(p, encoding)
     return read_bal_block(p, pixel_mm=pixel_mm, sigma_px=sigma_px)

@@ -73,3 +73,20 @@ def test_fixed_control_is_fixed_and_not_tested(result, tmp_path):
 
     obs = pd.read_csv(tmp_path / "o" / "observations.csv")
     assert not (obs["kind"] == "control").any()  # fixed: not an observation, never tested
+
+
+def test_calibrated_camera_from_the_command_line(tmp_path):
+    """`--camera result/c4040z.xml --calibrate none`: DBAT's calibrated camera held fixed,
+    redundancy 3734 (3725 + the 9 parameters) and sqrt(vTPv) 98.556 as DBAT's (98.542 when
+    the fixed control was entered with sigma 1e-6 m, realdata.md); a camera file for input
+    that is not a DBAT script is a clear error."""
+    import json
+
+    cam = DATA / "result" / "c4040z.xml"
+    out = tmp_path / "out"
+    assert main(["adjust", str(SCRIPT), "--camera", str(cam), "--calibrate", "none",
+                 "-o", str(out), "-q"]) == 0
+    part = json.loads((out / "summary.json").read_text())["adjustments"]["bundle"]
+    assert part["redundancy"] == 3734 and abs(np.sqrt(part["vtpv"]) - 98.556) < 5e-4
+    demo = Path(__file__).resolve().parents[2] / "examples" / "demo"
+    assert main(["adjust", str(demo), "--camera", str(cam), "-o", str(tmp_path / "x")]) == 2
