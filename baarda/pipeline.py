@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import CALIBRATION_GROUPS, cameras_per_strip
 from baarda.block.crs import localize
 from baarda.block.model_block import ModelBlock
 from baarda.block.photo_block import Block, Photos
@@ -51,7 +52,8 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          pixel_mm: float = 0.001, sigma_px: float = 1.0,
          sigma_image_um: float | None = None, datum: str | None = None,
          encoding: str = ENCODING, camera_model: str | None = None,
-         calibrate=None, camera: str | Path | None = None) -> Block:
+         calibrate=None, camera: str | Path | None = None,
+         calibration_group: str | None = None) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
@@ -63,7 +65,9 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     model's coefficients) for every camera, "all" or "none" (default: what the input says:
     project.toml [calibration], or what the source program estimated); camera: a DBAT
     camera file (e.g. DBAT's calibration result) replacing a DBAT script's camera (it is
-    still estimated where the script estimates it, unless calibrate="none").
+    still estimated where the script estimates it, unless calibrate="none");
+    calibration_group: "strip" estimates the camera parameters per camera and strip
+    (block/camera.py cameras_per_strip), "camera" or None as the input says.
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
                      sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
@@ -78,6 +82,11 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
             block = with_calibration(block, camera_model, calibrate)
         except ValueError as e:
             raise ProjectError("command line", str(e)) from None
+    if calibration_group not in (None, *CALIBRATION_GROUPS):
+        raise ValueError(f"calibration group '{calibration_group}' is not one of "
+                         f"{', '.join(CALIBRATION_GROUPS)}")
+    if calibration_group == "strip":
+        block = cameras_per_strip(block)
     return block
 
 

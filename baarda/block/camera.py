@@ -139,3 +139,36 @@ def check_cameras(cameras) -> None:
             if bad:
                 raise ValueError(f"camera {cameras.ids[i]}: '{bad[0]}' is not a parameter of "
                                  f"model '{k}' ({', '.join(parameter_names(cameras, i))})")
+
+
+CALIBRATION_GROUPS = ("camera", "strip")
+
+
+def cameras_per_strip(block):
+    """The block with one camera for every (camera, strip) pair that its photos use, so that
+    a self-calibration estimates each strip's parameters of its own (calibration group
+    "strip"); the copies are named "CAMERA/STRIP" and start from their camera's values.  A
+    camera used in one strip only keeps its id."""
+    from dataclasses import replace
+
+    cams, ph = block.cameras, block.photos
+    strips = np.asarray([str(s) for s in ph.strip], dtype=object)
+    pairs: dict[tuple[int, str], int] = {}
+    new_camera = np.empty(len(ph), dtype=np.int64)
+    for i, (c, s) in enumerate(zip(ph.camera.tolist(), strips.tolist(), strict=True)):
+        new_camera[i] = pairs.setdefault((c, s), len(pairs))
+    source = np.array([c for c, _ in pairs], dtype=np.int64)
+    n_strips = {c: sum(1 for cc, _ in pairs if cc == c) for c, _ in pairs}
+    ids = [cams.ids[c] if n_strips[c] == 1 else f"{cams.ids[c]}/{s}" for c, s in pairs]
+
+    def take(a):
+        return None if a is None else np.asarray(a)[source]
+
+    new = replace(cams, ids=ids, focal_mm=cams.focal_mm[source],
+                  principal_point_mm=cams.principal_point_mm[source], model=take(cams.model),
+                  coefficients=take(cams.coefficients), constants=take(cams.constants),
+                  free=None if cams.free is None else tuple(cams.free[c] for c in source))
+    return replace(block, cameras=new, photos=replace(ph, camera=new_camera),
+                   notes=list(block.notes) + [
+                       f"calibration per strip: {len(cams)} camera(s) -> {len(new)} "
+                       "(one per camera and strip)"])

@@ -31,6 +31,10 @@ def add_input_options(p) -> None:
                    "the model's coefficients (e.g. c,x0,y0,k1,k2,p1,p2), 'all' or 'none'. "
                    "Default: project.toml [calibration], or what the source program "
                    "estimated (AICON, DBAT, BAL)")
+    p.add_argument("--calibration-group", choices=("camera", "strip"), help="camera: the "
+                   "parameters of a camera are shared by all its photos; strip: estimated "
+                   "per camera and strip. Default: project.toml [calibration] group, else "
+                   "camera")
     p.add_argument("--camera", metavar="FILE", help="a DBAT camera file (e.g. DBAT's "
                    "calibration result) replacing a DBAT script's camera; with --calibrate "
                    "none it is held fixed. Default: the script's camera")
@@ -49,7 +53,7 @@ def read_input(args) -> Block:
                 sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
                 datum=datum_option(args), encoding=args.encoding,
                 camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate),
-                camera=args.camera)
+                camera=args.camera, calibration_group=args.calibration_group)
 
 
 def datum_option(args) -> str | None:

@@ -13,7 +13,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from baarda.block.camera import KINDS, model_of, parameter_names
+from baarda.block.camera import (
+    CALIBRATION_GROUPS,
+    KINDS,
+    cameras_per_strip,
+    model_of,
+    parameter_names,
+)
 from baarda.block.photo_block import (
     Block,
     Cameras,
@@ -192,7 +198,7 @@ def _calibration(doc: dict, cameras: Cameras, path: Path) -> tuple[tuple[str, ..
     every = cal.get("free", [])
     out = []
     for i, cid in enumerate(cameras.ids):
-        own = cal.get(cid, {})
+        own = cal.get(cid, {}) if cid != "group" else {}
         free = own.get("free", every) if isinstance(own, dict) else every
         if not isinstance(free, list) or not all(isinstance(p, str) for p in free):
             raise ProjectError(str(path), "calibration 'free' must be a list of parameter "
@@ -321,8 +327,21 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
     distances = (read_distances(dist, ids, float(doc.get("sigma", {}).get("distance_m", 0.001))
                                 if isinstance(doc.get("sigma"), dict) else 0.001, encoding)
                  if dist.is_file() else no_distances())
-    return Block(settings, cameras, photos, image, points, source=str(folder), notes=notes,
-                 distances=distances)
+    block = Block(settings, cameras, photos, image, points, source=str(folder), notes=notes,
+                  distances=distances)
+    return cameras_per_strip(block) if _calibration_group(doc, folder / "project.toml") == \
+        "strip" else block
+
+
+def _calibration_group(doc: dict, path: Path) -> str:
+    """[calibration] group: "camera" (default; the parameters of a camera are shared by all
+    its photos) or "strip" (estimated per camera and strip)."""
+    cal = doc.get("calibration", {})
+    group = cal.get("group", "camera") if isinstance(cal, dict) else "camera"
+    if group not in CALIBRATION_GROUPS:
+        raise ProjectError(str(path), f"calibration group '{group}' is not one of "
+                           f"{', '.join(CALIBRATION_GROUPS)}", column="calibration")
+    return group
 
 
 def read_distances(path: Path, point_ids: list[str], default_sigma_m: float,
