@@ -186,4 +186,16 @@ def localize(block: Block, crs: str | None = None) -> Block:
     points = replace(pts, xyz=xyz)
     notes = list(block.notes) + [f"adjusted in a local east-north-up frame of {frame.crs.name} "
                                  "(heights ellipsoidal); results converted back"]
-    return replace(block, photos=photos, points=points, notes=notes, frame=frame)
+    gnss, imu = block.gnss, block.imu
+    if len(gnss):
+        gnss = replace(gnss, xyz=frame.to_local(gnss.xyz))
+    if len(imu):  # attitudes turn with the frame at the photo's place
+        where = eo[imu.photo, :3]
+        if len(block.gnss):
+            at = np.full((len(eo), 3), np.nan)
+            at[block.gnss.photo] = block.gnss.xyz
+            where = np.where(np.isfinite(where), where, at[imu.photo])
+        where = np.where(np.isfinite(where), where, base.mean(axis=0))
+        imu = replace(imu, angles=frame.eo_to_local(np.column_stack([where, imu.angles]))[:, 3:])
+    return replace(block, photos=photos, points=points, notes=notes, frame=frame, gnss=gnss,
+                   imu=imu)

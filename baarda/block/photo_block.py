@@ -32,6 +32,13 @@ class Settings:
     beta0: float = DEFAULT_TESTS.beta0
     crs: str | None = None
     datum: str = "control"  # control: the control fixes the block; free: minimal constraints
+    # GNSS/IMU (docs/format.md [gnss], [imu]): lever arm (m, camera frame) from the
+    # projection centre to the antenna; shifts per block or strip and a linear drift per
+    # strip as unknowns; IMU boresight misalignment held (identity) or estimated
+    gnss_lever_arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gnss_offsets: str = "none"  # none | block | strip
+    gnss_drift: bool = False
+    imu_boresight: str = "fixed"  # fixed | estimated
 
 
 @dataclass
@@ -132,6 +139,43 @@ def no_distances() -> Distances:
 
 
 @dataclass
+class GnssObservations:
+    """Observed GNSS antenna positions of photos (m, ground frame) with their a-priori
+    standard deviations; the antenna is the projection centre plus the lever arm
+    (Settings.gnss_lever_arm, camera frame).  time: optional (s)."""
+
+    photo: np.ndarray  # (k,) index into Photos
+    xyz: np.ndarray  # (k, 3)
+    sigma: np.ndarray  # (k, 3)
+    time: np.ndarray | None = None  # (k,)
+
+    def __len__(self) -> int:
+        return len(self.photo)
+
+
+@dataclass
+class ImuObservations:
+    """Observed attitudes of photos: omega, phi, kappa (rad, the convention of Photos.eo) of
+    the IMU, which is the camera's attitude turned by the boresight misalignment
+    (Settings.imu_boresight), with a-priori standard deviations (rad)."""
+
+    photo: np.ndarray  # (k,) index into Photos
+    angles: np.ndarray  # (k, 3)
+    sigma: np.ndarray  # (k, 3)
+
+    def __len__(self) -> int:
+        return len(self.photo)
+
+
+def no_gnss() -> GnssObservations:
+    return GnssObservations(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
+
+
+def no_imu() -> ImuObservations:
+    return ImuObservations(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
+
+
+@dataclass
 class Block:
     settings: Settings
     cameras: Cameras
@@ -142,6 +186,8 @@ class Block:
     notes: list[str] = field(default_factory=list)
     frame: LocalFrame | None = None  # ground coordinates are local ENU of this CRS frame
     distances: Distances = field(default_factory=no_distances)
+    gnss: GnssObservations = field(default_factory=no_gnss)
+    imu: ImuObservations = field(default_factory=no_imu)
 
     @property
     def photo_index(self) -> dict[str, int]:
@@ -165,4 +211,6 @@ class Block:
                 f"{len(self.image)} image points, {len(self.points)} ground points "
                 f"({int(np.sum(roles == 'control'))} control, {int(np.sum(roles == 'check'))} "
                 f"check, {int(np.sum(roles == 'tie'))} tie)"
-                + (f", {len(self.distances)} distance(s)" if len(self.distances) else ""))
+                + (f", {len(self.distances)} distance(s)" if len(self.distances) else "")
+                + (f", {len(self.gnss)} GNSS position(s)" if len(self.gnss) else "")
+                + (f", {len(self.imu)} IMU attitude(s)" if len(self.imu) else ""))
