@@ -13,16 +13,23 @@ import numpy as np
 from baarda.adjustment.schur_model import SchurModel
 from baarda.bundle.bundle_result import BundleResult
 
+ANGLE_UNITS = {"gon": (200e3 / np.pi, "mgon"), "deg": (180e3 / np.pi, "mdeg"),
+               "rad": (1e3, "mrad")}
+
 
 class BundleModel(SchurModel):
     """The quality layer's view of a BundleResult; labels come from its problem."""
 
-    units = {"image": (1e3, "µm"), "control": (1.0, "m"), "distance": (1.0, "m")}
+    units = {"image": (1e3, "µm"), "control": (1.0, "m"), "distance": (1.0, "m"),
+             "gnss": (1.0, "m"), "imu": (1e3, "mrad")}
     frame_kind = "photo"
 
     def __init__(self, result: BundleResult):
         self.result = result
         pb = result.problem
+        unit = result.block.settings.angle_unit  # IMU residuals in the project's unit / 1000
+        if unit in ANGLE_UNITS:
+            self.units = {**self.units, "imu": ANGLE_UNITS[unit]}
         self.factor, self.layout = result.factor, pb.layout
         self.residuals = self.layout.flat(result.image_residuals,
                                           np.nan_to_num(result.control_residuals),

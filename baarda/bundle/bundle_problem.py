@@ -23,6 +23,7 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth, camera_projection
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
+from baarda.bundle.gnss_imu import GnssImu
 from baarda.errors import GeometryError
 from baarda.options import Progress, SolveOptions
 
@@ -94,21 +95,24 @@ class BundleProblem(SchurProblem):
         self.held_points[self.eremap[self.control]] = np.isfinite(sig_c) & (sig_c == 0)
         self.held_border = np.zeros((len(self.border_ids), 3), bool)
         self.held_border[self.bremap[self.border_control]] = np.isfinite(sig_b) & (sig_b == 0)
-        # global unknowns: free camera parameters, then border point coordinates
+        # global unknowns: free camera parameters, border point coordinates, then the
+        # GNSS shifts and drifts and the IMU boresight (bundle/gnss_imu.py)
         self.calibration = Calibration(block.cameras)
         self.g_points = self.calibration.n  # first global column of the border points
-        ng = self.calibration.n + 3 * len(self.border_ids)
+        self.gnss_imu = GnssImu(block, self.calibration.n + 3 * len(self.border_ids))
+        ng = self.calibration.n + 3 * len(self.border_ids) + self.gnss_imu.n
         m, nc = len(self.obs), len(self.control)
         mb, nbc, nd = len(self.border_obs), len(self.border_ctrl_sel), len(self.distances)
         self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(observed_c.ravel()),
-                                 2 * mb + nbc + nd, 1)
+                                 2 * mb + nbc + nd + self.gnss_imu.m, 1)
         sel = self.layout.ctrl_sel
         self.sigma_apriori = read_only(np.concatenate([
             im.sigma_xy[self.obs].ravel(), sig_c.ravel()[sel],
             im.sigma_xy[self.border_obs].ravel(), sig_b.ravel()[self.border_ctrl_sel],
-            dist.sigma_m[self.distances]]))
+            dist.sigma_m[self.distances], self.gnss_imu.sigma]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
-        warnings = [] if self.held is not None else check_datum(
+        by_gnss = len(block.gnss) >= 3 and block.settings.gnss_offsets == "none"
+        warnings = [] if self.held is not None or by_gnss else check_datum(
             block, ok & np.isin(np.arange(len(pts)), np.concatenate(
                 [self.control, self.border_control])))
         self.notes = self.diagnosis + tuple(warnings) + tuple(point_notes) + tuple(notes)
@@ -120,7 +124,7 @@ class BundleProblem(SchurProblem):
         for i, cols in enumerate(self.calibration.columns):
             gcol[cam == i, :len(cols)] = cols
         x_frame = np.concatenate([np.repeat(im.photo[self.border_obs], 2),
-                                  np.full(nbc + nd, -1)])
+                                  np.full(nbc + nd, -1), self.gnss_imu.photos])
         n_fixed = (0 if self.held is None else int(self.held.sum())) + \
             int(self.held_points.sum()) + int(self.held_border.sum())
         self.system = SchurSystem(
@@ -129,14 +133,16 @@ class BundleProblem(SchurProblem):
             point_names=[pts.ids[j] for j in self.elim_ids], n_fixed=n_fixed, ng=ng,
             gcol=gcol, x_frame=x_frame,
             global_names=self.calibration.labels + [
-                f"coordinate {c} of point {pts.ids[j]}" for j in self.border_ids for c in "XYZ"])
+                f"coordinate {c} of point {pts.ids[j]}" for j in self.border_ids for c in "XYZ"]
+            + self.gnss_imu.labels)
         eo = block.photos.eo
         keep = np.isin(np.arange(len(pts)), self.point_ids)
         xyz = approximate_points(block, keep)
         start = (read_only(eo.copy()), read_only(xyz[self.elim_ids]))
         if ng:
             start += (read_only(np.concatenate([self.calibration.start(),
-                                                xyz[self.border_ids].ravel()])),)
+                                                xyz[self.border_ids].ravel(),
+                                                np.zeros(self.gnss_imu.n)])),)
         self.approximations = start
         # the size of the block for the convergence test: the flying height
         self.scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[keep, 2])))), 1.0)
@@ -151,33 +157,38 @@ class BundleProblem(SchurProblem):
         bsel = self.border_ctrl_sel
         photos = np.asarray(block.photos.ids, dtype=object)
         pids = np.asarray(block.points.ids, dtype=object)
+        gi = self.gnss_imu
+        mg = gi.m
         empty = np.full(len(bsel) + nd, "", dtype=object)
-        self.kind = read_only(np.array(["image"] * (2 * m) + ["control"] * nc
-                                       + ["image"] * (2 * mb) + ["control"] * len(bsel)
-                                       + ["distance"] * nd, dtype=object))
+        self.kind = read_only(np.concatenate([np.array(
+            ["image"] * (2 * m) + ["control"] * nc + ["image"] * (2 * mb)
+            + ["control"] * len(bsel) + ["distance"] * nd, dtype=object), gi.kind]))
         self.component = read_only(np.concatenate(
             [np.tile(XY, m), np.tile(XYZ, len(self.control))[sel], np.tile(XY, mb),
-             np.tile(XYZ, len(self.border_control))[bsel], np.full(nd, "d", dtype=object)]))
+             np.tile(XYZ, len(self.border_control))[bsel], np.full(nd, "d", dtype=object),
+             gi.component]))
         self.frame = read_only(np.concatenate([
             np.repeat(photos[im.photo[self.obs]], 2), np.full(nc, "", dtype=object),
-            np.repeat(photos[im.photo[self.border_obs]], 2), empty]))
+            np.repeat(photos[im.photo[self.border_obs]], 2), empty, photos[gi.photos]]))
         names = np.array([dist.ids[k] for k in self.distances], dtype=object)
         self.point = read_only(np.concatenate([
             np.repeat(pids[im.point[self.obs]], 2), np.repeat(pids[self.control], 3)[sel],
             np.repeat(pids[im.point[self.border_obs]], 2),
-            np.repeat(pids[self.border_control], 3)[bsel], names]))
+            np.repeat(pids[self.border_control], 3)[bsel], names,
+            np.full(mg, "", dtype=object)]))
         self.group = read_only(np.concatenate([
             np.repeat(np.arange(m), 2), np.full(nc, -1), np.repeat(m + np.arange(mb), 2),
-            np.full(len(bsel) + nd, -1)]))
+            np.full(len(bsel) + nd + mg, -1)]))
         # index of each component back into block tables
-        none = np.full(len(bsel) + nd, -1)
+        none = np.full(len(bsel) + nd + mg, -1)
         self.image_row = read_only(np.concatenate([
             np.repeat(self.obs, 2), np.full(nc, -1), np.repeat(self.border_obs, 2), none]))
         self.control_index = read_only(np.concatenate([
             np.full(2 * m, -1), np.repeat(self.control, 3)[sel], np.full(2 * mb, -1),
-            np.repeat(self.border_control, 3)[bsel], np.full(nd, -1)]))
+            np.repeat(self.border_control, 3)[bsel], np.full(nd + mg, -1)]))
         self.distance_index = read_only(np.concatenate([
-            np.full(2 * m + nc + 2 * mb + len(bsel), -1), self.distances]))
+            np.full(2 * m + nc + 2 * mb + len(bsel), -1), self.distances,
+            np.full(mg, -1)]))
 
     def datum_text(self) -> str:
         """What fixes the datum, in words (the summary's second line)."""
@@ -185,9 +196,11 @@ class BundleProblem(SchurProblem):
         ctrl = np.concatenate([self.control, self.border_control])
         c = pts.controlled[ctrl]
         fixed = int((pts.sigma[ctrl] == 0).any(axis=1).sum())
+        gnss = self.gnss_imu.n_gnss
         return (f"datum: the control, {int((c[:, 0] & c[:, 1]).sum())} planimetric and "
                 f"{int(c[:, 2].sum())} height control point(s)"
-                + (f", {fixed} of them fixed" if fixed else ""))
+                + (f", {fixed} of them fixed" if fixed else "")
+                + (f", and {gnss} GNSS projection centre(s)" if gnss else ""))
 
     def apriori_text(self) -> str:
         """The a-priori standard deviations in use (image µm, control m), in words."""
@@ -201,6 +214,13 @@ class BundleProblem(SchurProblem):
         d = sig[self.kind == "distance"]
         if len(d):
             parts.append(f"distances {_spread(d)} m")
+        for c in "XYZ":
+            s = sig[(self.kind == "gnss") & (self.component == c)]
+            if len(s):
+                parts.append(f"GNSS {c} {_spread(s)} m")
+        s = sig[self.kind == "imu"]
+        if len(s):
+            parts.append(f"IMU {_spread(s * 1e3)} mrad")
         return "a-priori sigmas: " + ", ".join(parts)
 
     # ------------------------------------------------- the solver's protocol
@@ -209,7 +229,7 @@ class BundleProblem(SchurProblem):
         eo, xyz = state[0], state[1]
         g = state[2] if len(state) == 3 else np.zeros(0)
         return (eo, xyz, self.calibration.current(g),
-                g[self.g_points:].reshape(-1, 3))
+                g[self.g_points:self.gnss_imu.first].reshape(-1, 3))
 
     def _image_rows(self, rows, eo, xyz_rows, params):
         """f, je, jp, jpar (3 + k columns of its camera) of image rows, camera by camera."""
@@ -266,13 +286,14 @@ class BundleProblem(SchurProblem):
             rows = self.eremap[self.control]
             ep[rows] = np.where(self.held_points[rows], ec, 0.0)
         lin = dict(jg=self._free_columns(self.obs, jpar) if self.system.ng else None)
-        if self.system.ng:
-            lin.update(self._border_rows(eo, params, bxyz))
+        if self.system.ng or self.system.mx:
+            g = state[2] if len(state) == 3 else np.zeros(0)
+            lin.update(self._border_rows(eo, params, bxyz, g))
         return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef, wp=wp, ep=ep, **lin)
 
-    def _border_rows(self, eo, params, bxyz) -> dict:
-        """The extra rows (image points of border points, their control, distances) and the
-        held global unknowns."""
+    def _border_rows(self, eo, params, bxyz, g) -> dict:
+        """The extra rows (image points of border points, their control, distances, GNSS
+        positions and IMU attitudes) and the held global unknowns."""
         b = self.block
         im, pts, dist = b.image, b.points, b.distances
         ng, gp = self.system.ng, self.g_points
@@ -321,12 +342,21 @@ class BundleProblem(SchurProblem):
         ex.append(dist.length_m[self.distances] - length)
         jxf.append(np.zeros((len(a), 1, 6)))
         jxg.append(jd)
+        # GNSS positions and IMU attitudes
+        gi = self.gnss_imu
+        if gi.m:
+            e_g, jf_g, jg_g = gi.rows(eo, g, ng)
+            if self.held is not None:
+                jf_g = np.where(self.held[gi.photos][:, None, :], 0.0, jf_g)
+            ex.append(e_g)
+            jxf.append(jf_g)
+            jxg.append(jg_g)
         wg = np.zeros(ng)
         eg = np.zeros(ng)
         held_cols = gp + np.flatnonzero(held_b.ravel())
         wg[held_cols] = HOLD
         full = np.where(np.isfinite(pts.xyz[self.border_ids]), pts.xyz[self.border_ids], 0.0)
-        eg[gp:] = np.where(held_b, full - bxyz, 0.0).ravel()
+        eg[gp:gi.first] = np.where(held_b, full - bxyz, 0.0).ravel()
         return dict(jxf=np.concatenate(jxf), jxg=np.concatenate(jxg), wx=self.wx,
                     ex=np.concatenate(ex)[:, None], wg=wg, eg=eg)
 
@@ -344,14 +374,21 @@ class BundleProblem(SchurProblem):
             np.maximum.at(out, self.system.gcol[mi, ai], np.abs(lin.jg[mi, :, ai]).max(axis=1))
         c = float(np.median(self.block.cameras.focal_mm))
         out[self.g_points:] = c / self.scale
+        gi = self.gnss_imu
+        if gi.boresight_col >= 0:
+            out[gi.boresight_col:gi.boresight_col + 3] = c  # an angle moves the image c da
         return out
 
     def _sizes(self, step, t: float = 1.0) -> tuple[float, float]:
         dxf, dxp = step[0], step[1]
         dpos = max(np.max(np.abs(dxf[:, :3]), initial=0.0), np.max(np.abs(dxp), initial=0.0))
+        dang = np.max(np.abs(dxf[:, 3:]), initial=0.0)
         if len(step) == 3:
-            dpos = max(dpos, np.max(np.abs(step[2][self.g_points:]), initial=0.0))
-        return t * float(dpos), t * float(np.max(np.abs(dxf[:, 3:]), initial=0.0))
+            gi = self.gnss_imu
+            end = gi.boresight_col if gi.boresight_col >= 0 else len(step[2])
+            dpos = max(dpos, np.max(np.abs(step[2][self.g_points:end]), initial=0.0))
+            dang = max(dang, np.max(np.abs(step[2][end:]), initial=0.0))
+        return t * float(dpos), t * float(dang)
 
     def correction_size(self, state, step) -> float:
         dpos, dang = self._sizes(step)
@@ -410,5 +447,6 @@ class BundleProblem(SchurProblem):
         out = (eo, xyz[self.remap[self.elim_ids]])
         if self.system.ng:
             out += (np.concatenate([self.calibration.start(),
-                                    xyz[self.remap[self.border_ids]].ravel()]),)
+                                    xyz[self.remap[self.border_ids]].ravel(),
+                                    np.zeros(self.gnss_imu.n)]),)
         return out

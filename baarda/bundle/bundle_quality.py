@@ -34,12 +34,15 @@ def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment
 
 def calibration_tests(result: BundleResult, tests: TestOptions) -> tuple[HypothesisTest, ...]:
     """The significance test of each group of estimated camera parameters (interior
-    orientation, radial, decentring, affinity; Ebner's or Gruen's set), camera by camera."""
+    orientation, radial, decentring, affinity; Ebner's or Gruen's set), camera by camera,
+    and of each group of GNSS/IMU unknowns (a shift per block or strip, a strip's drift,
+    the boresight): is it needed?"""
     cal = result.problem.calibration
-    if not cal.n:
+    gi = result.problem.gnss_imu
+    if not cal.n and not gi.n:
         return ()
     g = result.state[2]
-    q = result.camera_covariance()
+    q = result.factor.global_covariance()
     out = []
     for i, cid in enumerate(result.block.cameras.ids):
         cols = cal.columns[i]
@@ -50,6 +53,8 @@ def calibration_tests(result: BundleResult, tests: TestOptions) -> tuple[Hypothe
             else:
                 est = g[c]
             out.append(parameter_test(f"{label} of camera {cid}", est, q[np.ix_(c, c)], tests))
+    for label, c in gi.parameter_groups():  # GNSS shifts and drifts, IMU boresight
+        out.append(parameter_test(label, g[c], q[np.ix_(c, c)], tests))
     return tuple(out)
 
 
