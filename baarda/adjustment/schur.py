@@ -384,6 +384,27 @@ class SchurFactor:
                 out += np.einsum("mkg,gh,mlh->mkl", rows, cinv, rows)
         return q, qc, qx
 
+    def extra_cofactor_blocks(self, groups: np.ndarray) -> np.ndarray:
+        """(G, k, k) cofactor blocks of the adjusted extra observations in `groups` (G, k)
+        of extra-row indices, the rows of a group on one frame (or none), one component
+        each (a GNSS position: X, Y, Z of one photo)."""
+        lin, s = self.lin, self.system
+        groups = np.asarray(groups, np.int64)
+        k = groups.shape[1] if groups.ndim == 2 else 0
+        out = np.zeros((len(groups), k, k))
+        if not len(groups):
+            return out
+        _, sff, _, _ = self.covariances()
+        f = s.x_frame[groups[:, 0]]
+        j = lin.jxf[groups][:, :, 0, :]  # (G, k, b)
+        on = f >= 0
+        out[on] = j[on] @ sff[f[on]] @ np.swapaxes(j[on], 1, 2)
+        if s.ng:
+            ax = self._border_rows()[2][:, 0, :]  # (mx, ng)
+            a = ax[groups]
+            out += np.einsum("Gkg,gh,Glh->Gkl", a, self._c_inv(), a)
+        return out
+
     def point_effect(self) -> tuple[np.ndarray, ...]:
         """Change of the observed point's unknowns per unit error of each observation row.
 

@@ -138,6 +138,10 @@ def no_distances() -> Distances:
                      np.zeros(0))
 
 
+GNSS_OFFSETS = ("none", "block", "strip")
+IMU_BORESIGHT = ("fixed", "estimated")
+
+
 @dataclass
 class GnssObservations:
     """Observed GNSS antenna positions of photos (m, ground frame) with their a-priori

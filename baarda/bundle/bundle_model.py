@@ -49,5 +49,17 @@ class BundleModel(SchurModel):
         xy[img] = self.result.block.image.xy_mm[self.image_row[img]]
         return xy
 
+    def other_cofactor_blocks(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The GNSS positions of the photos, X, Y, Z together (a 3D test of each)."""
+        pb = self.result.problem
+        n = pb.gnss_imu.n_gnss
+        if not n:
+            return []
+        lay = self.layout
+        first = lay.m * lay.k + len(lay.ctrl_sel)  # the first extra row in the flat vector
+        start = lay.mx * lay.kx - pb.gnss_imu.m  # GNSS rows: the extra rows after the others
+        rows = start + np.arange(3 * n).reshape(n, 3)
+        return [(first + rows, self.factor.extra_cofactor_blocks(rows))]
+
     def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
         return self.point_effect_rows(), self.point

@@ -23,11 +23,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from baarda.block.photo_block import GNSS_OFFSETS as OFFSETS  # noqa: F401
+from baarda.block.photo_block import IMU_BORESIGHT as BORESIGHT  # noqa: F401
 from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_and_derivatives
 
-OFFSETS = ("none", "block", "strip")
-BORESIGHT = ("fixed", "estimated")
 COMPONENTS_GNSS = ("X", "Y", "Z")
 COMPONENTS_IMU = ("omega", "phi", "kappa")
 

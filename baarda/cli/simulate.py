@@ -41,6 +41,17 @@ def register(sub) -> None:
     p.add_argument("--blunder-size", type=float, nargs=2, default=list(d.blunder_sigma),
                    metavar=("MIN", "MAX"), help="in a-priori sigmas")
     p.add_argument("--blunder-kinds", default="x,y", help="comma list of x,y,X,Y,Z")
+    p.add_argument("--gnss", type=float, default=0.0, metavar="SIGMA_M",
+                   help="GNSS antenna positions of every photo with this noise (m; gnss.csv); "
+                   "0: none")
+    p.add_argument("--gnss-offset", type=float, default=0.0, metavar="M",
+                   help="a GNSS shift per strip, each component drawn with this standard "
+                   "deviation (m; estimated per strip)")
+    p.add_argument("--gnss-drift", type=float, default=0.0, metavar="M_PER_KM",
+                   help="a GNSS drift per strip along the strip (m/km, drawn with this "
+                   "standard deviation; estimated per strip)")
+    p.add_argument("--imu", type=float, default=0.0, metavar="SIGMA_DEG",
+                   help="IMU attitudes of every photo with this noise (deg; imu.csv); 0: none")
     p.add_argument("--seed", type=int, default=0,
                    help="random seed (the same seed gives the same project)")
     p.add_argument("--name", default="simulated", help="project name")
@@ -66,6 +77,8 @@ def _simulate(args, run):
         noise=not args.no_noise, blunders=args.blunders,
         blunder_sigma=tuple(args.blunder_size),
         blunder_kinds=tuple(k.strip() for k in args.blunder_kinds.split(",") if k.strip()),
+        gnss_sigma_m=args.gnss, gnss_offset_m=args.gnss_offset,
+        gnss_drift_m_per_km=args.gnss_drift, imu_sigma_deg=args.imu,
         seed=args.seed, name=args.name)
     block, truth = simulate_block(plan)
     write_project(block, run)

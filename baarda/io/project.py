@@ -32,6 +32,7 @@ from baarda.block.photo_block import (
 )
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad
 from baarda.errors import ProjectError
+from baarda.io.gnss_imu_files import gnss_imu_settings, read_gnss, read_imu
 from baarda.io.records import ENCODING, decode_text, file_bytes
 from baarda.io.table import Table
 
@@ -240,6 +241,9 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
     if not folder.is_dir():
         raise ProjectError(str(folder), "not a project folder")
     settings, doc = _settings(folder / "project.toml", encoding)
+    gi = gnss_imu_settings(doc, folder / "project.toml", settings)
+    gnss_sigma, imu_sigma = gi.pop("gnss_sigma"), gi.pop("imu_sigma")
+    settings = replace(settings, **gi)
     notes: list[str] = []
 
     t = Table(folder / "cameras.csv", ["camera", "focal_mm", "x0_mm", "y0_mm"], encoding)
@@ -327,8 +331,10 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
     distances = (read_distances(dist, ids, float(doc.get("sigma", {}).get("distance_m", 0.001))
                                 if isinstance(doc.get("sigma"), dict) else 0.001, encoding)
                  if dist.is_file() else no_distances())
+    gnss = read_gnss(folder / "gnss.csv", photo_ids, gnss_sigma, encoding)
+    imu = read_imu(folder / "imu.csv", photo_ids, settings.angle_unit, imu_sigma, encoding)
     block = Block(settings, cameras, photos, image, points, source=str(folder), notes=notes,
-                  distances=distances)
+                  distances=distances, gnss=gnss, imu=imu)
     return cameras_per_strip(block) if _calibration_group(doc, folder / "project.toml") == \
         "strip" else block
 

@@ -80,6 +80,11 @@ def _write_project(block: Block, folder: Path) -> None:
         for i, cid in enumerate(c.ids):
             names = ", ".join(f'"{p}"' for p in c.free[i])
             toml += [f'[calibration."{cid}"]', f"free = [{names}]", ""]
+    if len(block.gnss):
+        toml += ["[gnss]", f"lever_arm = [{', '.join(repr(float(v)) for v in s.gnss_lever_arm)}]",
+                 f'offsets = "{s.gnss_offsets}"', f"drift = {str(s.gnss_drift).lower()}", ""]
+    if len(block.imu):
+        toml += ["[imu]", f'boresight = "{s.imu_boresight}"', ""]
     write_text(folder / "project.toml", "\n".join(toml))
     write_text(folder / "cameras.csv", cameras_csv(c))
     p = block.photos
@@ -108,6 +113,28 @@ def _write_project(block: Block, folder: Path) -> None:
             f"{d.ids[i]},{pts.ids[d.point_a[i]]},{pts.ids[d.point_b[i]]},"
             f"{float(d.length_m[i])!r},{float(d.sigma_m[i])!r}" for i in range(len(d))]
         write_text(folder / "distances.csv", "\n".join(rows) + "\n")
+    _write_gnss_imu(block, folder)
+
+
+def _write_gnss_imu(block: Block, folder: Path) -> None:
+    """gnss.csv and imu.csv (docs/format.md) when the block has such observations."""
+    ids = block.photos.ids
+    g = block.gnss
+    if len(g):
+        t = g.time is not None
+        rows = ["photo,X,Y,Z,sigma_X,sigma_Y,sigma_Z" + (",time" if t else "")] + [
+            ",".join([ids[g.photo[i]]] + [format_number(v) for v in g.xyz[i]]
+                     + [repr(float(v)) for v in g.sigma[i]]
+                     + ([repr(float(g.time[i]))] if t else [])) for i in range(len(g))]
+        write_text(folder / "gnss.csv", "\n".join(rows) + "\n")
+    m = block.imu
+    if len(m):
+        unit = block.settings.angle_unit
+        ang, sig = rad_to_angle(m.angles, unit), rad_to_angle(m.sigma, unit)
+        rows = ["photo,omega,phi,kappa,sigma_omega,sigma_phi,sigma_kappa"] + [
+            ",".join([ids[m.photo[i]]] + [repr(float(v)) for v in ang[i]]
+                     + [repr(float(v)) for v in sig[i]]) for i in range(len(m))]
+        write_text(folder / "imu.csv", "\n".join(rows) + "\n")
 
 
 def write_model_project(block: ModelBlock, folder: str | Path | RunFolder) -> None:

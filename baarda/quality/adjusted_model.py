@@ -95,6 +95,11 @@ class AdjustedModel(ABC):
             out[gi] = self.solve_columns(h)[rows] * self.sigma[rows][None, :] ** 2
         return idx, out
 
+    def other_cofactor_blocks(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Other groups tested as a whole, each (index (g, k), cofactor blocks (g, k, k))
+        (a bundle's GNSS positions); none by default."""
+        return []
+
 
 def weight_factors(n: int, factors: np.ndarray | None) -> np.ndarray:
     """(n,) weight factors, ones when None; checked positive."""

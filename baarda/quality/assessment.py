@@ -20,6 +20,7 @@ import pandas as pd
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.hypotheses import (
     HypothesisTest,
+    block_tests,
     group_test,
     hypothesis_test,
     image_point_tests,
@@ -87,6 +88,10 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
         idx, _ = m.adjusted_cofactor_blocks()
         if len(t2):
             point_t[idx] = t2[:, None]
+        for gidx, gq in m.other_cofactor_blocks():  # e.g. GNSS positions as a whole
+            _, tg, _, _, _ = block_tests(m, gidx, gq, q.tests)
+            if len(tg):
+                point_t[gidx] = tg[:, None]
         cols.update({
             "sigma_residual": q.sigma_residual * scale, "redundancy": q.redundancy_number,
             "w": q.w, "tau": q.tau, "p_value": q.p_value, "mdb": q.mdb * scale,

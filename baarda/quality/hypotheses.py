@@ -143,6 +143,13 @@ def image_point_tests(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS):
     q (g,), critical value of T/q (g,), rejected (g,)).
     """
     idx, qhat = model.adjusted_cofactor_blocks()
+    return block_tests(model, idx, qhat, tests)
+
+
+def block_tests(model: AdjustedModel, idx: np.ndarray, qhat: np.ndarray,
+                tests: TestOptions = DEFAULT_TESTS):
+    """The test of groups of components `idx` (g, k) as a whole from the cofactor blocks of
+    their adjusted values `qhat` (g, k, k), as image_point_tests."""
     if len(idx) == 0:
         z = np.zeros(0)
         return idx, z, z.astype(int), z, z.astype(bool)

@@ -75,6 +75,13 @@ class FlightPlan:
     # distortion would.  The default fields b3, b4 (quadratic) bend a block.
     image_deformation_um: float = 0.0
     deformation_fields: tuple[int, ...] = (3, 4)
+    # GNSS/IMU (0: none): antenna positions with noise gnss_sigma_m, a shift per strip
+    # (each component normal with gnss_offset_m) and a drift per strip (m/km along the
+    # strip from its middle, normal with gnss_drift_m_per_km); IMU attitudes, noise in deg
+    gnss_sigma_m: float = 0.0
+    gnss_offset_m: float = 0.0
+    gnss_drift_m_per_km: float = 0.0
+    imu_sigma_deg: float = 0.0
     seed: int = 0
     name: str = "simulated"
     extra: dict = field(default_factory=dict)
@@ -258,6 +265,8 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
         "blunders": log,
         "units": {"angles": "rad", "coordinates": "m"},
     }
+    if plan.gnss_sigma_m > 0 or plan.imu_sigma_deg > 0:
+        block, truth["gnss"] = _gnss_imu(plan, block, eo_true)
     if plan.image_deformation_um:
         coef, b = deformation_coefficients(plan)
         truth["camera"] = {"model": "ebner", "b": b, "coefficients": coef.tolist()}
@@ -421,3 +430,41 @@ def _nearest(xyz: np.ndarray, candidates: np.ndarray, x: float, y: float) -> int
 
 def _photo_id(s_idx: np.ndarray, p_idx: np.ndarray, i: int) -> str:
     return f"{s_idx[i] + 1:02d}{p_idx[i] + 1:03d}"
+
+
+def _gnss_imu(plan: FlightPlan, block: Block, eo_true: np.ndarray) -> tuple[Block, dict]:
+    """GNSS antenna positions (lever arm 0) and IMU attitudes of every photo, with their
+    errors drawn from a random stream of their own (the rest of the block is as without)."""
+    from dataclasses import replace
+
+    from baarda.block.photo_block import GnssObservations, ImuObservations
+
+    rng = np.random.default_rng([plan.seed, 14])
+    n = len(eo_true)
+    strips = np.asarray(block.photos.strip, dtype=object)
+    labels = sorted(set(strips.tolist()), key=int)
+    truth: dict = {"shift": {}, "drift_m_per_km": {}}
+    settings = block.settings
+    if plan.gnss_sigma_m > 0:
+        pos = eo_true[:, :3].copy()
+        for lab in labels:
+            sel = strips == lab
+            shift = rng.normal(0.0, plan.gnss_offset_m, 3) if plan.gnss_offset_m else np.zeros(3)
+            drift = (rng.normal(0.0, plan.gnss_drift_m_per_km, 3) if plan.gnss_drift_m_per_km
+                     else np.zeros(3))
+            xy = eo_true[sel, :2]
+            d = xy - xy.mean(axis=0)
+            u = np.linalg.svd(d, full_matrices=False)[2][0] if len(d) > 1 else np.array([1, 0])
+            pos[sel] += shift + np.outer(d @ u / 1000.0, drift)
+            truth["shift"][lab] = shift.tolist()
+            truth["drift_m_per_km"][lab] = drift.tolist()
+        pos += rng.normal(0.0, plan.gnss_sigma_m, (n, 3))
+        block = replace(block, gnss=GnssObservations(np.arange(n), pos,
+                                                     np.full((n, 3), plan.gnss_sigma_m)))
+        settings = replace(settings, gnss_offsets="strip" if plan.gnss_offset_m else "none",
+                           gnss_drift=bool(plan.gnss_drift_m_per_km))
+    if plan.imu_sigma_deg > 0:
+        s = np.radians(plan.imu_sigma_deg)
+        ang = eo_true[:, 3:] + rng.normal(0.0, s, (n, 3))
+        block = replace(block, imu=ImuObservations(np.arange(n), ang, np.full((n, 3), s)))
+    return replace(block, settings=settings), truth

@@ -101,3 +101,24 @@ def test_shifts_drifts_and_boresight_recovered_and_tested(base):
     assert tests[f"GNSS shift of strip {strips[1]}"].rejected
     assert tests["IMU boresight"].rejected
     assert not tests[f"GNSS shift of strip {strips[0]}"].rejected
+
+
+def test_gnss_position_tested_as_a_whole_equals_dense(base):
+    """The 3D test of each GNSS position (point_test of its rows in observations.csv):
+    T = v' Qvv^-1 v / 3 with the 3 x 3 block of Qvv from a dense computation."""
+    from dense import dense_system
+
+    block, truth = base
+    res = adjust(with_gnss(block, truth, offsets="strip", boresight="estimated"))
+    qc = assess(res)
+    model = BundleModel(res)
+    a, p = dense_system(model)
+    qxx = np.linalg.inv(a.T @ (p[:, None] * a))
+    table = qc.table()
+    rows = np.flatnonzero(model.kind == "gnss").reshape(-1, 3)
+    assert len(rows) == len(block.photos)
+    v = model.residuals
+    for r in rows:
+        qvv = np.diag(1.0 / p[r]) - a[r] @ qxx @ a[r].T
+        t = float(v[r] @ np.linalg.solve(qvv, v[r])) / 3
+        assert np.allclose(table["point_test"].to_numpy()[r], t, rtol=1e-8)
