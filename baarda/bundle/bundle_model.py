@@ -12,9 +12,7 @@ import numpy as np
 
 from baarda.adjustment.schur_model import SchurModel
 from baarda.bundle.bundle_result import BundleResult
-
-ANGLE_UNITS = {"gon": (200e3 / np.pi, "mgon"), "deg": (180e3 / np.pi, "mdeg"),
-               "rad": (1e3, "mrad")}
+from baarda.bundle.gnss_imu import ANGLE_UNITS
 
 
 class BundleModel(SchurModel):

@@ -23,7 +23,7 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth, camera_projection
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
-from baarda.bundle.gnss_imu import GnssImu
+from baarda.bundle.gnss_imu import ANGLE_UNITS, GnssImu
 from baarda.errors import GeometryError
 from baarda.options import Progress, SolveOptions
 
@@ -220,7 +220,8 @@ class BundleProblem(SchurProblem):
                 parts.append(f"GNSS {c} {_spread(s)} m")
         s = sig[self.kind == "imu"]
         if len(s):
-            parts.append(f"IMU {_spread(s * 1e3)} mrad")
+            f, unit = ANGLE_UNITS.get(self.block.settings.angle_unit, ANGLE_UNITS["rad"])
+            parts.append(f"IMU {_spread(s * f)} {unit}")
         return "a-priori sigmas: " + ", ".join(parts)
 
     # ------------------------------------------------- the solver's protocol

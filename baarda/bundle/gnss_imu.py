@@ -28,6 +28,9 @@ from baarda.block.photo_block import IMU_BORESIGHT as BORESIGHT  # noqa: F401
 from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_and_derivatives
 
+# IMU residuals, sigmas and MDBs in thousandths of the project's angle unit
+ANGLE_UNITS = {"gon": (200e3 / np.pi, "mgon"), "deg": (180e3 / np.pi, "mdeg"),
+               "rad": (1e3, "mrad")}
 COMPONENTS_GNSS = ("X", "Y", "Z")
 COMPONENTS_IMU = ("omega", "phi", "kappa")
 

@@ -78,8 +78,10 @@ class SnoopingRun:
 def label(model: AdjustedModel, i: int) -> str:
     parts = [str(model.kind[i])]
     if model.frame[i]:
-        parts.append(f"photo {model.frame[i]}" if model.kind[i] == "image" else str(model.frame[i]))
-    parts.append(f"point {model.point[i]}")
+        parts.append(f"photo {model.frame[i]}" if model.kind[i] in ("image", "gnss", "imu")
+                     else str(model.frame[i]))
+    if model.point[i] or model.kind[i] not in ("gnss", "imu"):
+        parts.append(f"point {model.point[i]}")
     parts.append(str(model.component[i]))
     return " ".join(parts)
 

@@ -45,8 +45,10 @@ def obs_label(df: pd.DataFrame) -> np.ndarray:
     model = df["model"].astype(str).to_numpy() if "model" in df else np.full(len(df), "")
     head = np.where(photo != "", "photo " + photo + " ",
                     np.where(model != "", "model " + model + " ", ""))
-    return (head + "point " + df["point"].astype(str).to_numpy() + " "
-            + df["component"].astype(str).to_numpy()).astype(object)
+    point = df["point"].fillna("").astype(str).to_numpy()
+    kind = df["kind"].astype(str).to_numpy() if "kind" in df else np.full(len(df), "")
+    mid = np.where((point == "") & np.isin(kind, ["gnss", "imu"]), "", "point " + point + " ")
+    return (head + mid + df["component"].astype(str).to_numpy()).astype(object)
 
 
 def describe(values: np.ndarray, labels: np.ndarray, name: str, unit: str,
