@@ -19,7 +19,13 @@ from baarda.report.anaplot import format_log, log_mdb, log_test, snooping_table
 from baarda.report.footprint import footprints, image_extent
 from baarda.report.histogram import format_histogram
 from baarda.report.plots import Plot, residual_histograms, w_histogram
-from baarda.report.stats import group_statistics, model_groups, per_photo, per_strip
+from baarda.report.stats import (
+    gnss_imu_per_strip,
+    group_statistics,
+    model_groups,
+    per_photo,
+    per_strip,
+)
 from baarda.report.text_report import NOT_CONVERGED, ReportOptions, image_histograms, w_hists
 
 CSS = """
@@ -198,6 +204,11 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
         body += "<h3>Per strip</h3>" + _image_table(per_strip(res.obs, res.strip_of()), "strip")
         body += ("<details><summary>Per photo</summary>"
                  + _image_table(per_photo(res.obs), "photo") + "</details>")
+    if res.photos is not None and res.obs["kind"].isin(["gnss", "imu"]).any():
+        t = gnss_imu_per_strip(res.obs, res.strip_of())
+        body += "<h3>GNSS and IMU per strip</h3>" + table(
+            t, {c: ".4f" for c in t.columns if c.startswith(("mean", "RMS"))} | {
+                "max |w|": ".2f"}, text_cols=("kind", "strip"))
     if (res.obs["kind"] == "model").any():
         t = model_groups(res.obs).rename(columns=lambda c: c.replace("rms_", "RMS ").replace(
             "max_abs", "max |v|").replace("max_at", "at"))

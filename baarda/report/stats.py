@@ -216,6 +216,49 @@ def per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFrame:
     return image_groups(df, "strip", key)
 
 
+def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFrame:
+    """GNSS and IMU residuals per strip (active observations): number of positions or
+    attitudes, mean and RMS of each component (GNSS m, IMU in the output's unit), largest
+    |w|, rejected components; empty without such observations."""
+    rows = []
+    act = _active(df)
+    kind = df["kind"].astype(str).to_numpy()
+    strip = np.array([str(strip_of.get(p, "")) for p in df["photo"].astype(str)], dtype=object)
+    comp = df["component"].astype(str).to_numpy()
+    v = df["residual"].to_numpy(float)
+    w = df["w"].to_numpy(float) if "w" in df else np.full(len(df), np.nan)
+    for k, names in (("gnss", ("X", "Y", "Z")), ("imu", ("omega", "phi", "kappa"))):
+        sel_k = kind == k
+        for s in sorted(set(strip[sel_k]), key=lambda x: (len(x), x)):
+            sel = sel_k & (strip == s)
+            row = {"kind": k, "strip": s, "number": int((sel & (comp == names[0])).sum()),
+                   "rejected": int((sel & ~act).sum())}
+            for c in names:
+                x = v[sel & act & (comp == c)]
+                row[f"mean {c}"] = float(x.mean()) if len(x) else np.nan
+                row[f"RMS {c}"] = float(np.sqrt(np.mean(x**2))) if len(x) else np.nan
+            aw = np.abs(w[sel & act])
+            row["max |w|"] = float(np.nanmax(aw)) if np.isfinite(aw).any() else np.nan
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def format_gnss_imu(t: pd.DataFrame) -> str:
+    """gnss_imu_per_strip as text (GNSS m, IMU in the output's unit)."""
+    lines = []
+    for k, names in (("gnss", ("X", "Y", "Z")), ("imu", ("omega", "phi", "kappa"))):
+        part = t[t["kind"] == k] if len(t) else t
+        if not len(part):
+            continue
+        lines.append(f"{k:<6}{'strip':<8}{'number':>7}" + "".join(
+            f"{'mean ' + c:>12}{'RMS ' + c:>12}" for c in names) + f"{'max |w|':>9}{'rej':>5}")
+        for r in part.to_dict("records"):
+            lines.append(f"{'':<6}{r['strip']:<8}{r['number']:>7}" + "".join(
+                f"{r['mean ' + c]:>12.4f}{r['RMS ' + c]:>12.4f}" for c in names)
+                + f"{r['max |w|']:>9.2f}{r['rejected']:>5}")
+    return "\n".join(lines)
+
+
 def worst(df: pd.DataFrame, n: int = 10) -> pd.DataFrame:
     """The n largest |residual| per kind (active observations): the computer points at them."""
     act = df[_active(df)].copy()

@@ -13,9 +13,11 @@ from baarda.output.result_folder import UNITS, Results
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
+    format_gnss_imu,
     format_groups,
     format_image_groups,
     format_model_groups,
+    gnss_imu_per_strip,
     group_statistics,
     model_groups,
     obs_label,
@@ -110,6 +112,9 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     if res.photos is not None and (obs["kind"] == "image").any():
         out += ["", "PER STRIP", "-" * 78, format_image_groups(per_strip(obs, res.strip_of()),
                                                                "strip")]
+    if res.photos is not None and obs["kind"].isin(["gnss", "imu"]).any():
+        out += ["", "GNSS AND IMU PER STRIP (GNSS m, IMU residuals as in observations.csv)",
+                "-" * 78, format_gnss_imu(gnss_imu_per_strip(obs, res.strip_of()))]
     if (obs["kind"] == "image").any():
         out += ["", "PER PHOTO", "-" * 78, format_image_groups(per_photo(obs), "photo")]
     if (obs["kind"] == "model").any():

@@ -122,3 +122,35 @@ def test_gnss_position_tested_as_a_whole_equals_dense(base):
         qvv = np.diag(1.0 / p[r]) - a[r] @ qxx @ a[r].T
         t = float(v[r] @ np.linalg.solve(qvv, v[r])) / 3
         assert np.allclose(table["point_test"].to_numpy()[r], t, rtol=1e-8)
+
+
+def test_native_project_round_trip_and_report(tmp_path):
+    """`baarda simulate --gnss --gnss-offset --imu` writes gnss.csv, imu.csv and [gnss]; the
+    project reads back with the same observations; observations.csv has their rows (photo
+    set, point empty) and the report their statistics per strip."""
+    import contextlib
+    import io
+
+    import pandas as pd
+
+    from baarda.cli import main
+    from baarda.io.project import read_project
+
+    proj = tmp_path / "p"
+    assert main(["simulate", "-o", str(proj), "--strips", "4", "--photos", "8", "--pattern",
+                 "5", "--control", "corners", "--gnss", "0.05", "--gnss-offset", "0.3",
+                 "--imu", "0.005", "--relief", "100"]) == 0
+    b = read_project(proj)
+    assert len(b.gnss) == len(b.imu) == 32 and b.settings.gnss_offsets == "strip"
+    assert np.allclose(b.gnss.sigma, 0.05) and np.allclose(np.degrees(b.imu.sigma), 0.005)
+    assert main(["adjust", str(proj), "-o", str(tmp_path / "o"), "-q"]) == 0
+    obs = pd.read_csv(tmp_path / "o" / "observations.csv", keep_default_na=False)
+    g = obs[obs["kind"] == "gnss"]
+    assert len(g) == 96 and set(g["component"]) == {"X", "Y", "Z"} and (g["point"] == "").all()
+    assert len(obs[obs["kind"] == "imu"]) == 96
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["report", str(tmp_path / "o"), "--text"]) == 0
+    text = out.getvalue()
+    part = text[text.index("GNSS AND IMU PER STRIP"):text.index("PER PHOTO")]
+    assert part.count("\n      ") == 8  # 4 strips, GNSS and IMU
