@@ -60,4 +60,24 @@ class BundleModel(SchurModel):
         return [(first + rows, self.factor.extra_cofactor_blocks(rows))]
 
     def point_effect(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.point_effect_rows(), self.point
+        """Effect of a unit error of each component on its point (d = 3); a GNSS or IMU
+        component's on the projection centre of its photo (labelled "photo P")."""
+        effect, labels = self.point_effect_rows(), self.point
+        pb, lin = self.result.problem, self.factor.lin
+        gi = pb.gnss_imu
+        if not gi.m:
+            return effect, labels
+        lay = self.layout
+        rows = lay.mx * lay.kx - gi.m + np.arange(gi.m)  # their extra rows
+        flat = lay.m * lay.k + len(lay.ctrl_sel) + rows
+        f = gi.photos
+        jxf = lin.jxf[rows, 0, :]
+        e = np.einsum("mab,mb->ma", self.factor.frame_covariance()[f], jxf)
+        if pb.system.ng:
+            e += np.einsum("mag,mg->ma", self.factor.frame_global_covariance()[f],
+                           lin.jxg[rows, 0, :])
+        effect = effect.copy()
+        effect[flat] = e[:, :3] * lin.wx[rows, 0][:, None]
+        labels = np.array(labels, dtype=object)
+        labels[flat] = ["photo " + p for p in np.asarray(pb.block.photos.ids, dtype=object)[f]]
+        return effect, labels

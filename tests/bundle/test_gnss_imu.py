@@ -154,3 +154,25 @@ def test_native_project_round_trip_and_report(tmp_path):
     text = out.getvalue()
     part = text[text.index("GNSS AND IMU PER STRIP"):text.index("PER PHOTO")]
     assert part.count("\n      ") == 8  # 4 strips, GNSS and IMU
+
+
+def test_external_reliability_of_gnss_and_imu_equals_dense(base):
+    """The effect of each GNSS/IMU component's MDB on the projection centre of its photo
+    (external_max): the column of Qxx A' P restricted to that photo, times the MDB."""
+    from dense import dense_system
+
+    block, truth = base
+    res = adjust(with_gnss(block, truth, offsets="block", boresight="estimated"))
+    model = BundleModel(res)
+    q = assess(res).quality
+    a, p = dense_system(model)
+    qxx = np.linalg.inv(a.T @ (p[:, None] * a))
+    held = res.problem.held
+    assert held is None  # columns of photo i: 6 i .. 6 i + 5
+    ids = list(block.photos.ids)
+    rows = np.flatnonzero(np.isin(model.kind, ["gnss", "imu"]))
+    for r in rows[::7]:
+        i = ids.index(model.frame[r])
+        col = qxx[6 * i:6 * i + 3] @ a[r] * p[r]
+        assert np.isclose(q.external_max[r], np.abs(col * q.mdb[r]).max(), rtol=1e-8)
+        assert q.external_point[r] == f"photo {model.frame[r]}"
