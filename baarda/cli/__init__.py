@@ -10,18 +10,32 @@ import sys
 from baarda.errors import GeometryError, ProjectError
 from baarda.output.run_folder import package_version
 
-COMMANDS = [
-    "baarda.cli.adjust",
-    "baarda.cli.simulate",
-    "baarda.cli.online",
-    "baarda.cli.pattern",
-    "baarda.cli.plan",
-    "baarda.cli.report",
-    "baarda.cli.residuals",
-    "baarda.cli.convert",
-    "baarda.cli.models",
-    "baarda.cli.screen",
-]
+# every command: the module that registers it and its one-line help (what `baarda --help`
+# shows without importing the commands; tests/cli/test_cli.py checks they agree)
+COMMANDS = {
+    "adjust": ("baarda.cli.adjust", "bundle block adjustment with observation statistics"),
+    "snoop": ("baarda.cli.adjust", "bundle adjustment with iterative data snooping"),
+    "simulate": ("baarda.cli.simulate", "simulate an aerial block with known truth"),
+    "online": ("baarda.cli.online", "on-line strip bridging with data snooping per model "
+               "(relative orientation with scale transfer)"),
+    "pattern": ("baarda.cli.pattern", "point-pattern design for relative orientation with "
+                "scale transfer (Kratky's Figures 2, 4, 7)"),
+    "plan": ("baarda.cli.plan", "design-stage reliability of a planned block (no "
+             "measurements): sqrt(qvv), MDB, external reliability, precision, advice"),
+    "modified-snoop": ("baarda.cli.plan", "Gruen's modified data snooping: approximate "
+                       "sqrt(qvv) from a reliability table, exact values only where needed"),
+    "report": ("baarda.cli.report", "adjustment report: HTML (plots embedded) or text"),
+    "residuals": ("baarda.cli.residuals", "post-processor: group statistics and histograms of "
+                  "residuals listed by another program (see docs/report.md)"),
+    "convert": ("baarda.cli.convert", "convert a COLMAP, BAL, DBAT, PhotoModeler or AICON "
+                "input (or a project) into a native project folder"),
+    "models": ("baarda.cli.models", "independent-model block adjustment with data snooping "
+               "and tests of model deformations (FOTEF)"),
+    "simulate-models": ("baarda.cli.models", "simulate an independent-model block with "
+                        "known truth (truth.json)"),
+    "screen": ("baarda.cli.screen", "pre-adjustment screening: photo pairs, strip formation, "
+               "control; writes a cleaned project and the screening log"),
+}
 
 
 class Formatter(argparse.HelpFormatter):
@@ -37,7 +51,9 @@ class Formatter(argparse.HelpFormatter):
         return f"{text} (default: {shown.replace('%', '%%')})"
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command; with `command`, only that command's module is imported
+    and the others are named with their one-line help (a fast `baarda --help`)."""
     parser = argparse.ArgumentParser(
         prog="baarda", description="Quality-controlled aerial triangulation: bundle adjustment, "
         "data snooping and reliability.", epilog="exit codes: 0 success, 2 bad input (the "
@@ -45,19 +61,29 @@ def build_parser() -> argparse.ArgumentParser:
         "written and marked NOT CONVERGED), 130 interrupted (nothing written)")
     parser.add_argument("--version", action="version", version=f"baarda {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
-    for name in COMMANDS:
-        importlib.import_module(name).register(sub)
+    for name, (module, text) in COMMANDS.items():
+        if name in sub.choices:
+            continue
+        if command in (None, name) or COMMANDS.get(command, ("",))[0] == module:
+            importlib.import_module(module).register(sub)
+        else:
+            sub.add_parser(name, help=text)
     for p in sub.choices.values():
         p.formatter_class = Formatter
     return parser
+
+
+def _command(argv: list[str]) -> str:
+    """The command named in `argv` ("" when none: top-level help or an error)."""
+    return next((a for a in argv if not a.startswith("-")), "")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command; the exit code: 0 success, 2 bad input (a message names the file,
     line and field, or the geometry), 3 not converged (results written and marked),
     130 interrupted (nothing half-written is left)."""
-    parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_command(argv))
     args = parser.parse_args(argv)
     args.argv = argv
     try:

@@ -95,3 +95,22 @@ def test_every_option_has_help_with_its_default():
                 missing.append(f"{name} {flag}: default {d!r} not shown")
         assert "(default: " in text or name in ("online",), name
     assert not missing, "\n".join(missing)
+
+
+def test_the_command_list_agrees_with_the_commands():
+    """`baarda --help` names the commands without importing them (cli.COMMANDS): the
+    module and one-line help of each must be those the module registers."""
+    import argparse
+
+    from baarda.cli import COMMANDS, build_parser
+
+    full = build_parser()
+    sub = next(a for a in full._actions if isinstance(a, argparse._SubParsersAction))
+    helps = {a.dest: a.help for a in sub._choices_actions}
+    assert set(sub.choices) == set(COMMANDS)
+    for name, (_, text) in COMMANDS.items():
+        assert helps[name] == text, name
+    lazy = build_parser("")
+    lazy_sub = next(a for a in lazy._actions if isinstance(a, argparse._SubParsersAction))
+    assert list(lazy_sub.choices) == list(sub.choices)
+    assert lazy.format_help() == full.format_help()
