@@ -22,6 +22,7 @@ FLOORS = [
     {"screening", "independent"},
     {"pipeline", "simulate"},
     {"planning"},
+    {"evaluation"},
     {"output"},
     {"report"},
     {"cli"},

@@ -33,6 +33,8 @@ COMMANDS = {
                "and tests of model deformations (FOTEF)"),
     "simulate-models": ("baarda.cli.models", "simulate an independent-model block with "
                         "known truth (truth.json)"),
+    "evaluate": ("baarda.cli.evaluate", "detection power, measured: blunder-detection "
+                 "strategies on simulated blocks with planted blunders"),
     "screen": ("baarda.cli.screen", "pre-adjustment screening: photo pairs, strip formation, "
                "control; writes a cleaned project and the screening log"),
 }

@@ -1,0 +1,51 @@
+"""Rates of a study with binomial confidence intervals (Clopper-Pearson, 95 %)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import beta
+
+LEVEL = 0.95
+
+
+def clopper_pearson(k: int, n: int, level: float = LEVEL) -> tuple[float, float]:
+    """The exact binomial confidence interval of k successes in n trials."""
+    if n == 0:
+        return (float("nan"), float("nan"))
+    a = (1 - level) / 2
+    lo = 0.0 if k == 0 else float(beta.ppf(a, k, n - k + 1))
+    hi = 1.0 if k == n else float(beta.ppf(1 - a, k + 1, n - k))
+    return lo, hi
+
+
+def study_rates(study) -> dict:
+    """The rates of a Study (see Study.rates)."""
+    b, t = study.blunders, study.trials
+    out: dict = {"level": LEVEL, "strategies": {}}
+    first = b.drop_duplicates(["trial", "kind", "photo", "point", "component"])
+    planted = len(first)
+    sig = int(first["significant_first"].sum()) if planted else 0
+    one = t.drop_duplicates("trial")
+    n_unplanted = int((one["n_tested_first"] - one["n_planted"]).sum())  # tested ones
+    # components significant in the first adjustment that are not planted
+    false_sig = int(one["n_significant_first"].sum()) - sig
+    out["first_adjustment"] = {
+        "planted": planted, "planted_significant": sig,
+        "power": sig / planted if planted else float("nan"),
+        "power_ci": clopper_pearson(sig, planted),
+        "unplanted": n_unplanted, "unplanted_significant": false_sig,
+        "false_share": false_sig / n_unplanted if n_unplanted else float("nan"),
+        "false_ci": clopper_pearson(false_sig, n_unplanted)}
+    for name in study.options.strategies:
+        tb, tt = b[b["strategy"] == name], t[t["strategy"] == name]
+        k, n = int(tb["located"].sum()), len(tb)
+        nf = int(tt["n_false"].sum())
+        good = int((tt["n_observations"] - tt["n_planted"]).sum())
+        out["strategies"][name] = {
+            "planted": n, "located": k, "located_rate": k / n if n else float("nan"),
+            "located_ci": clopper_pearson(k, n),
+            "false": nf, "false_per_trial": nf / max(len(tt), 1),
+            "false_rate": nf / good if good else float("nan"),
+            "false_ci": clopper_pearson(nf, good),
+            "seconds_per_trial": float(np.mean(tt["seconds"])) if len(tt) else float("nan")}
+    return out

@@ -1,0 +1,359 @@
+"""A Monte Carlo study of blunder detection: trials of simulated blocks with planted
+blunders, each run through every strategy.
+
+A trial is a pure function of (options, trial number): its block is simulated with a seed
+drawn from SeedSequence([seed, trial]), its blunders from a stream of the same sequence, so
+a study gives the same rows whether its trials run in this process, in a process pool or on
+a Dask cluster (only the `seconds` column, a time, differs).
+
+Each trial:
+1. simulates the block without blunders and adjusts it: the MDB of every component (it
+   depends on the geometry and the a-priori sigmas only);
+2. plants `blunders` errors of `size_mdb` times the observation's own MDB (uniform between
+   the two bounds, random sign) on distinct components of the chosen kinds that other
+   observations control;
+3. adjusts the blundered block once: the w-test of every planted component before any
+   rejection (`w_first`), and the number of components with a significant w-test;
+4. runs every strategy on the blundered block and records what it rejected and in which
+   order (a strategy whose rejections make the block singular, e.g. a point left with one
+   ray, is recorded as failed with the message, nothing located).
+
+Strategies: `snoop` (iterative w-test), `tau` (Pope's tau), `by-point` (snooping that
+rejects an image point's x and y together), `robust` (Danish method, then snooping),
+`screen` (sequential screening before the bundle, then snooping), `modified` (Gruen's
+modified snooping, one pass), `threshold` (iteratively reject the largest |v| / sigma above
+THRESHOLD: a residual threshold without redundancy numbers, as the seeds compare).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from baarda.block.photo_block import Block
+from baarda.bundle.bundle_model import BundleModel
+from baarda.errors import GeometryError
+from baarda.options import DEFAULT_TESTS, TestOptions
+from baarda.pipeline import adjust, assess, snoop
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+STRATEGIES = ("snoop", "tau", "by-point", "robust", "screen", "modified", "threshold")
+DEFAULT_STRATEGIES = ("snoop", "tau", "by-point", "robust")
+KINDS = ("x", "y", "X", "Y", "Z")
+THRESHOLD = 3.0  # |v| / sigma a priori of the `threshold` strategy
+R_MIN = 0.01  # a blunder is planted only where the observation's redundancy number is this
+
+Key = tuple[str, str, str, str]  # kind, photo, point, component
+
+
+@dataclass(frozen=True)
+class StudyOptions:
+    """What a study simulates and runs.  size_mdb: (A, B), each blunder's size drawn
+    uniformly between A and B times its observation's MDB (A = B: exactly A MDB)."""
+
+    plan: FlightPlan = field(default_factory=FlightPlan)
+    trials: int = 100
+    blunders: int = 1
+    size_mdb: tuple[float, float] = (1.0, 1.0)
+    kinds: tuple[str, ...] = ("x", "y")
+    strategies: tuple[str, ...] = DEFAULT_STRATEGIES
+    seed: int = 0
+    tests: TestOptions = DEFAULT_TESTS
+
+    def __post_init__(self):
+        bad = [s for s in self.strategies if s not in STRATEGIES]
+        if bad:
+            raise ValueError(f"unknown strategy '{bad[0]}' (one of {', '.join(STRATEGIES)})")
+        bad = [k for k in self.kinds if k not in KINDS]
+        if bad:
+            raise ValueError(f"unknown blunder kind '{bad[0]}' (x, y, X, Y, Z)")
+        if self.trials < 1 or self.blunders < 0:
+            raise ValueError("trials must be at least 1 and blunders at least 0")
+        a, b = self.size_mdb
+        if not (0 <= a <= b):
+            raise ValueError("blunder size in MDB: 0 <= A <= B")
+
+
+@dataclass(frozen=True)
+class TrialRows:
+    """The rows of one trial: one per planted blunder and strategy, one per strategy."""
+
+    blunders: list[dict]
+    trials: list[dict]
+
+
+def _keys(model) -> list[Key]:
+    return [(str(k), str(f), str(p), str(c)) for k, f, p, c in zip(
+        model.kind, model.frame, model.point, model.component, strict=True)]
+
+
+def _plant(block: Block, model: BundleModel, rows: np.ndarray, sizes: np.ndarray) -> Block:
+    """The block with `sizes` (model units: image mm, control m) added to the components
+    `rows` of the flat observation vector."""
+    im, pts = block.image, block.points
+    xy, xyz = im.xy_mm.copy(), pts.xyz.copy()
+    for i, s in zip(rows.tolist(), sizes.tolist(), strict=True):
+        c = str(model.component[i])
+        if model.image_row[i] >= 0:
+            xy[model.image_row[i], "xy".index(c)] += s
+        else:
+            xyz[model.control_index[i], "XYZ".index(c)] += s
+    return replace(block, image=replace(im, xy_mm=xy), points=replace(pts, xyz=xyz))
+
+
+def _snooping_order(a) -> tuple[list[Key], float]:
+    """Keys finally rejected by a snooping run, in the order of their last rejection, and
+    the final sigma0."""
+    keys = _keys(a.model)
+    rejected = set(np.flatnonzero(~a.quality.active).tolist())
+    order: dict[int, int] = {}
+    steps = a.run.log if a.run is not None else []
+    for n, step in enumerate(steps):
+        if step.action == "reject":
+            for r in step.rows:
+                order[r] = n
+    ranked = sorted(rejected, key=lambda r: (order.get(r, -1), r))
+    return [keys[r] for r in ranked], float(a.adjustment.sigma0)
+
+
+def _threshold(block: Block) -> tuple[list[Key], float]:
+    res = adjust(block)
+    model = BundleModel(res)
+    active = np.ones(model.n, bool)
+    out = []
+    for _ in range(200):
+        z = np.where(active, np.abs(model.residuals) / model.sigma_apriori, -np.inf)
+        i = int(np.argmax(z))
+        if z[i] <= THRESHOLD:
+            break
+        active[i] = False
+        out.append(i)
+        res = res.refit(active)
+        model = BundleModel(res)
+    keys = _keys(model)
+    return [keys[i] for i in out], float(res.sigma0)
+
+
+def _screen(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
+    """Screening, then snooping that removes what it rejects from the block
+    (pipeline.screen): what the final block lacks of the original, in the original's order,
+    then what the final assessment marks rejected."""
+    from baarda.pipeline import screen
+    from baarda.screening.chain import ScreeningOptions
+
+    res, a = screen(block, ScreeningOptions(alpha0=tests.alpha0, beta0=tests.beta0),
+                    snoop=True)
+    orig, final = res.original, a.adjustment.block
+    fi, fp = final.image, final.points
+    kept = set(zip((final.photos.ids[i] for i in fi.photo),
+                   (fp.ids[j] for j in fi.point), strict=True))
+    im, pts = orig.image, orig.points
+    out: list[Key] = []
+    for row in range(len(im)):
+        ph, pt = orig.photos.ids[im.photo[row]], pts.ids[im.point[row]]
+        if (ph, pt) not in kept:
+            out += [("image", ph, pt, "x"), ("image", ph, pt, "y")]
+    fctrl = {fp.ids[j]: fp.controlled[j] for j in range(len(fp))}
+    for j in np.flatnonzero(pts.controlled.any(axis=1)):
+        now = fctrl.get(pts.ids[j], np.zeros(3, bool))
+        out += [("control", "", pts.ids[j], c) for k, c in enumerate("XYZ")
+                if pts.controlled[j, k] and not now[k]]
+    keys, sigma0 = _snooping_order(a)
+    seen = set(out)
+    return out + [k for k in keys if k not in seen], sigma0
+
+
+def _modified(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
+    from baarda.planning.modified_snoop import modified_snoop
+
+    res = adjust(block)
+    ms = modified_snoop(res, tests=tests)
+    keys = _keys(ms.model)
+    rej = np.flatnonzero(ms.result.rejected)
+    order = rej[np.argsort(-np.abs(ms.result.statistic_value[rej]), kind="stable")]
+    return [keys[i] for i in order], float(res.sigma0)
+
+
+def run_strategy(name: str, block: Block, tests: TestOptions) -> tuple[list[Key], float]:
+    """(keys rejected, in order; sigma0 at the end) of one strategy on a block."""
+    if name == "snoop":
+        return _snooping_order(snoop(block, tests))
+    if name == "tau":
+        return _snooping_order(snoop(block, tests, statistic="tau"))
+    if name == "by-point":
+        return _snooping_order(snoop(block, tests, by_point=True))
+    if name == "robust":
+        return _snooping_order(snoop(block, tests, robust=True))
+    if name == "screen":
+        return _screen(block, tests)
+    if name == "modified":
+        return _modified(block, tests)
+    if name == "threshold":
+        return _threshold(block)
+    raise ValueError(f"unknown strategy '{name}'")
+
+
+def run_trial(options: StudyOptions, trial: int) -> TrialRows:
+    """Simulate, plant and run every strategy for trial number `trial` (module docstring)."""
+    seq = np.random.SeedSequence([options.seed, trial])
+    plan = replace(options.plan, seed=int(seq.generate_state(1)[0] % 2**31), blunders=0,
+                   noise=True)
+    rng = np.random.default_rng(seq.spawn(1)[0])
+    block, _ = simulate_block(plan)
+    base = assess(adjust(block), options.tests)
+    model, q = base.model, base.quality
+    kind_ok = np.isin(model.component, options.kinds) & np.isin(model.kind,
+                                                                ["image", "control"])
+    candidates = np.flatnonzero(kind_ok & q.active & (q.redundancy_number >= R_MIN)
+                                & np.isfinite(q.mdb))
+    k = min(options.blunders, len(candidates))
+    rows = np.sort(rng.choice(candidates, size=k, replace=False)) if k else \
+        np.zeros(0, np.int64)
+    a, b = options.size_mdb
+    size_mdb = rng.uniform(a, b, k) * rng.choice([-1.0, 1.0], k)
+    sizes = size_mdb * q.mdb[rows]
+    blundered = _plant(block, model, rows, sizes)
+    first = assess(adjust(blundered), options.tests)
+    fq = first.quality
+    keys = _keys(first.model)
+    planted = [keys[i] for i in rows]
+    significant = np.abs(np.nan_to_num(fq.w)) > fq.k_w
+    tested = fq.active & np.isfinite(fq.w)  # controlled components (r >= r_min)
+    n_sig = int(np.sum(significant & tested))
+    blunder_rows, trial_rows = [], []
+    unit = np.where(model.kind[rows] == "image", 1e3, 1.0)  # µm, m
+    for name in options.strategies or ("",):  # none: the first adjustment only
+        t0 = time.perf_counter()
+        if not name:
+            rejected, sigma0, failed = [], float(first.adjustment.sigma0), ""
+        else:
+            try:
+                rejected, sigma0 = run_strategy(name, blundered, options.tests)
+                failed = ""
+            except GeometryError as e:  # e.g. a rejection that leaves a point with one ray
+                rejected, sigma0, failed = [], float("nan"), str(e)
+        seconds = time.perf_counter() - t0
+        rank = {key: n + 1 for n, key in enumerate(rejected)}
+        located = [key in rank for key in planted]
+        for j, i in enumerate(rows.tolist()):
+            kind, photo, point, comp = planted[j]
+            blunder_rows.append({
+                "trial": trial, "strategy": name, "kind": kind, "photo": photo,
+                "point": point, "component": comp, "size": float(sizes[j] * unit[j]),
+                "unit": "um" if kind == "image" else "m", "size_mdb": float(size_mdb[j]),
+                "w_first": float(fq.w[i]), "significant_first": bool(significant[i]),
+                "located": located[j], "rank": rank.get(planted[j])})
+        trial_rows.append({
+            "trial": trial, "strategy": name, "n_observations": int(model.n),
+            "n_planted": k, "n_located": int(sum(located)),
+            "n_false": len(set(rejected) - set(planted)),
+            "n_tested_first": int(tested.sum()), "n_significant_first": n_sig,
+            "sigma0_final": sigma0, "failed": failed,
+            "seconds": seconds})
+    return TrialRows(blunder_rows, trial_rows)
+
+
+@dataclass(frozen=True)
+class Study:
+    """The rows of every trial (pandas DataFrames) and the options that made them."""
+
+    options: StudyOptions
+    blunders: object  # pandas.DataFrame
+    trials: object  # pandas.DataFrame
+    seconds: float
+
+    def rates(self) -> dict:
+        """Per strategy: located rate and false rejections with 95 % Clopper-Pearson
+        intervals; the share of planted components significant in the first adjustment
+        and of significant components among the unplanted ones (B-method checks)."""
+        from baarda.evaluation.rates import study_rates
+
+        return study_rates(self)
+
+    def summary(self) -> str:
+        r = self.rates()
+        o = self.options
+        lines = [f"{o.trials} trials of {o.plan.strips} x {o.plan.photos_per_strip} photos, "
+                 f"{o.blunders} blunder(s) of {o.size_mdb[0]:g}-{o.size_mdb[1]:g} MDB "
+                 f"({', '.join(o.kinds)}), alpha0 {o.tests.alpha0:g}, beta0 {o.tests.beta0:g}; "
+                 f"{self.seconds:.1f} s"]
+        f = r["first_adjustment"]
+        if f["planted"]:
+            lines.append(f"planted blunders significant in the first adjustment: "
+                         f"{f['planted_significant']}/{f['planted']} = {f['power']:.3f} "
+                         f"[{f['power_ci'][0]:.3f}, {f['power_ci'][1]:.3f}] (B-method: "
+                         f"{o.tests.beta0:g} at 1 MDB)")
+        lines.append(f"unplanted components significant in the first adjustment: "
+                     f"{f['false_share']:.5f} [{f['false_ci'][0]:.5f}, {f['false_ci'][1]:.5f}]"
+                     f" (alpha0 {o.tests.alpha0:g})")
+        for name, s in r["strategies"].items():
+            lines.append(f"{name:<10} located {s['located']}/{s['planted']} = "
+                         f"{s['located_rate']:.3f} [{s['located_ci'][0]:.3f}, "
+                         f"{s['located_ci'][1]:.3f}], good observations rejected "
+                         f"{s['false_per_trial']:.2f} per trial ({s['false_rate']:.5f}), "
+                         f"{s['seconds_per_trial']:.3f} s per trial")
+        return "\n".join(lines)
+
+
+def run_study(options: StudyOptions, *, workers: int = 1, scheduler: str | None = None,
+              progress: Callable[[int, int], None] | None = None) -> Study:
+    """Every trial of a study: in this process (workers 1), a local process pool (workers
+    > 1) or on a running Dask distributed scheduler (its address, e.g. tcp://host:8786)."""
+    import pandas as pd
+
+    t0 = time.perf_counter()
+    trials = range(options.trials)
+    if scheduler is not None:
+        results = _on_dask(options, trials, scheduler, progress)
+    elif workers > 1:
+        results = _in_pool(options, trials, workers, progress)
+    else:
+        results = []
+        for n, t in enumerate(trials):
+            results.append(run_trial(options, t))
+            if progress:
+                progress(n + 1, options.trials)
+    blunders = pd.DataFrame([r for t in results for r in t.blunders],
+                            columns=BLUNDER_COLUMNS)
+    rows = pd.DataFrame([r for t in results for r in t.trials], columns=TRIAL_COLUMNS)
+    return Study(options, blunders, rows, time.perf_counter() - t0)
+
+
+BLUNDER_COLUMNS = ["trial", "strategy", "kind", "photo", "point", "component", "size", "unit",
+                   "size_mdb", "w_first", "significant_first", "located", "rank"]
+TRIAL_COLUMNS = ["trial", "strategy", "n_observations", "n_planted", "n_located", "n_false",
+                 "n_tested_first", "n_significant_first", "sigma0_final", "failed", "seconds"]
+
+
+def _in_pool(options, trials: Iterable[int], workers: int, progress) -> list[TrialRows]:
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    out: dict[int, TrialRows] = {}
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        futures = {pool.submit(run_trial, options, t): t for t in trials}
+        for n, f in enumerate(as_completed(futures)):
+            out[futures[f]] = f.result()
+            if progress:
+                progress(n + 1, len(futures))
+    return [out[t] for t in sorted(out)]
+
+
+def _on_dask(options, trials: Iterable[int], address: str, progress) -> list[TrialRows]:
+    try:
+        from distributed import Client, as_completed
+    except ImportError:  # pragma: no cover - distributed is a dependency of the test extra
+        raise RuntimeError("--scheduler needs Dask distributed: pip install distributed") \
+            from None
+    out: dict[int, TrialRows] = {}
+    with Client(address) as client:
+        trials = list(trials)
+        futures = client.map(run_trial, [options] * len(trials), trials, pure=False)
+        index = {f.key: t for f, t in zip(futures, trials, strict=True)}
+        for n, f in enumerate(as_completed(futures)):
+            out[index[f.key]] = f.result()
+            if progress:
+                progress(n + 1, len(trials))
+    return [out[t] for t in sorted(out)]

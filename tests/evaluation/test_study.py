@@ -1,0 +1,83 @@
+"""Detection power, measured (issue 17): the B-method's promises checked by simulation, and
+the same rows from every way of running the trials."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from baarda.evaluation.study import StudyOptions, run_study
+from baarda.simulate.aerial import FlightPlan
+
+PLAN = FlightPlan(strips=2, photos_per_strip=4, pattern=5, relief_m=50.0)
+
+
+def test_one_mdb_is_found_with_the_power_beta0():
+    """One blunder of exactly 1 MDB per trial, 300 trials: the share whose own w-test is
+    significant in the first adjustment has beta0 = 0.80 inside its 95 % interval."""
+    s = run_study(StudyOptions(plan=PLAN, trials=300, blunders=1, size_mdb=(1.0, 1.0),
+                               strategies=(), seed=0))
+    f = s.rates()["first_adjustment"]
+    assert f["planted"] == 300
+    lo, hi = f["power_ci"]
+    assert lo <= 0.80 <= hi, f
+    assert abs(f["power"] - 0.80) < 0.06
+    # the w-test's sizes: exactly 1 MDB in units of each observation's own MDB
+    assert np.allclose(np.abs(s.blunders["size_mdb"]), 1.0)
+
+
+def test_without_blunders_the_w_test_rejects_alpha0():
+    """Noise only, 300 trials: the share of tested components with a significant w-test has
+    alpha0 = 0.001 inside its 95 % interval."""
+    s = run_study(StudyOptions(plan=PLAN, trials=300, blunders=0, strategies=(), seed=1))
+    f = s.rates()["first_adjustment"]
+    lo, hi = f["false_ci"]
+    assert f["unplanted"] > 80_000 and lo <= 0.001 <= hi, f
+
+
+OPTIONS = StudyOptions(plan=PLAN, trials=6, blunders=2, size_mdb=(1.0, 4.0),
+                       strategies=("snoop", "tau", "threshold"), seed=5)
+
+
+def _rows(study):
+    return (study.blunders, study.trials.drop(columns="seconds"))
+
+
+def test_the_same_rows_in_a_process_pool():
+    local = _rows(run_study(OPTIONS))
+    pool = _rows(run_study(OPTIONS, workers=2))
+    for a, b in zip(local, pool, strict=True):
+        pd.testing.assert_frame_equal(a, b)
+    assert len(local[0]) == 6 * 2 * 3 and len(local[1]) == 6 * 3
+
+
+def test_the_same_rows_on_a_dask_cluster():
+    """A scheduler and two worker processes on localhost, started here."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        remote = _rows(run_study(OPTIONS, scheduler=cluster.scheduler_address))
+    local = _rows(run_study(OPTIONS))
+    for a, b in zip(local, remote, strict=True):
+        pd.testing.assert_frame_equal(a, b)
+
+
+def test_command_line(tmp_path):
+    from baarda.cli import main
+
+    out = tmp_path / "out"
+    assert main(["evaluate", "-o", str(out), "--strips", "2", "--photos", "4", "--pattern",
+                 "5", "--relief", "50", "--trials", "4", "--blunders", "1",
+                 "--blunder-size-mdb", "2", "4", "--strategies", "snoop,robust,screen",
+                 "-q"]) == 0
+    names = {"blunders.csv", "trials.csv", "summary.json", "power.png", "report.html",
+             "run.json"}
+    assert names <= {p.name for p in out.iterdir()}
+    doc = json.loads((out / "summary.json").read_text())
+    assert set(doc["rates"]["strategies"]) == {"snoop", "robust", "screen"}
+    b = pd.read_csv(out / "blunders.csv")
+    assert len(b) == 4 * 3 and set(b.columns) >= {"trial", "strategy", "size_mdb", "w_first",
+                                                  "located", "rank"}
+    assert (np.abs(b["size_mdb"]) >= 2).all() and (np.abs(b["size_mdb"]) <= 4).all()
+    assert main(["evaluate", "-o", str(tmp_path / "x"), "--strategies", "guess"]) == 2
