@@ -32,3 +32,21 @@ def single_threaded_blas(func: F) -> F:
             return func(*args, **kwargs)
 
     return wrapper  # type: ignore[return-value]
+
+
+class one_kernel_thread:
+    """Context: numba's parallel kernels on one thread (the serial kernels), for work that is
+    parallel across processes already (the trials of a study on a pool or a cluster); numba's
+    thread count is restored at the end."""
+
+    def __enter__(self):
+        import numba
+
+        self._before = numba.get_num_threads()
+        numba.set_num_threads(1)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        import numba
+
+        numba.set_num_threads(self._before)
