@@ -111,7 +111,12 @@ class BundleProblem(SchurProblem):
             im.sigma_xy[self.border_obs].ravel(), sig_b.ravel()[self.border_ctrl_sel],
             dist.sigma_m[self.distances], self.gnss_imu.sigma]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
-        by_gnss = len(block.gnss) >= 3 and block.settings.gnss_offsets == "none"
+        # GNSS positions carry the datum (with shifts as unknowns: scale and orientation,
+        # the position then from a control point)
+        full_control = bool(pts.controlled[np.concatenate(
+            [self.control, self.border_control])].all(axis=1).any())
+        by_gnss = len(block.gnss) >= 3 and (block.settings.gnss_offsets == "none"
+                                            or full_control)
         warnings = [] if self.held is not None or by_gnss else check_datum(
             block, ok & np.isin(np.arange(len(pts)), np.concatenate(
                 [self.control, self.border_control])))

@@ -8,6 +8,7 @@
 | .xml with ``dbat_script_version`` | DBAT script | io/dbat.py |
 | .txt starting with "Bundle Soln" | PhotoModeler export | io/photomodeler.py |
 | .bz2 / text whose first line is three counts | BAL | io/bal.py |
+| folder of MicMac tie points .mes, orientations .opk, IGN camera .xml | MicMac | micmac |
 """
 
 from __future__ import annotations
@@ -21,11 +22,12 @@ from baarda.io.bal import is_bal, read_bal_block
 from baarda.io.colmap import is_colmap_model
 from baarda.io.colmap_block import read_colmap_block
 from baarda.io.dbat import is_dbat_script, read_dbat
+from baarda.io.micmac import is_micmac, read_micmac
 from baarda.io.photomodeler import is_photomodeler_export, read_photomodeler
 from baarda.io.project import read_project
 from baarda.io.records import ENCODING
 
-FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal")
+FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal", "micmac")
 
 
 def _colmap_folder(p: Path) -> Path | None:
@@ -46,6 +48,8 @@ def detect(path: str | Path) -> str:
         return "colmap"
     if is_aicon(p):
         return "aicon"
+    if is_micmac(p):
+        return "micmac"
     if p.is_file():
         if is_dbat_script(p):
             return "dbat"
@@ -54,7 +58,8 @@ def detect(path: str | Path) -> str:
         if is_bal(p):
             return "bal"
     raise ProjectError(str(p), "format not recognised (native project folder, COLMAP model, "
-                       "AICON project, DBAT script .xml, PhotoModeler export .txt, BAL file)")
+                       "AICON project, DBAT script .xml, PhotoModeler export .txt, BAL file, "
+                       "MicMac/IGN folder)")
 
 
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.001,
@@ -87,4 +92,6 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.00
         return read_dbat(p, camera=camera)
     if fmt == "photomodeler":
         return read_photomodeler(p, encoding)
+    if fmt == "micmac":
+        return read_micmac(p)
     return read_bal_block(p, pixel_mm=pixel_mm, sigma_px=sigma_px)

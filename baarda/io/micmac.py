@@ -1,0 +1,265 @@
+"""MicMac / IGN aerial blocks: a folder of tie points, control, GNSS/IMU orientations and an
+IGN camera description (docs/formats.md, the IGN UltraCam block of ../shared/data).
+
+* `*liaisons*.mes`: tie points, `point image x y` (pixels, origin upper left, y down);
+* `*.APP`: control, `point n X Y Z` (the CRS of the orientations; n is ignored);
+* `*.MES`: image measurements of the control, as the tie points;
+* `*.opk` / `*.OPK`: orientations, `image X Y Z omega phi kappa camera` (m, degrees) after a
+  header of 1 to 5 lines; `trajectograhie.opk` preferred;
+* the IGN camera `.xml` (`<sensor>`): frame w x h px, principal point and focal length
+  (`<focal><pt3d>`) in pixels, pixel size in m;
+* `ImAerien.xml` (optional): the images of the block (else every image of the tie points
+  with an orientation).
+
+Conventions (checked by reprojection, tests/io/test_micmac.py): R = R_x(omega) R_y(phi)
+R_z(kappa) from camera to object, angles in degrees, the collinearity of docs/format.md;
+image x = (x_px - ppx) p, y = (ppy - y_px) p in mm with p the pixel size; c = focal_px p.
+The orientations are GNSS/IMU results: they are the photos' approximations and their GNSS
+positions and IMU attitudes as observations (default sigmas GNSS_SIGMA_M, IMU_SIGMA_DEG;
+the lever arm and boresight are already applied in such files).  The CRS is Lambert-93
+(EPSG:2154) with ellipsoidal heights, so the block is adjusted in a local east-north-up
+frame.  Strips are the `x00015` part of the IGN image names.  Points measured on one image
+are left out and counted.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from baarda.block.photo_block import (
+    Block,
+    Cameras,
+    GnssObservations,
+    GroundPoints,
+    ImagePoints,
+    ImuObservations,
+    Photos,
+    Settings,
+)
+from baarda.errors import ProjectError
+from baarda.io.records import decode_text, file_bytes, read_lines
+from baarda.io.xmltree import parse_xml
+
+CRS = "EPSG:2154"  # Lambert-93, the IGN's and MicMac's SysCo of this data
+GNSS_SIGMA_M = (0.10, 0.10, 0.15)
+IMU_SIGMA_DEG = 0.005
+IMAGE_SIGMA_PX = 0.5
+CONTROL_SIGMA_M = (0.05, 0.05, 0.05)
+PREFERRED_ORIENTATIONS = "trajectograhie.opk"
+
+
+def _tie_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.glob("*.mes") if "liaison" in p.name.lower())
+
+
+def _sensor(folder: Path) -> Path | None:
+    for p in sorted(folder.glob("*.xml")):
+        try:
+            head = p.read_bytes()[:200].lower()
+        except OSError:
+            continue
+        if b"<sensor>" in head:
+            return p
+    return None
+
+
+def is_micmac(path: str | Path) -> bool:
+    """A folder with MicMac tie points, orientations (.opk) and an IGN camera description."""
+    p = Path(path)
+    return (p.is_dir() and bool(_tie_files(p)) and _sensor(p) is not None
+            and any(q.suffix.lower() == ".opk" for q in p.iterdir()))
+
+
+def _lines(path: Path):
+    """(line number, fields) of the non-empty lines of a text file."""
+    for n, line in enumerate(read_lines(path), start=1):
+        fields = line.split()
+        if fields:
+            yield n, fields
+
+
+def _number(text: str, path: Path, line: int, column: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise ProjectError(str(path), f"'{text}' is not a number", line, column) from None
+    if not np.isfinite(v):
+        raise ProjectError(str(path), f"'{text}' is not a finite number", line, column)
+    return v
+
+
+def read_sensor(path: Path) -> dict:
+    """The IGN camera description: width, height (px), ppx, ppy, focal (px), pixel (mm)."""
+    root = parse_xml(path)
+    if root.tag != "sensor":
+        raise ProjectError(str(path), "not an IGN camera description (<sensor>)", root.line)
+
+    def value(*tags: str) -> float:
+        node = root
+        for t in tags:
+            nxt = node.find(t)
+            if nxt is None:
+                raise ProjectError(str(path), f"no <{'/'.join(tags)}>", node.line, tags[-1])
+            node = nxt
+        return _number((node.text or "").strip(), path, node.line, tags[-1])
+
+    out = {"name": (root.find("name").text or "").strip() if root.find("name") is not None
+           else path.stem,
+           "width": value("usefull-frame", "rect", "w"),
+           "height": value("usefull-frame", "rect", "h"),
+           "ppx": value("focal", "pt3d", "x"), "ppy": value("focal", "pt3d", "y"),
+           "focal": value("focal", "pt3d", "z"),
+           "pixel_mm": value("pixel_size") * 1e3}
+    if out["focal"] <= 0 or out["pixel_mm"] <= 0:
+        raise ProjectError(str(path), "focal length and pixel size must be positive")
+    return out
+
+
+def read_orientations(path: Path) -> dict[str, tuple[np.ndarray, int]]:
+    """Image name -> ((X, Y, Z, omega, phi, kappa) in m and degrees, line) of an .opk file;
+    header lines (text in the coordinate fields) are skipped."""
+    out = {}
+    for n, f in _lines(path):
+        try:
+            values = np.array([float(v) for v in f[1:7]]) if len(f) >= 7 else None
+        except ValueError:
+            values = None
+        if values is None:
+            if not out and n <= 5:
+                continue  # a header line before the first orientation
+            raise ProjectError(str(path), "expected 'image X Y Z omega phi kappa [camera]' "
+                               "with numbers", n)
+        if not np.isfinite(values).all():
+            raise ProjectError(str(path), "a coordinate or angle is not finite", n)
+        out[f[0]] = (values, n)
+    return out
+
+
+def _measurements(path: Path, images: dict[str, int]) -> list[tuple[str, int, float, float]]:
+    """(point, image index, x_px, y_px) of the measurements on the block's images."""
+    out = []
+    for n, f in _lines(path):
+        if len(f) != 4:
+            raise ProjectError(str(path), "expected 'point image x y'", n)
+        name = Path(f[1]).stem
+        if name not in images:
+            continue
+        out.append((f[0], images[name], _number(f[2], path, n, "x"),
+                    _number(f[3], path, n, "y")))
+    return out
+
+
+def _image_list(folder: Path) -> list[str] | None:
+    p = folder / "ImAerien.xml"
+    if not p.is_file():
+        return None
+    text = decode_text(file_bytes(p), str(p))
+    return [Path(m).stem for m in re.findall(r"<el>\s*\"?([^<\"]+?)\"?\s*</el>", text)]
+
+
+def _strip(name: str) -> str:
+    m = re.search(r"x(\d+)_\d+$", name)
+    return m.group(1) if m else ""
+
+
+def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
+                gnss_sigma_m: tuple[float, float, float] = GNSS_SIGMA_M,
+                imu_sigma_deg: float = IMU_SIGMA_DEG,
+                image_sigma_px: float = IMAGE_SIGMA_PX) -> Block:
+    """A MicMac/IGN aerial block (module docstring).  orientations: the .opk file (default
+    trajectograhie.opk, else the only .opk of the folder)."""
+    folder = Path(folder)
+    sensor_path = _sensor(folder)
+    if sensor_path is None:
+        raise ProjectError(str(folder), "no IGN camera description (.xml with <sensor>)")
+    cam = read_sensor(sensor_path)
+    opks = sorted(q for q in folder.iterdir() if q.suffix.lower() == ".opk")
+    if orientations is not None:
+        opk = Path(orientations)
+    elif (folder / PREFERRED_ORIENTATIONS).is_file():
+        opk = folder / PREFERRED_ORIENTATIONS
+    elif len(opks) == 1:
+        opk = opks[0]
+    else:
+        raise ProjectError(str(folder), "several orientation files: choose one ("
+                           + ", ".join(q.name for q in opks) + ")")
+    eo_by_name = read_orientations(opk)
+    ties = _tie_files(folder)
+    names = _image_list(folder)
+    if names is None:
+        seen: set[str] = set()
+        for t in ties:
+            seen |= {Path(f[1]).stem for _, f in _lines(t) if len(f) == 4}
+        names = sorted(seen & set(eo_by_name))
+    missing = [n for n in names if n not in eo_by_name]
+    if missing:
+        raise ProjectError(str(opk), f"no orientation of image {missing[0]}")
+    if not names:
+        raise ProjectError(str(folder), "no image with both measurements and an orientation")
+    index = {n: i for i, n in enumerate(names)}
+    p = cam["pixel_mm"]
+    # measurements: tie points, then control
+    meas = [m for t in ties for m in _measurements(t, index)]
+    app = sorted(folder.glob("*.APP"))
+    ctrl_xyz: dict[str, np.ndarray] = {}
+    for a in app:
+        for n, f in _lines(a):
+            if len(f) != 5:
+                raise ProjectError(str(a), "expected 'point n X Y Z'", n)
+            ctrl_xyz[f[0]] = np.array([_number(f[k], a, n, c)
+                                       for k, c in ((2, "X"), (3, "Y"), (4, "Z"))])
+    for m in sorted(folder.glob("*.MES")):
+        if m.suffix == ".MES":
+            meas += _measurements(m, index)
+    pids = list(dict.fromkeys(pt for pt, _, _, _ in meas))
+    pidx = {q: j for j, q in enumerate(pids)}
+    point = np.array([pidx[pt] for pt, _, _, _ in meas], dtype=np.int64)
+    photo = np.array([i for _, i, _, _ in meas], dtype=np.int64)
+    xy_px = np.array([[x, y] for _, _, x, y in meas]).reshape(-1, 2)
+    # one measurement of a point on an image; points on one image left out
+    key = photo * len(pids) + point
+    _, first = np.unique(key, return_index=True)
+    keep = np.zeros(len(key), bool)
+    keep[first] = True
+    twice = int(len(key) - keep.sum())
+    rays = np.bincount(point[keep], minlength=len(pids))
+    single = (rays < 2) & np.array([q not in ctrl_xyz for q in pids])
+    keep &= ~single[point]
+    used = np.zeros(len(pids), bool)
+    used[point[keep]] = True
+    new = np.cumsum(used) - 1
+    ids = [q for q, u in zip(pids, used, strict=True) if u]
+    point, photo, xy_px = new[point[keep]], photo[keep], xy_px[keep]
+    xy = np.column_stack([(xy_px[:, 0] - cam["ppx"]) * p, (cam["ppy"] - xy_px[:, 1]) * p])
+    xyz = np.full((len(ids), 3), np.nan)
+    sigma = np.full((len(ids), 3), np.nan)
+    role = np.full(len(ids), "tie", dtype=object)
+    for j, q in enumerate(ids):
+        if q in ctrl_xyz:
+            xyz[j], sigma[j], role[j] = ctrl_xyz[q], CONTROL_SIGMA_M, "control"
+    eo = np.array([eo_by_name[n][0] for n in names])
+    eo[:, 3:] = np.radians(eo[:, 3:])
+    n_ph = len(names)
+    sig_img = image_sigma_px * p
+    settings = Settings(name=folder.name, angle_unit="deg", sigma_image_um=sig_img * 1e3,
+                        sigma_control_m=CONTROL_SIGMA_M, crs=CRS)
+    notes = [f"MicMac/IGN block: camera {cam['name']} (c {cam['focal'] * p:.3f} mm, pixel "
+             f"{p * 1e3:g} µm), orientations {opk.name} as approximations and as GNSS "
+             f"positions (sigma {', '.join(f'{s:g}' for s in gnss_sigma_m)} m) and IMU "
+             f"attitudes (sigma {imu_sigma_deg:g} deg), image sigma {image_sigma_px:g} px",
+             f"{int(single.sum())} point(s) measured on one image left out"
+             + (f"; {twice} repeated measurement(s) of a point on an image ignored"
+                if twice else "")]
+    return Block(
+        settings, Cameras([cam["name"]], np.array([cam["focal"] * p]), np.zeros((1, 2))),
+        Photos(list(names), np.zeros(n_ph, np.int64),
+               np.array([_strip(n) for n in names], dtype=object), eo),
+        ImagePoints(photo, point, xy, np.full(len(photo), sig_img)),
+        GroundPoints(ids, xyz, sigma, role), source=str(folder), notes=notes,
+        gnss=GnssObservations(np.arange(n_ph), eo[:, :3].copy(),
+                              np.tile(np.asarray(gnss_sigma_m, float), (n_ph, 1))),
+        imu=ImuObservations(np.arange(n_ph), eo[:, 3:].copy(),
+                            np.full((n_ph, 3), np.radians(imu_sigma_deg))))
