@@ -24,6 +24,9 @@ def _common(p) -> None:
                    help="reject both coordinates of an image point together")
     p.add_argument("--robust", action="store_true", help="Danish-method re-weighting before "
                    "snooping (for blocks with many large errors)")
+    p.add_argument("--gpkg", action="store_true", help="also write block.gpkg for GIS: "
+                   "points, projection centres and image-residual vectors (exaggerated "
+                   "1000 x on the ground) in the project's CRS")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     add_input_options(p)
 
@@ -70,6 +73,7 @@ def _adjust(args, run):
                          progress=say)
         write_results(run, qc)
         write_screening_log(run, res.log)
+        _gpkg(args, run, qc)
         return qc, res.summary() + "\n" + qc.summary()
     problem = prepare(block)
     if say:
@@ -81,7 +85,15 @@ def _adjust(args, run):
     else:
         qc = assess(adjust(problem, progress=say), tests)
     write_results(run, qc)
+    _gpkg(args, run, qc)
     return qc, qc.summary()
+
+
+def _gpkg(args, run, qc) -> None:
+    if getattr(args, "gpkg", False):
+        from baarda.output.gpkg import write_gpkg
+
+        write_gpkg(run.file("block.gpkg"), qc)
 
 
 def run_snoop(args) -> int:
