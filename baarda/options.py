@@ -26,19 +26,25 @@ class TestOptions:
 
     alpha0: float = 0.001
     beta0: float = 0.80
+    alpha_global: float = 0.05  # level of the headline global test (not the B-method's)
 
     def __post_init__(self) -> None:
         if not (0.0 < self.alpha0 < 0.5 and 0.5 <= self.beta0 < 1.0):
             raise ValueError(f"alpha0 must be in (0, 0.5) and beta0 in [0.5, 1) (got "
                              f"{self.alpha0}, {self.beta0})")
+        if not 0.0 < self.alpha_global < 0.5:
+            raise ValueError(f"alpha_global must be in (0, 0.5) (got {self.alpha_global})")
 
     @classmethod
     def resolve(cls, settings=None, alpha0: float | None = None,
-                beta0: float | None = None) -> TestOptions:
+                beta0: float | None = None, alpha_global: float | None = None) -> TestOptions:
         """The user's values where given, else the project's settings, else the defaults."""
-        base = cls() if settings is None else cls(float(settings.alpha0), float(settings.beta0))
+        base = cls() if settings is None else cls(
+            float(settings.alpha0), float(settings.beta0),
+            float(getattr(settings, "alpha_global", cls.alpha_global)))
         return cls(base.alpha0 if alpha0 is None else float(alpha0),
-                   base.beta0 if beta0 is None else float(beta0))
+                   base.beta0 if beta0 is None else float(beta0),
+                   base.alpha_global if alpha_global is None else float(alpha_global))
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ class Settings:
     sigma_control_m: tuple[float, float, float] = (0.05, 0.05, 0.05)
     alpha0: float = DEFAULT_TESTS.alpha0
     beta0: float = DEFAULT_TESTS.beta0
+    alpha_global: float = DEFAULT_TESTS.alpha_global
     crs: str | None = None
     datum: str = "control"  # control: the control fixes the block; free: minimal constraints
     # GNSS/IMU (docs/format.md [gnss], [imu]): lever arm (m, camera frame) from the

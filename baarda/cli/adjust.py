@@ -18,6 +18,9 @@ def _common(p) -> None:
     p.add_argument("--alpha0", type=float, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
+    p.add_argument("--alpha-global", type=float, help="level of the headline global test "
+                   "of the variance factor (default: project.toml [tests] alpha_global, else "
+                   "0.05; the B-method's coupled test is printed beside it)")
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau (sigma0 a "
                    "posteriori) instead of Baarda's w (sigma0 a priori)")
     p.add_argument("--by-point", action="store_true",

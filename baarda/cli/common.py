@@ -41,7 +41,8 @@ def tests_option(settings, args) -> TestOptions:
     errors."""
     try:
         return TestOptions.resolve(settings, getattr(args, "alpha0", None),
-                                   getattr(args, "beta0", None))
+                                   getattr(args, "beta0", None),
+                                   getattr(args, "alpha_global", None))
     except ValueError as e:
         raise ProjectError("command line", str(e)) from None
 

@@ -92,6 +92,7 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
         ctrl = [float(ctrl)] * 3 if np.isscalar(ctrl) else [float(c) for c in ctrl]
         s.alpha0 = float(tests.get("alpha0", s.alpha0))
         s.beta0 = float(tests.get("beta0", s.beta0))
+        s.alpha_global = float(tests.get("alpha_global", s.alpha_global))
     except (TypeError, ValueError, OverflowError) as e:
         raise ProjectError(str(path), f"a setting is not a number: {e}") from None
     if len(ctrl) != 3:
@@ -100,6 +101,9 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     positive_settings(path, {"sigma.image_um": s.sigma_image_um,
                              **{f"sigma.control_m[{k}]": c for k, c in enumerate(ctrl)}})
     s.sigma_control_m = tuple(ctrl)
+    if not 0 < s.alpha_global < 0.5:
+        raise ProjectError(str(path), "tests.alpha_global must be in (0, 0.5)",
+                           column="tests.alpha_global")
     if not (0 < s.alpha0 < 0.5 and 0.5 <= s.beta0 < 1):
         raise ProjectError(str(path), "tests.alpha0 must be in (0, 0.5) and tests.beta0 in "
                            "[0.5, 1)")

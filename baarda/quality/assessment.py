@@ -12,6 +12,7 @@ Units in tables and summaries: each model says how its kinds of observation are 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,14 +36,37 @@ COLUMNS = ("adjustment", "kind", "photo", "model", "point", "component", "x_mm",
            "lambda_bar", "external_max", "external_point", "point_test", "rejected", "flagged")
 
 
+def sigma0_interval(gt) -> tuple[float, float]:
+    """The two-sided confidence interval (level 1 - alpha) of sigma0 (a posteriori, in
+    units of the a-priori sigma0): sqrt(omega / chi2 quantiles)."""
+    return math.sqrt(gt.statistic / gt.upper), math.sqrt(gt.statistic / gt.lower)
+
+
+def global_test_lines(q: QualityResult) -> list[str]:
+    """The global test of the variance factor in words (the one place that says it): the
+    headline test at the conventional level alpha_global (one-sided: sigma0 too large), the
+    interval of sigma0 and a note when sigma0 is significantly below one; then the B-method's
+    test, its alpha coupled to the w-tests' power."""
+    gt, h = q.global_test, q.headline_test
+    if gt is None or h is None:
+        return ["global test: no redundancy"]
+    lo, hi = sigma0_interval(h)
+    low = hi < 1.0
+    head = (f"global test at alpha {q.alpha_global:g}: sigma0^2 = {h.statistic:.4f}, critical "
+            f"{h.critical:.4f}, p = {h.p_value:.3g}; sigma0 {math.sqrt(h.statistic):.4f}, "
+            f"{100 * (1 - q.alpha_global):g} % interval [{lo:.4f}, {hi:.4f}] -> "
+            f"{'accepted' if h.passed else 'REJECTED'}"
+            + ("; sigma0 is significantly below 1: the a-priori sigmas are too pessimistic"
+               if low else ""))
+    b = (f"global test by the B-method (alpha {q.global_alpha:.3g}, coupled to the w-test's "
+         f"power {q.beta0:g}): critical {gt.critical:.4f} -> "
+         f"{'accepted' if gt.passed else 'REJECTED'}")
+    return [head, b]
+
+
 def global_test_line(q: QualityResult) -> str:
-    """The global test of the variance factor in words (the one place that says it)."""
-    gt = q.global_test
-    if gt is None:
-        return "global test: no redundancy"
-    return (f"global test: sigma0^2 = {gt.statistic:.4f}, critical {gt.critical:.4f} (alpha "
-            f"{q.global_alpha:.3g} by the B-method, p = {gt.p_value:.3g}) -> "
-            f"{'accepted' if gt.passed else 'REJECTED'}")
+    """The headline global test in one line (global_test_lines)."""
+    return global_test_lines(q)[0]
 
 
 def quality_lines(model: AdjustedModel, q: QualityResult,
@@ -50,7 +74,7 @@ def quality_lines(model: AdjustedModel, q: QualityResult,
     """Test settings, global test, redundancy and per-kind reliability for people;
     suffix(kind, selection) adds a method's words to a kind's line."""
     lines = [f"alpha0 {q.alpha0}, beta0 {q.beta0}: delta0 {q.delta0:.3f}, critical |w| "
-             f"{q.k_w:.3f}", global_test_line(q),
+             f"{q.k_w:.3f}", *global_test_lines(q),
              f"sum of redundancy numbers {q.sum_redundancy_numbers:.3f} = redundancy "
              f"{q.redundancy}"]
     act = q.active & q.controlled
@@ -170,9 +194,14 @@ class Assessment:
     def quality_dict(self) -> dict:
         """The statistics' part of summary.json."""
         q = self.quality
-        gt = q.global_test
+        gt, h = q.global_test, q.headline_test
         return {
-            "global_test": None if gt is None else {
+            "global_test": None if h is None else {
+                "statistic": h.statistic, "critical": h.critical, "alpha": q.alpha_global,
+                "p_value": h.p_value, "passed": bool(h.passed),
+                "sigma0_interval": list(sigma0_interval(h)),
+                "sigma0_below_one": bool(sigma0_interval(h)[1] < 1.0)},
+            "global_test_b_method": None if gt is None else {
                 "statistic": gt.statistic, "critical": gt.critical, "alpha": q.global_alpha,
                 "p_value": gt.p_value, "passed": bool(gt.passed)},
             "alpha0": q.alpha0, "beta0": q.beta0, "delta0": q.delta0, "k_w": q.k_w,

@@ -62,12 +62,14 @@ class QualityResult:
     beta0: float
     delta0: float
     global_alpha: float
-    global_test: object = None
+    global_test: object = None  # the B-method's (its alpha coupled to the w-test's power)
     notes: list[str] = field(default_factory=list)
+    alpha_global: float = TestOptions.alpha_global
+    headline_test: object = None  # the global test at the conventional level alpha_global
 
     @property
     def tests(self) -> TestOptions:
-        return TestOptions(self.alpha0, self.beta0)
+        return TestOptions(self.alpha0, self.beta0, self.alpha_global)
 
     @property
     def sum_redundancy_numbers(self) -> float:
@@ -119,6 +121,7 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     k_tau = tau_critical(alpha0, red) if red >= 2 else np.nan
     ga = bm.alpha_for(red) if red > 0 else np.nan
     gt = global_test(vtpv, red, ga) if red > 0 else None
+    headline = global_test(vtpv, red, tests.alpha_global) if red > 0 else None
     notes = []
     total = float(np.sum(r[act]))
     if red > 0 and abs(total - red) > 1e-6 * red:
@@ -138,7 +141,8 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
         external_point=labels, controlled=controlled,
         flagged=act & controlled & (np.abs(np.nan_to_num(w)) > bm.k_w), redundancy=red,
         vtpv=vtpv, sigma0_hat=s0, k_w=bm.k_w, k_tau=k_tau, alpha0=alpha0, beta0=beta0,
-        delta0=bm.delta0, global_alpha=ga, global_test=gt, notes=notes)
+        delta0=bm.delta0, global_alpha=ga, global_test=gt, notes=notes,
+        alpha_global=tests.alpha_global, headline_test=headline)
 
 
 def qvv_columns(model: AdjustedModel, rows: np.ndarray) -> np.ndarray:
