@@ -150,6 +150,41 @@ def adjust(block: Block | BundleProblem, options: SolveOptions = SOLVE,
     return problem.fit(options=options, progress=progress)
 
 
+def with_variance_components(problem: BundleProblem, progress: Progress | None = None,
+                             active=None):
+    """(the problem re-weighted with the estimated variance component of every group, the
+    estimation): Foerstner's iteration (quality/variance_components.py) on the `active`
+    components (default all; a first snooping's survivors keep gross errors out of the
+    estimate); the group factors are said in the problem's notes, so that the summary shows
+    them.  Every component, rejected or not, gets its group's factor."""
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.quality.variance_components import iterate
+
+    start = problem if active is None else problem.reweighted(active, None)
+    est = iterate(BundleModel(start.fit(progress=progress)), progress=progress)
+    new = problem.reweighted(None, est.factors)
+    new.notes = tuple(new.notes) + tuple(est.lines())
+    return new, est
+
+
+def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | None = None,
+                                   *, max_rounds: int = 5, progress: Progress | None = None,
+                                   **snoop_options) -> tuple[Assessment, BundleProblem]:
+    """Variance components and snooping in turn: the components estimated from every
+    observation, snooping with them, the components again without what it rejected, until
+    the rejections no longer change (a gross error inflates its group's estimate; an
+    estimate truncated by a snooping with wrong sigmas is too small).  Returns the last
+    snooping and its re-weighted problem."""
+    active = None
+    for _ in range(max_rounds):
+        weighted, _ = with_variance_components(problem, progress=progress, active=active)
+        qc = snoop(weighted, tests, progress=progress, **snoop_options)
+        if active is not None and np.array_equal(qc.quality.active, active):
+            break
+        active = qc.quality.active
+    return qc, weighted
+
+
 def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
     """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection."""
     return assess_result(result, tests)

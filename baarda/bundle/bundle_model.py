@@ -47,6 +47,22 @@ class BundleModel(SchurModel):
         xy[img] = self.result.block.image.xy_mm[self.image_row[img]]
         return xy
 
+    def variance_groups(self) -> np.ndarray:
+        """(n,) the group of every component for variance-component estimation: image per
+        camera, control X, Y, Z, GNSS X, Y, Z, IMU, distances."""
+        pb = self.result.problem
+        block = pb.block
+        kind = np.asarray(self.kind, dtype=object)
+        comp = np.asarray(self.component, dtype=object)
+        out = np.where(np.isin(kind, ["control", "gnss"]), kind + " " + comp, kind).astype(
+            object)
+        if len(block.cameras) > 1:
+            img = self.image_row >= 0
+            cams = np.asarray(block.cameras.ids, dtype=object)
+            cam = cams[block.photos.camera[block.image.photo[self.image_row[img]]]]
+            out[img] = "image camera " + cam
+        return out
+
     def other_cofactor_blocks(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """The GNSS positions of the photos, X, Y, Z together (a 3D test of each)."""
         pb = self.result.problem

@@ -7,7 +7,15 @@ from pathlib import Path
 from baarda.cli.common import FOLDER_HELP, NOT_CONVERGED, OK, open_run, progress, tests_option
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.output.bundle_results import write_results
-from baarda.pipeline import adjust, assess, prepare, screen, snoop
+from baarda.pipeline import (
+    adjust,
+    assess,
+    prepare,
+    screen,
+    snoop,
+    snoop_with_variance_components,
+    with_variance_components,
+)
 
 
 def _common(p) -> None:
@@ -27,6 +35,10 @@ def _common(p) -> None:
                    help="reject both coordinates of an image point together")
     p.add_argument("--robust", action="store_true", help="Danish-method re-weighting before "
                    "snooping (for blocks with many large errors)")
+    p.add_argument("--vce", action="store_true", help="estimate a variance component per "
+                   "observation group (image per camera, control X, Y, Z, GNSS, IMU, "
+                   "distances), re-weight and adjust again until they converge; the tests "
+                   "and snooping then use the estimated sigmas")
     p.add_argument("--gpkg", action="store_true", help="also write block.gpkg for GIS: "
                    "points, projection centres and image-residual vectors (exaggerated "
                    "1000 x on the ground) in the project's CRS")
@@ -79,10 +91,16 @@ def _adjust(args, run):
         _gpkg(args, run, qc)
         return qc, res.summary() + "\n" + qc.summary()
     problem = prepare(block)
+    if getattr(args, "vce", False) and not args.snoop:
+        problem, _ = with_variance_components(problem, progress=say)
     if say:
         for note in problem.block.notes:
             say(f"note: {note}")
-    if args.snoop:
+    if args.snoop and getattr(args, "vce", False):
+        qc, _ = snoop_with_variance_components(problem, tests, statistic=statistic,
+                                               by_point=args.by_point, robust=args.robust,
+                                               progress=say)
+    elif args.snoop:
         qc = snoop(problem, tests, statistic=statistic, by_point=args.by_point,
                    robust=args.robust, progress=say)
     else:
