@@ -162,9 +162,7 @@ def with_variance_components(problem: BundleProblem, progress: Progress | None =
 
     start = problem if active is None else problem.reweighted(active, None)
     est = iterate(BundleModel(start.fit(progress=progress)), progress=progress)
-    new = problem.reweighted(None, est.factors)
-    new.notes = tuple(new.notes) + tuple(est.lines())
-    return new, est
+    return problem.reweighted(None, est.factors), est
 
 
 def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | None = None,
@@ -174,15 +172,15 @@ def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | 
     observation, snooping with them, the components again without what it rejected, until
     the rejections no longer change (a gross error inflates its group's estimate; an
     estimate truncated by a snooping with wrong sigmas is too small).  Returns the last
-    snooping and its re-weighted problem."""
+    snooping (with the variance components) and its re-weighted problem."""
     active = None
     for _ in range(max_rounds):
-        weighted, _ = with_variance_components(problem, progress=progress, active=active)
+        weighted, est = with_variance_components(problem, progress=progress, active=active)
         qc = snoop(weighted, tests, progress=progress, **snoop_options)
         if active is not None and np.array_equal(qc.quality.active, active):
             break
         active = qc.quality.active
-    return qc, weighted
+    return replace(qc, variance_components=est.components()), weighted
 
 
 def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from baarda.cli.common import FOLDER_HELP, NOT_CONVERGED, OK, open_run, progress, tests_option
@@ -91,8 +92,9 @@ def _adjust(args, run):
         _gpkg(args, run, qc)
         return qc, res.summary() + "\n" + qc.summary()
     problem = prepare(block)
+    est = None
     if getattr(args, "vce", False) and not args.snoop:
-        problem, _ = with_variance_components(problem, progress=say)
+        problem, est = with_variance_components(problem, progress=say)
     if say:
         for note in problem.block.notes:
             say(f"note: {note}")
@@ -105,6 +107,8 @@ def _adjust(args, run):
                    robust=args.robust, progress=say)
     else:
         qc = assess(adjust(problem, progress=say), tests)
+    if est is not None:
+        qc = replace(qc, variance_components=est.components())
     write_results(run, qc)
     _gpkg(args, run, qc)
     return qc, qc.summary()

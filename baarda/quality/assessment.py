@@ -139,6 +139,7 @@ class Assessment:
     run: SnoopingRun | None = None
     hypotheses: tuple[HypothesisTest, ...] = ()
     name: str = "bundle"
+    variance_components: tuple = ()  # quality/variance_components.py (--vce)
 
     @property
     def rejected(self) -> np.ndarray:
@@ -215,6 +216,8 @@ class Assessment:
             "hypotheses": [{"name": t.name, "q": t.q, "statistic": t.statistic,
                             "critical": t.critical, "rejected": t.rejected,
                             "nabla": np.atleast_1d(t.nabla).tolist()} for t in self.hypotheses],
+            **({"variance_components": [c.to_dict() for c in self.variance_components]}
+               if self.variance_components else {}),
         }
 
     def _log_entry(self, step) -> dict:
@@ -246,6 +249,18 @@ class Assessment:
             lines.append("alternative hypotheses:")
             lines += ["  " + t.summary() for t in others]
             lines += self.conclusion_lines()
+        if self.variance_components:
+            lines.append("variance components per group (Foerstner; the tests and snooping "
+                         "use the estimated sigmas):")
+            for c in self.variance_components:
+                u, unit = self.model.units.get(c.group.split()[0], (1.0, ""))
+                if not np.isfinite(c.factor):
+                    lines.append(f"  {c.group}: n {c.n}, r {c.redundancy:.2f}: too little "
+                                 "redundancy to estimate, not re-weighted")
+                    continue
+                lines.append("  " + c.line(u, unit) + (
+                    f"; estimated sigma {c.sigma_estimated * u:.4g} {unit}".rstrip()
+                    if np.isfinite(c.estimated) else ""))
         lines += [f"note: {n}" for n in q.notes]
         title = "Quality control" + ("" if self.name == "bundle" else f" ({self.name})")
         return [section(title, lines)]

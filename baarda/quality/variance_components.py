@@ -58,10 +58,19 @@ class VarianceComponent:
     factor_std: float
     p_value: float
     rejected: bool
+    estimated: float = float("nan")  # the iterated factor (--vce), relative to a priori
 
     @property
     def sigma_estimated(self) -> float:
-        return self.sigma_apriori * float(np.sqrt(self.factor))
+        f = self.estimated if np.isfinite(self.estimated) else self.factor
+        return self.sigma_apriori * float(np.sqrt(f))
+
+    def to_dict(self) -> dict:
+        return {"group": self.group, "n": self.n, "sigma_apriori": self.sigma_apriori,
+                "redundancy": self.redundancy, "vtpv": self.vtpv, "factor": _num(self.factor),
+                "factor_std": _num(self.factor_std), "p_value": _num(self.p_value),
+                "rejected": bool(self.rejected), "estimated_factor": _num(self.estimated),
+                "sigma_estimated": _num(self.sigma_estimated)}
 
     def line(self, scale: float = 1.0, unit: str = "") -> str:
         return (f"{self.group}: n {self.n}, r {self.redundancy:.2f}, sigma a priori "
@@ -69,6 +78,10 @@ class VarianceComponent:
                 f"+- {self.factor_std:.4f} (sigma x {np.sqrt(self.factor):.4f} = "
                 f"{self.sigma_estimated * scale:.4g} {unit}), p = {self.p_value:.3g} -> "
                 + ("differs from 1" if self.rejected else "1 accepted")).replace("  ", " ")
+
+
+def _num(x: float) -> float | None:
+    return float(x) if np.isfinite(x) else None
 
 
 def estimate(model, alpha: float = ALPHA) -> list[VarianceComponent]:
@@ -110,6 +123,13 @@ class VarianceEstimation:
     group_factor: dict[str, float]
     log: list[str]
     converged: bool
+
+    def components(self) -> tuple[VarianceComponent, ...]:
+        """The first estimates with the iterated factor of each group."""
+        from dataclasses import replace
+
+        return tuple(replace(c, estimated=self.group_factor.get(c.group, float("nan"))
+                             if np.isfinite(c.factor) else float("nan")) for c in self.first)
 
     def lines(self, units: dict | None = None) -> list[str]:
         out = [f"variance components per group (Foerstner), estimated in {len(self.log)} "

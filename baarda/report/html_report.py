@@ -198,6 +198,18 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     sec.append(("global", "Global test",
                 f'<p class="{"ok" if passed else "bad"}" id="global-test">'
                 + "<br>".join(esc(x) for x in gt_lines) + "</p>"))
+    vc = res.summary.get("variance_components")
+    if vc:
+        t = pd.DataFrame(vc)[["group", "n", "redundancy", "sigma_apriori", "factor",
+                              "factor_std", "p_value", "rejected", "estimated_factor",
+                              "sigma_estimated"]]
+        sec.append(("vce", "Variance components per group", table(
+            t, {"redundancy": ".2f", "sigma_apriori": ".4g", "factor": ".4f",
+                "factor_std": ".4f", "p_value": ".3g", "estimated_factor": ".4f",
+                "sigma_estimated": ".4g"}, text_cols=("group",))
+            + "<p>Foerstner's estimate sigma_k^2 = v'Pv / r_k per group, its test against one "
+              "(5 %); sigmas in mm (image) and m (control, GNSS), rad (IMU); the tests and "
+              "snooping used the estimated sigmas.</p>"))
     sec.append(("log", "Data snooping log", _log_table(res.summary)))
     body = _group_table(res)
     if res.photos is not None and (res.obs["kind"] == "image").any():

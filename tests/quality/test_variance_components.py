@@ -81,3 +81,28 @@ def test_snooping_with_estimated_sigmas_equals_snooping_with_the_true_ones():
     k = truth.quality.k_w
     for s in est ^ ref:
         assert s in w_true and w_true[s] < 1.1 * k, s
+
+
+def test_command_line_summary_and_report(tmp_path):
+    """`adjust --vce`: summary.json lists the groups; the text and HTML reports show them."""
+    import contextlib
+    import io
+    import json
+
+    from baarda.cli import main
+
+    proj = tmp_path / "p"
+    assert main(["simulate", "-o", str(proj), "--pattern", "5", "--relief", "100"]) == 0
+    assert main(["adjust", str(proj), "-o", str(tmp_path / "o"), "--vce", "-q"]) == 0
+    doc = json.loads((tmp_path / "o" / "summary.json").read_text())
+    groups = {c["group"]: c for c in doc["variance_components"]}
+    assert {"image", "control Z"} <= set(groups)
+    g = groups["image"]
+    assert abs(g["redundancy"] - doc["sum_redundancy_numbers"]) < doc["redundancy"]
+    assert g["estimated_factor"] is not None and abs(g["estimated_factor"] - 1) < 0.3
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["report", str(tmp_path / "o"), "--text"]) == 0
+    assert "variance components per group" in out.getvalue()
+    assert main(["report", str(tmp_path / "o"), "-o", str(tmp_path / "o" / "r.html")]) == 0
+    assert "Variance components per group" in (tmp_path / "o" / "r.html").read_text()
