@@ -69,16 +69,28 @@ def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, H
     return out
 
 
+MIN_GROUP = 10  # tested components for a group's own histogram of w
+
+
 def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
-    """Histograms of w of the active, tested observations: image x, y, x and y, and all
-    observations when there are other kinds (control)."""
+    """Histograms of w of the active, tested observations: image x, y, x and y; then per
+    observation group of the other kinds with at least MIN_GROUP tested components (control
+    X, Y, Z, GNSS X, Y, Z, IMU, distances, ...: the groups of the variance components), and
+    all observations together."""
     d = obs[~obs["rejected"] & np.isfinite(obs["w"])]
     lab = obs_label(d)
-    img = (d["kind"] == "image").to_numpy()
+    kind = d["kind"].to_numpy(str)
+    img = kind == "image"
     comp = d["component"].to_numpy(str)
     sels = [("image x", img & (comp == "x")), ("image y", img & (comp == "y")),
             ("image x and y", img)]
     if not img.all():
+        for k in dict.fromkeys(kind[~img].tolist()):
+            by_comp = k in ("control", "gnss")
+            for c in (dict.fromkeys(comp[kind == k].tolist()) if by_comp else [None]):
+                sel = (kind == k) & ((comp == c) if c is not None else True)
+                if sel.sum() >= MIN_GROUP:
+                    sels.append((f"{k} {c}" if c is not None else k, sel))
         sels.append(("all observations", np.ones(len(d), bool)))
     w = d["w"].to_numpy(float)
     return [(n, histogram(w[s], lab[s], opt.w_width, opt.w_lo, opt.w_hi)) for n, s in sels

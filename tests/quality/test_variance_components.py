@@ -106,3 +106,20 @@ def test_command_line_summary_and_report(tmp_path):
     assert "variance components per group" in out.getvalue()
     assert main(["report", str(tmp_path / "o"), "-o", str(tmp_path / "o" / "r.html")]) == 0
     assert "Variance components per group" in (tmp_path / "o" / "r.html").read_text()
+
+
+def test_w_histograms_per_group():
+    """The report's histograms of w per observation group (control X, Y, Z, GNSS, IMU)."""
+    import pandas as pd
+
+    from baarda.report.text_report import ReportOptions, w_hists
+
+    n = 40
+    obs = pd.DataFrame({
+        "kind": ["image"] * n + ["control"] * n + ["gnss"] * n + ["imu"] * n,
+        "component": ["x"] * n + ["Z"] * n + ["X"] * n + ["omega"] * n,
+        "photo": [""] * (4 * n), "point": ["p"] * (4 * n),
+        "w": np.linspace(-3, 3, 4 * n), "rejected": [False] * (4 * n)})
+    names = [name for name, _ in w_hists(obs, ReportOptions())]
+    assert names == ["image x", "image x and y", "control Z", "gnss X", "imu",
+                     "all observations"]
