@@ -123,3 +123,23 @@ def test_w_histograms_per_group():
     names = [name for name, _ in w_hists(obs, ReportOptions())]
     assert names == ["image x", "image x and y", "control Z", "gnss X", "imu",
                      "all observations"]
+
+
+def test_the_estimate_applies_to_every_method():
+    """Independent models: the same estimate from their adjusted model (groups by kind);
+    the group redundancies add up to the redundancy and the estimate equals v'Pv / r_k of
+    the model's own redundancy numbers."""
+    from baarda.independent.workflow import process
+    from baarda.quality.statistics import cofactors
+    from baarda.simulate.model_blocks import ModelPlan, simulate_models
+
+    blk, _ = simulate_models(ModelPlan(strips=2, models_per_strip=4, layout="fotef", seed=11))
+    models = [process(blk, "3d", deformations=None).part("3d").model]
+    for model in models:
+        comps = estimate(model)
+        assert comps and {c.group for c in comps} >= {"model"}
+        _, r = cofactors(model)
+        assert np.isclose(sum(c.redundancy for c in comps), float(r[model.active].sum()))
+        for c in comps:
+            if np.isfinite(c.factor):
+                assert np.isclose(c.factor, c.vtpv / c.redundancy, rtol=1e-12)
