@@ -74,3 +74,22 @@ def add_flight_plan_arguments(p, d) -> None:
     p.add_argument("--format", type=float, default=d.format_mm, help="image format in mm")
     p.add_argument("--pattern", type=int, default=d.pattern, help="n x n points per photo")
     p.add_argument("--stereo", action="store_true", help="stereo mode (twin rays)")
+
+
+def add_control_arguments(p, d) -> None:
+    """The control layout of a simulated block (`simulate`, `evaluate`; defaults from d)."""
+    p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"],
+                   help="full (XYZ) control: every --control-spacing bases along the border of "
+                        "the block, each corner photo measuring one; at the four corners; none")
+    p.add_argument("--control-spacing", type=int, default=d.control_spacing,
+                   help="perimeter control every k base lengths")
+    p.add_argument("--height-chains", type=int, default=d.height_chains,
+                   help="height control chains across the strips every k bases (0: none)")
+
+
+def add_terrain_and_sigma_arguments(p, d) -> None:
+    """Relief and a-priori sigmas of a simulated block (`simulate`, `evaluate`)."""
+    p.add_argument("--relief", type=float, default=d.relief_m, help="terrain relief in m")
+    p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
+    p.add_argument("--sigma-control", type=float, nargs=3, default=list(d.sigma_control_m),
+                   metavar=("X", "Y", "Z"), help="m")

@@ -7,13 +7,18 @@ import sys
 import time
 from pathlib import Path
 
-from baarda.cli.common import FOLDER_HELP, add_flight_plan_arguments, open_run
+from baarda.cli.common import (
+    FOLDER_HELP,
+    add_control_arguments,
+    add_flight_plan_arguments,
+    add_terrain_and_sigma_arguments,
+    open_run,
+)
 from baarda.errors import ProjectError
-
-STRATEGIES = ("snoop", "tau", "by-point", "robust", "screen", "modified", "threshold")
 
 
 def register(sub) -> None:
+    from baarda.evaluation.study import DEFAULT_STRATEGIES, STRATEGIES
     from baarda.simulate.aerial import FlightPlan
 
     p = sub.add_parser("evaluate", help="detection power, measured: blunder-detection "
@@ -22,16 +27,8 @@ def register(sub) -> None:
                    help=FOLDER_HELP.format("output folder"))
     d = FlightPlan()
     add_flight_plan_arguments(p, d)
-    p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"],
-                   help="full (XYZ) control layout (as baarda simulate)")
-    p.add_argument("--control-spacing", type=int, default=d.control_spacing,
-                   help="perimeter control every k base lengths")
-    p.add_argument("--height-chains", type=int, default=d.height_chains,
-                   help="height control chains across the strips every k bases (0: none)")
-    p.add_argument("--relief", type=float, default=d.relief_m, help="terrain relief in m")
-    p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
-    p.add_argument("--sigma-control", type=float, nargs=3, default=list(d.sigma_control_m),
-                   metavar=("X", "Y", "Z"), help="m")
+    add_control_arguments(p, d)
+    add_terrain_and_sigma_arguments(p, d)
     p.add_argument("--trials", type=int, default=100, help="simulated blocks")
     p.add_argument("--blunders", type=int, default=1, help="blunders planted per trial "
                    "(0: noise only, the false-rejection rate)")
@@ -40,7 +37,7 @@ def register(sub) -> None:
                    "drawn uniformly between A and B (sign random)")
     p.add_argument("--blunder-kinds", default="x,y", help="comma list of x,y (image) and "
                    "X,Y,Z (control)")
-    p.add_argument("--strategies", default="snoop,tau,by-point,robust",
+    p.add_argument("--strategies", default=",".join(DEFAULT_STRATEGIES),
                    help=f"comma list of {', '.join(STRATEGIES)} (docs/evaluation.md)")
     p.add_argument("--alpha0", type=float, default=0.001, help="level of the w-test")
     p.add_argument("--beta0", type=float, default=0.80, help="power of the B-method")

@@ -5,7 +5,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from baarda.cli.common import FOLDER_HELP, add_flight_plan_arguments, open_run
+from baarda.cli.common import (
+    FOLDER_HELP,
+    add_control_arguments,
+    add_flight_plan_arguments,
+    add_terrain_and_sigma_arguments,
+    open_run,
+)
 from baarda.output.atomic import write_text
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -19,21 +25,12 @@ def register(sub) -> None:
     add_flight_plan_arguments(p, d)
     p.add_argument("--neat-area", action="store_true",
                    help="points only between the outer nadir lines")
-    p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"],
-                   help="full (XYZ) control: every --control-spacing bases along the border of "
-                        "the block, each corner photo measuring one; at the four corners; none")
-    p.add_argument("--control-spacing", type=int, default=d.control_spacing,
-                   help="perimeter control every k base lengths")
-    p.add_argument("--height-chains", type=int, default=d.height_chains,
-                   help="height control chains across the strips every k bases (0: none)")
+    add_control_arguments(p, d)
     p.add_argument("--twin-control", action="store_true",
                    help="each control point with a close companion (a blunder in one shows)")
     p.add_argument("--check-points", type=int, default=d.check_points,
                    help="check points (not used in the adjustment, compared with it)")
-    p.add_argument("--relief", type=float, default=d.relief_m, help="terrain relief in m")
-    p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
-    p.add_argument("--sigma-control", type=float, nargs=3, default=list(d.sigma_control_m),
-                   metavar=("X", "Y", "Z"), help="m")
+    add_terrain_and_sigma_arguments(p, d)
     p.add_argument("--no-noise", action="store_true",
                    help="error-free observations (for checks of the adjustment itself)")
     p.add_argument("--blunders", type=int, default=0,
