@@ -508,7 +508,7 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
     project_crs = crs or gcp_crs or (utm_crs(lla[0], lla[1]) if lla else None)
     frame = None
     if lla is not None:
-        frame = _topocentric_frame(project_crs, lla, ref_where)
+        frame = topocentric_frame(project_crs, lla, ref_where)
     elif gcp_entries or gnss_rows:
         raise ProjectError(str(rpath), "no reference_lla (in the reconstruction or "
                            "reference_lla.json): the GPS positions and GCPs cannot be placed")
@@ -642,8 +642,9 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
     return block
 
 
-def _topocentric_frame(crs: str, lla: list[float], where: Path) -> LocalFrame:
-    """The LocalFrame of `crs` whose local frame is OpenSfM's topocentric frame at lla."""
+def topocentric_frame(crs: str, lla: list[float], where: Path) -> LocalFrame:
+    """The LocalFrame of `crs` whose local frame is OpenSfM's topocentric frame at lla
+    (longitude, latitude, ellipsoidal height, WGS84)."""
     from pyproj import CRS, Transformer
     from pyproj.exceptions import CRSError, ProjError
 
