@@ -607,7 +607,8 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
                   np.array([c.coefficients for c in cam_list]).reshape(-1, 6),
                   free=tuple(c.free for c in cam_list))
     n_ctrl = int(np.sum(role == "control"))
-    datum = "control" if (n_ctrl or gnss_rows) else "free"
+    datum, why = datum_of(all_xyz, role, rays_of(point, len(ids)), np.array(gnss_xyz),
+                          np.array(gnss_sig))
     settings = Settings(name=root.name, angle_unit="deg", sigma_image_um=sig_mm * 1e3,
                         sigma_control_m=tuple(ctrl_sigma), crs=project_crs if frame else None,
                         datum=datum)
@@ -627,6 +628,7 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
         notes.append(f"{gcp_file.name}: {n_ctrl} control point(s), sigma {sig} m "
                      + ("(config.yaml)" if sigma_ctrl else "(baarda's default; config.yaml "
                         "gcp_horizontal_sd / gcp_vertical_sd set them)"))
+    notes.append(why)
     if outside or twice or drop.any():
         notes.append(f"{tpath.name}: {outside} row(s) of shots or tracks not in the "
                      f"reconstruction, {twice} repeated row(s) of a track on a shot and "
@@ -640,6 +642,44 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
         block = replace(block, gnss=GnssObservations(np.array(gnss_rows, np.int64),
                                                      np.array(gnss_xyz), np.array(gnss_sig)))
     return block
+
+
+def rays_of(point: np.ndarray, n: int) -> np.ndarray:
+    return np.bincount(point, minlength=n)
+
+
+def datum_of(xyz: np.ndarray, role: np.ndarray, rays: np.ndarray, gnss_xyz: np.ndarray,
+             gnss_sigma: np.ndarray) -> tuple[str, str]:
+    """("control" or "inner", why): the control datum when the GCPs or the GPS positions can
+    carry it, else OpenSfM's own datum (inner constraints on the stored reconstruction, which
+    OpenSfM has aligned to its GPS and GCPs) with the GCPs as check points.
+
+    GCPs carry a datum when at least 3 with all coordinates are measured on two or more
+    shots (OpenSfM's own rule for using a GCP in its alignment; three so that they can be
+    checked against each other); GPS positions when they span a plane: the smaller of their
+    two principal horizontal spreads is more than 3 times their sigma (positions along a
+    line leave the roll about it free)."""
+    good = (role == "control") & np.isfinite(xyz).all(axis=1) & (rays >= 2)
+    if good.sum() >= 3:
+        return "control", f"datum: the control ({int(good.sum())} GCPs on two or more shots)"
+    if len(gnss_xyz) >= 3:
+        c = gnss_xyz - gnss_xyz.mean(axis=0)
+        spread = np.linalg.svd(c, compute_uv=False) / np.sqrt(len(c))
+        sigma = float(np.median(gnss_sigma))
+        if spread[1] > 3 * sigma:
+            return "control", (f"datum: the GPS positions (planar spread {spread[1]:.3g} m > "
+                               f"3 x gps_dop {sigma:g} m)" + (
+                                   f" and {int((role == 'control').sum())} GCP(s)"
+                                   if (role == "control").any() else ""))
+        why = (f"the GPS positions lie close to a line (planar spread {spread[1]:.3g} m, "
+               f"gps_dop {sigma:g} m)")
+    else:
+        why = f"{len(gnss_xyz)} GPS position(s)"
+    return "inner", (f"datum: OpenSfM's own (inner constraints on the stored reconstruction): "
+                     f"{int(good.sum())} GCP(s) with coordinates on two or more shots (3 "
+                     f"needed) and {why}; GCPs are check points, GPS positions are compared "
+                     "with the reconstruction's georeference (--datum control uses them as "
+                     "control)")
 
 
 def topocentric_frame(crs: str, lla: list[float], where: Path) -> LocalFrame:
