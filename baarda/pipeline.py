@@ -114,8 +114,10 @@ def with_check_points(block: Block, spec) -> Block:
         index = block.point_index
         chosen = set()
         for name in (n for n in names if n):
-            j = index.get(name, index.get(f"gcp {name}"))
-            if j is None or not ctrl[j]:
+            found = [j for j in (index.get(name), index.get(f"gcp {name}"))
+                     if j is not None and ctrl[j]]
+            j = found[0] if found else None
+            if j is None:
                 raise ProjectError("command line", f"--check-gcp: {name} is not a control "
                                    "point of " + (block.source or block.settings.name))
             chosen.add(j)

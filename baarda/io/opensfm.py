@@ -203,13 +203,14 @@ class _Camera:
         line = _line(text, "cameras", cid)
         d = _mapping(d, path, line, "cameras")
         kind = d.get("projection_type", "perspective")
+        kline = _line(text, "cameras", cid, "projection_type") or line
         if kind in UNSUPPORTED:
             raise ProjectError(str(path), f"camera '{cid}': projection type {kind} is not "
-                               f"supported (supported: {', '.join(SUPPORTED)})", line,
+                               f"supported (supported: {', '.join(SUPPORTED)})", kline,
                                "projection_type")
         if kind not in SUPPORTED:
             raise ProjectError(str(path), f"camera '{cid}': unknown projection type "
-                               f"{kind!r} (supported: {', '.join(SUPPORTED)})", line,
+                               f"{kind!r} (supported: {', '.join(SUPPORTED)})", kline,
                                "projection_type")
 
         def get(key: str, default: float | None = None, positive: bool = False) -> float:

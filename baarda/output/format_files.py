@@ -285,6 +285,8 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     sig = pts.sigma[ctrl[pts.role[ctrl] == "control"]]
     for j in ctrl:
         c = pts.xyz[j]
+        if pts.role[j] == "control":  # only the observed coordinates
+            c = np.where(np.isfinite(pts.sigma[j]), c, np.nan)
         if not np.isfinite(c[:2]).all():
             raise ValueError(f"point {pts.ids[j]}: OpenSfM GCPs need a horizontal position")
         lo, la, al = to_lla.transform(*frame.from_local(np.where(np.isfinite(c), c,
