@@ -267,7 +267,7 @@ def reliability_parts(res: Results) -> list[Part]:
     o = res.obs
     if "external_max" not in o or not o["external_max"].notna().any():
         return []
-    e = o[o["kind"] == "image"].dropna(subset=["external_max"])
+    e = o[(o["kind"] == "image") & np.isfinite(o["external_max"].to_numpy(float))]
     if not len(e):
         return []
     per = e.groupby("point")["external_max"].max().sort_values(ascending=False)
@@ -335,7 +335,8 @@ def quality_html(res: Results) -> str:
                        + "</p>")
         elif p.kind == "table":
             ident = re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
-            out.append(html_table(p.table, p.fmt, f'id="q-{ident}"'))
+            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
+                       + html_table(p.table, p.fmt, f'id="q-{ident}"'))
             if p.full_in_html is not None and len(p.full_in_html) > len(p.table):
                 out.append(f"<details><summary>all {len(p.full_in_html)} rows</summary>"
                            + html_table(p.full_in_html, p.fmt) + "</details>")
@@ -420,6 +421,7 @@ def write_quality_pdf(res: Results, path: str | Path) -> int:
                     for w in textwrap.wrap(para, 120) or [""]:
                         line(w, 7.5)
             elif p.kind == "table":
+                line(p.title[0].upper() + p.title[1:], 8, bold=True)
                 rows = _text_lines(p.table, p.fmt)
                 size = 6.0 if max(len(r) for r in rows) < 150 else 4.5
                 for r in rows:
