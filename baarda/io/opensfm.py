@@ -106,6 +106,8 @@ def _load_json(path: Path):
     except json.JSONDecodeError as e:
         raise ProjectError(str(path), f"not valid JSON: {e.msg}", e.lineno,
                            f"character {e.colno}") from None
+    except (ValueError, RecursionError) as e:  # e.g. an integer of thousands of digits
+        raise ProjectError(str(path), f"not valid JSON: {e}") from None
 
 
 def _line(text: str, *keys: str) -> int | None:
@@ -124,7 +126,10 @@ def _number(value, path: Path, line: int | None, field: str, *, positive: bool =
             ) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ProjectError(str(path), f"{value!r} is not a number", line, field)
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:
+        v = math.inf
     if not math.isfinite(v):
         raise ProjectError(str(path), f"{value!r} is not a finite number", line, field)
     if positive and v <= 0:
@@ -413,6 +418,33 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
     pixel_mm: nominal pixel size (mm); sigma_px: image sigma (px); crs: the project CRS
     (default: gcp_list.txt's, else the UTM zone of reference_lla).  Check points: see
     pipeline.with_check_points (`--check-gcp`)."""
+    from pyproj.exceptions import CRSError, ProjError
+
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            block = _read(path, pixel_mm, sigma_px, crs)
+    except (ProjError, CRSError) as e:  # coordinates that no CRS can hold
+        raise ProjectError(str(path), f"coordinates cannot be transformed: {e}") from None
+    src = block.source
+    for what, values in (("image coordinates (x, y) of tracks or GCPs", block.image.xy_mm),
+                         ("shot positions and rotations", block.photos.eo),
+                         ("camera focal lengths and principal points",
+                          np.column_stack([block.cameras.focal_mm,
+                                           block.cameras.principal_point_mm])),
+                         ("GPS positions", block.gnss.xyz)):
+        if not np.isfinite(values).all():
+            raise ProjectError(src, f"{what} out of range (not finite in mm and m)")
+    known = block.points.role != "tie"
+    given = block.points.xyz[known]
+    if not np.all(np.isfinite(given) | np.isnan(block.points.sigma[known])):
+        raise ProjectError(src, "GCP coordinates out of range")
+    pts = block.points.xyz[~known]
+    if np.isinf(pts).any():
+        raise ProjectError(src, "point coordinates out of range")
+    return block
+
+
+def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -> Block:
     root = Path(path)
     folder = dataset_folder(root)
     if folder is None:
@@ -470,6 +502,10 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
                       "rotation")
         tr = _vector(s.get("translation"), 3, rpath,
                      _line(text, "shots", sid, "translation"), "translation")
+        if not (np.linalg.norm(rot) < 1e6):
+            raise ProjectError(str(rpath), f"shot {sid}: the rotation {rot.tolist()} is no "
+                               "angle-axis vector (|r| is an angle in radians)",
+                               _line(text, "shots", sid, "rotation"), "rotation")
         eo[i] = pose_to_eo(rot, tr)
         if s.get("gps_position") is not None and s.get("gps_dop") is not None:
             gl = _line(text, "shots", sid, "gps_position")
