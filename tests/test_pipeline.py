@@ -1,5 +1,5 @@
 """One program: `baarda.adjust(baarda.read(path))` does what `baarda adjust path` does, for
-every supported input (native, COLMAP, BAL, DBAT, PhotoModeler, AICON)."""
+every supported input (native, COLMAP, BAL, DBAT, PhotoModeler, AICON, OpenSfM)."""
 
 import json
 from pathlib import Path
@@ -53,6 +53,7 @@ CASES = {
     "photomodeler": lambda tmp: DATA / "dbat_sxb_aerial" / "photomodeler_export" /
     "wsmart-no-orient-pmexport.txt",
     "aicon": lambda tmp: SHARED / "aicon_jaicov_closerange" / "example.phc",
+    "opensfm": lambda tmp: DATA / "opensfm_berlin",
 }
 
 
