@@ -252,6 +252,17 @@ class _Camera:
                      "brown": ("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a")}[kind]
         self.scale_mm = s  # mm per normalised unit
 
+    def project(self, xc: np.ndarray) -> np.ndarray:
+        """OpenSfM's projection of camera-frame points (m, 3) to normalised coordinates:
+        Brown's distortion of (x/z, y/z) (OpenCV's form), then focal and principal point."""
+        r = self.raw
+        x, y = xc[:, 0] / xc[:, 2], xc[:, 1] / xc[:, 2]
+        r2 = x * x + y * y
+        radial = 1 + r2 * (r["k1"] + r2 * (r["k2"] + r2 * r["k3"]))
+        xd = x * radial + 2 * r["p1"] * x * y + r["p2"] * (r2 + 2 * x * x)
+        yd = y * radial + r["p1"] * (r2 + 2 * y * y) + 2 * r["p2"] * x * y
+        return np.column_stack([r["focal_x"] * xd + r["c_x"], r["focal_y"] * yd + r["c_y"]])
+
     def to_mm(self, xy_n: np.ndarray) -> np.ndarray:
         xy_n = np.asarray(xy_n, float).reshape(-1, 2)
         return np.column_stack([xy_n[:, 0] * self.scale_mm, -xy_n[:, 1] * self.scale_mm])
@@ -570,6 +581,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     once[first] = True
     twice = int(len(key) - once.sum())
     photo, point, nxy = photo[once], point[once], nxy[once]
+    stored = _stored_errors(shots_doc, names, photo_cam, list(cameras.values()), photo,
+                            xyz[point], nxy)
     # control: points of their own, after the tracks' points
     sigma_ctrl = _config_sigmas(folder)
     ctrl_sigma = sigma_ctrl or CONTROL_SIGMA_M
@@ -666,6 +679,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                      + ("(config.yaml)" if sigma_ctrl else "(baarda's default; config.yaml "
                         "gcp_horizontal_sd / gcp_vertical_sd set them)"))
     notes.append(why)
+    if stored is not None:
+        notes.append(stored)
     if outside or twice or drop.any():
         notes.append(f"{tpath.name}: {outside} row(s) of shots or tracks not in the "
                      f"reconstruction, {twice} repeated row(s) of a track on a shot and "
@@ -679,6 +694,33 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
         block = replace(block, gnss=GnssObservations(np.array(gnss_rows, np.int64),
                                                      np.array(gnss_xyz), np.array(gnss_sig)))
     return block
+
+
+def _stored_errors(shots_doc: dict, names: list[str], photo_cam: np.ndarray, cams: list,
+                   photo: np.ndarray, xyz: np.ndarray, nxy: np.ndarray) -> str | None:
+    """The reprojection errors OpenSfM left: its own projection of the stored points
+    against the tracks, in pixels (a note printed before the adjustment)."""
+    if not len(photo):
+        return None
+    rot = np.array([rodrigues(shots_doc[n]["rotation"]) for n in names])
+    tr = np.array([shots_doc[n]["translation"] for n in names], float)
+    xc = np.einsum("mij,mj->mi", rot[photo], xyz) + tr[photo]
+    pred = np.zeros_like(nxy)
+    size = np.zeros(len(photo))
+    for k, c in enumerate(cams):
+        rows = photo_cam[photo] == k
+        pred[rows] = c.project(xc[rows])
+        size[rows] = c.size
+    e = (pred - nxy) * size[:, None]
+    ok = np.isfinite(e).all(axis=1)
+    if not ok.any():
+        return None
+    e = e[ok]
+    n = np.hypot(e[:, 0], e[:, 1])
+    return (f"reprojection errors of the stored reconstruction (OpenSfM's projection of its "
+            f"points against the tracks, {int(ok.sum())} observations): RMS x "
+            f"{np.sqrt(np.mean(e[:, 0]**2)):.3f} px, y {np.sqrt(np.mean(e[:, 1]**2)):.3f} px, "
+            f"per coordinate {np.sqrt(np.mean(e**2)):.3f} px, largest {n.max():.1f} px")
 
 
 def rays_of(point: np.ndarray, n: int) -> np.ndarray:
