@@ -651,7 +651,10 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
         ids = [q for q, k in zip(ids, keep_pt, strict=True) if k]
         all_xyz, sigma, role = all_xyz[keep_pt], sigma[keep_pt], role[keep_pt]
     sig_mm = sigma_px * pixel_mm
-    cam = Cameras([c.id for c in cam_list], np.array([c.focal_mm for c in cam_list]),
+    cam_ids, photo_ids, ids = (_ids([c.id for c in cam_list], "camera", notes, rpath),
+                               _ids(names, "shot", notes, rpath), _ids(ids, "point", notes,
+                                                                       rpath))
+    cam = Cameras(cam_ids, np.array([c.focal_mm for c in cam_list]),
                   np.array([c.pp_mm for c in cam_list]).reshape(-1, 2),
                   np.full(len(cam_list), "brown_forward", dtype=object),
                   np.array([c.coefficients for c in cam_list]).reshape(-1, 6),
@@ -686,7 +689,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                      f"reconstruction, {twice} repeated row(s) of a track on a shot and "
                      f"{int(drop.sum())} point(s) on fewer than two shots left out")
     block = Block(settings, cam,
-                  Photos(names, photo_cam, np.full(len(names), "", dtype=object), eo),
+                  Photos(photo_ids, photo_cam, np.full(len(names), "", dtype=object), eo),
                   ImagePoints(photo, point, xy_mm, np.full(len(photo), sig_mm)),
                   GroundPoints(ids, all_xyz, sigma, role), source=str(root), notes=notes,
                   frame=frame)
@@ -721,6 +724,19 @@ def _stored_errors(shots_doc: dict, names: list[str], photo_cam: np.ndarray, cam
             f"points against the tracks, {int(ok.sum())} observations): RMS x "
             f"{np.sqrt(np.mean(e[:, 0]**2)):.3f} px, y {np.sqrt(np.mean(e[:, 1]**2)):.3f} px, "
             f"per coordinate {np.sqrt(np.mean(e**2)):.3f} px, largest {n.max():.1f} px")
+
+
+def _ids(ids: list[str], what: str, notes: list[str], where: Path) -> list[str]:
+    """Ids with their commas turned into ';' (the native project's CSV files separate
+    fields by commas: OpenSfM's camera ids hold EXIF model names such as 'iphone4,1')."""
+    out = [i.replace(",", ";") for i in ids]
+    changed = sum(a != b for a, b in zip(ids, out, strict=True))
+    if changed:
+        if len(set(out)) < len(out):
+            raise ProjectError(str(where), f"{what} ids differ only by ',' and ';'")
+        first = next(b for a, b in zip(ids, out, strict=True) if a != b)
+        notes.append(f"{changed} {what} id(s) with ',' written with ';' (e.g. {first})")
+    return out
 
 
 def rays_of(point: np.ndarray, n: int) -> np.ndarray:

@@ -158,6 +158,13 @@ def test_command_line(tmp_path):
     assert d == pytest.approx([-11.35, -15.11, 25.45], abs=0.05)  # 31 m from the rays
     assert main(["convert", str(DATA), "-o", str(tmp_path / "p"), "-q"]) == 0
     assert (tmp_path / "p" / "gnss.csv").is_file()
+    # the native project is in the CRS (UTM 33N), with the camera id's ',' as ';'
+    assert "v2 apple iphone4;1 3264 2448" in (tmp_path / "p" / "cameras.csv").read_text()
+    native = baarda.read(tmp_path / "p")
+    assert native.settings.crs == "EPSG:32633" and native.settings.datum == "inner"
+    assert 391400 < native.gnss.xyz[0, 0] < 391500
+    r = baarda.adjust(native)
+    assert r.redundancy == 1871 and r.sigma0 == pytest.approx(s["sigma0"], rel=1e-9)
 
 
 def odm_project(tmp_path: Path, header: str = "WGS84 UTM 33N") -> Path:
