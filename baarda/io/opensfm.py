@@ -45,6 +45,7 @@ import json
 import math
 import re
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -122,32 +123,37 @@ def _line(text: str, *keys: str) -> int | None:
     return None if found is None else text.count("\n", 0, found) + 1
 
 
-def _number(value, path: Path, line: int | None, field: str, *, positive: bool = False
-            ) -> float:
+def _at(line) -> int | None:
+    """A line number, or a function that finds it (called only for an error message: the
+    search runs through the JSON text)."""
+    return line() if callable(line) else line
+
+
+def _number(value, path: Path, line, field: str, *, positive: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ProjectError(str(path), f"{value!r} is not a number", line, field)
+        raise ProjectError(str(path), f"{value!r} is not a number", _at(line), field)
     try:
         v = float(value)
     except OverflowError:
         v = math.inf
     if not math.isfinite(v):
-        raise ProjectError(str(path), f"{value!r} is not a finite number", line, field)
+        raise ProjectError(str(path), f"{value!r} is not a finite number", _at(line), field)
     if positive and v <= 0:
-        raise ProjectError(str(path), f"{value!r} must be positive", line, field)
+        raise ProjectError(str(path), f"{value!r} must be positive", _at(line), field)
     return v
 
 
-def _vector(value, n: int, path: Path, line: int | None, field: str) -> np.ndarray:
+def _vector(value, n: int, path: Path, line, field: str) -> np.ndarray:
     if not isinstance(value, list) or len(value) != n:
         raise ProjectError(str(path), f"expected a list of {n} numbers, found "
-                           f"{str(value)[:60]}", line, field)
+                           f"{str(value)[:60]}", _at(line), field)
     return np.array([_number(v, path, line, field) for v in value])
 
 
-def _mapping(value, path: Path, line: int | None, field: str) -> dict:
+def _mapping(value, path: Path, line, field: str) -> dict:
     if not isinstance(value, dict):
         raise ProjectError(str(path), f"expected an object, found {type(value).__name__}",
-                           line, field)
+                           _at(line), field)
     return value
 
 
@@ -498,31 +504,29 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     photo_cam = np.zeros(len(names), np.int64)
     gnss_rows, gnss_xyz, gnss_sig = [], [], []
     for i, sid in enumerate(names):
-        line = _line(text, "shots", sid)
+        line = partial(_line, text, "shots", sid)
         s = _mapping(shots_doc[sid], rpath, line, "shots")
         cid = str(s.get("camera", ""))
         if cid not in cam_docs:
-            raise ProjectError(str(rpath), f"shot {sid}: unknown camera {cid!r}", line,
+            raise ProjectError(str(rpath), f"shot {sid}: unknown camera {cid!r}", line(),
                                "camera")
         if cid not in cameras:
             c, p, t = cam_docs[cid]
             cameras[cid] = _Camera(cid, c, p, t, pixel_mm)
             cam_index[cid] = len(cam_index)
         photo_cam[i] = cam_index[cid]
-        rot = _vector(s.get("rotation"), 3, rpath, _line(text, "shots", sid, "rotation"),
-                      "rotation")
+        rot = _vector(s.get("rotation"), 3, rpath, partial(line, "rotation"), "rotation")
         tr = _vector(s.get("translation"), 3, rpath,
-                     _line(text, "shots", sid, "translation"), "translation")
+                     partial(line, "translation"), "translation")
         if not (np.linalg.norm(rot) < 1e6):
             raise ProjectError(str(rpath), f"shot {sid}: the rotation {rot.tolist()} is no "
                                "angle-axis vector (|r| is an angle in radians)",
-                               _line(text, "shots", sid, "rotation"), "rotation")
+                               line("rotation"), "rotation")
         eo[i] = pose_to_eo(rot, tr)
         if s.get("gps_position") is not None and s.get("gps_dop") is not None:
-            gl = _line(text, "shots", sid, "gps_position")
-            pos = _vector(s["gps_position"], 3, rpath, gl, "gps_position")
-            dop = _number(s["gps_dop"], rpath, _line(text, "shots", sid, "gps_dop"),
-                          "gps_dop")
+            pos = _vector(s["gps_position"], 3, rpath, partial(line, "gps_position"),
+                          "gps_position")
+            dop = _number(s["gps_dop"], rpath, partial(line, "gps_dop"), "gps_dop")
             if dop > 0:
                 gnss_rows.append(i)
                 gnss_xyz.append(pos)
@@ -568,7 +572,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     for j, pid in enumerate(point_ids):
         q = _mapping(pts_doc[pid], rpath, None, "points")
         xyz[j] = _vector(q.get("coordinates"), 3, rpath,
-                         _line(text, "points", pid, "coordinates"), "coordinates")
+                         partial(_line, text, "points", pid, "coordinates"),
+                         "coordinates")
     t_img, t_trk, t_xy, _ = read_tracks(tpath)
     photo = np.array([shot_index.get(im, -1) for im in t_img], dtype=np.int64)
     point = np.array([pindex.get(t, -1) for t in t_trk], dtype=np.int64)

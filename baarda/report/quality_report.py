@@ -369,7 +369,7 @@ def _text_lines(t: pd.DataFrame, fmt: dict | None) -> list[str]:
     cells = [[str(c) for c in t.columns]] + [
         [(_cell(v, fmt.get(c)) if not isinstance(v, str) else v) for c, v in
          zip(t.columns, r, strict=True)] for r in t.itertuples(index=False)]
-    cells = [[c[:28] for c in row] for row in cells]
+    cells = [[c[:48] for c in row] for row in cells]
     width = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
     return ["  ".join(c.rjust(w) for c, w in zip(row, width, strict=True)) for row in cells]
 
