@@ -25,9 +25,10 @@ Conventions (checked by reprojection, tests/io/test_opensfm.py):
   nominal pixel size (mm); pixel coordinates of gcp_list.txt: x_n = (px + 0.5 - w/2) / S;
 * cameras: c = focal S p (brown: focal_x; aspect a = focal_y / focal_x - 1), principal point
   (c_x S p, -c_y S p); the distortion is OpenCV's Brown model on x/z, y/z, which is baarda's
-  ``brown_forward`` with (k1, k2, k3, p2, -p1) (y up); perspective, simple_radial, radial and
-  brown are read; fisheye, fisheye_opencv, fisheye62, fisheye624, dual, spherical and
-  equirectangular are refused (no collinearity model here);
+  ``brown_forward`` with (k1, k2, k3, p2, -p1) (y up) for perspective, simple_radial,
+  radial and brown; fisheye (focal, k1, k2) and fisheye_opencv (focal_x, focal_y, c_x, c_y,
+  k1..k4) are baarda's ``fisheye_forward`` (equidistant); fisheye62, fisheye624, dual,
+  spherical and equirectangular are refused (no collinearity model here);
 * poses: R_b = R^T diag(1, -1, -1) (baarda's image-to-object rotation, camera looking along
   -z), projection centre X0 = -R^T t;
 * ground frame: the topocentric frame is the local east-north-up frame (block/crs.py
@@ -68,9 +69,8 @@ RECONSTRUCTIONS = ("reconstruction.json", "reconstruction_example.json")
 TRACKS = ("tracks.csv", "tracks_example.csv")
 GCP_JSON = "ground_control_points.json"
 GCP_LIST = "gcp_list.txt"
-SUPPORTED = ("perspective", "simple_radial", "radial", "brown")
-UNSUPPORTED = ("fisheye", "fisheye_opencv", "fisheye62", "fisheye624", "dual", "spherical",
-               "equirectangular")
+SUPPORTED = ("perspective", "simple_radial", "radial", "brown", "fisheye", "fisheye_opencv")
+UNSUPPORTED = ("fisheye62", "fisheye624", "dual", "spherical", "equirectangular")
 CONTROL_SIGMA_M = (0.05, 0.05, 0.05)  # without gcp_horizontal_sd / gcp_vertical_sd
 FLIP = np.diag([1.0, -1.0, -1.0])
 
@@ -236,26 +236,33 @@ class _Camera:
         self.width = get("width", positive=True)
         self.height = get("height", positive=True)
         self.size = max(self.width, self.height)
-        if kind == "perspective":
+        if kind in ("perspective", "fisheye"):
             fx = fy = get("focal", positive=True)
             cx = cy = 0.0
         else:
             fx = get("focal_x", positive=True)
             fy = get("focal_y", positive=True)
             cx, cy = get("c_x", 0.0), get("c_y", 0.0)
-        k1, k2 = get("k1", 0.0), get("k2", 0.0 if kind in ("simple_radial",) else 0.0)
-        k3 = p1 = p2 = 0.0
+        k1, k2 = get("k1", 0.0), get("k2", 0.0)
+        k3 = k4 = p1 = p2 = 0.0
         if kind == "brown":
             k3, p1, p2 = get("k3", 0.0), get("p1", 0.0), get("p2", 0.0)
+        if kind == "fisheye_opencv":
+            k3, k4 = get("k3", 0.0), get("k4", 0.0)
         self.raw = {"focal_x": fx, "focal_y": fy, "c_x": cx, "c_y": cy, "k1": k1, "k2": k2,
-                    "k3": k3, "p1": p1, "p2": p2}
+                    "k3": k3, "k4": k4, "p1": p1, "p2": p2}
         s = self.size * pixel_mm
         self.focal_mm = fx * s
         self.pp_mm = (cx * s, -cy * s)
-        self.coefficients = np.array([k1, k2, k3, p2, -p1, fy / fx - 1.0])
+        self.fisheye = kind.startswith("fisheye")
+        self.model = "fisheye_forward" if self.fisheye else "brown_forward"
+        self.coefficients = (np.array([k1, k2, k3, k4, fy / fx - 1.0]) if self.fisheye else
+                             np.array([k1, k2, k3, p2, -p1, fy / fx - 1.0]))
         self.free = {"perspective": ("c", "k1", "k2"), "simple_radial": ("c", "x0", "y0", "k1"),
                      "radial": ("c", "x0", "y0", "k1", "k2"),
-                     "brown": ("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a")}[kind]
+                     "brown": ("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a"),
+                     "fisheye": ("c", "k1", "k2"),
+                     "fisheye_opencv": ("c", "x0", "y0", "k1", "k2", "k3", "k4", "a")}[kind]
         self.scale_mm = s  # mm per normalised unit
 
     def project(self, xc: np.ndarray) -> np.ndarray:
@@ -264,6 +271,14 @@ class _Camera:
         r = self.raw
         x, y = xc[:, 0] / xc[:, 2], xc[:, 1] / xc[:, 2]
         r2 = x * x + y * y
+        if self.fisheye:  # equidistant: theta = atan(r), theta_d = theta (1 + k1 theta^2 ...)
+            rr = np.sqrt(r2)
+            th = np.arctan(rr)
+            t2 = th * th
+            thd = th * (1 + t2 * (r["k1"] + t2 * (r["k2"] + t2 * (r["k3"] + t2 * r["k4"]))))
+            f = np.where(rr > 0, thd / np.where(rr > 0, rr, 1.0), 1.0)
+            return np.column_stack([r["focal_x"] * f * x + r["c_x"],
+                                    r["focal_y"] * f * y + r["c_y"]])
         radial = 1 + r2 * (r["k1"] + r2 * (r["k2"] + r2 * r["k3"]))
         xd = x * radial + 2 * r["p1"] * x * y + r["p2"] * (r2 + 2 * x * x)
         yd = y * radial + r["p1"] * (r2 + 2 * y * y) + 2 * r["p2"] * x * y
@@ -659,10 +674,12 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     cam_ids, photo_ids, ids = (_ids([c.id for c in cam_list], "camera", notes, rpath),
                                _ids(names, "shot", notes, rpath), _ids(ids, "point", notes,
                                                                        rpath))
+    coef = np.zeros((len(cam_list), 6))
+    for k, c in enumerate(cam_list):
+        coef[k, :len(c.coefficients)] = c.coefficients
     cam = Cameras(cam_ids, np.array([c.focal_mm for c in cam_list]),
                   np.array([c.pp_mm for c in cam_list]).reshape(-1, 2),
-                  np.full(len(cam_list), "brown_forward", dtype=object),
-                  np.array([c.coefficients for c in cam_list]).reshape(-1, 6),
+                  np.array([c.model for c in cam_list], dtype=object), coef,
                   free=tuple(c.free for c in cam_list))
     n_ctrl = int(np.sum(role == "control"))
     datum, why = datum_of(all_xyz, role, rays_of(point, len(ids)), np.array(gnss_xyz),

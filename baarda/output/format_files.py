@@ -200,8 +200,9 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     (latitude, longitude, altitude) for a block without a CRS, else the block is put in a
     local frame of its CRS first and that frame's origin is the reference.  Tie points
     without coordinates are intersected from the orientations.  Cameras must have the
-    models none or brown_forward; IMU attitudes and distances have no place in OpenSfM
-    (ValueError), nor do height-only control points or GNSS sigmas that differ by axis."""
+    models none, brown_forward or fisheye_forward; IMU attitudes and distances have no
+    place in OpenSfM (ValueError), nor do height-only control points or GNSS sigmas that
+    differ by axis."""
     from pyproj import Transformer
 
     from baarda.block.camera import coefficients, kinds
@@ -232,12 +233,22 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     s = size * pixel_mm  # mm per normalised unit
     cameras = {}
     for i, cid in enumerate(cams.ids):
-        if kind[i] not in ("none", "brown_forward"):
+        if kind[i] not in ("none", "brown_forward", "fisheye_forward"):
             raise ValueError(f"camera {cid}: model {kind[i]} has no OpenSfM equivalent "
-                             "(none or brown_forward)")
-        k = coefficients(cams, i) if kind[i] == "brown_forward" else np.zeros(6)
+                             "(none, brown_forward or fisheye_forward)")
+        k = coefficients(cams, i) if kind[i] != "none" else np.zeros(6)
         c, (x0, y0) = float(cams.focal_mm[i]), np.asarray(cams.principal_point_mm[i], float)
-        if x0 == 0 and y0 == 0 and not np.any(k[2:]):
+        if kind[i] == "fisheye_forward":
+            if x0 == 0 and y0 == 0 and not np.any(k[2:]):
+                cameras[cid] = {"projection_type": "fisheye", "width": size, "height": size,
+                                "focal": c / s, "k1": float(k[0]), "k2": float(k[1])}
+            else:
+                cameras[cid] = {"projection_type": "fisheye_opencv", "width": size,
+                                "height": size, "focal_x": c / s,
+                                "focal_y": c / s * (1 + float(k[4])), "c_x": x0 / s,
+                                "c_y": -y0 / s, "k1": float(k[0]), "k2": float(k[1]),
+                                "k3": float(k[2]), "k4": float(k[3])}
+        elif x0 == 0 and y0 == 0 and not np.any(k[2:]):
             cameras[cid] = {"projection_type": "perspective", "width": size, "height": size,
                             "focal": c / s, "k1": float(k[0]), "k2": float(k[1])}
         else:

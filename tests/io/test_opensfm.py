@@ -232,8 +232,8 @@ def copy_dataset(tmp_path: Path) -> Path:
         (d / "tracks_example.csv").read_text().replace("0.0379803", "0.03x9803", 1)),
      "'0.03x9803' is not a number", 2, "x"),
     (lambda d: (d / "reconstruction_example.json").write_text(
-        (d / "reconstruction_example.json").read_text().replace('"perspective"', '"fisheye"')),
-     "projection type fisheye is not supported", 5, "projection_type"),
+        (d / "reconstruction_example.json").read_text().replace('"perspective"', '"fisheye62"')),
+     "projection type fisheye62 is not supported", 5, "projection_type"),
     (lambda d: (d / "reconstruction_example.json").write_text(
         (d / "reconstruction_example.json").read_text().replace(
             '"focal": 0.8696658484855359', '"focal": -1')),
@@ -325,3 +325,42 @@ def test_brown_camera_conventions(tmp_path):
     assert back.cameras.principal_point_mm[0] == pytest.approx([0.12, -0.08], rel=1e-12)
     assert back.cameras.coefficients[0] == pytest.approx(coef[0], rel=1e-12)
     assert back.cameras.free == (("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a"),)
+
+
+@pytest.mark.parametrize("coef, pp, kind", [
+    ([0.03, -0.01, 0.0, 0.0, 0.0], [0.0, 0.0], "fisheye"),
+    ([0.03, -0.01, 0.004, -0.001, 2e-4], [0.12, -0.08], "fisheye_opencv"),
+])
+def test_fisheye_cameras(tmp_path, coef, pp, kind):
+    """fisheye_forward cameras written as OpenSfM's fisheye / fisheye_opencv: OpenSfM's
+    equidistant projection (as the reader evaluates it for its note) reproduces baarda's
+    projections, the camera reads back unchanged and the block adjusts to zero residuals."""
+    import re
+
+    from baarda.block.photo_block import Cameras
+    from baarda.bundle.geometry import intersect
+
+    b, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=4, height_chains=0,
+                                     noise=False, seed=4))
+    cams = Cameras(b.cameras.ids, b.cameras.focal_mm, np.array([pp]),
+                   np.array(["fisheye_forward"], dtype=object), np.array([coef]))
+    b = replace(b, cameras=cams)
+    tie = np.flatnonzero(b.points.role == "tie")
+    xyz = b.points.xyz.copy()
+    xyz[tie] = intersect(b, b.photos.eo, tie)
+    b = replace(b, points=replace(b.points, xyz=xyz))
+    f, _, _, _ = camera_projection(b.photos.eo, xyz[b.image.point], b.image.photo,
+                                   parameters(cams, 0), model_of("fisheye_forward"),
+                                   constants(cams, 0), b.image.xy_mm)
+    b = replace(b, image=replace(b.image, xy_mm=f))
+    write_opensfm(b, tmp_path / "ds")
+    cam = json.loads((tmp_path / "ds" / "reconstruction.json").read_text())[0]["cameras"]
+    assert next(iter(cam.values()))["projection_type"] == kind
+    back = read_opensfm(tmp_path / "ds")
+    note = next(n for n in back.notes if n.startswith("reprojection errors"))
+    assert float(re.search(r"per coordinate ([0-9.]+) px", note).group(1)) == 0.0
+    assert back.cameras.model[0] == "fisheye_forward"
+    assert back.cameras.principal_point_mm[0] == pytest.approx(pp, abs=1e-12)
+    assert back.cameras.coefficients[0, :5] == pytest.approx(coef, abs=1e-12)
+    res = baarda.adjust(baarda.read(tmp_path / "ds", calibrate="none"))
+    assert res.converged and np.abs(res.image_residuals).max() < 1e-6  # mm
