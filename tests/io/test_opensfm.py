@@ -364,3 +364,24 @@ def test_fisheye_cameras(tmp_path, coef, pp, kind):
     assert back.cameras.coefficients[0, :5] == pytest.approx(coef, abs=1e-12)
     res = baarda.adjust(baarda.read(tmp_path / "ds", calibrate="none"))
     assert res.converged and np.abs(res.image_residuals).max() < 1e-6  # mm
+
+
+def test_reference_lla_json_and_camera_models_json(tmp_path, block):
+    """ODM keeps reference_lla.json beside the reconstruction, and a camera may come from
+    camera_models.json (overridden by camera_models_overrides.json)."""
+    d = copy_dataset(tmp_path)
+    rec = json.loads((d / "reconstruction_example.json").read_text())
+    ref = rec[0].pop("reference_lla")
+    cams = rec[0].pop("cameras")
+    (d / "reconstruction_example.json").write_text(json.dumps(rec))
+    (d / "reference_lla.json").write_text(json.dumps(ref))
+    cid = next(iter(cams))
+    nominal = dict(cams[cid], focal=0.85)
+    (d / "camera_models.json").write_text(json.dumps({cid: nominal}))
+    b = read_opensfm(d)
+    assert b.settings.crs == "EPSG:32633"
+    assert np.allclose(b.points.xyz[b.points.ids.index("gcp 0")],
+                       block.points.xyz[block.points.ids.index("gcp 0")], atol=1e-9)
+    assert b.cameras.focal_mm[0] == pytest.approx(0.85 * SIZE * 1e-3)
+    (d / "camera_models_overrides.json").write_text(json.dumps({cid: cams[cid]}))
+    assert read_opensfm(d).cameras.focal_mm[0] == block.cameras.focal_mm[0]
