@@ -609,6 +609,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     taken = set(point_ids)
     g_ids, g_xyz, g_sig, g_role = [], [], [], []
     g_photo, g_point, g_xy = [], [], []
+    unseen: list[str] = []
     if gcp_entries:
         lon_lat = None
         if gcp_file.name == GCP_JSON:
@@ -630,8 +631,9 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                 c = frame.to_local(np.asarray(where)[None])[0]
             full = np.isfinite(c)
             rays = len({s for s, _, _ in obs})
-            if not full.any() and rays < 2:
-                continue  # a tie point of fewer than two rays
+            if rays == 0 or (not full.any() and rays < 2):
+                unseen.append(pid)  # on no shot of the reconstruction; a tie point on one
+                continue
             j = len(point_ids) + len(g_ids)
             g_ids.append(name)
             g_xyz.append(c)
@@ -703,6 +705,9 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
         notes.append(f"{gcp_file.name}: {n_ctrl} control point(s), sigma {sig} m "
                      + ("(config.yaml)" if sigma_ctrl else "(baarda's default; config.yaml "
                         "gcp_horizontal_sd / gcp_vertical_sd set them)"))
+    if unseen:
+        notes.append(f"{len(unseen)} GCP(s) on no shot of the reconstruction (or without "
+                     f"coordinates on one shot) left out: {', '.join(unseen[:10])}")
     notes.append(why)
     if stored is not None:
         notes.append(stored)
