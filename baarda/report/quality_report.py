@@ -346,6 +346,46 @@ def quality_html(res: Results) -> str:
     return "".join(out)
 
 
+def _corr_cell(v: float) -> str:
+    """A correlation coefficient as a table cell coloured like the heat map."""
+    if not np.isfinite(v):
+        return "<td></td>"
+    c = matplotlib.colormaps["RdBu_r"]((float(v) + 1) / 2)
+    rgb = "#" + "".join(f"{int(255 * x):02x}" for x in c[:3])
+    ink = "#fff" if abs(v) > 0.6 else "#000"
+    return f'<td style="background:{rgb};color:{ink}">{v:+.3f}</td>'
+
+
+def tables_html(res: Results) -> str:
+    """The camera, control and GNSS parts as tables for the main HTML report (no figures:
+    the correlation matrix coloured like the heat map); '' when there is nothing to show."""
+    import html
+
+    parts = camera_parts(res) + control_parts(res) + gnss_parts(res)
+    if not any(p.kind == "table" for p in parts):
+        return ""
+    out = []
+    for p in parts:
+        if p.kind == "heading":
+            out.append(f"<h3>{html.escape(p.title)}</h3>")
+        elif p.kind == "text":
+            out.append(f"<p>{html.escape(p.text)}</p>")
+        elif p.kind == "table" and p.title.startswith("correlations of camera"):
+            t = p.table
+            head = "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
+            rows = "".join(f"<tr><td>{html.escape(str(r[0]))}</td>"
+                           + "".join(_corr_cell(v) for v in r[1:]) + "</tr>"
+                           for r in t.itertuples(index=False))
+            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
+                       f"<table><tr>{head}</tr>{rows}</table>")
+        elif p.kind == "table":
+            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
+                       + html_table(p.table, p.fmt))
+    return "".join(out) + ("<p>The quality report (baarda report OUT --quality FILE.html "
+                           "--pdf FILE.pdf) adds reprojection errors per image, the "
+                           "observations' r, w and MDB and external reliability.</p>")
+
+
 def quality_page(res: Results) -> str:
     """The quality report as a self-contained HTML page (the PDF's content)."""
     import html

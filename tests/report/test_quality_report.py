@@ -83,3 +83,14 @@ def test_pdf_pages_render(results, tmp_path):
     # the heat map is a picture on the first page: many colours there
     first = np.asarray(pdf[0].render(scale=1.0).to_pil().convert("RGB"), int)
     assert len(np.unique(first.reshape(-1, 3), axis=0)) > 50
+
+
+def test_main_html_report_has_the_camera_and_control_tables(results):
+    """baarda report OUT -o report.html: the camera parameters, their correlations (cells
+    coloured like the heat map) and the GCP tables, without extra images."""
+    out = results / "report.html"
+    assert main(["report", str(results / "out"), "-o", str(out), "-q"]) == 0
+    h = out.read_text(encoding="utf-8")
+    assert 'id="calibration"' in h and "Correlations of camera cam" in h
+    assert "Control points" in h and "Check points" in h and "GNSS residuals" in h
+    assert 'style="background:#' in h
