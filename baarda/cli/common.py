@@ -29,11 +29,19 @@ def progress(quiet: bool, computes: bool = True):
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     if computes:
-        from baarda.linalg._jit import compile_pending
-
-        if compile_pending():
-            say("compiling the numerical kernels once (about 20 s; later runs start at once)")
+        announce_compile(say)
     return say
+
+
+def announce_compile(say) -> None:
+    """Say so when the numerical kernels have yet to be compiled (imports numba and the
+    kernels: a command calls it once its input is read)."""
+    if say is None:
+        return
+    from baarda.linalg._jit import compile_pending
+
+    if compile_pending():
+        say("compiling the numerical kernels once (about 20 s; later runs start at once)")
 
 
 def tests_option(settings, args) -> TestOptions:

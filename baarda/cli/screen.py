@@ -6,9 +6,7 @@ from pathlib import Path
 
 from baarda.cli.common import FOLDER_HELP, open_run, progress
 from baarda.cli.inputs import add_input_options, read_input
-from baarda.output.project_files import write_project
-from baarda.output.screening_log import write_screening_log
-from baarda.screening.chain import ScreeningOptions, screen
+from baarda.screening.options import ScreeningOptions
 
 
 def add_options(p) -> None:
@@ -66,6 +64,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from baarda.output.project_files import write_project
+    from baarda.output.screening_log import write_screening_log
+    from baarda.screening.chain import screen
+
     with open_run(args, [args.input]) as run:
         say = progress(args.quiet)
         block = read_input(args)
