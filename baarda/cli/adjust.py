@@ -6,9 +6,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from baarda.cli.common import (
-    FOLDER_HELP,
     NOT_CONVERGED,
     OK,
+    add_out_argument,
     announce_compile,
     open_run,
     progress,
@@ -20,8 +20,7 @@ from baarda.cli.inputs import add_input_options, read_input
 def _common(p) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("output folder"))
+    add_out_argument(p, "output folder")
     p.add_argument("--alpha0", type=float, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")

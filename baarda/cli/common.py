@@ -14,6 +14,13 @@ from baarda.output.run_folder import RunFolder
 FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (replaced whole at the end "
                "of the run; an interrupted run leaves it as it was)")
 
+
+
+def add_out_argument(p, what: str = "output folder") -> None:
+    """The required -o/--out folder of a command that writes a run (output/run_folder.py)."""
+    p.add_argument("-o", "--out", type=Path, required=True, help=FOLDER_HELP.format(what))
+
+
 # exit codes (the parser's epilog)
 OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import FOLDER_HELP, open_run, progress
+from baarda.cli.common import add_out_argument, open_run, progress
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.screening.options import ScreeningOptions
 
@@ -51,9 +51,8 @@ def register(sub) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (see docs/formats.md); the cleaned block is written as a "
                    "project")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("folder of the cleaned project (and "
-                                           "screening_log.csv, screening.txt)"))
+    add_out_argument(p, "folder of the cleaned project (and "
+                                           "screening_log.csv, screening.txt)")
     p.add_argument("--alpha0", type=float, help="significance level of the w-tests of stages "
                    "2 and 3 (default: project.toml, else 0.001)")
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
