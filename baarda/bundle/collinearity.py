@@ -47,29 +47,17 @@ def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
     With `photo`, eo holds one row per photo (rotations are computed once per photo) and
     photo[i] names the photo of observation i.
     """
-    rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
-    if photo is not None:
-        rot = [a[photo] for a in rot]
-        eo = eo[photo]
-    r, dro, drp, drk = rot
-    d = xyz - eo[:, :3]
-    u = np.einsum("mji,mj->mi", r, d)
-    c = focal
-    inv3 = 1.0 / u[:, 2]
-    xy = pp - c[:, None] * u[:, :2] * inv3[:, None]
-    # d(x, y)/du, (m, 2, 3)
-    ju = np.zeros((len(u), 2, 3))
-    ju[:, 0, 0] = -c * inv3
-    ju[:, 1, 1] = -c * inv3
-    ju[:, 0, 2] = c * u[:, 0] * inv3**2
-    ju[:, 1, 2] = c * u[:, 1] * inv3**2
-    rt = np.swapaxes(r, 1, 2)
-    jp = ju @ rt  # d/dX
-    je = np.empty((len(u), 2, 6))
-    je[:, :, :3] = -jp
-    for k, dr in enumerate((dro, drp, drk)):
-        du = np.einsum("mji,mj->mi", dr, d)
-        je[:, :, 3 + k] = np.einsum("mab,mb->ma", ju, du)
+    from baarda.bundle.projection_kernel import project_rows
+
+    r, dro, drp, drk = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
+    m = len(xyz)
+    photo = np.arange(m) if photo is None else np.asarray(photo, np.int64)
+    xy, je, jp = np.empty((m, 2)), np.empty((m, 2, 6)), np.empty((m, 2, 3))
+    project_rows(np.ascontiguousarray(r), np.ascontiguousarray(np.stack([dro, drp, drk], 1)),
+                 np.ascontiguousarray(eo[:, :3], dtype=float), photo,
+                 np.ascontiguousarray(xyz, dtype=float),
+                 np.ascontiguousarray(np.broadcast_to(focal, (m,)), dtype=float),
+                 np.ascontiguousarray(np.broadcast_to(pp, (m, 2)), dtype=float), xy, je, jp)
     return xy, je, jp
 
 
