@@ -40,16 +40,18 @@ def camera_depth(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray | None = Non
 
 
 def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
-                           pp: np.ndarray, photo: np.ndarray | None = None):
+                           pp: np.ndarray, photo: np.ndarray | None = None,
+                           rotations: tuple | None = None):
     """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3)
     (no lens model).
 
     With `photo`, eo holds one row per photo (rotations are computed once per photo) and
-    photo[i] names the photo of observation i.
+    photo[i] names the photo of observation i; rotations: rotation_and_derivatives of eo's
+    angles when the caller has them already.
     """
     from baarda.bundle.projection_kernel import project_rows
 
-    r, dro, drp, drk = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
+    r, dro, drp, drk = rotations or rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
     m = len(xyz)
     photo = np.arange(m) if photo is None else np.asarray(photo, np.int64)
     xy, je, jp = np.empty((m, 2)), np.empty((m, 2, 6)), np.empty((m, 2, 3))
@@ -63,7 +65,7 @@ def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
 
 def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
                       params: np.ndarray, model: CameraModel, const: np.ndarray,
-                      observed: np.ndarray):
+                      observed: np.ndarray, rotations: tuple | None = None):
     """The observation equations of the image points of one camera, with its model.
 
     eo (n_photos, 6); xyz (m, 3) the observed points; photo (m,) the photo of each row;
@@ -82,7 +84,7 @@ def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
     c, pp, coef = float(params[0]), params[1:3], params[3:]
     m = len(photo)
     xy, je, jp = project_with_jacobians(eo, xyz, np.full(m, c), np.tile(pp, (m, 1)),
-                                        photo=photo)
+                                        photo=photo, rotations=rotations)
     ideal = xy - pp  # reduced to the principal point, mm
     jpar = np.zeros((m, 2, 3 + len(coef)))
     if model.side == "backward":
