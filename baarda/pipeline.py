@@ -166,21 +166,25 @@ def with_variance_components(problem: BundleProblem, progress: Progress | None =
 
 
 def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | None = None,
-                                   *, max_rounds: int = 5, progress: Progress | None = None,
+                                   *, max_rounds: int = 10, progress: Progress | None = None,
                                    **snoop_options) -> tuple[Assessment, BundleProblem]:
-    """Variance components and snooping in turn: the components estimated from every
-    observation, snooping with them, the components again without what it rejected, until
-    the rejections no longer change (a gross error inflates its group's estimate; an
-    estimate truncated by a snooping with wrong sigmas is too small).  Returns the last
-    snooping (with the variance components) and its re-weighted problem."""
-    active = None
-    for _ in range(max_rounds):
-        weighted, est = with_variance_components(problem, progress=progress, active=active)
-        qc = snoop(weighted, tests, progress=progress, **snoop_options)
-        if active is not None and np.array_equal(qc.quality.active, active):
-            break
-        active = qc.quality.active
-    return replace(qc, variance_components=est.components()), weighted
+    """Variance components and snooping in turn (quality.variance_components.alternate): the
+    components estimated from every observation, snooping with them, the components again
+    without what it rejected, until the rejections no longer change (a gross error inflates
+    its group's estimate; an estimate truncated by a snooping with wrong sigmas is too
+    small); then each group's largest |w| is tested against the group estimated without it.
+    Returns the last snooping (with the variance components) and its re-weighted problem."""
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.quality.variance_components import alternate
+
+    tests = tests or TestOptions.resolve(problem.block.settings)
+    first = BundleModel(problem.fit(progress=progress))
+    qc, est = alternate(first, lambda f: snoop(problem.reweighted(None, f), tests,
+                                               progress=progress, **snoop_options),
+                        tests=tests, statistic=snoop_options.get("statistic", "w"),
+                        max_rounds=max_rounds, progress=progress)
+    return (replace(qc, variance_components=est.components()),
+            problem.reweighted(None, est.factors))
 
 
 def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
