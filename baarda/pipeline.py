@@ -240,10 +240,13 @@ def adjust_models(block: ModelBlock, mode: str = "3d", *, snoop: bool = True,
                   deformations: tuple[str, ...] | None = ALL_DEFORMATIONS,
                   clusters: dict[str, list[str]] | None = None,
                   user: UserHypotheses | None = None, level_models: bool = False,
-                  progress: Progress | None = None) -> BlockQuality:
+                  vce: bool = False, progress: Progress | None = None) -> BlockQuality:
     """The FOTEF procedure on a model block (independent/workflow.py): pre-adjustment search,
     spatial ('3d') or planimetric + height ('2d') adjustment, data snooping, tests of model
-    deformations, control clusters and user hypotheses, external reliability."""
+    deformations, control clusters and user hypotheses, external reliability; with `vce`
+    the variance components of model XY, model Z, projection centres and control X, Y, Z
+    estimated first (with snooping: in turn with it), the tests using the estimated sigmas."""
     return process(block, mode, do_snoop=snoop, statistic=statistic, by_point=by_point,
                    tests=tests, external=external, deformations=deformations,
-                   clusters=clusters, user=user, level_models=level_models, progress=progress)
+                   clusters=clusters, user=user, level_models=level_models, vce=vce,
+                   progress=progress)

@@ -127,7 +127,8 @@ def test_w_histograms_per_group():
 
 
 def test_the_estimate_applies_to_every_method():
-    """Independent models: the same estimate from their adjusted model (groups by kind);
+    """Independent models: the same estimate from their adjusted model (groups model XY,
+    model Z, projection centres, control X, Y, Z: tests/independent/test_variance_components.py);
     the group redundancies add up to the redundancy and the estimate equals v'Pv / r_k of
     the model's own redundancy numbers."""
     from baarda.independent.workflow import process
@@ -138,7 +139,7 @@ def test_the_estimate_applies_to_every_method():
     models = [process(blk, "3d", deformations=None).part("3d").model]
     for model in models:
         comps = estimate(model)
-        assert comps and {c.group for c in comps} >= {"model"}
+        assert comps and {c.group for c in comps} >= {"model XY", "model Z"}
         _, r = cofactors(model)
         assert np.isclose(sum(c.redundancy for c in comps), float(r[model.active].sum()))
         for c in comps:
