@@ -257,9 +257,7 @@ class Assessment:
                 if not c.reweights:
                     lines.append("  " + c.words())
                     continue
-                lines.append("  " + c.line(u, unit) + (
-                    f"; estimated sigma {c.sigma_estimated * u:.4g} {unit}".rstrip()
-                    if np.isfinite(c.estimated) else ""))
+                lines.append("  " + c.line(u, unit))
         lines += [f"note: {n}" for n in q.notes]
         title = "Quality control" + ("" if self.name == "bundle" else f" ({self.name})")
         return [section(title, lines)]

@@ -116,11 +116,18 @@ class VarianceComponent:
                 f"(< {MIN_REDUNDANCY:g}), not estimated")
 
     def line(self, scale: float = 1.0, unit: str = "") -> str:
-        return (f"{self.group}: n {self.n}, r {self.redundancy:.2f}, sigma a priori "
-                f"{self.sigma_apriori * scale:.4g} {unit}, factor sigma^2 {self.factor:.4f} "
-                f"+- {self.factor_std:.4f} (sigma x {np.sqrt(self.factor):.4f} = "
-                f"{self.sigma_estimated * scale:.4g} {unit}), p = {self.p_value:.3g} -> "
-                + ("differs from 1" if self.rejected else "1 accepted")).replace("  ", " ")
+        """The group in one line: first estimate (relative to the a-priori sigmas), its test,
+        and the iterated estimate when there is one."""
+        out = (f"{self.group}{' (' + ', '.join(self.members) + ')' if self.members else ''}: "
+               f"n {self.n}, r {self.redundancy:.2f}, sigma a priori "
+               f"{self.sigma_apriori * scale:.4g} {unit}, first estimate sigma^2 "
+               f"{self.factor:.4f} +- {self.factor_std:.4f} (sigma x "
+               f"{np.sqrt(self.factor):.4f}), p = {self.p_value:.3g} -> "
+               + ("differs from 1" if self.rejected else "1 accepted"))
+        if np.isfinite(self.estimated):
+            out += (f"; iterated sigma^2 {self.estimated:.4f}: sigma x "
+                    f"{np.sqrt(self.estimated):.4f} = {self.sigma_estimated * scale:.4g} {unit}")
+        return out.replace("  ", " ").rstrip()
 
 
 def _num(x: float) -> float | None:
@@ -145,8 +152,9 @@ def _component(name: str, sel: np.ndarray, r: np.ndarray, v: np.ndarray, s: np.n
 
 def pooling_plan(comps: list[VarianceComponent]) -> dict[str, tuple[str, ...]]:
     """Pooled groups for control (and GNSS) axes too weak alone (r_k < MIN_REDUNDANCY):
-    X and Y together as '<kind> XY' when Z is strong enough by itself (or absent) and X + Y
-    is, else every axis together ('<kind> XYZ')."""
+    planimetry X and Y together as '<kind> XY' when Z is strong enough by itself (or
+    absent); when Z is weak too, every axis together ('<kind> XYZ').  A pooled group that
+    is still too weak is reported, not estimated (a strong Z is not borrowed for X, Y)."""
     by = {c.group: c for c in comps}
     plan: dict[str, tuple[str, ...]] = {}
     for fam in POOLED:
@@ -156,7 +164,7 @@ def pooling_plan(comps: list[VarianceComponent]) -> dict[str, tuple[str, ...]]:
         if len(axes) < 2 or not weak:
             continue
         xy = [a for a in axes if a in ("X", "Y")]
-        if len(xy) == 2 and "Z" not in weak and sum(r[a] for a in xy) >= MIN_REDUNDANCY:
+        if len(xy) == 2 and "Z" not in weak:
             axes = xy
         plan[f"{fam} {''.join(axes)}"] = tuple(f"{fam} {a}" for a in axes)
     return plan
