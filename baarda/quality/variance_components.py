@@ -51,12 +51,8 @@ AXES = ("X", "Y", "Z")
 
 
 def groups_of(model) -> np.ndarray:
-    """(n,) group name of every component (the model's variance_groups() when it has one)."""
-    if hasattr(model, "variance_groups"):
-        return np.asarray(model.variance_groups(), dtype=object)
-    kind = np.asarray(model.kind, dtype=object)
-    comp = np.asarray(model.component, dtype=object)
-    return np.where(kind == "control", kind + " " + comp, kind).astype(object)
+    """(n,) group name of every component (the model's variance_groups())."""
+    return np.asarray(model.variance_groups(), dtype=object)
 
 
 @dataclass(frozen=True)
