@@ -82,7 +82,7 @@ def variance_lines(qc: ModelQC) -> list[str]:
     q_yy / q_xx and q_tie this model was oriented and tested with."""
     if not qc.variance_components:
         return []
-    lines = [f"  variance components over the strip so far (this model and the accepted "
+    lines = ["  variance components over the strip so far (this model and the accepted "
              "ones; Foerstner):"]
     for c in qc.variance_components:
         lines.append("    " + (c.line(1.0, "µm") if c.reweights else c.words()))
