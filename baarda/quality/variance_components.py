@@ -338,4 +338,8 @@ def alternate(model, snoop: Callable[[np.ndarray], object], *, alpha: float = AL
             now = now.copy()
             now[i] = False
         active = now
+    else:
+        qc.quality.notes.append(
+            f"variance components and data snooping did not settle in {max_rounds} rounds: "
+            "the last snooping and its estimate are reported")
     return qc, est

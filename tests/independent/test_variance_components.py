@@ -129,3 +129,25 @@ def test_command_line_equals_api(tmp_path):
     assert main(["report", str(out), "-o", str(out / "r.html")]) == 0
     html = (out / "r.html").read_text()
     assert "Variance components per group" in html and "model XY" in html
+
+
+def test_an_alternation_that_does_not_settle_says_so():
+    """One round of estimation and snooping cannot settle when snooping rejects something:
+    the note says so (and a round count that lets it settle gives no note)."""
+    from baarda.independent.model_quality import snoop
+    from baarda.quality.variance_components import alternate
+
+    right, _ = _mis_stated(seed=6)
+    bad = right.obs_xyz.copy()
+    bad[int(np.flatnonzero(~right.pc[right.obs_point])[17]), 0] += 0.08
+    res = adjust_once(replace(right, obs_xyz=bad), "3d")
+    start = res.problem.active
+
+    def run(rounds):
+        qc, _ = alternate(IndependentModel(res), lambda f: snoop(res.refit(start, f)),
+                          max_rounds=rounds)
+        return [n for n in qc.quality.notes if "did not settle" in n]
+
+    assert run(1) == ["variance components and data snooping did not settle in 1 rounds: "
+                      "the last snooping and its estimate are reported"]
+    assert run(10) == []
