@@ -277,7 +277,6 @@ def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TEST
     candidate is switched off, the factors estimated again (iterate, from the current
     weights) and its statistic (predicted residual) tested with them."""
     q = analyse(model, tests)
-    stat, crit = (q.w, q.k_w) if statistic == "w" else (q.tau, q.k_tau)
     g = groups_of(model)
     act = np.asarray(model.active, bool)
     cands = []
