@@ -9,10 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import (
-    FOLDER_HELP,
     NOT_CONVERGED,
     OK,
     add_encoding_option,
+    add_out_argument,
     open_run,
     progress,
     tests_option,
@@ -25,8 +25,7 @@ def register(sub) -> None:
     p = sub.add_parser("models", help="independent-model block adjustment with data snooping "
                        "and tests of model deformations (FOTEF)")
     p.add_argument("project", type=Path, help="model project (models.csv) or bundle project")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("output folder"))
+    add_out_argument(p, "output folder")
     p.add_argument("--2d", dest="planimetric", action="store_true",
                    help="planimetric adjustment (4 parameters) with a separate height "
                    "adjustment instead of the spatial one (7 parameters)")
@@ -62,8 +61,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
     q = sub.add_parser("simulate-models", help="simulate an independent-model block with "
                        "known truth (truth.json)")
-    q.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("model project to write"))
+    add_out_argument(q, "model project to write")
     q.add_argument("--strips", type=int, default=2, help="number of strips")
     q.add_argument("--models", type=int, default=4, help="models per strip")
     q.add_argument("--layout", default="fotef", choices=["fotef", "grid"],
