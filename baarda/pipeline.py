@@ -163,10 +163,10 @@ def adjust(block: Block | BundleProblem, options: SolveOptions | None = None,
 def with_variance_components(problem: BundleProblem, progress: Progress | None = None,
                              active=None):
     """(the problem re-weighted with the estimated variance component of every group, the
-    estimation): Foerstner's iteration (quality/variance_components.py) on the `active`
-    components (default all; a first snooping's survivors keep gross errors out of the
-    estimate); the group factors are said in the problem's notes, so that the summary shows
-    them.  Every component, rejected or not, gets its group's factor."""
+    estimation): Foerstner's iteration (quality/variance_components.py; weak control axes
+    pooled) on the `active` components (default all; a first snooping's survivors keep
+    gross errors out of the estimate).  Every component, rejected or not, gets its group's
+    factor; `estimation.components()` is what the Assessment's variance_components shows."""
     from baarda.bundle.bundle_model import BundleModel
     from baarda.quality.variance_components import iterate
 
