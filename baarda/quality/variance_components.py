@@ -167,10 +167,12 @@ def pooling_plan(comps: list[VarianceComponent]) -> dict[str, tuple[str, ...]]:
 
 
 def estimate(model, alpha: float = ALPHA, *, pool: bool = False,
-             plan: dict[str, tuple[str, ...]] | None = None) -> list[VarianceComponent]:
+             plan: dict[str, tuple[str, ...]] | None = None,
+             redundancy_numbers: np.ndarray | None = None) -> list[VarianceComponent]:
     """The variance components of the groups of an adjusted model (module docstring); with
-    `pool` or a `plan`, the pooled groups after them (their members marked pooled_into)."""
-    _, r = cofactors(model)
+    `pool` or a `plan`, the pooled groups after them (their members marked pooled_into).
+    `redundancy_numbers`: the model's, when they are at hand (analyse's)."""
+    r = cofactors(model)[1] if redundancy_numbers is None else redundancy_numbers
     act = np.asarray(model.active, bool)
     v = model.residuals
     s = model.sigma
@@ -280,7 +282,7 @@ def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TEST
     g = groups_of(model)
     act = np.asarray(model.active, bool)
     cands = []
-    for c in estimate(model, alpha, plan=plan or {}):
+    for c in estimate(model, alpha, plan=plan or {}, redundancy_numbers=q.redundancy_number):
         if not c.reweights:
             continue
         sel = np.flatnonzero(act & q.controlled & np.isin(g, c.groups))
