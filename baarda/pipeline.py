@@ -163,10 +163,10 @@ def adjust(block: Block | BundleProblem, options: SolveOptions | None = None,
 def with_variance_components(problem: BundleProblem, progress: Progress | None = None,
                              active=None):
     """(the problem re-weighted with the estimated variance component of every group, the
-    estimation): Foerstner's iteration (quality/variance_components.py) on the `active`
-    components (default all; a first snooping's survivors keep gross errors out of the
-    estimate); the group factors are said in the problem's notes, so that the summary shows
-    them.  Every component, rejected or not, gets its group's factor."""
+    estimation): Foerstner's iteration (quality/variance_components.py; weak control axes
+    pooled) on the `active` components (default all; a first snooping's survivors keep
+    gross errors out of the estimate).  Every component, rejected or not, gets its group's
+    factor; `estimation.components()` is what the Assessment's variance_components shows."""
     from baarda.bundle.bundle_model import BundleModel
     from baarda.quality.variance_components import iterate
 
@@ -176,21 +176,25 @@ def with_variance_components(problem: BundleProblem, progress: Progress | None =
 
 
 def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | None = None,
-                                   *, max_rounds: int = 5, progress: Progress | None = None,
+                                   *, max_rounds: int = 10, progress: Progress | None = None,
                                    **snoop_options) -> tuple[Assessment, BundleProblem]:
-    """Variance components and snooping in turn: the components estimated from every
-    observation, snooping with them, the components again without what it rejected, until
-    the rejections no longer change (a gross error inflates its group's estimate; an
-    estimate truncated by a snooping with wrong sigmas is too small).  Returns the last
-    snooping (with the variance components) and its re-weighted problem."""
-    active = None
-    for _ in range(max_rounds):
-        weighted, est = with_variance_components(problem, progress=progress, active=active)
-        qc = snoop(weighted, tests, progress=progress, **snoop_options)
-        if active is not None and np.array_equal(qc.quality.active, active):
-            break
-        active = qc.quality.active
-    return replace(qc, variance_components=est.components()), weighted
+    """Variance components and snooping in turn (quality.variance_components.alternate): the
+    components estimated from every observation, snooping with them, the components again
+    without what it rejected, until the rejections no longer change (a gross error inflates
+    its group's estimate; an estimate truncated by a snooping with wrong sigmas is too
+    small); then each group's largest |w| is tested against the group estimated without it.
+    Returns the last snooping (with the variance components) and its re-weighted problem."""
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.quality.variance_components import alternate
+
+    tests = tests or TestOptions.resolve(problem.block.settings)
+    first = BundleModel(problem.fit(progress=progress))
+    qc, est = alternate(first, lambda f: snoop(problem.reweighted(None, f), tests,
+                                               progress=progress, **snoop_options),
+                        tests=tests, statistic=snoop_options.get("statistic", "w"),
+                        max_rounds=max_rounds, progress=progress)
+    return (replace(qc, variance_components=est.components()),
+            problem.reweighted(None, est.factors))
 
 
 def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
@@ -259,12 +263,15 @@ def adjust_models(block: ModelBlock, mode: str = "3d", *, snoop: bool = True,
                   deformations: tuple[str, ...] | None = ALL_DEFORMATIONS,
                   clusters: dict[str, list[str]] | None = None,
                   user: UserHypotheses | None = None, level_models: bool = False,
-                  progress: Progress | None = None) -> BlockQuality:
+                  vce: bool = False, progress: Progress | None = None) -> BlockQuality:
     """The FOTEF procedure on a model block (independent/workflow.py): pre-adjustment search,
     spatial ('3d') or planimetric + height ('2d') adjustment, data snooping, tests of model
-    deformations, control clusters and user hypotheses, external reliability."""
+    deformations, control clusters and user hypotheses, external reliability; with `vce`
+    the variance components of model XY, model Z, projection centres and control X, Y, Z
+    estimated first (with snooping: in turn with it), the tests using the estimated sigmas."""
     from baarda.independent.workflow import process
 
     return process(block, mode, do_snoop=snoop, statistic=statistic, by_point=by_point,
                    tests=tests, external=external, deformations=deformations,
-                   clusters=clusters, user=user, level_models=level_models, progress=progress)
+                   clusters=clusters, user=user, level_models=level_models, vce=vce,
+                   progress=progress)

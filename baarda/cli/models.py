@@ -50,6 +50,10 @@ def register(sub) -> None:
     p.add_argument("--clusters", type=Path, help="clusters.csv (cluster, point): control "
                    "clusters to test")
     p.add_argument("--hypotheses", type=Path, help="hypotheses.csv: user-defined H")
+    p.add_argument("--vce", action="store_true", help="estimate a variance component per "
+                   "observation group (model coordinates XY and Z, projection centres, "
+                   "control X, Y, Z), re-weight and adjust again until they converge; the "
+                   "tests and snooping then use the estimated sigmas")
     add_encoding_option(p)
     p.add_argument("--covariance", action="store_true", help="bundle project: use the full "
                    "covariance of each model point from the relative orientation")
@@ -112,7 +116,7 @@ def _adjust_models(args, run):
                  deformations=defs,
                  clusters=read_clusters(args.clusters) if args.clusters else None,
                  user=UserHypotheses(args.hypotheses) if args.hypotheses else None,
-                 level_models=args.level, progress=say)
+                 level_models=args.level, vce=args.vce, progress=say)
     write_results(run, bq)
     return bq
 
