@@ -18,34 +18,30 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from baarda.block.camera import CALIBRATION_GROUPS, cameras_per_strip
-from baarda.block.crs import localize
 from baarda.block.model_block import ModelBlock
 from baarda.block.photo_block import Block, Photos
-from baarda.bundle.bundle_problem import SOLVE, BundleProblem
-from baarda.bundle.bundle_quality import assess as assess_result
-from baarda.bundle.bundle_quality import snoop as snoop_problem
-from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import with_calibration
-from baarda.bundle.diagnostics import diagnose
-from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
-from baarda.bundle.resection import orient_block
 from baarda.errors import GeometryError, ProjectError
 from baarda.independent.deformations import ALL as ALL_DEFORMATIONS
-from baarda.independent.forming import form_models
-from baarda.independent.model_hypotheses import UserHypotheses
-from baarda.independent.workflow import BlockQuality, process
 from baarda.io.formats import read_any
-from baarda.io.model_project import read_model_project
 from baarda.io.project import DATUMS
 from baarda.io.records import ENCODING
 from baarda.options import Progress, SolveOptions, TestOptions
-from baarda.quality.assessment import Assessment
-from baarda.screening.chain import ScreeningOptions, ScreeningResult, screen_and_snoop
-from baarda.screening.chain import screen as screen_block
+
+# The computation (numba kernels, SciPy's distributions, pyproj) is imported by the step
+# that needs it: reading a file, and failing on a bad one, costs only the reader's imports.
+if TYPE_CHECKING:
+    from baarda.bundle.bundle_problem import BundleProblem
+    from baarda.bundle.bundle_result import BundleResult
+    from baarda.independent.model_hypotheses import UserHypotheses
+    from baarda.independent.workflow import BlockQuality
+    from baarda.quality.assessment import Assessment
+    from baarda.screening.chain import ScreeningOptions, ScreeningResult
 
 
 def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
@@ -136,6 +132,8 @@ def with_approximations(block: Block) -> Block:
     missing = ~np.isfinite(block.photos.eo).all(axis=1)
     if not missing.any():
         return block
+    from baarda.bundle.resection import orient_block
+
     eo = orient_block(block)
     photos = Photos(block.photos.ids, block.photos.camera, block.photos.strip, eo)
     return replace(block, photos=photos, notes=list(block.notes) + [
@@ -144,7 +142,11 @@ def with_approximations(block: Block) -> Block:
 
 def localized(block: Block) -> Block:
     """The block in a local east-north-up frame of its CRS when it has one (block/crs.py)."""
-    return localize(block) if block.settings.crs and block.frame is None else block
+    if not block.settings.crs or block.frame is not None:
+        return block
+    from baarda.block.crs import localize
+
+    return localize(block)
 
 
 def prepare(block: Block, free: bool | None = None) -> BundleProblem:
@@ -157,6 +159,10 @@ def prepare(block: Block, free: bool | None = None) -> BundleProblem:
     should have control and has too little is a GeometryError that names what is missing.
     In a free network, control points become check points (their differences refer to the
     free datum)."""
+    from baarda.bundle.bundle_problem import BundleProblem
+    from baarda.bundle.diagnostics import diagnose
+    from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
+
     inner = block.settings.datum == "inner"
     free = block.settings.datum in ("free", "inner") if free is None else free
     block = with_approximations(localized(block))
@@ -183,9 +189,13 @@ def as_check_points(block: Block) -> Block:
         "differences refer to the free datum, not to the control's frame)"])
 
 
-def adjust(block: Block | BundleProblem, options: SolveOptions = SOLVE,
+def adjust(block: Block | BundleProblem, options: SolveOptions | None = None,
            progress: Progress | None = None) -> BundleResult:
-    """Bundle block adjustment of a block as read (prepare, then the one solver)."""
+    """Bundle block adjustment of a block as read (prepare, then the one solver; options:
+    default the bundle's, bundle_problem.SOLVE)."""
+    from baarda.bundle.bundle_problem import SOLVE, BundleProblem
+
+    options = options or SOLVE
     problem = block if isinstance(block, BundleProblem) else prepare(block)
     return problem.fit(options=options, progress=progress)
 
@@ -193,10 +203,10 @@ def adjust(block: Block | BundleProblem, options: SolveOptions = SOLVE,
 def with_variance_components(problem: BundleProblem, progress: Progress | None = None,
                              active=None):
     """(the problem re-weighted with the estimated variance component of every group, the
-    estimation): Foerstner's iteration (quality/variance_components.py) on the `active`
-    components (default all; a first snooping's survivors keep gross errors out of the
-    estimate); the group factors are said in the problem's notes, so that the summary shows
-    them.  Every component, rejected or not, gets its group's factor."""
+    estimation): Foerstner's iteration (quality/variance_components.py; weak control axes
+    pooled) on the `active` components (default all; a first snooping's survivors keep
+    gross errors out of the estimate).  Every component, rejected or not, gets its group's
+    factor; `estimation.components()` is what the Assessment's variance_components shows."""
     from baarda.bundle.bundle_model import BundleModel
     from baarda.quality.variance_components import iterate
 
@@ -206,25 +216,31 @@ def with_variance_components(problem: BundleProblem, progress: Progress | None =
 
 
 def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | None = None,
-                                   *, max_rounds: int = 5, progress: Progress | None = None,
+                                   *, max_rounds: int = 10, progress: Progress | None = None,
                                    **snoop_options) -> tuple[Assessment, BundleProblem]:
-    """Variance components and snooping in turn: the components estimated from every
-    observation, snooping with them, the components again without what it rejected, until
-    the rejections no longer change (a gross error inflates its group's estimate; an
-    estimate truncated by a snooping with wrong sigmas is too small).  Returns the last
-    snooping (with the variance components) and its re-weighted problem."""
-    active = None
-    for _ in range(max_rounds):
-        weighted, est = with_variance_components(problem, progress=progress, active=active)
-        qc = snoop(weighted, tests, progress=progress, **snoop_options)
-        if active is not None and np.array_equal(qc.quality.active, active):
-            break
-        active = qc.quality.active
-    return replace(qc, variance_components=est.components()), weighted
+    """Variance components and snooping in turn (quality.variance_components.alternate): the
+    components estimated from every observation, snooping with them, the components again
+    without what it rejected, until the rejections no longer change (a gross error inflates
+    its group's estimate; an estimate truncated by a snooping with wrong sigmas is too
+    small); then each group's largest |w| is tested against the group estimated without it.
+    Returns the last snooping (with the variance components) and its re-weighted problem."""
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.quality.variance_components import alternate
+
+    tests = tests or TestOptions.resolve(problem.block.settings)
+    first = BundleModel(problem.fit(progress=progress))
+    qc, est = alternate(first, lambda f: snoop(problem.reweighted(None, f), tests,
+                                               progress=progress, **snoop_options),
+                        tests=tests, statistic=snoop_options.get("statistic", "w"),
+                        max_rounds=max_rounds, progress=progress)
+    return (replace(qc, variance_components=est.components()),
+            problem.reweighted(None, est.factors))
 
 
 def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
     """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection."""
+    from baarda.bundle.bundle_quality import assess as assess_result
+
     return assess_result(result, tests)
 
 
@@ -232,6 +248,9 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
           statistic: str = "w", by_point: bool = False, robust: bool = False,
           max_iterations: int = 200, progress: Progress | None = None) -> Assessment:
     """Iterative data snooping of a block as read (see bundle/bundle_quality.py)."""
+    from baarda.bundle.bundle_problem import BundleProblem
+    from baarda.bundle.bundle_quality import snoop as snoop_problem
+
     problem = block if isinstance(block, BundleProblem) else prepare(block)
     return snoop_problem(problem, tests, statistic=statistic, by_point=by_point,
                          robust=robust, max_iterations=max_iterations, progress=progress)
@@ -244,6 +263,11 @@ def screen(block: Block, options: ScreeningOptions | None = None, *, snoop: bool
     cleaned block: with `snoop`, data snooping that removes what it rejects together with
     the observations it cannot be told from (the result's block is then the block after
     both), else the statistics of every observation (alpha0 and beta0 of the options)."""
+    from baarda.bundle.bundle_problem import BundleProblem
+    from baarda.bundle.bundle_quality import assess as assess_result
+    from baarda.screening.chain import ScreeningOptions, screen_and_snoop
+    from baarda.screening.chain import screen as screen_block
+
     block = with_approximations(localized(block))
     if not block.points.controlled.any():
         raise GeometryError("screening needs control points (stage 3 and the datum of the "
@@ -263,6 +287,9 @@ def read_models(path: str | Path, *, covariance: bool = False,
     """A model project (models.csv), or any photo block (a project or another program's
     input, read by `read`) formed into stereo models by relative orientation; covariance:
     keep the full covariance of each model point from its relative orientation."""
+    from baarda.independent.forming import form_models
+    from baarda.io.model_project import read_model_project
+
     path = Path(path)
     if path.is_dir() and (path / "models.csv").is_file():
         return read_model_project(path, encoding)
@@ -276,10 +303,15 @@ def adjust_models(block: ModelBlock, mode: str = "3d", *, snoop: bool = True,
                   deformations: tuple[str, ...] | None = ALL_DEFORMATIONS,
                   clusters: dict[str, list[str]] | None = None,
                   user: UserHypotheses | None = None, level_models: bool = False,
-                  progress: Progress | None = None) -> BlockQuality:
+                  vce: bool = False, progress: Progress | None = None) -> BlockQuality:
     """The FOTEF procedure on a model block (independent/workflow.py): pre-adjustment search,
     spatial ('3d') or planimetric + height ('2d') adjustment, data snooping, tests of model
-    deformations, control clusters and user hypotheses, external reliability."""
+    deformations, control clusters and user hypotheses, external reliability; with `vce`
+    the variance components of model XY, model Z, projection centres and control X, Y, Z
+    estimated first (with snooping: in turn with it), the tests using the estimated sigmas."""
+    from baarda.independent.workflow import process
+
     return process(block, mode, do_snoop=snoop, statistic=statistic, by_point=by_point,
                    tests=tests, external=external, deformations=deformations,
-                   clusters=clusters, user=user, level_models=level_models, progress=progress)
+                   clusters=clusters, user=user, level_models=level_models, vce=vce,
+                   progress=progress)

@@ -84,27 +84,27 @@ def parameters(cameras, i: int) -> np.ndarray:
                            coefficients(cameras, i)])
 
 
-def _rows_by_camera(block):
+def _cameras_of_side(block, side: str):
+    """(model, rows of block.image, principal point [mm], coefficients (1, k), constants
+    (1, c)) of every camera with a distortion model applied on `side` ("backward": to the
+    observations, "forward": in the projection) that has image points."""
+    cams = block.cameras
     cam = block.photos.camera[block.image.photo]
-    for i in range(len(block.cameras)):
+    for i in range(len(cams)):
+        model = model_of(kinds(cams)[i])
         rows = np.flatnonzero(cam == i)
-        if len(rows):
-            yield i, rows
+        if model.side != side or not model.n_params or not len(rows):
+            continue
+        yield (model, rows, np.asarray(cams.principal_point_mm[i], float),
+               coefficients(cams, i)[None, :], constants(cams, i)[None, :])
 
 
 def corrected_observations(block) -> np.ndarray:
     """The observations (m, 2) in mm with backward models applied (ideal coordinates);
     rows of forward-model cameras as observed (the projection applies those)."""
     out = np.array(block.image.xy_mm, dtype=float, copy=True)
-    cams = block.cameras
-    for i, rows in _rows_by_camera(block):
-        model = model_of(kinds(cams)[i])
-        if model.side != "backward" or not model.n_params:
-            continue
-        pp = np.asarray(cams.principal_point_mm[i], float)
-        delta, _, _ = model.correction(out[rows] - pp, coefficients(cams, i)[None, :],
-                                       constants(cams, i)[None, :])
-        out[rows] += delta
+    for model, rows, pp, coef, const in _cameras_of_side(block, "backward"):
+        out[rows] += model.correction(out[rows] - pp, coef, const)[0]
     return out
 
 
@@ -113,16 +113,11 @@ def ideal_image_coordinates(block) -> np.ndarray:
     (backward models: the corrected observations; forward models: inverted, for
     approximations only: the adjustment applies them in the projection)."""
     out = corrected_observations(block)
-    cams = block.cameras
-    for i, rows in _rows_by_camera(block):
-        model = model_of(kinds(cams)[i])
-        if model.side != "forward" or not model.n_params:
-            continue
-        pp = np.asarray(cams.principal_point_mm[i], float)
-        s = float(cams.focal_mm[i]) if model.normalized else 1.0
-        u = invert(model, (out[rows] - pp) / s, coefficients(cams, i)[None, :],
-                   constants(cams, i)[None, :])
-        out[rows] = pp + s * u
+    focal = block.cameras.focal_mm
+    cam = block.photos.camera[block.image.photo]
+    for model, rows, pp, coef, const in _cameras_of_side(block, "forward"):
+        s = float(focal[cam[rows[0]]]) if model.normalized else 1.0
+        out[rows] = pp + s * invert(model, (out[rows] - pp) / s, coef, const)
     return out
 
 

@@ -95,28 +95,12 @@ def _rows(a: ArrayLike | None, m: int, k: int, what: str, name: str) -> np.ndarr
 def _brown(u: np.ndarray, c: np.ndarray) -> Terms:
     """Brown terms of baarda's camera.py on u (m, 2) with c = (k1, k2, k3, p1, p2) (m, 5):
     delta (m, 2), d delta / du (m, 2, 2), d delta / dc (m, 2, 5)."""
-    x, y = u[:, 0], u[:, 1]
-    k1, k2, k3, p1, p2 = c[:, 0], c[:, 1], c[:, 2], c[:, 3], c[:, 4]
-    r2 = x * x + y * y
-    radial = r2 * (k1 + r2 * (k2 + r2 * k3))
-    g = k1 + r2 * (2 * k2 + 3 * k3 * r2)  # d radial / d r2
-    tx = (r2 + 2 * x * x, 2 * x * y)  # d delta / d p1
-    ty = (2 * x * y, r2 + 2 * y * y)  # d delta / d p2
-    delta = np.empty_like(u)
-    delta[:, 0] = x * radial + p1 * tx[0] + p2 * ty[0]
-    delta[:, 1] = y * radial + p1 * tx[1] + p2 * ty[1]
-    jac = np.empty((len(u), 2, 2))
-    cross = 2 * g * x * y + 2 * p1 * y + 2 * p2 * x
-    jac[:, 0, 0] = radial + 2 * g * x * x + 6 * p1 * x + 2 * p2 * y
-    jac[:, 0, 1] = cross
-    jac[:, 1, 0] = cross
-    jac[:, 1, 1] = radial + 2 * g * y * y + 2 * p1 * x + 6 * p2 * y
-    dc = np.empty((len(u), 2, 5))
-    r4 = r2 * r2
-    for i, rp in enumerate((r2, r4, r4 * r2)):
-        dc[:, :, i] = u * rp[:, None]
-    dc[:, 0, 3], dc[:, 1, 3] = tx
-    dc[:, 0, 4], dc[:, 1, 4] = ty
+    from baarda.block.lens_kernels import brown_rows
+
+    m = len(u)
+    delta, jac, dc = np.empty((m, 2)), np.empty((m, 2, 2)), np.empty((m, 2, 5))
+    brown_rows(np.ascontiguousarray(u, dtype=float), np.ascontiguousarray(c, dtype=float),
+               delta, jac, dc)
     return delta, jac, dc
 
 

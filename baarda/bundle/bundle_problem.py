@@ -19,6 +19,7 @@ from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.solve import solve
 from baarda.block.photo_block import Block
+from baarda.block.rotation import rotation_and_derivatives
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth, camera_projection
@@ -249,10 +250,11 @@ class BundleProblem(SchurProblem):
         jpar = np.zeros((m, 2, 3 + max((mo.n_params for mo in self.calibration.models),
                                        default=0)))
         cal = self.calibration
+        rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every camera
         for i in np.unique(cam):
             sel = np.flatnonzero(cam == i)
             out = camera_projection(eo, xyz_rows[sel], ph[sel], params[i], cal.models[i],
-                                    cal.constants[i], im.xy_mm[rows[sel]])
+                                    cal.constants[i], im.xy_mm[rows[sel]], rot)
             f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
             jpar[sel, :, :out[3].shape[2]] = out[3]
         return f, je, jp, jpar

@@ -40,42 +40,32 @@ def camera_depth(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray | None = Non
 
 
 def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
-                           pp: np.ndarray, photo: np.ndarray | None = None):
+                           pp: np.ndarray, photo: np.ndarray | None = None,
+                           rotations: tuple | None = None):
     """Image coordinates (m, 2) and Jacobians d(x, y)/d(eo) (m, 2, 6) and d(x, y)/d(X) (m, 2, 3)
     (no lens model).
 
     With `photo`, eo holds one row per photo (rotations are computed once per photo) and
-    photo[i] names the photo of observation i.
+    photo[i] names the photo of observation i; rotations: rotation_and_derivatives of eo's
+    angles when the caller has them already.
     """
-    rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
-    if photo is not None:
-        rot = [a[photo] for a in rot]
-        eo = eo[photo]
-    r, dro, drp, drk = rot
-    d = xyz - eo[:, :3]
-    u = np.einsum("mji,mj->mi", r, d)
-    c = focal
-    inv3 = 1.0 / u[:, 2]
-    xy = pp - c[:, None] * u[:, :2] * inv3[:, None]
-    # d(x, y)/du, (m, 2, 3)
-    ju = np.zeros((len(u), 2, 3))
-    ju[:, 0, 0] = -c * inv3
-    ju[:, 1, 1] = -c * inv3
-    ju[:, 0, 2] = c * u[:, 0] * inv3**2
-    ju[:, 1, 2] = c * u[:, 1] * inv3**2
-    rt = np.swapaxes(r, 1, 2)
-    jp = ju @ rt  # d/dX
-    je = np.empty((len(u), 2, 6))
-    je[:, :, :3] = -jp
-    for k, dr in enumerate((dro, drp, drk)):
-        du = np.einsum("mji,mj->mi", dr, d)
-        je[:, :, 3 + k] = np.einsum("mab,mb->ma", ju, du)
+    from baarda.bundle.projection_kernel import project_rows
+
+    r, dro, drp, drk = rotations or rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
+    m = len(xyz)
+    photo = np.arange(m) if photo is None else np.asarray(photo, np.int64)
+    xy, je, jp = np.empty((m, 2)), np.empty((m, 2, 6)), np.empty((m, 2, 3))
+    project_rows(np.ascontiguousarray(r), np.ascontiguousarray(np.stack([dro, drp, drk], 1)),
+                 np.ascontiguousarray(eo[:, :3], dtype=float), photo,
+                 np.ascontiguousarray(xyz, dtype=float),
+                 np.ascontiguousarray(np.broadcast_to(focal, (m,)), dtype=float),
+                 np.ascontiguousarray(np.broadcast_to(pp, (m, 2)), dtype=float), xy, je, jp)
     return xy, je, jp
 
 
 def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
                       params: np.ndarray, model: CameraModel, const: np.ndarray,
-                      observed: np.ndarray):
+                      observed: np.ndarray, rotations: tuple | None = None):
     """The observation equations of the image points of one camera, with its model.
 
     eo (n_photos, 6); xyz (m, 3) the observed points; photo (m,) the photo of each row;
@@ -94,7 +84,7 @@ def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
     c, pp, coef = float(params[0]), params[1:3], params[3:]
     m = len(photo)
     xy, je, jp = project_with_jacobians(eo, xyz, np.full(m, c), np.tile(pp, (m, 1)),
-                                        photo=photo)
+                                        photo=photo, rotations=rotations)
     ideal = xy - pp  # reduced to the principal point, mm
     jpar = np.zeros((m, 2, 3 + len(coef)))
     if model.side == "backward":

@@ -5,25 +5,22 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from baarda.cli.common import FOLDER_HELP, NOT_CONVERGED, OK, open_run, progress, tests_option
-from baarda.cli.inputs import add_input_options, read_input
-from baarda.output.bundle_results import write_results
-from baarda.pipeline import (
-    adjust,
-    assess,
-    prepare,
-    screen,
-    snoop,
-    snoop_with_variance_components,
-    with_variance_components,
+from baarda.cli.common import (
+    NOT_CONVERGED,
+    OK,
+    add_out_argument,
+    announce_compile,
+    open_run,
+    progress,
+    tests_option,
 )
+from baarda.cli.inputs import add_input_options, read_input
 
 
 def _common(p) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("output folder"))
+    add_out_argument(p, "output folder")
     p.add_argument("--alpha0", type=float, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
@@ -75,8 +72,21 @@ def run_adjust(args) -> int:
 
 def _adjust(args, run):
     """Read, adjust, assess and write into `run`; the assessment and the text to print."""
-    say = progress(args.quiet)
+    from baarda.pipeline import (
+        adjust,
+        assess,
+        prepare,
+        screen,
+        snoop,
+        snoop_with_variance_components,
+        with_variance_components,
+    )
+
+    say = progress(args.quiet, computes=False)
     block = read_input(args)
+    announce_compile(say)  # the computation is imported once the input is read
+    from baarda.output.bundle_results import write_results
+
     tests = tests_option(block.settings, args)
     if say:
         say(f"read {block.summary()}")

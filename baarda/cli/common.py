@@ -14,6 +14,13 @@ from baarda.output.run_folder import RunFolder
 FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (replaced whole at the end "
                "of the run; an interrupted run leaves it as it was)")
 
+
+
+def add_out_argument(p, what: str = "output folder") -> None:
+    """The required -o/--out folder of a command that writes a run (output/run_folder.py)."""
+    p.add_argument("-o", "--out", type=Path, required=True, help=FOLDER_HELP.format(what))
+
+
 # exit codes (the parser's epilog)
 OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
 
@@ -29,11 +36,19 @@ def progress(quiet: bool, computes: bool = True):
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
     if computes:
-        from baarda.linalg._jit import compile_pending
-
-        if compile_pending():
-            say("compiling the numerical kernels once (about 20 s; later runs start at once)")
+        announce_compile(say)
     return say
+
+
+def announce_compile(say) -> None:
+    """Say so when the numerical kernels have yet to be compiled (imports numba and the
+    kernels: a command calls it once its input is read)."""
+    if say is None:
+        return
+    from baarda.linalg._jit import compile_pending
+
+    if compile_pending():
+        say("compiling the numerical kernels once (about 20 s; later runs start at once)")
 
 
 def tests_option(settings, args) -> TestOptions:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import FOLDER_HELP, open_run
+from baarda.cli.common import add_out_argument, open_run
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.io.formats import detect
 from baarda.output.project_files import write_project
@@ -15,8 +15,7 @@ def register(sub) -> None:
     p = sub.add_parser("convert", help="convert a COLMAP, BAL, DBAT, PhotoModeler, AICON, "
                        "MicMac or OpenSfM input (or a project) into a native project folder")
     p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("project folder to write"))
+    add_out_argument(p, "project folder to write")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     add_input_options(p)
     p.set_defaults(func=run_convert)

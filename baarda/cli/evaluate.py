@@ -5,12 +5,11 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 from baarda.cli.common import (
-    FOLDER_HELP,
     add_control_arguments,
     add_flight_plan_arguments,
+    add_out_argument,
     add_terrain_and_sigma_arguments,
     open_run,
 )
@@ -23,8 +22,7 @@ def register(sub) -> None:
 
     p = sub.add_parser("evaluate", help="detection power, measured: blunder-detection "
                        "strategies on simulated blocks with planted blunders")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("output folder"))
+    add_out_argument(p, "output folder")
     d = FlightPlan()
     add_flight_plan_arguments(p, d)
     add_control_arguments(p, d)

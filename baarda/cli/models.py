@@ -9,10 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import (
-    FOLDER_HELP,
     NOT_CONVERGED,
     OK,
     add_encoding_option,
+    add_out_argument,
     open_run,
     progress,
     tests_option,
@@ -25,8 +25,7 @@ def register(sub) -> None:
     p = sub.add_parser("models", help="independent-model block adjustment with data snooping "
                        "and tests of model deformations (FOTEF)")
     p.add_argument("project", type=Path, help="model project (models.csv) or bundle project")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("output folder"))
+    add_out_argument(p, "output folder")
     p.add_argument("--2d", dest="planimetric", action="store_true",
                    help="planimetric adjustment (4 parameters) with a separate height "
                    "adjustment instead of the spatial one (7 parameters)")
@@ -51,6 +50,10 @@ def register(sub) -> None:
     p.add_argument("--clusters", type=Path, help="clusters.csv (cluster, point): control "
                    "clusters to test")
     p.add_argument("--hypotheses", type=Path, help="hypotheses.csv: user-defined H")
+    p.add_argument("--vce", action="store_true", help="estimate a variance component per "
+                   "observation group (model coordinates XY and Z, projection centres, "
+                   "control X, Y, Z), re-weight and adjust again until they converge; the "
+                   "tests and snooping then use the estimated sigmas")
     add_encoding_option(p)
     p.add_argument("--covariance", action="store_true", help="bundle project: use the full "
                    "covariance of each model point from the relative orientation")
@@ -58,8 +61,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
     q = sub.add_parser("simulate-models", help="simulate an independent-model block with "
                        "known truth (truth.json)")
-    q.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("model project to write"))
+    add_out_argument(q, "model project to write")
     q.add_argument("--strips", type=int, default=2, help="number of strips")
     q.add_argument("--models", type=int, default=4, help="models per strip")
     q.add_argument("--layout", default="fotef", choices=["fotef", "grid"],
@@ -114,7 +116,7 @@ def _adjust_models(args, run):
                  deformations=defs,
                  clusters=read_clusters(args.clusters) if args.clusters else None,
                  user=UserHypotheses(args.hypotheses) if args.hypotheses else None,
-                 level_models=args.level, progress=say)
+                 level_models=args.level, vce=args.vce, progress=say)
     write_results(run, bq)
     return bq
 

@@ -30,6 +30,10 @@ def register(sub) -> None:
     p.add_argument("--alpha0", type=float, help="level of the w-test (default 0.001)")
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
     p.add_argument("--tau", action="store_true", help="test with Pope's tau instead of w")
+    p.add_argument("--vce", action="store_true", help="estimate the variance components of "
+                   "the y-parallaxes and of the x'' at the tie points over the strip so far "
+                   "and orient and test each model with them (q_yy/q_xx and q_tie estimated; "
+                   "a group with too little redundancy keeps --qyy / --qtie)")
     p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV)")
     p.set_defaults(func=run)
 
@@ -37,7 +41,7 @@ def register(sub) -> None:
 def run(args) -> int:
     interp = Interpreter(say=print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
                          qtie=args.qtie, tests=tests_option(None, args),
-                         statistic="tau" if args.tau else "w")
+                         statistic="tau" if args.tau else "w", vce=args.vce)
     if args.out is not None:
         check_output_file(args.out, [] if args.file in (None, Path("-")) else [args.file])
     if args.file is None or str(args.file) == "-":

@@ -9,9 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import (
-    FOLDER_HELP,
     add_encoding_option,
     add_flight_plan_arguments,
+    add_out_argument,
     open_run,
     progress,
     tests_option,
@@ -24,8 +24,7 @@ def register(sub) -> None:
     d = FlightPlan()
     p = sub.add_parser("plan", help="design-stage reliability of a planned block (no "
                        "measurements): sqrt(qvv), MDB, external reliability, precision, advice")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("output folder"))
+    add_out_argument(p, "output folder")
     p.add_argument("--project", type=Path, help="take the design (photos, points, stereo "
                    "models, control, weights) of this project instead of a flight plan")
     add_encoding_option(p)
@@ -63,8 +62,7 @@ def register(sub) -> None:
                        "sqrt(qvv) from a reliability table, exact values only where needed")
     m.add_argument("project", type=Path, help="project folder")
     add_encoding_option(m)
-    m.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("output folder"))
+    add_out_argument(m, "output folder")
     m.add_argument("--table", default="baarda", help="'baarda' (our study table), 'gruen' "
                    "(Table 2 of Gruen 1980) or a CSV written by `plan --derive-table`")
     m.add_argument("--k-q", type=float, default=25.0, help="tolerance of the approximations "

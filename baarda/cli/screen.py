@@ -4,11 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import FOLDER_HELP, open_run, progress
+from baarda.cli.common import add_out_argument, open_run, progress
 from baarda.cli.inputs import add_input_options, read_input
-from baarda.output.project_files import write_project
-from baarda.output.screening_log import write_screening_log
-from baarda.screening.chain import ScreeningOptions, screen
+from baarda.screening.options import ScreeningOptions
 
 
 def add_options(p) -> None:
@@ -53,9 +51,8 @@ def register(sub) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (see docs/formats.md); the cleaned block is written as a "
                    "project")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("folder of the cleaned project (and "
-                                           "screening_log.csv, screening.txt)"))
+    add_out_argument(p, "folder of the cleaned project (and "
+                                           "screening_log.csv, screening.txt)")
     p.add_argument("--alpha0", type=float, help="significance level of the w-tests of stages "
                    "2 and 3 (default: project.toml, else 0.001)")
     p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
@@ -66,6 +63,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from baarda.output.project_files import write_project
+    from baarda.output.screening_log import write_screening_log
+    from baarda.screening.chain import screen
+
     with open_run(args, [args.input]) as run:
         say = progress(args.quiet)
         block = read_input(args)

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 from baarda.cli.common import (
-    FOLDER_HELP,
     add_control_arguments,
     add_flight_plan_arguments,
+    add_out_argument,
     add_terrain_and_sigma_arguments,
     open_run,
 )
@@ -19,8 +18,7 @@ from baarda.simulate.aerial import FlightPlan, simulate_block
 
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="simulate an aerial block with known truth")
-    p.add_argument("-o", "--out", type=Path, required=True,
-                   help=FOLDER_HELP.format("project folder to write"))
+    add_out_argument(p, "project folder to write")
     d = FlightPlan()
     add_flight_plan_arguments(p, d)
     p.add_argument("--neat-area", action="store_true",

@@ -135,8 +135,11 @@ def relative_orientation(block: Block, left: int, right: int, eo_approx: np.ndar
     aw = sol.lin.a / sig[:, None]
     red = 4 * n - 5 - 3 * n
     s0 = float(np.sqrt(np.sum((e / sig) ** 2) / red)) if red > 0 else np.nan
-    try:
-        qxx = np.linalg.inv(aw.T @ aw)[5:, 5:]
+    nrm = aw.T @ aw
+    try:  # numerically singular (condition beyond 1 / eps): no covariance to give
+        if not np.isfinite(nrm).all() or np.linalg.cond(nrm) * np.finfo(float).eps > 1.0:
+            raise np.linalg.LinAlgError
+        qxx = np.linalg.inv(nrm)[5:, 5:]
     except np.linalg.LinAlgError:
         raise GeometryError(f"relative orientation of {pair}: the normal equations are "
                             "singular (check the image points and the cameras of both "

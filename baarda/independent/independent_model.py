@@ -37,6 +37,23 @@ class IndependentModel(SchurModel):
         nc = len(pb.layout.ctrl_sel)
         self.terrain_per_unit = np.concatenate([np.repeat(1.0 / mu, self.k), np.ones(nc)])
 
+    def variance_groups(self) -> np.ndarray:
+        """(n,) the group of every component for variance-component estimation: model
+        coordinates in planimetry ('model XY': x, y) and height ('model Z': z), the
+        projection centres ('model PC', when observed), control X, Y, Z."""
+        pb = self.problem
+        kind = np.asarray(self.kind, dtype=object)
+        comp = np.asarray(self.component, dtype=object)
+        out = np.where(kind == "control", "control " + comp, "model XY").astype(object)
+        mod = kind == "model"
+        height = np.array([str(c).startswith("z") for c in comp], bool)
+        out[mod & height] = "model Z"
+        row = np.asarray(self.block_row)
+        pc = np.zeros(self.n, bool)
+        pc[row >= 0] = pb.block.pc[pb.block.obs_point[row[row >= 0]]]
+        out[mod & pc] = "model PC"
+        return out
+
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> IndependentModel:
         return IndependentModel(self.result.refit(active, factors))
 

@@ -7,7 +7,7 @@ this module adds the FOTEF columns and lines to the common Assessment.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -111,3 +111,29 @@ def snoop(block: ModelBlock | ModelResult, mode: str = "3d", tests: TestOptions 
     ext = external_reliability(run.model, run.quality) if external else None
     return ModelQuality(run.model.result, run.model, run.quality, run, name=result.mode,
                         external=ext)
+
+
+def with_variance_components(result: ModelResult, tests: TestOptions | None = None, *,
+                             do_snoop: bool = True, statistic: str = "w",
+                             by_point: bool = False, external: bool = False,
+                             progress: Progress | None = None) -> ModelQuality:
+    """One adjustment with the variance component of every group (model XY, model Z,
+    projection centres, control X, Y, Z; quality/variance_components.py): estimated and
+    re-weighted until they converge, then the statistics (or, with `do_snoop`, estimation
+    and snooping in turn, `alternate`) with the estimated sigmas."""
+    from baarda.quality.variance_components import alternate, iterate
+
+    tests = tests or TestOptions.resolve(result.block.settings)
+    start = result.problem.active
+    if do_snoop:
+        qc, est = alternate(
+            IndependentModel(result),
+            lambda f: snoop(result.refit(start, f), tests=tests, statistic=statistic,
+                            by_point=by_point, progress=progress),
+            tests=tests, statistic=statistic, progress=progress)
+        if external:
+            qc = replace(qc, external=external_reliability(qc.model, qc.quality))
+    else:
+        est = iterate(IndependentModel(result), progress=progress)
+        qc = assess(est.model.result, tests, external=external)
+    return replace(qc, variance_components=est.components())

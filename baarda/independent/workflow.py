@@ -21,7 +21,12 @@ from baarda.independent.model_hypotheses import (
     deformation_tests,
 )
 from baarda.independent.model_problem import ModelProblem
-from baarda.independent.model_quality import ModelQuality, assess, snoop
+from baarda.independent.model_quality import (
+    ModelQuality,
+    assess,
+    snoop,
+    with_variance_components,
+)
 from baarda.independent.planimetric import check_tilts, height_possible, level
 from baarda.independent.preadjust import PreAdjustment, preadjust
 from baarda.options import Progress, TestOptions
@@ -97,10 +102,12 @@ def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,
             deformations: tuple[str, ...] | None = ALL,
             clusters: dict[str, list[str]] | None = None,
             user: UserHypotheses | None = None, level_models: bool = False,
-            progress: Progress | None = None) -> BlockQuality:
+            vce: bool = False, progress: Progress | None = None) -> BlockQuality:
     """Run the whole procedure; mode '3d' or '2d' (planimetry + height).
 
     level_models (2d): level the models by the tilts of a spatial adjustment first.
+    vce: variance components per group (model_quality.with_variance_components); the
+    tests and snooping then use the estimated sigmas.
     """
     say = progress or (lambda msg: None)
     tests = tests or TestOptions.resolve(block.settings)
@@ -134,7 +141,10 @@ def process(block: ModelBlock, mode: str = "3d", *, do_snoop: bool = True,
         res = problem.fit(extra.get("start"), progress=say)
         if m == "height":
             check_tilts(res)
-        if do_snoop:
+        if vce:
+            qc = with_variance_components(res, tests, do_snoop=do_snoop, statistic=statistic,
+                                          by_point=by_point, external=external, progress=say)
+        elif do_snoop:
             qc = snoop(res, tests=tests, statistic=statistic, by_point=by_point,
                        external=external, progress=say)
         else:

@@ -18,21 +18,18 @@ from pathlib import Path
 
 from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
-from baarda.io.aicon import is_aicon, read_aicon
-from baarda.io.bal import is_bal, read_bal_block
-from baarda.io.colmap import is_colmap_model
-from baarda.io.colmap_block import read_colmap_block
-from baarda.io.dbat import is_dbat_script, read_dbat
-from baarda.io.micmac import is_micmac, read_micmac
-from baarda.io.opensfm import is_opensfm, read_opensfm
-from baarda.io.photomodeler import is_photomodeler_export, read_photomodeler
-from baarda.io.project import read_project
 from baarda.io.records import ENCODING
+
+# Each reader is imported when its format is asked about, so that a command that meets a
+# bad file early has not paid for the imports of every reader (numba for COLMAP, pandas for
+# native projects): issue 19, a hostile file costs what the interpreter costs.
 
 FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal", "micmac", "opensfm")
 
 
 def _colmap_folder(p: Path) -> Path | None:
+    from baarda.io.colmap import is_colmap_model
+
     for cand in (p, p / "sparse", p / "sparse" / "0"):
         if is_colmap_model(cand):
             return cand
@@ -48,13 +45,22 @@ def detect(path: str | Path) -> str:
         return "project"
     if p.is_dir() and _colmap_folder(p) is not None:
         return "colmap"
+    from baarda.io.aicon import is_aicon
+    from baarda.io.micmac import is_micmac
+
     if is_aicon(p):
         return "aicon"
     if is_micmac(p):
         return "micmac"
+    from baarda.io.opensfm import is_opensfm
+
     if is_opensfm(p):
         return "opensfm"
     if p.is_file():
+        from baarda.io.bal import is_bal
+        from baarda.io.dbat import is_dbat_script
+        from baarda.io.photomodeler import is_photomodeler_export
+
         if is_dbat_script(p):
             return "dbat"
         if is_photomodeler_export(p):
@@ -88,19 +94,35 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.00
         raise ProjectError(str(camera), f"a camera file replaces the camera of a DBAT script; "
                            f"{p.name} is {fmt} input (give its cameras in its own files)")
     if fmt == "project":
+        from baarda.io.project import read_project
+
         return read_project(p, encoding)
     if fmt == "colmap":
+        from baarda.io.colmap_block import read_colmap_block
+
         folder = _colmap_folder(p) or p
         return read_colmap_block(folder, pixel_mm=pixel_mm, sigma_px=sigma_px,
                                  name=p.name)
     if fmt == "aicon":
+        from baarda.io.aicon import read_aicon
+
         return read_aicon(p, encoding).to_block(sigma_image_mm=sigma_image_mm)
     if fmt == "dbat":
+        from baarda.io.dbat import read_dbat
+
         return read_dbat(p, camera=camera)
     if fmt == "photomodeler":
+        from baarda.io.photomodeler import read_photomodeler
+
         return read_photomodeler(p, encoding)
     if fmt == "micmac":
+        from baarda.io.micmac import read_micmac
+
         return read_micmac(p)
     if fmt == "opensfm":
+        from baarda.io.opensfm import read_opensfm
+
         return read_opensfm(p, pixel_mm=pixel_mm, sigma_px=sigma_px, crs=crs)
+    from baarda.io.bal import read_bal_block
+
     return read_bal_block(p, pixel_mm=pixel_mm, sigma_px=sigma_px)

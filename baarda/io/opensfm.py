@@ -51,7 +51,6 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.crs import LocalFrame
 from baarda.block.photo_block import (
     Block,
     Cameras,
@@ -804,11 +803,13 @@ def datum_of(xyz: np.ndarray, role: np.ndarray, rays: np.ndarray, gnss_xyz: np.n
                      "control)")
 
 
-def topocentric_frame(crs: str, lla: list[float], where: Path) -> LocalFrame:
+def topocentric_frame(crs: str, lla: list[float], where: Path):
     """The LocalFrame of `crs` whose local frame is OpenSfM's topocentric frame at lla
     (longitude, latitude, ellipsoidal height, WGS84)."""
     from pyproj import CRS, Transformer
     from pyproj.exceptions import CRSError, ProjError
+
+    from baarda.block.crs import LocalFrame
 
     try:
         target = CRS.from_user_input(crs)

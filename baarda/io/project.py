@@ -11,7 +11,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from baarda.block.camera import (
     CALIBRATION_GROUPS,
@@ -305,6 +304,8 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
                      "no sigma columns")
 
     # every point: ground file points first, then tie points in order of appearance
+    import pandas as pd  # here: a command that fails earlier does not pay for it
+
     of_name = pd.Index(gids).get_indexer(pnames) if len(pnames) else np.zeros(0, np.int64)
     tie = np.flatnonzero(of_name < 0)  # pnames are in order of first appearance
     of_name[tie] = len(gids) + np.arange(len(tie))

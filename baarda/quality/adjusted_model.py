@@ -46,6 +46,13 @@ class AdjustedModel(ABC):
     def redundancy(self) -> int:
         return int(np.count_nonzero(self.active)) - self.n_unknowns
 
+    def variance_groups(self) -> np.ndarray:
+        """(n,) the group of every component for variance-component estimation
+        (quality/variance_components.py): its kind, control by axis ('control X')."""
+        kind = np.asarray(self.kind, dtype=object)
+        comp = np.asarray(self.component, dtype=object)
+        return np.where(kind == "control", kind + " " + comp, kind).astype(object)
+
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> AdjustedModel:
         """The same observations adjusted again with only the `active` components, weights
         p_i * factors_i (None: a-priori weights); a new model, this one is unchanged.

@@ -254,13 +254,10 @@ class Assessment:
                          "use the estimated sigmas):")
             for c in self.variance_components:
                 u, unit = self.model.units.get(c.group.split()[0], (1.0, ""))
-                if not np.isfinite(c.factor):
-                    lines.append(f"  {c.group}: n {c.n}, r {c.redundancy:.2f}: too little "
-                                 "redundancy to estimate, not re-weighted")
+                if not c.reweights:
+                    lines.append("  " + c.words())
                     continue
-                lines.append("  " + c.line(u, unit) + (
-                    f"; estimated sigma {c.sigma_estimated * u:.4g} {unit}".rstrip()
-                    if np.isfinite(c.estimated) else ""))
+                lines.append("  " + c.line(u, unit))
         lines += [f"note: {n}" for n in q.notes]
         title = "Quality control" + ("" if self.name == "bundle" else f" ({self.name})")
         return [section(title, lines)]

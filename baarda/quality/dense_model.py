@@ -20,7 +20,8 @@ class DenseModel(AdjustedModel):
     def __init__(self, a: np.ndarray, sigma: np.ndarray, residuals: np.ndarray,
                  active: np.ndarray | None = None, *, factors: np.ndarray | None = None,
                  kind=None, component=None, frame=None, point=None, group=None,
-                 point_rows: np.ndarray | None = None, point_labels: list[str] | None = None):
+                 point_rows: np.ndarray | None = None, point_labels: list[str] | None = None,
+                 variance_group=None):
         self.a = np.asarray(a, float)
         n, u = self.a.shape
         self.sigma_apriori = np.asarray(sigma, float)
@@ -44,11 +45,19 @@ class DenseModel(AdjustedModel):
         self.qxx = np.linalg.inv(self.nmat)
         self.point_rows = point_rows  # (npoints, 3) unknown indices of point coordinates
         self.point_labels = point_labels
+        self.variance_group = None if variance_group is None else np.asarray(
+            variance_group, dtype=object)
 
     def _labels(self) -> dict:
         return {"kind": self.kind, "component": self.component, "frame": self.frame,
                 "point": self.point, "group": self.group, "point_rows": self.point_rows,
-                "point_labels": self.point_labels}
+                "point_labels": self.point_labels, "variance_group": self.variance_group}
+
+    def variance_groups(self) -> np.ndarray:
+        """The groups given (variance_group), else by kind (AdjustedModel)."""
+        if self.variance_group is not None:
+            return self.variance_group
+        return super().variance_groups()
 
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> DenseModel:
         active = np.asarray(active, bool)
@@ -87,3 +96,20 @@ class DenseModel(AdjustedModel):
         effect = per_point[best, :, np.arange(self.n)]
         labels = np.asarray(self.point_labels, dtype=object)[best]
         return effect, labels
+
+
+def block_diagonal(models: list[DenseModel]) -> DenseModel:
+    """Independent adjustments as one DenseModel (A block-diagonal, the observation vectors
+    one after the other, labels kept): what they have in common, e.g. the variance
+    components of groups that every one of them observes, estimated together."""
+    u = [m.n_unknowns for m in models]
+    a = np.zeros((sum(m.n for m in models), sum(u)))
+    r = c = 0
+    for m in models:
+        a[r:r + m.n, c:c + m.n_unknowns] = m.a
+        r, c = r + m.n, c + m.n_unknowns
+    cat = lambda name: np.concatenate([getattr(m, name) for m in models])  # noqa: E731
+    groups = np.concatenate([m.variance_groups() for m in models])
+    return DenseModel(a, cat("sigma_apriori"), cat("residuals"), cat("active"),
+                      factors=cat("factors"), kind=cat("kind"), component=cat("component"),
+                      frame=cat("frame"), point=cat("point"), variance_group=groups)

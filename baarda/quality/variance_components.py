@@ -15,32 +15,44 @@ the redundancy, so the groups' v'Pv add up to the whole.
 the groups by their factors and adjusts again until every factor is within `tolerance` of
 one (the estimated sigmas are then the a-priori sigma times the product of the factors'
 square roots).  Groups: the model's `variance_groups()` (a bundle: image per camera, control
-X, Y, Z, GNSS X, Y, Z, IMU, distances), else kind (and component for control).
+X, Y, Z, GNSS X, Y, Z, IMU, distances; independent models: model XY, model Z, projection
+centres, control X, Y, Z; a relative orientation: y-parallaxes, x'' of the tie points),
+else kind (and component for control).
+
+Weak groups: a group with r_k < MIN_REDUNDANCY is reported, not estimated (its estimate
+could collapse to zero).  With `pool` (iterate's default), control (and GNSS) axes too weak
+alone are estimated together: X and Y as planimetry XY when Z stands alone, else X, Y and
+Z as one group (`pooling_plan`); the plan is fixed by the first estimate.
+
+Snooping with estimated sigmas (`alternate`): estimation and snooping in turn until the
+rejections settle, then `challenge`: an observation is also tested against its group's
+variance estimated without it (a gross error inflates its own group's estimate and can
+hide behind it; in a small group one such error can double the estimate).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.stats import chi2
 
-from baarda.quality.statistics import cofactors
+from baarda.errors import GeometryError
+from baarda.options import DEFAULT_TESTS, TestOptions
+from baarda.quality.statistics import analyse, cofactors
 
 ALPHA = 0.05
 TOLERANCE = 0.01  # in the factor: a quarter of the best precision seen (sqrt(2 / r), r 1400)
 MIN_REDUNDANCY = 5.0  # a group with less is reported, not re-weighted (it could collapse)
 MAX_ITERATIONS = 50
+POOLED = ("control", "gnss")  # families whose X, Y, Z groups are pooled when too weak
+AXES = ("X", "Y", "Z")
 
 
 def groups_of(model) -> np.ndarray:
-    """(n,) group name of every component (the model's variance_groups() when it has one)."""
-    if hasattr(model, "variance_groups"):
-        return np.asarray(model.variance_groups(), dtype=object)
-    kind = np.asarray(model.kind, dtype=object)
-    comp = np.asarray(model.component, dtype=object)
-    return np.where(kind == "control", kind + " " + comp, kind).astype(object)
+    """(n,) group name of every component (the model's variance_groups())."""
+    return np.asarray(model.variance_groups(), dtype=object)
 
 
 @dataclass(frozen=True)
@@ -59,6 +71,8 @@ class VarianceComponent:
     p_value: float
     rejected: bool
     estimated: float = float("nan")  # the iterated factor (--vce), relative to a priori
+    members: tuple[str, ...] = ()  # a pooled group: the groups estimated together
+    pooled_into: str = ""  # a group too weak alone: the pooled group that estimates it
 
     @property
     def sigma_estimated(self) -> float:
@@ -70,51 +84,117 @@ class VarianceComponent:
                 "redundancy": self.redundancy, "vtpv": self.vtpv, "factor": _num(self.factor),
                 "factor_std": _num(self.factor_std), "p_value": _num(self.p_value),
                 "rejected": bool(self.rejected), "estimated_factor": _num(self.estimated),
-                "sigma_estimated": _num(self.sigma_estimated)}
+                "sigma_estimated": _num(self.sigma_estimated),
+                **({"members": list(self.members)} if self.members else {}),
+                **({"pooled_into": self.pooled_into} if self.pooled_into else {})}
+
+    @property
+    def groups(self) -> tuple[str, ...]:
+        """The group names this component's factor applies to."""
+        return self.members or (self.group,)
+
+    @property
+    def reweights(self) -> bool:
+        """Its factor re-weights its groups (estimated, not pooled into another)."""
+        return bool(np.isfinite(self.factor)) and not self.pooled_into
+
+    def words(self) -> str:
+        """What happened to a group that is not estimated by itself, in words."""
+        if self.pooled_into:
+            return (f"{self.group}: n {self.n}, r {self.redundancy:.2f}"
+                    + (" (too little alone)" if self.redundancy < MIN_REDUNDANCY else "")
+                    + f": estimated together with the other axes as {self.pooled_into}")
+        if self.members:
+            return (f"{self.group} ({', '.join(self.members)} together): n {self.n}, r "
+                    f"{self.redundancy:.2f}: too little redundancy even together (< "
+                    f"{MIN_REDUNDANCY:g}), not estimated")
+        return (f"{self.group}: n {self.n}, r {self.redundancy:.2f}: too little redundancy "
+                f"(< {MIN_REDUNDANCY:g}), not estimated")
 
     def line(self, scale: float = 1.0, unit: str = "") -> str:
-        return (f"{self.group}: n {self.n}, r {self.redundancy:.2f}, sigma a priori "
-                f"{self.sigma_apriori * scale:.4g} {unit}, factor sigma^2 {self.factor:.4f} "
-                f"+- {self.factor_std:.4f} (sigma x {np.sqrt(self.factor):.4f} = "
-                f"{self.sigma_estimated * scale:.4g} {unit}), p = {self.p_value:.3g} -> "
-                + ("differs from 1" if self.rejected else "1 accepted")).replace("  ", " ")
+        """The group in one line: first estimate (relative to the a-priori sigmas), its test,
+        and the iterated estimate when there is one."""
+        out = (f"{self.group}{' (' + ', '.join(self.members) + ')' if self.members else ''}: "
+               f"n {self.n}, r {self.redundancy:.2f}, sigma a priori "
+               f"{self.sigma_apriori * scale:.4g} {unit}, first estimate sigma^2 "
+               f"{self.factor:.4f} +- {self.factor_std:.4f} (sigma x "
+               f"{np.sqrt(self.factor):.4f}), p = {self.p_value:.3g} -> "
+               + ("differs from 1" if self.rejected else "1 accepted"))
+        if np.isfinite(self.estimated):
+            out += (f"; iterated sigma^2 {self.estimated:.4f}: sigma x "
+                    f"{np.sqrt(self.estimated):.4f} = {self.sigma_estimated * scale:.4g} {unit}")
+        return out.replace("  ", " ").rstrip()
 
 
 def _num(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def estimate(model, alpha: float = ALPHA) -> list[VarianceComponent]:
-    """The variance components of the groups of an adjusted model (module docstring)."""
-    _, r = cofactors(model)
+def _component(name: str, sel: np.ndarray, r: np.ndarray, v: np.ndarray, s: np.ndarray,
+               alpha: float, members: tuple[str, ...] = ()) -> VarianceComponent:
+    rk = float(np.sum(r[sel]))
+    vtpv = float(np.sum((v[sel] / s[sel]) ** 2))
+    n, s_med = int(sel.sum()), float(np.median(s[sel]))
+    if rk < MIN_REDUNDANCY:
+        nan = float("nan")
+        return VarianceComponent(name, n, s_med, rk, vtpv, nan, nan, nan, False,
+                                 members=members)
+    f = vtpv / rk
+    lower = float(chi2.cdf(vtpv, rk))
+    p = float(min(1.0, 2 * min(lower, 1 - lower)))
+    return VarianceComponent(name, n, s_med, rk, vtpv, f, f * float(np.sqrt(2.0 / rk)), p,
+                             p < alpha, members=members)
+
+
+def pooling_plan(comps: list[VarianceComponent]) -> dict[str, tuple[str, ...]]:
+    """Pooled groups for control (and GNSS) axes too weak alone (r_k < MIN_REDUNDANCY):
+    planimetry X and Y together as '<kind> XY' when Z is strong enough by itself (or
+    absent); when Z is weak too, every axis together ('<kind> XYZ').  A pooled group that
+    is still too weak is reported, not estimated (a strong Z is not borrowed for X, Y)."""
+    by = {c.group: c for c in comps}
+    plan: dict[str, tuple[str, ...]] = {}
+    for fam in POOLED:
+        axes = [a for a in AXES if f"{fam} {a}" in by]
+        r = {a: by[f"{fam} {a}"].redundancy for a in axes}
+        weak = [a for a in axes if r[a] < MIN_REDUNDANCY]
+        if len(axes) < 2 or not weak:
+            continue
+        xy = [a for a in axes if a in ("X", "Y")]
+        if len(xy) == 2 and "Z" not in weak:
+            axes = xy
+        plan[f"{fam} {''.join(axes)}"] = tuple(f"{fam} {a}" for a in axes)
+    return plan
+
+
+def estimate(model, alpha: float = ALPHA, *, pool: bool = False,
+             plan: dict[str, tuple[str, ...]] | None = None,
+             redundancy_numbers: np.ndarray | None = None) -> list[VarianceComponent]:
+    """The variance components of the groups of an adjusted model (module docstring); with
+    `pool` or a `plan`, the pooled groups after them (their members marked pooled_into).
+    `redundancy_numbers`: the model's, when they are at hand (analyse's)."""
+    r = cofactors(model)[1] if redundancy_numbers is None else redundancy_numbers
     act = np.asarray(model.active, bool)
     v = model.residuals
     s = model.sigma
     g = groups_of(model)
-    out = []
-    for name in dict.fromkeys(g[act].tolist()):
-        sel = act & (g == name)
-        rk = float(np.sum(r[sel]))
-        vtpv = float(np.sum((v[sel] / s[sel]) ** 2))
-        if rk < MIN_REDUNDANCY:
-            out.append(VarianceComponent(str(name), int(sel.sum()), float(np.median(s[sel])),
-                                         rk, vtpv, float("nan"), float("nan"), float("nan"),
-                                         False))
-            continue
-        f = vtpv / rk
-        lower = float(chi2.cdf(vtpv, rk))
-        p = float(min(1.0, 2 * min(lower, 1 - lower)))
-        out.append(VarianceComponent(str(name), int(sel.sum()), float(np.median(s[sel])),
-                                     rk, vtpv, f, f * float(np.sqrt(2.0 / rk)), p, p < alpha))
-    return out
+    out = [_component(str(name), act & (g == name), r, v, s, alpha)
+           for name in dict.fromkeys(g[act].tolist())]
+    if plan is None and pool:
+        plan = pooling_plan(out)
+    if not plan:
+        return out
+    into = {m: name for name, ms in plan.items() for m in ms}
+    out = [replace(c, pooled_into=into[c.group]) if c.group in into else c for c in out]
+    return out + [_component(name, act & np.isin(g, ms), r, v, s, alpha, members=tuple(ms))
+                  for name, ms in plan.items() if np.any(act & np.isin(g, ms))]
 
 
 @dataclass(frozen=True)
 class VarianceEstimation:
     """The model adjusted with the estimated group sigmas, the weight factors that give
     them (one per component), the components of the last iteration (factors about one) and
-    those of the first (relative to the a-priori sigmas), the cumulative factor per group,
-    and the log of the iterations."""
+    those of the first (relative to the starting weights), the cumulative factor per
+    estimated group, the log of the iterations and the pooling plan."""
 
     model: object
     factors: np.ndarray
@@ -123,22 +203,26 @@ class VarianceEstimation:
     group_factor: dict[str, float]
     log: list[str]
     converged: bool
+    plan: dict = None  # pooled group -> its member groups (pooling_plan)
 
     def components(self) -> tuple[VarianceComponent, ...]:
-        """The first estimates with the iterated factor of each group."""
-        from dataclasses import replace
+        """The first estimates with the iterated factor of each group (a pooled group's
+        members: the pooled factor)."""
+        nan = float("nan")
 
-        return tuple(replace(c, estimated=self.group_factor.get(c.group, float("nan"))
-                             if np.isfinite(c.factor) else float("nan")) for c in self.first)
+        def est(c):
+            name = c.pooled_into or c.group
+            return self.group_factor.get(name, nan)
+
+        return tuple(replace(c, estimated=est(c)) for c in self.first)
 
     def lines(self, units: dict | None = None) -> list[str]:
         out = [f"variance components per group (Foerstner), estimated in {len(self.log)} "
                f"iteration(s){'' if self.converged else ' (NOT converged)'}:"]
         for c in self.first:
             f = self.group_factor.get(c.group, float("nan"))
-            if not np.isfinite(c.factor):
-                out.append(f"  {c.group}: n {c.n}, r {c.redundancy:.2f}: too little "
-                           f"redundancy (< {MIN_REDUNDANCY:g}), not estimated")
+            if not c.reweights:
+                out.append("  " + c.words())
                 continue
             out.append(f"  {c.group}: n {c.n}, r {c.redundancy:.2f}, first estimate sigma^2 "
                        f"{c.factor:.4f} +- {c.factor_std:.4f}, p = {c.p_value:.3g} -> "
@@ -149,29 +233,114 @@ class VarianceEstimation:
 
 def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
             max_iterations: int = MAX_ITERATIONS,
-            progress: Callable[[str], None] | None = None) -> VarianceEstimation:
+            progress: Callable[[str], None] | None = None, *, pool: bool = True,
+            plan: dict[str, tuple[str, ...]] | None = None) -> VarianceEstimation:
     """Re-weight every group by its estimated factor and adjust again until the factors are
-    within `tolerance` of one (module docstring)."""
+    within `tolerance` of one (module docstring).  Starts from the model's own weight
+    factors (a-priori weights: ones); weak control axes pooled (`pool`) or as `plan` says."""
     groups = groups_of(model)
-    factors = np.ones(model.n)  # relative to the a-priori sigmas (rejected ones included)
-    first = estimate(model, alpha)
-    cumulative = {c.group: 1.0 for c in first}
+    factors = np.array(model.factors, float)  # rejected components included
+    first = estimate(model, alpha, pool=pool, plan=plan)
+    plan = {c.group: c.members for c in first if c.members}
+    cumulative: dict[str, float] = {}
     log = []
     comps = first
     converged = False
     for it in range(1, max_iterations + 1):
-        worst = max((abs(c.factor - 1) for c in comps if np.isfinite(c.factor)), default=0.0)
+        worst = max((abs(c.factor - 1) for c in comps if c.reweights), default=0.0)
         log.append(f"iteration {it}: " + ", ".join(
-            f"{c.group} {c.factor:.4f}" for c in comps))
+            f"{c.group} {c.factor:.4f}" for c in comps if not c.pooled_into))
         if progress:
             progress("variance components " + log[-1])
         if worst < tolerance:
             converged = True
             break
         for c in comps:
-            if np.isfinite(c.factor) and c.factor > 0:
-                factors[groups == c.group] /= c.factor
-                cumulative[c.group] *= c.factor
+            if c.reweights and c.factor > 0:
+                factors[np.isin(groups, c.groups)] /= c.factor
+                cumulative[c.group] = cumulative.get(c.group, 1.0) * c.factor
         model = model.refit(np.asarray(model.active, bool), factors)
-        comps = estimate(model, alpha)
-    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged)
+        comps = estimate(model, alpha, plan=plan)
+    for c in comps:  # estimated groups whose first factor was one within the tolerance
+        if c.reweights:
+            cumulative.setdefault(c.group, 1.0)
+    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged, plan)
+
+
+def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TESTS,
+              statistic: str = "w", alpha: float = ALPHA,
+              progress: Callable[[str], None] | None = None) -> int | None:
+    """An active component that is significant when its group's variance is estimated
+    without it, or None.  `model`: adjusted with the estimated sigmas (snooping's last).
+
+    In each estimated group the component with the largest |w| is a candidate when the
+    leave-one-out factor, approximated by (v'Pv_k - w^2) / (r_k - r_i), could make it
+    significant (|w| / sqrt(factor) > 0.9 k, or the approximation is not positive); the
+    candidate is switched off, the factors estimated again (iterate, from the current
+    weights) and its statistic (predicted residual) tested with them."""
+    q = analyse(model, tests)
+    g = groups_of(model)
+    act = np.asarray(model.active, bool)
+    cands = []
+    for c in estimate(model, alpha, plan=plan or {}, redundancy_numbers=q.redundancy_number):
+        if not c.reweights:
+            continue
+        sel = np.flatnonzero(act & q.controlled & np.isin(g, c.groups))
+        if not len(sel):
+            continue
+        i = int(sel[np.argmax(np.abs(np.nan_to_num(q.w[sel])))])
+        rest = (c.vtpv - q.w[i] ** 2) / max(c.redundancy - q.redundancy_number[i], 1e-12)
+        loo = np.inf if rest <= 0 else abs(q.w[i]) / np.sqrt(rest)
+        if loo > 0.9 * q.k_w:
+            cands.append((loo, i, c.group))
+    for _, i, name in sorted(cands, reverse=True):
+        trial = act.copy()
+        trial[i] = False
+        try:
+            est = iterate(model.refit(trial, model.factors), alpha, plan=plan or {})
+        except GeometryError:
+            continue
+        q2 = analyse(est.model, tests)
+        s2, k2 = (q2.w, q2.k_w) if statistic == "w" else (q2.tau, q2.k_tau)
+        if progress:
+            progress(f"variance components: component {i} of {name} tested against the "
+                     f"group estimated without it: |{statistic}| {abs(s2[i]):.3f} "
+                     f"(critical {k2:.3f})")
+        if abs(s2[i]) > k2:
+            return i
+    return None
+
+
+def alternate(model, snoop: Callable[[np.ndarray], object], *, alpha: float = ALPHA,
+              tests: TestOptions = DEFAULT_TESTS, statistic: str = "w",
+              max_rounds: int = 10,
+              progress: Callable[[str], None] | None = None):
+    """Variance components and data snooping in turn (module docstring).
+
+    `model`: adjusted with the a-priori weights; its active components are the start of
+    every snooping.  `snoop(factors)`: data snooping of the method with those weight
+    factors, from the start, returning an Assessment (its .model, .quality).  The factors
+    are estimated from every component first, then from what snooping left, until the
+    rejections no longer change; then `challenge` may reject one more component (the
+    snooping again from the start with the factors estimated without it, so that it is
+    tested like every other).  Returns (the last Assessment, its VarianceEstimation)."""
+    start = np.asarray(model.active, bool)
+    active = None
+    est = qc = None
+    for _ in range(max_rounds):
+        base = model if active is None else model.refit(active, model.factors)
+        est = iterate(base, alpha, progress=progress, plan=None if est is None else est.plan)
+        qc = snoop(est.factors)
+        now = np.asarray(qc.quality.active, bool)
+        if np.array_equal(now, start if active is None else active):
+            i = challenge(qc.model, est.plan, tests, statistic, alpha, progress)
+            if i is None:
+                break
+            now = now.copy()
+            now[i] = False
+        active = now
+    else:
+        qc.quality.notes.append(
+            f"variance components and data snooping did not settle in {max_rounds} rounds: "
+            "the last snooping and its estimate are reported")
+    return qc, est

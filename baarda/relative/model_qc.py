@@ -29,6 +29,7 @@ class ModelQC(Assessment):
     transfers: tuple[Transfer, ...] = ()  # critical transfers (level 1)
     statistic: str = "w"  # "w" or "tau"
     remeasure_index: int | None = None  # observation with the largest significant statistic
+    variance_left_out: tuple[str, ...] = ()  # left out of the strip's variance components
 
     @property
     def orientation(self) -> Orientation:

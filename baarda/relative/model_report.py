@@ -77,6 +77,25 @@ def table_lines(qc: ModelQC) -> list[str]:
     return lines
 
 
+def variance_lines(qc: ModelQC) -> list[str]:
+    """The variance components of the strip so far (OnlineSession(vce=True)), and the
+    q_yy / q_xx and q_tie this model was oriented and tested with."""
+    if not qc.variance_components:
+        return []
+    lines = ["  variance components over the strip so far (this model and the accepted "
+             "ones; Foerstner):"]
+    for c in qc.variance_components:
+        lines.append("    " + (c.line(1.0, "µm") if c.reweights else c.words()))
+    if qc.variance_left_out:
+        lines.append("    left out of the estimate (significant against their group estimated "
+                     "without them): " + ", ".join(qc.variance_left_out))
+    s = qc.orientation.setup
+    lines.append(f"  oriented and tested with q_yy/q_xx {s.qyy:.4g}, q_tie {s.qtie:.4g} "
+                 f"(sigma y'' {np.sqrt(s.qyy) * s.sigma_x:.4g} µm, x'' at tie points "
+                 f"{np.sqrt(s.qtie) * s.sigma_x:.4g} µm)")
+    return lines
+
+
 def transfer_lines(qc: ModelQC, limit: int = 12) -> list[str]:
     if not qc.transfers:
         return ["  no critical error transfers"]
@@ -101,6 +120,6 @@ def verdict_line(qc: ModelQC) -> str:
 
 def model_report(qc: ModelQC) -> str:
     """The whole display of one model."""
-    lines = (orientation_lines(qc) + parallax_lines(qc) + table_lines(qc) + transfer_lines(qc)
-             + [verdict_line(qc)])
+    lines = (orientation_lines(qc) + parallax_lines(qc) + table_lines(qc) + variance_lines(qc)
+             + transfer_lines(qc) + [verdict_line(qc)])
     return "\n".join(lines)

@@ -80,6 +80,7 @@ class Interpreter:
     qtie: float = DEFAULT_QTIE
     tests: TestOptions = DEFAULT_TESTS
     statistic: str = "w"
+    vce: bool = False  # variance components over the strip (OnlineSession(vce=True))
     session: OnlineSession | None = None
     collecting: dict | None = None  # model being typed: name, base, ties, points
     done: bool = False
@@ -137,7 +138,7 @@ class Interpreter:
                 raise LineError("the principal distance is unknown: give a 'camera focal=...' "
                                 "line or --focal", "focal")
             self.session = OnlineSession(self.focal, self.sigma, self.qyy, self.tests,
-                                         self.statistic, base, self.qtie)
+                                         self.statistic, base, self.qtie, vce=self.vce)
         elif base is not None:
             raise LineError("base= is for the first model only (later models take the scale "
                             "from their tie points)", "base")

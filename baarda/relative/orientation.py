@@ -30,6 +30,8 @@ from baarda.relative.coplanarity import coplanarity, image_vectors, right_rotati
 from baarda.relative.scale_transfer import collinearity_xz
 from baarda.sections import Section, section
 
+# the variance-component groups: y'' of every point, x'' of the tie points
+VARIANCE_GROUPS = {"y": "parallax y (coplanarity)", "x": "parallax x (scale transfer)"}
 PARAMETER_NAMES = ("beta_x", "beta_y", "beta_z", "kappa", "phi", "omega")
 DEFAULT_QYY = 2.0  # q_yy / q_xx (Kratky)
 DEFAULT_QTIE = 1.0  # q of x'' at tie points / q_xx (Kratky; see docs/online.md)
@@ -170,12 +172,16 @@ class Orientation:
             f"{d['n_observations']}, unknowns {d['n_unknowns']}, redundancy {d['redundancy']}",
             f"iterations {d['iterations']}; b_x {self.base:.6g}; {params} (rad)"])]
 
-    def dense_model(self) -> DenseModel:
-        """The parametric form as the quality layer's DenseModel (µm)."""
+    def dense_model(self, sigma: np.ndarray | None = None) -> DenseModel:
+        """The parametric form as the quality layer's DenseModel (µm); its variance groups
+        are the y'' of the coplanarity conditions and the x'' of the scale transfer.
+        `sigma`: other a-priori sigmas (the residuals stay those of this orientation)."""
         n = len(self.residuals)
-        model = DenseModel(self.design, self.sigma, self.residuals, kind=["parallax"] * n,
+        model = DenseModel(self.design, self.sigma if sigma is None else sigma,
+                           self.residuals, kind=["parallax"] * n,
                            component=list(self.obs_component), frame=[self.name] * n,
-                           point=[self.points[i] for i in self.obs_point])
+                           point=[self.points[i] for i in self.obs_point],
+                           variance_group=[VARIANCE_GROUPS[c] for c in self.obs_component])
         model.units, model.frame_kind = {"parallax": (1.0, "µm")}, "model"
         return model
 

@@ -17,15 +17,18 @@ the preceding model determined) constraining the scale.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from baarda.options import DEFAULT_TESTS, TestOptions
+from baarda.quality.dense_model import block_diagonal
+from baarda.quality.variance_components import VarianceEstimation, challenge, iterate
 from baarda.relative.model_qc import ModelQC, assess_model
 from baarda.relative.orientation import (
     DEFAULT_QTIE,
     DEFAULT_QYY,
+    VARIANCE_GROUPS,
     ModelSetup,
     Orientation,
     PhotoPose,
@@ -33,6 +36,7 @@ from baarda.relative.orientation import (
 )
 
 Measurement = tuple[float, float, float, float]  # x', y', x'', y'' in mm
+MAX_LEFT_OUT = 10  # observations left out of the strip's variance components, at most
 
 
 @dataclass
@@ -63,18 +67,23 @@ class OnlineSession:
     focal: principal distance c (mm); sigma_x: a-priori sigma of x'' (µm); qyy: q_yy / q_xx
     (Kratky: 2); qtie: cofactor of x'' at tie points / q_xx (Kratky: 1); tests: alpha0 and
     beta0 of the w-test; statistic: "w" (sigma0 a priori) or "tau"; base: b_x of the first
-    model in model units (default: mean x-parallax).
+    model in model units (default: mean x-parallax); vce: estimate the variance components
+    of the y-parallaxes (coplanarity) and of the x'' of the tie points (scale transfer) over
+    the strip so far (the accepted models and the one on the instrument, Foerstner's
+    iteration on them together) and orient and test the model with them: q_yy / q_xx and
+    q_tie estimated; a group with too little redundancy keeps its a-priori weight.
     """
 
     def __init__(self, focal: float, sigma_x: float = 10.0, qyy: float = DEFAULT_QYY,
                  tests: TestOptions = DEFAULT_TESTS, statistic: str = "w",
-                 base: float | None = None, qtie: float = DEFAULT_QTIE):
+                 base: float | None = None, qtie: float = DEFAULT_QTIE, vce: bool = False):
         if not focal > 0 or not sigma_x > 0 or not qyy > 0 or not qtie > 0:
             raise ValueError("focal, sigma_x, qyy and qtie must be positive")
         self.focal, self.sigma_x, self.qyy = float(focal), float(sigma_x), float(qyy)
         self.qtie = float(qtie)
         self.tests, self.statistic = tests, statistic
         self.base = base
+        self.vce = bool(vce)
         self.accepted: list[AcceptedModel] = []
         self.coordinates: dict[str, np.ndarray] = {}  # strip, first determination
         self._pending: _Pending | None = None
@@ -184,8 +193,46 @@ class OnlineSession:
             g0 = prev.params.copy()
             g0[0] = 1.0
         o = orient(p.name, ids, left_xy, right_xy, setup, g0)
-        p.qc = assess_model(o, self.tests, self.statistic)
+        if not self.vce:
+            p.qc = assess_model(o, self.tests, self.statistic)
+            return p.qc
+        est, left_out = self.variance_components(o)
+        fy, fx = (est.group_factor.get(VARIANCE_GROUPS[c], 1.0) for c in ("y", "x"))
+        if fy != 1.0 or fx != 1.0:
+            setup = replace(setup, qyy=setup.qyy * fy, qtie=setup.qtie * fx)
+            o = orient(p.name, ids, left_xy, right_xy, setup, o.params)
+        p.qc = replace(assess_model(o, self.tests, self.statistic),
+                       variance_components=est.components(), variance_left_out=left_out)
         return p.qc
+
+    def variance_components(self, current: Orientation | None = None
+                            ) -> tuple[VarianceEstimation, tuple[str, ...]]:
+        """Foerstner's iterated estimate of the groups y-parallax (coplanarity) and x'' at
+        the tie points (scale transfer) from the accepted models and `current`, every one
+        with the a-priori sigmas, as one block-diagonal adjustment (the models are
+        adjusted independently); groups with r < 5 are reported, not estimated.  An
+        observation significant against its group estimated without it (a gross error
+        would inflate the estimate and hide behind it: quality.variance_components.
+        challenge) is left out of the estimate; returns (the estimate, their labels)."""
+        models = [m.orientation for m in self.accepted] + ([current] if current else [])
+        if not models:
+            raise ValueError("no model to estimate variance components from")
+        parts = []
+        for o in models:
+            sig = self.sigma_x * np.sqrt(np.where(o.obs_component == "y", self.qyy, self.qtie))
+            parts.append(o.dense_model(sig.astype(float)))
+        strip = block_diagonal(parts)
+        active = strip.active.copy()
+        est = iterate(strip.refit(active), pool=False)
+        left_out = []
+        for _ in range(MAX_LEFT_OUT):
+            i = challenge(est.model, est.plan, self.tests, self.statistic)
+            if i is None:
+                break
+            active[i] = False
+            left_out.append(f"{strip.point[i]} {strip.component[i]}'' (model {strip.frame[i]})")
+            est = iterate(strip.refit(active), pool=False)
+        return est, tuple(left_out)
 
 
 def _check(pid, values) -> Measurement:

@@ -184,6 +184,22 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     return out
 
 
+def _variance_components(summary: dict) -> pd.DataFrame | None:
+    """The variance components of every adjustment (summary.json), one row per group."""
+    parts = summary.get("adjustments") or {}
+    rows = [dict(c, adjustment=name) for name, p in parts.items() if isinstance(p, dict)
+            for c in p.get("variance_components", [])]
+    if not rows:
+        rows = [dict(c, adjustment="") for c in summary.get("variance_components", [])]
+    if not rows:
+        return None
+    cols = ["adjustment", "group", "n", "redundancy", "sigma_apriori", "factor", "factor_std",
+            "p_value", "rejected", "estimated_factor", "sigma_estimated", "pooled_into"]
+    t = pd.DataFrame(rows).reindex(columns=cols)
+    t["pooled_into"] = t["pooled_into"].fillna("")
+    return t if len(parts) > 1 else t.drop(columns="adjustment")
+
+
 def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     """The whole report as one HTML string."""
     opt = opt or ReportOptions()
@@ -202,18 +218,17 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     cal = tables_html(res)
     if cal:
         sec.append(("calibration", "Camera calibration, control and GNSS", cal))
-    vc = res.summary.get("variance_components")
-    if vc:
-        t = pd.DataFrame(vc)[["group", "n", "redundancy", "sigma_apriori", "factor",
-                              "factor_std", "p_value", "rejected", "estimated_factor",
-                              "sigma_estimated"]]
+    vc = _variance_components(res.summary)
+    if vc is not None:
         sec.append(("vce", "Variance components per group", table(
-            t, {"redundancy": ".2f", "sigma_apriori": ".4g", "factor": ".4f",
-                "factor_std": ".4f", "p_value": ".3g", "estimated_factor": ".4f",
-                "sigma_estimated": ".4g"}, text_cols=("group",))
+            vc, {"redundancy": ".2f", "sigma_apriori": ".4g", "factor": ".4f",
+                 "factor_std": ".4f", "p_value": ".3g", "estimated_factor": ".4f",
+                 "sigma_estimated": ".4g"}, text_cols=("adjustment", "group", "pooled_into"))
             + "<p>Foerstner's estimate sigma_k^2 = v'Pv / r_k per group, its test against one "
-              "(5 %); sigmas in mm (image) and m (control, GNSS), rad (IMU); the tests and "
-              "snooping used the estimated sigmas.</p>"))
+              "(5 %); a group with r_k &lt; 5 is not estimated by itself (control axes are then "
+              "estimated together, pooled_into); sigmas in mm (image, model coordinates), m "
+              "(control, GNSS), rad (IMU); the tests and snooping used the estimated "
+              "sigmas.</p>"))
     sec.append(("log", "Data snooping log", _log_table(res.summary)))
     body = _group_table(res)
     if res.photos is not None and (res.obs["kind"] == "image").any():

@@ -75,8 +75,8 @@ MIN_GROUP = 10  # tested components for a group's own histogram of w
 def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
     """Histograms of w of the active, tested observations: image x, y, x and y; then per
     observation group of the other kinds with at least MIN_GROUP tested components (control
-    X, Y, Z, GNSS X, Y, Z, IMU, distances, ...: the groups of the variance components), and
-    all observations together."""
+    X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: the groups of the variance
+    components), and all observations together."""
     d = obs[~obs["rejected"] & np.isfinite(obs["w"])]
     lab = obs_label(d)
     kind = d["kind"].to_numpy(str)
@@ -85,12 +85,17 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     sels = [("image x", img & (comp == "x")), ("image y", img & (comp == "y")),
             ("image x and y", img)]
     if not img.all():
+        height = np.char.startswith(comp, "z")
         for k in dict.fromkeys(kind[~img].tolist()):
             by_comp = k in ("control", "gnss")
-            for c in (dict.fromkeys(comp[kind == k].tolist()) if by_comp else [None]):
-                sel = (kind == k) & ((comp == c) if c is not None else True)
-                if sel.sum() >= MIN_GROUP:
-                    sels.append((f"{k} {c}" if c is not None else k, sel))
+            if k == "model":  # the variance groups of model coordinates: XY and Z
+                parts = [("model XY", (kind == k) & ~height), ("model Z", (kind == k) & height)]
+            else:
+                parts = [(f"{k} {c}" if c is not None else k,
+                          (kind == k) & ((comp == c) if c is not None else True))
+                         for c in (dict.fromkeys(comp[kind == k].tolist()) if by_comp
+                                   else [None])]
+            sels += [(name, sel) for name, sel in parts if sel.sum() >= MIN_GROUP]
         sels.append(("all observations", np.ones(len(d), bool)))
     w = d["w"].to_numpy(float)
     return [(n, histogram(w[s], lab[s], opt.w_width, opt.w_lo, opt.w_hi)) for n, s in sels

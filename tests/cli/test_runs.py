@@ -87,11 +87,14 @@ def test_interrupted_run_leaves_the_previous_run(project, tmp_path, capsys, monk
     before = snapshot(out)
     from baarda.output import bundle_results
 
+    write = bundle_results.write_results
+
     def write_then_interrupt(run, qc):
-        bundle_results.write_results(run, qc)  # half of the run written...
+        write(run, qc)  # half of the run written...
         raise KeyboardInterrupt  # ...then Ctrl-C
 
-    monkeypatch.setattr("baarda.cli.adjust.write_results", write_then_interrupt)
+    # the command imports the writer when it needs it (after reading its input)
+    monkeypatch.setattr(bundle_results, "write_results", write_then_interrupt)
     assert main(["adjust", str(project), "-o", str(out), "-q", "--snoop"]) == 130
     assert "interrupted" in capsys.readouterr().err
     assert snapshot(out) == before

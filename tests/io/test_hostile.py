@@ -186,18 +186,18 @@ def _run(args, seconds):
 
 
 def test_command_line_ends_hostile_files_quickly(tmp_path):
-    """The issue's acceptance: exit 2 and a clear message in < 2 s and < 60 MB, both over what
-    `baarda adjust --help` costs (the interpreter and the command's imports: about 240 MB on
-    2 cores, more where OpenBLAS starts more threads, 340 MB on CI)."""
+    """The issue's acceptance: exit 2 and a clear message in < 2 s and < 300 MB, the whole
+    process included (the command reads its input before it imports the computation:
+    about 45 MB and 0.2 s here, where the imports of `baarda adjust` on a good file take
+    over 300 MB)."""
     bomb = tmp_path / "bomb.xml"
     bomb.write_text(laughs())
-    base = _run(["adjust", "--help"], 30)[2]  # the interpreter and the command's imports
     for f in (bomb, BOMB):
         code, err, wall = _run(["adjust", str(f), "-o", str(tmp_path / "out")], 30)
         assert code == 2 and str(f) in err and "Traceback" not in err
-        assert wall - base < 2.0
-    rss = _child_rss(["adjust", str(BOMB), "-o", str(tmp_path / "out")], code=2)
-    assert rss - _child_rss(["adjust", "--help"], code=0) < 60
+        assert wall < 2.0
+        assert _child_rss(["adjust", str(f), "-o", str(tmp_path / "out")], code=2) < 300
+        assert not (tmp_path / "out").exists()
 
 
 def _child_rss(args, code: int) -> float:
