@@ -62,7 +62,7 @@ from baarda.block.photo_block import (
 )
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
-from baarda.io.records import decode_text, file_bytes, split_lines
+from baarda.io.records import decode_text, file_bytes, parse_number, split_lines, to_numbers
 
 RECONSTRUCTIONS = ("reconstruction.json", "reconstruction_example.json")
 TRACKS = ("tracks.csv", "tracks_example.csv")
@@ -317,20 +317,8 @@ def read_tracks(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarra
 
 
 def _column(values: list[str], path: Path, lines: np.ndarray, name: str) -> np.ndarray:
-    try:
-        out = np.array(values, dtype=float)
-        if np.isfinite(out).all():
-            return out
-    except ValueError:
-        pass
-    for v, n in zip(values, lines.tolist(), strict=True):
-        try:
-            x = float(v)
-        except ValueError:
-            raise ProjectError(str(path), f"'{v}' is not a number", n, name) from None
-        if not math.isfinite(x):
-            raise ProjectError(str(path), f"'{v}' is not a finite number", n, name)
-    raise AssertionError("unreachable")
+    """A column of finite numbers (io/records.to_numbers: the first bad value named)."""
+    return to_numbers(np.asarray(values, dtype=str), str(path), lines, name)
 
 
 # ------------------------------------------------------------------ control
@@ -393,13 +381,7 @@ def _gcp_list(path: Path, cameras_of_shot: dict[str, _Camera]):
             raise ProjectError(str(path), "expected 'X Y Z px py image [name]'", n)
         vals = []
         for v, name in zip(f[:5], ("X", "Y", "Z", "px", "py"), strict=True):
-            try:
-                x = float(v)
-            except ValueError:
-                raise ProjectError(str(path), f"'{v}' is not a number", n, name) from None
-            if not math.isfinite(x):
-                raise ProjectError(str(path), f"'{v}' is not a finite number", n, name)
-            vals.append(x)
+            vals.append(parse_number(v, str(path), n, name))
         image = f[5]
         pid = f[6] if len(f) > 6 else f"{f[0]}_{f[1]}_{f[2]}"
         xyz = np.array(vals[:3])
