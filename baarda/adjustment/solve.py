@@ -100,10 +100,17 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
     drop = np.inf  # relative decrease of the cost by the last accepted step
     history: list[Iteration] = []
     it = 0
+    before = None  # (state, lin) of the last estimate whose normal equations were regular
     while it < options.max_iterations:
         it += 1
         factor = None  # the previous factorisation's storage can serve this one
-        factor = problem.factorize(lin, damping)
+        try:
+            factor = problem.factorize(lin, damping)
+        except GeometryError as err:
+            if before is None:  # singular at the start: the problem as given
+                raise
+            return _diverged(problem, before, it, err, tuple(history), say, label)
+        before = (state, lin)
         step = factor.step()
         size = float(problem.correction_size(state, step))
         if size <= options.tolerance or (drop <= options.flat_cost
@@ -155,6 +162,19 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
         f"not converged after {options.max_iterations} iterations"
     return Solution(state, lin, factor, it, converged, "converged" if converged else
                     "iterations", message, tuple(history))
+
+
+def _diverged(problem: Problem, before: tuple, it: int, err: GeometryError,
+              history: tuple, say: Callable[[str], None], label: str) -> Solution:
+    """The normal equations became singular during the iterations (a point or photo ran
+    away: the iteration diverges): the last estimate whose normal equations were regular,
+    factored again (undamped) for the statistics, as not converged."""
+    state, lin = before
+    factor = None
+    factor = problem.factorize(lin, 0.0)
+    message = (f"diverged at iteration {it}: {err}; the estimate before it is reported")
+    say(f"{label}iteration {it}: {message}")
+    return Solution(state, lin, factor, it, False, "diverged", message, history)
 
 
 def _final_step(problem: Problem, state: Any, step: Any, lin: Any, factor: Any):

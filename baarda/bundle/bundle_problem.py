@@ -467,6 +467,11 @@ class BundleProblem(SchurProblem):
                 raise
             raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis)) from None
         notes = list(self.notes) + ([] if sol.converged else [sol.message])
+        if sol.reason == "diverged" and self.calibration.n:
+            notes.append(f"{self.calibration.n} camera parameter(s) are estimated "
+                         "(self-calibration): with little depth in the block or far points "
+                         "they let points drift; hold them (--calibrate none, or [calibration] "
+                         "in project.toml) or give better approximations")
         return BundleResult(self, sol.state, sol.lin, sol.factor, sol.iterations,
                             sol.converged, tuple(notes), time.perf_counter() - t0)
 

@@ -106,3 +106,54 @@ def test_dense_problem_final_step_and_stall():
     assert loose.converged and tight.converged
     assert np.max(np.abs(tight.state - truth)) < 1e-12 < np.max(np.abs(loose.state - truth))
     assert len(loose.history) == loose.iterations - 1  # the last one found it converged
+
+
+class _Runaway:
+    """y = a x + b with the normal equations declared singular at one factorisation (as
+    when a point has run away at that estimate), regular again at the earlier estimate."""
+
+    def __init__(self, fail_from: int):
+        self.calls, self.fail_from = 0, fail_from
+        self.x = np.linspace(0.0, 1.0, 8)
+        self.y = 2.0 * self.x + 1.0 + 0.01 * np.sin(7 * self.x)
+
+    def linearize(self, state):
+        a = np.column_stack([self.x, np.ones_like(self.x)])
+        e = self.y - a @ state
+        return type("Lin", (), {"a": a, "e": e, "cost": float(e @ e)})()
+
+    def factorize(self, lin, damping):
+        from baarda.errors import GeometryError
+
+        self.calls += 1
+        if self.calls == self.fail_from:
+            raise GeometryError("1 point(s) cannot be intersected: P7")
+        step = np.linalg.solve(lin.a.T @ lin.a, lin.a.T @ lin.e) * 0.5  # half steps
+        return type("F", (), {"step": lambda _self: step, "damping": damping})()
+
+    def update(self, state, step, t):
+        return state + t * step
+
+    def correction_size(self, state, step):
+        return float(np.abs(step).max())
+
+    def admissible(self, state):
+        return True
+
+
+def test_divergence_during_the_iterations_is_not_converged():
+    """Normal equations that become singular during the iterations end the solution as
+    not converged (diverged), with the last estimate whose normal equations were regular and
+    their factorisation, not as an error about the input (exit 3, results written)."""
+    from baarda.errors import GeometryError
+
+    problem = _Runaway(fail_from=3)
+    sol = solve(problem, np.zeros(2), SolveOptions(tolerance=1e-12))
+    assert not sol.converged and sol.reason == "diverged"
+    assert "diverged at iteration 3" in sol.message and "P7" in sol.message
+    assert len(sol.history) == 2
+    # the estimate reported is the one after two half steps, factored again
+    assert problem.calls == 4
+    assert sol.cost == pytest.approx(problem.linearize(sol.state).cost)
+    with pytest.raises(GeometryError, match="P7"):  # singular at the start: the input
+        solve(_Runaway(fail_from=1), np.zeros(2), SolveOptions(tolerance=1e-12))
