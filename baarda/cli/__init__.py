@@ -5,7 +5,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
+from contextlib import contextmanager
 
 from baarda.errors import GeometryError, ProjectError
 from baarda.output.run_folder import package_version
@@ -80,6 +83,34 @@ def _command(argv: list[str]) -> str:
     return next((a for a in argv if not a.startswith("-")), "")
 
 
+def _interrupt(signum, frame) -> None:
+    """Ctrl-C: KeyboardInterrupt, except while numba compiles or loads a kernel (its compiler
+    lock held: inside LLVM's callbacks an exception is lost and the process crashes), where
+    it comes 50 ms later, again until numba is done."""
+    lock = sys.modules.get("numba.core.compiler_lock")
+    if lock is not None and lock.global_compiler_lock.is_locked():
+        signal.setitimer(signal.ITIMER_REAL, 0.05)
+        return
+    raise KeyboardInterrupt
+
+
+@contextmanager
+def _safe_interrupts():
+    """_interrupt as the handler of SIGINT (and of the timer that repeats it) while a command
+    runs in the main thread; the handlers before it are restored."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield  # another program's handler (or none) stays in charge
+        return
+    before = signal.signal(signal.SIGINT, _interrupt), signal.signal(signal.SIGALRM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGINT, before[0])
+        signal.signal(signal.SIGALRM, before[1])
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command; the exit code: 0 success, 2 bad input (a message names the file,
     line and field, or the geometry), 3 not converged (results written and marked),
@@ -89,7 +120,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.argv = argv
     try:
-        return int(args.func(args) or 0)
+        with _safe_interrupts():
+            return int(args.func(args) or 0)
     except (ProjectError, GeometryError) as e:
         print(f"baarda: error: {e}", file=sys.stderr)
         return 2
