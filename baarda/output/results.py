@@ -17,7 +17,7 @@ import pandas as pd
 
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import RunFolder, staged
-from baarda.output.tables import csv_text, json_text
+from baarda.output.tables import json_text, write_csv
 from baarda.sections import Section
 
 
@@ -41,8 +41,9 @@ def write_folder(out: str | Path | RunFolder, summary: dict,
     """summary.json (with the run id under 'run'), the tables as CSV and any texts, as one
     run of the folder `out` (output/run_folder.py); the final paths."""
     with staged(out) as run:
-        files = {"summary.json": json_text({"run": run.run_id, **summary}),
-                 **{name: csv_text(df) for name, df in tables.items()}, **(texts or {})}
-        for name, text in files.items():
+        write_text(run.file("summary.json"), json_text({"run": run.run_id, **summary}))
+        for name, df in tables.items():  # large tables in chunks (output/tables.py)
+            write_csv(run.file(name), df)
+        for name, text in (texts or {}).items():
             write_text(run.file(name), text)
-        return [run.final / name for name in files]
+        return [run.final / name for name in ["summary.json", *tables, *(texts or {})]]
