@@ -71,6 +71,64 @@ def read_observations(path: str | Path) -> pd.DataFrame:
     return df
 
 
+def read_observations_parquet(path: str | Path) -> pd.DataFrame:
+    """observations.parquet as read_observations gives observations.csv (the numbers as
+    computed, not rounded to the CSV's 10 digits; `line` = row number + 2, the line the row
+    would have in observations.csv)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = Path(path)
+    try:
+        t = pq.read_table(path)
+    except (pa.ArrowException, OSError) as e:
+        raise ProjectError(str(path), f"not a readable Parquet file ({e})") from None
+    names = set(t.column_names)
+    for c in OBS_REQUIRED:
+        if c not in names:
+            raise ProjectError(str(path), f"missing column '{c}'")
+    if not names & set(OBS_FRAMES):
+        raise ProjectError(str(path), "missing column 'photo' (or 'model')")
+    n = t.num_rows
+
+    def text(c: str) -> np.ndarray:
+        if c not in names:
+            return np.full(n, "", dtype=object)
+        col = t.column(c)
+        if not (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)
+                or pa.types.is_null(col.type)):
+            raise ProjectError(str(path), f"column '{c}' is not text ({col.type})", None, c)
+        return col.to_pandas().fillna("").to_numpy()
+
+    def number(c: str) -> np.ndarray:
+        col = t.column(c)
+        if not (pa.types.is_floating(col.type) or pa.types.is_integer(col.type)
+                or pa.types.is_null(col.type)):
+            raise ProjectError(str(path), f"column '{c}' is not numeric ({col.type})", None, c)
+        return col.to_numpy().astype(float)
+
+    def flag(c: str) -> np.ndarray:
+        col = t.column(c)
+        if not pa.types.is_boolean(col.type):
+            raise ProjectError(str(path), f"column '{c}' is not True/False ({col.type})",
+                               None, c)
+        return col.to_numpy(zero_copy_only=False).astype(bool)
+
+    df = pd.DataFrame({c: text(c) for c in ("kind", "photo", "model", "point", "component")})
+    df["frame"] = np.where(df["photo"] != "", df["photo"], df["model"])
+    for c in OBS_NUMBERS:
+        df[c] = number(c) if c in names else np.nan
+    for c in OBS_FLAGS:
+        df[c] = flag(c) if c in names else False
+    df["external_point"] = text("external_point")
+    df["line"] = np.arange(2, n + 2)
+    missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
+    if len(missing):
+        raise ProjectError(str(path), f"empty residual in row {int(missing[0]) + 1}", None,
+                           "residual")
+    return df
+
+
 def _table_frame(path: Path, required: list[str], numeric: list[str]) -> pd.DataFrame:
     t = Table(path, required)
     df = pd.DataFrame({c: t.columns[c] for c in t.header})
@@ -152,21 +210,26 @@ def _cameras_from_project(source: Path, notes: list[str]) -> tuple[dict, str | N
 
 
 def read_results(folder: str | Path) -> Results:
-    """Read summary.json, observations.csv and (when present) photos.csv, points.csv."""
+    """Read summary.json, observations.csv (or observations.parquet, written by adjust
+    --parquet) and (when present) photos.csv, points.csv."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ProjectError(str(folder), "not an output folder (run baarda adjust -o FOLDER)")
     sp = folder / "summary.json"
     if not sp.is_file():
         raise ProjectError(str(sp), "file not found (not a baarda output folder?)")
-    run = verify_run(folder, ["summary.json", "observations.csv", "photos.csv", "points.csv"])
+    run = verify_run(folder, ["summary.json", "observations.csv", "observations.parquet",
+                              "photos.csv", "points.csv"])
     try:
         summary = json.loads(sp.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
         raise ProjectError(str(sp), f"not valid JSON: {e.msg}", e.lineno) from None
     if not isinstance(summary, dict):
         raise ProjectError(str(sp), "expected a JSON object")
-    obs = read_observations(folder / "observations.csv")
+    if (folder / "observations.parquet").is_file() and not (folder / "observations.csv").is_file():
+        obs = read_observations_parquet(folder / "observations.parquet")
+    else:
+        obs = read_observations(folder / "observations.csv")
     notes: list[str] = []
     if run is None:
         notes.append(f"{folder} has no run manifest ({MANIFEST}: written by an earlier "

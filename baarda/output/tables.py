@@ -59,6 +59,19 @@ def write_csv(path: str | Path, df: pd.DataFrame, float_format: str = RESULT_FOR
             f.write(pandas_csv_text(df, float_format).encode("utf-8"))
 
 
+def write_parquet(path: str | Path, df: pd.DataFrame) -> None:
+    """Write a table as Parquet (pyarrow, zstd; numbers as stored, float64 exactly),
+    atomically."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from baarda.output.atomic import atomic_open
+
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    with atomic_open(path, "wb") as f:
+        pq.write_table(table, f, compression="zstd", row_group_size=1 << 20)
+
+
 def _precision(float_format: str) -> int | None:
     m = _G_FORMAT.fullmatch(float_format)
     p = int(m.group(1)) if m else 0
