@@ -51,6 +51,29 @@ def obs_label(df: pd.DataFrame) -> np.ndarray:
     return (head + mid + df["component"].astype(str).to_numpy()).astype(object)
 
 
+class Labels:
+    """obs_label of a table's rows, worked out only for the rows that are shown (a label of
+    every one of millions of observations would take longer than the rest of a report):
+    indexing with a mask or an index array gives the labels of those rows (still lazy), an
+    integer one label, np.asarray the labels as obs_label gives them."""
+
+    def __init__(self, df: pd.DataFrame, rows: np.ndarray | None = None):
+        self.df = df
+        self.rows = np.arange(len(df)) if rows is None else rows
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitem__(self, key):
+        if isinstance(key, int | np.integer):
+            return obs_label(self.df.iloc[[int(self.rows[key])]])[0]
+        return Labels(self.df, self.rows[np.asarray(key)])
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        out = obs_label(self.df.iloc[self.rows]) if len(self.rows) else np.zeros(0, object)
+        return out if dtype is None else out.astype(dtype)
+
+
 def describe(values: np.ndarray, labels: np.ndarray, name: str, unit: str,
              rejected: int = 0) -> GroupStats:
     """Number, mean, RMS, minimum and maximum (with where they occur) of `values`."""
@@ -75,7 +98,7 @@ def group_statistics(df: pd.DataFrame, units: dict[str, str] | None = None) -> l
     kind = df["kind"].to_numpy(str)
     comp = df["component"].to_numpy(str)
     v = df["residual"].to_numpy(float)
-    lab = obs_label(df)
+    lab = Labels(df)
     out = []
 
     def add(sel: np.ndarray, name: str, unit: str) -> None:
@@ -138,7 +161,6 @@ def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd
     d = df.loc[img, ["photo", "point", "component", "residual"]].copy()
     d["group"] = d["photo"].astype(str).to_numpy() if key is None else np.asarray(key)[img]
     d["active"] = _active(df)[img]
-    d["label"] = obs_label(d)
     v = d["residual"].to_numpy(float)
     d["abs"] = np.abs(v)
     d["v2"] = v * v
@@ -156,7 +178,8 @@ def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd
         out[f"rms_{c}"] = np.sqrt(g["v2"].mean())
     out["rms_xy"] = np.sqrt(a.groupby("group")["v2"].mean())
     if len(a):
-        top = a.loc[a.groupby("group")["abs"].idxmax()].set_index("group")
+        top = a.loc[a.groupby("group")["abs"].idxmax()]
+        top = top.assign(label=obs_label(top)).set_index("group")
         out["max_abs"] = top["abs"]
         out["max_at"] = top["label"]
     else:
@@ -212,8 +235,14 @@ def per_photo(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFrame:
-    key = np.array([str(strip_of.get(p, "")) for p in df["photo"].astype(str)], dtype=object)
-    return image_groups(df, "strip", key)
+    return image_groups(df, "strip", strips(df, strip_of))
+
+
+def strips(df: pd.DataFrame, strip_of: dict[str, str]) -> np.ndarray:
+    """The strip of every row ('' where its photo has none)."""
+    key = {str(k): str(v) for k, v in strip_of.items()}
+    photo = pd.Series(df["photo"].astype(str).to_numpy(object))
+    return photo.map(key).fillna("").to_numpy(object)
 
 
 def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFrame:
@@ -223,7 +252,7 @@ def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFra
     rows = []
     act = _active(df)
     kind = df["kind"].astype(str).to_numpy()
-    strip = np.array([str(strip_of.get(p, "")) for p in df["photo"].astype(str)], dtype=object)
+    strip = strips(df, strip_of)
     comp = df["component"].astype(str).to_numpy()
     v = df["residual"].to_numpy(float)
     w = df["w"].to_numpy(float) if "w" in df else np.full(len(df), np.nan)
