@@ -57,7 +57,7 @@ def sample_points(pts: pd.DataFrame, max_points: int | None) -> tuple[pd.DataFra
     if max_points is None or len(pts) <= max_points:
         return pts, ""
     keep = ((pts["role"] != "tie") | pts["rejected"] | pts["flagged"]
-            | pts["uncontrolled"]).to_numpy(bool)
+            | pts["uncontrolled"]).to_numpy(bool, copy=True)
     pick = np.random.default_rng(SAMPLE_SEED).choice(len(pts), size=max_points, replace=False)
     keep[pick] = True
     return pts[keep], (f"; {int(keep.sum())} of {len(pts)} points drawn (a deterministic random "

@@ -67,7 +67,7 @@ class Labels:
     def __getitem__(self, key):
         if isinstance(key, int | np.integer):
             return obs_label(self.df.iloc[[int(self.rows[key])]])[0]
-        return Labels(self.df, self.rows[np.asarray(key)])
+        return Labels(self.df, self.rows[key if isinstance(key, slice) else np.asarray(key)])
 
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
         out = obs_label(self.df.iloc[self.rows]) if len(self.rows) else np.zeros(0, object)
