@@ -29,7 +29,10 @@ OBS_FLAGS = ["rejected", "flagged"]
 
 def numbers(t: Table, name: str) -> np.ndarray:
     """A numeric column; empty cells are NaN, 'inf' is allowed (uncontrolled MDB)."""
-    col = t.columns[name]
+    fast = t.floats(name)  # a plain file: pyarrow's parser (millions of rows)
+    if fast is not None:
+        return fast
+    col = t.column(name)
     out = pd.to_numeric(pd.Series(col).replace("", "nan"), errors="coerce").to_numpy(float)
     bad = np.flatnonzero(np.isnan(out) & (col != "") & (np.char.lower(col) != "nan"))
     if len(bad):
@@ -40,12 +43,17 @@ def numbers(t: Table, name: str) -> np.ndarray:
 
 def flags(t: Table, name: str) -> np.ndarray:
     """A True/False column (also 1/0, empty = False)."""
-    col = np.char.lower(t.columns[name])
+    col = t.column(name)
+    if col.dtype.kind == "U" and col.dtype.itemsize <= 4 * 5:  # 'True'/'False' as written
+        yes = col == "True"
+        if (yes | (col == "False")).all():
+            return yes
+    col = np.char.lower(col)
     yes = np.isin(col, ["true", "1", "yes"])
     bad = np.flatnonzero(~yes & ~np.isin(col, ["false", "0", "no", ""]))
     if len(bad):
         i = int(bad[0])
-        raise ProjectError(t.path, f"'{t.columns[name][i]}' is not True or False",
+        raise ProjectError(t.path, f"'{t.column(name)[i]}' is not True or False",
                            int(t.lines[i]), name)
     return yes
 
@@ -63,7 +71,7 @@ def read_observations(path: str | Path) -> pd.DataFrame:
         df[c] = numbers(t, c) if t.has(c) else np.nan
     for c in OBS_FLAGS:
         df[c] = flags(t, c) if t.has(c) else False
-    df["external_point"] = t.columns["external_point"] if t.has("external_point") else ""
+    df["external_point"] = t.column("external_point") if t.has("external_point") else ""
     df["line"] = t.lines
     missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
     if len(missing):
@@ -131,7 +139,7 @@ def read_observations_parquet(path: str | Path) -> pd.DataFrame:
 
 def _table_frame(path: Path, required: list[str], numeric: list[str]) -> pd.DataFrame:
     t = Table(path, required)
-    df = pd.DataFrame({c: t.columns[c] for c in t.header})
+    df = pd.DataFrame({c: t.column(c) for c in t.header})
     for c in numeric:
         if t.has(c):
             df[c] = numbers(t, c)
