@@ -99,14 +99,14 @@ def read_observations_parquet(path: str | Path) -> pd.DataFrame:
         raise ProjectError(str(path), "missing column 'photo' (or 'model')")
     n = t.num_rows
 
-    def text(c: str) -> np.ndarray:
+    def text(c: str) -> pd.Series:
         if c not in names:
-            return np.full(n, "", dtype=object)
+            return pd.Series(np.full(n, "", dtype=object), dtype="str")
         col = t.column(c)
         if not (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)
                 or pa.types.is_null(col.type)):
             raise ProjectError(str(path), f"column '{c}' is not text ({col.type})", None, c)
-        return col.to_pandas().fillna("").to_numpy()
+        return pd.Series(col.cast(pa.string()).fill_null(""), dtype="str")
 
     def number(c: str) -> np.ndarray:
         col = t.column(c)
@@ -123,7 +123,7 @@ def read_observations_parquet(path: str | Path) -> pd.DataFrame:
         return col.to_numpy(zero_copy_only=False).astype(bool)
 
     df = pd.DataFrame({c: text(c) for c in ("kind", "photo", "model", "point", "component")})
-    df["frame"] = np.where(df["photo"] != "", df["photo"], df["model"])
+    df["frame"] = df["photo"].where(df["photo"] != "", df["model"])
     for c in OBS_NUMBERS:
         df[c] = number(c) if c in names else np.nan
     for c in OBS_FLAGS:

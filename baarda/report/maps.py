@@ -22,21 +22,34 @@ def point_summary(res: Results) -> pd.DataFrame:
     image observations, max external effect, rejected / flagged / uncontrolled)."""
     if res.points is None:
         return pd.DataFrame(columns=["point", "X", "Y", "role"])
-    o = res.obs
-    act = ~o["rejected"]
-    tested = act & np.isfinite(o["w"])
-    img = o["kind"] == "image"
-    g = o.groupby("point")
+    o = res.obs[[c for c in ("kind", "photo", "model", "point", "component", "w",
+                             "redundancy", "mdb", "external_max", "external_point", "rejected",
+                             "flagged") if c in res.obs]]  # a few columns of millions of rows
+    act = ~o["rejected"].to_numpy(bool)
+    w = o["w"].to_numpy(float)
+    tested = act & np.isfinite(w)
+    img = o["kind"].to_numpy(str) == "image"
+    codes, names = pd.factorize(o["point"])  # once: the groups of every column below
+    names = np.asarray(names, dtype=object)
+
+    def per_point(col: str | np.ndarray, sel: np.ndarray, how: str) -> pd.Series:
+        v = o[col].to_numpy() if isinstance(col, str) else col
+        sel = sel & (codes >= 0)
+        r = getattr(pd.Series(v[sel]).groupby(codes[sel]), how)()
+        return pd.Series(r.to_numpy(), index=names[r.index.to_numpy()])
+
     pts = res.points[["point", "X", "Y", "role"]].copy().set_index("point", drop=False)
-    pts["r_min"] = o[tested].groupby("point")["redundancy"].min()
-    pts["mdb_max"] = o[tested & img].groupby("point")["mdb"].max()
-    ext = o[tested & np.isfinite(o["external_max"])]
+    pts["r_min"] = per_point("redundancy", tested, "min")
+    pts["mdb_max"] = per_point("mdb", tested & img, "max")
+    sel = tested & np.isfinite(o["external_max"].to_numpy(float))
+    ext = o.loc[sel, ["point", "external_point", "external_max"]]
     key = np.where(ext["external_point"].astype(str) != "", ext["external_point"].astype(str),
                    ext["point"].astype(str))
     pts["ext_max"] = ext.groupby(key)["external_max"].max()
-    pts["uncontrolled"] = (act & ~np.isfinite(o["w"])).groupby(o["point"]).any()
-    pts["rejected"] = g["rejected"].any()
-    pts["flagged"] = g["flagged"].any()
+    every = np.ones(len(o), bool)
+    pts["uncontrolled"] = per_point(act & ~np.isfinite(w), every, "any")
+    pts["rejected"] = per_point("rejected", every, "any")
+    pts["flagged"] = per_point("flagged", every, "any")
     rej = o[o["rejected"]]
     pts["rejected_labels"] = rej.assign(label=obs_label(rej)).groupby("point")["label"].agg(
         list)
@@ -145,7 +158,8 @@ def _nice(x: float) -> float:
 
 def _pairs(obs: pd.DataFrame) -> pd.DataFrame:
     """x and y of the image observations side by side (one row per image point)."""
-    x, y = pair_xy(obs)
+    x, y = pair_xy(obs[["kind", "photo", "point", "component", "x_mm", "y_mm", "residual",
+                        "rejected", "flagged", "w"]])
     return pd.DataFrame({
         "photo": x["photo"], "point": x["point"], "x": x["x_mm"], "y": x["y_mm"],
         "vx": x["residual"], "vy": y["residual"].to_numpy(),

@@ -51,6 +51,11 @@ def obs_label(df: pd.DataFrame) -> np.ndarray:
     return (head + mid + df["component"].astype(str).to_numpy()).astype(object)
 
 
+def LABEL_COLUMNS(df: pd.DataFrame) -> list[str]:  # noqa: N802 - a constant of the table
+    """The columns obs_label reads (those the table has)."""
+    return [c for c in ("kind", "photo", "model", "point", "component") if c in df]
+
+
 class Labels:
     """obs_label of a table's rows, worked out only for the rows that are shown (a label of
     every one of millions of observations would take longer than the rest of a report):

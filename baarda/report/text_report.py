@@ -13,6 +13,7 @@ from baarda.output.result_folder import UNITS, Results
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
+    LABEL_COLUMNS,
     Labels,
     format_gnss_imu,
     format_groups,
@@ -63,7 +64,7 @@ class ReportOptions:
 def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
     """Histograms of the active image residuals: x, y and x+y together."""
     act = (obs["kind"] == "image") & ~obs["rejected"]
-    d = obs[act]
+    d = obs.loc[act, LABEL_COLUMNS(obs) + ["residual"]]  # a few columns of millions of rows
     lab = Labels(d)
     out = []
     for name, sel in (("x", d["component"] == "x"), ("y", d["component"] == "y"),
@@ -82,7 +83,7 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     observation group of the other kinds with at least MIN_GROUP tested components (control
     X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: the groups of the variance
     components), and all observations together."""
-    d = obs[~obs["rejected"] & np.isfinite(obs["w"])]
+    d = obs.loc[~obs["rejected"] & np.isfinite(obs["w"]), LABEL_COLUMNS(obs) + ["w"]]
     lab = Labels(d)
     kind = d["kind"].to_numpy(str)
     img = kind == "image"
@@ -179,12 +180,13 @@ def first_rows(t: pd.DataFrame, limit: int) -> tuple[pd.DataFrame, str]:
 def weakest(obs: pd.DataFrame, n: int) -> dict[str, pd.DataFrame]:
     """The tested, active observations with the smallest redundancy numbers and with the
     largest MDB (per kind: units differ), n of each."""
-    d = obs[~obs["rejected"].to_numpy(bool) & np.isfinite(obs["w"].to_numpy(float))]
     cols = [c for c in ("kind", "photo", "model", "frame", "point", "component", "redundancy",
-                        "w", "mdb", "external_max") if c in d]
-    small = d.nsmallest(n, "redundancy")[cols]
-    large = pd.concat([g.nlargest(n, "mdb") for _, g in d.groupby("kind", sort=True)]
-                      or [d.iloc[:0]])[cols]
+                        "w", "mdb", "external_max") if c in obs]
+    d = obs.loc[~obs["rejected"].to_numpy(bool) & np.isfinite(obs["w"].to_numpy(float)), cols]
+    small = d.nsmallest(n, "redundancy")
+    kind = d["kind"].to_numpy(str)
+    large = pd.concat([d[kind == k].nlargest(n, "mdb") for k in sorted(set(kind))]
+                      or [d.iloc[:0]])
     return {"smallest redundancy numbers": small, "largest MDB (per kind)": large}
 
 
