@@ -164,7 +164,11 @@ def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd
     largest |v| and where, rejected components."""
     img = df["kind"].to_numpy(str) == "image"
     d = df.loc[img, ["photo", "point", "component", "residual"]].copy()
-    d["group"] = d["photo"].astype(str).to_numpy() if key is None else np.asarray(key)[img]
+    group = d["photo"].astype(str).to_numpy() if key is None else np.asarray(key)[img]
+    codes, names = pd.factorize(pd.Series(group, dtype=object))  # groups as codes, once
+    names = np.asarray(names, dtype=object)
+    d["group"] = codes
+    d["point"] = pd.factorize(d["point"])[0]  # only counted
     d["active"] = _active(df)[img]
     v = d["residual"].to_numpy(float)
     d["abs"] = np.abs(v)
@@ -173,24 +177,31 @@ def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd
             "rejected"]
     if d.empty:
         return pd.DataFrame(columns=cols)
-    groups = sorted(d["group"].unique())
-    out = pd.DataFrame({by: groups}).set_index(by, drop=False)
-    out["points"] = d[d["component"] == "x"].groupby("group")["point"].nunique()
-    a = d[d["active"]]
+
+    def named(r: pd.Series) -> pd.Series:
+        return pd.Series(r.to_numpy(), index=names[r.index.to_numpy()])
+
+    out = pd.DataFrame({by: sorted(names)}).set_index(by, drop=False)
+    comp = d["component"].to_numpy(str)
+    out["points"] = named(d[comp == "x"].groupby("group")["point"].nunique())
+    a = d[d["active"].to_numpy(bool)]
+    acomp = a["component"].to_numpy(str)
     for c in "xy":
-        g = a[a["component"] == c].groupby("group")
-        out[f"mean_{c}"] = g["residual"].mean()
-        out[f"rms_{c}"] = np.sqrt(g["v2"].mean())
-    out["rms_xy"] = np.sqrt(a.groupby("group")["v2"].mean())
+        g = a[acomp == c].groupby("group")
+        out[f"mean_{c}"] = named(g["residual"].mean())
+        out[f"rms_{c}"] = np.sqrt(named(g["v2"].mean()))
+    out["rms_xy"] = np.sqrt(named(a.groupby("group")["v2"].mean()))
     if len(a):
-        top = a.loc[a.groupby("group")["abs"].idxmax()]
-        top = top.assign(label=obs_label(top)).set_index("group")
-        out["max_abs"] = top["abs"]
-        out["max_at"] = top["label"]
+        top = df.loc[a.groupby("group")["abs"].idxmax().to_numpy()]
+        # labelled as before: photo, point and component (not the kind)
+        at = pd.Series(obs_label(top.drop(columns=[c for c in ("kind", "model") if c in top])),
+                       index=names[a.loc[top.index, "group"].to_numpy()])
+        out["max_abs"] = named(a.groupby("group")["abs"].max())
+        out["max_at"] = at
     else:
         out["max_abs"] = np.nan
         out["max_at"] = ""
-    out["rejected"] = (~d["active"]).groupby(d["group"]).sum()
+    out["rejected"] = named((~d["active"]).groupby(d["group"]).sum())
     out["points"] = out["points"].fillna(0).astype(int)
     out["rejected"] = out["rejected"].fillna(0).astype(int)
     out["max_at"] = out["max_at"].fillna("")
