@@ -101,7 +101,7 @@ def _adjust(args, run):
 
         res, qc = screen(block, options(args), snoop=args.snoop, statistic=statistic,
                          progress=say)
-        write_results(run, qc, parquet=getattr(args, "parquet", False))
+        write_results(run, qc, **_format(args))
         write_screening_log(run, res.log)
         _gpkg(args, run, qc)
         return qc, res.summary() + "\n" + qc.summary()
@@ -123,9 +123,14 @@ def _adjust(args, run):
         qc = assess(adjust(problem, progress=say), tests)
     if est is not None:
         qc = replace(qc, variance_components=est.components())
-    write_results(run, qc, parquet=getattr(args, "parquet", False))
+    write_results(run, qc, **_format(args))
     _gpkg(args, run, qc)
     return qc, qc.summary()
+
+
+def _format(args) -> dict:
+    """write_results' options of the observation table: Parquet with --parquet."""
+    return {"parquet": True} if getattr(args, "parquet", False) else {}
 
 
 def _gpkg(args, run, qc) -> None:

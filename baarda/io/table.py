@@ -129,6 +129,11 @@ class Table(Columns):
                 return out
         return super().numbers(name, allow_empty)  # the exact reading, and its error
 
+    def strings(self, name: str):
+        """A column as pyarrow strings, or None where the fast reader did not take the file
+        (for millions of rows: no NumPy strings on the way)."""
+        return None if self._arrow is None else self._arrow.column(name)
+
     def floats(self, name: str) -> np.ndarray | None:
         """A column as floats parsed by pyarrow (empty -> NaN; inf and nan as written), or
         None where the fast reader did not take the file or a value is not a number (read

@@ -43,6 +43,13 @@ def numbers(t: Table, name: str) -> np.ndarray:
 
 def flags(t: Table, name: str) -> np.ndarray:
     """A True/False column (also 1/0, empty = False)."""
+    import pyarrow.compute as pc
+
+    arrow = t.strings(name)
+    if arrow is not None:  # as written: True / False
+        yes = pc.equal(arrow, "True")
+        if pc.all(pc.or_(yes, pc.equal(arrow, "False"))).as_py():
+            return np.asarray(yes.to_numpy(), dtype=bool)
     col = t.column(name)
     if col.dtype.kind == "U" and col.dtype.itemsize <= 4 * 5:  # 'True'/'False' as written
         yes = col == "True"
@@ -63,7 +70,15 @@ def read_observations(path: str | Path) -> pd.DataFrame:
     t = Table(path, OBS_REQUIRED)
     if not any(t.has(c) for c in OBS_FRAMES):
         raise ProjectError(t.path, "missing column 'photo' (or 'model')")
-    df = pd.DataFrame({c: t.text(c, allow_empty=c in ("photo", "model", "point"))
+    def text(c: str, allow_empty: bool = True):
+        col = t.strings(c)  # pyarrow strings of a plain file: straight into the frame
+        if col is not None and (allow_empty or not pc.any(pc.equal(col, "")).as_py()):
+            return pd.Series(col, dtype="str")
+        return t.text(c, allow_empty=allow_empty)  # NumPy strings, or the error's line
+
+    import pyarrow.compute as pc
+
+    df = pd.DataFrame({c: text(c, allow_empty=c in ("photo", "model", "point"))
                        if t.has(c) else ""
                        for c in ("kind", "photo", "model", "point", "component")})
     df["frame"] = np.where(df["photo"] != "", df["photo"], df["model"])
@@ -71,7 +86,7 @@ def read_observations(path: str | Path) -> pd.DataFrame:
         df[c] = numbers(t, c) if t.has(c) else np.nan
     for c in OBS_FLAGS:
         df[c] = flags(t, c) if t.has(c) else False
-    df["external_point"] = t.column("external_point") if t.has("external_point") else ""
+    df["external_point"] = text("external_point") if t.has("external_point") else ""
     df["line"] = t.lines
     missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
     if len(missing):

@@ -120,3 +120,15 @@ def test_parquet_folder_checked_against_its_manifest(folders, tmp_path):
     f.write_bytes(f.read_bytes() + b"\0")
     with pytest.raises(ProjectError, match="observations.parquet.*not the file"):
         read_results(tmp_path / "p")
+
+
+def test_cli_adjust_parquet_and_report(tmp_path, capsys):
+    from baarda.cli import main
+
+    assert main(["adjust", "examples/demo", "-o", str(tmp_path / "out"), "--parquet",
+                 "-q"]) == 0
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert "observations.parquet" in names and "observations.csv" not in names
+    capsys.readouterr()
+    assert main(["report", str(tmp_path / "out"), "--text"]) == 0
+    assert "SNOOPING TABLE" in capsys.readouterr().out
