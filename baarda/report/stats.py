@@ -51,7 +51,7 @@ def obs_label(df: pd.DataFrame) -> np.ndarray:
     return (head + mid + df["component"].astype(str).to_numpy()).astype(object)
 
 
-def LABEL_COLUMNS(df: pd.DataFrame) -> list[str]:  # noqa: N802 - a constant of the table
+def label_columns(df: pd.DataFrame) -> list[str]:
     """The columns obs_label reads (those the table has)."""
     return [c for c in ("kind", "photo", "model", "point", "component") if c in df]
 

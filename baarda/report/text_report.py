@@ -13,7 +13,6 @@ from baarda.output.result_folder import UNITS, Results
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
-    LABEL_COLUMNS,
     Labels,
     format_gnss_imu,
     format_groups,
@@ -21,6 +20,7 @@ from baarda.report.stats import (
     format_model_groups,
     gnss_imu_per_strip,
     group_statistics,
+    label_columns,
     model_groups,
     obs_label,
     per_photo,
@@ -64,7 +64,7 @@ class ReportOptions:
 def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
     """Histograms of the active image residuals: x, y and x+y together."""
     act = (obs["kind"] == "image") & ~obs["rejected"]
-    d = obs.loc[act, LABEL_COLUMNS(obs) + ["residual"]]  # a few columns of millions of rows
+    d = obs.loc[act, label_columns(obs) + ["residual"]]  # a few columns of millions of rows
     lab = Labels(d)
     out = []
     for name, sel in (("x", d["component"] == "x"), ("y", d["component"] == "y"),
@@ -83,7 +83,7 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     observation group of the other kinds with at least MIN_GROUP tested components (control
     X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: the groups of the variance
     components), and all observations together."""
-    d = obs.loc[~obs["rejected"] & np.isfinite(obs["w"]), LABEL_COLUMNS(obs) + ["w"]]
+    d = obs.loc[~obs["rejected"] & np.isfinite(obs["w"]), label_columns(obs) + ["w"]]
     lab = Labels(d)
     kind = d["kind"].to_numpy(str)
     img = kind == "image"
