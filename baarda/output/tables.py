@@ -31,7 +31,10 @@ _SPECIAL = '[,"\r\n]'  # a text cell with one of these may need quotes (csv.QUOT
 def csv_text(df: pd.DataFrame, float_format: str = RESULT_FORMAT) -> str:
     """A table as CSV text (no index, LF line ends)."""
     if fast_csv_possible(df, float_format) and len(df) >= FAST_ROWS:
-        return b"".join(csv_chunks(df, float_format)).decode("utf-8")
+        try:
+            return b"".join(csv_chunks(df, float_format)).decode("utf-8")
+        except TypeError:  # a column of objects that are not text: pandas prints them
+            pass
     return pandas_csv_text(df, float_format)
 
 
@@ -49,11 +52,16 @@ def write_csv(path: str | Path, df: pd.DataFrame, float_format: str = RESULT_FOR
     rows on)."""
     from baarda.output.atomic import atomic_open
 
-    use = fast_csv_possible(df, float_format) and (len(df) >= FAST_ROWS if fast is None
-                                                   else fast)
+    chunks = None
+    if fast_csv_possible(df, float_format) and (len(df) >= FAST_ROWS if fast is None
+                                                else fast):
+        try:
+            chunks = csv_chunks(df, float_format)
+        except TypeError:  # a column of objects that are not text: pandas prints them
+            chunks = None
     with atomic_open(path, "wb") as f:
-        if use:
-            for chunk in csv_chunks(df, float_format):
+        if chunks is not None:
+            for chunk in chunks:
                 f.write(chunk)
         else:
             f.write(pandas_csv_text(df, float_format).encode("utf-8"))
@@ -136,6 +144,8 @@ class _TextColumn:
             arr = None
         if isinstance(arr, pa.ChunkedArray):
             arr = arr.combine_chunks()
+        if arr is not None and pa.types.is_null(arr.type):  # nothing but missing values
+            arr = pa.nulls(len(arr), pa.string())
         if arr is None or not (pa.types.is_string(arr.type)
                                or pa.types.is_large_string(arr.type)):
             raise TypeError("not a text column")
@@ -179,9 +189,7 @@ CELL = 24  # bytes of a formatted float cell (%.12g needs at most 19)
 def csv_chunks(df: pd.DataFrame, float_format: str = RESULT_FORMAT,
                chunk_rows: int = CHUNK_ROWS) -> Iterator[bytes]:
     """The CSV bytes of a table (fast_csv_possible), the header first, then chunk_rows rows
-    at a time."""
-    from baarda.output import csv_kernels as ck
-
+    at a time; TypeError (before any bytes) for a column of objects that are not all text."""
     precision = _precision(float_format)
     assert precision is not None
     tol = max(1e-6, 100.0 * 10.0**precision * 2.0**-53)
@@ -192,6 +200,13 @@ def csv_chunks(df: pd.DataFrame, float_format: str = RESULT_FORMAT,
     index[kinds == 1] = np.arange(int(np.sum(kinds == 1)))
     floats = [s.to_numpy(np.float64) for s, k in zip(cols, kinds, strict=True) if k == 0]
     texts = [_TextColumn(s) for s, k in zip(cols, kinds, strict=True) if k == 1]
+    return _chunks(df, float_format, chunk_rows, precision, tol, kinds, index, floats, texts)
+
+
+def _chunks(df, float_format, chunk_rows, precision, tol, kinds, index, floats, texts):
+    from baarda.output import csv_kernels as ck
+
+    cols = df.columns
     yield _header(df)
     n = len(df)
     nf, nt = len(floats), len(texts)

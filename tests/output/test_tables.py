@@ -55,6 +55,25 @@ def test_text_bool_int_columns_as_pandas_prints_them():
     assert fast(df, chunk_rows=777) == pandas_csv_text(df)
 
 
+def test_columns_of_other_objects_go_to_pandas(tmp_path):
+    n = 30
+    df = pd.DataFrame({"a": np.arange(n) / 7, "none": np.array([None] * n, dtype=object),
+                       "mixed": np.array([1, "x", 2.5] * 10, dtype=object)})
+    assert fast_csv_possible(df)  # by its dtypes; the objects are found out when read
+    with pytest.raises(TypeError):
+        csv_chunks(df)
+    write_csv(tmp_path / "t.csv", df, fast=True)
+    assert (tmp_path / "t.csv").read_text() == pandas_csv_text(df)
+    rows = tables.FAST_ROWS
+    try:
+        tables.FAST_ROWS = 1
+        assert tables.csv_text(df) == pandas_csv_text(df)
+        empty = df[["a", "none"]]
+        assert fast(empty) == pandas_csv_text(empty)  # missing values only: empty cells
+    finally:
+        tables.FAST_ROWS = rows
+
+
 def test_tables_it_does_not_take_go_to_pandas(tmp_path):
     df = pd.DataFrame({"a": np.arange(3.0), "b": pd.array([1, None, 3], dtype="Int64")})
     assert not fast_csv_possible(df)
