@@ -49,7 +49,7 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          sigma_image_um: float | None = None, datum: str | None = None,
          encoding: str = ENCODING, camera_model: str | None = None,
          calibrate=None, camera: str | Path | None = None,
-         calibration_group: str | None = None) -> Block:
+         calibration_group: str | None = None, check_gcp=None) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
@@ -63,11 +63,15 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     camera file (e.g. DBAT's calibration result) replacing a DBAT script's camera (it is
     still estimated where the script estimates it, unless calibrate="none");
     calibration_group: "strip" estimates the camera parameters per camera and strip
-    (block/camera.py cameras_per_strip), "camera" or None as the input says.
+    (block/camera.py cameras_per_strip), "camera" or None as the input says; check_gcp:
+    control points to use as check points (with_check_points), e.g. an OpenSfM dataset's
+    GCPs.
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
                      sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
-                     encoding=encoding, camera=camera)
+                     encoding=encoding, camera=camera, crs=crs)
+    if check_gcp is not None:
+        block = with_check_points(block, check_gcp)
     if datum not in (None, *DATUMS):
         raise ValueError(f"datum '{datum}' is not one of {', '.join(DATUMS)}")
     if crs or datum:
@@ -84,6 +88,42 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     if calibration_group == "strip":
         block = cameras_per_strip(block)
     return block
+
+
+CHECK_ALTERNATE = ("alternate", "every-other")
+
+
+def with_check_points(block: Block, spec) -> Block:
+    """The block with control points turned into check points: `spec` a list of point ids
+    (or a comma-separated string of them; an OpenSfM GCP renamed 'gcp ID' is found by its
+    ID too), or "alternate" / "every-other": every second control point with all three
+    coordinates in the order read (the 2nd, 4th, ...).  ProjectError for an id that is not
+    a control point."""
+    pts = block.points
+    ctrl = pts.role == "control"
+    if isinstance(spec, str) and spec.strip() in CHECK_ALTERNATE:
+        full = np.flatnonzero(ctrl & np.isfinite(pts.xyz).all(axis=1))
+        chosen = set(full[1::2].tolist())
+    else:
+        names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else \
+            [str(p) for p in spec]
+        index = block.point_index
+        chosen = set()
+        for name in (n for n in names if n):
+            found = [j for j in (index.get(name), index.get(f"gcp {name}"))
+                     if j is not None and ctrl[j]]
+            j = found[0] if found else None
+            if j is None:
+                raise ProjectError("command line", f"--check-gcp: {name} is not a control "
+                                   "point of " + (block.source or block.settings.name))
+            chosen.add(j)
+    if not chosen:
+        return block
+    role = pts.role.copy()
+    role[sorted(chosen)] = "check"
+    names = ", ".join(pts.ids[j] for j in sorted(chosen))
+    return replace(block, points=replace(pts, role=role), notes=list(block.notes) + [
+        f"{len(chosen)} control point(s) used as check points: {names}"])
 
 
 def with_approximations(block: Block) -> Block:

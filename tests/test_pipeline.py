@@ -1,5 +1,5 @@
 """One program: `baarda.adjust(baarda.read(path))` does what `baarda adjust path` does, for
-every supported input (native, COLMAP, BAL, DBAT, PhotoModeler, AICON)."""
+every supported input (native, COLMAP, BAL, DBAT, PhotoModeler, AICON, OpenSfM)."""
 
 import json
 from pathlib import Path
@@ -10,6 +10,7 @@ import pytest
 import baarda
 import baarda.io.formats
 from baarda.cli import main
+from baarda.errors import ProjectError
 from baarda.io.bal import BalProblem, rodrigues, rotation_vector
 from baarda.output.format_files import write_bal
 
@@ -53,6 +54,7 @@ CASES = {
     "photomodeler": lambda tmp: DATA / "dbat_sxb_aerial" / "photomodeler_export" /
     "wsmart-no-orient-pmexport.txt",
     "aicon": lambda tmp: SHARED / "aicon_jaicov_closerange" / "example.phc",
+    "opensfm": lambda tmp: DATA / "opensfm_berlin",
 }
 
 
@@ -96,3 +98,21 @@ def test_free_network_and_datum_choice():
     assert res.problem.held is not None and int(res.problem.held.sum()) == 7
     assert res.redundancy == res.n_observations - (res.problem.system.nf * 6
                                                    + res.problem.system.np * 3 - 7)
+
+
+def test_check_gcp_for_any_input():
+    """--check-gcp / read(check_gcp=...) turns control points of any input into check
+    points: named ones, or every other one ('alternate')."""
+    path = ROOT / "examples" / "demo"
+    block = baarda.read(path)
+    ctrl = [p for p, r in zip(block.points.ids, block.points.role, strict=True)
+            if r == "control"]
+    two = baarda.read(path, check_gcp=",".join(ctrl[:2]))
+    assert [two.points.role[two.point_index[p]] for p in ctrl[:3]] == ["check", "check",
+                                                                     "control"]
+    alt = baarda.read(path, check_gcp="alternate")
+    full = [p for p in ctrl if np.isfinite(block.points.xyz[block.point_index[p]]).all()]
+    assert {p for p in ctrl if alt.points.role[alt.point_index[p]] == "check"} == \
+        set(full[1::2])
+    with pytest.raises(ProjectError, match="is not a control point"):
+        baarda.read(path, check_gcp="no-such-point")

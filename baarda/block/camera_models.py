@@ -20,6 +20,9 @@ Models (coefficients in the order of ``params``; units for u in mm):
   and `principal_point_to_dbat` map DBAT's pp to baarda's.
 * ``brown_forward``: forward, normalised: Brown on n = (ideal - pp)/c, then the aspect a
   multiplies y by 1 + a (OpenCV/COLMAP with y up: their (p1, p2) are baarda's (p2, -p1)).
+* ``fisheye_forward``: forward, normalised: the equidistant fisheye theta_d = theta (1 + k1
+  theta^2 + ... + k4 theta^8), theta = atan(|n|), then the aspect a (OpenSfM's fisheye and
+  fisheye_opencv; with all coefficients 0 it is the equidistant projection, not none).
 * ``aicon``: forward, mm: AICON 3D Studio's A1..A3 (zero crossing at the constant r0),
   B1, B2, C1, C2.
 * ``ebner``: backward, mm: Ebner's 12 additional parameters on a 3x3 grid of spacing b.
@@ -193,6 +196,41 @@ def _brown_forward(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
     dcoef[:, 1, :5] *= s[:, None]
     dcoef[:, 0, 5] = 0.0
     dcoef[:, 1, 5] = u[:, 1] + bd[:, 1]
+    return delta, jac, dcoef
+
+
+def _fisheye_forward(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
+    """Equidistant fisheye on n = (ideal - pp)/c: theta = atan(r), r = |n|, theta_d =
+    theta (1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8), n_d = n theta_d / r, then
+    the aspect a multiplies y by 1 + a (OpenSfM's fisheye and fisheye_opencv, OpenCV's
+    fisheye model).  u + delta = (n_d_x, (1 + a) n_d_y)."""
+    k, a = coef[:, :4], coef[:, 4]
+    r2 = np.sum(u * u, axis=1)
+    r = np.sqrt(r2)
+    small = r < 1e-4
+    rs = np.where(small, 1.0, r)
+    th = np.arctan(r)
+    t2 = th * th
+    poly = 1 + t2 * (k[:, 0] + t2 * (k[:, 1] + t2 * (k[:, 2] + t2 * k[:, 3])))
+    dpoly = 1 + t2 * (3 * k[:, 0] + t2 * (5 * k[:, 1] + t2 * (7 * k[:, 2] + t2 * 9 * k[:, 3])))
+    # g = theta_d / r and h = (dg/dr) / r, by their series below r = 1e-4 (0/0 at r = 0)
+    g = np.where(small, 1 + (k[:, 0] - 1 / 3) * r2, th * poly / rs)
+    h = np.where(small, 2 * (k[:, 0] - 1 / 3),
+                 (dpoly / (1 + r2) * rs - th * poly) / (rs * rs * rs))
+    n = u * g[:, None]
+    jn = g[:, None, None] * np.eye(2) + h[:, None, None] * u[:, :, None] * u[:, None, :]
+    ratio = np.where(small, 1.0, th / rs)  # theta / r
+    dk = np.stack([u * (ratio * t2 ** (j + 1))[:, None] for j in range(4)], axis=-1)
+    s = 1 + a
+    delta = n - u
+    delta[:, 1] = s * n[:, 1] - u[:, 1]
+    jac = jn - np.eye(2)
+    jac[:, 1, :] = s[:, None] * jn[:, 1, :]
+    jac[:, 1, 1] -= 1.0
+    dcoef = np.zeros((len(u), 2, 5))
+    dcoef[:, :, :4] = dk
+    dcoef[:, 1, :4] *= s[:, None]
+    dcoef[:, 1, 4] = n[:, 1]
     return delta, jac, dcoef
 
 
@@ -377,6 +415,9 @@ MODELS: dict[str, CameraModel] = {m.name: m for m in (
     CameraModel("brown_forward", "forward", (*BROWN, "a"), (), True,
                 "Brown on normalised coordinates with aspect (OpenCV/COLMAP/BAL)",
                 _brown_forward),
+    CameraModel("fisheye_forward", "forward", ("k1", "k2", "k3", "k4", "a"), (), True,
+                "equidistant fisheye with odd polynomial in theta and aspect "
+                "(OpenSfM/OpenCV fisheye)", _fisheye_forward),
     CameraModel("aicon", "forward", ("a1", "a2", "a3", "b1", "b2", "c1", "c2"), ("r0",), False,
                 "AICON 3D Studio: radial with zero crossing r0, decentring, affinity",
                 _aicon),

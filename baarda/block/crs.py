@@ -199,3 +199,37 @@ def localize(block: Block, crs: str | None = None) -> Block:
         imu = replace(imu, angles=frame.eo_to_local(np.column_stack([where, imu.angles]))[:, 3:])
     return replace(block, photos=photos, points=points, notes=notes, frame=frame, gnss=gnss,
                    imu=imu)
+
+
+def delocalize(block: Block) -> Block:
+    """The inverse of `localize`: a block held in the local frame of its CRS (block.frame)
+    with ground coordinates, EO, GNSS positions and IMU attitudes in the CRS again (frame
+    None); a block without a frame is returned as it is.  Writers of CRS coordinates use it
+    (a native project of an OpenSfM dataset)."""
+    frame = block.frame
+    if frame is None:
+        return block
+    pts = block.points
+    xyz = np.where(np.isfinite(pts.xyz), 0.0, np.nan)
+    full = np.isfinite(pts.xyz).all(axis=1)
+    xyz[full] = frame.from_local(pts.xyz[full])
+    eo = block.photos.eo
+    ok = np.isfinite(eo).all(axis=1)
+    eo_c = np.full(eo.shape, np.nan)
+    if ok.any():
+        eo_c[ok] = frame.eo_from_local(eo[ok])
+    gnss, imu = block.gnss, block.imu
+    if len(gnss):
+        gnss = replace(gnss, xyz=frame.from_local(gnss.xyz))
+    if len(imu):
+        where = np.where(ok[imu.photo, None], eo[imu.photo, :3], 0.0)
+        imu = replace(imu, angles=frame.eo_from_local(np.column_stack([where, imu.angles]))
+                      [:, 3:])
+    part = np.isfinite(pts.xyz).any(axis=1) & ~full  # e.g. planimetric: height 0 to place it
+    if part.any():
+        xyz[part] = np.where(np.isfinite(pts.xyz[part]), frame.from_local(
+            np.nan_to_num(pts.xyz[part])), np.nan)
+    return replace(block, photos=Photos(block.photos.ids, block.photos.camera,
+                                        block.photos.strip, eo_c),
+                   points=replace(pts, xyz=xyz), frame=None, gnss=gnss, imu=imu,
+                   notes=list(block.notes))

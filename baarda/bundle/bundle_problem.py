@@ -251,13 +251,36 @@ class BundleProblem(SchurProblem):
                                        default=0)))
         cal = self.calibration
         rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every camera
-        for i in np.unique(cam):
-            sel = np.flatnonzero(cam == i)
-            out = camera_projection(eo, xyz_rows[sel], ph[sel], params[i], cal.models[i],
-                                    cal.constants[i], im.xy_mm[rows[sel]], rot)
-            f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
+        for model, cams in self._model_groups:
+            if len(cams) == 1:
+                i = cams[0]
+                sel = np.flatnonzero(cam == i)
+                p, k = params[i], cal.constants[i]
+            else:  # cameras of one model at once (BAL: a camera per photo), row by row
+                local = np.full(len(cal.models), -1)
+                local[cams] = np.arange(len(cams))
+                sel = np.flatnonzero(local[cam] >= 0)
+                which = local[cam[sel]]
+                p = np.array([params[i] for i in cams], float)[which]
+                k = np.array([cal.constants[i] for i in cams], float)[which]
+            if not len(sel):
+                continue
+            out = camera_projection(eo, xyz_rows[sel], ph[sel], p, model, k,
+                                    im.xy_mm[rows[sel]], rot)
+            if len(sel) == m:
+                f, je, jp = out[0], out[1], out[2]
+            else:
+                f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
             jpar[sel, :, :out[3].shape[2]] = out[3]
         return f, je, jp, jpar
+
+    @property
+    def _model_groups(self) -> list[tuple]:
+        """(camera model, indices of its cameras) for every model of the block."""
+        groups: dict[int, tuple] = {}
+        for i, model in enumerate(self.calibration.models):
+            groups.setdefault(id(model), (model, []))[1].append(i)
+        return list(groups.values())
 
     def _free_columns(self, rows, jpar) -> np.ndarray:
         """jpar restricted to the free parameters of each row's camera, (m, 2, width)."""

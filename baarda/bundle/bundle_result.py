@@ -210,6 +210,7 @@ class BundleResult(AdjustmentCounts):
             "seconds": self.seconds,
             "notes": list(self.notes),
             **({"calibration": self.camera_table(),
+                "camera_correlations": self.camera_correlations(),
                 "high_correlations": self.high_correlations()}
                if self.problem.calibration.n else {}),
         }
@@ -259,6 +260,23 @@ class BundleResult(AdjustmentCounts):
                             "value": float(params[i][j]),
                             "sigma": float(std[free[j]]) if j in free else None,
                             "estimated": j in free})
+        return out
+
+    def camera_correlations(self) -> list[dict]:
+        """Per camera with estimated parameters: their names and correlation matrix
+        (summary.json 'camera_correlations'; the report's heat map)."""
+        cal = self.problem.calibration
+        q = self.camera_covariance()
+        s = np.sqrt(np.maximum(np.diag(q), 1e-300))
+        r = q / np.outer(s, s) if len(q) else q
+        out = []
+        for i, cid in enumerate(self.block.cameras.ids):
+            cols = cal.columns[i]
+            if not len(cols):
+                continue
+            out.append({"camera": cid,
+                        "parameters": [cal.names[i][j] for j in cal.free_index[i]],
+                        "matrix": np.round(r[np.ix_(cols, cols)], 6).tolist()})
         return out
 
     def high_correlations(self, limit: float = HIGH_CORRELATION) -> list[str]:

@@ -32,6 +32,8 @@ def parameter_groups(model) -> list[tuple[str, tuple[str, ...]]]:
     if model.name == "aicon":
         extra = [("radial distortion", ("a1", "a2", "a3")),
                  ("decentring distortion", ("b1", "b2")), ("affinity and shear", ("c1", "c2"))]
+    elif model.name == "fisheye_forward":
+        extra = [("radial distortion", ("k1", "k2", "k3", "k4")), ("aspect", ("a",))]
     elif model.name in ("ebner", "gruen"):
         extra = [(f"{model.name} additional parameters", model.params)]
     else:

@@ -66,12 +66,13 @@ def project_with_jacobians(eo: np.ndarray, xyz: np.ndarray, focal: np.ndarray,
 def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
                       params: np.ndarray, model: CameraModel, const: np.ndarray,
                       observed: np.ndarray, rotations: tuple | None = None):
-    """The observation equations of the image points of one camera, with its model.
+    """The observation equations of the image points of cameras of one model.
 
     eo (n_photos, 6); xyz (m, 3) the observed points; photo (m,) the photo of each row;
-    params = [c, x0, y0, coefficients...] of the camera (mm; the model's units); const its
-    model's constants; observed (m, 2) the measured coordinates (mm).  Returns f (m, 2),
-    the value the observation is compared with (e = observed - f), and its Jacobians with
+    params = [c, x0, y0, coefficients...] of the camera (mm; the model's units), or one such
+    row per observation; const the model's constants (likewise); observed (m, 2) the
+    measured coordinates (mm); rotations: those of eo, when known.  Returns f (m, 2), the
+    value the observation is compared with (e = observed - f), and its Jacobians with
     respect to the photo (m, 2, 6), the point (m, 2, 3) and the camera parameters
     (m, 2, 3 + k):
 
@@ -81,26 +82,34 @@ def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
       the projection, with delta evaluated at the observation (DBAT's and the
       photogrammetric programs' formulation; the observation keeps its own weight).
     """
-    c, pp, coef = float(params[0]), params[1:3], params[3:]
     m = len(photo)
-    xy, je, jp = project_with_jacobians(eo, xyz, np.full(m, c), np.tile(pp, (m, 1)),
-                                        photo=photo, rotations=rotations)
+    if np.ndim(params) == 2:  # one row of parameters per observation (cameras of one model)
+        c, pp, coef = params[:, 0], params[:, 1:3], params[:, 3:]
+        cr = c[:, None]
+        const = np.asarray(const, float).reshape(m, -1)
+    else:
+        c, pp, coef = float(params[0]), params[1:3], params[3:][None, :]
+        cr = c
+        const = np.asarray(const, float)[None, :]
+    xy, je, jp = project_with_jacobians(eo, xyz, np.broadcast_to(c, (m,)),
+                                        np.broadcast_to(pp, (m, 2)), photo=photo,
+                                        rotations=rotations)
     ideal = xy - pp  # reduced to the principal point, mm
-    jpar = np.zeros((m, 2, 3 + len(coef)))
+    jpar = np.zeros((m, 2, 3 + coef.shape[1]))
     if model.side == "backward":
-        delta, ddu, ddc = model.correction(observed - pp, coef[None, :], const[None, :])
+        delta, ddu, ddc = model.correction(observed - pp, coef, const)
         f = xy - delta
-        jpar[:, :, 0] = ideal / c
+        jpar[:, :, 0] = ideal / cr
         jpar[:, :, 1:3] = np.eye(2) + ddu  # d(-delta(observed - pp)) / d pp = + d delta/du
         jpar[:, :, 3:] = -ddc
         return f, je, jp, jpar
-    s = c if model.normalized else 1.0
-    delta, ddu, ddc = model.correction(ideal / s, coef[None, :], const[None, :])
+    s = cr if model.normalized else 1.0
+    delta, ddu, ddc = model.correction(ideal / s, coef, const)
     f = pp + ideal + s * delta
     dd = np.eye(2) + ddu  # d f / d ideal
     je, jp = dd @ je, dd @ jp
-    jpar[:, :, 0] = ideal / c + delta if model.normalized else np.einsum(
-        "mab,mb->ma", dd, ideal / c)
+    jpar[:, :, 0] = ideal / cr + delta if model.normalized else np.einsum(
+        "mab,mb->ma", dd, ideal / cr)
     jpar[:, :, 1:3] = np.eye(2)
-    jpar[:, :, 3:] = s * ddc
+    jpar[:, :, 3:] = (s[:, :, None] if np.ndim(s) == 2 else s) * ddc
     return f, je, jp, jpar

@@ -27,8 +27,8 @@ COMMANDS = {
     "report": ("baarda.cli.report", "adjustment report: HTML (plots embedded) or text"),
     "residuals": ("baarda.cli.residuals", "post-processor: group statistics and histograms of "
                   "residuals listed by another program (see docs/report.md)"),
-    "convert": ("baarda.cli.convert", "convert a COLMAP, BAL, DBAT, PhotoModeler or AICON "
-                "input (or a project) into a native project folder"),
+    "convert": ("baarda.cli.convert", "convert a COLMAP, BAL, DBAT, PhotoModeler, AICON, "
+                "MicMac or OpenSfM input (or a project) into a native project folder"),
     "models": ("baarda.cli.models", "independent-model block adjustment with data snooping "
                "and tests of model deformations (FOTEF)"),
     "simulate-models": ("baarda.cli.models", "simulate an independent-model block with "

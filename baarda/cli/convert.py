@@ -12,8 +12,8 @@ from baarda.pipeline import with_approximations
 
 
 def register(sub) -> None:
-    p = sub.add_parser("convert", help="convert a COLMAP, BAL, DBAT, PhotoModeler or AICON "
-                       "input (or a project) into a native project folder")
+    p = sub.add_parser("convert", help="convert a COLMAP, BAL, DBAT, PhotoModeler, AICON, "
+                       "MicMac or OpenSfM input (or a project) into a native project folder")
     p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
     add_out_argument(p, "project folder to write")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing")

@@ -17,9 +17,10 @@ def add_input_options(p) -> None:
     p.add_argument("--crs", help="CRS of the ground coordinates (e.g. EPSG:32632); overrides "
                    "project.toml")
     p.add_argument("--pixel-mm", type=float, default=0.001, help="nominal pixel size for "
-                   "COLMAP and BAL input [mm] (default 0.001: residuals in µm read as pixels)")
-    p.add_argument("--sigma-px", type=float, default=1.0, help="image sigma for COLMAP and "
-                   "BAL input [px] (default 1)")
+                   "COLMAP, BAL and OpenSfM input [mm] (default 0.001: residuals in µm read as "
+                   "pixels)")
+    p.add_argument("--sigma-px", type=float, default=1.0, help="image sigma for COLMAP, "
+                   "BAL and OpenSfM input [px] (default 1)")
     p.add_argument("--sigma-image-um", type=float, help="image sigma for AICON input [µm] "
                    "(default: the .phc file's)")
     add_encoding_option(p)
@@ -45,6 +46,9 @@ def add_input_options(p) -> None:
                    "Default: free for COLMAP, BAL and AICON input, else project.toml's datum "
                    "(default control)")
     p.add_argument("--free", action="store_true", help="the same as --datum free")
+    p.add_argument("--check-gcp", metavar="IDS", help="use these control points (GCPs) as "
+                   "check points: a comma list of ids, or 'alternate' for every other one "
+                   "(the 2nd, 4th, ... in the order read). Default: all are control")
 
 
 def read_input(args) -> Block:
@@ -53,7 +57,8 @@ def read_input(args) -> Block:
                 sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
                 datum=datum_option(args), encoding=args.encoding,
                 camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate),
-                camera=args.camera, calibration_group=args.calibration_group)
+                camera=args.camera, calibration_group=args.calibration_group,
+                check_gcp=args.check_gcp)
 
 
 def datum_option(args) -> str | None:

@@ -25,6 +25,12 @@ def register(sub) -> None:
     p.add_argument("results", type=Path, help="output folder of baarda adjust")
     p.add_argument("-o", "--out", type=Path, help="HTML file to write")
     p.add_argument("--text", action="store_true", help="print the text report")
+    p.add_argument("--quality", type=Path, metavar="HTML", help="write the quality report "
+                   "(camera parameters with standard deviations and correlations, GCP, check "
+                   "point and GNSS residuals, reprojection errors per image, r, w and MDB, "
+                   "snooping log, external reliability; docs/odm.md) as an HTML file")
+    p.add_argument("--pdf", type=Path, metavar="PDF", help="write the same quality report "
+                   "as a PDF")
     add_histogram_options(p)
     p.add_argument("--w-class-width", type=float, default=0.5, help="class width for w")
     p.add_argument("--w-range", type=float, nargs=2, default=[-6.0, 6.0], metavar=("LO", "HI"),
@@ -70,16 +76,18 @@ def run(args) -> int:
     from baarda.report.histogram import classes
     from baarda.report.text_report import text_report
 
-    if args.out is None and not args.text:
-        raise ProjectError(str(args.results), "nothing to do: give -o report.html and/or --text")
+    if args.out is None and not args.text and args.quality is None and args.pdf is None:
+        raise ProjectError(str(args.results), "nothing to do: give -o report.html, --text, "
+                           "--quality quality.html and/or --pdf quality.pdf")
     opt = options(args)
     for w, lo, hi in ((opt.width, opt.lo, opt.hi), (opt.w_width, opt.w_lo, opt.w_hi)):
         try:
             classes(w, lo, hi)
         except ValueError as e:
             raise ProjectError("command line", str(e)) from None
-    if args.out is not None:
-        check_output_file(args.out, [args.results, *run_files(args.results)])
+    for out in (args.out, args.quality, args.pdf):
+        if out is not None:
+            check_output_file(out, [args.results, *run_files(args.results)])
     res = read_results(args.results)
     if args.text:
         print(text_report(res, opt), end="")
@@ -94,4 +102,16 @@ def run(args) -> int:
         write_html(args.out, html_report(res, opt))
         if not args.quiet:
             print(f"report written to {args.out}")
+    if args.quality is not None or args.pdf is not None:
+        from baarda.report.html_report import write_html
+        from baarda.report.quality_report import quality_page, write_quality_pdf
+
+        if args.quality is not None:
+            write_html(args.quality, quality_page(res))
+            if not args.quiet:
+                print(f"quality report written to {args.quality}")
+        if args.pdf is not None:
+            n = write_quality_pdf(res, args.pdf)
+            if not args.quiet:
+                print(f"quality report written to {args.pdf} ({n} pages)")
     return 0

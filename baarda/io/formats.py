@@ -9,6 +9,7 @@
 | .txt starting with "Bundle Soln" | PhotoModeler export | io/photomodeler.py |
 | .bz2 / text whose first line is three counts | BAL | io/bal.py |
 | folder of MicMac tie points .mes, orientations .opk, IGN camera .xml | MicMac | micmac |
+| OpenSfM dataset (reconstruction.json, tracks.csv) or ODM project (opensfm/) | OpenSfM | opensfm |
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from baarda.io.records import ENCODING
 # bad file early has not paid for the imports of every reader (numba for COLMAP, pandas for
 # native projects): issue 19, a hostile file costs what the interpreter costs.
 
-FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal", "micmac")
+FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal", "micmac", "opensfm")
 
 
 def _colmap_folder(p: Path) -> Path | None:
@@ -51,6 +52,10 @@ def detect(path: str | Path) -> str:
         return "aicon"
     if is_micmac(p):
         return "micmac"
+    from baarda.io.opensfm import is_opensfm
+
+    if is_opensfm(p):
+        return "opensfm"
     if p.is_file():
         from baarda.io.bal import is_bal
         from baarda.io.dbat import is_dbat_script
@@ -64,19 +69,22 @@ def detect(path: str | Path) -> str:
             return "bal"
     raise ProjectError(str(p), "format not recognised (native project folder, COLMAP model, "
                        "AICON project, DBAT script .xml, PhotoModeler export .txt, BAL file, "
-                       "MicMac/IGN folder)")
+                       "MicMac/IGN folder, OpenSfM dataset or ODM project)")
 
 
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.001,
              sigma_px: float = 1.0, sigma_image_mm: float | None = None,
-             encoding: str = ENCODING, camera: str | Path | None = None) -> Block:
+             encoding: str = ENCODING, camera: str | Path | None = None,
+             crs: str | None = None) -> Block:
     """Read any supported input into a Block.
 
     pixel_mm, sigma_px: nominal pixel size and image sigma for formats without a physical
-    pixel size (COLMAP, BAL); sigma_image_mm: image sigma for AICON (default: the file's);
+    pixel size (COLMAP, BAL, OpenSfM); sigma_image_mm: image sigma for AICON (default: the file's);
     encoding: of the text files of a project, AICON or PhotoModeler input (COLMAP and BAL
     are UTF-8 / ASCII by definition, DBAT's XML names its own); camera: a DBAT camera file
-    (a calibration result) replacing a DBAT script's camera.
+    (a calibration result) replacing a DBAT script's camera; crs: the project CRS of an
+    OpenSfM dataset (its topocentric frame is placed in it; other formats take the CRS in
+    pipeline.read).
     """
     p = Path(path)
     fmt = fmt or detect(p)
@@ -111,6 +119,10 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.00
         from baarda.io.micmac import read_micmac
 
         return read_micmac(p)
+    if fmt == "opensfm":
+        from baarda.io.opensfm import read_opensfm
+
+        return read_opensfm(p, pixel_mm=pixel_mm, sigma_px=sigma_px, crs=crs)
     from baarda.io.bal import read_bal_block
 
     return read_bal_block(p, pixel_mm=pixel_mm, sigma_px=sigma_px)

@@ -40,7 +40,7 @@ from baarda.block.photo_block import (
     Settings,
 )
 from baarda.errors import ProjectError
-from baarda.io.records import decode_text, file_bytes, read_lines
+from baarda.io.records import decode_text, file_bytes, parse_number, read_lines
 from baarda.io.xmltree import parse_xml
 
 CRS = "EPSG:2154"  # Lambert-93, the IGN's and MicMac's SysCo of this data
@@ -82,13 +82,7 @@ def _lines(path: Path):
 
 
 def _number(text: str, path: Path, line: int, column: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise ProjectError(str(path), f"'{text}' is not a number", line, column) from None
-    if not np.isfinite(v):
-        raise ProjectError(str(path), f"'{text}' is not a finite number", line, column)
-    return v
+    return parse_number(text, str(path), line, column)
 
 
 def read_sensor(path: Path) -> dict:

@@ -1,4 +1,5 @@
-"""Writing the projects of other programs: COLMAP models, BAL files, AICON projects.
+"""Writing the projects of other programs: COLMAP models, BAL files, AICON projects,
+OpenSfM datasets.
 
 The inverses of the readers in baarda.io (round trips are exact); every file is written
 atomically.
@@ -7,6 +8,7 @@ atomically.
 from __future__ import annotations
 
 import bz2
+import json
 import struct
 from pathlib import Path
 
@@ -16,6 +18,7 @@ from baarda.io.aicon import AiconProject, _f, _id
 from baarda.io.bal import BalProblem
 from baarda.io.colmap import MODEL_ID, ColmapModel
 from baarda.io.colmap_binary import IMAGE_HEADER, KEYPOINT, POINT_HEADER, TRACK_ELEMENT
+from baarda.io.opensfm import FLIP, angle_axis, topocentric_frame, utm_crs
 from baarda.output.atomic import write_bytes, write_text
 
 
@@ -186,3 +189,136 @@ def write_aicon(project: AiconProject, folder: str | Path, name: str | None = No
             f"{_f(s['length'][k])} {_f(s['sigma'][k])} {int(s['status'][k])}"
             for k in range(len(s["id"]))]
     write_text(folder / f"{name}.scale", "\n".join(rows) + ("\n" if rows else ""))
+
+
+def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
+                  reference_lla: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+    """Write a block as an OpenSfM dataset (the inverse of io/opensfm.read_opensfm):
+    reconstruction.json, tracks.csv, ground_control_points.json (control and check points:
+    read them back with the check points named in --check-gcp), config.yaml (the control
+    sigmas).  Ground coordinates are taken as the topocentric frame at reference_lla
+    (latitude, longitude, altitude) for a block without a CRS, else the block is put in a
+    local frame of its CRS first and that frame's origin is the reference.  Tie points
+    without coordinates are intersected from the orientations.  Cameras must have the
+    models none, brown_forward or fisheye_forward; IMU attitudes and distances have no
+    place in OpenSfM (ValueError), nor do height-only control points or GNSS sigmas that
+    differ by axis."""
+    from pyproj import Transformer
+
+    from baarda.block.camera import coefficients, kinds
+    from baarda.block.crs import localize
+    from baarda.block.rotation import rotation_matrix
+    from baarda.bundle.geometry import intersect
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    if len(block.imu) or len(block.distances):
+        raise ValueError("OpenSfM datasets have no IMU attitudes or distances")
+    if block.settings.crs and block.frame is None:
+        block = localize(block)
+    if block.frame is not None:
+        frame = block.frame
+        lon, lat, h = Transformer.from_crs(frame.crs3, "EPSG:4979", always_xy=True).transform(
+            *frame.from_local(np.zeros((1, 3)))[0])
+        reference_lla = (lat, lon, h)
+    else:
+        lat, lon, h = reference_lla
+        frame = topocentric_frame(utm_crs(lon, lat), [lon, lat, h], folder)
+    to_lla = Transformer.from_crs(frame.crs3, "EPSG:4979", always_xy=True)
+    cams = block.cameras
+    kind = kinds(cams)
+    im, pts = block.image, block.points
+    span = np.abs(im.xy_mm).max(initial=1.0) / pixel_mm
+    size = float(2 * int(np.ceil(span)) + 2)  # square frame: max(width, height) = size px
+    s = size * pixel_mm  # mm per normalised unit
+    cameras = {}
+    for i, cid in enumerate(cams.ids):
+        if kind[i] not in ("none", "brown_forward", "fisheye_forward"):
+            raise ValueError(f"camera {cid}: model {kind[i]} has no OpenSfM equivalent "
+                             "(none, brown_forward or fisheye_forward)")
+        k = coefficients(cams, i) if kind[i] != "none" else np.zeros(6)
+        c, (x0, y0) = float(cams.focal_mm[i]), np.asarray(cams.principal_point_mm[i], float)
+        if kind[i] == "fisheye_forward":
+            if x0 == 0 and y0 == 0 and not np.any(k[2:]):
+                cameras[cid] = {"projection_type": "fisheye", "width": size, "height": size,
+                                "focal": c / s, "k1": float(k[0]), "k2": float(k[1])}
+            else:
+                cameras[cid] = {"projection_type": "fisheye_opencv", "width": size,
+                                "height": size, "focal_x": c / s,
+                                "focal_y": c / s * (1 + float(k[4])), "c_x": x0 / s,
+                                "c_y": -y0 / s, "k1": float(k[0]), "k2": float(k[1]),
+                                "k3": float(k[2]), "k4": float(k[3])}
+        elif x0 == 0 and y0 == 0 and not np.any(k[2:]):
+            cameras[cid] = {"projection_type": "perspective", "width": size, "height": size,
+                            "focal": c / s, "k1": float(k[0]), "k2": float(k[1])}
+        else:
+            cameras[cid] = {"projection_type": "brown", "width": size, "height": size,
+                            "focal_x": c / s, "focal_y": c / s * (1 + float(k[5])),
+                            "c_x": x0 / s, "c_y": -y0 / s, "k1": float(k[0]),
+                            "k2": float(k[1]), "k3": float(k[2]), "p1": -float(k[4]),
+                            "p2": float(k[3])}
+    shots = {}
+    gnss = {int(p): j for j, p in enumerate(block.gnss.photo.tolist())}
+    for i, pid in enumerate(block.photos.ids):
+        e = block.photos.eo[i]
+        if not np.isfinite(e).all():
+            raise ValueError(f"photo {pid} has no orientation")
+        r = FLIP @ rotation_matrix(e[3], e[4], e[5]).T
+        shot = {"rotation": angle_axis(r).tolist(), "translation": (-r @ e[:3]).tolist(),
+                "camera": cams.ids[block.photos.camera[i]]}
+        if i in gnss:
+            sig = block.gnss.sigma[gnss[i]]
+            if not np.allclose(sig, sig[0], rtol=1e-12, atol=0):
+                raise ValueError(f"photo {pid}: OpenSfM keeps one gps_dop, the GNSS sigmas "
+                                 f"differ by axis ({sig.tolist()})")
+            shot["gps_position"] = block.gnss.xyz[gnss[i]].tolist()
+            shot["gps_dop"] = float(sig[0])
+        shots[pid] = shot
+    tie = pts.role == "tie"
+    xyz = pts.xyz.copy()
+    need = np.flatnonzero(tie & ~np.isfinite(xyz).all(axis=1))
+    if len(need):
+        xyz[need] = intersect(block, block.photos.eo, need)
+    points = {pts.ids[j]: {"coordinates": xyz[j].tolist(), "color": [128, 128, 128]}
+              for j in np.flatnonzero(tie & np.isfinite(xyz).all(axis=1))}
+    recon = [{"cameras": cameras, "shots": shots, "points": points,
+              "reference_lla": {"latitude": reference_lla[0], "longitude": reference_lla[1],
+                                "altitude": reference_lla[2]}}]
+    write_text(folder / "reconstruction.json", json.dumps(recon, indent=1))
+    rows = ["OPENSFM_TRACKS_VERSION_v2"]
+    norm = np.column_stack([im.xy_mm[:, 0] / s, -im.xy_mm[:, 1] / s])
+    for k in np.flatnonzero(tie[im.point]):
+        rows.append(f"{block.photos.ids[im.photo[k]]}\t{pts.ids[im.point[k]]}\t{k}\t"
+                    f"{float(norm[k, 0])!r}\t{float(norm[k, 1])!r}\t0.001\t128\t128\t128\t-1\t-1")
+    write_text(folder / "tracks.csv", "\n".join(rows) + "\n")
+    gcps = []
+    ctrl = np.flatnonzero(~tie)
+    sig = pts.sigma[ctrl[pts.role[ctrl] == "control"]]
+    for j in ctrl:
+        c = pts.xyz[j]
+        if pts.role[j] == "control":  # only the observed coordinates
+            c = np.where(np.isfinite(pts.sigma[j]), c, np.nan)
+        if not np.isfinite(c[:2]).all():
+            raise ValueError(f"point {pts.ids[j]}: OpenSfM GCPs need a horizontal position")
+        lo, la, al = to_lla.transform(*frame.from_local(np.where(np.isfinite(c), c,
+                                                                 0.0)[None])[0])
+        pos = {"latitude": la, "longitude": lo}
+        if np.isfinite(c[2]):
+            pos["altitude"] = al
+        obs = [{"shot_id": block.photos.ids[im.photo[k]], "projection": norm[k].tolist()}
+               for k in np.flatnonzero(im.point == j)]
+        gcps.append({"id": pts.ids[j], "position": pos, "observations": obs})
+    if gcps:
+        write_text(folder / "ground_control_points.json", json.dumps({"points": gcps}, indent=1))
+    cfg = ["# written by baarda (output/format_files.py write_opensfm)", "bundle_use_gcp: yes"]
+    if len(sig):
+        h = np.unique(sig[:, :2][np.isfinite(sig[:, :2])])
+        v = np.unique(sig[:, 2][np.isfinite(sig[:, 2])])
+        if len(h) > 1 or len(v) > 1:
+            raise ValueError("OpenSfM keeps one horizontal and one vertical GCP sigma; the "
+                             "control points' sigmas differ")
+        if len(h):
+            cfg.append(f"gcp_horizontal_sd: {float(h[0])!r}")
+        if len(v):
+            cfg.append(f"gcp_vertical_sd: {float(v[0])!r}")
+    write_text(folder / "config.yaml", "\n".join(cfg) + "\n")

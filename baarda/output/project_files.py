@@ -12,6 +12,7 @@ import numpy as np
 
 from baarda.block.camera import coefficients, constants, model_of
 from baarda.block.camera import kinds as camera_kinds
+from baarda.block.crs import delocalize
 from baarda.block.model_block import ModelBlock
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rad_to_angle
@@ -66,6 +67,8 @@ def write_project(block: Block, folder: str | Path | RunFolder) -> None:
 
 
 def _write_project(block: Block, folder: Path) -> None:
+    if block.frame is not None:  # held in a local frame (OpenSfM): write the CRS's numbers
+        block = delocalize(block)
     s = block.settings
     toml = [f'name = "{s.name}"', f'angle_unit = "{s.angle_unit}"', 'image_unit = "mm"']
     if s.crs:

@@ -19,6 +19,7 @@ from baarda.report.anaplot import format_log, log_mdb, log_test, snooping_table
 from baarda.report.footprint import footprints, image_extent
 from baarda.report.histogram import format_histogram
 from baarda.report.plots import Plot, residual_histograms, w_histogram
+from baarda.report.quality_report import tables_html
 from baarda.report.stats import (
     gnss_imu_per_strip,
     group_statistics,
@@ -243,6 +244,9 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     sec.append(("global", "Global test",
                 f'<p class="{"ok" if passed else "bad"}" id="global-test">'
                 + "<br>".join(esc(x) for x in gt_lines) + "</p>"))
+    cal = tables_html(res)
+    if cal:
+        sec.append(("calibration", "Camera calibration, control and GNSS", cal))
     vc = _variance_components(res.summary)
     if vc is not None:
         sec.append(("vce", "Variance components per group", table(

@@ -20,6 +20,7 @@ COEF = {  # plausible coefficients per model (mm units for the photogrammetric o
     "dbat3": [2e-4, -3e-7, 1e-10, 4e-6, -3e-6, 2e-4, -1e-4],
     "dbat5": [2e-4, -3e-7, 1e-10, 4e-6, -3e-6, 2e-4, -1e-4],
     "brown_forward": [-0.12, 0.05, -0.01, 1e-3, -2e-3, 3e-3],
+    "fisheye_forward": [0.03, -0.01, 0.004, -0.001, 2e-4],
     "aicon": [-1.1e-4, 1.5e-7, 1e-11, 5.8e-6, -8.6e-6, -7e-5, -3e-5],
     "ebner": list(rng.normal(0, 1e-4, 12)),
     "gruen": list(rng.normal(0, 1e-3, 44)),

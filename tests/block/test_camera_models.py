@@ -27,6 +27,11 @@ def _sample(name: str, rng: np.random.Generator):
         u = rng.uniform(-0.6, 0.6, (M, 2))
         coef = rng.normal(0, 1, (M, k)) * [0.1, 0.05, 0.01, 0.005, 0.005, 0.01]
         return u, coef, None, 50.0  # normalised: c = 50 mm
+    if name == "fisheye_forward":
+        u = rng.uniform(-1.2, 1.2, (M, 2))  # up to 60 degrees off the axis
+        u[:3] *= 1e-6  # the series near the axis
+        coef = rng.normal(0, 1, (M, k)) * [0.05, 0.01, 0.005, 0.001, 0.01]
+        return u, coef, None, 50.0
     if name == "ebner":
         b = rng.uniform(6, 12, (M, 1))
         u = rng.uniform(-1.5, 1.5, (M, 2)) * b
@@ -235,7 +240,7 @@ def test_gruen_fields_are_orthonormal_over_the_5x5_grid_and_extend_ebner():
 
 def test_registry_and_arguments():
     assert set(cm.MODELS) == {"none", "brown", "dbat3", "dbat5", "brown_forward", "aicon",
-                              "ebner", "gruen"}
+                              "ebner", "gruen", "fisheye_forward"}
     with pytest.raises(ValueError, match="known: none, brown"):
         cm.get_model("fisheye")
     for m in cm.MODELS.values():
@@ -252,3 +257,27 @@ def test_registry_and_arguments():
         cm.apply_forward(cm.get_model("brown"), u, np.zeros(7))
     one = cm.get_model("aicon").correction(u, np.arange(7) * 1e-5, [10.0])[0]
     assert np.allclose(one, one[0])  # one coefficient row broadcast to every row
+
+
+def test_fisheye_forward_is_the_equidistant_fisheye():
+    """theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8), theta = atan(r), n_d = n theta_d
+    / r, y times 1 + a: written out here; the series near the axis joins the closed form."""
+    rng = np.random.default_rng(21)
+    n = rng.uniform(-1.5, 1.5, (M, 2))
+    n[0] = 0.0
+    n[1] = [0.99e-4, 0.0]
+    n[2] = [1.01e-4, 0.0]
+    coef = rng.normal(0, 1, (M, 5)) * [0.05, 0.01, 0.005, 0.001, 0.01]
+    nd, _ = cm.apply_forward(cm.MODELS["fisheye_forward"], n, coef)
+    r = np.hypot(n[:, 0], n[:, 1])
+    th = np.arctan(r)
+    k = coef
+    thd = th * (1 + k[:, 0] * th**2 + k[:, 1] * th**4 + k[:, 2] * th**6 + k[:, 3] * th**8)
+    scale = np.ones(M)
+    scale[r > 0] = thd[r > 0] / r[r > 0]
+    want = n * scale[:, None]
+    want[:, 1] *= 1 + k[:, 4]
+    assert np.abs(nd - want).max() < 1e-15
+    # with all coefficients 0: r -> atan(r), not the identity
+    zero, _ = cm.apply_forward(cm.MODELS["fisheye_forward"], [[1.0, 0.0]], np.zeros(5))
+    assert zero[0] == pytest.approx([np.pi / 4, 0.0], abs=1e-15)

@@ -294,3 +294,29 @@ def photomodeler_base(work):
 
     base = load_base(PMEXPORT.parent, {PMEXPORT.name: "text"})
     return _checked(base, work, "photomodeler", lambda root: read(root / PMEXPORT.name))
+
+
+# ------------------------------------------------------------------ OpenSfM
+@pytest.fixture(scope="session")
+def opensfm_base(work):
+    """OpenSfM's berlin example cut to its first 40 points with their tracks, the GCPs and
+    config.yaml (reconstruction.json, tracks.csv)."""
+    import json
+
+    from baarda.pipeline import read
+
+    src = DATA / "opensfm_berlin"
+    rec = json.loads((src / "reconstruction_example.json").read_text())
+    keep = list(rec[0]["points"])[:40]
+    rec[0]["points"] = {k: rec[0]["points"][k] for k in keep}
+    rows = (src / "tracks_example.csv").read_text().splitlines()
+    rows = rows[:1] + [r for r in rows[1:] if r.split("\t")[1] in set(keep)]
+    folder = work / "opensfm"
+    folder.mkdir()
+    (folder / "reconstruction.json").write_text(json.dumps(rec, indent=1))
+    (folder / "tracks.csv").write_text("\n".join(rows) + "\n")
+    for name in ("ground_control_points.json", "config.yaml"):
+        (folder / name).write_bytes((src / name).read_bytes())
+    kinds = {"reconstruction.json": "text", "tracks.csv": "text",
+             "ground_control_points.json": "text", "config.yaml": "text"}
+    return _checked(load_base(folder, kinds), work, "opensfm", read)

@@ -1,0 +1,487 @@
+"""The quality report that drone-survey clients and regulators ask for (issue 20,
+docs/odm.md): camera calibration with standard deviations and correlations, the GCP and
+check-point residuals with RMS per axis, GNSS residuals, reprojection errors per image in
+pixels, the redundancy number, w and MDB of every observation, the snooping log and the
+external reliability of the ground points.
+
+`quality_content(res)` gives the content once, as `Part`s (a heading, text, a table or a
+figure); `quality_html` and `write_quality_pdf` lay the same parts out as HTML sections and
+as PDF pages (matplotlib's PdfPages: tables drawn as text, figures as vector graphics).
+Everything is read from the result folder (output/result_folder.py); nothing is recomputed
+but RMS values and per-group summaries of the observations table.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from baarda.output.result_folder import Results  # noqa: E402
+from baarda.report.anaplot import log_mdb, log_test  # noqa: E402
+from baarda.report.plots import Plot, to_png  # noqa: E402
+
+WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
+
+
+@dataclass
+class Part:
+    kind: str  # "heading", "text", "table", "figure"
+    title: str = ""
+    text: str = ""
+    table: pd.DataFrame | None = None
+    fmt: dict | None = None
+    figure: object = None  # a function () -> matplotlib Figure
+    full_in_html: pd.DataFrame | None = None  # the whole table where the PDF shows a part
+
+
+def pixel_um(res: Results) -> float | None:
+    """The nominal pixel size (µm) a reader stated in the notes (COLMAP, BAL, OpenSfM)."""
+    for n in list(res.summary.get("notes", [])) + [line for s in res.sections
+                                                   for line in s.lines]:
+        m = re.search(r"nominal pixel size ([0-9.eE+-]+) mm", str(n))
+        if m:
+            try:
+                return float(m.group(1)) * 1e3
+            except ValueError:
+                return None
+    return None
+
+
+def _rms(x) -> float:
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x**2))) if len(x) else float("nan")
+
+
+def camera_parts(res: Results) -> list[Part]:
+    cal = res.summary.get("calibration") or []
+    corr = res.summary.get("camera_correlations") or []
+    parts = [Part("heading", "Camera calibration")]
+    if not cal:
+        return parts + [Part("text", text="No camera parameter was estimated (the cameras "
+                             "were held at their given values).")]
+    t = pd.DataFrame(cal)
+    t["sigma"] = t["sigma"].astype(float)
+    t["value / sigma"] = np.where(t["estimated"], t["value"].abs() / t["sigma"], np.nan)
+    px = pixel_um(res)
+    cols = ["camera", "model", "parameter", "value", "sigma"]
+    if px:  # c, x0, y0 in pixels as well (the nominal pixel size of the reader)
+        mm = t["parameter"].isin(["c", "x0", "y0"])
+        t["value px"] = np.where(mm, t["value"] * 1e3 / px, np.nan)
+        t["sigma px"] = np.where(mm, t["sigma"] * 1e3 / px, np.nan)
+        cols += ["value px", "sigma px"]
+    parts.append(Part("text", text="Estimated parameters with their standard deviations "
+                      "(a posteriori, scaled by sigma0); c, x0, y0 in mm, the coefficients in "
+                      "the camera model's units (docs/camera_models.md); held parameters have "
+                      "no standard deviation."))
+    parts.append(Part("table", "camera parameters", table=t[
+        cols + ["value / sigma", "estimated"]],
+        fmt={"value": ".6g", "sigma": ".3g", "value / sigma": ".1f", "value px": ".2f",
+             "sigma px": ".2f"}))
+    for c in corr:
+        names = c["parameters"]
+        m = np.asarray(c["matrix"], float)
+        ct = pd.DataFrame(m, columns=names)
+        ct.insert(0, "parameter", names)
+        parts.append(Part("table", f"correlations of camera {c['camera']}", table=ct,
+                          fmt={n: "+.3f" for n in names}))
+
+        def draw(m=m, names=names, cam=c["camera"]):
+            fig, ax = plt.subplots(figsize=(1.2 + 0.55 * len(names), 1.0 + 0.5 * len(names)))
+            im = ax.imshow(m, vmin=-1, vmax=1, cmap="RdBu_r")
+            ax.set_xticks(range(len(names)), names, rotation=90)
+            ax.set_yticks(range(len(names)), names)
+            for i in range(len(names)):
+                for j in range(len(names)):
+                    ax.text(j, i, f"{m[i, j]:.2f}", ha="center", va="center", fontsize=7,
+                            color="white" if abs(m[i, j]) > 0.6 else "black")
+            fig.colorbar(im, ax=ax, shrink=0.8)
+            ax.set_title(f"correlations: {cam}"[:60], fontsize=9)
+            return fig
+
+        parts.append(Part("figure", f"correlation heat map of camera {c['camera']}",
+                          text="Correlation coefficients of the estimated parameters "
+                          "(red +1, blue -1): |r| near 1 means the block cannot tell the two "
+                          "apart.", figure=draw))
+    high = res.summary.get("high_correlations") or []
+    if high:
+        parts.append(Part("text", text="High correlations (|r| > 0.95): " + "; ".join(high)))
+    return parts
+
+
+def control_parts(res: Results) -> list[Part]:
+    parts = [Part("heading", "Ground control and check points")]
+    obs = res.obs
+    ctrl = obs[obs["kind"] == "control"]
+    if len(ctrl):
+        rows = []
+        for pt, g in ctrl.groupby("point", sort=False):
+            row = {"point": pt, "role": "control"}
+            for _, o in g.iterrows():
+                c = o["component"]
+                row[f"v{c} m"] = o["residual"]
+                row[f"w {c}"] = o["w"]
+                row[f"r {c}"] = o["redundancy"]
+                row[f"MDB {c} m"] = o["mdb"]
+            rows.append(row)
+        t = pd.DataFrame(rows)
+        parts.append(Part("text", text="Control points (GCPs used as observations): residual "
+                          "v = adjusted - given per axis, w-test, redundancy number r (0: the "
+                          "point is not checked by the rest of the block) and the minimal "
+                          "detectable bias. RMS: " + ", ".join(
+                              f"{c} {_rms(ctrl.loc[ctrl['component'] == c, 'residual']):.3f} m"
+                              for c in ("X", "Y", "Z"))))
+        parts.append(Part("table", "control points", table=t,
+                          fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
+                               for c in t.columns if c not in ("point", "role")}))
+    pts = res.points
+    if pts is not None and "role" in pts and (pts["role"] == "check").any():
+        chk = pts[pts["role"] == "check"]
+        have = chk[["dX", "dY", "dZ"]].notna().all(axis=1) if "dX" in chk else \
+            pd.Series(False, index=chk.index)
+        if have.any():
+            c = chk[have]
+            t = c[["point", "X", "Y", "Z", "dX", "dY", "dZ"]]
+            parts.append(Part("text", text="Check points (GCPs not used in the adjustment): "
+                              "adjusted - given coordinates. RMS: " + ", ".join(
+                                  f"{a[1]} {_rms(c[a]):.3f} m" for a in ("dX", "dY", "dZ"))))
+            parts.append(Part("table", "check points", table=t,
+                              fmt={"X": ".3f", "Y": ".3f", "Z": ".3f", "dX": ".3f",
+                                   "dY": ".3f", "dZ": ".3f"}))
+        missing = list(chk.loc[~have, "point"])
+        if missing:
+            parts.append(Part("text", text=f"Check points without a comparison: "
+                              f"{', '.join(map(str, missing))} (a free network or inner "
+                              "datum needs 3 check points for the similarity onto them; a "
+                              "point on one photo cannot be intersected)"))
+    if len(parts) == 1:
+        parts.append(Part("text", text="No control or check points."))
+    return parts
+
+
+def gnss_parts(res: Results) -> list[Part]:
+    g = res.obs[res.obs["kind"] == "gnss"]
+    if not len(g):
+        return []
+    t = g.pivot_table(index="photo", columns="component",
+                      values=["residual", "w", "redundancy"], sort=False)
+    t.columns = [f"{'v' if a == 'residual' else a} {c}" for a, c in t.columns]
+    t = t.reset_index()
+    return [Part("heading", "GNSS positions of the projection centres"),
+            Part("text", text="Residual v = adjusted - observed (m), w-test and redundancy "
+                 "number per axis. RMS: " + ", ".join(
+                     f"{c} {_rms(g.loc[g['component'] == c, 'residual']):.3f} m"
+                     for c in ("X", "Y", "Z"))),
+            Part("table", "GNSS residuals", table=t,
+                 fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
+                      if c != "photo"})]
+
+
+def image_parts(res: Results) -> list[Part]:
+    im = res.obs[(res.obs["kind"] == "image") & ~res.obs["rejected"].astype(bool)]
+    if not len(im):
+        return []
+    px = pixel_um(res)
+    unit = "px" if px else "µm"
+    scale = 1.0 / px if px else 1.0
+    rows = []
+    for ph, g in im.groupby("photo", sort=False):
+        x = g.loc[g["component"] == "x", "residual"].to_numpy(float) * scale
+        y = g.loc[g["component"] == "y", "residual"].to_numpy(float) * scale
+        n = min(len(x), len(y))
+        e = np.hypot(x[:n], y[:n])
+        rows.append({"photo": ph, "points": n, f"RMS x {unit}": _rms(x),
+                     f"RMS y {unit}": _rms(y), f"mean error {unit}": float(np.mean(e)),
+                     f"median error {unit}": float(np.median(e)),
+                     f"max error {unit}": float(np.max(e)) if n else np.nan})
+    t = pd.DataFrame(rows)
+    note = (f"1 px = {px:g} µm (the reader's nominal pixel size)" if px else
+            "in µm in the image plane")
+    return [Part("heading", "Reprojection errors per image"),
+            Part("text", text=f"Image residuals of the adjusted block (rejected observations "
+                 f"left out), {note}; error = length of the residual vector."),
+            Part("table", "reprojection errors", table=t,
+                 fmt={c: ".3f" for c in t.columns if c not in ("photo", "points")})]
+
+
+def observation_parts(res: Results) -> list[Part]:
+    o = res.obs
+    cols = ["kind", "photo", "point", "component", "residual", "sigma", "redundancy", "w",
+            "mdb", "external_max", "rejected", "flagged"]
+    t = o[[c for c in cols if c in o]].copy()
+    worst = t.reindex(t["w"].abs().sort_values(ascending=False).index).head(WORST)
+    fmt = {"residual": ".4g", "sigma": ".3g", "redundancy": ".3f", "w": ".2f", "mdb": ".3g",
+           "external_max": ".3g"}
+    parts = [Part("heading", "Every observation: redundancy number, w-test, MDB"),
+             Part("text", text=f"{len(t)} observation components (observations.csv holds "
+                  "them all, with tau, p-values and the external reliability). redundancy: "
+                  "the share of an error that shows in its own residual; w: the standardised "
+                  f"residual (critical |w| {res.k_w:.2f}); MDB: the smallest error the test "
+                  "finds with 80 % power (units of the observation: image µm, ground m). "
+                  f"The {min(WORST, len(t))} largest |w|:"),
+             Part("table", "observations", table=worst, fmt=fmt, full_in_html=t)]
+
+    def draw():
+        fig, ax = plt.subplots(1, 2, figsize=(8, 2.8))
+        r = t["redundancy"].to_numpy(float)
+        ax[0].hist(r[np.isfinite(r)], bins=40, color="#1f5fa8")
+        ax[0].set_xlabel("redundancy number")
+        w = t["w"].to_numpy(float)
+        ax[1].hist(np.clip(w[np.isfinite(w)], -8, 8), bins=64, color="#1f5fa8")
+        ax[1].axvline(res.k_w, color="#d62728")
+        ax[1].axvline(-res.k_w, color="#d62728")
+        ax[1].set_xlabel("w (clipped to +-8)")
+        return fig
+
+    parts.append(Part("figure", "redundancy numbers and w", text="Distribution of the "
+                      "redundancy numbers and of w (red: critical values).", figure=draw))
+    return parts
+
+
+def snooping_parts(res: Results) -> list[Part]:
+    log = res.summary.get("rejection_log") or []
+    parts = [Part("heading", "Data snooping log")]
+    if not log:
+        return parts + [Part("text", text="No data snooping in this run (baarda adjust "
+                             "--snoop), or nothing rejected.")]
+    rows = []
+    for s in log:
+        mdb, unit = log_mdb(s)
+        test, value = log_test(s)
+        rows.append({"step": s.get("iteration"), "action": s.get("action"),
+                     "observation": "; ".join(s.get("observations", [])), "test": test,
+                     "value": value, "MDB": f"{mdb} {unit}"})
+    return parts + [Part("table", "snooping log", table=pd.DataFrame(rows),
+                         fmt={"value": ".2f"})]
+
+
+def reliability_parts(res: Results) -> list[Part]:
+    o = res.obs
+    if "external_max" not in o or not o["external_max"].notna().any():
+        return []
+    e = o[(o["kind"] == "image") & np.isfinite(o["external_max"].to_numpy(float))]
+    if not len(e):
+        return []
+    per = e.groupby("point")["external_max"].max().sort_values(ascending=False)
+    t = pd.DataFrame({"point": per.index, "largest effect m": per.to_numpy()}).head(20)
+    return [Part("heading", "External reliability of the ground points"),
+            Part("text", text="The largest effect an undetected error of the size of its MDB "
+                 "in one of a point's image observations has on the adjusted coordinates "
+                 f"(m). Median over {len(per)} points {float(per.median()):.3g} m, 95 % "
+                 f"below {float(per.quantile(0.95)):.3g} m; the 20 weakest:"),
+            Part("table", "external reliability", table=t, fmt={"largest effect m": ".3g"})]
+
+
+def summary_parts(res: Results) -> list[Part]:
+    s = res.summary
+    lines = [f"project {res.title}, source {s.get('source', '?')}",
+             f"sigma0 a posteriori {s.get('sigma0', float('nan')):.4f}, redundancy "
+             f"{s.get('redundancy')}, {s.get('n_observations')} observations, "
+             f"{s.get('n_unknowns')} unknowns, converged {s.get('converged')}"]
+    lines += res.global_test_lines()
+    crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
+    lines += crs[:1]
+    return [Part("heading", "Summary"), Part("text", text="\n".join(lines))]
+
+
+def quality_content(res: Results) -> list[Part]:
+    return (summary_parts(res) + camera_parts(res) + control_parts(res) + gnss_parts(res)
+            + image_parts(res) + observation_parts(res) + snooping_parts(res)
+            + reliability_parts(res))
+
+
+# ------------------------------------------------------------------ HTML
+def _cell(v, f: str | None) -> str:
+    import html
+
+    if isinstance(v, float | np.floating):
+        if not np.isfinite(v):
+            return ""
+        return format(float(v), f) if f else f"{float(v):.6g}"
+    return html.escape(str(v))
+
+
+def html_table(t: pd.DataFrame, fmt: dict | None, attrs: str = "") -> str:
+    import html
+
+    fmt = fmt or {}
+    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
+    rows = "".join("<tr>" + "".join(f"<td>{_cell(v, fmt.get(c))}</td>" for c, v in
+                                    zip(t.columns, r, strict=True)) + "</tr>"
+                   for r in t.itertuples(index=False))
+    return f"<table {attrs}><tr>{head}</tr>{rows}</table>"
+
+
+def quality_html(res: Results) -> str:
+    """The parts as HTML (sections inside the HTML report)."""
+    import html
+
+    from baarda.report.html_report import figure
+
+    out = []
+    for p in quality_content(res):
+        if p.kind == "heading":
+            out.append(f"<h3>{html.escape(p.title)}</h3>")
+        elif p.kind == "text":
+            out.append("<p>" + "<br>".join(html.escape(x) for x in p.text.split("\n"))
+                       + "</p>")
+        elif p.kind == "table":
+            ident = re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
+            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
+                       + html_table(p.table, p.fmt, f'id="q-{ident}"'))
+            if p.full_in_html is not None and len(p.full_in_html) > len(p.table):
+                out.append(f"<details><summary>all {len(p.full_in_html)} rows</summary>"
+                           + html_table(p.full_in_html, p.fmt) + "</details>")
+        elif p.kind == "figure":
+            out.append(figure(Plot(re.sub(r"\W+", "-", p.title), p.title,
+                                   to_png(p.figure()), p.text)))
+    return "".join(out)
+
+
+def _corr_cell(v: float) -> str:
+    """A correlation coefficient as a table cell coloured like the heat map."""
+    if not np.isfinite(v):
+        return "<td></td>"
+    c = matplotlib.colormaps["RdBu_r"]((float(v) + 1) / 2)
+    rgb = "#" + "".join(f"{int(255 * x):02x}" for x in c[:3])
+    ink = "#fff" if abs(v) > 0.6 else "#000"
+    return f'<td style="background:{rgb};color:{ink}">{v:+.3f}</td>'
+
+
+def tables_html(res: Results) -> str:
+    """The camera, control and GNSS parts as tables for the main HTML report (no figures:
+    the correlation matrix coloured like the heat map); '' when there is nothing to show."""
+    import html
+
+    parts = camera_parts(res) + control_parts(res) + gnss_parts(res)
+    if not any(p.kind == "table" for p in parts):
+        return ""
+    out = []
+    for p in parts:
+        if p.kind == "heading":
+            out.append(f"<h3>{html.escape(p.title)}</h3>")
+        elif p.kind == "text":
+            out.append(f"<p>{html.escape(p.text)}</p>")
+        elif p.kind == "table" and p.title.startswith("correlations of camera"):
+            t = p.table
+            head = "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
+            rows = "".join(f"<tr><td>{html.escape(str(r[0]))}</td>"
+                           + "".join(_corr_cell(v) for v in r[1:]) + "</tr>"
+                           for r in t.itertuples(index=False))
+            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
+                       f"<table><tr>{head}</tr>{rows}</table>")
+        elif p.kind == "table":
+            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
+                       + html_table(p.table, p.fmt))
+    return "".join(out) + ("<p>The quality report (baarda report OUT --quality FILE.html "
+                           "--pdf FILE.pdf) adds reprojection errors per image, the "
+                           "observations' r, w and MDB and external reliability.</p>")
+
+
+def quality_page(res: Results) -> str:
+    """The quality report as a self-contained HTML page (the PDF's content)."""
+    import html
+
+    from baarda.report.html_report import CSS
+
+    return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
+            f"<title>baarda quality report: {html.escape(res.title)}</title><style>{CSS}"
+            "</style></head><body><header><h1>Quality report: "
+            f"{html.escape(res.title)}</h1><p>{html.escape(str(res.folder))}</p></header>"
+            f"<main>{quality_html(res)}</main></body></html>\n")
+
+
+# ------------------------------------------------------------------ PDF
+A4 = (8.27, 11.69)
+ROWS_PER_PAGE = 46
+
+
+def _text_lines(t: pd.DataFrame, fmt: dict | None) -> list[str]:
+    fmt = fmt or {}
+    cells = [[str(c) for c in t.columns]] + [
+        [(_cell(v, fmt.get(c)) if not isinstance(v, str) else v) for c, v in
+         zip(t.columns, r, strict=True)] for r in t.itertuples(index=False)]
+    cells = [[c[:48] for c in row] for row in cells]
+    width = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
+    return ["  ".join(c.rjust(w) for c, w in zip(row, width, strict=True)) for row in cells]
+
+
+def write_quality_pdf(res: Results, path: str | Path) -> int:
+    """The quality report as a PDF (A4 pages); returns the number of pages."""
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from baarda.output.atomic import atomic_open
+
+    pages = 0
+    with plt.rc_context({"pdf.fonttype": 42}), atomic_open(path, "wb") as f, \
+            PdfPages(f, metadata={"Title": f"baarda quality report: {res.title}"}) as pdf:
+        fig, y = None, 0.0
+
+        def new_page():
+            nonlocal fig, y, pages
+            if fig is not None:
+                pdf.savefig(fig)
+                plt.close(fig)
+            fig = plt.figure(figsize=A4)
+            pages += 1
+            fig.text(0.5, 0.985, f"baarda quality report: {res.title}", ha="center",
+                     va="top", fontsize=8, color="#555")
+            fig.text(0.5, 0.01, f"page {pages}", ha="center", fontsize=7, color="#555")
+            y = 0.96
+
+        def line(text: str, size: float = 7.0, mono: bool = False, bold: bool = False):
+            nonlocal y
+            step = size / 72 / A4[1] * 1.35
+            if y - step < 0.03:
+                new_page()
+            fig.text(0.05, y, text, fontsize=size, va="top",
+                     family="monospace" if mono else "sans-serif",
+                     weight="bold" if bold else "normal")
+            y -= step
+
+        new_page()
+        import textwrap
+
+        for p in quality_content(res):
+            if p.kind == "heading":
+                if y < 0.2:
+                    new_page()
+                y -= 0.01
+                line(p.title, 12, bold=True)
+            elif p.kind == "text":
+                for para in p.text.split("\n"):
+                    for w in textwrap.wrap(para, 120) or [""]:
+                        line(w, 7.5)
+            elif p.kind == "table":
+                line(p.title[0].upper() + p.title[1:], 8, bold=True)
+                rows = _text_lines(p.table, p.fmt)
+                size = 6.0 if max(len(r) for r in rows) < 150 else 4.5
+                for r in rows:
+                    line(r, size, mono=True)
+            elif p.kind == "figure":
+                src = p.figure()
+                w, h = src.get_size_inches()
+                png = to_png(src)
+                frac_h = min(0.45, h / A4[1])
+                if y - frac_h < 0.05:
+                    new_page()
+                ax = fig.add_axes([0.05, y - frac_h, min(0.9, w / A4[0] * frac_h / (h / A4[1])),
+                                   frac_h])
+                import io
+
+                ax.imshow(plt.imread(io.BytesIO(png)))
+                ax.axis("off")
+                y -= frac_h + 0.01
+                for t in textwrap.wrap(p.text, 120):
+                    line(t, 7)
+        pdf.savefig(fig)
+        plt.close(fig)
+    return pages

@@ -1,0 +1,96 @@
+"""The quality report of issue 20 (report/quality_report.py) as HTML and PDF: camera
+parameters with standard deviations and correlations, the GCP and check-point tables; the
+PDF's pages rendered to PNG with pypdfium2 (a wheel, in the test extra) and checked."""
+
+import json
+
+import numpy as np
+import pypdfium2 as pdfium
+import pytest
+
+from baarda.cli import main
+from baarda.output.project_files import write_project
+from baarda.output.result_folder import read_results
+from baarda.report.quality_report import quality_content
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    """A simulated block with self-calibration (c, x0, y0), GNSS and check points, snooped."""
+    tmp = tmp_path_factory.mktemp("quality")
+    b, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=6, relief_m=40.0,
+                                     check_points=3, gnss_sigma_m=0.1, seed=5))
+    write_project(b, tmp / "project")
+    out = tmp / "out"
+    assert main(["adjust", str(tmp / "project"), "-o", str(out), "-q", "--snoop",
+                 "--calibrate", "c,x0,y0"]) == 0
+    assert main(["report", str(out), "--quality", str(tmp / "q.html"), "--pdf",
+                 str(tmp / "q.pdf"), "-q"]) == 0
+    return tmp
+
+
+def test_content_is_read_from_the_results(results):
+    res = read_results(results / "out")
+    parts = quality_content(res)
+    heads = [p.title for p in parts if p.kind == "heading"]
+    assert heads[:4] == ["Summary", "Camera calibration", "Ground control and check points",
+                         "GNSS positions of the projection centres"]
+    tables = {p.title: p.table for p in parts if p.kind == "table"}
+    cam = tables["camera parameters"]
+    est = cam[cam["estimated"]]
+    assert list(est["parameter"]) == ["c", "x0", "y0"] and (est["sigma"] > 0).all()
+    s = json.loads((results / "out" / "summary.json").read_text())
+    by_name = {r["parameter"]: r for r in s["calibration"]}
+    assert est["sigma"].tolist() == [by_name[p]["sigma"] for p in ("c", "x0", "y0")]
+    corr = tables["correlations of camera cam"]
+    m = corr[["c", "x0", "y0"]].to_numpy(float)
+    assert np.allclose(np.diag(m), 1.0) and np.allclose(m, m.T)
+    assert len(tables["control points"]) == (res.obs["kind"] == "control").groupby(
+        res.obs["point"]).any().sum()
+    assert len(tables["check points"]) == 3
+    assert len(tables["GNSS residuals"]) == 18
+    assert set(tables["reprojection errors"]["photo"]) == set(res.photos["photo"])
+
+
+def test_html(results):
+    h = (results / "q.html").read_text(encoding="utf-8")
+    for ident in ("q-camera-parameters", "q-correlations-of-camera-cam", "q-control-points",
+                  "q-check-points", "q-gnss-residuals", "q-reprojection-errors",
+                  "q-observations", "q-external-reliability"):
+        assert f'id="{ident}"' in h
+    assert h.count('src="data:image/png;base64,') == 2  # the heat map, r and w
+
+
+def test_pdf_pages_render(results, tmp_path):
+    pdf = pdfium.PdfDocument(str(results / "q.pdf"))
+    assert len(pdf) >= 2
+    text = ""
+    for i in range(len(pdf)):
+        page = pdf[i]
+        image = page.render(scale=1.0).to_pil()
+        image.save(tmp_path / f"page{i}.png")
+        a = np.asarray(image.convert("L"), float)
+        assert a.shape[0] > a.shape[1] > 500  # A4 portrait
+        assert (a < 128).mean() > 0.005  # printed, not blank
+        text += page.get_textpage().get_text_range() + "\n"
+    for words in ("Camera calibration", "Ground control and check points",
+                  "Correlations of camera", "Control points", "Check points", "RMS", "x0",
+                  "GNSS positions",
+                  "Reprojection errors per image", "Data snooping log",
+                  "External reliability"):
+        assert words in text
+    # the heat map is a picture on the first page: many colours there
+    first = np.asarray(pdf[0].render(scale=1.0).to_pil().convert("RGB"), int)
+    assert len(np.unique(first.reshape(-1, 3), axis=0)) > 50
+
+
+def test_main_html_report_has_the_camera_and_control_tables(results):
+    """baarda report OUT -o report.html: the camera parameters, their correlations (cells
+    coloured like the heat map) and the GCP tables, without extra images."""
+    out = results / "report.html"
+    assert main(["report", str(results / "out"), "-o", str(out), "-q"]) == 0
+    h = out.read_text(encoding="utf-8")
+    assert 'id="calibration"' in h and "Correlations of camera cam" in h
+    assert "Control points" in h and "Check points" in h and "GNSS residuals" in h
+    assert 'style="background:#' in h
