@@ -40,6 +40,10 @@ def _common(p) -> None:
     p.add_argument("--gpkg", action="store_true", help="also write block.gpkg for GIS: "
                    "points, projection centres and image-residual vectors (exaggerated "
                    "1000 x on the ground) in the project's CRS")
+    p.add_argument("--parquet", action="store_true", help="write the observation table as "
+                   "observations.parquet instead of observations.csv (the same columns and "
+                   "numbers; for blocks of millions of observations: written and read "
+                   "several times faster; baarda report reads either)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     add_input_options(p)
 
@@ -97,7 +101,7 @@ def _adjust(args, run):
 
         res, qc = screen(block, options(args), snoop=args.snoop, statistic=statistic,
                          progress=say)
-        write_results(run, qc)
+        write_results(run, qc, **_format(args))
         write_screening_log(run, res.log)
         _gpkg(args, run, qc)
         return qc, res.summary() + "\n" + qc.summary()
@@ -119,9 +123,14 @@ def _adjust(args, run):
         qc = assess(adjust(problem, progress=say), tests)
     if est is not None:
         qc = replace(qc, variance_components=est.components())
-    write_results(run, qc)
+    write_results(run, qc, **_format(args))
     _gpkg(args, run, qc)
     return qc, qc.summary()
+
+
+def _format(args) -> dict:
+    """write_results' options of the observation table: Parquet with --parquet."""
+    return {"parquet": True} if getattr(args, "parquet", False) else {}
 
 
 def _gpkg(args, run, qc) -> None:

@@ -47,6 +47,13 @@ def register(sub) -> None:
     p.add_argument("--vector-photos", type=int, default=12,
                    help="photos drawn with residual vectors (those with rejected or flagged "
                    "observations first)")
+    p.add_argument("--max-points", type=int, default=50_000,
+                   help="maps draw at most this many points: beyond it a deterministic "
+                   "sample with every control, check, rejected, flagged and uncontrolled "
+                   "point (said in the caption; default 50000)")
+    p.add_argument("--max-rows", type=int, default=1_000,
+                   help="the per-photo and snooping tables list at most this many rows: the "
+                   "worst (default 1000)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=run)
 
@@ -58,7 +65,8 @@ def options(args) -> ReportOptions:
                          line_width=args.line_width, w_width=args.w_class_width,
                          w_lo=args.w_range[0], w_hi=args.w_range[1], top=args.top,
                          min_abs_w=args.min_w, sort=args.sort, exaggeration=args.exaggeration,
-                         vector_photos=args.vector_photos)
+                         vector_photos=args.vector_photos, max_points=args.max_points,
+                         max_rows=args.max_rows)
 
 
 def run(args) -> int:

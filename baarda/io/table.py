@@ -129,6 +129,30 @@ class Table(Columns):
                 return out
         return super().numbers(name, allow_empty)  # the exact reading, and its error
 
+    def strings(self, name: str):
+        """A column as pyarrow strings, or None where the fast reader did not take the file
+        (for millions of rows: no NumPy strings on the way)."""
+        return None if self._arrow is None else self._arrow.column(name)
+
+    def floats(self, name: str) -> np.ndarray | None:
+        """A column as floats parsed by pyarrow (empty -> NaN; inf and nan as written), or
+        None where the fast reader did not take the file or a value is not a number (read
+        it with numbers() or the caller's own reading, which name the line)."""
+        if self._arrow is None:
+            return None
+        import pyarrow as pa
+        import pyarrow.compute as pc
+
+        col = self._arrow.column(name)
+        try:
+            if not pa.types.is_string(col.type) and not pa.types.is_large_string(col.type):
+                col = pc.cast(col, pa.string())
+            vals = pc.cast(pc.if_else(pc.equal(col, ""), pa.scalar(None, pa.string()), col),
+                           pa.float64())
+        except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+            return None
+        return vals.to_numpy(zero_copy_only=False).astype(float)
+
     def codes(self, name: str) -> tuple[np.ndarray, list[str]]:
         """(index of every row's value among the distinct values (int64), the distinct
         values in the order they first appear); empty values are an error."""

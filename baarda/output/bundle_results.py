@@ -89,10 +89,12 @@ def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
     return ph, pt
 
 
-def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult) -> list[Path]:
+def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult,
+                  parquet: bool = False) -> list[Path]:
     """Write the result folder of a bundle adjustment (output/results.py) with photos.csv
     and points.csv, each file atomically; returns the paths.  A BundleResult without its
-    assessment gives the residuals only.
+    assessment gives the residuals only.  parquet: observations.parquet instead of
+    observations.csv (output/results.py).
 
     A block adjusted in a local frame of its CRS (block.frame) gets photos.csv and points.csv
     in the CRS, and the local tables as photos_local.csv and points_local.csv."""
@@ -118,4 +120,4 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
                   "points_local.csv": tables["points.csv"]}
     if res.problem.calibration.n:  # self-calibration: every camera parameter
         tables["cameras.csv"] = pd.DataFrame(res.camera_table())
-    return write_folder(out, summary, {**tables, "observations.csv": obs})
+    return write_folder(out, summary, {**tables, "observations.csv": obs}, parquet=parquet)

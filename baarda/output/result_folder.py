@@ -29,7 +29,10 @@ OBS_FLAGS = ["rejected", "flagged"]
 
 def numbers(t: Table, name: str) -> np.ndarray:
     """A numeric column; empty cells are NaN, 'inf' is allowed (uncontrolled MDB)."""
-    col = t.columns[name]
+    fast = t.floats(name)  # a plain file: pyarrow's parser (millions of rows)
+    if fast is not None:
+        return fast
+    col = t.column(name)
     out = pd.to_numeric(pd.Series(col).replace("", "nan"), errors="coerce").to_numpy(float)
     bad = np.flatnonzero(np.isnan(out) & (col != "") & (np.char.lower(col) != "nan"))
     if len(bad):
@@ -40,12 +43,24 @@ def numbers(t: Table, name: str) -> np.ndarray:
 
 def flags(t: Table, name: str) -> np.ndarray:
     """A True/False column (also 1/0, empty = False)."""
-    col = np.char.lower(t.columns[name])
+    import pyarrow.compute as pc
+
+    arrow = t.strings(name)
+    if arrow is not None:  # as written: True / False
+        yes = pc.equal(arrow, "True")
+        if pc.all(pc.or_(yes, pc.equal(arrow, "False"))).as_py():
+            return np.asarray(yes.to_numpy(), dtype=bool)
+    col = t.column(name)
+    if col.dtype.kind == "U" and col.dtype.itemsize <= 4 * 5:  # 'True'/'False' as written
+        yes = col == "True"
+        if (yes | (col == "False")).all():
+            return yes
+    col = np.char.lower(col)
     yes = np.isin(col, ["true", "1", "yes"])
     bad = np.flatnonzero(~yes & ~np.isin(col, ["false", "0", "no", ""]))
     if len(bad):
         i = int(bad[0])
-        raise ProjectError(t.path, f"'{t.columns[name][i]}' is not True or False",
+        raise ProjectError(t.path, f"'{t.column(name)[i]}' is not True or False",
                            int(t.lines[i]), name)
     return yes
 
@@ -55,7 +70,15 @@ def read_observations(path: str | Path) -> pd.DataFrame:
     t = Table(path, OBS_REQUIRED)
     if not any(t.has(c) for c in OBS_FRAMES):
         raise ProjectError(t.path, "missing column 'photo' (or 'model')")
-    df = pd.DataFrame({c: t.text(c, allow_empty=c in ("photo", "model", "point"))
+    def text(c: str, allow_empty: bool = True):
+        col = t.strings(c)  # pyarrow strings of a plain file: straight into the frame
+        if col is not None and (allow_empty or not pc.any(pc.equal(col, "")).as_py()):
+            return pd.Series(col, dtype="str")
+        return t.text(c, allow_empty=allow_empty)  # NumPy strings, or the error's line
+
+    import pyarrow.compute as pc
+
+    df = pd.DataFrame({c: text(c, allow_empty=c in ("photo", "model", "point"))
                        if t.has(c) else ""
                        for c in ("kind", "photo", "model", "point", "component")})
     df["frame"] = np.where(df["photo"] != "", df["photo"], df["model"])
@@ -63,7 +86,7 @@ def read_observations(path: str | Path) -> pd.DataFrame:
         df[c] = numbers(t, c) if t.has(c) else np.nan
     for c in OBS_FLAGS:
         df[c] = flags(t, c) if t.has(c) else False
-    df["external_point"] = t.columns["external_point"] if t.has("external_point") else ""
+    df["external_point"] = text("external_point") if t.has("external_point") else ""
     df["line"] = t.lines
     missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
     if len(missing):
@@ -71,9 +94,67 @@ def read_observations(path: str | Path) -> pd.DataFrame:
     return df
 
 
+def read_observations_parquet(path: str | Path) -> pd.DataFrame:
+    """observations.parquet as read_observations gives observations.csv (the numbers as
+    computed, not rounded to the CSV's 10 digits; `line` = row number + 2, the line the row
+    would have in observations.csv)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    path = Path(path)
+    try:
+        t = pq.read_table(path)
+    except (pa.ArrowException, OSError) as e:
+        raise ProjectError(str(path), f"not a readable Parquet file ({e})") from None
+    names = set(t.column_names)
+    for c in OBS_REQUIRED:
+        if c not in names:
+            raise ProjectError(str(path), f"missing column '{c}'")
+    if not names & set(OBS_FRAMES):
+        raise ProjectError(str(path), "missing column 'photo' (or 'model')")
+    n = t.num_rows
+
+    def text(c: str) -> pd.Series:
+        if c not in names:
+            return pd.Series(np.full(n, "", dtype=object), dtype="str")
+        col = t.column(c)
+        if not (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)
+                or pa.types.is_null(col.type)):
+            raise ProjectError(str(path), f"column '{c}' is not text ({col.type})", None, c)
+        return pd.Series(col.cast(pa.string()).fill_null(""), dtype="str")
+
+    def number(c: str) -> np.ndarray:
+        col = t.column(c)
+        if not (pa.types.is_floating(col.type) or pa.types.is_integer(col.type)
+                or pa.types.is_null(col.type)):
+            raise ProjectError(str(path), f"column '{c}' is not numeric ({col.type})", None, c)
+        return col.to_numpy().astype(float)
+
+    def flag(c: str) -> np.ndarray:
+        col = t.column(c)
+        if not pa.types.is_boolean(col.type):
+            raise ProjectError(str(path), f"column '{c}' is not True/False ({col.type})",
+                               None, c)
+        return col.to_numpy(zero_copy_only=False).astype(bool)
+
+    df = pd.DataFrame({c: text(c) for c in ("kind", "photo", "model", "point", "component")})
+    df["frame"] = df["photo"].where(df["photo"] != "", df["model"])
+    for c in OBS_NUMBERS:
+        df[c] = number(c) if c in names else np.nan
+    for c in OBS_FLAGS:
+        df[c] = flag(c) if c in names else False
+    df["external_point"] = text("external_point")
+    df["line"] = np.arange(2, n + 2)
+    missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
+    if len(missing):
+        raise ProjectError(str(path), f"empty residual in row {int(missing[0]) + 1}", None,
+                           "residual")
+    return df
+
+
 def _table_frame(path: Path, required: list[str], numeric: list[str]) -> pd.DataFrame:
     t = Table(path, required)
-    df = pd.DataFrame({c: t.columns[c] for c in t.header})
+    df = pd.DataFrame({c: t.column(c) for c in t.header})
     for c in numeric:
         if t.has(c):
             df[c] = numbers(t, c)
@@ -152,21 +233,26 @@ def _cameras_from_project(source: Path, notes: list[str]) -> tuple[dict, str | N
 
 
 def read_results(folder: str | Path) -> Results:
-    """Read summary.json, observations.csv and (when present) photos.csv, points.csv."""
+    """Read summary.json, observations.csv (or observations.parquet, written by adjust
+    --parquet) and (when present) photos.csv, points.csv."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ProjectError(str(folder), "not an output folder (run baarda adjust -o FOLDER)")
     sp = folder / "summary.json"
     if not sp.is_file():
         raise ProjectError(str(sp), "file not found (not a baarda output folder?)")
-    run = verify_run(folder, ["summary.json", "observations.csv", "photos.csv", "points.csv"])
+    run = verify_run(folder, ["summary.json", "observations.csv", "observations.parquet",
+                              "photos.csv", "points.csv"])
     try:
         summary = json.loads(sp.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
         raise ProjectError(str(sp), f"not valid JSON: {e.msg}", e.lineno) from None
     if not isinstance(summary, dict):
         raise ProjectError(str(sp), "expected a JSON object")
-    obs = read_observations(folder / "observations.csv")
+    if (folder / "observations.parquet").is_file() and not (folder / "observations.csv").is_file():
+        obs = read_observations_parquet(folder / "observations.parquet")
+    else:
+        obs = read_observations(folder / "observations.csv")
     notes: list[str] = []
     if run is None:
         notes.append(f"{folder} has no run manifest ({MANIFEST}: written by an earlier "

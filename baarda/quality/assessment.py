@@ -95,7 +95,8 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
     """The observation table (COLUMNS) of a model: residuals, and the statistics of `q`
     (NaN without them: an adjustment written without quality control)."""
     m = model
-    scale = np.array([m.units.get(k, (1.0, ""))[0] for k in m.kind])
+    kinds, which = np.unique(np.asarray(m.kind, dtype=str), return_inverse=True)
+    scale = np.array([m.units.get(str(k), (1.0, ""))[0] for k in kinds], float)[which]
     frame = np.asarray(m.frame, dtype=object)
     empty = np.full(m.n, "", dtype=object)
     xy = m.image_xy()

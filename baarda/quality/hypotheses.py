@@ -166,6 +166,8 @@ def block_tests(model: AdjustedModel, idx: np.ndarray, qhat: np.ndarray,
     act = model.active[idx].all(axis=1) & (q > 0)
     bm = b_method(tests.alpha0, tests.beta0)
     crit_q = {int(d): bm.critical_F(int(d)) for d in np.unique(q[q > 0])}
-    crit = np.array([crit_q.get(int(d), np.nan) for d in q])
+    crit = np.full(len(q), np.nan)
+    for d, c in crit_q.items():
+        crit[q == d] = c
     stat = np.where(act, t / np.maximum(q, 1), np.nan)
     return idx, stat, q, crit, np.nan_to_num(stat) > np.nan_to_num(crit, nan=np.inf)

@@ -18,10 +18,10 @@ from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad, rotation_matrix
 def image_extent(obs: pd.DataFrame, photos: pd.DataFrame, cameras: dict[str, dict]
                  ) -> dict[str, tuple[float, float]]:
     """Half width and half height (mm) of the measured area of every camera."""
-    img = obs[(obs["kind"] == "image") & obs["x_mm"].notna()]
+    img = obs.loc[(obs["kind"] == "image") & obs["x_mm"].notna(), ["photo", "x_mm", "y_mm"]]
     cam_of = dict(zip(photos["photo"], photos.get("camera", pd.Series([""] * len(photos))),
                       strict=True))
-    cam = np.array([cam_of.get(p, "") for p in img["photo"]], dtype=object)
+    cam = pd.Series(img["photo"].to_numpy(object)).map(cam_of).fillna("").to_numpy(object)
     out = {}
     for c, spec in cameras.items():
         sel = cam == c

@@ -51,8 +51,9 @@ def histogram(values: np.ndarray, labels: np.ndarray | None = None, width: float
               lo: float = -25.0, hi: float = 25.0) -> Histogram:
     """Count `values` into classes of `width` centred on lo .. hi; NaN values are ignored."""
     v = np.asarray(values, float)
-    lab = (np.asarray(labels, dtype=object) if labels is not None
-           else np.array([str(i + 1) for i in range(len(v))], dtype=object))
+    lab = (labels if hasattr(labels, "rows") else np.asarray(labels, dtype=object)
+           if labels is not None else np.array([str(i + 1) for i in range(len(v))],
+                                               dtype=object))
     keep = np.isfinite(v)
     v, lab = v[keep], lab[keep]
     centers = classes(width, lo, hi)
@@ -60,7 +61,8 @@ def histogram(values: np.ndarray, labels: np.ndarray | None = None, width: float
     inside = (idx >= 0) & (idx < len(centers))
     counts = np.bincount(idx[inside], minlength=len(centers))
     order = np.argsort(-np.abs(v[~inside]), kind="stable")
-    return Histogram(centers, counts, float(width), v[~inside][order], lab[~inside][order])
+    return Histogram(centers, counts, float(width), v[~inside][order],
+                     np.asarray(lab[~inside][order], dtype=object))
 
 
 def bar_scale(counts: np.ndarray, line_width: int) -> float:

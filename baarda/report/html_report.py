@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import Results
+from baarda.output.result_folder import UNITS, Results
 from baarda.report import maps
 from baarda.report.anaplot import format_log, log_mdb, log_test, snooping_table
 from baarda.report.footprint import footprints, image_extent
@@ -27,7 +27,15 @@ from baarda.report.stats import (
     per_photo,
     per_strip,
 )
-from baarda.report.text_report import NOT_CONVERGED, ReportOptions, image_histograms, w_hists
+from baarda.report.text_report import (
+    NOT_CONVERGED,
+    ReportOptions,
+    first_rows,
+    image_histograms,
+    largest_rms,
+    w_hists,
+    weakest,
+)
 
 CSS = """
 body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;margin:0;color:#222}
@@ -108,14 +116,15 @@ def figure(p: Plot | None) -> str:
 
 def _snoop_table(res: Results, opt: ReportOptions) -> str:
     t = snooping_table(res.obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
+    t, note = first_rows(t, opt.max_rows)
     show = pd.DataFrame({
         "kind": t["kind"], "photo/model": t["frame"], "point": t["point"], "c": t["component"],
         "RED-N": t["redundancy"], "PARX": t["residual"], "EXPD": t["sigma_residual"],
         "SIGF (w)": t["w"], "unit": t["unit"], "flag": t["flag"]})
     cls = {"REJECTED": "rejected", "FLAGGED": "flagged", "uncontrolled": "uncontrolled"}
     return (f"<p>{len(t)} of {len(res.obs)} observations: those with the {opt.top} largest "
-            f"|w| and every rejected and flagged one. RED-N redundancy number, PARX residual "
-            f"v, EXPD its expected size sigma_v, SIGF w = -v/sigma_v (critical |w| = "
+            f"|w| and every rejected and flagged one{esc(note)}. RED-N redundancy number, "
+            f"PARX residual v, EXPD its expected size sigma_v, SIGF w = -v/sigma_v (critical |w| = "
             f"{res.k_w:.2f}).</p>"
             + table(show, {"RED-N": ".3f", "PARX": ".4g", "EXPD": ".4g", "SIGF (w)": ".2f"},
                     lambda d: [cls.get(f, "") for f in d["flag"]],
@@ -176,11 +185,31 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
         zg = float(np.nanmedian(res.points["Z"])) if len(res.points) else 0.0
         outlines = footprints(res.photos, res.cameras, res.angle_unit, ext, zg)
     have_pts = res.points is not None and len(res.points)
-    out["block_map"] = maps.block_map(res, outlines) if have_pts else None
+    pts = maps.point_summary(res) if have_pts else None
+    out["block_map"] = maps.block_map(res, outlines, pts=pts,
+                                      max_points=opt.max_points) if have_pts else None
     out["vectors"] = maps.residual_vectors(res, opt.exaggeration, opt.vector_photos)
     stats = bool(have_pts) and bool(res.obs["redundancy"].notna().any())
-    out["redundancy_map"] = maps.redundancy_map(res) if stats else None
-    out["reliability_map"] = maps.reliability_map(res) if stats else None
+    out["redundancy_map"] = maps.redundancy_map(res, pts, opt.max_points) if stats else None
+    out["reliability_map"] = (maps.reliability_map(res, pts, opt.max_points) if stats
+                              else None)
+    return out
+
+
+def _weakest_tables(res: Results, opt: ReportOptions) -> str:
+    """The observations with the smallest r and the largest MDB (the largest |w| are in the
+    snooping table)."""
+    if not res.obs["redundancy"].notna().any():
+        return ""
+    out = ""
+    for title, t in weakest(res.obs, opt.worst).items():
+        show = pd.DataFrame({"kind": t["kind"], "photo/model": t["frame"], "point": t["point"],
+                             "c": t["component"], "r": t["redundancy"], "w": t["w"],
+                             "MDB": t["mdb"], "unit": [UNITS.get(k, "") for k in t["kind"]],
+                             "external": t["external_max"]})
+        out += f"<h3>{esc(title)}</h3>" + table(
+            show, {"r": ".3f", "w": ".2f", "MDB": ".4g", "external": ".4g"},
+            text_cols=("kind", "photo/model", "point", "c", "unit"))
     return out
 
 
@@ -233,8 +262,9 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     body = _group_table(res)
     if res.photos is not None and (res.obs["kind"] == "image").any():
         body += "<h3>Per strip</h3>" + _image_table(per_strip(res.obs, res.strip_of()), "strip")
-        body += ("<details><summary>Per photo</summary>"
-                 + _image_table(per_photo(res.obs), "photo") + "</details>")
+        t, note = largest_rms(per_photo(res.obs), opt.max_rows, "photos")
+        body += (f"<details><summary>Per photo{esc(note)}</summary>"
+                 + _image_table(t, "photo") + "</details>")
     if res.photos is not None and res.obs["kind"].isin(["gnss", "imu"]).any():
         t = gnss_imu_per_strip(res.obs, res.strip_of())
         body += "<h3>GNSS and IMU per strip</h3>" + table(
@@ -258,7 +288,8 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     sec.append(("vectors", "Image residual vectors", figure(figs["vectors"])
                 or "<p>no image coordinates in the results</p>"))
     sec.append(("reliability", "Redundancy and reliability", figure(figs["redundancy_map"])
-                + figure(figs["reliability_map"]) if figs["redundancy_map"] else
+                + figure(figs["reliability_map"]) + _weakest_tables(res, opt)
+                if figs["redundancy_map"] else
                 "<p>no redundancy numbers in the results (adjusted without statistics)</p>"))
     sec.append(("table", "Snooping table (ANAPLOT)", _snoop_table(res, opt)))
     nav = "".join(f'<a href="#{k}">{esc(t.split(" (")[0])}</a>' for k, t, _ in sec)

@@ -22,27 +22,60 @@ def point_summary(res: Results) -> pd.DataFrame:
     image observations, max external effect, rejected / flagged / uncontrolled)."""
     if res.points is None:
         return pd.DataFrame(columns=["point", "X", "Y", "role"])
-    o = res.obs.copy()
-    o["label"] = obs_label(o)
-    act = ~o["rejected"]
-    tested = act & np.isfinite(o["w"])
-    img = o["kind"] == "image"
-    g = o.groupby("point")
+    o = res.obs[[c for c in ("kind", "photo", "model", "point", "component", "w",
+                             "redundancy", "mdb", "external_max", "external_point", "rejected",
+                             "flagged") if c in res.obs]]  # a few columns of millions of rows
+    act = ~o["rejected"].to_numpy(bool)
+    w = o["w"].to_numpy(float)
+    tested = act & np.isfinite(w)
+    img = o["kind"].to_numpy(str) == "image"
+    codes, names = pd.factorize(o["point"])  # once: the groups of every column below
+    names = np.asarray(names, dtype=object)
+
+    def per_point(col: str | np.ndarray, sel: np.ndarray, how: str) -> pd.Series:
+        v = o[col].to_numpy() if isinstance(col, str) else col
+        sel = sel & (codes >= 0)
+        r = getattr(pd.Series(v[sel]).groupby(codes[sel]), how)()
+        return pd.Series(r.to_numpy(), index=names[r.index.to_numpy()])
+
     pts = res.points[["point", "X", "Y", "role"]].copy().set_index("point", drop=False)
-    pts["r_min"] = o[tested].groupby("point")["redundancy"].min()
-    pts["mdb_max"] = o[tested & img].groupby("point")["mdb"].max()
-    ext = o[tested & np.isfinite(o["external_max"])]
+    pts["r_min"] = per_point("redundancy", tested, "min")
+    pts["mdb_max"] = per_point("mdb", tested & img, "max")
+    sel = tested & np.isfinite(o["external_max"].to_numpy(float))
+    ext = o.loc[sel, ["point", "external_point", "external_max"]]
     key = np.where(ext["external_point"].astype(str) != "", ext["external_point"].astype(str),
                    ext["point"].astype(str))
     pts["ext_max"] = ext.groupby(key)["external_max"].max()
-    pts["uncontrolled"] = (act & ~np.isfinite(o["w"])).groupby(o["point"]).any()
-    pts["rejected"] = g["rejected"].any()
-    pts["flagged"] = g["flagged"].any()
-    pts["rejected_labels"] = o[o["rejected"]].groupby("point")["label"].agg(list)
+    every = np.ones(len(o), bool)
+    pts["uncontrolled"] = per_point(act & ~np.isfinite(w), every, "any")
+    pts["rejected"] = per_point("rejected", every, "any")
+    pts["flagged"] = per_point("flagged", every, "any")
+    rej = o[o["rejected"]]
+    pts["rejected_labels"] = rej.assign(label=obs_label(rej)).groupby("point")["label"].agg(
+        list)
     for c in ("uncontrolled", "rejected", "flagged"):
         pts[c] = pts[c].astype("boolean").fillna(False).astype(bool)
     pts["rejected_labels"] = [v if isinstance(v, list) else [] for v in pts["rejected_labels"]]
     return pts.reset_index(drop=True)
+
+
+SAMPLE_SEED = 0
+
+
+def sample_points(pts: pd.DataFrame, max_points: int | None) -> tuple[pd.DataFrame, str]:
+    """The points of a map: all of them, or beyond max_points a deterministic random sample
+    of max_points (seed SAMPLE_SEED) with every control and check point and every point with
+    a rejected, flagged or uncontrolled observation; the words for the caption ('' when all
+    are drawn)."""
+    if max_points is None or len(pts) <= max_points:
+        return pts, ""
+    keep = ((pts["role"] != "tie") | pts["rejected"] | pts["flagged"]
+            | pts["uncontrolled"]).to_numpy(bool, copy=True)
+    pick = np.random.default_rng(SAMPLE_SEED).choice(len(pts), size=max_points, replace=False)
+    keep[pick] = True
+    return pts[keep], (f"; {int(keep.sum())} of {len(pts)} points drawn (a deterministic random "
+                       f"sample of {max_points}, seed {SAMPLE_SEED}, and every control, check, "
+                       "rejected, flagged and uncontrolled point)")
 
 
 def _points(ax, pts: pd.DataFrame, small: float = 5) -> None:
@@ -55,10 +88,14 @@ def _points(ax, pts: pd.DataFrame, small: float = 5) -> None:
                        label=f"{role} ({int(sel.sum())})", zorder=3)
 
 
-def block_map(res: Results, outlines: dict[str, np.ndarray], annotate: int = 40) -> Plot:
+def block_map(res: Results, outlines: dict[str, np.ndarray], annotate: int = 40,
+              pts: pd.DataFrame | None = None, max_points: int | None = None) -> Plot:
     """Photo outlines, photo centres, control/check/tie points; rejected observations in red
-    rings (annotated when few), flagged ones in orange."""
-    pts = point_summary(res)
+    rings (annotated when few), flagged ones in orange.  pts: point_summary(res) when
+    already made; max_points: sample_points."""
+    pts = point_summary(res) if pts is None else pts
+    n_all = len(pts)
+    pts, sampled = sample_points(pts, max_points)
     fig, ax = plt.subplots(figsize=(9, 7))
     strip_of = res.strip_of()
     strips = sorted({str(s) for s in strip_of.values()})
@@ -101,7 +138,7 @@ def block_map(res: Results, outlines: dict[str, np.ndarray], annotate: int = 40)
     ax.set_title("Block map" + (" (outlines: measured image area)" if outlines else ""),
                  fontsize=10)
     missing = sorted(set(res.obs.loc[res.obs["rejected"], "point"]) - set(pts["point"]))
-    cap = (f"{len(outlines)} photo outlines, {len(pts)} points; rejected observations "
+    cap = (f"{len(outlines)} photo outlines, {n_all} points{sampled}; rejected observations "
            f"marked (red rings): {', '.join(marked) if marked else 'none'}")
     if missing:
         cap += f"; not on the map (no coordinates): {', '.join(missing)}"
@@ -121,7 +158,8 @@ def _nice(x: float) -> float:
 
 def _pairs(obs: pd.DataFrame) -> pd.DataFrame:
     """x and y of the image observations side by side (one row per image point)."""
-    x, y = pair_xy(obs)
+    x, y = pair_xy(obs[["kind", "photo", "point", "component", "x_mm", "y_mm", "residual",
+                        "rejected", "flagged", "w"]])
     return pd.DataFrame({
         "photo": x["photo"], "point": x["point"], "x": x["x_mm"], "y": x["y_mm"],
         "vx": x["residual"], "vy": y["residual"].to_numpy(),
@@ -221,31 +259,41 @@ def _colour_map(ax, fig, pts, col, label, cmap, vmin=None, vmax=None):
     ax.set_ylabel("Y [m]")
 
 
-def redundancy_map(res: Results) -> Plot:
-    pts = point_summary(res)
+def redundancy_map(res: Results, pts: pd.DataFrame | None = None,
+                   max_points: int | None = None) -> Plot:
+    pts = point_summary(res) if pts is None else pts
+    drawn, sampled = sample_points(pts, max_points)
     fig, ax = plt.subplots(figsize=(8, 6))
-    _colour_map(ax, fig, pts, "r_min", "smallest redundancy number r", "RdYlGn", 0.0, 1.0)
+    _colour_map(ax, fig, drawn, "r_min", "smallest redundancy number r", "RdYlGn", 0.0, 1.0)
     ax.set_title("Redundancy numbers: smallest r of each point's observations (triangles: "
                  "control)", fontsize=10)
     n_unc = int(pts["uncontrolled"].sum())
     cap = (f"{int(np.isfinite(pts['r_min']).sum())} points coloured by their smallest "
-           f"redundancy number; {n_unc} with an uncontrolled observation (x)")
+           f"redundancy number; {n_unc} with an uncontrolled observation (x){sampled}")
     return Plot("redundancy_map", "Map of redundancy numbers", to_png(fig), cap)
 
 
-def reliability_map(res: Results) -> Plot:
-    pts = point_summary(res)
+def reliability_map(res: Results, pts: pd.DataFrame | None = None,
+                    max_points: int | None = None) -> Plot:
+    pts = point_summary(res) if pts is None else pts
+    drawn, sampled = sample_points(pts, max_points)
+
+    def scale(col: str) -> tuple[float | None, float | None]:  # of every point, not the drawn
+        v = pts[col].to_numpy(float)
+        v = v[np.isfinite(v)]
+        return (float(v.min()), float(v.max())) if sampled and len(v) else (None, None)
+
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
-    _colour_map(axes[0], fig, pts, "mdb_max", "largest MDB of the image observations [µm]",
-                "viridis")
+    _colour_map(axes[0], fig, drawn, "mdb_max", "largest MDB of the image observations [µm]",
+                "viridis", *scale("mdb_max"))
     axes[0].set_title("Internal reliability: MDB (boundary value) [µm]", fontsize=10)
-    _colour_map(axes[1], fig, pts, "ext_max", "largest effect of an MDB on the point [m]",
-                "magma_r")
+    _colour_map(axes[1], fig, drawn, "ext_max", "largest effect of an MDB on the point [m]",
+                "magma_r", *scale("ext_max"))
     axes[1].set_title("External reliability: effect of an undetected MDB [m]", fontsize=10)
     fig.tight_layout()
     mdb = pts["mdb_max"].to_numpy(float)
     ext = pts["ext_max"].to_numpy(float)
     cap = (f"largest MDB {np.nanmax(mdb):.1f} µm, largest external effect "
            f"{np.nanmax(ext):.3f} m" if np.isfinite(mdb).any() and np.isfinite(ext).any()
-           else "no tested observations")
+           else "no tested observations") + sampled
     return Plot("reliability_map", "Maps of internal and external reliability", to_png(fig), cap)

@@ -51,6 +51,34 @@ def obs_label(df: pd.DataFrame) -> np.ndarray:
     return (head + mid + df["component"].astype(str).to_numpy()).astype(object)
 
 
+def label_columns(df: pd.DataFrame) -> list[str]:
+    """The columns obs_label reads (those the table has)."""
+    return [c for c in ("kind", "photo", "model", "point", "component") if c in df]
+
+
+class Labels:
+    """obs_label of a table's rows, worked out only for the rows that are shown (a label of
+    every one of millions of observations would take longer than the rest of a report):
+    indexing with a mask or an index array gives the labels of those rows (still lazy), an
+    integer one label, np.asarray the labels as obs_label gives them."""
+
+    def __init__(self, df: pd.DataFrame, rows: np.ndarray | None = None):
+        self.df = df
+        self.rows = np.arange(len(df)) if rows is None else rows
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitem__(self, key):
+        if isinstance(key, int | np.integer):
+            return obs_label(self.df.iloc[[int(self.rows[key])]])[0]
+        return Labels(self.df, self.rows[key if isinstance(key, slice) else np.asarray(key)])
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        out = obs_label(self.df.iloc[self.rows]) if len(self.rows) else np.zeros(0, object)
+        return out if dtype is None else out.astype(dtype)
+
+
 def describe(values: np.ndarray, labels: np.ndarray, name: str, unit: str,
              rejected: int = 0) -> GroupStats:
     """Number, mean, RMS, minimum and maximum (with where they occur) of `values`."""
@@ -75,7 +103,7 @@ def group_statistics(df: pd.DataFrame, units: dict[str, str] | None = None) -> l
     kind = df["kind"].to_numpy(str)
     comp = df["component"].to_numpy(str)
     v = df["residual"].to_numpy(float)
-    lab = obs_label(df)
+    lab = Labels(df)
     out = []
 
     def add(sel: np.ndarray, name: str, unit: str) -> None:
@@ -136,9 +164,12 @@ def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd
     largest |v| and where, rejected components."""
     img = df["kind"].to_numpy(str) == "image"
     d = df.loc[img, ["photo", "point", "component", "residual"]].copy()
-    d["group"] = d["photo"].astype(str).to_numpy() if key is None else np.asarray(key)[img]
+    group = d["photo"].astype(str).to_numpy() if key is None else np.asarray(key)[img]
+    codes, names = pd.factorize(pd.Series(group, dtype=object))  # groups as codes, once
+    names = np.asarray(names, dtype=object)
+    d["group"] = codes
+    d["point"] = pd.factorize(d["point"])[0]  # only counted
     d["active"] = _active(df)[img]
-    d["label"] = obs_label(d)
     v = d["residual"].to_numpy(float)
     d["abs"] = np.abs(v)
     d["v2"] = v * v
@@ -146,23 +177,31 @@ def image_groups(df: pd.DataFrame, by: str, key: np.ndarray | None = None) -> pd
             "rejected"]
     if d.empty:
         return pd.DataFrame(columns=cols)
-    groups = sorted(d["group"].unique())
-    out = pd.DataFrame({by: groups}).set_index(by, drop=False)
-    out["points"] = d[d["component"] == "x"].groupby("group")["point"].nunique()
-    a = d[d["active"]]
+
+    def named(r: pd.Series) -> pd.Series:
+        return pd.Series(r.to_numpy(), index=names[r.index.to_numpy()])
+
+    out = pd.DataFrame({by: sorted(names)}).set_index(by, drop=False)
+    comp = d["component"].to_numpy(str)
+    out["points"] = named(d[comp == "x"].groupby("group")["point"].nunique())
+    a = d[d["active"].to_numpy(bool)]
+    acomp = a["component"].to_numpy(str)
     for c in "xy":
-        g = a[a["component"] == c].groupby("group")
-        out[f"mean_{c}"] = g["residual"].mean()
-        out[f"rms_{c}"] = np.sqrt(g["v2"].mean())
-    out["rms_xy"] = np.sqrt(a.groupby("group")["v2"].mean())
+        g = a[acomp == c].groupby("group")
+        out[f"mean_{c}"] = named(g["residual"].mean())
+        out[f"rms_{c}"] = np.sqrt(named(g["v2"].mean()))
+    out["rms_xy"] = np.sqrt(named(a.groupby("group")["v2"].mean()))
     if len(a):
-        top = a.loc[a.groupby("group")["abs"].idxmax()].set_index("group")
-        out["max_abs"] = top["abs"]
-        out["max_at"] = top["label"]
+        top = df.loc[a.groupby("group")["abs"].idxmax().to_numpy()]
+        # labelled as before: photo, point and component (not the kind)
+        at = pd.Series(obs_label(top.drop(columns=[c for c in ("kind", "model") if c in top])),
+                       index=names[a.loc[top.index, "group"].to_numpy()])
+        out["max_abs"] = named(a.groupby("group")["abs"].max())
+        out["max_at"] = at
     else:
         out["max_abs"] = np.nan
         out["max_at"] = ""
-    out["rejected"] = (~d["active"]).groupby(d["group"]).sum()
+    out["rejected"] = named((~d["active"]).groupby(d["group"]).sum())
     out["points"] = out["points"].fillna(0).astype(int)
     out["rejected"] = out["rejected"].fillna(0).astype(int)
     out["max_at"] = out["max_at"].fillna("")
@@ -212,8 +251,14 @@ def per_photo(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFrame:
-    key = np.array([str(strip_of.get(p, "")) for p in df["photo"].astype(str)], dtype=object)
-    return image_groups(df, "strip", key)
+    return image_groups(df, "strip", strips(df, strip_of))
+
+
+def strips(df: pd.DataFrame, strip_of: dict[str, str]) -> np.ndarray:
+    """The strip of every row ('' where its photo has none)."""
+    key = {str(k): str(v) for k, v in strip_of.items()}
+    photo = pd.Series(df["photo"].astype(str).to_numpy(object))
+    return photo.map(key).fillna("").to_numpy(object)
 
 
 def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFrame:
@@ -223,7 +268,7 @@ def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFra
     rows = []
     act = _active(df)
     kind = df["kind"].astype(str).to_numpy()
-    strip = np.array([str(strip_of.get(p, "")) for p in df["photo"].astype(str)], dtype=object)
+    strip = strips(df, strip_of)
     comp = df["component"].astype(str).to_numpy()
     v = df["residual"].to_numpy(float)
     w = df["w"].to_numpy(float) if "w" in df else np.full(len(df), np.nan)

@@ -13,12 +13,14 @@ from baarda.output.result_folder import UNITS, Results
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
+    Labels,
     format_gnss_imu,
     format_groups,
     format_image_groups,
     format_model_groups,
     gnss_imu_per_strip,
     group_statistics,
+    label_columns,
     model_groups,
     obs_label,
     per_photo,
@@ -53,13 +55,17 @@ class ReportOptions:
     exaggeration: float | None = None  # residual vectors; None: automatic
     vector_photos: int = 12
     worst: int = 10
+    # at scale (issue 16): maps draw at most max_points points (a deterministic sample
+    # beyond, said in the caption); tables list at most max_rows rows (the worst)
+    max_points: int = 50_000
+    max_rows: int = 1_000
 
 
 def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
     """Histograms of the active image residuals: x, y and x+y together."""
     act = (obs["kind"] == "image") & ~obs["rejected"]
-    d = obs[act]
-    lab = obs_label(d)
+    d = obs.loc[act, label_columns(obs) + ["residual"]]  # a few columns of millions of rows
+    lab = Labels(d)
     out = []
     for name, sel in (("x", d["component"] == "x"), ("y", d["component"] == "y"),
                       ("x and y", d["component"].isin(["x", "y"]))):
@@ -77,8 +83,8 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     observation group of the other kinds with at least MIN_GROUP tested components (control
     X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: the groups of the variance
     components), and all observations together."""
-    d = obs[~obs["rejected"] & np.isfinite(obs["w"])]
-    lab = obs_label(d)
+    d = obs.loc[~obs["rejected"] & np.isfinite(obs["w"]), label_columns(obs) + ["w"]]
+    lab = Labels(d)
     kind = d["kind"].to_numpy(str)
     img = kind == "image"
     comp = d["component"].to_numpy(str)
@@ -133,7 +139,8 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
         out += ["", "GNSS AND IMU PER STRIP (GNSS m, IMU residuals as in observations.csv)",
                 "-" * 78, format_gnss_imu(gnss_imu_per_strip(obs, res.strip_of()))]
     if (obs["kind"] == "image").any():
-        out += ["", "PER PHOTO", "-" * 78, format_image_groups(per_photo(obs), "photo")]
+        t, note = largest_rms(per_photo(obs), opt.max_rows, "photos")
+        out += ["", "PER PHOTO" + note, "-" * 78, format_image_groups(t, "photo")]
     if (obs["kind"] == "model").any():
         out += ["", "PER MODEL", "-" * 78, format_model_groups(model_groups(obs))]
     out += ["", f"LARGEST RESIDUALS ({opt.worst} per kind)", "-" * 78,
@@ -146,9 +153,56 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
                                      opt.line_width, expected=h.expected_normal(),
                                      critical=res.k_w)]
     t = snooping_table(obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
+    t, note = first_rows(t, opt.max_rows)
     out += ["", f"SNOOPING TABLE ({len(t)} of {len(obs)} observations: every rejected and "
-            f"flagged one, and the largest |w|)", "-" * 78, format_snooping(t, res.k_w)]
+            f"flagged one, and the largest |w|{note})", "-" * 78, format_snooping(t, res.k_w)]
+    out += weakest_text(obs, opt)
     return "\n".join(out) + "\n"
+
+
+def largest_rms(t: pd.DataFrame, limit: int, what: str) -> tuple[pd.DataFrame, str]:
+    """A per-photo (per-strip) table, or its `limit` rows of the largest RMS x+y when it
+    has more, in the same order; the words that say so (else '')."""
+    if len(t) <= limit:
+        return t, ""
+    keep = np.sort(np.argsort(-t["rms_xy"].fillna(-1.0).to_numpy(), kind="stable")[:limit])
+    return (t.iloc[keep].reset_index(drop=True),
+            f" ({limit} of {len(t)} {what}: those with the largest RMS x+y)")
+
+
+def first_rows(t: pd.DataFrame, limit: int) -> tuple[pd.DataFrame, str]:
+    """The first `limit` rows of a table sorted worst first, and the words that say so."""
+    if len(t) <= limit:
+        return t, ""
+    return t.iloc[:limit], f"; {limit} of {len(t)} such rows shown: the first in this order"
+
+
+def weakest(obs: pd.DataFrame, n: int) -> dict[str, pd.DataFrame]:
+    """The tested, active observations with the smallest redundancy numbers and with the
+    largest MDB (per kind: units differ), n of each."""
+    cols = [c for c in ("kind", "photo", "model", "frame", "point", "component", "redundancy",
+                        "w", "mdb", "external_max") if c in obs]
+    d = obs.loc[~obs["rejected"].to_numpy(bool) & np.isfinite(obs["w"].to_numpy(float)), cols]
+    small = d.nsmallest(n, "redundancy")
+    kind = d["kind"].to_numpy(str)
+    large = pd.concat([d[kind == k].nlargest(n, "mdb") for k in sorted(set(kind))]
+                      or [d.iloc[:0]])
+    return {"smallest redundancy numbers": small, "largest MDB (per kind)": large}
+
+
+def weakest_text(obs: pd.DataFrame, opt: ReportOptions) -> list[str]:
+    """The text report's tables of the weakest observations (largest |w|: the snooping
+    table)."""
+    if not obs["redundancy"].notna().any():
+        return []
+    out = []
+    for title, t in weakest(obs, opt.worst).items():
+        out += ["", f"{title.upper()} ({opt.worst})", "-" * 78]
+        for r, la in zip(t.itertuples(index=False), obs_label(t), strict=True):
+            unit = UNITS.get(r.kind, "")
+            out.append(f"{r.kind:<8}{la:<36} r {r.redundancy:6.3f}  w {r.w:6.2f}  MDB "
+                       f"{r.mdb:10.4g} {unit}".rstrip())
+    return out
 
 
 def format_worst(t: pd.DataFrame, units: dict[str, str] | None = None) -> str:
