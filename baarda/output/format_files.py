@@ -18,7 +18,8 @@ from baarda.io.aicon import AiconProject, _f, _id
 from baarda.io.bal import BalProblem
 from baarda.io.colmap import MODEL_ID, ColmapModel
 from baarda.io.colmap_binary import IMAGE_HEADER, KEYPOINT, POINT_HEADER, TRACK_ELEMENT
-from baarda.io.opensfm import FLIP, angle_axis, topocentric_frame, utm_crs
+from baarda.io.opensfm import topocentric_frame
+from baarda.io.opensfm_files import FLIP, angle_axis, utm_crs
 from baarda.output.atomic import write_bytes, write_text
 
 

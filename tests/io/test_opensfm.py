@@ -17,13 +17,8 @@ from baarda.bundle.collinearity import camera_projection
 from baarda.cli import main
 from baarda.errors import ProjectError
 from baarda.io.formats import detect
-from baarda.io.opensfm import (
-    angle_axis,
-    parse_crs_line,
-    read_opensfm,
-    rodrigues,
-    utm_crs,
-)
+from baarda.io.opensfm import read_opensfm
+from baarda.io.opensfm_files import angle_axis, parse_crs_line, rodrigues, utm_crs
 from baarda.output.format_files import write_opensfm
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
