@@ -109,6 +109,19 @@ class SchurSystem:
         self.pair_slot, self.pair_tr = self.pattern.slots(rows, cols)
         diag = np.arange(n_frames)
         self.diag_slot, _ = self.pattern.slots(diag, diag)
+        # the parallel point elimination: pairs by storage slot and observations by frame,
+        # each in the serial loop's order (schur_kernels.reduce_points_parallel)
+        self.pair_a, self.pair_c, self.pair_point = kernels.pair_observations(
+            self.ptr, self.frame_sorted, npairs)
+        self.slot_pairs = np.argsort(self.pair_slot, kind="stable")
+        self.slot_ptr = np.zeros(self.pattern.nnz_blocks + 1, np.int64)
+        np.cumsum(np.bincount(self.pair_slot, minlength=self.pattern.nnz_blocks),
+                  out=self.slot_ptr[1:])
+        self.slot_diag = np.full(self.pattern.nnz_blocks, -1, np.int64)
+        self.slot_diag[self.diag_slot] = diag
+        self.frame_obs = np.argsort(self.frame_sorted, kind="stable")
+        self.frame_ptr = np.zeros(n_frames + 1, np.int64)
+        np.cumsum(np.bincount(self.frame_sorted, minlength=n_frames), out=self.frame_ptr[1:])
         self.n_fixed = int(n_fixed)
         self.ng = int(ng)
         self.gcol = (np.zeros((len(frame), 0), np.int64) if gcol is None
@@ -180,9 +193,10 @@ class SchurFactor:
         self.hpp_l = np.zeros_like(hpp)
         self.hpp_inv = np.zeros_like(hpp)
         bad = np.zeros(s.np, np.int8)
-        kernels.reduce_points(s.ptr, s.frame_sorted, self.hfp, hpp, gp, gf, values,
-                              s.diag_slot, hff, s.pair_slot, s.pair_tr,
-                              self.hpp_l, self.hpp_inv, bad)
+        kernels.reduce_points_parallel(
+            s.ptr, s.point_sorted, self.hfp, hpp, gp, gf, values, hff, s.slot_diag,
+            s.slot_ptr, s.slot_pairs, s.pair_a, s.pair_c, s.pair_point, s.pair_tr,
+            s.frame_ptr, s.frame_obs, self.hpp_l, self.hpp_inv, bad)
         if bad.any():
             names = [s.point_names[j] for j in np.flatnonzero(bad)[:10]]
             raise GeometryError(

@@ -11,8 +11,9 @@ gives the storage slot of block (frame[a], frame[c]) for each such pair and
 from __future__ import annotations
 
 import numpy as np
+from numba import prange
 
-from baarda.linalg._jit import kernel
+from baarda.linalg._jit import kernel, parallel_kernel
 
 
 @kernel
@@ -115,66 +116,95 @@ def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp)
 
 
 @kernel
-def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slot, pair_tr,
-                  hpp_l, hpp_inv, bad):
-    """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side.
+def pair_observations(ptr, frame, n):
+    """(a, c, point) of every frame pair (frame[a] >= frame[c]) in the kernels' loop order:
+    the sorted positions of its two observations and their point."""
+    pa = np.empty(n, np.int64)
+    pc = np.empty(n, np.int64)
+    pj = np.empty(n, np.int64)
+    k = 0
+    for j in range(len(ptr) - 1):
+        for a in range(ptr[j], ptr[j + 1]):
+            for c in range(ptr[j], ptr[j + 1]):
+                if frame[a] >= frame[c]:
+                    pa[k], pc[k], pj[k] = a, c, j
+                    k += 1
+    return pa, pc, pj
 
-    hfp (m, b, d) per observation (sorted by point), frame (m,) sorted likewise; hpp
-    (np, d, d) and gp (np, d) per point; hff (nf, b, b) frame diagonal blocks; gf (nf, b)
-    is reduced in place.  Writes Cholesky factors and inverses of Hpp; bad[j] = 1 for a
-    point whose Hpp is not positive definite.
+
+@parallel_kernel
+def reduce_points_parallel(ptr, point, hfp, hpp, gp, gf, values, hff, slot_diag, slot_ptr,
+                           slot_pairs, pair_a, pair_c, pair_point, pair_tr, frame_ptr,
+                           frame_obs, hpp_l, hpp_inv, bad):
+    """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side on numba's
+    threads, every sum taken in the order of the serial loop over points (its reference copy
+    is in tests/adjustment/test_reduce_points.py), so the result is the same to the last bit
+    for any number of threads.
+
+    hfp (m, b, d) per observation (sorted by point; point (m,) their points), hpp (np, d, d)
+    and gp (np, d) per point; hff (nf, b, b) frame diagonal blocks; gf (nf, b) is reduced in
+    place.  Writes Cholesky factors and inverses of Hpp; bad[j] = 1 for a point whose Hpp is
+    not positive definite.
+
+    Points first (each its Hpp^-1 and t = Hfp Hpp^-1 of its observations); then each frame's
+    right-hand side, its observations in sorted order (frame_obs[frame_ptr[f]:...]); then each
+    stored block of S: the frame's Hff on a diagonal block (slot_diag >= 0), minus its
+    observation pairs in loop order (slot_pairs[slot_ptr[s]:...]).
     """
-    nf = hff.shape[0]
     b = hff.shape[1]
     d = hpp.shape[1]
-    for f in range(nf):
-        s = diag_slot[f]
-        for r in range(b):
-            for c in range(b):
-                values[s, r, c] += hff[f, r, c]
-    k = 0
-    npnt = len(ptr) - 1
-    t = np.empty((hfp.shape[0], b, d))
-    for j in range(npnt):
-        lo, hi = ptr[j], ptr[j + 1]
-        ok = _chol_inv(hpp[j], hpp_l[j], hpp_inv[j])
-        if not ok:
+    m = hfp.shape[0]
+    t = np.empty((m, b, d))
+    g = np.empty((m, b))
+    for j in prange(len(ptr) - 1):
+        if not _chol_inv(hpp[j], hpp_l[j], hpp_inv[j]):
             bad[j] = 1
-            for a in range(lo, hi):
-                for c in range(lo, hi):
-                    if frame[a] >= frame[c]:
-                        k += 1
             continue
         hinv = hpp_inv[j]
-        for a in range(lo, hi):
-            fa = frame[a]
+        for a in range(ptr[j], ptr[j + 1]):
             for p in range(b):
                 for q in range(d):
                     acc = 0.0
                     for r in range(d):
                         acc += hfp[a, p, r] * hinv[r, q]
                     t[a, p, q] = acc
-                g = 0.0
+                x = 0.0
                 for q in range(d):
-                    g += t[a, p, q] * gp[j, q]
-                gf[fa, p] -= g
-        for a in range(lo, hi):
-            fa = frame[a]
-            for c in range(lo, hi):
-                if fa < frame[c]:
-                    continue
-                s = pair_slot[k]
-                tr = pair_tr[k]
+                    x += t[a, p, q] * gp[j, q]
+                g[a, p] = x
+    for f in prange(len(frame_ptr) - 1):
+        for i in range(frame_ptr[f], frame_ptr[f + 1]):
+            a = frame_obs[i]
+            if bad[point[a]]:
+                continue
+            for p in range(b):
+                gf[f, p] -= g[a, p]
+    for s in prange(len(slot_ptr) - 1):
+        f = slot_diag[s]
+        if f >= 0:
+            for r in range(b):
+                for c in range(b):
+                    values[s, r, c] += hff[f, r, c]
+        blk = np.empty((b, b))
+        for i in range(slot_ptr[s], slot_ptr[s + 1]):
+            k = slot_pairs[i]
+            if bad[pair_point[k]]:
+                continue
+            a, c = pair_a[k], pair_c[k]
+            for p in range(b):
+                for q in range(b):
+                    acc = 0.0
+                    for r in range(d):
+                        acc += t[a, p, r] * hfp[c, q, r]
+                    blk[p, q] = acc
+            if pair_tr[k]:
                 for p in range(b):
                     for q in range(b):
-                        acc = 0.0
-                        for r in range(d):
-                            acc += t[a, p, r] * hfp[c, q, r]
-                        if tr:
-                            values[s, q, p] -= acc
-                        else:
-                            values[s, p, q] -= acc
-                k += 1
+                        values[s, q, p] -= blk[p, q]
+            else:
+                for p in range(b):
+                    for q in range(b):
+                        values[s, p, q] -= blk[p, q]
     return d
 
 

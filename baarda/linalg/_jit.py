@@ -62,7 +62,7 @@ def parallel_kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 
 # kernels that every adjustment runs: while one of them is not cached, a run compiles
-CORE = ("assemble", "reduce_points", "elimination_tree", "supernodal_cholesky")
+CORE = ("assemble", "reduce_points_parallel", "elimination_tree", "supernodal_cholesky")
 
 
 def compile_pending() -> bool:
