@@ -30,12 +30,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve, solve_triangular
 
 from baarda.adjustment import schur_kernels as kernels
 from baarda.errors import GeometryError
 from baarda.linalg import BlockCholesky, BlockPattern, NotPositiveDefinite
+from baarda.linalg.parallel import PARALLEL_MIN_WORK
 from baarda.linalg.threads import single_threaded_blas
 
 HOLD = 1e24  # weight of a direct constraint that holds an unknown (datum, fixed control)
@@ -130,6 +132,14 @@ class SchurSystem:
                         else np.asarray(x_frame, np.int64))
         self.global_names = global_names or [f"global {i}" for i in range(self.ng)]
 
+    def parallel_reduction(self) -> bool:
+        """Whether the point elimination runs on numba's threads: with more than one thread
+        and enough work (as the factorisation, linalg/parallel.PARALLEL_MIN_WORK); small
+        blocks stay on one thread and never start numba's thread pool (a process that has
+        started it cannot fork safely, as `baarda evaluate`'s process pool does)."""
+        work = len(self.pair_slot) * self.b * self.b * self.d
+        return work >= PARALLEL_MIN_WORK and numba.get_num_threads() > 1
+
     @property
     def n_unknowns(self) -> int:
         return self.nf * self.b + self.np * self.d + self.ng - self.n_fixed
@@ -193,10 +203,15 @@ class SchurFactor:
         self.hpp_l = np.zeros_like(hpp)
         self.hpp_inv = np.zeros_like(hpp)
         bad = np.zeros(s.np, np.int8)
-        kernels.reduce_points_parallel(
-            s.ptr, s.point_sorted, self.hfp, hpp, gp, gf, values, hff, s.slot_diag,
-            s.slot_ptr, s.slot_pairs, s.pair_a, s.pair_c, s.pair_point, s.pair_tr,
-            s.frame_ptr, s.frame_obs, self.hpp_l, self.hpp_inv, bad)
+        if s.parallel_reduction():
+            kernels.reduce_points_parallel(
+                s.ptr, s.point_sorted, self.hfp, hpp, gp, gf, values, hff, s.slot_diag,
+                s.slot_ptr, s.slot_pairs, s.pair_a, s.pair_c, s.pair_point, s.pair_tr,
+                s.frame_ptr, s.frame_obs, self.hpp_l, self.hpp_inv, bad)
+        else:  # the same numbers on one thread
+            kernels.reduce_points(s.ptr, s.frame_sorted, self.hfp, hpp, gp, gf, values,
+                                  s.diag_slot, hff, s.pair_slot, s.pair_tr,
+                                  self.hpp_l, self.hpp_inv, bad)
         if bad.any():
             names = [s.point_names[j] for j in np.flatnonzero(bad)[:10]]
             raise GeometryError(

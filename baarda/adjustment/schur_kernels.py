@@ -116,6 +116,72 @@ def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp)
 
 
 @kernel
+def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slot, pair_tr,
+                  hpp_l, hpp_inv, bad):
+    """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side, point by
+    point on one thread (small blocks: numba's threads are not started, so a process that
+    adjusts small blocks can still fork; reduce_points_parallel gives the same numbers).
+
+    hfp (m, b, d) per observation (sorted by point), frame (m,) sorted likewise; hpp
+    (np, d, d) and gp (np, d) per point; hff (nf, b, b) frame diagonal blocks; gf (nf, b)
+    is reduced in place.  Writes Cholesky factors and inverses of Hpp; bad[j] = 1 for a
+    point whose Hpp is not positive definite.
+    """
+    nf = hff.shape[0]
+    b = hff.shape[1]
+    d = hpp.shape[1]
+    for f in range(nf):
+        s = diag_slot[f]
+        for r in range(b):
+            for c in range(b):
+                values[s, r, c] += hff[f, r, c]
+    k = 0
+    npnt = len(ptr) - 1
+    t = np.empty((hfp.shape[0], b, d))
+    for j in range(npnt):
+        lo, hi = ptr[j], ptr[j + 1]
+        ok = _chol_inv(hpp[j], hpp_l[j], hpp_inv[j])
+        if not ok:
+            bad[j] = 1
+            for a in range(lo, hi):
+                for c in range(lo, hi):
+                    if frame[a] >= frame[c]:
+                        k += 1
+            continue
+        hinv = hpp_inv[j]
+        for a in range(lo, hi):
+            fa = frame[a]
+            for p in range(b):
+                for q in range(d):
+                    acc = 0.0
+                    for r in range(d):
+                        acc += hfp[a, p, r] * hinv[r, q]
+                    t[a, p, q] = acc
+                g = 0.0
+                for q in range(d):
+                    g += t[a, p, q] * gp[j, q]
+                gf[fa, p] -= g
+        for a in range(lo, hi):
+            fa = frame[a]
+            for c in range(lo, hi):
+                if fa < frame[c]:
+                    continue
+                s = pair_slot[k]
+                tr = pair_tr[k]
+                for p in range(b):
+                    for q in range(b):
+                        acc = 0.0
+                        for r in range(d):
+                            acc += t[a, p, r] * hfp[c, q, r]
+                        if tr:
+                            values[s, q, p] -= acc
+                        else:
+                            values[s, p, q] -= acc
+                k += 1
+    return d
+
+
+@kernel
 def pair_observations(ptr, frame, n):
     """(a, c, point) of every frame pair (frame[a] >= frame[c]) in the kernels' loop order:
     the sorted positions of its two observations and their point."""
@@ -137,9 +203,8 @@ def reduce_points_parallel(ptr, point, hfp, hpp, gp, gf, values, hff, slot_diag,
                            slot_pairs, pair_a, pair_c, pair_point, pair_tr, frame_ptr,
                            frame_obs, hpp_l, hpp_inv, bad):
     """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side on numba's
-    threads, every sum taken in the order of the serial loop over points (its reference copy
-    is in tests/adjustment/test_reduce_points.py), so the result is the same to the last bit
-    for any number of threads.
+    threads, every sum taken in the order of the serial loop over points (reduce_points), so
+    the result is the same to the last bit for any number of threads.
 
     hfp (m, b, d) per observation (sorted by point; point (m,) their points), hpp (np, d, d)
     and gp (np, d) per point; hff (nf, b, b) frame diagonal blocks; gf (nf, b) is reduced in

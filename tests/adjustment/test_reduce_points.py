@@ -1,86 +1,22 @@
-"""The parallel point elimination (schur_kernels.reduce_points_parallel) against the serial
-loop over points it replaced: the same S, right-hand side, Hpp factors and inverses to the
-last bit, on an aerial block, a free network and with a singular point, for one and for
-two numba threads."""
+"""The parallel point elimination (schur_kernels.reduce_points_parallel, large blocks) against
+the serial loop over points (reduce_points, small blocks): the same S, right-hand side, Hpp
+factors and inverses to the last bit, on an aerial block, a free network and with a singular
+point, for one and for two numba threads; and which of them a system uses."""
 
 import numba
 import numpy as np
 import pytest
-from numba import njit
 
 from baarda.adjustment import schur_kernels as kernels
-from baarda.adjustment.schur_kernels import _chol_inv
+from baarda.adjustment.schur_kernels import reduce_points
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.free_network import FreeBundleProblem
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 
-@njit(cache=False)
-def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slot, pair_tr,
-                  hpp_l, hpp_inv, bad):
-    """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side.
-
-    hfp (m, b, d) per observation (sorted by point), frame (m,) sorted likewise; hpp
-    (np, d, d) and gp (np, d) per point; hff (nf, b, b) frame diagonal blocks; gf (nf, b)
-    is reduced in place.  Writes Cholesky factors and inverses of Hpp; bad[j] = 1 for a
-    point whose Hpp is not positive definite.
-    """
-    nf = hff.shape[0]
-    b = hff.shape[1]
-    d = hpp.shape[1]
-    for f in range(nf):
-        s = diag_slot[f]
-        for r in range(b):
-            for c in range(b):
-                values[s, r, c] += hff[f, r, c]
-    k = 0
-    npnt = len(ptr) - 1
-    t = np.empty((hfp.shape[0], b, d))
-    for j in range(npnt):
-        lo, hi = ptr[j], ptr[j + 1]
-        ok = _chol_inv(hpp[j], hpp_l[j], hpp_inv[j])
-        if not ok:
-            bad[j] = 1
-            for a in range(lo, hi):
-                for c in range(lo, hi):
-                    if frame[a] >= frame[c]:
-                        k += 1
-            continue
-        hinv = hpp_inv[j]
-        for a in range(lo, hi):
-            fa = frame[a]
-            for p in range(b):
-                for q in range(d):
-                    acc = 0.0
-                    for r in range(d):
-                        acc += hfp[a, p, r] * hinv[r, q]
-                    t[a, p, q] = acc
-                g = 0.0
-                for q in range(d):
-                    g += t[a, p, q] * gp[j, q]
-                gf[fa, p] -= g
-        for a in range(lo, hi):
-            fa = frame[a]
-            for c in range(lo, hi):
-                if fa < frame[c]:
-                    continue
-                s = pair_slot[k]
-                tr = pair_tr[k]
-                for p in range(b):
-                    for q in range(b):
-                        acc = 0.0
-                        for r in range(d):
-                            acc += t[a, p, r] * hfp[c, q, r]
-                        if tr:
-                            values[s, q, p] -= acc
-                        else:
-                            values[s, p, q] -= acc
-                k += 1
-    return d
-
-
 def _captured(problem, monkeypatch):
-    """The arguments of every call of the parallel kernel while `problem` is fitted."""
+    """The arguments of every call of the parallel kernel while `problem` is fitted (made to
+    use it whatever its size)."""
     calls = []
     parallel = kernels.reduce_points_parallel
 
@@ -89,8 +25,9 @@ def _captured(problem, monkeypatch):
         return parallel(*args)
 
     monkeypatch.setattr(kernels, "reduce_points_parallel", spy)
+    monkeypatch.setattr(type(problem.system), "parallel_reduction", lambda self: True)
     problem.fit()
-    monkeypatch.setattr(kernels, "reduce_points_parallel", parallel)
+    monkeypatch.undo()
     return calls
 
 
@@ -136,3 +73,14 @@ def test_a_singular_point_is_flagged_and_left_out(monkeypatch):
     hpp[j] = 0.0  # a point without geometry
     ref = _compare(problem.system, args, 2)
     assert ref[4][j] == 1 and ref[4].sum() == 1
+
+
+def test_small_blocks_stay_on_one_thread():
+    """A small block never starts numba's threads (a process pool forked after it is safe);
+    a 1000-photo block's elimination is parallel work."""
+    small, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=6, relief_m=60, seed=3))
+    assert not BundleProblem(small).system.parallel_reduction()
+    large, _ = simulate_block(FlightPlan(strips=20, photos_per_strip=50, forward_overlap=0.6,
+                                         side_overlap=0.6, pattern=5, relief_m=100, seed=1))
+    system = BundleProblem(large).system
+    assert system.parallel_reduction() == (numba.get_num_threads() > 1)
