@@ -106,15 +106,15 @@ class SchurSystem:
         np.cumsum(np.bincount(point, minlength=n_points), out=self.ptr[1:])
         self.control_point = np.asarray(control_point, np.int64)
         npairs = kernels.count_pairs(self.ptr, self.frame_sorted)
-        rows, cols = kernels.list_pairs(self.ptr, self.frame_sorted, npairs)
+        self.pair_a, self.pair_c, self.pair_point = kernels.pair_observations(
+            self.ptr, self.frame_sorted, npairs)
+        rows, cols = self.frame_sorted[self.pair_a], self.frame_sorted[self.pair_c]
         self.pattern = BlockPattern.from_pairs(n_frames, b, rows, cols)
         self.pair_slot, self.pair_tr = self.pattern.slots(rows, cols)
         diag = np.arange(n_frames)
         self.diag_slot, _ = self.pattern.slots(diag, diag)
         # the parallel point elimination: pairs by storage slot and observations by frame,
         # each in the serial loop's order (schur_kernels.reduce_points_parallel)
-        self.pair_a, self.pair_c, self.pair_point = kernels.pair_observations(
-            self.ptr, self.frame_sorted, npairs)
         self.slot_pairs = np.argsort(self.pair_slot, kind="stable")
         self.slot_ptr = np.zeros(self.pattern.nnz_blocks + 1, np.int64)
         np.cumsum(np.bincount(self.pair_slot, minlength=self.pattern.nnz_blocks),

@@ -28,22 +28,6 @@ def count_pairs(ptr, frame):
 
 
 @kernel
-def list_pairs(ptr, frame, n):
-    """Frame pairs (rows >= cols) in the kernels' loop order."""
-    rows = np.empty(n, np.int64)
-    cols = np.empty(n, np.int64)
-    k = 0
-    for j in range(len(ptr) - 1):
-        for a in range(ptr[j], ptr[j + 1]):
-            for c in range(ptr[j], ptr[j + 1]):
-                if frame[a] >= frame[c]:
-                    rows[k] = frame[a]
-                    cols[k] = frame[c]
-                    k += 1
-    return rows, cols
-
-
-@kernel
 def _chol_inv(h, out_l, out_inv):
     """Cholesky factor and inverse of a small SPD matrix; returns False if not SPD."""
     d = h.shape[0]
@@ -116,6 +100,43 @@ def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp)
 
 
 @kernel
+def _observation_terms(hfp, hinv, gpj, a, t, g):
+    """t[a] = Hfp_a Hpp^-1 (b, d) and g[a] = t[a] gp_j (b,) of observation a of a point."""
+    b, d = hfp.shape[1], hfp.shape[2]
+    for p in range(b):
+        for q in range(d):
+            acc = 0.0
+            for r in range(d):
+                acc += hfp[a, p, r] * hinv[r, q]
+            t[a, p, q] = acc
+        x = 0.0
+        for q in range(d):
+            x += t[a, p, q] * gpj[q]
+        g[a, p] = x
+
+
+@kernel
+def _subtract_pair(values, s, tr, t, hfp, a, c, blk):
+    """values[s] -= t[a] Hfp_c^T (stored transposed when tr): one observation pair's term
+    of S, through blk (b, b)."""
+    b, d = hfp.shape[1], hfp.shape[2]
+    for p in range(b):
+        for q in range(b):
+            acc = 0.0
+            for r in range(d):
+                acc += t[a, p, r] * hfp[c, q, r]
+            blk[p, q] = acc
+    if tr:
+        for p in range(b):
+            for q in range(b):
+                values[s, q, p] -= blk[p, q]
+    else:
+        for p in range(b):
+            for q in range(b):
+                values[s, p, q] -= blk[p, q]
+
+
+@kernel
 def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slot, pair_tr,
                   hpp_l, hpp_inv, bad):
     """Form S = Hff - sum_j Hfp_j Hpp_j^-1 Hpf_j and the reduced right-hand side, point by
@@ -136,48 +157,27 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
             for c in range(b):
                 values[s, r, c] += hff[f, r, c]
     k = 0
-    npnt = len(ptr) - 1
     t = np.empty((hfp.shape[0], b, d))
-    for j in range(npnt):
+    g = np.empty((hfp.shape[0], b))
+    blk = np.empty((b, b))
+    for j in range(len(ptr) - 1):
         lo, hi = ptr[j], ptr[j + 1]
-        ok = _chol_inv(hpp[j], hpp_l[j], hpp_inv[j])
-        if not ok:
+        if not _chol_inv(hpp[j], hpp_l[j], hpp_inv[j]):
             bad[j] = 1
             for a in range(lo, hi):
                 for c in range(lo, hi):
                     if frame[a] >= frame[c]:
                         k += 1
             continue
-        hinv = hpp_inv[j]
         for a in range(lo, hi):
-            fa = frame[a]
+            _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g)
             for p in range(b):
-                for q in range(d):
-                    acc = 0.0
-                    for r in range(d):
-                        acc += hfp[a, p, r] * hinv[r, q]
-                    t[a, p, q] = acc
-                g = 0.0
-                for q in range(d):
-                    g += t[a, p, q] * gp[j, q]
-                gf[fa, p] -= g
+                gf[frame[a], p] -= g[a, p]
         for a in range(lo, hi):
-            fa = frame[a]
             for c in range(lo, hi):
-                if fa < frame[c]:
-                    continue
-                s = pair_slot[k]
-                tr = pair_tr[k]
-                for p in range(b):
-                    for q in range(b):
-                        acc = 0.0
-                        for r in range(d):
-                            acc += t[a, p, r] * hfp[c, q, r]
-                        if tr:
-                            values[s, q, p] -= acc
-                        else:
-                            values[s, p, q] -= acc
-                k += 1
+                if frame[a] >= frame[c]:
+                    _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, blk)
+                    k += 1
     return d
 
 
@@ -225,18 +225,8 @@ def reduce_points_parallel(ptr, point, hfp, hpp, gp, gf, values, hff, slot_diag,
         if not _chol_inv(hpp[j], hpp_l[j], hpp_inv[j]):
             bad[j] = 1
             continue
-        hinv = hpp_inv[j]
         for a in range(ptr[j], ptr[j + 1]):
-            for p in range(b):
-                for q in range(d):
-                    acc = 0.0
-                    for r in range(d):
-                        acc += hfp[a, p, r] * hinv[r, q]
-                    t[a, p, q] = acc
-                x = 0.0
-                for q in range(d):
-                    x += t[a, p, q] * gp[j, q]
-                g[a, p] = x
+            _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g)
     for f in prange(len(frame_ptr) - 1):
         for i in range(frame_ptr[f], frame_ptr[f + 1]):
             a = frame_obs[i]
@@ -255,21 +245,7 @@ def reduce_points_parallel(ptr, point, hfp, hpp, gp, gf, values, hff, slot_diag,
             k = slot_pairs[i]
             if bad[pair_point[k]]:
                 continue
-            a, c = pair_a[k], pair_c[k]
-            for p in range(b):
-                for q in range(b):
-                    acc = 0.0
-                    for r in range(d):
-                        acc += t[a, p, r] * hfp[c, q, r]
-                    blk[p, q] = acc
-            if pair_tr[k]:
-                for p in range(b):
-                    for q in range(b):
-                        values[s, q, p] -= blk[p, q]
-            else:
-                for p in range(b):
-                    for q in range(b):
-                        values[s, p, q] -= blk[p, q]
+            _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], blk)
     return d
 
 
