@@ -5,8 +5,7 @@ pixels, the redundancy number, w and MDB of every observation, the snooping log 
 external reliability of the ground points.
 
 `quality_content(res)` gives the content once, as `Part`s (a heading, text, a table or a
-figure); `quality_html` and `write_quality_pdf` lay the same parts out as HTML sections and
-as PDF pages (matplotlib's PdfPages: tables drawn as text, figures as vector graphics).
+figure); `quality_html` lays them out as HTML sections, report/quality_pdf.py as PDF pages.
 Everything is read from the result folder (output/result_folder.py); nothing is recomputed
 but RMS values and per-group summaries of the observations table.
 """
@@ -15,7 +14,6 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import matplotlib
 
@@ -299,7 +297,9 @@ def quality_content(res: Results) -> list[Part]:
 
 
 # ------------------------------------------------------------------ HTML
-def _cell(v, f: str | None) -> str:
+def format_cell(v, f: str | None) -> str:
+    """A table cell as text: a number in format f (blank when not finite), anything else
+    HTML-escaped (the PDF passes its text cells as they are)."""
     import html
 
     if isinstance(v, float | np.floating):
@@ -314,7 +314,7 @@ def html_table(t: pd.DataFrame, fmt: dict | None, attrs: str = "") -> str:
 
     fmt = fmt or {}
     head = "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
-    rows = "".join("<tr>" + "".join(f"<td>{_cell(v, fmt.get(c))}</td>" for c, v in
+    rows = "".join("<tr>" + "".join(f"<td>{format_cell(v, fmt.get(c))}</td>" for c, v in
                                     zip(t.columns, r, strict=True)) + "</tr>"
                    for r in t.itertuples(index=False))
     return f"<table {attrs}><tr>{head}</tr>{rows}</table>"
@@ -397,91 +397,3 @@ def quality_page(res: Results) -> str:
             "</style></head><body><header><h1>Quality report: "
             f"{html.escape(res.title)}</h1><p>{html.escape(str(res.folder))}</p></header>"
             f"<main>{quality_html(res)}</main></body></html>\n")
-
-
-# ------------------------------------------------------------------ PDF
-A4 = (8.27, 11.69)
-ROWS_PER_PAGE = 46
-
-
-def _text_lines(t: pd.DataFrame, fmt: dict | None) -> list[str]:
-    fmt = fmt or {}
-    cells = [[str(c) for c in t.columns]] + [
-        [(_cell(v, fmt.get(c)) if not isinstance(v, str) else v) for c, v in
-         zip(t.columns, r, strict=True)] for r in t.itertuples(index=False)]
-    cells = [[c[:48] for c in row] for row in cells]
-    width = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
-    return ["  ".join(c.rjust(w) for c, w in zip(row, width, strict=True)) for row in cells]
-
-
-def write_quality_pdf(res: Results, path: str | Path) -> int:
-    """The quality report as a PDF (A4 pages); returns the number of pages."""
-    from matplotlib.backends.backend_pdf import PdfPages
-
-    from baarda.output.atomic import atomic_open
-
-    pages = 0
-    with plt.rc_context({"pdf.fonttype": 42}), atomic_open(path, "wb") as f, \
-            PdfPages(f, metadata={"Title": f"baarda quality report: {res.title}"}) as pdf:
-        fig, y = None, 0.0
-
-        def new_page():
-            nonlocal fig, y, pages
-            if fig is not None:
-                pdf.savefig(fig)
-                plt.close(fig)
-            fig = plt.figure(figsize=A4)
-            pages += 1
-            fig.text(0.5, 0.985, f"baarda quality report: {res.title}", ha="center",
-                     va="top", fontsize=8, color="#555")
-            fig.text(0.5, 0.01, f"page {pages}", ha="center", fontsize=7, color="#555")
-            y = 0.96
-
-        def line(text: str, size: float = 7.0, mono: bool = False, bold: bool = False):
-            nonlocal y
-            step = size / 72 / A4[1] * 1.35
-            if y - step < 0.03:
-                new_page()
-            fig.text(0.05, y, text, fontsize=size, va="top",
-                     family="monospace" if mono else "sans-serif",
-                     weight="bold" if bold else "normal")
-            y -= step
-
-        new_page()
-        import textwrap
-
-        for p in quality_content(res):
-            if p.kind == "heading":
-                if y < 0.2:
-                    new_page()
-                y -= 0.01
-                line(p.title, 12, bold=True)
-            elif p.kind == "text":
-                for para in p.text.split("\n"):
-                    for w in textwrap.wrap(para, 120) or [""]:
-                        line(w, 7.5)
-            elif p.kind == "table":
-                line(p.title[0].upper() + p.title[1:], 8, bold=True)
-                rows = _text_lines(p.table, p.fmt)
-                size = 6.0 if max(len(r) for r in rows) < 150 else 4.5
-                for r in rows:
-                    line(r, size, mono=True)
-            elif p.kind == "figure":
-                src = p.figure()
-                w, h = src.get_size_inches()
-                png = to_png(src)
-                frac_h = min(0.45, h / A4[1])
-                if y - frac_h < 0.05:
-                    new_page()
-                ax = fig.add_axes([0.05, y - frac_h, min(0.9, w / A4[0] * frac_h / (h / A4[1])),
-                                   frac_h])
-                import io
-
-                ax.imshow(plt.imread(io.BytesIO(png)))
-                ax.axis("off")
-                y -= frac_h + 0.01
-                for t in textwrap.wrap(p.text, 120):
-                    line(t, 7)
-        pdf.savefig(fig)
-        plt.close(fig)
-    return pages
