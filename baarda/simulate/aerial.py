@@ -13,7 +13,8 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from baarda.block.camera_models import ebner_fields, get_model, invert
+from baarda.block.camera_models import get_model, invert
+from baarda.block.field_models import ebner_fields
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
 

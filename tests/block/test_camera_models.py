@@ -13,6 +13,7 @@ import pytest
 from lens_reference import brown_terms, distort
 
 from baarda.block import camera_models as cm
+from baarda.block import field_models as fm
 
 M = 300
 
@@ -211,7 +212,7 @@ def test_ebner_fields_are_orthogonal_over_the_3x3_grid():
     b = 7.5
     g = _grid(3, b)
     f = _flat(cm.MODELS["ebner"].correction(g, np.zeros(12), [b])[2])
-    e = _flat(cm.exterior_fields(g))
+    e = _flat(fm.exterior_fields(g))
     gram = f.T @ f
     off = gram - np.diag(np.diag(gram))
     scale = np.sqrt(np.outer(np.diag(gram), np.diag(gram)))
@@ -225,15 +226,15 @@ def test_gruen_fields_are_orthonormal_over_the_5x5_grid_and_extend_ebner():
     b = 5.0
     g = _grid(5, b)
     f = _flat(cm.MODELS["gruen"].correction(g, np.zeros(44), [b])[2])
-    e = _flat(cm.exterior_fields(g))
+    e = _flat(fm.exterior_fields(g))
     assert np.allclose(f.T @ f, 25 * np.eye(44), atol=1e-10)  # RMS 1 over the 25 points
     assert np.abs(f.T @ e).max() < 1e-10 * np.abs(e).max()
     assert np.linalg.matrix_rank(np.column_stack([f, e])) == 50  # every field on 25 points
     # the first 12 with the exterior orientation span Ebner's fields (as polynomials)
     pts = np.vstack([g, np.random.default_rng(50).uniform(-3 * b, 3 * b, (40, 2))])
-    basis = np.column_stack([_flat(cm.gruen_fields(pts, np.full(len(pts), b))[:, :, :12]),
-                             _flat(cm.exterior_fields(pts))])
-    eb = _flat(cm.ebner_fields(pts, np.full(len(pts), b))[0])
+    basis = np.column_stack([_flat(fm.gruen_fields(pts, np.full(len(pts), b))[:, :, :12]),
+                             _flat(fm.exterior_fields(pts))])
+    eb = _flat(fm.ebner_fields(pts, np.full(len(pts), b))[0])
     sol = np.linalg.lstsq(basis, eb, rcond=None)[0]
     assert np.abs(basis @ sol - eb).max() < 1e-9 * np.abs(eb).max()
 
