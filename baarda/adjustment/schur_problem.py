@@ -13,8 +13,9 @@ import copy
 
 import numpy as np
 
-from baarda.adjustment.schur import Linearization, SchurFactor, SchurSystem
+from baarda.adjustment.schur import SchurFactor
 from baarda.adjustment.schur_model import FlatLayout
+from baarda.adjustment.schur_system import Linearization, SchurSystem
 from baarda.errors import GeometryError
 
 

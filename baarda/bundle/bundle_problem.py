@@ -14,9 +14,9 @@ import time
 
 import numpy as np
 
-from baarda.adjustment.schur import HOLD, Linearization, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem, read_only
+from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
 from baarda.adjustment.solve import solve
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_and_derivatives
@@ -47,7 +47,7 @@ class BundleProblem(SchurProblem):
     """The block in the form of the adjustment: index arrays, weights, the Schur structure.
 
     Unknowns: the photos' orientations (frames), the ground points eliminated point by point,
-    and the global unknowns (adjustment/schur.py): the camera parameters that a
+    and the global unknowns (adjustment/schur_system.py): the camera parameters that a
     self-calibration estimates (bundle/calibration.py), then the coordinates of the points
     that distance observations tie together (border points).
 

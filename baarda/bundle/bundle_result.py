@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from baarda.adjustment.counts import AdjustmentCounts
-from baarda.adjustment.schur import Linearization, SchurFactor
+from baarda.adjustment.schur import SchurFactor
+from baarda.adjustment.schur_system import Linearization
 from baarda.block.photo_block import Block
 from baarda.bundle.geometry import similarity
 from baarda.sections import Section, render, section

@@ -3,7 +3,7 @@ where they sit among the global unknowns of the Schur system.
 
 Every camera has the parameter vector [c, x0, y0, coefficients of its model] (mm, the
 model's units; block/camera.py); `Cameras.free` names those that are unknowns.  They are
-global unknowns (adjustment/schur.py): each one is shared by every image observation of
+global unknowns (adjustment/schur_system.py): each one is shared by every image observation of
 its camera.
 """
 

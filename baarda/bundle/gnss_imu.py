@@ -15,7 +15,7 @@ IMU (rad): the attitude of the IMU, the camera's turned by the boresight misalig
     (omega, phi, kappa)_imu,i = angles(R(omega_i, phi_i, kappa_i) R(b)),
 
 with angles() the inverse of block/rotation.rotation_matrix.  Shifts, drifts and boresight
-angles are global unknowns of the Schur system (adjustment/schur.py): a few columns, never a
+angles are global unknowns of the Schur system (adjustment/schur_system.py): a few columns, never a
 dense matrix that grows with the block.  Every observation row depends on one photo only.
 """
 

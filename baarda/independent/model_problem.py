@@ -25,9 +25,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.adjustment.schur import HOLD, Linearization, SchurSystem
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem
+from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
 from baarda.adjustment.solve import solve
 from baarda.block.model_block import ModelBlock
 from baarda.errors import GeometryError

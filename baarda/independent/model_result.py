@@ -7,7 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from baarda.adjustment.counts import AdjustmentCounts
-from baarda.adjustment.schur import Linearization, SchurFactor
+from baarda.adjustment.schur import SchurFactor
+from baarda.adjustment.schur_system import Linearization
 from baarda.independent.model_problem import ModelProblem
 from baarda.sections import Section, render, section
 

@@ -5,7 +5,7 @@ column products (random Jacobians, so every term is exercised)."""
 import numpy as np
 import pytest
 
-from baarda.adjustment.schur import Linearization, SchurSystem
+from baarda.adjustment.schur_system import Linearization, SchurSystem
 
 NF, B, NP, D, K, NG, KX = 5, 3, 7, 2, 2, 4, 2
 
