@@ -25,6 +25,7 @@ import pandas as pd  # noqa: E402
 from baarda.output.result_folder import Results  # noqa: E402
 from baarda.report.anaplot import log_mdb, log_test  # noqa: E402
 from baarda.report.plots import Plot, to_png  # noqa: E402
+from baarda.report.stats import pair_xy  # noqa: E402
 
 WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
 
@@ -184,21 +185,25 @@ def gnss_parts(res: Results) -> list[Part]:
 
 
 def image_parts(res: Results) -> list[Part]:
-    im = res.obs[(res.obs["kind"] == "image") & ~res.obs["rejected"].astype(bool)]
-    if not len(im):
+    x, y = pair_xy(res.obs)  # one row per image point, x and y aligned
+    ax = ~x["rejected"].astype(bool).to_numpy()
+    ay = ~y["rejected"].fillna(True).astype(bool).to_numpy() & y["residual"].notna().to_numpy()
+    if not (ax.any() or ay.any()):
         return []
     px = pixel_um(res)
     unit = "px" if px else "µm"
     scale = 1.0 / px if px else 1.0
+    vx = x["residual"].to_numpy(float) * scale
+    vy = y["residual"].to_numpy(float) * scale
+    both = ax & ay  # the error vector needs both components
     rows = []
-    for ph, g in im.groupby("photo", sort=False):
-        x = g.loc[g["component"] == "x", "residual"].to_numpy(float) * scale
-        y = g.loc[g["component"] == "y", "residual"].to_numpy(float) * scale
-        n = min(len(x), len(y))
-        e = np.hypot(x[:n], y[:n])
-        rows.append({"photo": ph, "points": n, f"RMS x {unit}": _rms(x),
-                     f"RMS y {unit}": _rms(y), f"mean error {unit}": float(np.mean(e)),
-                     f"median error {unit}": float(np.median(e)),
+    for ph, i in x.groupby("photo", sort=False).indices.items():
+        e = np.hypot(vx[i][both[i]], vy[i][both[i]])
+        n = len(e)
+        rows.append({"photo": ph, "points": n, f"RMS x {unit}": _rms(vx[i][ax[i]]),
+                     f"RMS y {unit}": _rms(vy[i][ay[i]]),
+                     f"mean error {unit}": float(np.mean(e)) if n else np.nan,
+                     f"median error {unit}": float(np.median(e)) if n else np.nan,
                      f"max error {unit}": float(np.max(e)) if n else np.nan})
     t = pd.DataFrame(rows)
     note = (f"1 px = {px:g} µm (the reader's nominal pixel size)" if px else

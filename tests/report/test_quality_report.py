@@ -94,3 +94,29 @@ def test_main_html_report_has_the_camera_and_control_tables(results):
     assert 'id="calibration"' in h and "Correlations of camera cam" in h
     assert "Control points" in h and "Check points" in h and "GNSS residuals" in h
     assert 'style="background:#' in h
+
+
+def test_reprojection_errors_pair_x_and_y_of_the_same_image_point():
+    """A rejected x must not shift the pairing of the photo's other x and y residuals: the
+    error vector of each point is the hypot of its own two components (hand-computed)."""
+    from types import SimpleNamespace
+
+    import pandas as pd
+
+    from baarda.report.quality_report import image_parts
+
+    rows = []
+    for pt, (vx, vy, rej_x) in {"a": (3.0, 4.0, True), "b": (6.0, 8.0, False),
+                                "c": (5.0, 12.0, False)}.items():
+        rows += [dict(kind="image", photo="p1", point=pt, component="x", residual=vx,
+                      rejected=rej_x),
+                 dict(kind="image", photo="p1", point=pt, component="y", residual=vy,
+                      rejected=False)]
+    res = SimpleNamespace(obs=pd.DataFrame(rows), summary={}, sections=[])
+    t = [p for p in image_parts(res) if p.kind == "table"][0].table
+    row = t.iloc[0]
+    assert row["points"] == 2  # b and c: a has no x
+    assert row["max error µm"] == pytest.approx(13.0)  # c: hypot(5, 12)
+    assert row["mean error µm"] == pytest.approx(11.5)  # (10 + 13) / 2
+    assert row["RMS x µm"] == pytest.approx(np.sqrt((36 + 25) / 2))
+    assert row["RMS y µm"] == pytest.approx(np.sqrt((16 + 64 + 144) / 3))
