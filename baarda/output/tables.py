@@ -30,12 +30,19 @@ _SPECIAL = '[,"\r\n]'  # a text cell with one of these may need quotes (csv.QUOT
 
 def csv_text(df: pd.DataFrame, float_format: str = RESULT_FORMAT) -> str:
     """A table as CSV text (no index, LF line ends)."""
-    if fast_csv_possible(df, float_format) and len(df) >= FAST_ROWS:
+    return b"".join(_csv_bytes(df, float_format, None)).decode("utf-8")
+
+
+def _csv_bytes(df: pd.DataFrame, float_format: str, fast: bool | None) -> Iterator[bytes]:
+    """The CSV of a table in chunks: the vectorised writer where it takes the table (and
+    `fast` is not False; None: from FAST_ROWS rows on), else pandas' text in one chunk."""
+    if fast_csv_possible(df, float_format) and (len(df) >= FAST_ROWS if fast is None
+                                                else fast):
         try:
-            return b"".join(csv_chunks(df, float_format)).decode("utf-8")
+            return csv_chunks(df, float_format)
         except TypeError:  # a column of objects that are not text: pandas prints them
             pass
-    return pandas_csv_text(df, float_format)
+    return iter([pandas_csv_text(df, float_format).encode("utf-8")])
 
 
 def pandas_csv_text(df: pd.DataFrame, float_format: str = RESULT_FORMAT) -> str:
@@ -52,19 +59,10 @@ def write_csv(path: str | Path, df: pd.DataFrame, float_format: str = RESULT_FOR
     rows on)."""
     from baarda.output.atomic import atomic_open
 
-    chunks = None
-    if fast_csv_possible(df, float_format) and (len(df) >= FAST_ROWS if fast is None
-                                                else fast):
-        try:
-            chunks = csv_chunks(df, float_format)
-        except TypeError:  # a column of objects that are not text: pandas prints them
-            chunks = None
+    chunks = _csv_bytes(df, float_format, fast)
     with atomic_open(path, "wb") as f:
-        if chunks is not None:
-            for chunk in chunks:
-                f.write(chunk)
-        else:
-            f.write(pandas_csv_text(df, float_format).encode("utf-8"))
+        for chunk in chunks:
+            f.write(chunk)
 
 
 def write_parquet(path: str | Path, df: pd.DataFrame) -> None:
