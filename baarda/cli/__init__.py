@@ -39,6 +39,8 @@ COMMANDS = {
                         "known truth (truth.json)"),
     "evaluate": ("baarda.cli.evaluate", "detection power, measured: blunder-detection "
                  "strategies on simulated blocks with planted blunders"),
+    "compile": ("baarda.cli.compile", "compile the numerical kernels into numba's cache now "
+                "(after installing)"),
     "screen": ("baarda.cli.screen", "pre-adjustment screening: photo pairs, strip formation, "
                "control; writes a cleaned project and the screening log"),
 }

@@ -88,7 +88,8 @@ def _adjust(args, run):
 
     say = progress(args.quiet, computes=False)
     block = read_input(args)
-    announce_compile(say)  # the computation is imported once the input is read
+    # the computation is imported (and compiled, on a first run) once the input is read
+    announce_compile(say, len(block.photos))
     from baarda.output.bundle_results import write_results
 
     tests = tests_option(block.settings, args)

@@ -29,6 +29,8 @@ def progress(quiet: bool, computes: bool = True):
     """A progress printer to stderr with elapsed time, or None when quiet.  A command that
     `computes` says first when the numerical kernels have yet to be compiled."""
     if quiet:
+        if computes:
+            announce_compile(None)
         return None
     t0 = time.perf_counter()
 
@@ -40,15 +42,28 @@ def progress(quiet: bool, computes: bool = True):
     return say
 
 
-def announce_compile(say) -> None:
-    """Say so when the numerical kernels have yet to be compiled (imports numba and the
-    kernels: a command calls it once its input is read)."""
-    if say is None:
-        return
+#: blocks with at least this many photos use the multi-threaded kernels (linalg/parallel.py:
+#: the factorisation splits from about 80 photos), so their first run compiles those too
+PARALLEL_PHOTOS = 80
+
+
+def announce_compile(say, photos: int | None = None) -> None:
+    """When the numerical kernels have yet to be compiled, say so and compile them now in
+    parallel processes (linalg/precompile.py; a command calls it once its input is read, with
+    the block's number of `photos` when it has one)."""
     from baarda.linalg._jit import compile_pending
 
-    if compile_pending():
-        say("compiling the numerical kernels once (about 20 s; later runs start at once)")
+    if not compile_pending():
+        return
+    import numba
+
+    from baarda.linalg.precompile import compile_kernels
+
+    parallel = photos is not None and photos >= PARALLEL_PHOTOS and numba.get_num_threads() > 1
+    if say is not None:
+        say("compiling the numerical kernels once (5-20 s, on every CPU; later runs start at "
+            "once)")
+    compile_kernels(parallel=parallel)
 
 
 def tests_option(settings, args) -> TestOptions:
