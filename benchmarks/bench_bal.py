@@ -88,6 +88,34 @@ def run_pycolmap(bal, cam_idx, pt_idx, xy, max_iterations=200, refine=False):
         dt, cs.termination_type
 
 
+def measure(path: Path, refine: bool = False, repeat: int = 1, warm: bool = True) -> dict:
+    """One BAL problem solved by both engines in this process: the median of `repeat` solves
+    of each (`warm`: one untimed baarda solve first, in which numba loads its kernels)."""
+    bal = read_bal(path)
+    block, dropped = drop_points_behind(bal_to_block(bal, name=path.name, calibrate=refine))
+    # the observations both solvers use: points with two or more rays
+    rays = np.bincount(block.image.point, minlength=len(block.points))
+    keep = rays[block.image.point] >= 2
+    block = block.select_image(keep)
+    im = block.image
+    if warm:
+        adjust_free(block, options=replace(SOLVE, max_iterations=100))
+    times, times_col = [], []
+    for _ in range(repeat):  # the median of `repeat` solves of each engine
+        t0 = time.perf_counter()
+        res = adjust_free(block, options=replace(SOLVE, max_iterations=100))
+        times.append(time.perf_counter() - t0)
+        ini, fin, its, t_col, term = run_pycolmap(bal, im.photo, im.point,
+                                                  im.xy_mm / 0.001, refine=refine)
+        times_col.append(t_col)
+    return {"file": path.name, "obs": len(im), "dropped": dropped, "initial": ini,
+            "cost": 0.5 * res.vtpv,  # sigma 1 px: residuals in px
+            "iterations": res.iterations, "seconds": float(np.median(times)),
+            "colmap_cost": fin, "colmap_iterations": its,
+            "colmap_seconds": float(np.median(times_col)), "termination": str(term),
+            "converged": bool(res.converged)}
+
+
 def main(paths: list[str]) -> int:
     refine = "--intrinsics" in paths
     repeat = 1
@@ -102,36 +130,17 @@ def main(paths: list[str]) -> int:
         if not path.is_file():
             print(f"{path}: not found (BAL files are not in the repository)")
             continue
-        bal = read_bal(path)
-        block, dropped = drop_points_behind(bal_to_block(bal, name=path.name,
-                                                         calibrate=refine))
-        # the observations both solvers use: points with two or more rays
-        rays = np.bincount(block.image.point, minlength=len(block.points))
-        keep = rays[block.image.point] >= 2
-        block = block.select_image(keep)
-        im = block.image
-        if not rows:  # numba loads its kernels at the first solve of the process: not timed
-            adjust_free(block, options=replace(SOLVE, max_iterations=100))
-        times, times_col = [], []
-        for _ in range(repeat):  # the median of `repeat` solves of each engine
-            t0 = time.perf_counter()
-            res = adjust_free(block, options=replace(SOLVE, max_iterations=100))
-            times.append(time.perf_counter() - t0)
-            ini, fin, its, t_col, term = run_pycolmap(bal, im.photo, im.point,
-                                                      im.xy_mm / 0.001, refine=refine)
-            times_col.append(t_col)
-        t_ours, t_col = float(np.median(times)), float(np.median(times_col))
-        cost_ours = 0.5 * res.vtpv  # sigma 1 px: residuals in px
-        rows.append((path.name, len(im), dropped, ini, cost_ours, res.iterations, t_ours, fin,
-                     its, t_col, term, res.converged))
+        rows.append(measure(path, refine, repeat, warm=not rows))
     print(f"{'file':32s} {'obs':>7s} {'drop':>5s} {'initial':>12s} {'baarda cost':>14s} "
           f"{'it':>3s} {'time s':>7s} {'COLMAP cost':>14s} {'it':>3s} {'time s':>7s} "
           f"{'rel.diff':>9s} {'t ratio':>7s}")
     for r in rows:
-        rel = (r[4] - r[7]) / r[7]
-        print(f"{r[0]:32s} {r[1]:7d} {r[2]:5d} {r[3]:12.6g} {r[4]:14.8g} {r[5]:3d} {r[6]:7.2f} "
-              f"{r[7]:14.8g} {r[8]:3d} {r[9]:7.2f} {rel:9.1e} {r[6] / r[9]:7.2f}"
-              f"{'' if r[11] else '  (baarda NOT converged)'}  [{r[10]}]")
+        rel = (r["cost"] - r["colmap_cost"]) / r["colmap_cost"]
+        print(f"{r['file']:32s} {r['obs']:7d} {r['dropped']:5d} {r['initial']:12.6g} "
+              f"{r['cost']:14.8g} {r['iterations']:3d} {r['seconds']:7.2f} "
+              f"{r['colmap_cost']:14.8g} {r['colmap_iterations']:3d} {r['colmap_seconds']:7.2f} "
+              f"{rel:9.1e} {r['seconds'] / r['colmap_seconds']:7.2f}"
+              f"{'' if r['converged'] else '  (baarda NOT converged)'}  [{r['termination']}]")
     return 0
 
 

@@ -29,6 +29,8 @@ def parser(description: str) -> argparse.ArgumentParser:
     ap.add_argument("--repeat", type=int, default=3, help="timed runs per engine (3)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--relief", type=float, default=100.0, help="terrain relief amplitude, m")
+    ap.add_argument("--pattern", type=int, default=5,
+                    help="points per photo: a PATTERN x PATTERN grid (5; 15 for a dense block)")
     ap.add_argument("--fixed-control", action="store_true",
                     help="pycolmap: hold control points constant even if pyceres is there")
     ap.add_argument("--threads", type=int, default=-1,
@@ -59,7 +61,8 @@ def run_engines(args, quality: bool) -> dict:
     out = args.out or Path(tempfile.mkdtemp(prefix="baarda-bench-"))
     out.mkdir(parents=True, exist_ok=True)
     common = ["--photos", str(args.photos), "--repeat", str(args.repeat), "--seed",
-              str(args.seed), "--relief", str(args.relief), "--out", str(out)]
+              str(args.seed), "--relief", str(args.relief), "--out", str(out),
+              "--pattern", str(getattr(args, "pattern", 5))]
     if args.strips:
         common += ["--strips", str(args.strips)]
     env = dict(os.environ)
@@ -120,7 +123,7 @@ def header(recs: dict, args) -> list[str]:
     a, p = recs["baarda"], recs["pycolmap"]
     return [
         f"block: {a['block']} ({a['strips']} strips x {a['photos_per_strip']} photos, 60 %/60 %"
-        f" overlap, 5x5 points, relief {args.relief} m, seed {args.seed})",
+        f" overlap, {args.pattern}x{args.pattern} points, relief {args.relief} m, seed {args.seed})",
         f"observations {a['n_observations']} (image components + control coordinates), "
         f"unknowns {a['n_unknowns']}, redundancy {a['redundancy']}",
         f"pycolmap {p['control']} control; Ceres {p['linear_solver']}, {p['threads']} "

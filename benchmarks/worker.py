@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 
-def block_plan(photos: int, strips: int | None = None, relief: float = 100.0, seed: int = 1):
+def block_plan(photos: int, strips: int | None = None, relief: float = 100.0, seed: int = 1,
+               pattern: int = 5):
     from baarda.simulate.aerial import FlightPlan
 
     if strips is None:  # the largest divisor of `photos` not above sqrt(photos / 2.5)
@@ -37,7 +38,7 @@ def block_plan(photos: int, strips: int | None = None, relief: float = 100.0, se
             photos % d == 0 for d in range(2, limit + 1)) else limit
     per_strip = math.ceil(photos / strips)
     return FlightPlan(strips=strips, photos_per_strip=per_strip, forward_overlap=0.6,
-                      side_overlap=0.6, pattern=5, relief_m=relief, seed=seed)
+                      side_overlap=0.6, pattern=pattern, relief_m=relief, seed=seed)
 
 
 def _status(key: str) -> float:
@@ -176,6 +177,7 @@ def main(argv=None) -> None:
     ap.add_argument("--strips", type=int, default=None)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--relief", type=float, default=100.0)
+    ap.add_argument("--pattern", type=int, default=5)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--quality", action="store_true")
     ap.add_argument("--profile", action="store_true")
@@ -187,7 +189,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     from baarda.simulate.aerial import simulate_block
 
-    plan = block_plan(args.photos, args.strips, args.relief, args.seed)
+    plan = block_plan(args.photos, args.strips, args.relief, args.seed, args.pattern)
     block, _ = simulate_block(plan)
     args.out.mkdir(parents=True, exist_ok=True)
     run = run_baarda if args.engine == "baarda" else run_pycolmap
