@@ -123,7 +123,8 @@ def header(recs: dict, args) -> list[str]:
     a, p = recs["baarda"], recs["pycolmap"]
     return [
         f"block: {a['block']} ({a['strips']} strips x {a['photos_per_strip']} photos, 60 %/60 %"
-        f" overlap, {args.pattern}x{args.pattern} points, relief {args.relief} m, seed {args.seed})",
+        f" overlap, {args.pattern}x{args.pattern} points, relief {args.relief} m, seed "
+        f"{args.seed})",
         f"observations {a['n_observations']} (image components + control coordinates), "
         f"unknowns {a['n_unknowns']}, redundancy {a['redundancy']}",
         f"pycolmap {p['control']} control; Ceres {p['linear_solver']}, {p['threads']} "

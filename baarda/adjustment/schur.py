@@ -20,6 +20,11 @@ if TYPE_CHECKING:
     from baarda.adjustment.schur_system import Linearization, SchurSystem
 
 
+def _inner(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """sum over the first two axes of a[i, j, g] b[i, j, h]: (g, h), one BLAS product."""
+    return a.reshape(-1, a.shape[2]).T @ b.reshape(-1, b.shape[2])
+
+
 class SchurFactor:
     """The normal equations of one linearisation, points eliminated and S factored.
 
@@ -139,8 +144,7 @@ class SchurFactor:
         """Y = N0^-1 N0g and the Cholesky factor of C = Ngg - N0g^T Y."""
         s = self.system
         self.yf, self.yp = self._solve0(self.hfg, self.hpg)
-        c = (self.hgg - np.einsum("fbg,fbh->gh", self.hfg, self.yf)
-             - np.einsum("pdg,pdh->gh", self.hpg, self.yp))
+        c = self.hgg - _inner(self.hfg, self.yf) - _inner(self.hpg, self.yp)
         c = 0.5 * (c + c.T)
         try:
             self.c_chol = cho_factor(c, lower=True)
@@ -171,11 +175,9 @@ class SchurFactor:
 
     def _global_part(self, gg: np.ndarray, xf0: np.ndarray, xp0: np.ndarray):
         """xg = C^-1 (gg - N0g^T x0) and the corrected (xf, xp) for q columns."""
-        r = gg - np.einsum("fbg,fbq->gq", self.hfg, xf0) - np.einsum("pdg,pdq->gq",
-                                                                      self.hpg, xp0)
+        r = gg - _inner(self.hfg, xf0) - _inner(self.hpg, xp0)
         xg = cho_solve(self.c_chol, r)
-        return (xf0 - np.einsum("fbg,gq->fbq", self.yf, xg),
-                xp0 - np.einsum("pdg,gq->pdq", self.yp, xg), xg)
+        return xf0 - self.yf @ xg, xp0 - self.yp @ xg, xg
 
     @property
     def has_border(self) -> bool:
@@ -353,9 +355,9 @@ class SchurFactor:
     def _reduce_rhs(self, gf: np.ndarray, gp: np.ndarray) -> np.ndarray:
         """gf - sum Hfp Hpp^-1 gp for q columns, (nf, b, q)."""
         s = self.system
-        t = np.einsum("mbd,mde->mbe", self.hfp, self.hpp_inv[s.point_sorted])
-        red = gf.copy()
-        np.add.at(red, s.frame_sorted, -np.einsum("mbd,mdq->mbq", t, gp[s.point_sorted]))
+        red = np.array(gf, dtype=float, order="C")
+        kernels.reduce_rhs_columns(s.ptr, s.frame_sorted, self.hfp, self.hpp_inv,
+                                   np.ascontiguousarray(gp, dtype=float), red)
         return red
 
     @single_threaded_blas
@@ -382,8 +384,7 @@ class SchurFactor:
         if not s.ng:
             return out
         xf0, xp0 = self._solve0(gf, gp)
-        r = gg - np.einsum("fbg,fbq->gq", self.hfg, xf0) - np.einsum("pdg,pdq->gq",
-                                                                      self.hpg, xp0)
+        r = gg - _inner(self.hfg, xf0) - _inner(self.hpg, xp0)
         wg = solve_triangular(self.c_chol[0], r, lower=True)
         return np.concatenate([out, wg])
 

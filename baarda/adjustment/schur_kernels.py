@@ -283,18 +283,30 @@ def back_substitute(ptr, frame, hfp, hpp_inv, gp, xf):
                 r[p, c] = gp[j, p, c]
         for a in range(ptr[j], ptr[j + 1]):
             f = frame[a]
-            for p in range(d):
-                for c in range(q):
+            if q == 1:
+                for p in range(d):
                     acc = 0.0
                     for s in range(b):
-                        acc += hfp[a, s, p] * xf[f, s, c]
-                    r[p, c] -= acc
-        for p in range(d):
-            for c in range(q):
+                        acc += hfp[a, s, p] * xf[f, s, 0]
+                    r[p, 0] -= acc
+            else:  # many columns (a border): the columns innermost, contiguous
+                for p in range(d):
+                    for s in range(b):
+                        h = hfp[a, s, p]
+                        for c in range(q):
+                            r[p, c] -= h * xf[f, s, c]
+        if q == 1:
+            for p in range(d):
                 acc = 0.0
                 for s in range(d):
-                    acc += hpp_inv[j, p, s] * r[s, c]
-                xp[j, p, c] = acc
+                    acc += hpp_inv[j, p, s] * r[s, 0]
+                xp[j, p, 0] = acc
+        else:
+            for p in range(d):
+                for s in range(d):
+                    h = hpp_inv[j, p, s]
+                    for c in range(q):
+                        xp[j, p, c] += h * r[s, c]
     return xp
 
 
@@ -367,3 +379,27 @@ def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
             for q in range(d):
                 spp[j, p, q] = tmp[p, q]
     return spf, spp
+
+
+@kernel
+def reduce_rhs_columns(ptr, frame, hfp, hpp_inv, gp, red):
+    """red (nf, b, q) -= sum_a Hfp_a Hpp_j^-1 gp_j over the observations a of each point j
+    (sorted by point, frame (m,) sorted likewise): the reduced right-hand side of q columns
+    (the border's columns of a self-calibration: q = number of camera parameters)."""
+    b, d = hfp.shape[1], hfp.shape[2]
+    q = gp.shape[2]
+    u = np.empty((d, q))
+    for j in range(len(ptr) - 1):
+        for r in range(d):
+            for c in range(q):
+                acc = 0.0
+                for e in range(d):
+                    acc += hpp_inv[j, r, e] * gp[j, e, c]
+                u[r, c] = acc
+        for a in range(ptr[j], ptr[j + 1]):
+            f = frame[a]
+            for p in range(b):
+                for r in range(d):
+                    h = hfp[a, p, r]
+                    for c in range(q):
+                        red[f, p, c] -= h * u[r, c]

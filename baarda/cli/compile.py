@@ -1,9 +1,17 @@
 """`baarda compile`: compile the numerical kernels into numba's cache now (linalg/precompile.py),
-e.g. after `pip install` in a container image, so that no later run waits for the compiler."""
+e.g. after `pip install` in a container image, so that no later run waits for the compiler.
+
+`python -m baarda.cli.compile --record` (with NUMBA_CACHE_DIR an empty folder) writes the
+table of kernels and argument types that the compile covers, from an adjustment's workload."""
 
 from __future__ import annotations
 
+import json
+import sys
 import time
+from pathlib import Path
+
+from baarda.linalg.precompile import TABLE_FILE, signature_spec
 
 HELP = "compile the numerical kernels into numba's cache now (after installing)"
 
@@ -38,3 +46,63 @@ def run_compile(args) -> int:
         print(f"compiled {len(todo)} kernels in {time.perf_counter() - t0:.1f} s (numba's "
               f"cache: {config.CACHE_DIR or 'beside the package'})")
     return 0
+
+
+def record_workload() -> None:
+    """What the table must cover: the demo's adjustment with data snooping (serial kernels)
+    and a block large enough for the multi-threaded kernels."""
+    from baarda.pipeline import adjust, assess, snoop
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    small, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=8, pattern=5, seed=3))
+    snoop(small)
+    large, _ = simulate_block(FlightPlan(strips=16, photos_per_strip=40, side_overlap=0.6,
+                                          pattern=5, seed=3))
+    assess(adjust(large))
+
+
+def record(path: Path = TABLE_FILE) -> list[dict]:
+    """Run the workload with an empty cache, then write each compiled kernel with its
+    argument types and compile time (run with ``NUMBA_CACHE_DIR`` set to an empty folder)."""
+    from numba.core import event
+
+    from baarda.linalg._jit import KERNELS
+
+    seconds: dict[int, float] = {}  # compiles started from Python (not inside another)
+    stack: list[tuple[int, float]] = []
+
+    class Timer(event.Listener):
+        def on_start(self, ev):
+            stack.append((id(ev.data["dispatcher"]), time.perf_counter()))
+
+        def on_end(self, ev):
+            key, t0 = stack.pop()
+            if not stack:
+                seconds[key] = seconds.get(key, 0.0) + time.perf_counter() - t0
+
+    event.register("numba:compile", Timer())
+    record_workload()
+    rows = []
+    for disp in KERNELS:
+        if id(disp) not in seconds:  # compiled only inside other kernels, with them
+            continue
+        try:
+            sigs = [signature_spec(s) for s in disp.signatures]
+        except ValueError:
+            continue
+        module = sys.modules[disp.py_func.__module__]
+        name = next((k for k, v in vars(module).items() if v is disp), None)
+        if name is None:  # not reachable by a name of its module
+            continue
+        rows.append({"module": module.__name__, "name": name,
+                     "parallel": bool(disp.targetoptions.get("parallel")),
+                     "seconds": round(seconds.get(id(disp), 0.0), 3), "signatures": sigs})
+    path.write_text(json.dumps({"kernels": rows}, indent=1) + "\n", encoding="utf-8")
+    return rows
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] != ["--record"]:
+        sys.exit("usage: NUMBA_CACHE_DIR=EMPTY python -m baarda.cli.compile --record [FILE]")
+    rows = record(Path(sys.argv[2]) if len(sys.argv) > 2 else TABLE_FILE)
+    print(f"{len(rows)} kernels, {sum(r['seconds'] for r in rows):.1f} s of compiling")

@@ -11,8 +11,8 @@ compiled on demand as before.  Kernels with ``parallel=True`` are compiled in ch
 only: compiling them starts numba's thread pool, after which this process could not fork.
 
 The kernels and their argument types are data (:data:`TABLE_FILE`, written by
-``python -m baarda.linalg.precompile --record``; ``tests/linalg/test_precompile.py`` checks
-it against the types that an adjustment really compiles).
+``python -m baarda.cli.compile --record`` from an adjustment's workload;
+``tests/linalg/test_precompile.py`` checks it against the types that workload compiles).
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["compile_kernels", "pending_kernels", "signature_spec", "spec_signature"]
+__all__ = ["TABLE_FILE", "compile_kernels", "pending_kernels", "signature_spec",
+           "spec_signature"]
 
 TABLE_FILE = Path(__file__).with_name("kernel_signatures.json")
 
@@ -177,73 +178,12 @@ def compile_kernels(jobs: int | None = None, parallel: bool = True,
     return failed
 
 
-# ------------------------------------------------------------------ recording the table
-def _record_workload() -> None:
-    """What the table must cover: the demo's adjustment with data snooping (serial kernels)
-    and a block large enough for the multi-threaded kernels."""
-    from baarda.pipeline import adjust, assess, snoop
-    from baarda.simulate.aerial import FlightPlan, simulate_block
-
-    small, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=8, pattern=5, seed=3))
-    snoop(small)
-    large, _ = simulate_block(FlightPlan(strips=16, photos_per_strip=40, side_overlap=0.6,
-                                          pattern=5, seed=3))
-    assess(adjust(large))
-
-
-def record(path: Path = TABLE_FILE) -> list[dict]:
-    """Run the workload with an empty cache, then write each compiled kernel with its
-    argument types and compile time (run with ``NUMBA_CACHE_DIR`` set to an empty folder)."""
-    import time
-
-    from numba.core import event
-
-    from baarda.linalg._jit import KERNELS
-
-    seconds: dict[int, float] = {}  # compiles started from Python (not inside another)
-    stack: list[tuple[int, float]] = []
-
-    class Timer(event.Listener):
-        def on_start(self, ev):
-            stack.append((id(ev.data["dispatcher"]), time.perf_counter()))
-
-        def on_end(self, ev):
-            key, t0 = stack.pop()
-            if not stack:
-                seconds[key] = seconds.get(key, 0.0) + time.perf_counter() - t0
-
-    event.register("numba:compile", Timer())
-    _record_workload()
-    rows = []
-    for disp in KERNELS:
-        if id(disp) not in seconds:  # compiled only inside other kernels, with them
-            continue
-        try:
-            sigs = [signature_spec(s) for s in disp.signatures]
-        except ValueError:
-            continue
-        module = sys.modules[disp.py_func.__module__]
-        name = next((k for k, v in vars(module).items() if v is disp), None)
-        if name is None:  # not reachable by a name of its module
-            continue
-        rows.append({"module": module.__name__, "name": name,
-                     "parallel": bool(disp.targetoptions.get("parallel")),
-                     "seconds": round(seconds.get(id(disp), 0.0), 3), "signatures": sigs})
-    path.write_text(json.dumps({"kernels": rows}, indent=1) + "\n", encoding="utf-8")
-    return rows
-
-
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["--compile"]:
         print(json.dumps(_compile(json.loads(sys.stdin.read()))))
         return 0
-    if argv[:1] == ["--record"]:
-        rows = record(Path(argv[1]) if len(argv) > 1 else TABLE_FILE)
-        print(f"{len(rows)} kernels, {sum(r['seconds'] for r in rows):.1f} s of compiling")
-        return 0
-    print("usage: python -m baarda.linalg.precompile --record [FILE] | --compile < JSON",
-          file=sys.stderr)
+    print("usage: python -m baarda.linalg.precompile --compile < JSON", file=sys.stderr)
     return 2
 
 

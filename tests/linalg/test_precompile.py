@@ -37,8 +37,9 @@ def test_table_names_caching_kernels_and_the_core():
 
 WORKLOAD = """
 import json
+from baarda.cli.compile import record_workload
 from baarda.linalg import precompile
-precompile._record_workload()
+record_workload()
 print(json.dumps({e["name"]: [precompile.signature_spec(s)
                   for s in precompile._dispatcher(e).signatures]
                   for e in precompile.load_table()}))
@@ -53,7 +54,7 @@ def test_table_has_the_argument_types_an_adjustment_compiles():
     for entry in precompile.load_table():
         assert used[entry["name"]] == entry["signatures"], (
             f"{entry['module']}.{entry['name']}: the table's argument types are not the ones "
-            "an adjustment uses; run `python -m baarda.linalg.precompile --record` with an "
+            "an adjustment uses; run `python -m baarda.cli.compile --record` with an "
             "empty NUMBA_CACHE_DIR")
 
 
