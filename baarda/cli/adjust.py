@@ -88,13 +88,13 @@ def _adjust(args, run):
 
     say = progress(args.quiet, computes=False)
     block = read_input(args)
+    tests = tests_option(block.settings, args)
+    if say:
+        say(f"read {block.summary()}")
     # the computation is imported (and compiled, on a first run) once the input is read
     announce_compile(say, len(block.photos))
     from baarda.output.bundle_results import write_results
 
-    tests = tests_option(block.settings, args)
-    if say:
-        say(f"read {block.summary()}")
     statistic = "tau" if args.tau else "w"
     if getattr(args, "screen", False):
         from baarda.cli.screen import options
