@@ -22,7 +22,7 @@ from typing import Any
 from numba import njit
 from numba.core import config
 
-__all__ = ["compile_pending", "kernel", "parallel_kernel"]
+__all__ = ["compile_pending", "is_cached", "kernel", "parallel_kernel"]
 
 # every cached kernel of the package (numba dispatchers), for compile_pending
 KERNELS: list[Any] = []
@@ -65,15 +65,16 @@ def parallel_kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
 CORE = ("assemble", "reduce_points_parallel", "elimination_tree", "supernodal_cholesky")
 
 
+def is_cached(disp: Any) -> bool:
+    """Whether numba's cache holds compiled code of the kernel `disp` (its index file exists;
+    True for a kernel that cannot be cached: there is nothing to compile ahead)."""
+    try:
+        return Path(disp._cache._cache_file._index_path).is_file()
+    except AttributeError:  # not a caching dispatcher, or numba's internals changed
+        return True
+
+
 def compile_pending() -> bool:
     """True when a kernel that every adjustment runs has no compiled code in the cache yet
     (the run compiles them first: tens of seconds)."""
-    for disp in KERNELS:
-        if disp.py_func.__name__ not in CORE:
-            continue
-        try:
-            if not Path(disp._cache._cache_file._index_path).is_file():
-                return True
-        except AttributeError:  # pragma: no cover - numba's internals changed
-            return False
-    return False
+    return any(not is_cached(disp) for disp in KERNELS if disp.py_func.__name__ in CORE)

@@ -26,6 +26,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from ._jit import is_cached
+
 __all__ = ["TABLE_FILE", "compile_kernels", "pending_kernels", "signature_spec",
            "spec_signature"]
 
@@ -77,13 +79,6 @@ def _dispatcher(entry: dict):
     return getattr(importlib.import_module(entry["module"]), entry["name"])
 
 
-def _cached(disp) -> bool:
-    try:
-        return Path(disp._cache._cache_file._index_path).is_file()
-    except AttributeError:  # not a caching dispatcher (numba cannot cache here)
-        return True
-
-
 def pending_kernels(parallel: bool = True) -> list[dict]:
     """The table's kernels that have no code in numba's cache yet (with `parallel`, also the
     multi-threaded ones)."""
@@ -95,7 +90,7 @@ def pending_kernels(parallel: bool = True) -> list[dict]:
             disp = _dispatcher(entry)
         except (ImportError, AttributeError):
             continue
-        if not _cached(disp):
+        if not is_cached(disp):
             out.append(entry)
     return out
 

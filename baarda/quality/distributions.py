@@ -26,11 +26,17 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 
 from baarda.options import DEFAULT_TESTS
-
-try:  # Boost's non-central chi-square, as scipy.stats.ncx2 uses it
-    from scipy.special._ufuncs import _ncx2_isf, _ncx2_sf
-except ImportError:  # pragma: no cover - a SciPy without them
-    _ncx2_isf = _ncx2_sf = None
+from baarda.quality.special_distributions import (
+    chi2_cdf,
+    chi2_isf,
+    chi2_ppf,
+    chi2_sf,
+    f_isf,
+    f_sf,
+    ncx2_isf,
+    ncx2_sf,
+    t_isf,
+)
 
 __all__ = [
     "BMethod",
@@ -79,55 +85,6 @@ def _scalar_or_array(x: NDArray[np.float64]) -> float | NDArray[np.float64]:
 # --------------------------------------------------------------------------------------------
 
 
-# The distribution functions that scipy.stats' chi2, ncx2, t and F call, taken from
-# scipy.special directly: the same numbers to the last bit (tests/quality compares them),
-# without importing scipy.stats (0.4 s of every command's start).
-def _chi2_isf(p: float, dof: float) -> float:
-    return float(special.chdtri(dof, p))
-
-
-def _chi2_ppf(p: float, dof: float) -> float:
-    return float(2.0 * special.gammaincinv(dof / 2.0, p))
-
-
-def _chi2_sf(x: float, dof: float) -> float:
-    return float(special.chdtrc(dof, x))
-
-
-def _chi2_cdf(x: float, dof: float) -> float:
-    return float(special.chdtr(dof, x))
-
-
-def _ncx2_survival(x: float, dof: float, lam: float) -> float:
-    if lam == 0:
-        return _chi2_sf(x, dof)
-    if _ncx2_sf is None:  # pragma: no cover
-        from scipy import stats
-        return float(stats.ncx2.sf(x, dof, lam))
-    return float(_ncx2_sf(x, dof, lam))
-
-
-def _ncx2_inverse_survival(p: float, dof: float, lam: float) -> float:
-    if lam == 0:
-        return _chi2_isf(p, dof)
-    if _ncx2_isf is None:  # pragma: no cover
-        from scipy import stats
-        return float(stats.ncx2.isf(p, dof, lam))
-    return float(_ncx2_isf(p, dof, lam))
-
-
-def _f_isf(p: float, dof1: float, dof2: float) -> float:
-    return float(special.fdtri(dof1, dof2, 1.0 - p))
-
-
-def _f_sf(x: float, dof1: float, dof2: float) -> float:
-    return float(special.fdtrc(dof1, dof2, x))
-
-
-def _t_isf(p: float, dof: float) -> float:
-    return float(-special.stdtrit(dof, p))
-
-
 def power(alpha: float, lam: float, dof: int = 1) -> float:
     """Power of a chi-square test: ``gamma = P(chi2'(dof, lam) > chi2_{1-alpha}(dof))``.
 
@@ -138,10 +95,10 @@ def power(alpha: float, lam: float, dof: int = 1) -> float:
     dof = _check_dof("dof", dof)
     if lam < 0:
         raise ValueError(f"lam must be non-negative, got {lam!r}")
-    crit = _chi2_isf(alpha, dof)
+    crit = chi2_isf(alpha, dof)
     if lam == 0:
         return alpha
-    return float(_ncx2_survival(crit, dof, lam))
+    return float(ncx2_sf(crit, dof, lam))
 
 
 def noncentrality(alpha: float, beta: float, dof: int = 1) -> float:
@@ -159,10 +116,10 @@ def noncentrality(alpha: float, beta: float, dof: int = 1) -> float:
         raise ValueError(f"power beta={beta} cannot be below the significance level {alpha}")
     if beta == alpha:
         return 0.0
-    crit = _chi2_isf(alpha, dof)
+    crit = chi2_isf(alpha, dof)
 
     def residual(lam: float) -> float:
-        return float(_ncx2_survival(crit, dof, lam)) - beta
+        return float(ncx2_sf(crit, dof, lam)) - beta
 
     # the power grows monotonically with lambda; lambda ~ (z_{1-a} + z_b)^2 * O(sqrt(dof))
     hi = max(1.0, (special.ndtri(1 - alpha) + special.ndtri(beta)) ** 2)
@@ -216,7 +173,7 @@ class BMethod:
     def critical_chi2(self, dof: int) -> float:
         """Critical value ``chi2_{1-alpha_b}(dof)`` of the B-method test of dimension ``dof``."""
         dof = _check_dof("dof", dof)
-        return float(_chi2_isf(self.alpha_for(dof), dof))
+        return float(chi2_isf(self.alpha_for(dof), dof))
 
     def critical_F(self, dof: int, dof2: float = math.inf) -> float:  # noqa: N802
         """Critical value ``F_{1-alpha_b}(dof, dof2)``; ``dof2 = inf`` gives ``chi2/dof``.
@@ -227,16 +184,16 @@ class BMethod:
         dof = _check_dof("dof", dof)
         alpha = self.alpha_for(dof)
         if math.isinf(dof2):
-            return float(_chi2_isf(alpha, dof)) / dof
+            return float(chi2_isf(alpha, dof)) / dof
         if dof2 <= 0:
             raise ValueError(f"dof2 must be positive, got {dof2!r}")
-        return float(_f_isf(alpha, dof, dof2))
+        return float(f_isf(alpha, dof, dof2))
 
 
 def _alpha_for_exact(beta0: float, lambda0: float, dof: int) -> float:
     """``P(chi2(dof) > c)`` with ``c`` the ``1 - beta0`` quantile of ``chi2'(dof, lambda0)``."""
-    crit = _ncx2_inverse_survival(beta0, dof, lambda0)
-    return float(_chi2_sf(crit, dof))
+    crit = ncx2_isf(beta0, dof, lambda0)
+    return float(chi2_sf(crit, dof))
 
 
 def _alpha_for_normal(beta0: float, lambda0: float, dof: int) -> float:
@@ -304,7 +261,7 @@ def tau_critical(alpha: float, redundancy: int) -> float:
     """
     alpha = _check_prob("alpha", alpha)
     r = _check_dof("redundancy", redundancy, minimum=2)
-    t_c = float(_t_isf(alpha / 2.0, r - 1))
+    t_c = float(t_isf(alpha / 2.0, r - 1))
     # sqrt(r) / sqrt((r - 1)/t^2 + 1) avoids overflow of t^2 for tiny alpha
     return math.sqrt(r) / math.sqrt((r - 1) / t_c**2 + 1.0)
 
@@ -383,11 +340,11 @@ def global_test(omega: float, redundancy: int, alpha: float) -> GlobalTest:
     if not omega >= 0.0:
         raise ValueError(f"omega must be non-negative, got {omega!r}")
     statistic = omega / r
-    critical = float(_chi2_isf(alpha, r)) / r
-    lower = float(_chi2_ppf(alpha / 2.0, r)) / r
-    upper = float(_chi2_isf(alpha / 2.0, r)) / r
-    sf = float(_chi2_sf(omega, r))
-    cdf = float(_chi2_cdf(omega, r))
+    critical = float(chi2_isf(alpha, r)) / r
+    lower = float(chi2_ppf(alpha / 2.0, r)) / r
+    upper = float(chi2_isf(alpha / 2.0, r)) / r
+    sf = float(chi2_sf(omega, r))
+    cdf = float(chi2_cdf(omega, r))
     return GlobalTest(
         omega=omega,
         redundancy=r,
@@ -451,8 +408,8 @@ def multidim_test(
         if sigma0_hat2 is not None:
             raise ValueError("sigma0_hat2 needs the redundancy it was estimated with")
         statistic = T / q
-        critical = float(_chi2_isf(alpha, q)) / q
-        p_value = float(_chi2_sf(T, q))
+        critical = float(chi2_isf(alpha, q)) / q
+        p_value = float(chi2_sf(T, q))
         dof2 = math.inf
     else:
         if sigma0_hat2 is None:
@@ -466,8 +423,8 @@ def multidim_test(
             raise ValueError(f"T={T} exceeds omega = r * sigma0_hat2 = {omega}")
         dof2 = float(r - q)
         statistic = (T / q) / (rest / dof2) if rest > 0 else math.inf
-        critical = float(_f_isf(alpha, q, dof2))
-        p_value = float(_f_sf(statistic, q, dof2)) if rest > 0 else 0.0
+        critical = float(f_isf(alpha, q, dof2))
+        p_value = float(f_sf(statistic, q, dof2)) if rest > 0 else 0.0
     return MultidimTest(
         T=T,
         q=q,

@@ -39,7 +39,7 @@ import numpy as np
 
 from baarda.errors import GeometryError
 from baarda.options import DEFAULT_TESTS, TestOptions
-from baarda.quality.distributions import _chi2_cdf
+from baarda.quality.special_distributions import chi2_cdf
 from baarda.quality.statistics import analyse, cofactors
 
 ALPHA = 0.05
@@ -140,7 +140,7 @@ def _component(name: str, sel: np.ndarray, r: np.ndarray, v: np.ndarray, s: np.n
         return VarianceComponent(name, n, s_med, rk, vtpv, nan, nan, nan, False,
                                  members=members)
     f = vtpv / rk
-    lower = _chi2_cdf(vtpv, rk)
+    lower = chi2_cdf(vtpv, rk)
     p = float(min(1.0, 2 * min(lower, 1 - lower)))
     return VarianceComponent(name, n, s_med, rk, vtpv, f, f * float(np.sqrt(2.0 / rk)), p,
                              p < alpha, members=members)
