@@ -88,10 +88,11 @@ def _command(argv: list[str]) -> str:
 
 def _interrupt(signum, frame) -> None:
     """Ctrl-C: KeyboardInterrupt, except while numba compiles or loads a kernel (its compiler
-    lock held) or runs its own Python code inside a compiled function (a frame of numba or
-    llvmlite on the stack: LLVM's callbacks, the unpickling of a kernel's constants): an
-    exception there is lost, turns into a SystemError or crashes the process.  Then it comes
-    50 ms later, again until numba is done."""
+    lock held), runs its own Python code inside a compiled function (a frame of numba or
+    llvmlite on the stack: LLVM's callbacks, the unpickling of a kernel's constants) or Python
+    imports a module (importlib's frames: a module lock's callback): an exception there is
+    lost, turns into a SystemError or crashes the process.  Then it comes 50 ms later, again
+    until numba or the import is done."""
     lock = sys.modules.get("numba.core.compiler_lock")
     if (lock is not None and lock.global_compiler_lock.is_locked()) or _in_numba(frame):
         signal.setitimer(signal.ITIMER_REAL, 0.05)
@@ -100,10 +101,11 @@ def _interrupt(signum, frame) -> None:
 
 
 def _in_numba(frame) -> bool:
-    """Whether numba's or llvmlite's Python code is on the stack of `frame`."""
+    """Whether numba's or llvmlite's Python code, or importlib's, is on the stack of `frame`."""
     while frame is not None:
         name = frame.f_code.co_filename
-        if f"{os.sep}numba{os.sep}" in name or f"{os.sep}llvmlite{os.sep}" in name:
+        if (f"{os.sep}numba{os.sep}" in name or f"{os.sep}llvmlite{os.sep}" in name
+                or name.startswith("<frozen importlib")):
             return True
         frame = frame.f_back
     return False
