@@ -86,7 +86,7 @@ def _adjust(args, run):
         with_variance_components,
     )
 
-    say = progress(args.quiet, computes=False)
+    say = progress(args.quiet)
     block = read_input(args)
     tests = tests_option(block.settings, args)
     if say:

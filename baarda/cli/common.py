@@ -25,20 +25,15 @@ def add_out_argument(p, what: str = "output folder") -> None:
 OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
 
 
-def progress(quiet: bool, computes: bool = True):
-    """A progress printer to stderr with elapsed time, or None when quiet.  A command that
-    `computes` says first when the numerical kernels have yet to be compiled."""
+def progress(quiet: bool):
+    """A progress printer to stderr with elapsed time, or None when quiet."""
     if quiet:
-        if computes:
-            announce_compile(None)
         return None
     t0 = time.perf_counter()
 
     def say(msg: str) -> None:
         print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    if computes:
-        announce_compile(say)
     return say
 
 
@@ -48,22 +43,22 @@ PARALLEL_PHOTOS = 80
 
 
 def announce_compile(say, photos: int | None = None) -> None:
-    """When the numerical kernels have yet to be compiled, say so and compile them now in
+    """When numerical kernels have yet to be compiled, say so and compile them now in
     parallel processes (linalg/precompile.py; a command calls it once its input is read, with
-    the block's number of `photos` when it has one)."""
-    from baarda.linalg._jit import compile_pending
-
-    if not compile_pending():
-        return
+    the block's number of `photos` when it has one: the multi-threaded kernels are compiled
+    too for blocks that will likely use them, the others compile on demand)."""
     import numba
 
-    from baarda.linalg.precompile import compile_kernels
+    from baarda.linalg.precompile import compile_kernels, pending_kernels
 
     parallel = photos is not None and photos >= PARALLEL_PHOTOS and numba.get_num_threads() > 1
+    todo = pending_kernels(parallel)
+    if not todo:
+        return
     if say is not None:
         say("compiling the numerical kernels once (5-20 s, on every CPU; later runs start at "
             "once)")
-    compile_kernels(parallel=parallel)
+    compile_kernels(parallel=parallel, entries=todo)
 
 
 def tests_option(settings, args) -> TestOptions:

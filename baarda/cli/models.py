@@ -13,6 +13,7 @@ from baarda.cli.common import (
     OK,
     add_encoding_option,
     add_out_argument,
+    announce_compile,
     open_run,
     progress,
     tests_option,
@@ -100,6 +101,7 @@ def _adjust_models(args, run):
     block = read_models(args.project, covariance=args.covariance, encoding=args.encoding)
     if say:
         say(f"read {block.summary()}")
+    announce_compile(say)
     if args.deformations == "all":
         defs = ALL
     elif args.deformations == "none":

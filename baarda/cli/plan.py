@@ -12,6 +12,7 @@ from baarda.cli.common import (
     add_encoding_option,
     add_flight_plan_arguments,
     add_out_argument,
+    announce_compile,
     open_run,
     progress,
     tests_option,
@@ -125,9 +126,10 @@ def _plan(args, run) -> list:
                  f"{flight.pattern}x{flight.pattern} points, "
                  f"{'stereo' if flight.stereo else 'mono'}, control every {args.bridging:g} "
                  f"bases{', twin' if args.twin_control else ''}")
-        if args.what_if:
-            say("computing the remedies")
-            wi = what_if(flight, layout)
+    announce_compile(say)
+    if flight is not None and args.what_if:
+        say("computing the remedies")
+        wi = what_if(flight, layout)
     plan = plan_design(subject, layout, tests_option(None, args), adjusted=args.adjusted)
     say(f"design block: {plan.block.summary()}")
     advice = advise(plan, flight)
@@ -164,6 +166,7 @@ def _modified(args, run) -> str:
     table = {"baarda": baarda_table, "gruen": gruen_table}.get(args.table)
     table = table() if table else read_table(args.table)
     block = read_project(args.project, args.encoding)
+    announce_compile(say, len(block.photos))
     res = adjust(block, progress=say)
     ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,
                         tests=tests_option(block.settings, args),

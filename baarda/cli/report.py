@@ -94,7 +94,7 @@ def run(args) -> int:
     if args.out is not None:
         from baarda.report.html_report import html_report, write_html
 
-        say = progress(args.quiet or args.text, computes=False)
+        say = progress(args.quiet or args.text)
         if say:
             n_rej = int(res.obs["rejected"].sum())
             say(f"read {args.results}: {len(res.obs)} observation components, "

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import add_out_argument, open_run, progress
+from baarda.cli.common import add_out_argument, announce_compile, open_run, progress
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.screening.options import ScreeningOptions
 
@@ -72,6 +72,7 @@ def run(args) -> int:
         block = read_input(args)
         if say:
             say(f"read {block.summary()}")
+        announce_compile(say, len(block.photos))
         res = screen(block, options(args), progress=say)
         write_project(res.block, run)
         write_screening_log(run, res.log)

@@ -6,8 +6,8 @@ cache folder, or under ``NUMBA_CACHE_DIR``.  Where none is writable (a read-only
 and no writable HOME) ``njit(cache=True)`` raises "no locator available"; :func:`kernel`
 then points numba at a private folder in the temporary directory
 (``baarda-numba-<uid>``) and caches there, and only if even that fails compiles in memory.
-:func:`compile_pending` tells whether any kernel still has to be compiled (its cache index
-is missing), so that the command line can say so before the first, slow run.
+:func:`is_cached` tells whether a kernel still has to be compiled (its cache index is
+missing): linalg/precompile.py compiles those before the first, slow run.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Any
 from numba import njit
 from numba.core import config
 
-__all__ = ["compile_pending", "is_cached", "kernel", "parallel_kernel"]
+__all__ = ["is_cached", "kernel", "parallel_kernel"]
 
 # every cached kernel of the package (numba dispatchers), for compile_pending
 KERNELS: list[Any] = []
@@ -61,10 +61,6 @@ def parallel_kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
     return kernel(fn, parallel=True)
 
 
-# kernels that every adjustment runs: while one of them is not cached, a run compiles
-CORE = ("assemble", "reduce_points_parallel", "elimination_tree", "supernodal_cholesky")
-
-
 def is_cached(disp: Any) -> bool:
     """Whether numba's cache holds compiled code of the kernel `disp` (its index file exists;
     True for a kernel that cannot be cached: there is nothing to compile ahead)."""
@@ -72,9 +68,3 @@ def is_cached(disp: Any) -> bool:
         return Path(disp._cache._cache_file._index_path).is_file()
     except AttributeError:  # not a caching dispatcher, or numba's internals changed
         return True
-
-
-def compile_pending() -> bool:
-    """True when a kernel that every adjustment runs has no compiled code in the cache yet
-    (the run compiles them first: tens of seconds)."""
-    return any(not is_cached(disp) for disp in KERNELS if disp.py_func.__name__ in CORE)
