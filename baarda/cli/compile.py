@@ -49,13 +49,22 @@ def run_compile(args) -> int:
 
 
 def record_workload() -> None:
-    """What the table must cover: the demo's adjustment with data snooping (serial kernels)
-    and a block large enough for the multi-threaded kernels."""
+    """What the table must cover: the demo's adjustment with data snooping and its result
+    folder (serial kernels, the CSV writer), a self-calibration (lens terms, the border's
+    columns) and a block large enough for the multi-threaded kernels."""
+    import tempfile
+
+    from baarda.bundle.calibration import with_calibration
+    from baarda.output.bundle_results import write_results
+    from baarda.output.run_folder import RunFolder
     from baarda.pipeline import adjust, assess, snoop
     from baarda.simulate.aerial import FlightPlan, simulate_block
 
     small, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=8, pattern=5, seed=3))
-    snoop(small)
+    qc = snoop(small)
+    with tempfile.TemporaryDirectory() as tmp, RunFolder(Path(tmp) / "run") as run:
+        write_results(run, qc)
+    assess(adjust(with_calibration(small, "brown", "all")))
     large, _ = simulate_block(FlightPlan(strips=16, photos_per_strip=40, side_overlap=0.6,
                                           pattern=5, seed=3))
     assess(adjust(large))
