@@ -3,7 +3,9 @@
 A regular block of `strips` x `photos_per_strip` vertical photos; ground points on a grid
 such that every photo measures an n x n pattern (Gruen 1980: 3x3 or 5x5); optional stereo
 mode (twin rays), control layouts (perimeter, corners, none; height chains: see FlightPlan),
-terrain relief, image noise and injected blunders.  Deterministic for a given seed.
+terrain relief, image noise and injected blunders.  Deterministic for a given seed.  The
+photos' positions, the ground points and the control layout come from `ground.py`, GNSS and
+IMU observations from `gnss_imu.py`.
 """
 
 from __future__ import annotations
@@ -11,12 +13,13 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from baarda.block.camera_models import get_model, invert
 from baarda.block.field_models import ebner_fields
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
+from baarda.simulate.gnss_imu import with_gnss_imu
+from baarda.simulate.ground import block_geometry
 
 
 @dataclass
@@ -88,33 +91,6 @@ class FlightPlan:
     extra: dict = field(default_factory=dict)
 
 
-def _terrain(x: np.ndarray, y: np.ndarray, amplitude: float, size: float) -> np.ndarray:
-    if amplitude == 0:
-        return np.zeros_like(x)
-    k = 2 * np.pi / max(size, 1.0)
-    return amplitude * (0.5 * np.sin(1.3 * k * x + 0.4) * np.cos(0.9 * k * y)
-                        + 0.3 * np.sin(2.1 * k * y + 1.1) + 0.2 * np.cos(2.7 * k * (x + y)))
-
-@dataclass(frozen=True)
-class GroundLayout:
-    """The ground points of a simulated block: ids, true coordinates (n, 3), roles (tie |
-    control) and a-priori sigmas of the control coordinates (n, 3; NaN: not given)."""
-
-    ids: list[str]
-    xyz: np.ndarray
-    role: np.ndarray
-    sigma: np.ndarray
-
-
-def ground_layout(plan: FlightPlan) -> GroundLayout:
-    """The points simulate_block(plan) measures, with the control layout of the plan: no
-    photos, observations, noise, check points or blunders (the layout of a large block in a
-    fraction of the time)."""
-    g = _ground(plan)
-    kept = np.flatnonzero(_kept(g.seen, plan, len(g.ids)))
-    return GroundLayout([g.ids[j] for j in kept], g.xyz[kept], g.role[kept], g.sigma[kept])
-
-
 def deformation_coefficients(plan: FlightPlan) -> tuple[np.ndarray, float]:
     """(Ebner coefficients (12,), grid spacing b [mm]) of the plan's image deformation: each
     of the chosen Ebner fields with the same RMS over the 3 x 3 grid, the sum scaled to
@@ -141,7 +117,7 @@ def deformed(xy: np.ndarray, plan: FlightPlan) -> np.ndarray:
 def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
     """Simulate a block; returns (block with approximations and noisy observations, truth)."""
     rng = np.random.default_rng(plan.seed)
-    g = _ground(plan)
+    g = block_geometry(plan)
     X0, Y0, s_idx, p_idx, seen = g.X0, g.Y0, g.s_idx, g.p_idx, g.seen
     ids, xyz, role, sigma, on_border = g.ids, g.xyz, g.role, g.sigma, g.on_border
 
@@ -267,205 +243,12 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
         "units": {"angles": "rad", "coordinates": "m"},
     }
     if plan.gnss_sigma_m > 0 or plan.imu_sigma_deg > 0:
-        block, truth["gnss"] = _gnss_imu(plan, block, eo_true)
+        block, truth["gnss"] = with_gnss_imu(plan, block, eo_true)
     if plan.image_deformation_um:
         coef, b = deformation_coefficients(plan)
         truth["camera"] = {"model": "ebner", "b": b, "coefficients": coef.tolist()}
     return block, truth
 
 
-@dataclass(frozen=True)
-class _Ground:
-    """The photo positions and the ground points of a plan, each point with the photos that
-    see it (before dropping those seen by fewer than two)."""
-
-    X0: np.ndarray
-    Y0: np.ndarray
-    s_idx: np.ndarray  # strip of each photo
-    p_idx: np.ndarray  # photo in its strip
-    flying_height: float  # Z0 of the photos
-    ids: list[str]
-    xyz: np.ndarray
-    role: np.ndarray
-    sigma: np.ndarray
-    on_border: np.ndarray  # the first and last rows and columns (grid points only)
-    seen: list[np.ndarray]  # the points inside the pattern window of each photo
-
-
-def _ground(plan: FlightPlan) -> _Ground:
-    """The photos' positions, the grid of ground points and the control layout."""
-    n = plan.pattern
-    if n < 2:
-        raise ValueError("pattern must be at least 2 (2x2 points per photo)")
-    side = plan.format_mm * 1e-3 * plan.image_scale  # ground side of a photo
-    base = (1 - plan.forward_overlap) * side
-    dist = (1 - plan.side_overlap) * side
-    height = plan.focal_mm * 1e-3 * plan.image_scale
-    ex = base if base <= 0.45 * side else base / 2
-    ey = dist if dist <= 0.45 * side else dist / 2
-    dx, dy = 2 * ex / (n - 1), 2 * ey / (n - 1)
-
-    # photo positions
-    s_idx, p_idx = np.meshgrid(np.arange(plan.strips), np.arange(plan.photos_per_strip),
-                               indexing="ij")
-    s_idx, p_idx = s_idx.ravel(), p_idx.ravel()
-    X0 = p_idx * base
-    Y0 = s_idx * dist
-
-    # ground grid covering every pattern window
-    gx = np.arange(np.floor(-ex / dx), np.ceil((X0.max() + ex) / dx) + 1) * dx
-    gy = np.arange(np.floor(-ey / dy), np.ceil((Y0.max() + ey) / dy) + 1) * dy
-    GX, GY = np.meshgrid(gx, gy, indexing="xy")
-    gxy = np.column_stack([GX.ravel(), GY.ravel()])
-    cols = np.rint(gxy[:, 0] / dx).astype(int)
-    rows = np.rint(gxy[:, 1] / dy).astype(int)
-    if plan.neat_area:
-        inside = ((gxy[:, 0] > -1e-6) & (gxy[:, 0] < X0.max() + 1e-6) &
-                  (gxy[:, 1] > -1e-6) & (gxy[:, 1] < Y0.max() + 1e-6))
-        gxy, cols, rows = gxy[inside], cols[inside], rows[inside]
-    ids = [f"{r:03d}{c:03d}" for r, c in zip((rows - rows.min() + 1).tolist(),
-                                             (cols - cols.min() + 1).tolist(), strict=True)]
-    size = max(X0.max(), Y0.max(), side)
-    Z = _terrain(gxy[:, 0], gxy[:, 1], plan.relief_m, size)
-    xyz = np.column_stack([gxy, Z])
-    role = np.full(len(ids), "tie", dtype=object)
-    sigma = np.full((len(ids), 3), np.nan)
-
-    # control layout on the grid.  The outermost rows and columns of the grid can lie outside
-    # every pattern window (always with an even pattern, whose nodes straddle the window
-    # edges; with an odd one where floor and ceil round a ratio such as -7.000000000000001 to
-    # -8): they are never measured and are dropped below, and control placed on them would be
-    # lost with them.  So the borders are the outermost nodes inside the windows, and the
-    # control is counted in steps of bases from the grid line at the window edge (odd
-    # pattern: the border itself; even pattern: half a node spacing outside it)
-    window = (ex + 0.2 * dx, ey + 0.2 * dy)  # half sides of the area a photo measures
-    tol = 1e-6 * min(dx, dy)
-    in_windows = ((xyz[:, 0] >= -ex - tol) & (xyz[:, 0] <= X0.max() + ex + tol) &
-                  (xyz[:, 1] >= -ey - tol) & (xyz[:, 1] <= Y0.max() + ey + tol))
-    ext = (xyz[in_windows, 0].min(), xyz[in_windows, 0].max(),
-           xyz[in_windows, 1].min(), xyz[in_windows, 1].max())
-    x0 = xyz[xyz[:, 0] >= -ex - dx / 2 - tol, 0].min()
-    y0 = xyz[xyz[:, 1] >= -ey - dy / 2 - tol, 1].min()
-    on_border = (np.isclose(xyz[:, 0], ext[0]) | np.isclose(xyz[:, 0], ext[1]) |
-                  np.isclose(xyz[:, 1], ext[2]) | np.isclose(xyz[:, 1], ext[3]))
-    seen = _seen(xyz, X0, Y0, window)  # which photo measures which node
-    measured = _kept(seen, plan, len(ids))  # the nodes kept below
-    kept = np.flatnonzero(measured)
-    # the corner photos (first and last of the first and last strip) and their grid corners
-    last, n_ph = plan.photos_per_strip - 1, len(X0)
-    corners = [(0, ext[0], ext[2]), (last, ext[1], ext[2]),
-               (n_ph - 1 - last, ext[0], ext[3]), (n_ph - 1, ext[1], ext[3])]
-    full = np.zeros(len(ids), bool)
-    if plan.control == "perimeter":
-        step = plan.control_spacing * base
-        kx = np.rint((xyz[:, 0] - x0) / step)
-        ky = np.rint((xyz[:, 1] - y0) / step)
-        on_x = np.isclose(xyz[:, 0] - x0, kx * step, atol=dx / 2 + 1e-6)
-        on_y = np.isclose(xyz[:, 1] - y0, ky * step, atol=dy / 2 + 1e-6)
-        # a node every step along the first and last rows and columns
-        full = on_border & ((on_x & np.isin(np.rint(xyz[:, 1]), np.rint([ext[2], ext[3]]))) |
-                            (on_y & np.isin(np.rint(xyz[:, 0]), np.rint([ext[0], ext[1]]))))
-        # a corner photo that measures none of these (a block of few photos, 50 % forward
-        # overlap, a spacing longer than the block) gets the measured node nearest its corner
-        controlled = full & measured
-        for photo, cx, cy in corners if kept.size else ():
-            if not controlled[seen[photo]].any():
-                full[_nearest(xyz, kept, cx, cy)] = True
-    elif plan.control == "corners":
-        # the measured node nearest each corner (the corner node is seen by one photo only)
-        for _photo, cx, cy in corners if kept.size else ():
-            full[_nearest(xyz, kept, cx, cy)] = True
-    elif plan.control != "none":
-        raise ValueError(f"unknown control layout '{plan.control}'")
-    role[full] = "control"
-    sigma[full] = plan.sigma_control_m
-    if plan.height_chains > 0:  # a column of height points, those not full control already
-        step = plan.height_chains * base
-        k = np.rint((xyz[:, 0] - x0) / step)
-        chain = np.isclose(xyz[:, 0] - x0, k * step, atol=dx / 2 + 1e-6) & ~full
-        role[chain] = "control"
-        sigma[chain, 2] = plan.sigma_control_m[2]
-
-    if plan.twin_control:
-        ctrl = np.flatnonzero(role == "control")
-        offset = np.array([0.1 * dx, 0.1 * dy, 0.0])
-        twin_xyz = xyz[ctrl] + offset
-        twin_xyz[:, 2] = _terrain(twin_xyz[:, 0], twin_xyz[:, 1], plan.relief_m, size)
-        xyz = np.vstack([xyz, twin_xyz])
-        ids += [ids[j] + "T" for j in ctrl]
-        role = np.concatenate([role, role[ctrl]])
-        sigma = np.vstack([sigma, sigma[ctrl]])
-        seen = _seen(xyz, X0, Y0, window)  # with the twins
-    return _Ground(X0, Y0, s_idx, p_idx, height + np.mean(Z), ids, xyz, role, sigma,
-                   on_border, seen)
-
-
-def _seen(xyz: np.ndarray, X0: np.ndarray, Y0: np.ndarray,
-          window: tuple[float, float]) -> list[np.ndarray]:
-    """The points (sorted indices) inside the pattern window around each photo's nadir: a k-d
-    tree in coordinates scaled by the window, Chebyshev distance <= 1 (no photos x points
-    matrix)."""
-    wx, wy = window
-    tree = cKDTree(np.column_stack([xyz[:, 0] / wx, xyz[:, 1] / wy]))
-    return [np.sort(np.asarray(ix, dtype=np.int64)) for ix in
-            tree.query_ball_point(np.column_stack([X0 / wx, Y0 / wy]), r=1.0, p=np.inf)]
-
-
-def _kept(seen: list[np.ndarray], plan: FlightPlan, n_points: int) -> np.ndarray:
-    """The points simulate_block keeps: seen by two photos (stereo: by both photos of a
-    model)."""
-    if not plan.stereo:
-        return np.bincount(np.concatenate(seen), minlength=n_points) >= 2
-    kept = np.zeros(n_points, bool)
-    for st in range(plan.strips):
-        for j in range(plan.photos_per_strip - 1):
-            a = st * plan.photos_per_strip + j
-            kept[np.intersect1d(seen[a], seen[a + 1])] = True
-    return kept
-
-
-def _nearest(xyz: np.ndarray, candidates: np.ndarray, x: float, y: float) -> int:
-    """The candidate point nearest (x, y) in plan (the first of equals)."""
-    return int(candidates[np.argmin(np.hypot(xyz[candidates, 0] - x, xyz[candidates, 1] - y))])
-
-
 def _photo_id(s_idx: np.ndarray, p_idx: np.ndarray, i: int) -> str:
     return f"{s_idx[i] + 1:02d}{p_idx[i] + 1:03d}"
-
-
-def _gnss_imu(plan: FlightPlan, block: Block, eo_true: np.ndarray) -> tuple[Block, dict]:
-    """GNSS antenna positions (lever arm 0) and IMU attitudes of every photo, with their
-    errors drawn from a random stream of their own (the rest of the block is as without)."""
-    from dataclasses import replace
-
-    from baarda.block.photo_block import GnssObservations, ImuObservations
-
-    rng = np.random.default_rng([plan.seed, 14])
-    n = len(eo_true)
-    strips = np.asarray(block.photos.strip, dtype=object)
-    labels = sorted(set(strips.tolist()), key=int)
-    truth: dict = {"shift": {}, "drift_m_per_km": {}}
-    settings = block.settings
-    if plan.gnss_sigma_m > 0:
-        pos = eo_true[:, :3].copy()
-        for lab in labels:
-            sel = strips == lab
-            shift = rng.normal(0.0, plan.gnss_offset_m, 3) if plan.gnss_offset_m else np.zeros(3)
-            drift = (rng.normal(0.0, plan.gnss_drift_m_per_km, 3) if plan.gnss_drift_m_per_km
-                     else np.zeros(3))
-            xy = eo_true[sel, :2]
-            d = xy - xy.mean(axis=0)
-            u = np.linalg.svd(d, full_matrices=False)[2][0] if len(d) > 1 else np.array([1, 0])
-            pos[sel] += shift + np.outer(d @ u / 1000.0, drift)
-            truth["shift"][lab] = shift.tolist()
-            truth["drift_m_per_km"][lab] = drift.tolist()
-        pos += rng.normal(0.0, plan.gnss_sigma_m, (n, 3))
-        block = replace(block, gnss=GnssObservations(np.arange(n), pos,
-                                                     np.full((n, 3), plan.gnss_sigma_m)))
-        settings = replace(settings, gnss_offsets="strip" if plan.gnss_offset_m else "none",
-                           gnss_drift=bool(plan.gnss_drift_m_per_km))
-    if plan.imu_sigma_deg > 0:
-        s = np.radians(plan.imu_sigma_deg)
-        ang = eo_true[:, 3:] + rng.normal(0.0, s, (n, 3))
-        block = replace(block, imu=ImuObservations(np.arange(n), ang, np.full((n, 3), s)))
-    return replace(block, settings=settings), truth

@@ -7,7 +7,8 @@ import pytest
 
 import baarda
 from baarda.planning.design import point_spacing
-from baarda.simulate.aerial import FlightPlan, ground_layout
+from baarda.simulate.aerial import FlightPlan
+from baarda.simulate.ground import ground_layout
 
 SIZES = [(3, 5), (4, 8), (20, 50), (30, 30), (50, 100)]  # strips x photos per strip
 
