@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix, rotation_matrix
+from baarda.block.rotation import eo_of_pose, pose_of_eo
 from baarda.errors import ProjectError
 from baarda.io.colmap import (
     FILES,
@@ -29,20 +29,16 @@ from baarda.io.colmap_model import lookup
 # camera models with a baarda lens model
 CONVERTIBLE = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
 
-FLIP = np.diag([1.0, -1.0, -1.0])
-
 
 def pose_to_eo(qvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
     """COLMAP world-to-camera pose -> baarda EO (X0, Y0, Z0, omega, phi, kappa)."""
-    r = qvec_to_matrix(qvec)
-    return np.concatenate([-r.T @ np.asarray(tvec, float), angles_from_matrix(r.T @ FLIP)])
+    return eo_of_pose(qvec_to_matrix(qvec), tvec)
 
 
 def eo_to_pose(eo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """baarda EO -> COLMAP (qvec, tvec)."""
-    rb = rotation_matrix(eo[3], eo[4], eo[5])
-    r = FLIP @ rb.T
-    return matrix_to_qvec(r), -r @ np.asarray(eo[:3], float)
+    r, t = pose_of_eo(eo)
+    return matrix_to_qvec(r), t
 
 
 def _camera_to_baarda(c: ColmapCamera, pm: float, where: str, cid: int):

@@ -58,6 +58,7 @@ from baarda.block.photo_block import (
     Photos,
     Settings,
 )
+from baarda.block.rotation import eo_of_pose, rodrigues
 from baarda.errors import ProjectError
 from baarda.io.opensfm_files import (
     CONTROL_SIGMA_M,
@@ -74,9 +75,7 @@ from baarda.io.opensfm_files import (
     _mapping,
     _number,
     _vector,
-    pose_to_eo,
     read_tracks,
-    rodrigues,
     utm_crs,
 )
 
@@ -200,7 +199,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
             raise ProjectError(str(rpath), f"shot {sid}: the rotation {rot.tolist()} is no "
                                "angle-axis vector (|r| is an angle in radians)",
                                line("rotation"), "rotation")
-        eo[i] = pose_to_eo(rot, tr)
+        eo[i] = eo_of_pose(rodrigues(rot), tr)
         if s.get("gps_position") is not None and s.get("gps_dop") is not None:
             pos = _vector(s["gps_position"], 3, rpath, partial(line, "gps_position"),
                           "gps_position")

@@ -1,5 +1,5 @@
 """The files of an OpenSfM dataset, piece by piece: numbers and vectors of its JSON with the
-line they stand on, poses (angle-axis), the CRS of a gcp_list.txt, cameras, tracks.csv and
+line they stand on, the CRS of a gcp_list.txt, cameras, tracks.csv and
 the control (ground_control_points.json, gcp_list.txt, config.yaml's GCP sigmas).  The
 dataset as a Block is read by io/opensfm.py, whose text gives the conventions."""
 
@@ -12,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.records import decode_text, file_bytes, parse_number, split_lines, to_numbers
 
@@ -23,7 +22,6 @@ GCP_LIST = "gcp_list.txt"
 SUPPORTED = ("perspective", "simple_radial", "radial", "brown", "fisheye", "fisheye_opencv")
 UNSUPPORTED = ("fisheye62", "fisheye624", "dual", "spherical", "equirectangular")
 CONTROL_SIGMA_M = (0.05, 0.05, 0.05)  # without gcp_horizontal_sd / gcp_vertical_sd
-FLIP = np.diag([1.0, -1.0, -1.0])
 
 
 # ------------------------------------------------------------------ small helpers
@@ -82,39 +80,6 @@ def _mapping(value, path: Path, line, field: str) -> dict:
         raise ProjectError(str(path), f"expected an object, found {type(value).__name__}",
                            _at(line), field)
     return value
-
-
-def rodrigues(v: np.ndarray) -> np.ndarray:
-    """Rotation matrix of an angle-axis vector."""
-    v = np.asarray(v, float)
-    th = float(np.linalg.norm(v))
-    k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    if th < 1e-12:
-        return np.eye(3) + k
-    k /= th
-    return np.eye(3) + math.sin(th) * k + (1 - math.cos(th)) * (k @ k)
-
-
-def angle_axis(r: np.ndarray) -> np.ndarray:
-    """Angle-axis vector of a rotation matrix (the inverse of rodrigues)."""
-    c = (np.trace(r) - 1) / 2
-    th = math.acos(min(1.0, max(-1.0, c)))
-    w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    if th < 1e-12:
-        return w / 2
-    if math.pi - th < 1e-6:  # near 180 degrees: the axis from the symmetric part
-        b = (r + np.eye(3)) / 2
-        axis = b[:, int(np.argmax(np.diag(b)))]
-        axis = axis / np.linalg.norm(axis)
-        return axis * th
-    return w * th / (2 * math.sin(th))
-
-
-def pose_to_eo(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
-    """OpenSfM world-to-camera pose -> baarda EO (X0, Y0, Z0, omega, phi, kappa)."""
-    r = rodrigues(rotation)
-    return np.concatenate([-r.T @ np.asarray(translation, float),
-                           angles_from_matrix(r.T @ FLIP)])
 
 
 def utm_crs(lon: float, lat: float) -> str:

@@ -19,7 +19,7 @@ from baarda.io.bal import BalProblem
 from baarda.io.colmap import MODEL_ID, ColmapModel
 from baarda.io.colmap_binary import IMAGE_HEADER, KEYPOINT, POINT_HEADER, TRACK_ELEMENT
 from baarda.io.opensfm import topocentric_frame
-from baarda.io.opensfm_files import FLIP, angle_axis, utm_crs
+from baarda.io.opensfm_files import utm_crs
 from baarda.output.atomic import write_bytes, write_text
 
 
@@ -208,7 +208,7 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
 
     from baarda.block.camera import coefficients, kinds
     from baarda.block.crs import localize
-    from baarda.block.rotation import rotation_matrix
+    from baarda.block.rotation import pose_of_eo, rotation_vector
     from baarda.bundle.geometry import intersect
 
     folder = Path(folder)
@@ -264,8 +264,8 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
         e = block.photos.eo[i]
         if not np.isfinite(e).all():
             raise ValueError(f"photo {pid} has no orientation")
-        r = FLIP @ rotation_matrix(e[3], e[4], e[5]).T
-        shot = {"rotation": angle_axis(r).tolist(), "translation": (-r @ e[:3]).tolist(),
+        r, t = pose_of_eo(e)
+        shot = {"rotation": rotation_vector(r).tolist(), "translation": t.tolist(),
                 "camera": cams.ids[block.photos.camera[i]]}
         if i in gnss:
             sig = block.gnss.sigma[gnss[i]]

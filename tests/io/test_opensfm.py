@@ -13,12 +13,13 @@ from pyproj import Transformer
 
 import baarda
 from baarda.block.camera import constants, model_of, parameters
+from baarda.block.rotation import rodrigues, rotation_vector
 from baarda.bundle.collinearity import camera_projection
 from baarda.cli import main
 from baarda.errors import ProjectError
 from baarda.io.formats import detect
 from baarda.io.opensfm import read_opensfm
-from baarda.io.opensfm_files import angle_axis, parse_crs_line, rodrigues, utm_crs
+from baarda.io.opensfm_files import parse_crs_line, utm_crs
 from baarda.output.format_files import write_opensfm
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -114,7 +115,7 @@ def test_one_point_by_hand(recon):
     s = recon["shots"]["02.jpg"]
     r = rodrigues(s["rotation"])
     assert blk.photos.eo[2, :3] == pytest.approx(-r.T @ np.array(s["translation"]))
-    assert np.allclose(angle_axis(r), s["rotation"])
+    assert np.allclose(rotation_vector(r), s["rotation"])
 
 
 def test_adjust_converges_from_the_stored_reconstruction(block):
