@@ -85,6 +85,9 @@ def angles_from_matrix(r: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ rotation vectors
+MAX_ANGLE = 1e6  # rad: the largest angle |r| of a rotation vector read (files hold up to ~2 pi)
+
+
 def rodrigues(r: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) of rotation (angle-axis) vectors r (..., 3), angle |r|."""
     r = np.asarray(r, float)

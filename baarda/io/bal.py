@@ -26,6 +26,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import (
+    MAX_ANGLE,
     angles_from_matrix,
     rodrigues,
     rotation_matrix,
@@ -45,7 +46,6 @@ class BalProblem:
 
 
 HEADER_LIMIT = 256  # bytes of the first line
-MAX_ANGLE = 1e6  # rad: the largest rotation angle |r| taken (real files hold up to ~2 pi)
 BYTES_PER_VALUE = 64  # a value with its separator is never longer in a real file
 
 

@@ -58,7 +58,7 @@ from baarda.block.photo_block import (
     Photos,
     Settings,
 )
-from baarda.block.rotation import eo_of_pose, rodrigues
+from baarda.block.rotation import MAX_ANGLE, eo_of_pose, rodrigues
 from baarda.errors import ProjectError
 from baarda.io.opensfm_files import (
     CONTROL_SIGMA_M,
@@ -195,7 +195,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
         rot = _vector(s.get("rotation"), 3, rpath, partial(line, "rotation"), "rotation")
         tr = _vector(s.get("translation"), 3, rpath,
                      partial(line, "translation"), "translation")
-        if not (np.linalg.norm(rot) < 1e6):
+        if not (np.linalg.norm(rot) < MAX_ANGLE):
             raise ProjectError(str(rpath), f"shot {sid}: the rotation {rot.tolist()} is no "
                                "angle-axis vector (|r| is an angle in radians)",
                                line("rotation"), "rotation")
