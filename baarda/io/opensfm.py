@@ -334,6 +334,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
         photo, point, xy_mm = photo[rows], new[point[rows]], xy_mm[rows]
         ids = [q for q, k in zip(ids, keep_pt, strict=True) if k]
         all_xyz, sigma, role = all_xyz[keep_pt], sigma[keep_pt], role[keep_pt]
+        rays = rays[keep_pt]  # the rows left out are those of the points left out
     sig_mm = sigma_px * pixel_mm
     cam_ids, photo_ids, ids = (_ids([c.id for c in cam_list], "camera", notes, rpath),
                                _ids(names, "shot", notes, rpath), _ids(ids, "point", notes,
@@ -346,8 +347,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                   np.array([c.model for c in cam_list], dtype=object), coef,
                   free=tuple(c.free for c in cam_list))
     n_ctrl = int(np.sum(role == "control"))
-    datum, why = datum_of(all_xyz, role, rays_of(point, len(ids)), np.array(gnss_xyz),
-                          np.array(gnss_sig))
+    datum, why = datum_of(all_xyz, role, rays, np.array(gnss_xyz), np.array(gnss_sig))
     settings = Settings(name=root.name, angle_unit="deg", sigma_image_um=sig_mm * 1e3,
                         sigma_control_m=tuple(ctrl_sigma), crs=project_crs if frame else None,
                         datum=datum)
@@ -426,10 +426,6 @@ def _ids(ids: list[str], what: str, notes: list[str], where: Path) -> list[str]:
         first = next(b for a, b in zip(ids, out, strict=True) if a != b)
         notes.append(f"{changed} {what} id(s) with ',' written with ';' (e.g. {first})")
     return out
-
-
-def rays_of(point: np.ndarray, n: int) -> np.ndarray:
-    return np.bincount(point, minlength=n)
 
 
 def datum_of(xyz: np.ndarray, role: np.ndarray, rays: np.ndarray, gnss_xyz: np.ndarray,

@@ -207,16 +207,15 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     from pyproj import Transformer
 
     from baarda.block.camera import coefficients, kinds
-    from baarda.block.crs import localize
     from baarda.block.rotation import pose_of_eo, rotation_vector
     from baarda.bundle.geometry import intersect
+    from baarda.pipeline import localized
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     if len(block.imu) or len(block.distances):
         raise ValueError("OpenSfM datasets have no IMU attitudes or distances")
-    if block.settings.crs and block.frame is None:
-        block = localize(block)
+    block = localized(block)
     if block.frame is not None:
         frame = block.frame
         lon, lat, h = Transformer.from_crs(frame.crs3, "EPSG:4979", always_xy=True).transform(
