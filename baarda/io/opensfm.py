@@ -178,6 +178,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     cameras: dict[str, _Camera] = {}
     cam_index: dict[str, int] = {}
     eo = np.zeros((len(names), 6))
+    rotation = np.zeros((len(names), 3, 3))  # world to camera, as stored
+    translation = np.zeros((len(names), 3))
     photo_cam = np.zeros(len(names), np.int64)
     gnss_rows, gnss_xyz, gnss_sig = [], [], []
     for i, sid in enumerate(names):
@@ -199,7 +201,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
             raise ProjectError(str(rpath), f"shot {sid}: the rotation {rot.tolist()} is no "
                                "angle-axis vector (|r| is an angle in radians)",
                                line("rotation"), "rotation")
-        eo[i] = eo_of_pose(rodrigues(rot), tr)
+        rotation[i], translation[i] = rodrigues(rot), tr
+        eo[i] = eo_of_pose(rotation[i], tr)
         if s.get("gps_position") is not None and s.get("gps_dop") is not None:
             pos = _vector(s["gps_position"], 3, rpath, partial(line, "gps_position"),
                           "gps_position")
@@ -209,7 +212,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                 gnss_xyz.append(pos)
                 gnss_sig.append((dop, dop, dop))
     shot_index = {n: i for i, n in enumerate(names)}
-    cam_of_shot = {n: list(cameras.values())[photo_cam[i]] for i, n in enumerate(names)}
+    cam_list = list(cameras.values())
+    cam_of_shot = {n: cam_list[photo_cam[i]] for i, n in enumerate(names)}
     # the ground frame
     ref = rec.get("reference_lla")
     if ref is None and (folder / "reference_lla.json").is_file():
@@ -263,8 +267,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     once[first] = True
     twice = int(len(key) - once.sum())
     photo, point, nxy = photo[once], point[once], nxy[once]
-    stored = _stored_errors(shots_doc, names, photo_cam, list(cameras.values()), photo,
-                            xyz[point], nxy)
+    stored = _stored_errors(rotation, translation, photo_cam, cam_list, photo, xyz[point], nxy)
     # control: points of their own, after the tracks' points
     sigma_ctrl = _config_sigmas(folder)
     ctrl_sigma = sigma_ctrl or CONTROL_SIGMA_M
@@ -310,7 +313,6 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                 g_point.append(j)
                 g_xy.append(cam_of_shot[shot].to_mm(xy)[0])
     # image coordinates in mm, camera by camera
-    cam_list = list(cameras.values())
     xy_mm = np.zeros((len(photo), 2))
     pc = photo_cam[photo]
     for k, c in enumerate(cam_list):
@@ -347,7 +349,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                   np.array([c.model for c in cam_list], dtype=object), coef,
                   free=tuple(c.free for c in cam_list))
     n_ctrl = int(np.sum(role == "control"))
-    datum, why = datum_of(all_xyz, role, rays, np.array(gnss_xyz), np.array(gnss_sig))
+    gnss_xyz, gnss_sig = np.array(gnss_xyz), np.array(gnss_sig)
+    datum, why = datum_of(all_xyz, role, rays, gnss_xyz, gnss_sig)
     settings = Settings(name=root.name, angle_unit="deg", sigma_image_um=sig_mm * 1e3,
                         sigma_control_m=tuple(ctrl_sigma), crs=project_crs if frame else None,
                         datum=datum)
@@ -383,20 +386,20 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                   GroundPoints(ids, all_xyz, sigma, role), source=str(root), notes=notes,
                   frame=frame)
     if gnss_rows:
-        block = replace(block, gnss=GnssObservations(np.array(gnss_rows, np.int64),
-                                                     np.array(gnss_xyz), np.array(gnss_sig)))
+        block = replace(block, gnss=GnssObservations(np.array(gnss_rows, np.int64), gnss_xyz,
+                                                     gnss_sig))
     return block
 
 
-def _stored_errors(shots_doc: dict, names: list[str], photo_cam: np.ndarray, cams: list,
-                   photo: np.ndarray, xyz: np.ndarray, nxy: np.ndarray) -> str | None:
+def _stored_errors(rotation: np.ndarray, translation: np.ndarray, photo_cam: np.ndarray,
+                   cams: list, photo: np.ndarray, xyz: np.ndarray,
+                   nxy: np.ndarray) -> str | None:
     """The reprojection errors OpenSfM left: its own projection of the stored points
-    against the tracks, in pixels (a note printed before the adjustment)."""
+    against the tracks, in pixels (a note printed before the adjustment); rotation (n, 3, 3)
+    and translation (n, 3): the shots' world-to-camera poses."""
     if not len(photo):
         return None
-    rot = np.array([rodrigues(shots_doc[n]["rotation"]) for n in names])
-    tr = np.array([shots_doc[n]["translation"] for n in names], float)
-    xc = np.einsum("mij,mj->mi", rot[photo], xyz) + tr[photo]
+    xc = np.einsum("mij,mj->mi", rotation[photo], xyz) + translation[photo]
     pred = np.zeros_like(nxy)
     size = np.zeros(len(photo))
     for k, c in enumerate(cams):
