@@ -216,15 +216,14 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     if len(block.imu) or len(block.distances):
         raise ValueError("OpenSfM datasets have no IMU attitudes or distances")
     block = localized(block)
-    if block.frame is not None:
-        frame = block.frame
-        lon, lat, h = Transformer.from_crs(frame.crs3, "EPSG:4979", always_xy=True).transform(
-            *frame.from_local(np.zeros((1, 3)))[0])
-        reference_lla = (lat, lon, h)
-    else:
+    frame = block.frame
+    if frame is None:
         lat, lon, h = reference_lla
         frame = topocentric_frame(utm_crs(lon, lat), [lon, lat, h], folder)
     to_lla = Transformer.from_crs(frame.crs3, "EPSG:4979", always_xy=True)
+    if block.frame is not None:
+        lon, lat, h = to_lla.transform(*frame.from_local(np.zeros((1, 3)))[0])
+        reference_lla = (lat, lon, h)
     cams = block.cameras
     kind = kinds(cams)
     im, pts = block.image, block.points
@@ -293,6 +292,8 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     write_text(folder / "tracks.csv", "\n".join(rows) + "\n")
     gcps = []
     ctrl = np.flatnonzero(~tie)
+    by_point = np.argsort(im.point, kind="stable")  # the observations grouped by point
+    bounds = np.searchsorted(im.point[by_point], np.arange(len(pts.ids) + 1))
     sig = pts.sigma[ctrl[pts.role[ctrl] == "control"]]
     for j in ctrl:
         c = pts.xyz[j]
@@ -306,7 +307,7 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
         if np.isfinite(c[2]):
             pos["altitude"] = al
         obs = [{"shot_id": block.photos.ids[im.photo[k]], "projection": norm[k].tolist()}
-               for k in np.flatnonzero(im.point == j)]
+               for k in by_point[bounds[j]:bounds[j + 1]]]
         gcps.append({"id": pts.ids[j], "position": pos, "observations": obs})
     if gcps:
         write_text(folder / "ground_control_points.json", json.dumps({"points": gcps}, indent=1))
