@@ -33,7 +33,7 @@ from baarda.block.rotation import (
     rotation_vector,
 )
 from baarda.errors import ProjectError
-from baarda.io.records import is_number, split_lines
+from baarda.io.records import check_pixel_options, is_number, split_lines
 
 
 @dataclass
@@ -221,6 +221,7 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
                  name: str = "bal", source: str = "", calibrate: bool = True) -> Block:
     """A Block of a BAL problem (conventions in the module docstring); calibrate: f, k1, k2
     of every camera are unknowns, as the BAL problems intend (False: held at the file's)."""
+    check_pixel_options(pixel_mm, sigma_px)
     cams = problem.cameras
     n = len(cams)
     r = rodrigues(cams[:, :3])  # world -> camera

@@ -25,6 +25,7 @@ from baarda.io.colmap import (
     read_colmap,
 )
 from baarda.io.colmap_model import lookup
+from baarda.io.records import check_pixel_options
 
 # camera models with a baarda lens model
 CONVERTIBLE = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
@@ -76,6 +77,7 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
     files: the model's files by name (colmap.model_files), named by the errors."""
     from baarda.io import colmap_kernels as ck  # numba, loaded only for COLMAP models
 
+    check_pixel_options(pixel_mm, sigma_px)
     im, pt = model.images, model.points
     where = {f: str(files[f]) if files else source or name for f in FILES}
     if not len(im) or not len(pt):

@@ -78,6 +78,7 @@ from baarda.io.opensfm_files import (
     read_tracks,
     utm_crs,
 )
+from baarda.io.records import check_pixel_options
 
 
 # ------------------------------------------------------------------ recognising
@@ -144,8 +145,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     if folder is None:
         raise ProjectError(str(root), "no OpenSfM reconstruction (reconstruction.json) with "
                            "tracks (tracks.csv) here or in opensfm/")
-    if not (pixel_mm > 0 and sigma_px > 0):
-        raise ProjectError("command line", "pixel size and image sigma must be positive")
+    check_pixel_options(pixel_mm, sigma_px)
     rpath = _first(folder, RECONSTRUCTIONS)
     tpath = _first(folder, TRACKS)
     doc, text = _load_json(rpath)
