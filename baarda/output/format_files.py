@@ -18,8 +18,8 @@ from baarda.io.aicon import AiconProject, _f, _id
 from baarda.io.bal import BalProblem
 from baarda.io.colmap import MODEL_ID, ColmapModel
 from baarda.io.colmap_binary import IMAGE_HEADER, KEYPOINT, POINT_HEADER, TRACK_ELEMENT
-from baarda.io.opensfm import topocentric_frame
 from baarda.io.opensfm_files import utm_crs
+from baarda.io.opensfm_ground import topocentric_frame
 from baarda.output.atomic import write_bytes, write_text
 
 
