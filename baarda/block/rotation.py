@@ -82,3 +82,61 @@ def angles_from_matrix(r: np.ndarray) -> np.ndarray:
     omega = np.arctan2(-r[..., 1, 2], r[..., 2, 2])
     kappa = np.arctan2(-r[..., 0, 1], r[..., 0, 0])
     return np.stack([omega, phi, kappa], -1)
+
+
+# ------------------------------------------------------------------ rotation vectors
+MAX_ANGLE = 1e6  # rad: the largest angle |r| of a rotation vector read (files hold up to ~2 pi)
+
+
+def rodrigues(r: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation (angle-axis) vectors r (..., 3), angle |r|."""
+    r = np.asarray(r, float)
+    theta = np.linalg.norm(r, axis=-1)[..., None, None]
+    k = np.zeros(r.shape[:-1] + (3, 3))
+    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
+    k[..., 1, 0], k[..., 2, 0], k[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
+    small = theta < 1e-8
+    t = np.where(small, 1.0, theta)
+    a = np.where(small, 1.0 - theta**2 / 6, np.sin(t) / t)
+    b = np.where(small, 0.5 - theta**2 / 24, (1 - np.cos(t)) / t**2)
+    return np.eye(3) + a * k + b * (k @ k)
+
+
+def rotation_vector(m: np.ndarray) -> np.ndarray:
+    """Rotation vectors (..., 3) of rotation matrices (..., 3, 3): the inverse of `rodrigues`
+    (angle in [0, pi]; robust near 0 and pi)."""
+    m = np.asarray(m, float)
+    shape = m.shape[:-2]
+    m = m.reshape(-1, 3, 3)
+    w = np.stack([m[:, 2, 1] - m[:, 1, 2], m[:, 0, 2] - m[:, 2, 0], m[:, 1, 0] - m[:, 0, 1]], -1)
+    theta = np.arctan2(np.linalg.norm(w, axis=-1) / 2, (np.trace(m, axis1=1, axis2=2) - 1) / 2)
+    small = theta < 1e-6
+    s = np.where(small, 1.0, 2 * np.sin(theta))
+    out = np.where(small, 0.5, theta / s)[:, None] * w
+    for i in np.flatnonzero(np.pi - theta < 1e-4):  # near pi: the axis from the symmetric
+        c = np.cos(theta[i])                           # part, cos I + (1 - cos) a a^T
+        b = ((m[i] + m[i].T) / 2 - c * np.eye(3)) / (1 - c)
+        axis = b[int(np.argmax(np.diag(b)))]
+        axis = axis / np.linalg.norm(axis)
+        out[i] = (-axis if w[i] @ axis < 0 else axis) * theta[i]
+    return out.reshape(shape + (3,))
+
+
+# ------------------------------------------------------------------ camera poses
+FLIP = np.diag([1.0, -1.0, -1.0])  # camera frame x right, y down, z forward <-> baarda's
+
+
+def eo_of_pose(r: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Exterior orientations (..., 6) X0, Y0, Z0, omega, phi, kappa (rad) of world-to-camera
+    poses x_cam = r X + t (r (..., 3, 3), t (..., 3)) in the camera frame of COLMAP and
+    OpenSfM (x right, y down, z forward): R_b = r^T FLIP, X0 = -r^T t."""
+    rt = np.swapaxes(np.asarray(r, float), -1, -2)
+    x0 = -(rt @ np.asarray(t, float)[..., None])[..., 0]
+    return np.concatenate([x0, angles_from_matrix(rt @ FLIP)], -1)
+
+
+def pose_of_eo(eo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The inverse of `eo_of_pose`: (r (..., 3, 3), t (..., 3)) of EO (..., 6)."""
+    eo = np.asarray(eo, float)
+    r = FLIP @ np.swapaxes(rotation_matrix(eo[..., 3], eo[..., 4], eo[..., 5]), -1, -2)
+    return r, -(r @ eo[..., :3, None])[..., 0]

@@ -144,11 +144,3 @@ def params2d(s: float, kappa: float, t: np.ndarray, centroid: np.ndarray) -> np.
 def rotation3d(params: np.ndarray) -> np.ndarray:
     return rotation_matrix(params[..., 3], params[..., 4], params[..., 5])
 
-
-def rotation_vector_matrix(theta: np.ndarray) -> np.ndarray:
-    """Rotation matrix of the rotation vector theta (3,) (Rodrigues)."""
-    a = float(np.linalg.norm(theta))
-    k = np.array([[0, -theta[2], theta[1]], [theta[2], 0, -theta[0]], [-theta[1], theta[0], 0]])
-    if a < 1e-12:
-        return np.eye(3) + k
-    return np.eye(3) + np.sin(a) / a * k + (1 - np.cos(a)) / a**2 * k @ k

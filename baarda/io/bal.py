@@ -25,9 +25,15 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix, rotation_matrix
+from baarda.block.rotation import (
+    MAX_ANGLE,
+    angles_from_matrix,
+    rodrigues,
+    rotation_matrix,
+    rotation_vector,
+)
 from baarda.errors import ProjectError
-from baarda.io.records import is_number, split_lines
+from baarda.io.records import check_pixel_options, is_number, split_lines
 
 
 @dataclass
@@ -39,40 +45,7 @@ class BalProblem:
     obs_xy: np.ndarray  # (k, 2) pixels
 
 
-def rodrigues(r: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of rotation vectors r (..., 3) (angle = |r|)."""
-    r = np.asarray(r, float)
-    theta = np.linalg.norm(r, axis=-1)[..., None, None]
-    k = np.zeros(r.shape[:-1] + (3, 3))
-    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
-    k[..., 1, 0], k[..., 2, 0], k[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
-    small = theta < 1e-8
-    t = np.where(small, 1.0, theta)
-    a = np.where(small, 1.0 - theta**2 / 6, np.sin(t) / t)
-    b = np.where(small, 0.5 - theta**2 / 24, (1 - np.cos(t)) / t**2)
-    return np.eye(3) + a * k + b * (k @ k)
-
-
-def rotation_vector(m: np.ndarray) -> np.ndarray:
-    """Inverse of `rodrigues` for one matrix (robust near 0 and pi)."""
-    m = np.asarray(m, float)
-    c = np.clip((np.trace(m) - 1) / 2, -1.0, 1.0)
-    theta = np.arccos(c)
-    w = np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0], m[1, 0] - m[0, 1]])
-    if theta < 1e-6:
-        return 0.5 * w
-    if np.pi - theta < 1e-4:
-        b = (m + np.eye(3)) / 2
-        axis = b[int(np.argmax(np.diag(b)))]
-        axis = axis / np.linalg.norm(axis)
-        if w @ axis < 0:
-            axis = -axis
-        return axis * theta
-    return w * theta / (2 * np.sin(theta))
-
-
 HEADER_LIMIT = 256  # bytes of the first line
-MAX_ANGLE = 1e6  # rad: the largest rotation angle |r| taken (real files hold up to ~2 pi)
 BYTES_PER_VALUE = 64  # a value with its separator is never longer in a real file
 
 
@@ -248,6 +221,7 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
                  name: str = "bal", source: str = "", calibrate: bool = True) -> Block:
     """A Block of a BAL problem (conventions in the module docstring); calibrate: f, k1, k2
     of every camera are unknowns, as the BAL problems intend (False: held at the file's)."""
+    check_pixel_options(pixel_mm, sigma_px)
     cams = problem.cameras
     n = len(cams)
     r = rodrigues(cams[:, :3])  # world -> camera

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix, rotation_matrix
+from baarda.block.rotation import eo_of_pose, pose_of_eo
 from baarda.errors import ProjectError
 from baarda.io.colmap import (
     FILES,
@@ -25,24 +25,21 @@ from baarda.io.colmap import (
     read_colmap,
 )
 from baarda.io.colmap_model import lookup
+from baarda.io.records import check_pixel_options
 
 # camera models with a baarda lens model
 CONVERTIBLE = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
 
-FLIP = np.diag([1.0, -1.0, -1.0])
-
 
 def pose_to_eo(qvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
     """COLMAP world-to-camera pose -> baarda EO (X0, Y0, Z0, omega, phi, kappa)."""
-    r = qvec_to_matrix(qvec)
-    return np.concatenate([-r.T @ np.asarray(tvec, float), angles_from_matrix(r.T @ FLIP)])
+    return eo_of_pose(qvec_to_matrix(qvec), tvec)
 
 
 def eo_to_pose(eo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """baarda EO -> COLMAP (qvec, tvec)."""
-    rb = rotation_matrix(eo[3], eo[4], eo[5])
-    r = FLIP @ rb.T
-    return matrix_to_qvec(r), -r @ np.asarray(eo[:3], float)
+    r, t = pose_of_eo(eo)
+    return matrix_to_qvec(r), t
 
 
 def _camera_to_baarda(c: ColmapCamera, pm: float, where: str, cid: int):
@@ -80,6 +77,7 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
     files: the model's files by name (colmap.model_files), named by the errors."""
     from baarda.io import colmap_kernels as ck  # numba, loaded only for COLMAP models
 
+    check_pixel_options(pixel_mm, sigma_px)
     im, pt = model.images, model.points
     where = {f: str(files[f]) if files else source or name for f in FILES}
     if not len(im) or not len(pt):

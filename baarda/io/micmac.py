@@ -81,10 +81,6 @@ def _lines(path: Path):
             yield n, fields
 
 
-def _number(text: str, path: Path, line: int, column: str) -> float:
-    return parse_number(text, str(path), line, column)
-
-
 def read_sensor(path: Path) -> dict:
     """The IGN camera description: width, height (px), ppx, ppy, focal (px), pixel (mm)."""
     root = parse_xml(path)
@@ -98,7 +94,7 @@ def read_sensor(path: Path) -> dict:
             if nxt is None:
                 raise ProjectError(str(path), f"no <{'/'.join(tags)}>", node.line, tags[-1])
             node = nxt
-        return _number((node.text or "").strip(), path, node.line, tags[-1])
+        return parse_number((node.text or "").strip(), str(path), node.line, tags[-1])
 
     out = {"name": (root.find("name").text or "").strip() if root.find("name") is not None
            else path.stem,
@@ -141,8 +137,8 @@ def _measurements(path: Path, images: dict[str, int]) -> list[tuple[str, int, fl
         name = Path(f[1]).stem
         if name not in images:
             continue
-        out.append((f[0], images[name], _number(f[2], path, n, "x"),
-                    _number(f[3], path, n, "y")))
+        out.append((f[0], images[name], parse_number(f[2], str(path), n, "x"),
+                    parse_number(f[3], str(path), n, "y")))
     return out
 
 
@@ -203,7 +199,7 @@ def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
         for n, f in _lines(a):
             if len(f) != 5:
                 raise ProjectError(str(a), "expected 'point n X Y Z'", n)
-            ctrl_xyz[f[0]] = np.array([_number(f[k], a, n, c)
+            ctrl_xyz[f[0]] = np.array([parse_number(f[k], str(a), n, c)
                                        for k, c in ((2, "X"), (3, "Y"), (4, "Z"))])
     for m in sorted(folder.glob("*.MES")):
         if m.suffix == ".MES":

@@ -1,7 +1,8 @@
 """The files of an OpenSfM dataset, piece by piece: numbers and vectors of its JSON with the
-line they stand on, poses (angle-axis), the CRS of a gcp_list.txt, cameras, tracks.csv and
-the control (ground_control_points.json, gcp_list.txt, config.yaml's GCP sigmas).  The
-dataset as a Block is read by io/opensfm.py, whose text gives the conventions."""
+line they stand on, the CRS of a gcp_list.txt, tracks.csv and the control
+(ground_control_points.json, gcp_list.txt, config.yaml's GCP sigmas).  The cameras are
+io/opensfm_camera.py's; the dataset as a Block is read by io/opensfm.py, whose text gives
+the conventions."""
 
 from __future__ import annotations
 
@@ -9,21 +10,21 @@ import json
 import math
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.records import decode_text, file_bytes, parse_number, split_lines, to_numbers
+
+if TYPE_CHECKING:
+    from baarda.io.opensfm_camera import OpenSfmCamera
 
 RECONSTRUCTIONS = ("reconstruction.json", "reconstruction_example.json")
 TRACKS = ("tracks.csv", "tracks_example.csv")
 GCP_JSON = "ground_control_points.json"
 GCP_LIST = "gcp_list.txt"
-SUPPORTED = ("perspective", "simple_radial", "radial", "brown", "fisheye", "fisheye_opencv")
-UNSUPPORTED = ("fisheye62", "fisheye624", "dual", "spherical", "equirectangular")
 CONTROL_SIGMA_M = (0.05, 0.05, 0.05)  # without gcp_horizontal_sd / gcp_vertical_sd
-FLIP = np.diag([1.0, -1.0, -1.0])
 
 
 # ------------------------------------------------------------------ small helpers
@@ -84,39 +85,6 @@ def _mapping(value, path: Path, line, field: str) -> dict:
     return value
 
 
-def rodrigues(v: np.ndarray) -> np.ndarray:
-    """Rotation matrix of an angle-axis vector."""
-    v = np.asarray(v, float)
-    th = float(np.linalg.norm(v))
-    k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
-    if th < 1e-12:
-        return np.eye(3) + k
-    k /= th
-    return np.eye(3) + math.sin(th) * k + (1 - math.cos(th)) * (k @ k)
-
-
-def angle_axis(r: np.ndarray) -> np.ndarray:
-    """Angle-axis vector of a rotation matrix (the inverse of rodrigues)."""
-    c = (np.trace(r) - 1) / 2
-    th = math.acos(min(1.0, max(-1.0, c)))
-    w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    if th < 1e-12:
-        return w / 2
-    if math.pi - th < 1e-6:  # near 180 degrees: the axis from the symmetric part
-        b = (r + np.eye(3)) / 2
-        axis = b[:, int(np.argmax(np.diag(b)))]
-        axis = axis / np.linalg.norm(axis)
-        return axis * th
-    return w * th / (2 * math.sin(th))
-
-
-def pose_to_eo(rotation: np.ndarray, translation: np.ndarray) -> np.ndarray:
-    """OpenSfM world-to-camera pose -> baarda EO (X0, Y0, Z0, omega, phi, kappa)."""
-    r = rodrigues(rotation)
-    return np.concatenate([-r.T @ np.asarray(translation, float),
-                           angles_from_matrix(r.T @ FLIP)])
-
-
 def utm_crs(lon: float, lat: float) -> str:
     """The WGS84 UTM zone of a place, as 'EPSG:326zz' / 'EPSG:327zz'."""
     zone = min(60, max(1, int((lon + 180) // 6) + 1))
@@ -131,94 +99,6 @@ def parse_crs_line(text: str) -> str:
     if m and 1 <= int(m.group(1)) <= 60:
         return f"EPSG:{(32600 if m.group(2).upper() == 'N' else 32700) + int(m.group(1))}"
     return t
-
-
-# ------------------------------------------------------------------ cameras
-class _Camera:
-    """One OpenSfM camera in baarda's terms (mm with the nominal pixel size)."""
-
-    def __init__(self, cid: str, d, path: Path, text: str, pixel_mm: float):
-        line = _line(text, "cameras", cid)
-        d = _mapping(d, path, line, "cameras")
-        kind = d.get("projection_type", "perspective")
-        kline = _line(text, "cameras", cid, "projection_type") or line
-        if kind in UNSUPPORTED:
-            raise ProjectError(str(path), f"camera '{cid}': projection type {kind} is not "
-                               f"supported (supported: {', '.join(SUPPORTED)})", kline,
-                               "projection_type")
-        if kind not in SUPPORTED:
-            raise ProjectError(str(path), f"camera '{cid}': unknown projection type "
-                               f"{kind!r} (supported: {', '.join(SUPPORTED)})", kline,
-                               "projection_type")
-
-        def get(key: str, default: float | None = None, positive: bool = False) -> float:
-            if key not in d:
-                if default is None:
-                    raise ProjectError(str(path), f"camera '{cid}': no {key}", line, key)
-                return default
-            return _number(d[key], path, _line(text, "cameras", cid, key) or line, key,
-                           positive=positive)
-
-        self.id, self.kind = cid, kind
-        self.width = get("width", positive=True)
-        self.height = get("height", positive=True)
-        self.size = max(self.width, self.height)
-        if kind in ("perspective", "fisheye"):
-            fx = fy = get("focal", positive=True)
-            cx = cy = 0.0
-        else:
-            fx = get("focal_x", positive=True)
-            fy = get("focal_y", positive=True)
-            cx, cy = get("c_x", 0.0), get("c_y", 0.0)
-        k1, k2 = get("k1", 0.0), get("k2", 0.0)
-        k3 = k4 = p1 = p2 = 0.0
-        if kind == "brown":
-            k3, p1, p2 = get("k3", 0.0), get("p1", 0.0), get("p2", 0.0)
-        if kind == "fisheye_opencv":
-            k3, k4 = get("k3", 0.0), get("k4", 0.0)
-        self.raw = {"focal_x": fx, "focal_y": fy, "c_x": cx, "c_y": cy, "k1": k1, "k2": k2,
-                    "k3": k3, "k4": k4, "p1": p1, "p2": p2}
-        s = self.size * pixel_mm
-        self.focal_mm = fx * s
-        self.pp_mm = (cx * s, -cy * s)
-        self.fisheye = kind.startswith("fisheye")
-        self.model = "fisheye_forward" if self.fisheye else "brown_forward"
-        self.coefficients = (np.array([k1, k2, k3, k4, fy / fx - 1.0]) if self.fisheye else
-                             np.array([k1, k2, k3, p2, -p1, fy / fx - 1.0]))
-        self.free = {"perspective": ("c", "k1", "k2"), "simple_radial": ("c", "x0", "y0", "k1"),
-                     "radial": ("c", "x0", "y0", "k1", "k2"),
-                     "brown": ("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a"),
-                     "fisheye": ("c", "k1", "k2"),
-                     "fisheye_opencv": ("c", "x0", "y0", "k1", "k2", "k3", "k4", "a")}[kind]
-        self.scale_mm = s  # mm per normalised unit
-
-    def project(self, xc: np.ndarray) -> np.ndarray:
-        """OpenSfM's projection of camera-frame points (m, 3) to normalised coordinates:
-        Brown's distortion of (x/z, y/z) (OpenCV's form), then focal and principal point."""
-        r = self.raw
-        x, y = xc[:, 0] / xc[:, 2], xc[:, 1] / xc[:, 2]
-        r2 = x * x + y * y
-        if self.fisheye:  # equidistant: theta = atan(r), theta_d = theta (1 + k1 theta^2 ...)
-            rr = np.sqrt(r2)
-            th = np.arctan(rr)
-            t2 = th * th
-            thd = th * (1 + t2 * (r["k1"] + t2 * (r["k2"] + t2 * (r["k3"] + t2 * r["k4"]))))
-            f = np.where(rr > 0, thd / np.where(rr > 0, rr, 1.0), 1.0)
-            return np.column_stack([r["focal_x"] * f * x + r["c_x"],
-                                    r["focal_y"] * f * y + r["c_y"]])
-        radial = 1 + r2 * (r["k1"] + r2 * (r["k2"] + r2 * r["k3"]))
-        xd = x * radial + 2 * r["p1"] * x * y + r["p2"] * (r2 + 2 * x * x)
-        yd = y * radial + r["p1"] * (r2 + 2 * y * y) + 2 * r["p2"] * x * y
-        return np.column_stack([r["focal_x"] * xd + r["c_x"], r["focal_y"] * yd + r["c_y"]])
-
-    def to_mm(self, xy_n: np.ndarray) -> np.ndarray:
-        xy_n = np.asarray(xy_n, float).reshape(-1, 2)
-        return np.column_stack([xy_n[:, 0] * self.scale_mm, -xy_n[:, 1] * self.scale_mm])
-
-    def pixels_to_normalised(self, px: np.ndarray) -> np.ndarray:
-        px = np.asarray(px, float).reshape(-1, 2)
-        return np.column_stack([(px[:, 0] + 0.5 - self.width / 2) / self.size,
-                                (px[:, 1] + 0.5 - self.height / 2) / self.size])
 
 
 # ------------------------------------------------------------------ tracks
@@ -293,7 +173,7 @@ def _gcp_json(path: Path, shots: dict[str, int]):
     return out
 
 
-def _gcp_list(path: Path, cameras_of_shot: dict[str, _Camera]):
+def _gcp_list(path: Path, cameras_of_shot: dict[str, OpenSfmCamera]):
     """(crs, [(id, xyz in the CRS, [(shot, xy normalised, line)], line)]) of ODM's
     gcp_list.txt; points without a name are told apart by their coordinates."""
     lines = split_lines(decode_text(file_bytes(path), str(path)))

@@ -18,6 +18,13 @@ from baarda.errors import ProjectError
 ENCODING = "utf-8"  # of every text input unless the user names another (--encoding)
 
 
+def check_pixel_options(pixel_mm: float, sigma_px: float) -> None:
+    """The nominal pixel size (mm) and image sigma (px) of the formats without a physical
+    pixel size (COLMAP, BAL, OpenSfM; --pixel-mm, --sigma-px) must be positive."""
+    if not (pixel_mm > 0 and sigma_px > 0):
+        raise ProjectError("command line", "pixel size and image sigma must be positive")
+
+
 def is_utf8(encoding: str) -> bool:
     return encoding.lower().replace("_", "-") in ("utf-8", "utf8", "utf-8-sig")
 

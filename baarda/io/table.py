@@ -123,9 +123,10 @@ class Table(Columns):
         return self._arrow.num_rows if self._arrow is not None else len(self._lines)
 
     def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
-        if self._arrow is not None:
-            out = _arrow_numbers(self._arrow.column(name))
-            if out is not None and (allow_empty or not np.isnan(out).any()):
+        out = self.floats(name)
+        if out is not None:
+            nan = np.isnan(out)
+            if np.isfinite(out[~nan]).all() and (allow_empty or not nan.any()):
                 return out
         return super().numbers(name, allow_empty)  # the exact reading, and its error
 
@@ -143,10 +144,8 @@ class Table(Columns):
         import pyarrow as pa
         import pyarrow.compute as pc
 
-        col = self._arrow.column(name)
+        col = self._arrow.column(name)  # a string column: _read_arrow reads every one so
         try:
-            if not pa.types.is_string(col.type) and not pa.types.is_large_string(col.type):
-                col = pc.cast(col, pa.string())
             vals = pc.cast(pc.if_else(pc.equal(col, ""), pa.scalar(None, pa.string()), col),
                            pa.float64())
         except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
@@ -225,16 +224,3 @@ def _read_arrow(data: bytes):
     except (pa.ArrowInvalid, pa.ArrowKeyError, UnicodeDecodeError):
         return None
 
-
-def _arrow_numbers(col) -> np.ndarray | None:
-    """Finite floats of a string column (empty -> NaN), or None when a value is not one."""
-    import pyarrow as pa
-    import pyarrow.compute as pc
-
-    try:
-        empty = pc.equal(col, "")
-        vals = pc.cast(pc.if_else(empty, pa.scalar(None, pa.string()), col), pa.float64())
-    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
-        return None
-    out = vals.to_numpy(zero_copy_only=False).astype(float)
-    return out if np.isfinite(out[~np.isnan(out)]).all() else None

@@ -18,8 +18,8 @@ from baarda.io.aicon import AiconProject, _f, _id
 from baarda.io.bal import BalProblem
 from baarda.io.colmap import MODEL_ID, ColmapModel
 from baarda.io.colmap_binary import IMAGE_HEADER, KEYPOINT, POINT_HEADER, TRACK_ELEMENT
-from baarda.io.opensfm import topocentric_frame
-from baarda.io.opensfm_files import FLIP, angle_axis, utm_crs
+from baarda.io.opensfm_files import utm_crs
+from baarda.io.opensfm_ground import topocentric_frame
 from baarda.output.atomic import write_bytes, write_text
 
 
@@ -207,25 +207,23 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     from pyproj import Transformer
 
     from baarda.block.camera import coefficients, kinds
-    from baarda.block.crs import localize
-    from baarda.block.rotation import rotation_matrix
+    from baarda.block.rotation import pose_of_eo, rotation_vector
     from baarda.bundle.geometry import intersect
+    from baarda.pipeline import localized
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     if len(block.imu) or len(block.distances):
         raise ValueError("OpenSfM datasets have no IMU attitudes or distances")
-    if block.settings.crs and block.frame is None:
-        block = localize(block)
-    if block.frame is not None:
-        frame = block.frame
-        lon, lat, h = Transformer.from_crs(frame.crs3, "EPSG:4979", always_xy=True).transform(
-            *frame.from_local(np.zeros((1, 3)))[0])
-        reference_lla = (lat, lon, h)
-    else:
+    block = localized(block)
+    frame = block.frame
+    if frame is None:
         lat, lon, h = reference_lla
         frame = topocentric_frame(utm_crs(lon, lat), [lon, lat, h], folder)
     to_lla = Transformer.from_crs(frame.crs3, "EPSG:4979", always_xy=True)
+    if block.frame is not None:
+        lon, lat, h = to_lla.transform(*frame.from_local(np.zeros((1, 3)))[0])
+        reference_lla = (lat, lon, h)
     cams = block.cameras
     kind = kinds(cams)
     im, pts = block.image, block.points
@@ -264,8 +262,8 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
         e = block.photos.eo[i]
         if not np.isfinite(e).all():
             raise ValueError(f"photo {pid} has no orientation")
-        r = FLIP @ rotation_matrix(e[3], e[4], e[5]).T
-        shot = {"rotation": angle_axis(r).tolist(), "translation": (-r @ e[:3]).tolist(),
+        r, t = pose_of_eo(e)
+        shot = {"rotation": rotation_vector(r).tolist(), "translation": t.tolist(),
                 "camera": cams.ids[block.photos.camera[i]]}
         if i in gnss:
             sig = block.gnss.sigma[gnss[i]]
@@ -294,6 +292,8 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     write_text(folder / "tracks.csv", "\n".join(rows) + "\n")
     gcps = []
     ctrl = np.flatnonzero(~tie)
+    by_point = np.argsort(im.point, kind="stable")  # the observations grouped by point
+    bounds = np.searchsorted(im.point[by_point], np.arange(len(pts.ids) + 1))
     sig = pts.sigma[ctrl[pts.role[ctrl] == "control"]]
     for j in ctrl:
         c = pts.xyz[j]
@@ -307,7 +307,7 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
         if np.isfinite(c[2]):
             pos["altitude"] = al
         obs = [{"shot_id": block.photos.ids[im.photo[k]], "projection": norm[k].tolist()}
-               for k in np.flatnonzero(im.point == j)]
+               for k in by_point[bounds[j]:bounds[j + 1]]]
         gcps.append({"id": pts.ids[j], "position": pos, "observations": obs})
     if gcps:
         write_text(folder / "ground_control_points.json", json.dumps({"points": gcps}, indent=1))

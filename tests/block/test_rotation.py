@@ -1,7 +1,13 @@
 import numpy as np
 import pytest
 
-from baarda.block.rotation import angle_to_rad, angles_from_matrix, rotation_matrix
+from baarda.block.rotation import (
+    angle_to_rad,
+    angles_from_matrix,
+    rodrigues,
+    rotation_matrix,
+    rotation_vector,
+)
 from baarda.bundle.collinearity import project
 
 
@@ -39,3 +45,21 @@ def test_matrix_elements_and_inverse():
                                             ("rad", 1.0, 1.0)])
 def test_angle_units(unit, value, rad):
     assert angle_to_rad(value, unit) == pytest.approx(rad)
+
+
+def test_rodrigues():
+    th = np.array([0.1, -0.05, 0.3])
+    r = rodrigues(th)
+    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-14)
+    np.testing.assert_allclose(r @ th, th, atol=1e-14)  # the axis stays
+    a = np.linalg.norm(th)
+    assert np.arccos((np.trace(r) - 1) / 2) == pytest.approx(a)
+
+
+def test_rotation_vector_inverts_rodrigues_near_0_and_pi():
+    rng = np.random.default_rng(2)
+    axes = rng.normal(size=(6, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    for angle in (0.0, 1e-9, 0.3, 3.0, np.pi - 1e-5, np.pi):
+        r = rodrigues(axes * angle)
+        np.testing.assert_allclose(rodrigues(rotation_vector(r)), r, atol=1e-12)

@@ -309,8 +309,9 @@ def opensfm_base(work):
     rec = json.loads((src / "reconstruction_example.json").read_text())
     keep = list(rec[0]["points"])[:40]
     rec[0]["points"] = {k: rec[0]["points"][k] for k in keep}
+    kept = set(keep)
     rows = (src / "tracks_example.csv").read_text().splitlines()
-    rows = rows[:1] + [r for r in rows[1:] if r.split("\t")[1] in set(keep)]
+    rows = rows[:1] + [r for r in rows[1:] if r.split("\t")[1] in kept]
     folder = work / "opensfm"
     folder.mkdir()
     (folder / "reconstruction.json").write_text(json.dumps(rec, indent=1))

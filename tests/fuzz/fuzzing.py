@@ -37,11 +37,13 @@ import re
 import struct
 import tempfile
 import warnings
+import zlib
 from collections import Counter
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
-from hypothesis import HealthCheck, settings
+import pytest
+from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
 from baarda.block.model_block import ModelBlock
@@ -83,10 +85,18 @@ RANDOM = bool(os.environ.get("FUZZ_RANDOM"))
 
 
 def fuzz_settings(case: str, deadline_ms: int = READ_DEADLINE_MS):
-    """The settings of the test of CASES[case]."""
-    return settings(max_examples=max(1, round(CASES[case] * SCALE)), derandomize=not RANDOM,
-                    database=None, deadline=deadline_ms, print_blob=False,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+    """A decorator: the settings of the test of CASES[case], and the case named on the test
+    (`fuzz_case`: test_fuzz_suite.py checks that every case has one test)."""
+    chosen = settings(max_examples=max(1, round(CASES[case] * SCALE)), derandomize=not RANDOM,
+                      database=None, deadline=deadline_ms, print_blob=False,
+                      suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+    def decorate(test):
+        test = chosen(test)
+        test.fuzz_case = case
+        return test
+
+    return decorate
 
 
 # ---------------------------------------------------------------------- the bases
@@ -576,3 +586,68 @@ def cli_case(base: Base, muts: list, work: Path, command: list[str],
         root.mkdir()
         write_files(root, apply(base, muts))
         return check_cli(command, root / entry if entry else root, root, Path(d) / "out")
+
+
+# ---------------------------------------------------------------------- the tests of a format
+def first_file(base: Base) -> str:
+    """The entry of a base of one file: that file."""
+    return base.names[0]
+
+
+def _entry(entry, base: Base, data) -> str | None:
+    """The file read in the base's folder: None (the folder), a name, a function of the base
+    or a strategy drawn from."""
+    if isinstance(entry, st.SearchStrategy):
+        return data.draw(entry)
+    return entry(base) if callable(entry) else entry
+
+
+def _fuzz_test(case: str, base: str, deadline_ms: int, body):
+    """The hypothesis test of CASES[case] on the session fixture `base` (named: requested by
+    the test, so that a parametrised base gives one test per parameter); body(base, work,
+    data) runs one example."""
+
+    def test(request, data):
+        body(request.getfixturevalue(base), request.getfixturevalue("work"), data)
+
+    test = given(data=st.data())(test)
+    if not RANDOM:  # a seed of each test's own (the tests of this factory share a source)
+        test = seed(zlib.crc32(case.encode()))(test)
+    return pytest.mark.usefixtures(base, "work")(fuzz_settings(case, deadline_ms)(test))
+
+
+def read_test(case: str, base: str, read, *, entry=None, draw=mutations,
+              computes: bool = False, deadline_ms: int = READ_DEADLINE_MS):
+    """The test of CASES[case]: `read` (baarda.pipeline.read, read_models) of mutations
+    (`draw`: mutations or any_mutations) of the fixture `base`, read from its folder or from
+    `entry` in it (see _entry): check_read's properties."""
+
+    def body(b: Base, work: Path, data) -> None:
+        read_case(b, data.draw(draw(b)), work, read, _entry(entry, b, data), computes)
+
+    return _fuzz_test(case, base, deadline_ms, body)
+
+
+def cli_test(case: str, base: str, command=("adjust",), *, entry=None, draw=any_mutations,
+             deadline_ms: int = ADJUST_DEADLINE_MS):
+    """The test of CASES[case]: `baarda COMMAND` on mutations (`draw`) of the fixture
+    `base` (its folder or `entry` in it): check_cli's properties."""
+
+    def body(b: Base, work: Path, data) -> None:
+        cli_case(b, data.draw(draw(b)), work, list(command), _entry(entry, b, data))
+
+    return _fuzz_test(case, base, deadline_ms, body)
+
+
+def format_tests(name: str, base: str, *, read=None, entry=None, command=("adjust",),
+                 cli_name: str | None = None, cli_base: str | None = None, cli_entry=None,
+                 cli_draw=any_mutations):
+    """The pair of tests of an input format: reading mutations of the fixture `base`
+    (CASES[f"{name} read"], through `read`, default baarda.pipeline.read) and the command
+    line on them (CASES[cli_name], default f"{name} {command[0]}"; on `cli_base` and
+    `cli_entry` when they differ from the reading's)."""
+    if read is None:
+        from baarda.pipeline import read
+    return (read_test(f"{name} read", base, read, entry=entry),
+            cli_test(cli_name or f"{name} {command[0]}", cli_base or base, command,
+                     entry=entry if cli_entry is None else cli_entry, draw=cli_draw))

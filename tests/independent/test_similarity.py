@@ -87,11 +87,3 @@ def test_closed_form_fits_recover_known_transform():
     np.testing.assert_allclose(sim.forward3d(p[None].repeat(8, 0), src, c[None].repeat(8, 0))[0],
                                dst, atol=1e-9)
 
-
-def test_rotation_vector_matrix():
-    th = np.array([0.1, -0.05, 0.3])
-    r = sim.rotation_vector_matrix(th)
-    np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-14)
-    np.testing.assert_allclose(r @ th, th, atol=1e-14)  # the axis stays
-    a = np.linalg.norm(th)
-    assert np.arccos((np.trace(r) - 1) / 2) == pytest.approx(a)

@@ -105,3 +105,15 @@ def test_read_any_options():
     b = read_any(COLMAP, pixel_mm=0.005, sigma_px=0.5)
     assert np.isclose(b.cameras.focal_mm[0], 1847.53 * 0.005)
     assert np.allclose(b.image.sigma_mm, 0.0025)
+
+
+def test_pixel_size_and_image_sigma_must_be_positive(tmp_path, capsys):
+    from bal_reference import _synthetic
+
+    write_bal(_synthetic(seed=4), tmp_path / "p.txt")
+    for src in (COLMAP, tmp_path / "p.txt", DATA / "opensfm_berlin"):
+        for option in (["--pixel-mm", "0"], ["--sigma-px", "-1"]):
+            assert main(["convert", str(src), "-o", str(tmp_path / "out"), "-q",
+                         *option]) == 2
+            assert "pixel size and image sigma must be positive" in capsys.readouterr().err
+            assert not (tmp_path / "out").exists()

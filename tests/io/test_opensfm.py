@@ -3,6 +3,7 @@ tests/data with its notice), an ODM project folder with gcp_list.txt made from i
 simulated block written as an OpenSfM dataset."""
 
 import json
+import re
 import shutil
 from dataclasses import replace
 from pathlib import Path
@@ -13,12 +14,13 @@ from pyproj import Transformer
 
 import baarda
 from baarda.block.camera import constants, model_of, parameters
+from baarda.block.rotation import rodrigues, rotation_vector
 from baarda.bundle.collinearity import camera_projection
 from baarda.cli import main
 from baarda.errors import ProjectError
 from baarda.io.formats import detect
 from baarda.io.opensfm import read_opensfm
-from baarda.io.opensfm_files import angle_axis, parse_crs_line, rodrigues, utm_crs
+from baarda.io.opensfm_files import parse_crs_line, utm_crs
 from baarda.output.format_files import write_opensfm
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -114,7 +116,7 @@ def test_one_point_by_hand(recon):
     s = recon["shots"]["02.jpg"]
     r = rodrigues(s["rotation"])
     assert blk.photos.eo[2, :3] == pytest.approx(-r.T @ np.array(s["translation"]))
-    assert np.allclose(angle_axis(r), s["rotation"])
+    assert np.allclose(rotation_vector(r), s["rotation"])
 
 
 def test_adjust_converges_from_the_stored_reconstruction(block):
@@ -284,37 +286,44 @@ def test_writer_refuses_what_opensfm_cannot_hold(tmp_path):
         write_opensfm(b2, tmp_path / "y")
 
 
-def test_brown_camera_conventions(tmp_path):
-    """A brown_forward camera with every coefficient (principal point, k1-k3, p1, p2,
-    aspect), written as OpenSfM's `brown`: OpenSfM's projection (OpenCV's Brown on x/z, y/z,
-    y down, normalised by max(w, h)), as the reader evaluates it for its note, reproduces
-    baarda's projections exactly, and the camera reads back unchanged."""
-    import re
-
+def _written_and_read_back(tmp_path, coef, pp, model):
+    """A simulated block (no noise) on one camera of `model` with coefficients `coef` and
+    principal point `pp`, its image points baarda's projections of its points, written as
+    an OpenSfM dataset and read back: (the cameras written, the block read, the per
+    coordinate RMS of the reader's note on the stored reprojection errors [px])."""
     from baarda.block.photo_block import Cameras
     from baarda.bundle.geometry import intersect
 
     b, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=4, height_chains=0,
                                      noise=False, seed=4))
-    coef = np.array([[2e-5, -3e-9, 1e-13, 4e-6, -7e-6, 2e-4]]) * np.array(
-        [[153.0**2, 153.0**4, 153.0**6, 153.0, 153.0, 1.0]])  # normalised units
-    cams = Cameras(b.cameras.ids, b.cameras.focal_mm, np.array([[0.12, -0.08]]),
-                   np.array(["brown_forward"], dtype=object), coef)
+    cams = Cameras(b.cameras.ids, b.cameras.focal_mm, np.array([pp]),
+                   np.array([model], dtype=object), np.array([coef]))
     b = replace(b, cameras=cams)
     tie = np.flatnonzero(b.points.role == "tie")
     xyz = b.points.xyz.copy()
     xyz[tie] = intersect(b, b.photos.eo, tie)
     b = replace(b, points=replace(b.points, xyz=xyz))
     f, _, _, _ = camera_projection(b.photos.eo, xyz[b.image.point], b.image.photo,
-                                   parameters(cams, 0), model_of("brown_forward"),
+                                   parameters(cams, 0), model_of(model),
                                    constants(cams, 0), b.image.xy_mm)
     b = replace(b, image=replace(b.image, xy_mm=f))
     write_opensfm(b, tmp_path / "ds")
     cam = json.loads((tmp_path / "ds" / "reconstruction.json").read_text())[0]["cameras"]
-    assert next(iter(cam.values()))["projection_type"] == "brown"
     back = read_opensfm(tmp_path / "ds")
     note = next(n for n in back.notes if n.startswith("reprojection errors"))
-    rms = float(re.search(r"per coordinate ([0-9.]+) px", note).group(1))
+    return cams, cam, back, float(re.search(r"per coordinate ([0-9.]+) px", note).group(1))
+
+
+def test_brown_camera_conventions(tmp_path):
+    """A brown_forward camera with every coefficient (principal point, k1-k3, p1, p2,
+    aspect), written as OpenSfM's `brown`: OpenSfM's projection (OpenCV's Brown on x/z, y/z,
+    y down, normalised by max(w, h)), as the reader evaluates it for its note, reproduces
+    baarda's projections exactly, and the camera reads back unchanged."""
+    coef = np.array([[2e-5, -3e-9, 1e-13, 4e-6, -7e-6, 2e-4]]) * np.array(
+        [[153.0**2, 153.0**4, 153.0**6, 153.0, 153.0, 1.0]])  # normalised units
+    cams, cam, back, rms = _written_and_read_back(tmp_path, coef[0], [0.12, -0.08],
+                                                  "brown_forward")
+    assert next(iter(cam.values()))["projection_type"] == "brown"
     assert rms == 0.0  # printed to 0.001 px; exactly:
     assert back.cameras.focal_mm[0] == pytest.approx(cams.focal_mm[0], rel=1e-12)
     assert back.cameras.principal_point_mm[0] == pytest.approx([0.12, -0.08], rel=1e-12)
@@ -330,30 +339,9 @@ def test_fisheye_cameras(tmp_path, coef, pp, kind):
     """fisheye_forward cameras written as OpenSfM's fisheye / fisheye_opencv: OpenSfM's
     equidistant projection (as the reader evaluates it for its note) reproduces baarda's
     projections, the camera reads back unchanged and the block adjusts to zero residuals."""
-    import re
-
-    from baarda.block.photo_block import Cameras
-    from baarda.bundle.geometry import intersect
-
-    b, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=4, height_chains=0,
-                                     noise=False, seed=4))
-    cams = Cameras(b.cameras.ids, b.cameras.focal_mm, np.array([pp]),
-                   np.array(["fisheye_forward"], dtype=object), np.array([coef]))
-    b = replace(b, cameras=cams)
-    tie = np.flatnonzero(b.points.role == "tie")
-    xyz = b.points.xyz.copy()
-    xyz[tie] = intersect(b, b.photos.eo, tie)
-    b = replace(b, points=replace(b.points, xyz=xyz))
-    f, _, _, _ = camera_projection(b.photos.eo, xyz[b.image.point], b.image.photo,
-                                   parameters(cams, 0), model_of("fisheye_forward"),
-                                   constants(cams, 0), b.image.xy_mm)
-    b = replace(b, image=replace(b.image, xy_mm=f))
-    write_opensfm(b, tmp_path / "ds")
-    cam = json.loads((tmp_path / "ds" / "reconstruction.json").read_text())[0]["cameras"]
+    _, cam, back, rms = _written_and_read_back(tmp_path, coef, pp, "fisheye_forward")
     assert next(iter(cam.values()))["projection_type"] == kind
-    back = read_opensfm(tmp_path / "ds")
-    note = next(n for n in back.notes if n.startswith("reprojection errors"))
-    assert float(re.search(r"per coordinate ([0-9.]+) px", note).group(1)) == 0.0
+    assert rms == 0.0
     assert back.cameras.model[0] == "fisheye_forward"
     assert back.cameras.principal_point_mm[0] == pytest.approx(pp, abs=1e-12)
     assert back.cameras.coefficients[0, :5] == pytest.approx(coef, abs=1e-12)
