@@ -238,8 +238,9 @@ class BundleProblem(SchurProblem):
         return (eo, xyz, self.calibration.current(g),
                 g[self.g_points:self.gnss_imu.first].reshape(-1, 3))
 
-    def _image_rows(self, rows, eo, xyz_rows, params):
-        """f, je, jp, jpar (3 + k columns of its camera) of image rows, camera by camera."""
+    def _image_rows(self, rows, eo, xyz_rows, params, rot):
+        """f, je, jp, jpar (3 + k columns of its camera) of image rows, camera by camera;
+        rot: rotation_and_derivatives of every photo's angles."""
         b = self.block
         im = b.image
         m = len(rows)
@@ -250,7 +251,6 @@ class BundleProblem(SchurProblem):
         jpar = np.zeros((m, 2, 3 + max((mo.n_params for mo in self.calibration.models),
                                        default=0)))
         cal = self.calibration
-        rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every camera
         for model, cams in self._model_groups:
             if len(cams) == 1:
                 i = cams[0]
@@ -297,8 +297,9 @@ class BundleProblem(SchurProblem):
         b = self.block
         im, pts = b.image, b.points
         ph = im.photo[self.obs]
+        rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every row set
         f, je, jp, jpar = self._image_rows(self.obs, eo, xyz[self.eremap[im.point[self.obs]]],
-                                           params)
+                                           params, rot)
         e = im.xy_mm[self.obs] - f
         given = pts.xyz[self.control]
         cur = xyz[self.eremap[self.control]]
@@ -319,19 +320,20 @@ class BundleProblem(SchurProblem):
         lin = dict(jg=self._free_columns(self.obs, jpar) if self.system.ng else None)
         if self.system.ng or self.system.mx:
             g = state[2] if len(state) == 3 else np.zeros(0)
-            lin.update(self._border_rows(eo, params, bxyz, g))
+            lin.update(self._border_rows(eo, params, bxyz, g, rot))
         return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef, wp=wp, ep=ep, **lin)
 
-    def _border_rows(self, eo, params, bxyz, g) -> dict:
+    def _border_rows(self, eo, params, bxyz, g, rot) -> dict:
         """The extra rows (image points of border points, their control, distances, GNSS
-        positions and IMU attitudes) and the held global unknowns."""
+        positions and IMU attitudes) and the held global unknowns; rot: the photos'
+        rotation_and_derivatives."""
         b = self.block
         im, pts, dist = b.image, b.points, b.distances
         ng, gp = self.system.ng, self.g_points
         rows = self.border_obs
         mb = len(rows)
         bidx = self.bremap[im.point[rows]]
-        f, je, jp, jpar = self._image_rows(rows, eo, bxyz[bidx], params)
+        f, je, jp, jpar = self._image_rows(rows, eo, bxyz[bidx], params, rot)
         jg = np.zeros((mb, 2, ng))
         free = self._free_columns(rows, jpar)
         cam = self.camera_of[im.photo[rows]]
@@ -376,7 +378,7 @@ class BundleProblem(SchurProblem):
         # GNSS positions and IMU attitudes
         gi = self.gnss_imu
         if gi.m:
-            e_g, jf_g, jg_g = gi.rows(eo, g, ng)
+            e_g, jf_g, jg_g = gi.rows(eo, g, ng, rot)
             if self.held is not None:
                 jf_g = np.where(self.held[gi.photos][:, None, :], 0.0, jf_g)
             ex.append(e_g)
