@@ -35,6 +35,76 @@ XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
 
 
+def model_groups(calibration: Calibration) -> list[tuple]:
+    """(camera model, indices of its cameras) for every model of the block."""
+    groups: dict[int, tuple] = {}
+    for i, model in enumerate(calibration.models):
+        groups.setdefault(id(model), (model, []))[1].append(i)
+    return list(groups.values())
+
+
+class ImageRows:
+    """One set of image rows (rows of block.image) as the linearisation takes them, with
+    what no iteration changes computed once: the photo of each row, the rows of each camera
+    model's cameras with their observations and constants, the rows of each camera with
+    free parameters."""
+
+    def __init__(self, block: Block, calibration: Calibration, rows: np.ndarray):
+        im = block.image
+        photo = im.photo[rows]
+        cam = block.photos.camera[photo]
+        self.m = len(rows)
+        self.width = 3 + max((mo.n_params for mo in calibration.models), default=0)
+        # (model, its cameras, their rows, the photo and observation of each, the index
+        # among the cameras of each row (None: one camera), the constants (of each row))
+        self.groups = []
+        for model, cams in model_groups(calibration):
+            if len(cams) == 1:
+                i = cams[0]
+                sel = np.flatnonzero(cam == i)
+                which, k = None, calibration.constants[i]
+            else:  # cameras of one model at once (BAL: a camera per photo), row by row
+                local = np.full(len(calibration.models), -1)
+                local[cams] = np.arange(len(cams))
+                sel = np.flatnonzero(local[cam] >= 0)
+                which = local[cam[sel]]
+                k = np.array([calibration.constants[i] for i in cams], float)[which]
+            if len(sel):
+                self.groups.append((model, cams, sel, photo[sel], im.xy_mm[rows[sel]], which,
+                                    k))
+        # (rows of a camera, its free parameters) of every camera with free parameters
+        self.free = [(np.flatnonzero(cam == i), idx)
+                     for i, idx in enumerate(calibration.free_index)
+                     if len(idx) and (cam == i).any()]
+        self.n_free = calibration.width
+
+    def evaluate(self, eo: np.ndarray, xyz: np.ndarray, params, rot: tuple):
+        """f, je, jp, jpar (3 + k columns of its camera) of the rows, camera by camera:
+        eo (n_photos, 6), xyz (m, 3) the point of each row, params the parameters of
+        every camera, rot rotation_and_derivatives of every photo's angles."""
+        m = self.m
+        f = np.zeros((m, 2))
+        je, jp = np.zeros((m, 2, 6)), np.zeros((m, 2, 3))
+        jpar = np.zeros((m, 2, self.width))
+        for model, cams, sel, photo, observed, which, k in self.groups:
+            p = params[cams[0]] if which is None else np.array(
+                [params[i] for i in cams], float)[which]
+            out = camera_projection(eo, xyz[sel], photo, p, model, k, observed, rot)
+            if len(sel) == m:
+                f, je, jp = out[0], out[1], out[2]
+            else:
+                f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
+            jpar[sel, :, :out[3].shape[2]] = out[3]
+        return f, je, jp, jpar
+
+    def free_columns(self, jpar: np.ndarray) -> np.ndarray:
+        """jpar restricted to the free parameters of each row's camera, (m, 2, width)."""
+        out = np.zeros((self.m, 2, self.n_free))
+        for sel, idx in self.free:
+            out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
+        return out
+
+
 def _spread(values: np.ndarray) -> str:
     """'5' or '3 to 8 (median 5)' for a list of standard deviations."""
     lo, hi = float(values.min()), float(values.max())
@@ -125,6 +195,9 @@ class BundleProblem(SchurProblem):
         self._labels(block, sel)
         ph = im.photo[self.obs]
         self.camera_of = block.photos.camera  # camera of each photo
+        # what the linearisation needs of each row set that no iteration changes
+        self.image_rows = ImageRows(block, self.calibration, self.obs)
+        self.border_image_rows = ImageRows(block, self.calibration, self.border_obs)
         cam = self.camera_of[ph]
         gcol = np.full((m, self.calibration.width), -1, np.int64)
         for i, cols in enumerate(self.calibration.columns):
@@ -238,68 +311,14 @@ class BundleProblem(SchurProblem):
         return (eo, xyz, self.calibration.current(g),
                 g[self.g_points:self.gnss_imu.first].reshape(-1, 3))
 
-    def _image_rows(self, rows, eo, xyz_rows, params, rot):
-        """f, je, jp, jpar (3 + k columns of its camera) of image rows, camera by camera;
-        rot: rotation_and_derivatives of every photo's angles."""
-        b = self.block
-        im = b.image
-        m = len(rows)
-        ph = im.photo[rows]
-        cam = self.camera_of[ph]
-        f = np.zeros((m, 2))
-        je, jp = np.zeros((m, 2, 6)), np.zeros((m, 2, 3))
-        jpar = np.zeros((m, 2, 3 + max((mo.n_params for mo in self.calibration.models),
-                                       default=0)))
-        cal = self.calibration
-        for model, cams in self._model_groups:
-            if len(cams) == 1:
-                i = cams[0]
-                sel = np.flatnonzero(cam == i)
-                p, k = params[i], cal.constants[i]
-            else:  # cameras of one model at once (BAL: a camera per photo), row by row
-                local = np.full(len(cal.models), -1)
-                local[cams] = np.arange(len(cams))
-                sel = np.flatnonzero(local[cam] >= 0)
-                which = local[cam[sel]]
-                p = np.array([params[i] for i in cams], float)[which]
-                k = np.array([cal.constants[i] for i in cams], float)[which]
-            if not len(sel):
-                continue
-            out = camera_projection(eo, xyz_rows[sel], ph[sel], p, model, k,
-                                    im.xy_mm[rows[sel]], rot)
-            if len(sel) == m:
-                f, je, jp = out[0], out[1], out[2]
-            else:
-                f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
-            jpar[sel, :, :out[3].shape[2]] = out[3]
-        return f, je, jp, jpar
-
-    @property
-    def _model_groups(self) -> list[tuple]:
-        """(camera model, indices of its cameras) for every model of the block."""
-        groups: dict[int, tuple] = {}
-        for i, model in enumerate(self.calibration.models):
-            groups.setdefault(id(model), (model, []))[1].append(i)
-        return list(groups.values())
-
-    def _free_columns(self, rows, jpar) -> np.ndarray:
-        """jpar restricted to the free parameters of each row's camera, (m, 2, width)."""
-        cam = self.camera_of[self.block.image.photo[rows]]
-        out = np.zeros((len(rows), 2, self.calibration.width))
-        for i, idx in enumerate(self.calibration.free_index):
-            sel = cam == i
-            if sel.any() and len(idx):
-                out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
-        return out
-
     def linearize(self, state) -> Linearization:
         eo, xyz, params, bxyz = self._split(state)
         b = self.block
         im, pts = b.image, b.points
         ph = im.photo[self.obs]
         rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every row set
-        f, je, jp, jpar = self._image_rows(self.obs, eo, xyz[self.eremap[im.point[self.obs]]],
-                                           params, rot)
+        f, je, jp, jpar = self.image_rows.evaluate(eo, xyz[self.eremap[im.point[self.obs]]],
+                                                   params, rot)
         e = im.xy_mm[self.obs] - f
         given = pts.xyz[self.control]
         cur = xyz[self.eremap[self.control]]
@@ -317,7 +336,7 @@ class BundleProblem(SchurProblem):
             ep = np.zeros_like(wp)
             rows = self.eremap[self.control]
             ep[rows] = np.where(self.held_points[rows], ec, 0.0)
-        lin = dict(jg=self._free_columns(self.obs, jpar) if self.system.ng else None)
+        lin = dict(jg=self.image_rows.free_columns(jpar) if self.system.ng else None)
         if self.system.ng or self.system.mx:
             g = state[2] if len(state) == 3 else np.zeros(0)
             lin.update(self._border_rows(eo, params, bxyz, g, rot))
@@ -333,9 +352,9 @@ class BundleProblem(SchurProblem):
         rows = self.border_obs
         mb = len(rows)
         bidx = self.bremap[im.point[rows]]
-        f, je, jp, jpar = self._image_rows(rows, eo, bxyz[bidx], params, rot)
+        f, je, jp, jpar = self.border_image_rows.evaluate(eo, bxyz[bidx], params, rot)
         jg = np.zeros((mb, 2, ng))
-        free = self._free_columns(rows, jpar)
+        free = self.border_image_rows.free_columns(jpar)
         cam = self.camera_of[im.photo[rows]]
         for i, cols in enumerate(self.calibration.columns):
             sel = np.flatnonzero(cam == i)
