@@ -60,11 +60,13 @@ class BundleProblem(SchurProblem):
     held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
     network, bundle/free_network.py); None: the control fixes the datum (checked here).
     diagnosis: findings about the inputs (bundle/diagnostics.py), printed as notes and added
-    to the message when the adjustment fails.
+    to the message when the adjustment fails.  intersected: the block's points intersected
+    from its approximate orientations (geometry.intersected_points), when known.
     """
 
     def __init__(self, block: Block, *, held: np.ndarray | None = None,
-                 notes: tuple[str, ...] = (), diagnosis: tuple[str, ...] = ()):
+                 notes: tuple[str, ...] = (), diagnosis: tuple[str, ...] = (),
+                 intersected: np.ndarray | None = None):
         self.block = block
         self.diagnosis = tuple(diagnosis)
         ok, point_notes = usable_points(block)
@@ -147,7 +149,7 @@ class BundleProblem(SchurProblem):
             + self.gnss_imu.labels)
         eo = block.photos.eo
         keep = np.isin(np.arange(len(pts)), self.point_ids)
-        xyz = approximate_points(block, keep)
+        xyz = approximate_points(block, keep, intersected)
         start = (read_only(eo.copy()), read_only(xyz[self.elim_ids]))
         if ng:
             start += (read_only(np.concatenate([self.calibration.start(),
