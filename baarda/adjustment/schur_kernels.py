@@ -122,23 +122,18 @@ def _observation_terms(hfp, hinv, gpj, a, t, g, b, d):
 
 
 @_inline
-def _subtract_pair(values, s, tr, t, hfp, a, c, blk, b, d):
+def _subtract_pair(values, s, tr, t, hfp, a, c, b, d):
     """values[s] -= t[a] Hfp_c^T (stored transposed when tr): one observation pair's term
-    of S, through blk (b, b)."""
+    of S."""
     for p in range(b):
         for q in range(b):
             acc = 0.0
             for r in range(d):
                 acc += t[a, p, r] * hfp[c, q, r]
-            blk[p, q] = acc
-    if tr:
-        for p in range(b):
-            for q in range(b):
-                values[s, q, p] -= blk[p, q]
-    else:
-        for p in range(b):
-            for q in range(b):
-                values[s, p, q] -= blk[p, q]
+            if tr:
+                values[s, q, p] -= acc
+            else:
+                values[s, p, q] -= acc
 
 
 @kernel
@@ -164,7 +159,6 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
     k = 0
     t = np.empty((hfp.shape[0], b, d))
     g = np.empty((hfp.shape[0], b))
-    blk = np.empty((b, b))
     for j in range(len(ptr) - 1):
         lo, hi = ptr[j], ptr[j + 1]
         if not _chol_inv(hpp[j], hpp_l[j], hpp_inv[j]):
@@ -185,11 +179,9 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
             for c in range(lo, hi):
                 if frame[a] >= frame[c]:
                     if b == 6 and d == 3:
-                        _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, blk,
-                                       6, 3)
+                        _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, 6, 3)
                     else:
-                        _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, blk,
-                                       b, d)
+                        _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, b, d)
                     k += 1
     return d
 
@@ -256,15 +248,14 @@ def reduce_points_parallel(ptr, point, hfp, hpp, gp, gf, values, hff, slot_diag,
             for r in range(b):
                 for c in range(b):
                     values[s, r, c] += hff[f, r, c]
-        blk = np.empty((b, b))
         for i in range(slot_ptr[s], slot_ptr[s + 1]):
             k = slot_pairs[i]
             if bad[pair_point[k]]:
                 continue
             if b == 6 and d == 3:
-                _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], blk, 6, 3)
+                _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], 6, 3)
             else:
-                _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], blk, b, d)
+                _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], b, d)
     return d
 
 
