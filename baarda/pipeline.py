@@ -162,17 +162,20 @@ def prepare(block: Block, free: bool | None = None) -> BundleProblem:
     from baarda.bundle.bundle_problem import BundleProblem
     from baarda.bundle.diagnostics import diagnose
     from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
+    from baarda.bundle.geometry import intersected_points
 
     inner = block.settings.datum == "inner"
     free = block.settings.datum in ("free", "inner") if free is None else free
     block = with_approximations(localized(block))
-    diagnosis = tuple(diagnose(block))
+    xyz = intersected_points(block)  # once, for the diagnosis and the approximations
+    diagnosis = tuple(diagnose(block, xyz))
     if not free:
-        return BundleProblem(block, diagnosis=diagnosis)
+        return BundleProblem(block, diagnosis=diagnosis, intersected=xyz)
     if block.points.controlled.any():
-        block = as_check_points(block)
-    block, _ = drop_points_behind(block)
-    return FreeBundleProblem(block, diagnosis=diagnosis, inner=inner)
+        block = as_check_points(block)  # the same rays: the same intersections
+    block, dropped = drop_points_behind(block)
+    return FreeBundleProblem(block, diagnosis=diagnosis, inner=inner,
+                             intersected=None if dropped else xyz)
 
 
 def as_check_points(block: Block) -> Block:

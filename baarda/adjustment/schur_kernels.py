@@ -107,7 +107,7 @@ def _inline(fn):
 
 
 @_inline
-def _observation_terms(hfp, hinv, gpj, a, t, g, b, d):
+def _terms(hfp, hinv, gpj, a, t, g, b, d):
     """t[a] = Hfp_a Hpp^-1 (b, d) and g[a] = t[a] gp_j (b,) of observation a of a point."""
     for p in range(b):
         for q in range(d):
@@ -122,23 +122,36 @@ def _observation_terms(hfp, hinv, gpj, a, t, g, b, d):
 
 
 @_inline
-def _subtract_pair(values, s, tr, t, hfp, a, c, blk, b, d):
+def _pair_term(values, s, tr, t, hfp, a, c, b, d):
     """values[s] -= t[a] Hfp_c^T (stored transposed when tr): one observation pair's term
-    of S, through blk (b, b)."""
+    of S."""
     for p in range(b):
         for q in range(b):
             acc = 0.0
             for r in range(d):
                 acc += t[a, p, r] * hfp[c, q, r]
-            blk[p, q] = acc
-    if tr:
-        for p in range(b):
-            for q in range(b):
-                values[s, q, p] -= blk[p, q]
+            if tr:
+                values[s, q, p] -= acc
+            else:
+                values[s, p, q] -= acc
+
+
+@_inline
+def _observation_terms(hfp, hinv, gpj, a, t, g, b, d):
+    """_terms, with literal sizes for a photo and a point (b = 6, d = 3)."""
+    if b == 6 and d == 3:
+        _terms(hfp, hinv, gpj, a, t, g, 6, 3)
     else:
-        for p in range(b):
-            for q in range(b):
-                values[s, p, q] -= blk[p, q]
+        _terms(hfp, hinv, gpj, a, t, g, b, d)
+
+
+@_inline
+def _subtract_pair(values, s, tr, t, hfp, a, c, b, d):
+    """_pair_term, with literal sizes for a photo and a point (b = 6, d = 3)."""
+    if b == 6 and d == 3:
+        _pair_term(values, s, tr, t, hfp, a, c, 6, 3)
+    else:
+        _pair_term(values, s, tr, t, hfp, a, c, b, d)
 
 
 @kernel
@@ -164,7 +177,6 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
     k = 0
     t = np.empty((hfp.shape[0], b, d))
     g = np.empty((hfp.shape[0], b))
-    blk = np.empty((b, b))
     for j in range(len(ptr) - 1):
         lo, hi = ptr[j], ptr[j + 1]
         if not _chol_inv(hpp[j], hpp_l[j], hpp_inv[j]):
@@ -175,21 +187,13 @@ def reduce_points(ptr, frame, hfp, hpp, gp, gf, values, diag_slot, hff, pair_slo
                         k += 1
             continue
         for a in range(lo, hi):
-            if b == 6 and d == 3:
-                _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g, 6, 3)
-            else:
-                _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g, b, d)
+            _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g, b, d)
             for p in range(b):
                 gf[frame[a], p] -= g[a, p]
         for a in range(lo, hi):
             for c in range(lo, hi):
                 if frame[a] >= frame[c]:
-                    if b == 6 and d == 3:
-                        _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, blk,
-                                       6, 3)
-                    else:
-                        _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, blk,
-                                       b, d)
+                    _subtract_pair(values, pair_slot[k], pair_tr[k], t, hfp, a, c, b, d)
                     k += 1
     return d
 
@@ -239,10 +243,7 @@ def reduce_points_parallel(ptr, point, hfp, hpp, gp, gf, values, hff, slot_diag,
             bad[j] = 1
             continue
         for a in range(ptr[j], ptr[j + 1]):
-            if b == 6 and d == 3:
-                _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g, 6, 3)
-            else:
-                _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g, b, d)
+            _observation_terms(hfp, hpp_inv[j], gp[j], a, t, g, b, d)
     for f in prange(len(frame_ptr) - 1):
         for i in range(frame_ptr[f], frame_ptr[f + 1]):
             a = frame_obs[i]
@@ -256,15 +257,11 @@ def reduce_points_parallel(ptr, point, hfp, hpp, gp, gf, values, hff, slot_diag,
             for r in range(b):
                 for c in range(b):
                     values[s, r, c] += hff[f, r, c]
-        blk = np.empty((b, b))
         for i in range(slot_ptr[s], slot_ptr[s + 1]):
             k = slot_pairs[i]
             if bad[pair_point[k]]:
                 continue
-            if b == 6 and d == 3:
-                _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], blk, 6, 3)
-            else:
-                _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], blk, b, d)
+            _subtract_pair(values, s, pair_tr[k], t, hfp, pair_a[k], pair_c[k], b, d)
     return d
 
 

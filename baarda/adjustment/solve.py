@@ -170,7 +170,6 @@ def _diverged(problem: Problem, before: tuple, it: int, err: GeometryError,
     away: the iteration diverges): the last estimate whose normal equations were regular,
     factored again (undamped) for the statistics, as not converged."""
     state, lin = before
-    factor = None
     factor = problem.factorize(lin, 0.0)
     message = (f"diverged at iteration {it}: {err}; the estimate before it is reported")
     say(f"{label}iteration {it}: {message}")

@@ -22,9 +22,10 @@ from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_and_derivatives
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
-from baarda.bundle.collinearity import camera_depth, camera_projection
+from baarda.bundle.collinearity import camera_depth
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
 from baarda.bundle.gnss_imu import ANGLE_UNITS, GnssImu
+from baarda.bundle.image_rows import ImageRows
 from baarda.errors import GeometryError
 from baarda.options import Progress, SolveOptions
 
@@ -59,11 +60,13 @@ class BundleProblem(SchurProblem):
     held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
     network, bundle/free_network.py); None: the control fixes the datum (checked here).
     diagnosis: findings about the inputs (bundle/diagnostics.py), printed as notes and added
-    to the message when the adjustment fails.
+    to the message when the adjustment fails.  intersected: the block's points intersected
+    from its approximate orientations (geometry.intersected_points), when known.
     """
 
     def __init__(self, block: Block, *, held: np.ndarray | None = None,
-                 notes: tuple[str, ...] = (), diagnosis: tuple[str, ...] = ()):
+                 notes: tuple[str, ...] = (), diagnosis: tuple[str, ...] = (),
+                 intersected: np.ndarray | None = None):
         self.block = block
         self.diagnosis = tuple(diagnosis)
         ok, point_notes = usable_points(block)
@@ -125,6 +128,9 @@ class BundleProblem(SchurProblem):
         self._labels(block, sel)
         ph = im.photo[self.obs]
         self.camera_of = block.photos.camera  # camera of each photo
+        # what the linearisation needs of each row set that no iteration changes
+        self.image_rows = ImageRows(block, self.calibration, self.obs)
+        self.border_image_rows = ImageRows(block, self.calibration, self.border_obs)
         cam = self.camera_of[ph]
         gcol = np.full((m, self.calibration.width), -1, np.int64)
         for i, cols in enumerate(self.calibration.columns):
@@ -143,7 +149,7 @@ class BundleProblem(SchurProblem):
             + self.gnss_imu.labels)
         eo = block.photos.eo
         keep = np.isin(np.arange(len(pts)), self.point_ids)
-        xyz = approximate_points(block, keep)
+        xyz = approximate_points(block, keep, intersected)
         start = (read_only(eo.copy()), read_only(xyz[self.elim_ids]))
         if ng:
             start += (read_only(np.concatenate([self.calibration.start(),
@@ -238,67 +244,14 @@ class BundleProblem(SchurProblem):
         return (eo, xyz, self.calibration.current(g),
                 g[self.g_points:self.gnss_imu.first].reshape(-1, 3))
 
-    def _image_rows(self, rows, eo, xyz_rows, params):
-        """f, je, jp, jpar (3 + k columns of its camera) of image rows, camera by camera."""
-        b = self.block
-        im = b.image
-        m = len(rows)
-        ph = im.photo[rows]
-        cam = self.camera_of[ph]
-        f = np.zeros((m, 2))
-        je, jp = np.zeros((m, 2, 6)), np.zeros((m, 2, 3))
-        jpar = np.zeros((m, 2, 3 + max((mo.n_params for mo in self.calibration.models),
-                                       default=0)))
-        cal = self.calibration
-        rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every camera
-        for model, cams in self._model_groups:
-            if len(cams) == 1:
-                i = cams[0]
-                sel = np.flatnonzero(cam == i)
-                p, k = params[i], cal.constants[i]
-            else:  # cameras of one model at once (BAL: a camera per photo), row by row
-                local = np.full(len(cal.models), -1)
-                local[cams] = np.arange(len(cams))
-                sel = np.flatnonzero(local[cam] >= 0)
-                which = local[cam[sel]]
-                p = np.array([params[i] for i in cams], float)[which]
-                k = np.array([cal.constants[i] for i in cams], float)[which]
-            if not len(sel):
-                continue
-            out = camera_projection(eo, xyz_rows[sel], ph[sel], p, model, k,
-                                    im.xy_mm[rows[sel]], rot)
-            if len(sel) == m:
-                f, je, jp = out[0], out[1], out[2]
-            else:
-                f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
-            jpar[sel, :, :out[3].shape[2]] = out[3]
-        return f, je, jp, jpar
-
-    @property
-    def _model_groups(self) -> list[tuple]:
-        """(camera model, indices of its cameras) for every model of the block."""
-        groups: dict[int, tuple] = {}
-        for i, model in enumerate(self.calibration.models):
-            groups.setdefault(id(model), (model, []))[1].append(i)
-        return list(groups.values())
-
-    def _free_columns(self, rows, jpar) -> np.ndarray:
-        """jpar restricted to the free parameters of each row's camera, (m, 2, width)."""
-        cam = self.camera_of[self.block.image.photo[rows]]
-        out = np.zeros((len(rows), 2, self.calibration.width))
-        for i, idx in enumerate(self.calibration.free_index):
-            sel = cam == i
-            if sel.any() and len(idx):
-                out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
-        return out
-
     def linearize(self, state) -> Linearization:
         eo, xyz, params, bxyz = self._split(state)
         b = self.block
         im, pts = b.image, b.points
         ph = im.photo[self.obs]
-        f, je, jp, jpar = self._image_rows(self.obs, eo, xyz[self.eremap[im.point[self.obs]]],
-                                           params)
+        rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every row set
+        f, je, jp, jpar = self.image_rows.evaluate(eo, xyz[self.eremap[im.point[self.obs]]],
+                                                   params, rot)
         e = im.xy_mm[self.obs] - f
         given = pts.xyz[self.control]
         cur = xyz[self.eremap[self.control]]
@@ -316,24 +269,25 @@ class BundleProblem(SchurProblem):
             ep = np.zeros_like(wp)
             rows = self.eremap[self.control]
             ep[rows] = np.where(self.held_points[rows], ec, 0.0)
-        lin = dict(jg=self._free_columns(self.obs, jpar) if self.system.ng else None)
+        lin = dict(jg=self.image_rows.free_columns(jpar) if self.system.ng else None)
         if self.system.ng or self.system.mx:
             g = state[2] if len(state) == 3 else np.zeros(0)
-            lin.update(self._border_rows(eo, params, bxyz, g))
+            lin.update(self._border_rows(eo, params, bxyz, g, rot))
         return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef, wp=wp, ep=ep, **lin)
 
-    def _border_rows(self, eo, params, bxyz, g) -> dict:
+    def _border_rows(self, eo, params, bxyz, g, rot) -> dict:
         """The extra rows (image points of border points, their control, distances, GNSS
-        positions and IMU attitudes) and the held global unknowns."""
+        positions and IMU attitudes) and the held global unknowns; rot: the photos'
+        rotation_and_derivatives."""
         b = self.block
         im, pts, dist = b.image, b.points, b.distances
         ng, gp = self.system.ng, self.g_points
         rows = self.border_obs
         mb = len(rows)
         bidx = self.bremap[im.point[rows]]
-        f, je, jp, jpar = self._image_rows(rows, eo, bxyz[bidx], params)
+        f, je, jp, jpar = self.border_image_rows.evaluate(eo, bxyz[bidx], params, rot)
         jg = np.zeros((mb, 2, ng))
-        free = self._free_columns(rows, jpar)
+        free = self.border_image_rows.free_columns(jpar)
         cam = self.camera_of[im.photo[rows]]
         for i, cols in enumerate(self.calibration.columns):
             sel = np.flatnonzero(cam == i)
@@ -376,7 +330,7 @@ class BundleProblem(SchurProblem):
         # GNSS positions and IMU attitudes
         gi = self.gnss_imu
         if gi.m:
-            e_g, jf_g, jg_g = gi.rows(eo, g, ng)
+            e_g, jf_g, jg_g = gi.rows(eo, g, ng, rot)
             if self.held is not None:
                 jf_g = np.where(self.held[gi.photos][:, None, :], 0.0, jf_g)
             ex.append(e_g)

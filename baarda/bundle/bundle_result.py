@@ -10,6 +10,7 @@ import numpy as np
 
 from baarda.adjustment.counts import AdjustmentCounts
 from baarda.adjustment.schur import SchurFactor
+from baarda.adjustment.schur_problem import read_only
 from baarda.adjustment.schur_system import Linearization
 from baarda.block.photo_block import Block
 from baarda.bundle.geometry import similarity
@@ -141,9 +142,14 @@ class BundleResult(AdjustmentCounts):
 
     def camera_covariance(self) -> np.ndarray:
         """(n_free, n_free) cofactor matrix of the estimated camera parameters (order of
-        problem.calibration.labels)."""
+        problem.calibration.labels; read-only, computed once)."""
+        return self._camera_covariance
+
+    @cached_property
+    def _camera_covariance(self) -> np.ndarray:
         n = self.problem.calibration.n
-        return self.factor.global_covariance()[:n, :n] if n else np.zeros((0, 0))
+        return read_only(np.ascontiguousarray(self.factor.global_covariance()[:n, :n]) if n
+                         else np.zeros((0, 0)))
 
     def points_xyz(self) -> np.ndarray:
         """Adjusted coordinates for every block point, (n_points, 3); NaN if left out."""

@@ -83,17 +83,13 @@ def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
       photogrammetric programs' formulation; the observation keeps its own weight).
     """
     m = len(photo)
-    if np.ndim(params) == 2:  # one row of parameters per observation (cameras of one model)
-        c, pp, coef = params[:, 0], params[:, 1:3], params[:, 3:]
-        cr = c[:, None]
-        const = np.asarray(const, float).reshape(m, -1)
-    else:
-        c, pp, coef = float(params[0]), params[1:3], params[3:][None, :]
-        cr = c
-        const = np.asarray(const, float)[None, :]
-    xy, je, jp = project_with_jacobians(eo, xyz, np.broadcast_to(c, (m,)),
-                                        np.broadcast_to(pp, (m, 2)), photo=photo,
-                                        rotations=rotations)
+    params = np.asarray(params, float)  # one row per observation (a view of one row for all)
+    params = np.broadcast_to(params, (m, params.shape[-1]))
+    const = np.asarray(const, float)
+    const = np.broadcast_to(const, (m, const.shape[-1]))
+    c, pp, coef = params[:, 0], params[:, 1:3], params[:, 3:]
+    cr = c[:, None]
+    xy, je, jp = project_with_jacobians(eo, xyz, c, pp, photo=photo, rotations=rotations)
     ideal = xy - pp  # reduced to the principal point, mm
     jpar = np.zeros((m, 2, 3 + coef.shape[1]))
     if model.side == "backward":
@@ -111,5 +107,5 @@ def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
     jpar[:, :, 0] = ideal / cr + delta if model.normalized else np.einsum(
         "mab,mb->ma", dd, ideal / cr)
     jpar[:, :, 1:3] = np.eye(2)
-    jpar[:, :, 3:] = (s[:, :, None] if np.ndim(s) == 2 else s) * ddc
+    jpar[:, :, 3:] = (s[:, :, None] if model.normalized else s) * ddc
     return f, je, jp, jpar

@@ -38,8 +38,10 @@ BAD_PHOTO = 0.02  # a photo's median misclosure / c above this: its orientation 
 BAD_BLOCK = 0.05  # the block's median misclosure / c above this: the approximations fail
 
 
-def diagnose(block: Block) -> list[str]:
-    """Raise GeometryError for inputs no adjustment can use; else the findings in words."""
+def diagnose(block: Block, intersected: np.ndarray | None = None) -> list[str]:
+    """Raise GeometryError for inputs no adjustment can use; else the findings in words.
+    intersected: the block's points intersected from its approximate orientations
+    (geometry.intersected_points), when known."""
     if len(block.image) == 0:
         raise GeometryError("the block has no image observations (is image_points.csv empty "
                             "but for its header?)")
@@ -47,7 +49,7 @@ def diagnose(block: Block) -> list[str]:
         _image_size(block)
         _angle_range(block)
         findings = _coordinate_size(block)
-        return findings + misclosures(block)
+        return findings + misclosures(block, intersected)
 
 
 def _image_size(block: Block) -> None:
@@ -99,17 +101,19 @@ def _coordinate_size(block: Block) -> list[str]:
             f"{big * 2.2e-16:.1g} m there: check the units and offsets of the coordinates"]
 
 
-def _misclosure(block: Block, eo: np.ndarray) -> np.ndarray:
+def _misclosure(block: Block, eo: np.ndarray, intersected: np.ndarray | None = None
+                ) -> np.ndarray:
     """Image misclosure [mm] of every observation of a usable point (NaN for the rest):
-    the point (control as given, else intersected from `eo`) projected back into the
-    photo, against the ideal (distortion-free) observation."""
+    the point (control as given, else intersected from `eo`, or taken from `intersected`,
+    the points intersected from `eo`) projected back into the photo, against the ideal
+    (distortion-free) observation."""
     ok, _ = usable_points(block)
     pts = block.points
     xyz = pts.xyz.copy()
     given = (pts.role == "control") & np.isfinite(xyz).all(axis=1)
     need = np.flatnonzero(ok & ~given)
     with np.errstate(all="ignore"):
-        xyz[need] = intersect(block, eo, need)
+        xyz[need] = intersect(block, eo, need) if intersected is None else intersected[need]
         im = block.image
         cam = block.photos.camera[im.photo]
         xy = project(eo, xyz[im.point], block.cameras.focal_mm[cam],
@@ -141,14 +145,15 @@ def _with_eo(block: Block, eo: np.ndarray) -> Block:
     return replace(block, photos=Photos(p.ids, p.camera, p.strip, eo))
 
 
-def misclosures(block: Block) -> list[str]:
+def misclosures(block: Block, intersected: np.ndarray | None = None) -> list[str]:
     """Findings about the approximate orientations from the rays' misclosures (module
-    docstring); GeometryError when the approximations cannot fit at all."""
+    docstring); GeometryError when the approximations cannot fit at all.  intersected:
+    as for diagnose."""
     eo = block.photos.eo
     if not np.isfinite(eo).all():
         return []
     c = float(np.median(np.abs(block.cameras.focal_mm)))
-    d = _misclosure(block, eo)
+    d = _misclosure(block, eo, intersected)
     if not np.isfinite(d).any():
         return []
     block_med = float(np.nanmedian(d))

@@ -42,7 +42,8 @@ class FreeBundleProblem(BundleProblem):
     """A BundleProblem without control whose datum is held by minimal constraints."""
 
     def __init__(self, block: Block, datum: tuple[int, int, int] | None = None,
-                 diagnosis: tuple[str, ...] = (), inner: bool = False):
+                 diagnosis: tuple[str, ...] = (), inner: bool = False,
+                 intersected: np.ndarray | None = None):
         if np.any(block.points.controlled):
             raise GeometryError("the block has control points: adjust it with its control "
                                 "(a free-network datum would over-constrain it)")
@@ -54,7 +55,7 @@ class FreeBundleProblem(BundleProblem):
         self.scaled = bool(len(block.distances))  # a distance fixes the scale
         if not self.scaled:
             held[b, k] = True
-        super().__init__(block, held=held, diagnosis=diagnosis)
+        super().__init__(block, held=held, diagnosis=diagnosis, intersected=intersected)
 
 
     def datum_text(self) -> str:

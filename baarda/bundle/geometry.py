@@ -167,13 +167,28 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
     return out
 
 
-def approximate_points(block: Block, keep: np.ndarray) -> np.ndarray:
-    """Approximate coordinates: control as given, the rest by intersection."""
+def intersected_points(block: Block) -> np.ndarray:
+    """(n_points, 3): every usable point intersected from the block's approximate
+    orientations (NaN for the rest and where the rays do not determine it), for
+    approximate_points and the diagnosis (bundle/diagnostics.py) at once; a point's
+    intersection depends on its own rays only."""
+    out = np.full((len(block.points), 3), np.nan)
+    idx = np.flatnonzero(usable_points(block)[0])
+    with np.errstate(all="ignore"):  # absurd inputs: the diagnosis names them
+        out[idx] = intersect(block, block.photos.eo, idx)
+    return out
+
+
+def approximate_points(block: Block, keep: np.ndarray,
+                       intersected: np.ndarray | None = None) -> np.ndarray:
+    """Approximate coordinates: control as given, the rest by intersection (taken from
+    `intersected`, intersected_points of this block, when given)."""
     xyz = block.points.xyz.copy()
     need = keep & ~np.isfinite(xyz).all(axis=1) | (block.points.role == "check") & keep
     idx = np.flatnonzero(need)
     if len(idx):
-        xi = intersect(block, block.photos.eo, idx)
+        xi = intersect(block, block.photos.eo, idx) if intersected is None else \
+            intersected[idx]
         own = np.isfinite(block.points.xyz[idx]) & (block.points.role[idx] == "control")[:, None]
         xyz[idx] = np.where(own, block.points.xyz[idx], xi)
         lost = idx[~np.isfinite(xyz[idx]).all(axis=1)]

@@ -149,16 +149,18 @@ class GnssImu:
         return g[self.boresight_col:self.boresight_col + 3] if self.boresight_col >= 0 \
             else np.zeros(3)
 
-    def rows(self, eo: np.ndarray, g: np.ndarray, ng: int
+    def rows(self, eo: np.ndarray, g: np.ndarray, ng: int, rotations: tuple | None = None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Misclosures e = observed - predicted (mx,), jxf (mx, 1, 6), jxg (mx, 1, ng)."""
+        """Misclosures e = observed - predicted (mx,), jxf (mx, 1, 6), jxg (mx, 1, ng);
+        rotations: rotation_and_derivatives of every photo's angles, when known."""
         k, q = self.n_gnss, self.n_imu
         e = np.zeros(self.m)
         jxf = np.zeros((self.m, 1, 6))
         jxg = np.zeros((self.m, 1, ng))
         if k:
             p = self.gnss.photo
-            r, *dr = rotation_and_derivatives(eo[p, 3], eo[p, 4], eo[p, 5])
+            r, *dr = (rotation_and_derivatives(eo[p, 3], eo[p, 4], eo[p, 5])
+                      if rotations is None else (a[p] for a in rotations))
             pred = eo[p, :3] + r @ self.lever
             jf = np.zeros((k, 3, 6))
             jf[:, :, :3] = np.eye(3)

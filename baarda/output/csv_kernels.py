@@ -137,14 +137,14 @@ def format_floats(values, precision, tol, cells, lengths):
     lo = pow10[precision - 1]
     width = cells.shape[2]
     flat = cells.reshape(-1)
+    scratch = np.zeros((n, 24), np.uint8)  # each row's digits, allocated once
     for i in prange(n):
-        scratch = np.zeros(24, np.uint8)
         for j in range(m):
             st, d, e = _digits(values[i, j], precision, tol, lo, hi, pow10)
             if st == DIGITS or st == NEGATIVE:
                 p0 = (i * m + j) * width
                 lengths[i, j] = _put_g(flat, p0, d, e, precision, st == NEGATIVE,
-                                       scratch) - p0
+                                       scratch[i]) - p0
                 continue
             c = cells[i, j]
             if st == PYTHON:

@@ -104,17 +104,16 @@ def fast_csv_possible(df: pd.DataFrame, float_format: str = RESULT_FORMAT) -> bo
             and all(_column_kind(df.iloc[:, j]) is not None for j in range(df.shape[1])))
 
 
+def _csv_row(values: list[str]) -> str:
+    """One row as the csv module writes it (QUOTE_MINIMAL, LF line end)."""
+    buf = io.StringIO()
+    csv.writer(buf, lineterminator="\n").writerow(values)
+    return buf.getvalue()
+
+
 def _quoted(value: str) -> str:
     """A cell as the csv module writes it (QUOTE_MINIMAL)."""
-    buf = io.StringIO()
-    csv.writer(buf, lineterminator="\n").writerow([value, ""])
-    return buf.getvalue()[:-2]
-
-
-def _header(df: pd.DataFrame) -> bytes:
-    buf = io.StringIO()
-    csv.writer(buf, lineterminator="\n").writerow([str(c) for c in df.columns])
-    return buf.getvalue().encode("utf-8")
+    return _csv_row([value, ""])[:-2]
 
 
 class _TextColumn:
@@ -149,7 +148,7 @@ class _TextColumn:
             raise TypeError("not a text column")
         if arr.null_count:
             arr = pc.fill_null(arr, "")
-        data, _, _ = _buffers(arr)
+        data, _ = _buffers(arr)
         if any_byte(data, np.frombuffer(_SPECIAL.strip("[]").encode(), np.uint8)):
             special = pc.match_substring_regex(arr, _SPECIAL).to_numpy(zero_copy_only=False)
             vals = arr.to_pylist()
@@ -162,7 +161,7 @@ class _TextColumn:
         if self.flags is not None:
             f = self.flags[r0:r1]
             return _BOOL_TEXT, np.where(f, 5, 0), np.where(f, 4, 5)
-        data, offs, _ = _buffers(self.arr)
+        data, offs = _buffers(self.arr)
         o = offs[r0: r1 + 1].astype(np.int64)
         return data[o[0]: o[-1]], o[:-1] - o[0], np.diff(o)
 
@@ -170,7 +169,7 @@ class _TextColumn:
 _BOOL_TEXT = np.frombuffer(b"FalseTrue", np.uint8)
 
 
-def _buffers(arr) -> tuple[np.ndarray, np.ndarray, int]:
+def _buffers(arr) -> tuple[np.ndarray, np.ndarray]:
     """data (uint8) and offsets of a pyarrow string array (without a slice offset)."""
     import pyarrow as pa
 
@@ -178,7 +177,7 @@ def _buffers(arr) -> tuple[np.ndarray, np.ndarray, int]:
     width = np.int64 if pa.types.is_large_string(arr.type) else np.int32
     o = np.frombuffer(offs, width)[arr.offset: arr.offset + len(arr) + 1]
     d = np.frombuffer(data, np.uint8) if data is not None else np.zeros(0, np.uint8)
-    return d, o, 0
+    return d, o
 
 
 CELL = 24  # bytes of a formatted float cell (%.12g needs at most 19)
@@ -205,7 +204,7 @@ def _chunks(df, float_format, chunk_rows, precision, tol, kinds, index, floats, 
     from baarda.output import csv_kernels as ck
 
     cols = df.columns
-    yield _header(df)
+    yield _csv_row([str(c) for c in cols]).encode("utf-8")  # the header
     n = len(df)
     nf, nt = len(floats), len(texts)
     for r0 in range(0, n, chunk_rows):

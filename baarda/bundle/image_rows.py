@@ -1,0 +1,86 @@
+"""The image observations of a bundle as the linearisation takes them, camera by camera.
+
+An ImageRows is one set of rows of block.image (BundleProblem: those of the eliminated
+points and those of the border points) with what no iteration changes computed once; its
+`evaluate` gives the collinearity equations' values and Jacobians (bundle/collinearity.py)
+of every row with its camera's model, `free_columns` the columns of the free camera
+parameters (bundle/calibration.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baarda.block.photo_block import Block
+from baarda.bundle.calibration import Calibration
+from baarda.bundle.collinearity import camera_projection
+
+
+def model_groups(calibration: Calibration) -> list[tuple]:
+    """(camera model, indices of its cameras) for every model of the block."""
+    groups: dict[int, tuple] = {}
+    for i, model in enumerate(calibration.models):
+        groups.setdefault(id(model), (model, []))[1].append(i)
+    return list(groups.values())
+
+
+class ImageRows:
+    """One set of image rows (rows of block.image) as the linearisation takes them, with
+    what no iteration changes computed once: the photo of each row, the rows of each camera
+    model's cameras with their observations and constants, the rows of each camera with
+    free parameters."""
+
+    def __init__(self, block: Block, calibration: Calibration, rows: np.ndarray):
+        im = block.image
+        photo = im.photo[rows]
+        cam = block.photos.camera[photo]
+        self.m = len(rows)
+        self.width = 3 + max((mo.n_params for mo in calibration.models), default=0)
+        # (model, its cameras, their rows, the photo and observation of each, the index
+        # among the cameras of each row (None: one camera), the constants (of each row))
+        self.groups = []
+        for model, cams in model_groups(calibration):
+            if len(cams) == 1:
+                i = cams[0]
+                sel = np.flatnonzero(cam == i)
+                which, k = None, calibration.constants[i]
+            else:  # cameras of one model at once (BAL: a camera per photo), row by row
+                local = np.full(len(calibration.models), -1)
+                local[cams] = np.arange(len(cams))
+                sel = np.flatnonzero(local[cam] >= 0)
+                which = local[cam[sel]]
+                k = np.array([calibration.constants[i] for i in cams], float)[which]
+            if len(sel):
+                self.groups.append((model, cams, sel, photo[sel], im.xy_mm[rows[sel]], which,
+                                    k))
+        # (rows of a camera, its free parameters) of every camera with free parameters
+        self.free = [(np.flatnonzero(cam == i), idx)
+                     for i, idx in enumerate(calibration.free_index)
+                     if len(idx) and (cam == i).any()]
+        self.n_free = calibration.width
+
+    def evaluate(self, eo: np.ndarray, xyz: np.ndarray, params, rot: tuple):
+        """f, je, jp, jpar (3 + k columns of its camera) of the rows, camera by camera:
+        eo (n_photos, 6), xyz (m, 3) the point of each row, params the parameters of
+        every camera, rot rotation_and_derivatives of every photo's angles."""
+        m = self.m
+        f = np.zeros((m, 2))
+        je, jp = np.zeros((m, 2, 6)), np.zeros((m, 2, 3))
+        jpar = np.zeros((m, 2, self.width))
+        for model, cams, sel, photo, observed, which, k in self.groups:
+            p = params[cams[0]] if which is None else np.array(
+                [params[i] for i in cams], float)[which]
+            out = camera_projection(eo, xyz[sel], photo, p, model, k, observed, rot)
+            if len(sel) == m:
+                f, je, jp = out[0], out[1], out[2]
+            else:
+                f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
+            jpar[sel, :, :out[3].shape[2]] = out[3]
+        return f, je, jp, jpar
+
+    def free_columns(self, jpar: np.ndarray) -> np.ndarray:
+        """jpar restricted to the free parameters of each row's camera, (m, 2, width)."""
+        out = np.zeros((self.m, 2, self.n_free))
+        for sel, idx in self.free:
+            out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
+        return out
