@@ -73,7 +73,8 @@ class BundleResult(AdjustmentCounts):
         out = np.empty((len(pb.point_ids), 3))
         out[pb.remap[pb.elim_ids]] = self.state[1]
         if len(pb.border_ids):
-            out[pb.remap[pb.border_ids]] = self.state[2][pb.g_points:].reshape(-1, 3)
+            out[pb.remap[pb.border_ids]] = self.state[2][pb.g_points:pb.gnss_imu.first].reshape(
+                -1, 3)
         return out
 
     @property

@@ -176,3 +176,34 @@ def test_external_reliability_of_gnss_and_imu_equals_dense(base):
         col = qxx[6 * i:6 * i + 3] @ a[r] * p[r]
         assert np.isclose(q.external_max[r], np.abs(col * q.mdb[r]).max(), rtol=1e-8)
         assert q.external_point[r] == f"photo {model.frame[r]}"
+
+
+def test_points_tied_by_a_distance_in_a_block_with_gnss_imu_unknowns():
+    """The coordinates of points carried as global unknowns (tied by a distance) are read from
+    their own columns, not from those of the GNSS/IMU shifts that follow them."""
+    from dataclasses import replace
+
+    from baarda.block.photo_block import Distances
+    from baarda.pipeline import adjust
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    block, truth = simulate_block(FlightPlan(strips=2, photos_per_strip=6, seed=5,
+                                             gnss_sigma_m=0.05, gnss_offset_m=0.3,
+                                             imu_sigma_deg=0.005))
+    pts = block.points
+    tie = np.flatnonzero(pts.role == "tie")
+    a, b = tie[1], tie[-2]
+    xa, xb = (np.array(truth["points"][pts.ids[j]]) for j in (a, b))
+    dist = Distances(["bar"], np.array([a]), np.array([b]),
+                     np.array([float(np.linalg.norm(xa - xb))]), np.array([0.01]))
+    res = adjust(replace(block, distances=dist))
+    pb = res.problem
+    assert pb.gnss_imu.n > 0 and len(pb.border_ids) == 2
+    xyz = res.xyz
+    assert xyz.shape == (len(pb.point_ids), 3)
+    border = xyz[pb.remap[pb.border_ids]]
+    np.testing.assert_array_equal(
+        border, res.state[2][pb.g_points:pb.gnss_imu.first].reshape(-1, 3))
+    # and they are where the simulation put them (5 µm image noise: a few cm at most)
+    for k, j in enumerate(pb.border_ids):
+        assert np.linalg.norm(border[k] - np.array(truth["points"][pb.block.points.ids[j]])) < 0.2
