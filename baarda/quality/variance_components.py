@@ -194,7 +194,8 @@ class VarianceEstimation:
     """The model adjusted with the estimated group sigmas, the weight factors that give
     them (one per component), the components of the last iteration (factors about one) and
     those of the first (relative to the starting weights), the cumulative factor per
-    estimated group, the log of the iterations and the pooling plan."""
+    estimated group, the log of the iterations, the pooling plan and the (q_vv, r) of the
+    model (quality.statistics.cofactors, from the last estimate)."""
 
     model: object
     factors: np.ndarray
@@ -204,6 +205,7 @@ class VarianceEstimation:
     log: list[str]
     converged: bool
     plan: dict = None  # pooled group -> its member groups (pooling_plan)
+    cofactors: tuple[np.ndarray, np.ndarray] | None = None  # (q_vv, r) of `model`
 
     def components(self) -> tuple[VarianceComponent, ...]:
         """The first estimates with the iterated factor of each group (a pooled group's
@@ -240,7 +242,8 @@ def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
     factors (a-priori weights: ones); weak control axes pooled (`pool`) or as `plan` says."""
     groups = groups_of(model)
     factors = np.array(model.factors, float)  # rejected components included
-    first = estimate(model, alpha, pool=pool, plan=plan)
+    cof = cofactors(model)
+    first = estimate(model, alpha, pool=pool, plan=plan, redundancy_numbers=cof[1])
     plan = {c.group: c.members for c in first if c.members}
     cumulative: dict[str, float] = {}
     log = []
@@ -260,25 +263,29 @@ def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
                 factors[np.isin(groups, c.groups)] /= c.factor
                 cumulative[c.group] = cumulative.get(c.group, 1.0) * c.factor
         model = model.refit(np.asarray(model.active, bool), factors)
-        comps = estimate(model, alpha, plan=plan)
+        cof = cofactors(model)
+        comps = estimate(model, alpha, plan=plan, redundancy_numbers=cof[1])
     for c in comps:  # estimated groups whose first factor was one within the tolerance
         if c.reweights:
             cumulative.setdefault(c.group, 1.0)
-    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged, plan)
+    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged, plan,
+                              cof)
 
 
 def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TESTS,
               statistic: str = "w", alpha: float = ALPHA,
-              progress: Callable[[str], None] | None = None) -> int | None:
+              progress: Callable[[str], None] | None = None, *,
+              known: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
     """An active component that is significant when its group's variance is estimated
-    without it, or None.  `model`: adjusted with the estimated sigmas (snooping's last).
+    without it, or None.  `model`: adjusted with the estimated sigmas (snooping's last);
+    `known`: its (q_vv, r) when they are at hand (quality.statistics.cofactors).
 
     In each estimated group the component with the largest |w| is a candidate when the
     leave-one-out factor, approximated by (v'Pv_k - w^2) / (r_k - r_i), could make it
     significant (|w| / sqrt(factor) > 0.9 k, or the approximation is not positive); the
     candidate is switched off, the factors estimated again (iterate, from the current
     weights) and its statistic (predicted residual) tested with them."""
-    q = analyse(model, tests)
+    q = analyse(model, tests, known=known)
     g = groups_of(model)
     act = np.asarray(model.active, bool)
     cands = []
@@ -300,7 +307,7 @@ def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TEST
             est = iterate(model.refit(trial, model.factors), alpha, plan=plan or {})
         except GeometryError:
             continue
-        q2 = analyse(est.model, tests)
+        q2 = analyse(est.model, tests, known=est.cofactors)
         s2, k2 = (q2.w, q2.k_w) if statistic == "w" else (q2.tau, q2.k_tau)
         if progress:
             progress(f"variance components: component {i} of {name} tested against the "
@@ -333,7 +340,8 @@ def alternate(model, snoop: Callable[[np.ndarray], object], *, alpha: float = AL
         qc = snoop(est.factors)
         now = np.asarray(qc.quality.active, bool)
         if np.array_equal(now, start if active is None else active):
-            i = challenge(qc.model, est.plan, tests, statistic, alpha, progress)
+            i = challenge(qc.model, est.plan, tests, statistic, alpha, progress,
+                          known=(qc.quality.qvv, qc.quality.redundancy_number))
             if i is None:
                 break
             now = now.copy()

@@ -226,7 +226,8 @@ class OnlineSession:
         est = iterate(strip.refit(active), pool=False)
         left_out = []
         for _ in range(MAX_LEFT_OUT):
-            i = challenge(est.model, est.plan, self.tests, self.statistic)
+            i = challenge(est.model, est.plan, self.tests, self.statistic,
+                          known=est.cofactors)
             if i is None:
                 break
             active[i] = False
