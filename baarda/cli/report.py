@@ -104,8 +104,8 @@ def run(args) -> int:
             print(f"report written to {args.out}")
     if args.quality is not None or args.pdf is not None:
         from baarda.report.html_report import write_html
+        from baarda.report.quality_html import quality_page
         from baarda.report.quality_pdf import write_quality_pdf
-        from baarda.report.quality_report import quality_page
 
         if args.quality is not None:
             write_html(args.quality, quality_page(res))

@@ -14,7 +14,8 @@ import pandas as pd  # noqa: E402
 
 from baarda.output.result_folder import Results  # noqa: E402
 from baarda.report.plots import to_png  # noqa: E402
-from baarda.report.quality_report import format_cell, quality_content  # noqa: E402
+from baarda.report.quality_html import format_cell  # noqa: E402
+from baarda.report.quality_report import quality_content  # noqa: E402
 
 A4 = (8.27, 11.69)
 ROWS_PER_PAGE = 46
