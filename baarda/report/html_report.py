@@ -168,8 +168,10 @@ def _variance_components(summary: dict) -> pd.DataFrame | None:
     return t if len(parts) > 1 else t.drop(columns="adjustment")
 
 
-def html_report(res: Results, opt: ReportOptions | None = None) -> str:
-    """The whole report as one HTML string."""
+def html_report(res: Results, opt: ReportOptions | None = None,
+                calibration: list | None = None) -> str:
+    """The whole report as one HTML string; `calibration`: the quality report's camera,
+    control and GNSS parts (quality_report.calibration_parts) when they are at hand."""
     opt = opt or ReportOptions()
     figs = plots(res, opt)
     passed = res.global_test_passed
@@ -183,7 +185,7 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     sec.append(("global", "Global test",
                 f'<p class="{"ok" if passed else "bad"}" id="global-test">'
                 + "<br>".join(esc(x) for x in gt_lines) + "</p>"))
-    cal = tables_html(res)
+    cal = tables_html(res, calibration)
     if cal:
         sec.append(("calibration", "Camera calibration, control and GNSS", cal))
     vc = _variance_components(res.summary)

@@ -13,13 +13,7 @@ import pandas as pd
 from baarda.output.result_folder import Results
 from baarda.report.html_base import CSS, esc, figure
 from baarda.report.plots import Plot, to_png
-from baarda.report.quality_report import (
-    Part,
-    camera_parts,
-    control_parts,
-    gnss_parts,
-    quality_content,
-)
+from baarda.report.quality_report import Part, calibration_parts, quality_content
 
 
 def format_cell(v, f: str | None) -> str:
@@ -83,10 +77,11 @@ def parts_html(parts: list[Part], figures: bool = True) -> str:
     return "".join(out)
 
 
-def tables_html(res: Results) -> str:
-    """The camera, control and GNSS parts as tables for the main HTML report (no figures:
-    the correlation matrix coloured like the heat map); '' when there is nothing to show."""
-    parts = camera_parts(res) + control_parts(res) + gnss_parts(res)
+def tables_html(res: Results, calibration: list[Part] | None = None) -> str:
+    """The camera, control and GNSS parts (`calibration`: calibration_parts(res) when they
+    are at hand) as tables for the main HTML report (no figures: the correlation matrix
+    coloured like the heat map); '' when there is nothing to show."""
+    parts = calibration_parts(res) if calibration is None else calibration
     if not any(p.kind == "table" for p in parts):
         return ""
     return parts_html(parts, figures=False) + (
@@ -95,10 +90,12 @@ def tables_html(res: Results) -> str:
         "reliability.</p>")
 
 
-def quality_page(res: Results) -> str:
-    """The quality report as a self-contained HTML page (the PDF's content)."""
+def quality_page(res: Results, parts: list[Part] | None = None) -> str:
+    """The quality report as a self-contained HTML page (the PDF's content); `parts`:
+    quality_content(res) when it is at hand."""
+    parts = quality_content(res) if parts is None else parts
     return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
             f"<title>baarda quality report: {esc(res.title)}</title><style>{CSS}"
             "</style></head><body><header><h1>Quality report: "
             f"{esc(res.title)}</h1><p>{esc(res.folder)}</p></header>"
-            f"<main>{parts_html(quality_content(res))}</main></body></html>\n")
+            f"<main>{parts_html(parts)}</main></body></html>\n")

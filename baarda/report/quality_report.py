@@ -295,7 +295,14 @@ def summary_parts(res: Results) -> list[Part]:
     return [Part("heading", "Summary"), Part("text", text="\n".join(lines))]
 
 
-def quality_content(res: Results) -> list[Part]:
-    return (summary_parts(res) + camera_parts(res) + control_parts(res) + gnss_parts(res)
-            + image_parts(res) + observation_parts(res) + snooping_parts(res)
-            + reliability_parts(res))
+def calibration_parts(res: Results) -> list[Part]:
+    """The camera, control and GNSS parts (the main HTML report shows them too)."""
+    return camera_parts(res) + control_parts(res) + gnss_parts(res)
+
+
+def quality_content(res: Results, calibration: list[Part] | None = None) -> list[Part]:
+    """Every part of the quality report; `calibration`: calibration_parts(res) when they
+    are at hand."""
+    cal = calibration_parts(res) if calibration is None else calibration
+    return (summary_parts(res) + cal + image_parts(res) + observation_parts(res)
+            + snooping_parts(res) + reliability_parts(res))
