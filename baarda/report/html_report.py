@@ -20,21 +20,16 @@ from baarda.report.html_base import CSS, esc, figure, num, table
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.quality_html import tables_html
 from baarda.report.stats import (
+    first_rows,
     gnss_imu_per_strip,
     group_statistics,
+    largest_rms,
     model_groups,
     per_photo,
     per_strip,
-)
-from baarda.report.text_report import (
-    NOT_CONVERGED,
-    ReportOptions,
-    first_rows,
-    image_histograms,
-    largest_rms,
-    w_hists,
     weakest,
 )
+from baarda.report.text_report import NOT_CONVERGED, ReportOptions, image_histograms, w_hists
 
 SCRIPT = """
 <script>
