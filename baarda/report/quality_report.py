@@ -60,6 +60,12 @@ def _rms(x) -> float:
     return float(np.sqrt(np.mean(x**2))) if len(x) else float("nan")
 
 
+def _rms_per_axis(rows: pd.DataFrame) -> str:
+    """'X .. m, Y .. m, Z .. m': the RMS of the residuals of each axis."""
+    return ", ".join(f"{c} {_rms(rows.loc[rows['component'] == c, 'residual']):.3f} m"
+                     for c in ("X", "Y", "Z"))
+
+
 def camera_parts(res: Results) -> list[Part]:
     cal = res.summary.get("calibration") or []
     corr = res.summary.get("camera_correlations") or []
@@ -135,9 +141,7 @@ def control_parts(res: Results) -> list[Part]:
         parts.append(Part("text", text="Control points (GCPs used as observations): residual "
                           "v = adjusted - given per axis, w-test, redundancy number r (0: the "
                           "point is not checked by the rest of the block) and the minimal "
-                          "detectable bias. RMS: " + ", ".join(
-                              f"{c} {_rms(ctrl.loc[ctrl['component'] == c, 'residual']):.3f} m"
-                              for c in ("X", "Y", "Z"))))
+                          "detectable bias. RMS: " + _rms_per_axis(ctrl)))
         parts.append(Part("table", "control points", table=t,
                           fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
                                for c in t.columns if c not in ("point", "role")}))
@@ -176,9 +180,7 @@ def gnss_parts(res: Results) -> list[Part]:
     t = t.reset_index()
     return [Part("heading", "GNSS positions of the projection centres"),
             Part("text", text="Residual v = adjusted - observed (m), w-test and redundancy "
-                 "number per axis. RMS: " + ", ".join(
-                     f"{c} {_rms(g.loc[g['component'] == c, 'residual']):.3f} m"
-                     for c in ("X", "Y", "Z"))),
+                 "number per axis. RMS: " + _rms_per_axis(g)),
             Part("table", "GNSS residuals", table=t,
                  fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
                       if c != "photo"})]
