@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.output.result_folder import UNITS, Results
+from baarda.quality.adjusted_model import kind_groups
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
@@ -85,7 +86,7 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     """Histograms of w of the active, tested observations: image x, y, x and y; then per
     observation group of the other kinds with at least MIN_GROUP tested components (control
     X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: the groups of the variance
-    components), and all observations together."""
+    components, quality.adjusted_model.kind_groups), and all observations together."""
     d = obs.loc[~obs["rejected"] & np.isfinite(obs["w"]), label_columns(obs) + ["w"]]
     lab = Labels(d)
     kind = d["kind"].to_numpy(str)
@@ -94,17 +95,12 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     sels = [("image x", img & (comp == "x")), ("image y", img & (comp == "y")),
             ("image x and y", img)]
     if not img.all():
-        height = np.char.startswith(comp, "z")
-        for k in dict.fromkeys(kind[~img].tolist()):
-            by_comp = k in ("control", "gnss")
-            if k == "model":  # the variance groups of model coordinates: XY and Z
-                parts = [("model XY", (kind == k) & ~height), ("model Z", (kind == k) & height)]
-            else:
-                parts = [(f"{k} {c}" if c is not None else k,
-                          (kind == k) & ((comp == c) if c is not None else True))
-                         for c in (dict.fromkeys(comp[kind == k].tolist()) if by_comp
-                                   else [None])]
-            sels += [(name, sel) for name, sel in parts if sel.sum() >= MIN_GROUP]
+        group = kind_groups(kind, comp)
+        for k in dict.fromkeys(kind[~img].tolist()):  # kinds, then axes, as they come
+            names = list(dict.fromkeys(group[kind == k].tolist()))
+            if k == "model":
+                names.sort()  # planimetry (model XY) before height (model Z)
+            sels += [(name, sel) for name in names if (sel := group == name).sum() >= MIN_GROUP]
         sels.append(("all observations", np.ones(len(d), bool)))
     w = d["w"].to_numpy(float)
     return [(n, histogram(w[s], lab[s], opt.w_width, opt.w_lo, opt.w_hi)) for n, s in sels
