@@ -13,6 +13,7 @@ import numpy as np
 from baarda.adjustment.schur_model import SchurModel
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.gnss_imu import ANGLE_UNITS
+from baarda.quality.adjusted_model import kind_groups
 
 
 class BundleModel(SchurModel):
@@ -52,10 +53,7 @@ class BundleModel(SchurModel):
         camera, control X, Y, Z, GNSS X, Y, Z, IMU, distances."""
         pb = self.result.problem
         block = pb.block
-        kind = np.asarray(self.kind, dtype=object)
-        comp = np.asarray(self.component, dtype=object)
-        out = np.where(np.isin(kind, ["control", "gnss"]), kind + " " + comp, kind).astype(
-            object)
+        out = kind_groups(self.kind, self.component)
         if len(block.cameras) > 1:
             img = self.image_row >= 0
             cams = np.asarray(block.cameras.ids, dtype=object)

@@ -91,6 +91,12 @@ def run(args) -> int:
     res = read_results(args.results)
     if args.text:
         print(text_report(res, opt), end="")
+    quality = args.quality is not None or args.pdf is not None
+    cal = None
+    if args.out is not None or quality:  # the camera, control and GNSS parts: built once
+        from baarda.report.quality_report import calibration_parts
+
+        cal = calibration_parts(res)
     if args.out is not None:
         from baarda.report.html_report import html_report, write_html
 
@@ -99,20 +105,22 @@ def run(args) -> int:
             n_rej = int(res.obs["rejected"].sum())
             say(f"read {args.results}: {len(res.obs)} observation components, "
                 f"{len(res.obs) - n_rej} used and {n_rej} rejected")
-        write_html(args.out, html_report(res, opt))
+        write_html(args.out, html_report(res, opt, cal))
         if not args.quiet:
             print(f"report written to {args.out}")
-    if args.quality is not None or args.pdf is not None:
+    if quality:
         from baarda.report.html_report import write_html
+        from baarda.report.quality_html import quality_page
         from baarda.report.quality_pdf import write_quality_pdf
-        from baarda.report.quality_report import quality_page
+        from baarda.report.quality_report import quality_content
 
+        parts = quality_content(res, cal)  # once for the page and the PDF
         if args.quality is not None:
-            write_html(args.quality, quality_page(res))
+            write_html(args.quality, quality_page(res, parts))
             if not args.quiet:
                 print(f"quality report written to {args.quality}")
         if args.pdf is not None:
-            n = write_quality_pdf(res, args.pdf)
+            n = write_quality_pdf(res, args.pdf, parts)
             if not args.quiet:
                 print(f"quality report written to {args.pdf} ({n} pages)")
     return 0

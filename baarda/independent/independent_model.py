@@ -12,6 +12,7 @@ import numpy as np
 
 from baarda.adjustment.schur_model import SchurModel
 from baarda.independent.model_result import ModelResult
+from baarda.quality.adjusted_model import kind_groups
 
 
 class IndependentModel(SchurModel):
@@ -42,12 +43,8 @@ class IndependentModel(SchurModel):
         coordinates in planimetry ('model XY': x, y) and height ('model Z': z), the
         projection centres ('model PC', when observed), control X, Y, Z."""
         pb = self.problem
-        kind = np.asarray(self.kind, dtype=object)
-        comp = np.asarray(self.component, dtype=object)
-        out = np.where(kind == "control", "control " + comp, "model XY").astype(object)
-        mod = kind == "model"
-        height = np.array([str(c).startswith("z") for c in comp], bool)
-        out[mod & height] = "model Z"
+        out = kind_groups(self.kind, self.component)  # model XY, model Z, control X, Y, Z
+        mod = np.asarray(self.kind, dtype=object) == "model"
         row = np.asarray(self.block_row)
         pc = np.zeros(self.n, bool)
         pc[row >= 0] = pb.block.pc[pb.block.obs_point[row[row >= 0]]]

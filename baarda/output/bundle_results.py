@@ -120,4 +120,5 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
                   "points_local.csv": tables["points.csv"]}
     if res.problem.calibration.n:  # self-calibration: every camera parameter
         tables["cameras.csv"] = pd.DataFrame(res.camera_table())
-    return write_folder(out, summary, {**tables, "observations.csv": obs}, parquet=parquet)
+    obs_name = "observations.parquet" if parquet else "observations.csv"
+    return write_folder(out, summary, {**tables, obs_name: obs})

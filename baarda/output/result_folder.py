@@ -65,12 +65,38 @@ def flags(t: Table, name: str) -> np.ndarray:
     return yes
 
 
+OBS_TEXT = ["kind", "photo", "model", "point", "component"]
+
+
+def _observation_frame(has, text, number, flag) -> pd.DataFrame:
+    """The observation table from a file's columns: text(c) of the label columns (a missing
+    one: text(c) says what), number(c) and flag(c) of those present (missing statistics
+    columns become NaN / False); `frame` is the photo, else the model."""
+    df = pd.DataFrame({c: text(c) for c in OBS_TEXT})
+    df["frame"] = df["photo"].where(df["photo"] != "", df["model"])
+    for c in OBS_NUMBERS:
+        df[c] = number(c) if has(c) else np.nan
+    for c in OBS_FLAGS:
+        df[c] = flag(c) if has(c) else False
+    df["external_point"] = text("external_point")
+    return df
+
+
+def _empty_residual(df: pd.DataFrame) -> int | None:
+    """The row of the first empty residual, or None."""
+    missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
+    return int(missing[0]) if len(missing) else None
+
+
 def read_observations(path: str | Path) -> pd.DataFrame:
     """observations.csv as a DataFrame (missing statistics columns become NaN / False)."""
     t = Table(path, OBS_REQUIRED)
     if not any(t.has(c) for c in OBS_FRAMES):
         raise ProjectError(t.path, "missing column 'photo' (or 'model')")
-    def text(c: str, allow_empty: bool = True):
+    def text(c: str):
+        if not t.has(c):
+            return ""
+        allow_empty = c not in ("kind", "component")
         col = t.strings(c)  # pyarrow strings of a plain file: straight into the frame
         if col is not None and (allow_empty or not pc.any(pc.equal(col, "")).as_py()):
             return pd.Series(col, dtype="str")
@@ -78,19 +104,11 @@ def read_observations(path: str | Path) -> pd.DataFrame:
 
     import pyarrow.compute as pc
 
-    df = pd.DataFrame({c: text(c, allow_empty=c in ("photo", "model", "point"))
-                       if t.has(c) else ""
-                       for c in ("kind", "photo", "model", "point", "component")})
-    df["frame"] = np.where(df["photo"] != "", df["photo"], df["model"])
-    for c in OBS_NUMBERS:
-        df[c] = numbers(t, c) if t.has(c) else np.nan
-    for c in OBS_FLAGS:
-        df[c] = flags(t, c) if t.has(c) else False
-    df["external_point"] = text("external_point") if t.has("external_point") else ""
+    df = _observation_frame(t.has, text, lambda c: numbers(t, c), lambda c: flags(t, c))
     df["line"] = t.lines
-    missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
-    if len(missing):
-        raise ProjectError(t.path, "empty residual", int(t.lines[missing[0]]), "residual")
+    row = _empty_residual(df)
+    if row is not None:
+        raise ProjectError(t.path, "empty residual", int(t.lines[row]), "residual")
     return df
 
 
@@ -137,18 +155,11 @@ def read_observations_parquet(path: str | Path) -> pd.DataFrame:
                                None, c)
         return col.to_numpy(zero_copy_only=False).astype(bool)
 
-    df = pd.DataFrame({c: text(c) for c in ("kind", "photo", "model", "point", "component")})
-    df["frame"] = df["photo"].where(df["photo"] != "", df["model"])
-    for c in OBS_NUMBERS:
-        df[c] = number(c) if c in names else np.nan
-    for c in OBS_FLAGS:
-        df[c] = flag(c) if c in names else False
-    df["external_point"] = text("external_point")
+    df = _observation_frame(names.__contains__, text, number, flag)
     df["line"] = np.arange(2, n + 2)
-    missing = np.flatnonzero(np.isnan(df["residual"].to_numpy()))
-    if len(missing):
-        raise ProjectError(str(path), f"empty residual in row {int(missing[0]) + 1}", None,
-                           "residual")
+    row = _empty_residual(df)
+    if row is not None:
+        raise ProjectError(str(path), f"empty residual in row {row + 1}", None, "residual")
     return df
 
 

@@ -5,9 +5,10 @@ summary.json (one schema for every method, docs/format.md): `project`, `source`,
 adjustment: counts, sigma0, global test, test settings, rejection log, ...), the first
 adjustment's entries again at the top level, `rejection_log` of all adjustments and
 `notes`; then the method's own entries.  observations.csv: one row per observation
-component in the columns of baarda.quality.assessment.COLUMNS (then a method's own); with
-parquet=True the same table as observations.parquet instead (float64 as computed, for
-millions of rows: written in a fraction of the CSV's time and read back in one call).
+component in the columns of baarda.quality.assessment.COLUMNS (then a method's own), or
+the same table as observations.parquet (a table whose name ends in .parquet is written as
+Parquet: float64 as computed, for millions of rows written in a fraction of the CSV's time
+and read back in one call).
 """
 
 from __future__ import annotations
@@ -21,8 +22,6 @@ from baarda.output.atomic import write_text
 from baarda.output.run_folder import RunFolder, staged
 from baarda.output.tables import json_text, write_csv, write_parquet
 from baarda.sections import Section
-
-PARQUET_TABLES = ("observations.csv",)  # written as Parquet with parquet=True
 
 
 def summary_document(*, project: str, source: str, method: str, sections: Iterable[Section],
@@ -39,20 +38,12 @@ def summary_document(*, project: str, source: str, method: str, sections: Iterab
     return doc
 
 
-def parquet_name(name: str) -> str:
-    """observations.csv -> observations.parquet."""
-    return name.removesuffix(".csv") + ".parquet"
-
-
 def write_folder(out: str | Path | RunFolder, summary: dict,
                  tables: Mapping[str, pd.DataFrame],
-                 texts: Mapping[str, str] | None = None, parquet: bool = False) -> list[Path]:
-    """summary.json (with the run id under 'run'), the tables as CSV and any texts, as one
-    run of the folder `out` (output/run_folder.py); the final paths.  parquet: the
-    observation table as observations.parquet instead of observations.csv (PARQUET_TABLES;
-    the other tables stay CSV)."""
-    if parquet:
-        tables = {parquet_name(k) if k in PARQUET_TABLES else k: v for k, v in tables.items()}
+                 texts: Mapping[str, str] | None = None) -> list[Path]:
+    """summary.json (with the run id under 'run'), the tables (CSV, or Parquet when the
+    name ends in .parquet) and any texts, as one run of the folder `out`
+    (output/run_folder.py); the final paths."""
     with staged(out) as run:
         write_text(run.file("summary.json"), json_text({"run": run.run_id, **summary}))
         for name, df in tables.items():  # large tables in chunks (output/tables.py)

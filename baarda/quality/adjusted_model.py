@@ -15,6 +15,24 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
+BY_AXIS = ("control", "gnss")  # kinds whose axes are variance groups of their own
+
+
+def kind_groups(kind, component) -> np.ndarray:
+    """(n,) the variance-component group of every component by its kind and component
+    alone: control and GNSS by axis ('control X', 'gnss Z'), model coordinates in
+    planimetry ('model XY': x, y) and height ('model Z'), any other kind by itself.  The
+    models refine them (AdjustedModel.variance_groups); the report's histograms of w use
+    them as they are."""
+    kind = np.asarray(kind, dtype=object)
+    comp = np.asarray(component, dtype=object)
+    out = np.where(np.isin(kind, BY_AXIS), kind + " " + comp, kind).astype(object)
+    mod = kind == "model"
+    if mod.any():
+        height = np.array([str(c).startswith("z") for c in comp[mod]], bool)
+        out[mod] = np.where(height, "model Z", "model XY")
+    return out
+
 
 class AdjustedModel(ABC):
     """An adjusted linear(ised) model  l + v = A x  with diagonal weights."""
@@ -48,10 +66,9 @@ class AdjustedModel(ABC):
 
     def variance_groups(self) -> np.ndarray:
         """(n,) the group of every component for variance-component estimation
-        (quality/variance_components.py): its kind, control by axis ('control X')."""
-        kind = np.asarray(self.kind, dtype=object)
-        comp = np.asarray(self.component, dtype=object)
-        return np.where(kind == "control", kind + " " + comp, kind).astype(object)
+        (quality/variance_components.py): kind_groups (its kind, control and GNSS by axis,
+        model coordinates XY and Z)."""
+        return kind_groups(self.kind, self.component)
 
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> AdjustedModel:
         """The same observations adjusted again with only the `active` components, weights

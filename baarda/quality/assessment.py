@@ -255,10 +255,7 @@ class Assessment:
                          "use the estimated sigmas):")
             for c in self.variance_components:
                 u, unit = self.model.units.get(c.group.split()[0], (1.0, ""))
-                if not c.reweights:
-                    lines.append("  " + c.words())
-                    continue
-                lines.append("  " + c.line(u, unit))
+                lines.append("  " + c.summary(u, unit))
         lines += [f"note: {n}" for n in q.notes]
         title = "Quality control" + ("" if self.name == "bundle" else f" ({self.name})")
         return [section(title, lines)]

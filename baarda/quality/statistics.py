@@ -93,12 +93,15 @@ def cofactors(model: AdjustedModel) -> tuple[np.ndarray, np.ndarray]:
 
 
 def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
-            r_min: float = R_MIN) -> QualityResult:
-    """Every statistic of data snooping and reliability for every component of `model`."""
+            r_min: float = R_MIN, *,
+            known: tuple[np.ndarray, np.ndarray] | None = None) -> QualityResult:
+    """Every statistic of data snooping and reliability for every component of `model`.
+    `known`: its (q_vv, r) from `cofactors(model)` when they are at hand (not computed
+    again)."""
     alpha0, beta0 = tests.alpha0, tests.beta0
     bm = b_method(alpha0, beta0)
     v, s, act = model.residuals, model.sigma, model.active
-    qvv, r = cofactors(model)
+    qvv, r = cofactors(model) if known is None else known
     red = model.redundancy
     vtpv = float(np.sum((v[act] / s[act]) ** 2))
     s0 = float(np.sqrt(vtpv / red)) if red > 0 else np.nan

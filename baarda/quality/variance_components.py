@@ -50,11 +50,6 @@ POOLED = ("control", "gnss")  # families whose X, Y, Z groups are pooled when to
 AXES = ("X", "Y", "Z")
 
 
-def groups_of(model) -> np.ndarray:
-    """(n,) group name of every component (the model's variance_groups())."""
-    return np.asarray(model.variance_groups(), dtype=object)
-
-
 @dataclass(frozen=True)
 class VarianceComponent:
     """One group: its number of active components, the a-priori sigma (median, in the
@@ -125,6 +120,10 @@ class VarianceComponent:
                     f"{np.sqrt(self.estimated):.4f} = {self.sigma_estimated * scale:.4g} {unit}")
         return out.replace("  ", " ").rstrip()
 
+    def summary(self, scale: float = 1.0, unit: str = "") -> str:
+        """The group in one line: `line` when its factor re-weights it, else `words`."""
+        return self.line(scale, unit) if self.reweights else self.words()
+
 
 def _num(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
@@ -176,7 +175,7 @@ def estimate(model, alpha: float = ALPHA, *, pool: bool = False,
     act = np.asarray(model.active, bool)
     v = model.residuals
     s = model.sigma
-    g = groups_of(model)
+    g = model.variance_groups()
     out = [_component(str(name), act & (g == name), r, v, s, alpha)
            for name in dict.fromkeys(g[act].tolist())]
     if plan is None and pool:
@@ -194,7 +193,8 @@ class VarianceEstimation:
     """The model adjusted with the estimated group sigmas, the weight factors that give
     them (one per component), the components of the last iteration (factors about one) and
     those of the first (relative to the starting weights), the cumulative factor per
-    estimated group, the log of the iterations and the pooling plan."""
+    estimated group, the log of the iterations and the (q_vv, r) of the model
+    (quality.statistics.cofactors, from the last estimate)."""
 
     model: object
     factors: np.ndarray
@@ -203,7 +203,12 @@ class VarianceEstimation:
     group_factor: dict[str, float]
     log: list[str]
     converged: bool
-    plan: dict = None  # pooled group -> its member groups (pooling_plan)
+    cofactors: tuple[np.ndarray, np.ndarray] | None = None  # (q_vv, r) of `model`
+
+    @property
+    def plan(self) -> dict[str, tuple[str, ...]]:
+        """Pooled group -> its member groups (pooling_plan), fixed by the first estimate."""
+        return {c.group: c.members for c in self.first if c.members}
 
     def components(self) -> tuple[VarianceComponent, ...]:
         """The first estimates with the iterated factor of each group (a pooled group's
@@ -216,20 +221,6 @@ class VarianceEstimation:
 
         return tuple(replace(c, estimated=est(c)) for c in self.first)
 
-    def lines(self, units: dict | None = None) -> list[str]:
-        out = [f"variance components per group (Foerstner), estimated in {len(self.log)} "
-               f"iteration(s){'' if self.converged else ' (NOT converged)'}:"]
-        for c in self.first:
-            f = self.group_factor.get(c.group, float("nan"))
-            if not c.reweights:
-                out.append("  " + c.words())
-                continue
-            out.append(f"  {c.group}: n {c.n}, r {c.redundancy:.2f}, first estimate sigma^2 "
-                       f"{c.factor:.4f} +- {c.factor_std:.4f}, p = {c.p_value:.3g} -> "
-                       f"{'differs from 1' if c.rejected else '1 accepted'}; estimated "
-                       f"sigma = a priori x {np.sqrt(f):.4f}")
-        return out
-
 
 def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
             max_iterations: int = MAX_ITERATIONS,
@@ -238,9 +229,10 @@ def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
     """Re-weight every group by its estimated factor and adjust again until the factors are
     within `tolerance` of one (module docstring).  Starts from the model's own weight
     factors (a-priori weights: ones); weak control axes pooled (`pool`) or as `plan` says."""
-    groups = groups_of(model)
+    groups = model.variance_groups()
     factors = np.array(model.factors, float)  # rejected components included
-    first = estimate(model, alpha, pool=pool, plan=plan)
+    cof = cofactors(model)
+    first = estimate(model, alpha, pool=pool, plan=plan, redundancy_numbers=cof[1])
     plan = {c.group: c.members for c in first if c.members}
     cumulative: dict[str, float] = {}
     log = []
@@ -260,26 +252,29 @@ def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
                 factors[np.isin(groups, c.groups)] /= c.factor
                 cumulative[c.group] = cumulative.get(c.group, 1.0) * c.factor
         model = model.refit(np.asarray(model.active, bool), factors)
-        comps = estimate(model, alpha, plan=plan)
+        cof = cofactors(model)
+        comps = estimate(model, alpha, plan=plan, redundancy_numbers=cof[1])
     for c in comps:  # estimated groups whose first factor was one within the tolerance
         if c.reweights:
             cumulative.setdefault(c.group, 1.0)
-    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged, plan)
+    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged, cof)
 
 
 def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TESTS,
               statistic: str = "w", alpha: float = ALPHA,
-              progress: Callable[[str], None] | None = None) -> int | None:
+              progress: Callable[[str], None] | None = None, *,
+              known: tuple[np.ndarray, np.ndarray] | None = None) -> int | None:
     """An active component that is significant when its group's variance is estimated
-    without it, or None.  `model`: adjusted with the estimated sigmas (snooping's last).
+    without it, or None.  `model`: adjusted with the estimated sigmas (snooping's last);
+    `known`: its (q_vv, r) when they are at hand (quality.statistics.cofactors).
 
     In each estimated group the component with the largest |w| is a candidate when the
     leave-one-out factor, approximated by (v'Pv_k - w^2) / (r_k - r_i), could make it
     significant (|w| / sqrt(factor) > 0.9 k, or the approximation is not positive); the
     candidate is switched off, the factors estimated again (iterate, from the current
     weights) and its statistic (predicted residual) tested with them."""
-    q = analyse(model, tests)
-    g = groups_of(model)
+    q = analyse(model, tests, known=known)
+    g = model.variance_groups()
     act = np.asarray(model.active, bool)
     cands = []
     for c in estimate(model, alpha, plan=plan or {}, redundancy_numbers=q.redundancy_number):
@@ -300,7 +295,7 @@ def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TEST
             est = iterate(model.refit(trial, model.factors), alpha, plan=plan or {})
         except GeometryError:
             continue
-        q2 = analyse(est.model, tests)
+        q2 = analyse(est.model, tests, known=est.cofactors)
         s2, k2 = (q2.w, q2.k_w) if statistic == "w" else (q2.tau, q2.k_tau)
         if progress:
             progress(f"variance components: component {i} of {name} tested against the "
@@ -333,7 +328,8 @@ def alternate(model, snoop: Callable[[np.ndarray], object], *, alpha: float = AL
         qc = snoop(est.factors)
         now = np.asarray(qc.quality.active, bool)
         if np.array_equal(now, start if active is None else active):
-            i = challenge(qc.model, est.plan, tests, statistic, alpha, progress)
+            i = challenge(qc.model, est.plan, tests, statistic, alpha, progress,
+                          known=(qc.quality.qvv, qc.quality.redundancy_number))
             if i is None:
                 break
             now = now.copy()

@@ -85,7 +85,7 @@ def variance_lines(qc: ModelQC) -> list[str]:
     lines = ["  variance components over the strip so far (this model and the accepted "
              "ones; Foerstner):"]
     for c in qc.variance_components:
-        lines.append("    " + (c.line(1.0, "µm") if c.reweights else c.words()))
+        lines.append("    " + c.summary(1.0, "µm"))
     if qc.variance_left_out:
         lines.append("    left out of the estimate (significant against their group estimated "
                      "without them): " + ", ".join(qc.variance_left_out))

@@ -77,6 +77,13 @@ class ModelSetup:
         return np.arange(6) if self.scale else np.arange(1, 6)
 
 
+def parallax_sigma(component: np.ndarray, sigma_x: float, qyy: float,
+                   qtie: float) -> np.ndarray:
+    """The a-priori sigma (µm) of each observation: sqrt(q_yy / q_xx) sigma_x for a y''
+    (component "y"), sqrt(q_tie) sigma_x for the x'' of a tie point ("x")."""
+    return np.where(np.asarray(component) == "y", np.sqrt(qyy), np.sqrt(qtie)) * sigma_x
+
+
 def residual_function(g: np.ndarray, setup: ModelSetup, left_xy: np.ndarray,
                       right_xy: np.ndarray, delta: np.ndarray | None = None
                       ) -> tuple[np.ndarray, np.ndarray]:
@@ -207,8 +214,8 @@ def orient(name: str, points: list[str], left_xy: np.ndarray, right_xy: np.ndarr
     if g0 is None:
         g0 = np.concatenate([[1.0, 0.0, 0.0], angles_from_matrix(setup.left.rotation)[::-1]])
     g = np.asarray(g0, float).copy()
-    sig = np.concatenate([np.full(n, np.sqrt(setup.qyy) * setup.sigma_x),
-                          np.full(m, np.sqrt(setup.qtie) * setup.sigma_x)])
+    comp = np.array(["y"] * n + ["x"] * m, dtype=object)
+    sig = parallax_sigma(comp, setup.sigma_x, setup.qyy, setup.qtie)
 
     def residuals(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         gx = g.copy()
@@ -236,6 +243,5 @@ def orient(name: str, points: list[str], left_xy: np.ndarray, right_xy: np.ndarr
                     np.broadcast_to(right.centre, d2.shape), d2)
     disc = (xyz[setup.tie_index] - setup.tie_xyz) * 1000.0
     obs_point = np.concatenate([np.arange(n), setup.tie_index]).astype(int)
-    comp = np.array(["y"] * n + ["x"] * m, dtype=object)
     return Orientation(name, list(points), setup, g, right, bx, v, sig, jac[:, unk], obs_point,
                        comp, xyz, disc, it)

@@ -33,6 +33,7 @@ from baarda.relative.orientation import (
     Orientation,
     PhotoPose,
     orient,
+    parallax_sigma,
 )
 
 Measurement = tuple[float, float, float, float]  # x', y', x'', y'' in mm
@@ -217,16 +218,14 @@ class OnlineSession:
         models = [m.orientation for m in self.accepted] + ([current] if current else [])
         if not models:
             raise ValueError("no model to estimate variance components from")
-        parts = []
-        for o in models:
-            sig = self.sigma_x * np.sqrt(np.where(o.obs_component == "y", self.qyy, self.qtie))
-            parts.append(o.dense_model(sig.astype(float)))
-        strip = block_diagonal(parts)
+        strip = block_diagonal([o.dense_model(parallax_sigma(
+            o.obs_component, self.sigma_x, self.qyy, self.qtie)) for o in models])
         active = strip.active.copy()
         est = iterate(strip.refit(active), pool=False)
         left_out = []
         for _ in range(MAX_LEFT_OUT):
-            i = challenge(est.model, est.plan, self.tests, self.statistic)
+            i = challenge(est.model, est.plan, self.tests, self.statistic,
+                          known=est.cofactors)
             if i is None:
                 break
             active[i] = False

@@ -6,8 +6,6 @@ A small script at the end writes into #render-status whether every image decoded
 
 from __future__ import annotations
 
-import base64
-import html
 from pathlib import Path
 
 import numpy as np
@@ -18,44 +16,20 @@ from baarda.report import maps
 from baarda.report.anaplot import format_log, log_mdb, log_test, snooping_table
 from baarda.report.footprint import footprints, image_extent
 from baarda.report.histogram import format_histogram
+from baarda.report.html_base import CSS, esc, figure, num, table
 from baarda.report.plots import Plot, residual_histograms, w_histogram
-from baarda.report.quality_report import tables_html
+from baarda.report.quality_html import tables_html
 from baarda.report.stats import (
+    first_rows,
     gnss_imu_per_strip,
     group_statistics,
+    largest_rms,
     model_groups,
     per_photo,
     per_strip,
-)
-from baarda.report.text_report import (
-    NOT_CONVERGED,
-    ReportOptions,
-    first_rows,
-    image_histograms,
-    largest_rms,
-    w_hists,
     weakest,
 )
-
-CSS = """
-body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;margin:0;color:#222}
-header{background:#1f3b5a;color:#fff;padding:14px 24px}
-header h1{margin:0;font-size:22px} header p{margin:4px 0 0;font-size:13px;opacity:.85}
-nav{padding:6px 24px;background:#e8eef5;font-size:13px}
-nav a{margin-right:14px;color:#1f3b5a}
-main{padding:8px 24px 40px;max-width:1400px}
-h2{border-bottom:2px solid #1f3b5a;padding-bottom:2px;margin-top:28px;font-size:18px}
-table{border-collapse:collapse;font-size:12px;margin:6px 0}
-th,td{border:1px solid #ccd;padding:2px 6px;text-align:right;white-space:nowrap}
-th{background:#eef2f7} td.t,th.t{text-align:left}
-tr.rejected td{background:#fbd5d5} tr.flagged td{background:#fde7c8}
-tr.uncontrolled td{color:#888}
-.ok{color:#146c2e;font-weight:bold} .bad{color:#b00020;font-weight:bold}
-pre{font-size:11px;line-height:1.15;background:#f7f7f7;padding:6px;overflow-x:auto}
-figure{margin:10px 0} figcaption{font-size:12px;color:#444;max-width:1100px}
-img{max-width:100%;border:1px solid #ddd}
-.facts{font-size:14px;line-height:1.5} #render-status{font-size:11px;color:#666}
-"""
+from baarda.report.text_report import NOT_CONVERGED, ReportOptions, image_histograms, w_hists
 
 SCRIPT = """
 <script>
@@ -72,46 +46,6 @@ window.addEventListener('load', function () {
 });
 </script>
 """
-
-
-def esc(x) -> str:
-    return html.escape(str(x))
-
-
-def num(x: float, decimals: int) -> str:
-    """Fixed decimals without a negative zero."""
-    return f"{round(float(x), decimals) + 0.0:.{decimals}f}"
-
-
-def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
-          text_cols: tuple[str, ...] = (), attrs: str = "") -> str:
-    """An HTML table of `df`; numbers formatted with `fmt` (column -> format spec)."""
-    fmt = fmt or {}
-    head = "".join(f"<th{' class=t' if c in text_cols else ''}>{esc(c)}</th>"
-                   for c in df.columns)
-    rows = []
-    classes = row_class(df) if row_class is not None else [""] * len(df)
-    for rec, cls in zip(df.itertuples(index=False), classes, strict=True):
-        cells = []
-        for c, v in zip(df.columns, rec, strict=True):
-            if isinstance(v, float | np.floating):
-                f = fmt.get(c, ".4g")
-                s = ("-" if not np.isfinite(v) else num(v, int(f[1:-1])) if f.endswith("f")
-                     else format(v, f))
-            else:
-                s = str(v)
-            cells.append(f"<td{' class=t' if c in text_cols else ''}>{esc(s)}</td>")
-        rows.append(f"<tr{f' class={cls}' if cls else ''}>{''.join(cells)}</tr>")
-    return f"<table {attrs}><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
-
-
-def figure(p: Plot | None) -> str:
-    if p is None:
-        return ""
-    b64 = base64.b64encode(p.png).decode("ascii")
-    return (f'<figure id="fig-{esc(p.name)}"><img alt="{esc(p.title)}" '
-            f'src="data:image/png;base64,{b64}"><figcaption>{esc(p.caption)}</figcaption>'
-            "</figure>")
 
 
 def _snoop_table(res: Results, opt: ReportOptions) -> str:
@@ -229,8 +163,10 @@ def _variance_components(summary: dict) -> pd.DataFrame | None:
     return t if len(parts) > 1 else t.drop(columns="adjustment")
 
 
-def html_report(res: Results, opt: ReportOptions | None = None) -> str:
-    """The whole report as one HTML string."""
+def html_report(res: Results, opt: ReportOptions | None = None,
+                calibration: list | None = None) -> str:
+    """The whole report as one HTML string; `calibration`: the quality report's camera,
+    control and GNSS parts (quality_report.calibration_parts) when they are at hand."""
     opt = opt or ReportOptions()
     figs = plots(res, opt)
     passed = res.global_test_passed
@@ -244,7 +180,7 @@ def html_report(res: Results, opt: ReportOptions | None = None) -> str:
     sec.append(("global", "Global test",
                 f'<p class="{"ok" if passed else "bad"}" id="global-test">'
                 + "<br>".join(esc(x) for x in gt_lines) + "</p>"))
-    cal = tables_html(res)
+    cal = tables_html(res, calibration)
     if cal:
         sec.append(("calibration", "Camera calibration, control and GNSS", cal))
     vc = _variance_components(res.summary)

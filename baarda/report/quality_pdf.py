@@ -14,7 +14,8 @@ import pandas as pd  # noqa: E402
 
 from baarda.output.result_folder import Results  # noqa: E402
 from baarda.report.plots import to_png  # noqa: E402
-from baarda.report.quality_report import format_cell, quality_content  # noqa: E402
+from baarda.report.quality_html import format_cell  # noqa: E402
+from baarda.report.quality_report import Part, quality_content  # noqa: E402
 
 A4 = (8.27, 11.69)
 ROWS_PER_PAGE = 46
@@ -30,8 +31,10 @@ def _text_lines(t: pd.DataFrame, fmt: dict | None) -> list[str]:
     return ["  ".join(c.rjust(w) for c, w in zip(row, width, strict=True)) for row in cells]
 
 
-def write_quality_pdf(res: Results, path: str | Path) -> int:
-    """The quality report as a PDF (A4 pages); returns the number of pages."""
+def write_quality_pdf(res: Results, path: str | Path, parts: list[Part] | None = None) -> int:
+    """The quality report as a PDF (A4 pages); returns the number of pages.  `parts`:
+    quality_content(res) when it is at hand."""
+    parts = quality_content(res) if parts is None else parts
     from matplotlib.backends.backend_pdf import PdfPages
 
     from baarda.output.atomic import atomic_open
@@ -66,7 +69,7 @@ def write_quality_pdf(res: Results, path: str | Path) -> int:
         new_page()
         import textwrap
 
-        for p in quality_content(res):
+        for p in parts:
             if p.kind == "heading":
                 if y < 0.2:
                     new_page()

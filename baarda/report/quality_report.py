@@ -5,7 +5,8 @@ pixels, the redundancy number, w and MDB of every observation, the snooping log 
 external reliability of the ground points.
 
 `quality_content(res)` gives the content once, as `Part`s (a heading, text, a table or a
-figure); `quality_html` lays them out as HTML sections, report/quality_pdf.py as PDF pages.
+figure); report/quality_html.py lays them out as HTML sections, report/quality_pdf.py as
+PDF pages.
 Everything is read from the result folder (output/result_folder.py); nothing is recomputed
 but RMS values and per-group summaries of the observations table.
 """
@@ -24,7 +25,6 @@ import pandas as pd  # noqa: E402
 
 from baarda.output.result_folder import Results  # noqa: E402
 from baarda.report.anaplot import log_mdb, log_test  # noqa: E402
-from baarda.report.plots import Plot, to_png  # noqa: E402
 from baarda.report.stats import pair_xy  # noqa: E402
 
 WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
@@ -58,6 +58,12 @@ def _rms(x) -> float:
     x = np.asarray(x, float)
     x = x[np.isfinite(x)]
     return float(np.sqrt(np.mean(x**2))) if len(x) else float("nan")
+
+
+def _rms_per_axis(rows: pd.DataFrame) -> str:
+    """'X .. m, Y .. m, Z .. m': the RMS of the residuals of each axis."""
+    return ", ".join(f"{c} {_rms(rows.loc[rows['component'] == c, 'residual']):.3f} m"
+                     for c in ("X", "Y", "Z"))
 
 
 def camera_parts(res: Results) -> list[Part]:
@@ -135,9 +141,7 @@ def control_parts(res: Results) -> list[Part]:
         parts.append(Part("text", text="Control points (GCPs used as observations): residual "
                           "v = adjusted - given per axis, w-test, redundancy number r (0: the "
                           "point is not checked by the rest of the block) and the minimal "
-                          "detectable bias. RMS: " + ", ".join(
-                              f"{c} {_rms(ctrl.loc[ctrl['component'] == c, 'residual']):.3f} m"
-                              for c in ("X", "Y", "Z"))))
+                          "detectable bias. RMS: " + _rms_per_axis(ctrl)))
         parts.append(Part("table", "control points", table=t,
                           fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
                                for c in t.columns if c not in ("point", "role")}))
@@ -176,9 +180,7 @@ def gnss_parts(res: Results) -> list[Part]:
     t = t.reset_index()
     return [Part("heading", "GNSS positions of the projection centres"),
             Part("text", text="Residual v = adjusted - observed (m), w-test and redundancy "
-                 "number per axis. RMS: " + ", ".join(
-                     f"{c} {_rms(g.loc[g['component'] == c, 'residual']):.3f} m"
-                     for c in ("X", "Y", "Z"))),
+                 "number per axis. RMS: " + _rms_per_axis(g)),
             Part("table", "GNSS residuals", table=t,
                  fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
                       if c != "photo"})]
@@ -295,110 +297,14 @@ def summary_parts(res: Results) -> list[Part]:
     return [Part("heading", "Summary"), Part("text", text="\n".join(lines))]
 
 
-def quality_content(res: Results) -> list[Part]:
-    return (summary_parts(res) + camera_parts(res) + control_parts(res) + gnss_parts(res)
-            + image_parts(res) + observation_parts(res) + snooping_parts(res)
-            + reliability_parts(res))
+def calibration_parts(res: Results) -> list[Part]:
+    """The camera, control and GNSS parts (the main HTML report shows them too)."""
+    return camera_parts(res) + control_parts(res) + gnss_parts(res)
 
 
-# ------------------------------------------------------------------ HTML
-def format_cell(v, f: str | None) -> str:
-    """A table cell as text: a number in format f (blank when not finite), anything else
-    HTML-escaped (the PDF passes its text cells as they are)."""
-    import html
-
-    if isinstance(v, float | np.floating):
-        if not np.isfinite(v):
-            return ""
-        return format(float(v), f) if f else f"{float(v):.6g}"
-    return html.escape(str(v))
-
-
-def html_table(t: pd.DataFrame, fmt: dict | None, attrs: str = "") -> str:
-    import html
-
-    fmt = fmt or {}
-    head = "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
-    rows = "".join("<tr>" + "".join(f"<td>{format_cell(v, fmt.get(c))}</td>" for c, v in
-                                    zip(t.columns, r, strict=True)) + "</tr>"
-                   for r in t.itertuples(index=False))
-    return f"<table {attrs}><tr>{head}</tr>{rows}</table>"
-
-
-def quality_html(res: Results) -> str:
-    """The parts as HTML (sections inside the HTML report)."""
-    import html
-
-    from baarda.report.html_report import figure
-
-    out = []
-    for p in quality_content(res):
-        if p.kind == "heading":
-            out.append(f"<h3>{html.escape(p.title)}</h3>")
-        elif p.kind == "text":
-            out.append("<p>" + "<br>".join(html.escape(x) for x in p.text.split("\n"))
-                       + "</p>")
-        elif p.kind == "table":
-            ident = re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
-            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
-                       + html_table(p.table, p.fmt, f'id="q-{ident}"'))
-            if p.full_in_html is not None and len(p.full_in_html) > len(p.table):
-                out.append(f"<details><summary>all {len(p.full_in_html)} rows</summary>"
-                           + html_table(p.full_in_html, p.fmt) + "</details>")
-        elif p.kind == "figure":
-            out.append(figure(Plot(re.sub(r"\W+", "-", p.title), p.title,
-                                   to_png(p.figure()), p.text)))
-    return "".join(out)
-
-
-def _corr_cell(v: float) -> str:
-    """A correlation coefficient as a table cell coloured like the heat map."""
-    if not np.isfinite(v):
-        return "<td></td>"
-    c = matplotlib.colormaps["RdBu_r"]((float(v) + 1) / 2)
-    rgb = "#" + "".join(f"{int(255 * x):02x}" for x in c[:3])
-    ink = "#fff" if abs(v) > 0.6 else "#000"
-    return f'<td style="background:{rgb};color:{ink}">{v:+.3f}</td>'
-
-
-def tables_html(res: Results) -> str:
-    """The camera, control and GNSS parts as tables for the main HTML report (no figures:
-    the correlation matrix coloured like the heat map); '' when there is nothing to show."""
-    import html
-
-    parts = camera_parts(res) + control_parts(res) + gnss_parts(res)
-    if not any(p.kind == "table" for p in parts):
-        return ""
-    out = []
-    for p in parts:
-        if p.kind == "heading":
-            out.append(f"<h3>{html.escape(p.title)}</h3>")
-        elif p.kind == "text":
-            out.append(f"<p>{html.escape(p.text)}</p>")
-        elif p.kind == "table" and p.title.startswith("correlations of camera"):
-            t = p.table
-            head = "".join(f"<th>{html.escape(str(c))}</th>" for c in t.columns)
-            rows = "".join(f"<tr><td>{html.escape(str(r[0]))}</td>"
-                           + "".join(_corr_cell(v) for v in r[1:]) + "</tr>"
-                           for r in t.itertuples(index=False))
-            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
-                       f"<table><tr>{head}</tr>{rows}</table>")
-        elif p.kind == "table":
-            out.append(f"<h4>{html.escape(p.title[0].upper() + p.title[1:])}</h4>"
-                       + html_table(p.table, p.fmt))
-    return "".join(out) + ("<p>The quality report (baarda report OUT --quality FILE.html "
-                           "--pdf FILE.pdf) adds reprojection errors per image, the "
-                           "observations' r, w and MDB and external reliability.</p>")
-
-
-def quality_page(res: Results) -> str:
-    """The quality report as a self-contained HTML page (the PDF's content)."""
-    import html
-
-    from baarda.report.html_report import CSS
-
-    return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
-            f"<title>baarda quality report: {html.escape(res.title)}</title><style>{CSS}"
-            "</style></head><body><header><h1>Quality report: "
-            f"{html.escape(res.title)}</h1><p>{html.escape(str(res.folder))}</p></header>"
-            f"<main>{quality_html(res)}</main></body></html>\n")
+def quality_content(res: Results, calibration: list[Part] | None = None) -> list[Part]:
+    """Every part of the quality report; `calibration`: calibration_parts(res) when they
+    are at hand."""
+    cal = calibration_parts(res) if calibration is None else calibration
+    return (summary_parts(res) + cal + image_parts(res) + observation_parts(res)
+            + snooping_parts(res) + reliability_parts(res))

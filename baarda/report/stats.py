@@ -312,6 +312,36 @@ def worst(df: pd.DataFrame, n: int = 10) -> pd.DataFrame:
     return pd.concat(parts) if parts else act.iloc[:0]
 
 
+def largest_rms(t: pd.DataFrame, limit: int, what: str) -> tuple[pd.DataFrame, str]:
+    """A per-photo (per-strip) table, or its `limit` rows of the largest RMS x+y when it
+    has more, in the same order; the words that say so (else '')."""
+    if len(t) <= limit:
+        return t, ""
+    keep = np.sort(np.argsort(-t["rms_xy"].fillna(-1.0).to_numpy(), kind="stable")[:limit])
+    return (t.iloc[keep].reset_index(drop=True),
+            f" ({limit} of {len(t)} {what}: those with the largest RMS x+y)")
+
+
+def first_rows(t: pd.DataFrame, limit: int) -> tuple[pd.DataFrame, str]:
+    """The first `limit` rows of a table sorted worst first, and the words that say so."""
+    if len(t) <= limit:
+        return t, ""
+    return t.iloc[:limit], f"; {limit} of {len(t)} such rows shown: the first in this order"
+
+
+def weakest(obs: pd.DataFrame, n: int) -> dict[str, pd.DataFrame]:
+    """The tested, active observations with the smallest redundancy numbers and with the
+    largest MDB (per kind: units differ), n of each."""
+    cols = [c for c in ("kind", "photo", "model", "frame", "point", "component", "redundancy",
+                        "w", "mdb", "external_max") if c in obs]
+    d = obs.loc[~obs["rejected"].to_numpy(bool) & np.isfinite(obs["w"].to_numpy(float)), cols]
+    small = d.nsmallest(n, "redundancy")
+    kind = d["kind"].to_numpy(str)
+    large = pd.concat([d[kind == k].nlargest(n, "mdb") for k in sorted(set(kind))]
+                      or [d.iloc[:0]])
+    return {"smallest redundancy numbers": small, "largest MDB (per kind)": large}
+
+
 # ------------------------------------------------------------------ text output
 def _num(x: float, unit: str) -> str:
     if not np.isfinite(x):

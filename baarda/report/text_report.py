@@ -10,10 +10,12 @@ import numpy as np
 import pandas as pd
 
 from baarda.output.result_folder import UNITS, Results
+from baarda.quality.adjusted_model import kind_groups
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
     Labels,
+    first_rows,
     format_gnss_imu,
     format_groups,
     format_image_groups,
@@ -21,11 +23,13 @@ from baarda.report.stats import (
     gnss_imu_per_strip,
     group_statistics,
     label_columns,
+    largest_rms,
     model_groups,
     obs_label,
     per_photo,
     per_strip,
     vector_statistics,
+    weakest,
     worst,
 )
 from baarda.sections import render
@@ -82,7 +86,7 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     """Histograms of w of the active, tested observations: image x, y, x and y; then per
     observation group of the other kinds with at least MIN_GROUP tested components (control
     X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: the groups of the variance
-    components), and all observations together."""
+    components, quality.adjusted_model.kind_groups), and all observations together."""
     d = obs.loc[~obs["rejected"] & np.isfinite(obs["w"]), label_columns(obs) + ["w"]]
     lab = Labels(d)
     kind = d["kind"].to_numpy(str)
@@ -91,17 +95,12 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     sels = [("image x", img & (comp == "x")), ("image y", img & (comp == "y")),
             ("image x and y", img)]
     if not img.all():
-        height = np.char.startswith(comp, "z")
-        for k in dict.fromkeys(kind[~img].tolist()):
-            by_comp = k in ("control", "gnss")
-            if k == "model":  # the variance groups of model coordinates: XY and Z
-                parts = [("model XY", (kind == k) & ~height), ("model Z", (kind == k) & height)]
-            else:
-                parts = [(f"{k} {c}" if c is not None else k,
-                          (kind == k) & ((comp == c) if c is not None else True))
-                         for c in (dict.fromkeys(comp[kind == k].tolist()) if by_comp
-                                   else [None])]
-            sels += [(name, sel) for name, sel in parts if sel.sum() >= MIN_GROUP]
+        group = kind_groups(kind, comp)
+        for k in dict.fromkeys(kind[~img].tolist()):  # kinds, then axes, as they come
+            names = list(dict.fromkeys(group[kind == k].tolist()))
+            if k == "model":
+                names.sort()  # planimetry (model XY) before height (model Z)
+            sels += [(name, sel) for name in names if (sel := group == name).sum() >= MIN_GROUP]
         sels.append(("all observations", np.ones(len(d), bool)))
     w = d["w"].to_numpy(float)
     return [(n, histogram(w[s], lab[s], opt.w_width, opt.w_lo, opt.w_hi)) for n, s in sels
@@ -158,36 +157,6 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
             f"flagged one, and the largest |w|{note})", "-" * 78, format_snooping(t, res.k_w)]
     out += weakest_text(obs, opt)
     return "\n".join(out) + "\n"
-
-
-def largest_rms(t: pd.DataFrame, limit: int, what: str) -> tuple[pd.DataFrame, str]:
-    """A per-photo (per-strip) table, or its `limit` rows of the largest RMS x+y when it
-    has more, in the same order; the words that say so (else '')."""
-    if len(t) <= limit:
-        return t, ""
-    keep = np.sort(np.argsort(-t["rms_xy"].fillna(-1.0).to_numpy(), kind="stable")[:limit])
-    return (t.iloc[keep].reset_index(drop=True),
-            f" ({limit} of {len(t)} {what}: those with the largest RMS x+y)")
-
-
-def first_rows(t: pd.DataFrame, limit: int) -> tuple[pd.DataFrame, str]:
-    """The first `limit` rows of a table sorted worst first, and the words that say so."""
-    if len(t) <= limit:
-        return t, ""
-    return t.iloc[:limit], f"; {limit} of {len(t)} such rows shown: the first in this order"
-
-
-def weakest(obs: pd.DataFrame, n: int) -> dict[str, pd.DataFrame]:
-    """The tested, active observations with the smallest redundancy numbers and with the
-    largest MDB (per kind: units differ), n of each."""
-    cols = [c for c in ("kind", "photo", "model", "frame", "point", "component", "redundancy",
-                        "w", "mdb", "external_max") if c in obs]
-    d = obs.loc[~obs["rejected"].to_numpy(bool) & np.isfinite(obs["w"].to_numpy(float)), cols]
-    small = d.nsmallest(n, "redundancy")
-    kind = d["kind"].to_numpy(str)
-    large = pd.concat([d[kind == k].nlargest(n, "mdb") for k in sorted(set(kind))]
-                      or [d.iloc[:0]])
-    return {"smallest redundancy numbers": small, "largest MDB (per kind)": large}
 
 
 def weakest_text(obs: pd.DataFrame, opt: ReportOptions) -> list[str]:
