@@ -24,7 +24,7 @@ from numba.core import config
 
 __all__ = ["is_cached", "kernel", "parallel_kernel"]
 
-# every cached kernel of the package (numba dispatchers), for compile_pending
+# every cached kernel of the package (numba dispatchers): the compile table is recorded from them
 KERNELS: list[Any] = []
 
 
