@@ -149,7 +149,8 @@ def localized(block: Block) -> Block:
     return localize(block)
 
 
-def prepare(block: Block, free: bool | None = None) -> BundleProblem:
+def prepare(block: Block, free: bool | None = None, *,
+            solve: SolveOptions | str | None = None) -> BundleProblem:
     """The bundle problem of a block as read: local frame, approximations, datum.
 
     The datum is the control unless the block is a free network (`free`, default: the
@@ -158,7 +159,20 @@ def prepare(block: Block, free: bool | None = None) -> BundleProblem:
     are given in the inner datum of all its points, bundle/inner_datum.py).  A block that
     should have control and has too little is a GeometryError that names what is missing.
     In a free network, control points become check points (their differences refer to the
-    free datum)."""
+    free datum).  `solve`: the solver's options for every fit of the problem, or their
+    name (bundle_problem.DAMPING: "gn" Gauss-Newton with step halving, the default; "lm"
+    Levenberg-Marquardt)."""
+    from baarda.bundle.bundle_problem import DAMPING
+
+    if isinstance(solve, str):
+        if solve not in DAMPING:
+            raise ValueError(f"unknown solver {solve!r}: one of {', '.join(DAMPING)}")
+        solve = DAMPING[solve]
+    problem = _prepare(block, free)
+    return problem if solve is None else problem.with_solve_options(solve)
+
+
+def _prepare(block: Block, free: bool | None) -> BundleProblem:
     from baarda.bundle.bundle_problem import BundleProblem
     from baarda.bundle.diagnostics import diagnose
     from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
@@ -196,9 +210,8 @@ def adjust(block: Block | BundleProblem, options: SolveOptions | None = None,
            progress: Progress | None = None) -> BundleResult:
     """Bundle block adjustment of a block as read (prepare, then the one solver; options:
     default the bundle's, bundle_problem.SOLVE)."""
-    from baarda.bundle.bundle_problem import SOLVE, BundleProblem
+    from baarda.bundle.bundle_problem import BundleProblem
 
-    options = options or SOLVE
     problem = block if isinstance(block, BundleProblem) else prepare(block)
     return problem.fit(options=options, progress=progress)
 

@@ -41,7 +41,14 @@ class AdjustmentCounts:
 
     @property
     def vtpv(self) -> float:
-        return float(np.sum(self.lin.w * self.lin.e**2) + np.sum(self.lin.wc * self.lin.ec**2))
+        """v'Pv over every observation: image (or model) rows, control, and the extra rows
+        (GNSS, IMU, distances, observations of border points); the direct constraints that
+        hold the datum or fixed coordinates are not observations and are left out."""
+        lin = self.lin
+        total = float(np.sum(lin.w * lin.e**2) + np.sum(lin.wc * lin.ec**2))
+        if lin.wx is not None:
+            total += float(np.sum(lin.wx * lin.ex**2))
+        return total
 
     @property
     def sigma0(self) -> float:

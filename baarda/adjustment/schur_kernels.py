@@ -29,18 +29,19 @@ def count_pairs(ptr, frame):
 
 @kernel
 def _chol_inv(h, out_l, out_inv):
-    """Cholesky factor and inverse of a small SPD matrix; returns False if not SPD."""
+    """Cholesky factor and inverse of a small SPD matrix; returns False if not SPD.
+
+    A pivot is compared with its own diagonal entry (the test is invariant to the scale of
+    each unknown): a coordinate held by a large direct weight (fixed control, sigma 0) does
+    not make the other coordinates of its point look singular."""
     d = h.shape[0]
-    scale = 0.0
-    for i in range(d):
-        scale = max(scale, abs(h[i, i]))
     for i in range(d):
         for j in range(i + 1):
             s = h[i, j]
             for k in range(j):
                 s -= out_l[i, k] * out_l[j, k]
             if i == j:
-                if s <= 1e-12 * scale or s <= 0.0:
+                if s <= 1e-12 * h[i, i] or s <= 0.0:
                     return False
                 out_l[i, i] = np.sqrt(s)
             else:

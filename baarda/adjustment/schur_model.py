@@ -11,6 +11,7 @@ SchurFactor of the solution.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -64,6 +65,22 @@ class SchurModel(AdjustedModel):
 
     factor: SchurFactor
     layout: FlatLayout
+    result: Any  # the adjustment result (BundleResult, ModelResult): converged, notes
+
+    @property
+    def converged(self) -> bool:
+        return bool(self.result.converged)
+
+    @property
+    def convergence_note(self) -> str:
+        """The solver's message (the first note of a result that did not converge after the
+        problem's own notes)."""
+        if self.result.converged:
+            return ""
+        own = len(getattr(self.result.problem, "notes", ()))
+        notes = list(getattr(self.result, "notes", ()))[own:]
+        return notes[0].removesuffix("; the estimate before it is reported") if notes else \
+            "not converged"
 
     def parameter_effect(self, h: np.ndarray) -> tuple[np.ndarray, ...]:
         """N^-1 A^T P H: changes of the frame (nf, b, q) and point (np, d, q) unknowns (and

@@ -110,7 +110,7 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
             if before is None:  # singular at the start: the problem as given
                 raise
             return _diverged(problem, before, it, err, tuple(history), say, label)
-        before = (state, lin)
+        before = (state, lin, damping)
         step = factor.step()
         size = float(problem.correction_size(state, step))
         if size <= options.tolerance or (drop <= options.flat_cost
@@ -130,9 +130,12 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
                 damping *= 10.0
                 if damping <= MAX_DAMPING:
                     continue
-                factor = problem.factorize(lin, 0.0)
-                step = factor.step()
-                size = float(problem.correction_size(state, step))
+                try:  # the undamped correction; singular: the last damped one stands
+                    factor = problem.factorize(lin, 0.0)
+                    step = factor.step()
+                    size = float(problem.correction_size(state, step))
+                except GeometryError:
+                    pass
             if size <= options.stall_tolerance:
                 reason, message = "stalled", "converged (at the rounding floor)"
             elif _any_admissible(problem, state, step, options):
@@ -155,7 +158,12 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
             + ("" if t == 1.0 else f" (step {t:g})"))
     # iterations used up: the normal equations at the last estimate, for the statistics
     factor = None
-    factor = problem.factorize(lin, 0.0)
+    try:
+        factor = problem.factorize(lin, 0.0)
+    except GeometryError as err:
+        if before is None:
+            raise
+        return _diverged(problem, before, it, err, tuple(history), say, label)
     size = float(problem.correction_size(state, factor.step()))
     converged = size <= max(options.tolerance, options.stall_tolerance)
     message = "converged" if converged else \
@@ -168,10 +176,19 @@ def _diverged(problem: Problem, before: tuple, it: int, err: GeometryError,
               history: tuple, say: Callable[[str], None], label: str) -> Solution:
     """The normal equations became singular during the iterations (a point or photo ran
     away: the iteration diverges): the last estimate whose normal equations were regular,
-    factored again (undamped) for the statistics, as not converged."""
-    state, lin = before
-    factor = problem.factorize(lin, 0.0)
-    message = (f"diverged at iteration {it}: {err}; the estimate before it is reported")
+    factored again (undamped) for the statistics, as not converged.  A damped iteration can
+    reach estimates whose undamped normal equations are singular: the damped ones, which
+    were regular there, then stand (the statistics are those of the damped system)."""
+    state, lin, damping = before
+    message = f"diverged at iteration {it}: {err}; the estimate before it is reported"
+    try:
+        factor = problem.factorize(lin, 0.0)
+    except GeometryError as undamped:
+        if not damping:
+            raise
+        factor = problem.factorize(lin, damping)
+        message += (f" (its normal equations are singular without damping: {undamped}; the "
+                    f"statistics are those of the damped normal equations, lambda {damping:g})")
     say(f"{label}iteration {it}: {message}")
     return Solution(state, lin, factor, it, False, "diverged", message, history)
 

@@ -10,6 +10,7 @@ returns a new BundleResult.
 
 from __future__ import annotations
 
+import copy
 import time
 
 import numpy as np
@@ -32,6 +33,8 @@ from baarda.options import Progress, SolveOptions
 # converged when the correction is below 1e-7 of the flying height (positions and points)
 # and 1e-10 rad (angles): correction_size weighs angles by 1000 / rad
 SOLVE = SolveOptions(max_iterations=50, tolerance=1e-7, min_step=1e-3)
+SOLVE_LM = SolveOptions(max_iterations=100, tolerance=1e-7, min_step=1e-3, damping=1e-3)
+DAMPING = {"gn": SOLVE, "lm": SOLVE_LM}  # --damping: Gauss-Newton or Levenberg-Marquardt
 XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
 
@@ -68,6 +71,7 @@ class BundleProblem(SchurProblem):
                  notes: tuple[str, ...] = (), diagnosis: tuple[str, ...] = (),
                  intersected: np.ndarray | None = None):
         self.block = block
+        self.solve_options = SOLVE  # every fit of this problem and its re-weightings
         self.diagnosis = tuple(diagnosis)
         ok, point_notes = usable_points(block)
         im, pts, dist = block.image, block.points, block.distances
@@ -399,15 +403,25 @@ class BundleProblem(SchurProblem):
         return ok
 
     # ------------------------------------------------------------ fit
+    def with_solve_options(self, options: SolveOptions) -> BundleProblem:
+        """The same problem, fitted (and re-fitted by snooping and variance components) with
+        `options` (e.g. SOLVE_LM: Levenberg-Marquardt)."""
+        new = copy.copy(self)
+        new.solve_options = options
+        return new
+
     def fit(self, start: tuple[np.ndarray, ...] | None = None,
-            options: SolveOptions = SOLVE, progress: Progress | None = None) -> BundleResult:
-        """Adjust; returns a BundleResult (arrays plus summary()).
+            options: SolveOptions | None = None,
+            progress: Progress | None = None) -> BundleResult:
+        """Adjust; returns a BundleResult (arrays plus summary()).  options: default the
+        problem's `solve_options` (SOLVE unless with_solve_options set others).
 
         start: (eo (n_photos, 6), xyz (n_adjusted_points, 3)) or the state of an earlier
         result (`BundleResult.state`); default the approximations (the photos' EO,
         intersected points and the cameras' nominal parameters).
         """
         t0 = time.perf_counter()
+        options = options or self.solve_options
         start = self.approximations if start is None else self._start(start)
         try:
             sol = solve(self, tuple(np.array(s, float) for s in start), options, progress)

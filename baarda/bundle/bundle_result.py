@@ -135,6 +135,13 @@ class BundleResult(AdjustmentCounts):
             q = self.factor.global_covariance()
             cols = pb.g_points + 3 * np.arange(len(pb.border_ids))[:, None] + np.arange(3)
             out[pb.remap[pb.border_ids]] = q[cols[:, :, None], cols[:, None, :]]
+        # coordinates of fixed control (sigma 0) are held, not estimated: cofactor 0 (the
+        # factorisation leaves 1 / HOLD there)
+        held = np.zeros((len(pb.point_ids), 3), bool)
+        held[pb.remap[pb.elim_ids]] = pb.held_points
+        held[pb.remap[pb.border_ids]] = pb.held_border
+        if held.any():
+            out = np.where(held[:, :, None] | held[:, None, :], 0.0, out)
         return out
 
     @property

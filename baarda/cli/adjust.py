@@ -44,6 +44,10 @@ def _common(p) -> None:
                    "observations.parquet instead of observations.csv (the same columns and "
                    "numbers; for blocks of millions of observations: written and read "
                    "several times faster; baarda report reads either)")
+    p.add_argument("--damping", choices=("gn", "lm"), default="gn", help="the solver: gn "
+                   "Gauss-Newton with step halving (default), lm Levenberg-Marquardt (damped "
+                   "steps, for poor approximations); either way the statistics use the "
+                   "undamped normal equations at the solution")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     add_input_options(p)
 
@@ -71,7 +75,8 @@ def run_adjust(args) -> int:
     if not args.quiet:
         print(text)
         print(f"results written to {run.describe()}")
-    return OK if qc.adjustment.converged else NOT_CONVERGED
+    return OK if qc.adjustment.converged and not (qc.run and qc.run.incomplete) \
+        else NOT_CONVERGED
 
 
 def _adjust(args, run):
@@ -106,7 +111,7 @@ def _adjust(args, run):
         write_screening_log(run, res.log)
         _gpkg(args, run, qc)
         return qc, res.summary() + "\n" + qc.summary()
-    problem = prepare(block)
+    problem = prepare(block, solve=args.damping)
     est = None
     if getattr(args, "vce", False) and not args.snoop:
         problem, est = with_variance_components(problem, progress=say)

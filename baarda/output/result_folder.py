@@ -172,6 +172,11 @@ def _table_frame(path: Path, required: list[str], numeric: list[str]) -> pd.Data
     return df
 
 
+NOT_CONVERGED = ("NOT CONVERGED: the adjustment stopped before its corrections became "
+                 "negligible; the coordinates, residuals and tests in this report are not a "
+                 "least-squares solution")
+
+
 @dataclass
 class Results:
     """Everything the report shows, as read from an output folder."""
@@ -211,6 +216,27 @@ class Results:
         parts = self.summary.get("adjustments") or {"": self.summary}
         tests = [p.get("global_test") for p in parts.values() if p.get("global_test")]
         return None if not tests else all(gt.get("passed") for gt in tests)
+
+    @property
+    def failures(self) -> list[str]:
+        """What keeps this run from being a result, in words, for the first lines of every
+        report: an adjustment that did not converge (with the solver's reason), snooping
+        that stopped at its step limit."""
+        parts = self.summary.get("adjustments") or {"": self.summary}
+        out = []
+        for name, p in parts.items():
+            if not isinstance(p, dict):
+                continue
+            of = f" ({name})" if name else ""
+            if p.get("converged", True) is False:
+                why = [n for n in p.get("notes", []) if "diverged" in str(n)
+                       or "not converged" in str(n)]
+                out.append(NOT_CONVERGED + of + (f": {why[0]}" if why else ""))
+            text = str(p.get("snooping_incomplete") or "")
+            if text:  # "snooping incomplete: N component(s) still significant ..."
+                head, _, rest = text.partition(":")
+                out.append(f"{head.upper()}{of}:{rest}")
+        return out
 
     @property
     def converged(self) -> bool:

@@ -1,12 +1,13 @@
 """The number formats of every file baarda writes: CSV tables and JSON documents.
 
-`csv_text` / `write_csv` print a table as pandas' ``to_csv(index=False, float_format=F,
-lineterminator="\\n")`` does, byte for byte.  Tables of `FAST_ROWS` rows and more go through
-the vectorised writer (`csv_chunks`: numba kernels in output/csv_kernels.py, text columns
-through pyarrow): float64 columns in C's ``%.Pg`` correctly rounded (the few values whose
-rounding is not certain, and those beyond 1e±13, formatted by Python), text columns quoted
-as the csv module quotes them, booleans True/False, integers in decimal; a table with any
-other column type, one column or no rows is written by pandas.
+Result tables (`write_csv`, `csv_chunks`) keep every number as it was computed: a float64
+cell is the shortest text that reads back to the same double (pyarrow's cast to string:
+0.05, 6460123.456789012, 1e-300), NaN is an empty cell, infinities inf and -inf; booleans
+True/False, integers in decimal, text quoted as the csv module quotes it (QUOTE_MINIMAL).
+The cells are formatted column by column by pyarrow (C++, in threads for long tables) and
+joined into rows by pyarrow too.  Presentation tables (plans, the screening log:
+`csv_text` with a printf format) are printed by pandas.  JSON documents print floats as
+Python's repr, which round-trips as well.
 """
 
 from __future__ import annotations
@@ -14,52 +15,34 @@ from __future__ import annotations
 import csv
 import io
 import json
-import re
+import os
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-RESULT_FORMAT = "%.10g"  # result tables: 10 significant digits
-FAST_ROWS = 20_000  # tables from this many rows on: the vectorised writer
-CHUNK_ROWS = 262_144  # rows formatted at a time by the vectorised writer
-_G_FORMAT = re.compile(r"%\.(\d+)g")
-_SPECIAL = '[,"\r\n]'  # a text cell with one of these may need quotes (csv.QUOTE_MINIMAL)
+CHUNK_ROWS = 262_144  # rows joined at a time
+THREAD_ROWS = 100_000  # tables from this many rows on format their columns in threads
 
 
-def csv_text(df: pd.DataFrame, float_format: str = RESULT_FORMAT) -> str:
-    """A table as CSV text (no index, LF line ends)."""
-    return b"".join(_csv_bytes(df, float_format, None)).decode("utf-8")
-
-
-def _csv_bytes(df: pd.DataFrame, float_format: str, fast: bool | None) -> Iterator[bytes]:
-    """The CSV of a table in chunks: the vectorised writer where it takes the table (and
-    `fast` is not False; None: from FAST_ROWS rows on), else pandas' text in one chunk."""
-    if fast_csv_possible(df, float_format) and (len(df) >= FAST_ROWS if fast is None
-                                                else fast):
-        try:
-            return csv_chunks(df, float_format)
-        except TypeError:  # a column of objects that are not text: pandas prints them
-            pass
-    return iter([pandas_csv_text(df, float_format).encode("utf-8")])
-
-
-def pandas_csv_text(df: pd.DataFrame, float_format: str = RESULT_FORMAT) -> str:
-    """pandas' CSV of a table, the reference of the vectorised writer."""
+def csv_text(df: pd.DataFrame, float_format: str | None = None) -> str:
+    """A table as CSV text (no index, LF line ends): with `float_format` (e.g. "%.4f") as
+    pandas prints it, for presentation tables; without, every number as computed
+    (csv_chunks)."""
+    if float_format is None:
+        return b"".join(csv_chunks(df)).decode("utf-8")
     buf = io.StringIO()
     df.to_csv(buf, index=False, float_format=float_format, lineterminator="\n")
     return buf.getvalue()
 
 
-def write_csv(path: str | Path, df: pd.DataFrame, float_format: str = RESULT_FORMAT,
-              fast: bool | None = None) -> None:
-    """Write a table as CSV (csv_text's bytes) atomically, in chunks of rows; `fast` forces
-    (True, where possible) or avoids (False) the vectorised writer (None: from FAST_ROWS
-    rows on)."""
+def write_csv(path: str | Path, df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS) -> None:
+    """Write a result table as CSV (csv_chunks' bytes) atomically, chunk by chunk."""
     from baarda.output.atomic import atomic_open
 
-    chunks = _csv_bytes(df, float_format, fast)
+    chunks = csv_chunks(df, chunk_rows)
     with atomic_open(path, "wb") as f:
         for chunk in chunks:
             f.write(chunk)
@@ -78,32 +61,6 @@ def write_parquet(path: str | Path, df: pd.DataFrame) -> None:
         pq.write_table(table, f, compression="zstd", row_group_size=1 << 20)
 
 
-def _precision(float_format: str) -> int | None:
-    m = _G_FORMAT.fullmatch(float_format)
-    p = int(m.group(1)) if m else 0
-    return p if 1 <= p <= 12 else None
-
-
-def _column_kind(s: pd.Series) -> str | None:
-    dt = s.dtype
-    if dt == np.float64:
-        return "float"
-    if dt == np.bool_:
-        return "bool"
-    if isinstance(dt, np.dtype) and dt.kind in "iu":
-        return "int"
-    if isinstance(dt, pd.StringDtype) or dt == np.dtype(object):
-        return "text"
-    return None
-
-
-def fast_csv_possible(df: pd.DataFrame, float_format: str = RESULT_FORMAT) -> bool:
-    """Whether the vectorised writer takes this table (module docstring)."""
-    return (len(df) > 0 and df.shape[1] > 1 and _precision(float_format) is not None
-            and df.columns.is_unique
-            and all(_column_kind(df.iloc[:, j]) is not None for j in range(df.shape[1])))
-
-
 def _csv_row(values: list[str]) -> str:
     """One row as the csv module writes it (QUOTE_MINIMAL, LF line end)."""
     buf = io.StringIO()
@@ -111,132 +68,81 @@ def _csv_row(values: list[str]) -> str:
     return buf.getvalue()
 
 
-def _quoted(value: str) -> str:
-    """A cell as the csv module writes it (QUOTE_MINIMAL)."""
-    return _csv_row([value, ""])[:-2]
+def _quoted_text(arr):
+    """A string array with the cells that need it quoted as the csv module quotes them
+    (a delimiter, a quote or a line break inside: enclosed in quotes, quotes doubled)."""
+    import pyarrow.compute as pc
+
+    special = pc.match_substring_regex(arr, '[,"\r\n]')
+    if not pc.any(special).as_py():
+        return arr
+    doubled = pc.replace_substring(arr, '"', '""')
+    enclosed = pc.binary_join_element_wise('"', doubled, '"', "")
+    return pc.if_else(special, enclosed, arr)
 
 
-class _TextColumn:
-    """A text, bool or integer column's cells for the vectorised writer: `cells(r0, r1)`
-    gives the bytes, starts and lengths of rows r0..r1 (empty for missing values, quoted as
-    the csv module quotes)."""
+def cells(s: pd.Series):
+    """The CSV cells of one column as a pyarrow string array (module docstring)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
 
-    def __init__(self, s: pd.Series):
-        import pyarrow as pa
-        import pyarrow.compute as pc
-
-        from baarda.output.csv_kernels import any_byte
-
-        kind = _column_kind(s)
-        self.flags = None
-        if kind == "bool":
-            self.flags = s.to_numpy()
-            return
-        if kind == "int":
-            self.arr = pc.cast(pa.array(s.to_numpy()), pa.string())
-            return
+    dt = s.dtype
+    if dt == np.float64 or dt == np.float32:
+        arr = pa.array(s.to_numpy(np.float64), from_pandas=True)  # NaN: null (empty)
+    elif dt == np.bool_:
+        return pc.if_else(pa.array(s.to_numpy()), "True", "False")
+    else:
         try:
             arr = pa.array(s, from_pandas=True)
-        except (pa.ArrowInvalid, pa.ArrowTypeError):
-            arr = None
+        except (pa.ArrowInvalid, pa.ArrowTypeError):  # objects of mixed types
+            arr = pa.array([None if v is None or (isinstance(v, float) and v != v) else str(v)
+                            for v in s], pa.string())
         if isinstance(arr, pa.ChunkedArray):
             arr = arr.combine_chunks()
-        if arr is not None and pa.types.is_null(arr.type):  # nothing but missing values
-            arr = pa.nulls(len(arr), pa.string())
-        if arr is None or not (pa.types.is_string(arr.type)
-                               or pa.types.is_large_string(arr.type)):
-            raise TypeError("not a text column")
-        if arr.null_count:
-            arr = pc.fill_null(arr, "")
-        data, _ = _buffers(arr)
-        if any_byte(data, np.frombuffer(_SPECIAL.strip("[]").encode(), np.uint8)):
-            special = pc.match_substring_regex(arr, _SPECIAL).to_numpy(zero_copy_only=False)
-            vals = arr.to_pylist()
-            for i in np.flatnonzero(special):
-                vals[i] = _quoted(vals[i])
-            arr = pa.array(vals, type=pa.string())
-        self.arr = arr
-
-    def cells(self, r0: int, r1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if self.flags is not None:
-            f = self.flags[r0:r1]
-            return _BOOL_TEXT, np.where(f, 5, 0), np.where(f, 4, 5)
-        data, offs = _buffers(self.arr)
-        o = offs[r0: r1 + 1].astype(np.int64)
-        return data[o[0]: o[-1]], o[:-1] - o[0], np.diff(o)
+        if pa.types.is_dictionary(arr.type):
+            arr = arr.dictionary_decode()
+    t = arr.type
+    if pa.types.is_boolean(t):
+        arr = pc.if_else(arr, "True", "False")
+    elif pa.types.is_null(t):
+        arr = pa.nulls(len(arr), pa.string())
+    elif not (pa.types.is_string(t) or pa.types.is_large_string(t)):
+        arr = pc.cast(arr, pa.string())  # floats: shortest round trip; integers: decimal
+    else:
+        arr = _quoted_text(arr.cast(pa.string()))
+    return pc.fill_null(arr, "")
 
 
-_BOOL_TEXT = np.frombuffer(b"FalseTrue", np.uint8)
+def csv_chunks(df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS) -> Iterator[bytes]:
+    """The CSV bytes of a result table: the header, then `chunk_rows` rows at a time."""
+    yield _csv_row([str(c) for c in df.columns]).encode("utf-8")
+    if df.shape[1] == 0 or len(df) == 0:
+        return
+    import pyarrow.compute as pc
+
+    series = [df.iloc[:, j] for j in range(df.shape[1])]
+    if len(df) >= THREAD_ROWS and len(series) > 1:
+        with ThreadPoolExecutor(min(len(series), os.cpu_count() or 1)) as pool:
+            columns = list(pool.map(cells, series))
+    else:
+        columns = [cells(s) for s in series]
+    if len(columns) == 1:  # a row of one empty cell is written "" (not a blank line)
+        columns[0] = pc.if_else(pc.equal(columns[0], ""), '""', columns[0])
+    for r0 in range(0, len(df), chunk_rows):
+        parts = [c.slice(r0, chunk_rows) for c in columns]
+        rows = parts[0] if len(parts) == 1 else pc.binary_join_element_wise(*parts, ",")
+        lines = pc.binary_join_element_wise(rows, "", "\n")  # each row with its line end
+        yield _data(lines)
 
 
-def _buffers(arr) -> tuple[np.ndarray, np.ndarray]:
-    """data (uint8) and offsets of a pyarrow string array (without a slice offset)."""
+def _data(arr) -> bytes:
+    """The characters of a pyarrow string array, one after another."""
     import pyarrow as pa
 
     _, offs, data = arr.buffers()
     width = np.int64 if pa.types.is_large_string(arr.type) else np.int32
     o = np.frombuffer(offs, width)[arr.offset: arr.offset + len(arr) + 1]
-    d = np.frombuffer(data, np.uint8) if data is not None else np.zeros(0, np.uint8)
-    return d, o
-
-
-CELL = 24  # bytes of a formatted float cell (%.12g needs at most 19)
-
-
-def csv_chunks(df: pd.DataFrame, float_format: str = RESULT_FORMAT,
-               chunk_rows: int = CHUNK_ROWS) -> Iterator[bytes]:
-    """The CSV bytes of a table (fast_csv_possible), the header first, then chunk_rows rows
-    at a time; TypeError (before any bytes) for a column of objects that are not all text."""
-    precision = _precision(float_format)
-    assert precision is not None
-    tol = max(1e-6, 100.0 * 10.0**precision * 2.0**-53)
-    cols = [df.iloc[:, j] for j in range(df.shape[1])]
-    kinds = np.array([0 if _column_kind(s) == "float" else 1 for s in cols], np.int8)
-    index = np.zeros(len(cols), np.int32)
-    index[kinds == 0] = np.arange(int(np.sum(kinds == 0)))
-    index[kinds == 1] = np.arange(int(np.sum(kinds == 1)))
-    floats = [s.to_numpy(np.float64) for s, k in zip(cols, kinds, strict=True) if k == 0]
-    texts = [_TextColumn(s) for s, k in zip(cols, kinds, strict=True) if k == 1]
-    return _chunks(df, float_format, chunk_rows, precision, tol, kinds, index, floats, texts)
-
-
-def _chunks(df, float_format, chunk_rows, precision, tol, kinds, index, floats, texts):
-    from baarda.output import csv_kernels as ck
-
-    cols = df.columns
-    yield _csv_row([str(c) for c in cols]).encode("utf-8")  # the header
-    n = len(df)
-    nf, nt = len(floats), len(texts)
-    for r0 in range(0, n, chunk_rows):
-        r1 = min(n, r0 + chunk_rows)
-        m = r1 - r0
-        fv = np.empty((m, nf))
-        for j, v in enumerate(floats):
-            fv[:, j] = v[r0:r1]
-        cells = np.empty((m, nf, CELL), np.uint8)
-        lengths = np.empty((m, nf), np.int64)
-        ck.format_floats(fv, precision, tol, cells, lengths)
-        for i, j in zip(*np.nonzero(lengths < 0), strict=True):
-            text = (float_format % fv[i, j]).encode("ascii")
-            cells[i, j, :len(text)] = np.frombuffer(text, np.uint8)
-            lengths[i, j] = len(text)
-        cell_start = np.empty((nt, m), np.int64)
-        cell_len = np.empty((nt, m), np.int64)
-        datas, base = [], 0
-        for j, col in enumerate(texts):
-            d, st, ln = col.cells(r0, r1)
-            datas.append(d)
-            cell_start[j] = st + base
-            cell_len[j] = ln
-            base += len(d)
-        pool = np.concatenate(datas) if datas else np.zeros(0, np.uint8)
-        row_len = lengths.sum(axis=1) + cell_len.sum(axis=0) + len(cols)
-        row_start = np.zeros(m + 1, np.int64)
-        np.cumsum(row_len, out=row_start[1:])
-        out = np.empty(int(row_start[-1]), np.uint8)
-        ck.assemble_rows(kinds, index, cells, lengths, cell_start, cell_len, pool, row_start,
-                         out)
-        yield out.data
+    return b"" if data is None else memoryview(data)[int(o[0]): int(o[-1])].tobytes()
 
 
 def json_default(o):

@@ -70,6 +70,17 @@ class AdjustedModel(ABC):
         model coordinates XY and Z)."""
         return kind_groups(self.kind, self.component)
 
+    @property
+    def converged(self) -> bool:
+        """Whether the adjustment reached its least-squares solution (a linear model always
+        does; an iterated one says so)."""
+        return True
+
+    @property
+    def convergence_note(self) -> str:
+        """Why the adjustment did not converge, in words ("" when it did)."""
+        return ""
+
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> AdjustedModel:
         """The same observations adjusted again with only the `active` components, weights
         p_i * factors_i (None: a-priori weights); a new model, this one is unchanged.

@@ -214,6 +214,7 @@ class Assessment:
             "rejection_log": [] if self.run is None else
             [self._log_entry(s) for s in self.run.log],
             "snooping_converged": None if self.run is None else self.run.converged,
+            "snooping_incomplete": (self.run.incomplete or None) if self.run else None,
             "hypotheses": [{"name": t.name, "q": t.q, "statistic": t.statistic,
                             "critical": t.critical, "rejected": t.rejected,
                             "nabla": np.atleast_1d(t.nabla).tolist()} for t in self.hypotheses],

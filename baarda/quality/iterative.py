@@ -3,6 +3,12 @@
 Rejected components stay in the observation vector as predicted residuals and are tested
 at every iteration; one that is no longer significant comes back (once).  Rejection by
 component or by group (both coordinates of an image point).
+
+Every re-adjustment is checked: when removing a component leaves the block undetermined
+(a datum defect, a point or photo without enough observations) or makes the adjustment
+diverge, that removal is not taken: the component stays in, the log says so ("kept") and
+why, and snooping goes on from the last sound adjustment with the next candidate.  A run
+that reaches its step limit says how many components are still significant.
 """
 
 from __future__ import annotations
@@ -26,12 +32,13 @@ class SnoopingStep:
 
     iteration: int
     sigma0: float
-    action: str  # "reject" or "restore"
+    action: str  # "reject", "restore", or "kept" (its removal was refused: `reason`)
     rows: list[int]
     labels: list[str]
     value: float
     mdb: float
     statistic: str = "w"
+    reason: str = ""  # why a removal (or restoration) was not taken
 
     @property
     def w(self) -> float:  # the name of the value before tau and robust starts were logged
@@ -40,13 +47,14 @@ class SnoopingStep:
     def to_dict(self) -> dict:
         return {"iteration": self.iteration, "sigma0": self.sigma0, "action": self.action,
                 "observations": self.labels, "statistic": self.statistic,
-                "value": self.value, "mdb": self.mdb}
+                "value": self.value, "mdb": self.mdb,
+                **({"reason": self.reason} if self.reason else {})}
 
     def line(self) -> str:
         by = (f"{self.statistic} = {self.value:.2f}" if self.statistic in ("w", "tau") else
               f"by the {self.statistic} (w = {self.value:.2f})")
         return (f"  {self.iteration:3d} {self.action:7s} {'; '.join(self.labels)}  {by}  "
-                f"sigma0 {self.sigma0:.3f}")
+                f"sigma0 {self.sigma0:.3f}" + (f": {self.reason}" if self.reason else ""))
 
 
 @dataclass(frozen=True)
@@ -57,20 +65,39 @@ class SnoopingRun:
     log: list[SnoopingStep] = field(default_factory=list)
     converged: bool = True
     statistic: str = "w"
+    remaining: int = 0  # components still significant when the step limit stopped it
 
     @property
     def rejected(self) -> np.ndarray:
         return ~self.active
 
+    @property
+    def refused(self) -> list[SnoopingStep]:
+        """The removals (and restorations) that were not taken, with their reasons."""
+        return [s for s in self.log if s.action == "kept"]
+
+    @property
+    def incomplete(self) -> str:
+        """'' when snooping ended by itself, else what is left, in words."""
+        if self.converged:
+            return ""
+        steps = sum(s.iteration > 0 and s.action != "kept" for s in self.log)
+        return (f"snooping incomplete: {self.remaining} component(s) still significant when "
+                f"it stopped at its limit of {steps} step(s); the last adjustment is reported")
+
     def summary_lines(self) -> list[str]:
         """The snooping log for people: one line per step."""
         before = [s for s in self.log if s.iteration == 0]
-        steps = len(self.log) - len(before)
+        steps = sum(s.iteration > 0 and s.action != "kept" for s in self.log)
+        kept = len(self.refused)
         test = ("Baarda's w (sigma0 a priori)" if self.statistic == "w" else
                 f"Pope's tau (sigma0 a posteriori), critical |tau| {self.quality.k_tau:.3f}")
-        lines = [f"data snooping with {test}: " + (
+        lines = [self.incomplete.upper()] if self.incomplete else []
+        lines += [f"data snooping with {test}: " + (
             f"{len(before)} rejected by the {before[0].statistic} first, " if before else "")
-            + f"{steps} step(s), {int(np.sum(~self.active))} rejected in the end"]
+            + f"{steps} step(s), {int(np.sum(~self.active))} rejected in the end"
+            + (f"; {kept} removal(s) refused (the adjustment without them would fail)"
+               if kept else "")]
         lines += [s.line() for s in self.log]
         return lines
 
@@ -108,6 +135,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
         model = model.refit(active, model.factors)
     restored: set[int] = set()
     needed = np.zeros(len(active), bool)  # cannot be rejected: the block needs them
+    kept_why: dict[int, str] = {}
     log: list[SnoopingStep] = []
     for it in range(1, max_iterations + 1):
         q = analyse(model, tests)
@@ -119,7 +147,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                                  float(q.w[i]), float(q.mdb[i]), started_by)
                     for i in started]
         q.notes.extend(f"{label(model, i)}: |{statistic}| = {mag[i]:.2f} is significant but it "
-                       "cannot be rejected: the block would be undetermined without it"
+                       f"cannot be tested by removing it: {kept_why[int(i)]}"
                        for i in np.flatnonzero(needed & (mag > crit)))
         cand = np.flatnonzero(active & ~needed & q.controlled & (mag > crit))
         while len(cand):
@@ -129,22 +157,19 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                 rows = list(np.flatnonzero(model.group == model.group[i]))
             trial = active.copy()
             trial[rows] = False
-            try:
-                new = model.refit(trial, model.factors)
-            except GeometryError as err:
-                # without it the block is undetermined (datum, a point or a photo): keep
-                # those components, say so, and go on with the next candidate
+            new, why = _refit(model, trial)
+            step = SnoopingStep(it, q.sigma0_hat, "kept" if why else "reject", rows,
+                                [label(model, r) for r in rows], float(stat[i]),
+                                float(q.mdb[i]), statistic, why)
+            log.append(step)
+            if why:
+                # without it the block is undetermined or the adjustment fails: keep those
+                # components, say so, and go on with the next candidate
                 needed[rows] = True
-                say(f"snooping {it}: {label(model, i)} kept: without it {err}")
-                q.notes.append(f"{label(model, i)}: |{statistic}| = {mag[i]:.2f} is "
-                               "significant but it cannot be rejected: the block would be "
-                               "undetermined without it")
+                kept_why.update((int(r), why) for r in rows)
+                say(f"snooping {it}: {step.labels[0]} kept: {why}")
                 cand = cand[~np.isin(cand, rows)]
                 continue
-            step = SnoopingStep(it, q.sigma0_hat, "reject", rows,
-                                [label(model, r) for r in rows], float(stat[i]),
-                                float(q.mdb[i]), statistic)
-            log.append(step)
             say(f"snooping {it}: sigma0 {q.sigma0_hat:.3f}, reject {step.labels[0]}"
                 f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}")
             active, model = trial, new
@@ -161,13 +186,34 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                         if not active[r]]
                 if np.any(mag[rows] >= crit):
                     rows = [i]
-            active = active.copy()
-            active[rows] = True
+            trial = active.copy()
+            trial[rows] = True
             restored.update(int(r) for r in rows)
-            log.append(SnoopingStep(it, q.sigma0_hat, "restore", rows,
+            new, why = _refit(model, trial)
+            log.append(SnoopingStep(it, q.sigma0_hat, "kept" if why else "restore", rows,
                                     [label(model, r) for r in rows], float(stat[i]),
-                                    float(q.mdb[i]), statistic))
+                                    float(q.mdb[i]), statistic,
+                                    f"not restored: {why}" if why else ""))
+            if why:
+                say(f"snooping {it}: {label(model, i)} not restored: {why}")
+                continue
             say(f"snooping {it}: restore {label(model, i)}: {statistic} = {stat[i]:.2f}")
-            model = model.refit(active, model.factors)
+            active, model = trial, new
     q = analyse(model, tests)
-    return SnoopingRun(model, q, active, log, False, statistic)
+    stat = q.w if statistic == "w" else q.tau
+    crit = q.k_w if statistic == "w" else q.k_tau
+    left = active & ~needed & q.controlled & (np.abs(np.nan_to_num(stat)) > crit)
+    return SnoopingRun(model, q, active, log, False, statistic, int(np.sum(left)))
+
+
+def _refit(model: AdjustedModel, active: np.ndarray) -> tuple[AdjustedModel | None, str]:
+    """(the model adjusted again with `active`, ''), or (None, why it cannot be): the block
+    would be undetermined, or the adjustment does not converge."""
+    try:
+        new = model.refit(active, model.factors)
+    except GeometryError as err:
+        return None, f"without it {err}"
+    if not new.converged:
+        return None, ("the adjustment without it does not converge ("
+                      f"{new.convergence_note})")
+    return new, ""

@@ -22,7 +22,13 @@ else kind (and component for control).
 Weak groups: a group with r_k < MIN_REDUNDANCY is reported, not estimated (its estimate
 could collapse to zero).  With `pool` (iterate's default), control (and GNSS) axes too weak
 alone are estimated together: X and Y as planimetry XY when Z stands alone, else X, Y and
-Z as one group (`pooling_plan`); the plan is fixed by the first estimate.
+Z as one group (`pooling_plan`).  One rule, fixed by the first estimate (the adjustment
+with the starting weights) and reported as applied: the pooling plan, and which groups are
+estimated (r_k >= MIN_REDUNDANCY then).  A group not estimated then keeps its starting
+weights in every iteration, even when re-weighting the others gives it more redundancy
+later.  An estimated group whose r_k falls below MIN_REDUNDANCY in a later iteration is
+frozen: its factor stays the product of the factors of the iterations before, and the
+report says at which iteration (`VarianceComponent.frozen_at`).
 
 Snooping with estimated sigmas (`alternate`): estimation and snooping in turn until the
 rejections settle, then `challenge`: an observation is also tested against its group's
@@ -33,7 +39,7 @@ hide behind it; in a small group one such error can double the estimate).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -65,9 +71,11 @@ class VarianceComponent:
     factor_std: float
     p_value: float
     rejected: bool
-    estimated: float = float("nan")  # the iterated factor (--vce), relative to a priori
+    estimated: float = float("nan")  # the iterated variance factor (--vce), sigma^2 ratio
     members: tuple[str, ...] = ()  # a pooled group: the groups estimated together
     pooled_into: str = ""  # a group too weak alone: the pooled group that estimates it
+    frozen_at: int = 0  # iteration at which r_k fell below MIN_REDUNDANCY (0: never)
+    frozen_redundancy: float = float("nan")  # its r_k then
 
     @property
     def sigma_estimated(self) -> float:
@@ -78,8 +86,13 @@ class VarianceComponent:
         return {"group": self.group, "n": self.n, "sigma_apriori": self.sigma_apriori,
                 "redundancy": self.redundancy, "vtpv": self.vtpv, "factor": _num(self.factor),
                 "factor_std": _num(self.factor_std), "p_value": _num(self.p_value),
-                "rejected": bool(self.rejected), "estimated_factor": _num(self.estimated),
+                "rejected": bool(self.rejected),
+                "estimated_variance_factor": _num(self.estimated),
+                "estimated_sigma_factor": _num(float(np.sqrt(self.estimated))
+                                               if self.estimated >= 0 else float("nan")),
                 "sigma_estimated": _num(self.sigma_estimated),
+                **({"frozen_at_iteration": self.frozen_at,
+                    "frozen_redundancy": self.frozen_redundancy} if self.frozen_at else {}),
                 **({"members": list(self.members)} if self.members else {}),
                 **({"pooled_into": self.pooled_into} if self.pooled_into else {})}
 
@@ -118,6 +131,10 @@ class VarianceComponent:
         if np.isfinite(self.estimated):
             out += (f"; iterated sigma^2 {self.estimated:.4f}: sigma x "
                     f"{np.sqrt(self.estimated):.4f} = {self.sigma_estimated * scale:.4g} {unit}")
+        if self.frozen_at:
+            out += (f" (frozen at iteration {self.frozen_at}: its redundancy fell to "
+                    f"{self.frozen_redundancy:.2f} < {MIN_REDUNDANCY:g}; the factor of the "
+                    "iterations before is kept)")
         return out.replace("  ", " ").rstrip()
 
     def summary(self, scale: float = 1.0, unit: str = "") -> str:
@@ -204,6 +221,7 @@ class VarianceEstimation:
     log: list[str]
     converged: bool
     cofactors: tuple[np.ndarray, np.ndarray] | None = None  # (q_vv, r) of `model`
+    frozen: dict[str, tuple[int, float]] = field(default_factory=dict)  # (iteration, r_k)
 
     @property
     def plan(self) -> dict[str, tuple[str, ...]]:
@@ -219,7 +237,11 @@ class VarianceEstimation:
             name = c.pooled_into or c.group
             return self.group_factor.get(name, nan)
 
-        return tuple(replace(c, estimated=est(c)) for c in self.first)
+        def frozen(c):
+            at, r = self.frozen.get(c.group, (0, nan))
+            return {"frozen_at": at, "frozen_redundancy": r}
+
+        return tuple(replace(c, estimated=est(c), **frozen(c)) for c in self.first)
 
 
 def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
@@ -234,30 +256,35 @@ def iterate(model, alpha: float = ALPHA, tolerance: float = TOLERANCE,
     cof = cofactors(model)
     first = estimate(model, alpha, pool=pool, plan=plan, redundancy_numbers=cof[1])
     plan = {c.group: c.members for c in first if c.members}
-    cumulative: dict[str, float] = {}
+    estimated = {c.group for c in first if c.reweights}  # fixed by the first estimate
+    frozen: dict[str, tuple[int, float]] = {}  # group -> (iteration, its r_k then)
+    cumulative: dict[str, float] = {g: 1.0 for g in estimated}
     log = []
     comps = first
     converged = False
     for it in range(1, max_iterations + 1):
-        worst = max((abs(c.factor - 1) for c in comps if c.reweights), default=0.0)
+        for c in comps:
+            if c.group in estimated and c.group not in frozen and not c.reweights:
+                frozen[c.group] = (it, c.redundancy)
+        live = [c for c in comps if c.group in estimated and c.group not in frozen]
+        worst = max((abs(c.factor - 1) for c in live), default=0.0)
         log.append(f"iteration {it}: " + ", ".join(
-            f"{c.group} {c.factor:.4f}" for c in comps if not c.pooled_into))
+            f"{c.group} {c.factor:.4f}" + (" (held)" if c not in live else "")
+            for c in comps if not c.pooled_into))
         if progress:
             progress("variance components " + log[-1])
         if worst < tolerance:
             converged = True
             break
-        for c in comps:
-            if c.reweights and c.factor > 0:
+        for c in live:
+            if c.factor > 0:
                 factors[np.isin(groups, c.groups)] /= c.factor
-                cumulative[c.group] = cumulative.get(c.group, 1.0) * c.factor
+                cumulative[c.group] *= c.factor
         model = model.refit(np.asarray(model.active, bool), factors)
         cof = cofactors(model)
         comps = estimate(model, alpha, plan=plan, redundancy_numbers=cof[1])
-    for c in comps:  # estimated groups whose first factor was one within the tolerance
-        if c.reweights:
-            cumulative.setdefault(c.group, 1.0)
-    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged, cof)
+    return VarianceEstimation(model, factors, first, comps, cumulative, log, converged, cof,
+                              frozen)
 
 
 def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TESTS,

@@ -120,10 +120,28 @@ def format_log(summary: dict) -> str:
         test, value = log_test(s)
         lines.append(f"{s.get('iteration', ''):>4}  {s.get('action', ''):<8}"
                      f"{s.get('sigma0', np.nan):8.3f}{test:>6}{value:8.2f}"
-                     f"{mdb:>10} {unit:<3} {obs}")
-    if summary.get("snooping_converged") is False:
+                     f"{mdb:>10} {unit:<3} {obs}"
+                     + (f"\n{'':>14}{s['reason']}" if s.get("reason") else ""))
+    if summary.get("snooping_incomplete"):
+        lines.append(str(summary["snooping_incomplete"]))
+    elif summary.get("snooping_converged") is False:
         lines.append("snooping did NOT converge (iteration limit)")
     return "\n".join(lines)
+
+
+def log_rows(summary: dict) -> list[dict]:
+    """The snooping log of summary.json as table rows (step, action, observation with the
+    reason of a refused removal, test, value, MDB, sigma0 before) for the reports."""
+    rows = []
+    for s in summary.get("rejection_log") or []:
+        mdb, unit = log_mdb(s)
+        test, value = log_test(s)
+        rows.append({"step": s.get("iteration"), "action": s.get("action"),
+                     "observation": "; ".join(s.get("observations", []))
+                     + (f" ({s['reason']})" if s.get("reason") else ""),
+                     "test": test, "value": value, "MDB": f"{mdb} {unit}",
+                     "sigma0 before": s.get("sigma0", np.nan)})
+    return rows
 
 
 def log_test(step: dict) -> tuple[str, float]:

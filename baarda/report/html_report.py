@@ -13,7 +13,7 @@ import pandas as pd
 
 from baarda.output.result_folder import UNITS, Results
 from baarda.report import maps
-from baarda.report.anaplot import format_log, log_mdb, log_test, snooping_table
+from baarda.report.anaplot import format_log, log_rows, snooping_table
 from baarda.report.footprint import footprints, image_extent
 from baarda.report.histogram import format_histogram
 from baarda.report.html_base import CSS, esc, figure, num, table
@@ -29,7 +29,7 @@ from baarda.report.stats import (
     per_strip,
     weakest,
 )
-from baarda.report.text_report import NOT_CONVERGED, ReportOptions, image_histograms, w_hists
+from baarda.report.text_report import ReportOptions, image_histograms, w_hists
 
 SCRIPT = """
 <script>
@@ -70,16 +70,10 @@ def _log_table(summary: dict) -> str:
     log = summary.get("rejection_log") or []
     if not log:
         return f"<p>{esc(format_log(summary))}</p>"
-    rows = []
-    for s in log:
-        mdb, unit = log_mdb(s)
-        test, value = log_test(s)
-        rows.append({"step": s.get("iteration"), "action": s.get("action"),
-                     "observation": "; ".join(s.get("observations", [])),
-                     "test": test, "value": value, "MDB": f"{mdb} {unit}",
-                     "sigma0 before": s.get("sigma0", np.nan)})
-    conv = summary.get("snooping_converged")
-    tail = "" if conv is not False else '<p class="bad">snooping did not converge</p>'
+    rows = log_rows(summary)
+    incomplete = summary.get("snooping_incomplete") or (
+        "snooping did not converge" if summary.get("snooping_converged") is False else "")
+    tail = f'<p class="bad">{esc(incomplete)}</p>' if incomplete else ""
     return table(pd.DataFrame(rows), {"value": ".2f", "sigma0 before": ".3f"},
                  text_cols=("action", "test", "observation"), attrs='id="snooping-log"') + tail
 
@@ -157,7 +151,7 @@ def _variance_components(summary: dict) -> pd.DataFrame | None:
     if not rows:
         return None
     cols = ["adjustment", "group", "n", "redundancy", "sigma_apriori", "factor", "factor_std",
-            "p_value", "rejected", "estimated_factor", "sigma_estimated", "pooled_into"]
+            "p_value", "rejected", "estimated_variance_factor", "sigma_estimated", "pooled_into"]
     t = pd.DataFrame(rows).reindex(columns=cols)
     t["pooled_into"] = t["pooled_into"].fillna("")
     return t if len(parts) > 1 else t.drop(columns="adjustment")
@@ -187,11 +181,13 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     if vc is not None:
         sec.append(("vce", "Variance components per group", table(
             vc, {"redundancy": ".2f", "sigma_apriori": ".4g", "factor": ".4f",
-                 "factor_std": ".4f", "p_value": ".3g", "estimated_factor": ".4f",
+                 "factor_std": ".4f", "p_value": ".3g", "estimated_variance_factor": ".4f",
                  "sigma_estimated": ".4g"}, text_cols=("adjustment", "group", "pooled_into"))
-            + "<p>Foerstner's estimate sigma_k^2 = v'Pv / r_k per group, its test against one "
-              "(5 %); a group with r_k &lt; 5 is not estimated by itself (control axes are then "
-              "estimated together, pooled_into); sigmas in mm (image, model coordinates), m "
+            + "<p>Foerstner's estimate sigma_k^2 = v'Pv / r_k per group (factor: a ratio of "
+              "variances; the sigmas scale by its square root), its test against one "
+              "(5 %); a group with r_k &lt; 5 in the first estimate is not estimated by itself "
+              "(control axes are then estimated together, pooled_into) and keeps its a-priori "
+              "sigma throughout; sigmas in mm (image, model coordinates), m "
               "(control, GNSS), rad (IMU); the tests and snooping used the estimated "
               "sigmas.</p>"))
     sec.append(("log", "Data snooping log", _log_table(res.summary)))
@@ -230,7 +226,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     sec.append(("table", "Snooping table (ANAPLOT)", _snoop_table(res, opt)))
     nav = "".join(f'<a href="#{k}">{esc(t.split(" (")[0])}</a>' for k, t, _ in sec)
     main = "".join(f'<section id="{k}"><h2>{esc(t)}</h2>{b}</section>' for k, t, b in sec)
-    warn = "" if res.converged else f'<p class="bad">{esc(NOT_CONVERGED)}</p>'
+    warn = "".join(f'<p class="bad">{esc(f)}</p>' for f in res.failures)
     head = (f"<header><h1>Adjustment report: {esc(res.title)}</h1>{warn}<p>{esc(res.folder)} · "
             + (f"run {esc(res.run)} · " if res.run else "") +
             f"global test {'n/a' if passed is None else 'accepted' if passed else 'REJECTED'} · "

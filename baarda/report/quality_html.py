@@ -57,7 +57,9 @@ def parts_html(parts: list[Part], figures: bool = True) -> str:
     page); without (the main report), a correlation matrix is coloured like its heat map."""
     out = []
     for p in parts:
-        if p.kind == "heading":
+        if p.kind == "alert":
+            out.append(f'<p class="bad">{esc(p.text)}</p>')
+        elif p.kind == "heading":
             out.append(f"<h3>{esc(p.title)}</h3>")
         elif p.kind == "text":
             out.append("<p>" + "<br>".join(esc(x) for x in p.text.split("\n")) + "</p>")

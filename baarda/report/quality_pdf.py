@@ -56,21 +56,25 @@ def write_quality_pdf(res: Results, path: str | Path, parts: list[Part] | None =
             fig.text(0.5, 0.01, f"page {pages}", ha="center", fontsize=7, color="#555")
             y = 0.96
 
-        def line(text: str, size: float = 7.0, mono: bool = False, bold: bool = False):
+        def line(text: str, size: float = 7.0, mono: bool = False, bold: bool = False,
+                 color: str = "black"):
             nonlocal y
             step = size / 72 / A4[1] * 1.35
             if y - step < 0.03:
                 new_page()
             fig.text(0.05, y, text, fontsize=size, va="top",
                      family="monospace" if mono else "sans-serif",
-                     weight="bold" if bold else "normal")
+                     weight="bold" if bold else "normal", color=color)
             y -= step
 
         new_page()
         import textwrap
 
         for p in parts:
-            if p.kind == "heading":
+            if p.kind == "alert":
+                for w in textwrap.wrap(p.text, 100):
+                    line(w, 9, bold=True, color="#b00000")
+            elif p.kind == "heading":
                 if y < 0.2:
                     new_page()
                 y -= 0.01

@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from baarda.output.result_folder import Results  # noqa: E402
-from baarda.report.anaplot import log_mdb, log_test  # noqa: E402
+from baarda.report.anaplot import log_rows  # noqa: E402
 from baarda.report.stats import pair_xy  # noqa: E402
 
 WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
@@ -32,7 +32,7 @@ WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTM
 
 @dataclass
 class Part:
-    kind: str  # "heading", "text", "table", "figure"
+    kind: str  # "alert" (why the run is no result), "heading", "text", "table", "figure"
     title: str = ""
     text: str = ""
     table: pd.DataFrame | None = None
@@ -257,13 +257,7 @@ def snooping_parts(res: Results) -> list[Part]:
     if not log:
         return parts + [Part("text", text="No data snooping in this run (baarda adjust "
                              "--snoop), or nothing rejected.")]
-    rows = []
-    for s in log:
-        mdb, unit = log_mdb(s)
-        test, value = log_test(s)
-        rows.append({"step": s.get("iteration"), "action": s.get("action"),
-                     "observation": "; ".join(s.get("observations", [])), "test": test,
-                     "value": value, "MDB": f"{mdb} {unit}"})
+    rows = [{k: v for k, v in r.items() if k != "sigma0 before"} for r in log_rows(res.summary)]
     return parts + [Part("table", "snooping log", table=pd.DataFrame(rows),
                          fmt={"value": ".2f"})]
 
@@ -294,7 +288,8 @@ def summary_parts(res: Results) -> list[Part]:
     lines += res.global_test_lines()
     crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
     lines += crs[:1]
-    return [Part("heading", "Summary"), Part("text", text="\n".join(lines))]
+    return ([Part("alert", text=f) for f in res.failures]
+            + [Part("heading", "Summary"), Part("text", text="\n".join(lines))])
 
 
 def calibration_parts(res: Results) -> list[Part]:

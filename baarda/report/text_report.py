@@ -34,10 +34,6 @@ from baarda.report.stats import (
 )
 from baarda.sections import render
 
-NOT_CONVERGED = ("NOT CONVERGED: the adjustment stopped before its corrections became "
-                 "negligible; the coordinates, residuals and tests in this report are not a "
-                 "least-squares solution")
-
 if TYPE_CHECKING:
     from baarda.report.residual_readers import ResidualSet
 
@@ -122,8 +118,7 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     opt = opt or ReportOptions()
     obs = res.obs
     out = ["BAARDA ADJUSTMENT REPORT", "=" * 78]
-    if not res.converged:
-        out.append(NOT_CONVERGED)
+    out += res.failures
     if res.run:
         out.append(f"run {res.run}")
     out += summary_lines(res)

@@ -116,7 +116,7 @@ def test_command_line_equals_api(tmp_path):
         want = [c.to_dict() for c in part.variance_components]
         assert [g["group"] for g in got] == [w["group"] for w in want]
         for g, w in zip(got, want, strict=True):
-            for key in ("redundancy", "vtpv", "factor", "estimated_factor"):
+            for key in ("redundancy", "vtpv", "factor", "estimated_variance_factor"):
                 assert (g[key] is None and w[key] is None) or g[key] == pytest.approx(
                     w[key], rel=1e-12), (g["group"], key)
     assert {"2d", "height"} <= set(doc["adjustments"])

@@ -1,6 +1,9 @@
-"""The vectorised CSV writer prints every table byte for byte as pandas' to_csv does, and
-the Parquet observation table holds the same numbers (issue 16)."""
+"""Result tables keep every number as computed (issue 26): each float cell reads back to the
+same double, text is quoted as the csv module quotes it, and the Parquet observation table
+holds the same numbers."""
 
+import csv
+import io
 import json
 
 import numpy as np
@@ -10,7 +13,7 @@ import pytest
 from baarda.output import tables
 from baarda.output.bundle_results import write_results
 from baarda.output.result_folder import read_observations, read_results
-from baarda.output.tables import csv_chunks, fast_csv_possible, pandas_csv_text, write_csv
+from baarda.output.tables import csv_chunks, csv_text, write_csv
 from baarda.pipeline import snoop
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
@@ -18,112 +21,127 @@ EDGES = [0.0, -0.0, np.inf, -np.inf, np.nan, 1e-300, -5e-324, 1.7976931348623157
          1234567890.5, 1234567891.5, 9999999999.5, 0.99999999995, 0.999999999949999,
          1e-5, 1e-4, 9.9999999995e-5, 0.0001, 123456789012.0, 1e10, 1e9, 9999999999.0,
          99999999995.0, 1e-13, 1e-14, 1e31, 1e32, 0.1, 0.5, 1.5, 2.5, 1e22, 1e23, 1e-22,
-         123.456, -0.000123456789, 4.043202913e-06]
+         123.456, -0.000123456789, 4.043202913e-06, 6461234.5678901234, 5812345.000001]
 
 
-def fast(df, float_format=tables.RESULT_FORMAT, chunk_rows=1000):
-    assert fast_csv_possible(df, float_format)
-    return b"".join(csv_chunks(df, float_format, chunk_rows)).decode("utf-8")
+def text(df, chunk_rows=tables.CHUNK_ROWS):
+    return b"".join(csv_chunks(df, chunk_rows)).decode("utf-8")
 
 
 def values(n: int, seed: int = 1) -> np.ndarray:
-    """Values of every size and the ones whose %.10g rounding is a near or exact tie."""
+    """Values of every size, near-ties of decimal rounding, and projected coordinates."""
     rng = np.random.default_rng(seed)
     wide = rng.standard_normal(n) * 10.0 ** rng.integers(-25, 30, n)
     ties = (rng.integers(10**9, 10**10, n) + 0.5) * 10.0 ** rng.integers(-15, 10, n)
     near = np.nextafter(ties, np.where(rng.random(n) < 0.5, -np.inf, np.inf))
-    short = np.round(rng.standard_normal(n) * 1e4 * 10.0 ** rng.integers(0, 6, n)) / 1e4
-    return np.concatenate([wide, ties, near, short, rng.random(n), EDGES])
+    lambert = 6.4e6 + rng.random(n) * 1e5  # Lambert-93 Y: 10 digits kept 1-10 mm only
+    return np.concatenate([wide, ties, near, lambert, rng.random(n), EDGES])
 
 
-def test_floats_as_pandas_prints_them():
+def test_every_float_reads_back_to_the_same_double():
     v = values(20_000)
-    df = pd.DataFrame({"a": v, "b": -v[::-1], "c": np.sqrt(np.abs(v))})
-    for fmt in ("%.10g", "%.6g", "%.4g", "%.12g", "%.1g"):
-        assert fast(df, fmt) == pandas_csv_text(df, fmt), fmt
+    df = pd.DataFrame({"a": v, "b": -v[::-1]})
+    back = pd.read_csv(io.StringIO(text(df, chunk_rows=777)))
+    for c in df.columns:
+        x, y = df[c].to_numpy(), back[c].to_numpy()
+        assert np.array_equal(x, y, equal_nan=True), c
+        ok = ~np.isnan(x)
+        assert np.array_equal(np.signbit(x[ok]), np.signbit(y[ok])), c  # -0 stays -0
+    cells = [c.split(",")[0] for c in text(pd.DataFrame({"a": v, "b": 0.0})).splitlines()[1:]]
+    finite = np.isfinite(v)
+    # the shortest text that reads back: as many significant digits as Python's repr
+    assert [digits(c) for c, ok in zip(cells, finite, strict=True) if ok] == \
+        [digits(repr(float(x))) for x in v[finite]]
+    assert {"0.1", "6461234.567890123", "5812345.000001"} <= set(cells)
+    assert "nan" not in cells and "" in cells
 
 
-def test_text_bool_int_columns_as_pandas_prints_them():
+def digits(number: str) -> str:
+    """The significant digits of a number's text."""
+    mantissa = number.lower().lstrip("-").split("e")[0].replace(".", "")
+    return mantissa.strip("0") or "0"
+
+
+def test_text_bool_int_columns_as_the_csv_module_writes_them():
     n = 5003
     i = np.arange(n)
-    df = pd.DataFrame({
-        "id": pd.array([f"p{k}" if k % 97 else 'a,"b"' for k in i], dtype="str"),
-        "missing": pd.array([None if k % 7 == 0 else "é" for k in i], dtype="str"),
-        "obj": np.array(["x\ny" if k % 11 == 0 else "" for k in i], dtype=object),
-        "v": values(1000)[:n], "flag": i % 3 == 0, "count": i - 50,
-        "u": (i % 5).astype(np.uint8)})
-    assert fast(df, chunk_rows=777) == pandas_csv_text(df)
+    ids = [f"p{k}" if k % 97 else 'a,"b"' for k in i]
+    missing = [None if k % 7 == 0 else "é" for k in i]
+    obj = ["x\ny" if k % 11 == 0 else ("01001" if k % 13 == 0 else "") for k in i]
+    df = pd.DataFrame({"id": pd.array(ids, dtype="str"), "missing": pd.array(missing,
+                       dtype="str"), "obj": np.array(obj, dtype=object), "flag": i % 3 == 0,
+                       "count": i - 50, "u": (i % 5).astype(np.uint8),
+                       "nullable": pd.array([None if k % 5 == 0 else k for k in i],
+                                            dtype="Int64"),
+                       "mixed": np.array([1, "x", 2.5, None] * (n // 4) + [1] * (n % 4),
+                                         dtype=object)})
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(df.columns)
+    for k in range(n):
+        w.writerow([ids[k], missing[k] or "", obj[k], str(bool(k % 3 == 0)), k - 50, k % 5,
+                    "" if k % 5 == 0 else k, ["1", "x", "2.5", ""][k % 4] if k < n - n % 4
+                    else "1"])
+    assert text(df, chunk_rows=777) == buf.getvalue()
+    assert text(df) == text(df, chunk_rows=777)
 
 
-def test_columns_of_other_objects_go_to_pandas(tmp_path):
-    n = 30
-    df = pd.DataFrame({"a": np.arange(n) / 7, "none": np.array([None] * n, dtype=object),
-                       "mixed": np.array([1, "x", 2.5] * 10, dtype=object)})
-    assert fast_csv_possible(df)  # by its dtypes; the objects are found out when read
-    with pytest.raises(TypeError):
-        csv_chunks(df)
-    write_csv(tmp_path / "t.csv", df, fast=True)
-    assert (tmp_path / "t.csv").read_text() == pandas_csv_text(df)
-    rows = tables.FAST_ROWS
-    try:
-        tables.FAST_ROWS = 1
-        assert tables.csv_text(df) == pandas_csv_text(df)
-        empty = df[["a", "none"]]
-        assert fast(empty) == pandas_csv_text(empty)  # missing values only: empty cells
-    finally:
-        tables.FAST_ROWS = rows
+def test_long_tables_formatted_in_threads_give_the_same_bytes(monkeypatch):
+    df = pd.DataFrame({"a": values(500), "b": "photo", "c": True})
+    one = text(df)
+    monkeypatch.setattr(tables, "THREAD_ROWS", 1)
+    assert text(df, chunk_rows=100) == one
 
 
-def test_tables_it_does_not_take_go_to_pandas(tmp_path):
-    df = pd.DataFrame({"a": np.arange(3.0), "b": pd.array([1, None, 3], dtype="Int64")})
-    assert not fast_csv_possible(df)
-    assert not fast_csv_possible(df[["a"]])  # one column: pandas quotes an empty cell
-    assert not fast_csv_possible(df, "%.3f")
-    write_csv(tmp_path / "t.csv", df, fast=True)
-    assert (tmp_path / "t.csv").read_text() == pandas_csv_text(df)
+def test_small_tables_and_presentation_formats(tmp_path):
+    assert csv_text(pd.DataFrame({"a": [np.nan, 1.0]})) == 'a\n""\n1\n'  # not a blank line
+    assert csv_text(pd.DataFrame({"a": [], "b": []})) == "a,b\n"
+    df = pd.DataFrame({"a": [1 / 3, 2.0], "b": ["x", "y"]})
+    assert csv_text(df, "%.4f") == "a,b\n0.3333,x\n2.0000,y\n"  # plans: pandas' format
+    write_csv(tmp_path / "t.csv", df)
+    assert (tmp_path / "t.csv").read_text() == "a,b\n0.3333333333333333,x\n2,y\n"
 
 
 @pytest.fixture(scope="module")
 def folders(tmp_path_factory):
-    """A snooped block written with the pandas writer, the vectorised one and as Parquet."""
+    """A snooped block written as CSV and as Parquet."""
     root = tmp_path_factory.mktemp("tables")
     block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=6, blunders=4,
                                          check_points=2, relief_m=30.0, seed=3))
     qc = snoop(block)
-    rows = tables.FAST_ROWS
-    try:
-        tables.FAST_ROWS = 10**12
-        write_results(root / "pandas", qc)
-        tables.FAST_ROWS = 1
-        write_results(root / "fast", qc)
-        write_results(root / "parquet", qc, parquet=True)
-    finally:
-        tables.FAST_ROWS = rows
+    write_results(root / "csv", qc)
+    write_results(root / "parquet", qc, parquet=True)
     return root, qc
 
 
-def test_result_folder_byte_identical_to_the_pandas_writer(folders):
-    root, _ = folders
-    for name in ("observations.csv", "photos.csv", "points.csv"):
-        assert (root / "fast" / name).read_bytes() == (root / "pandas" / name).read_bytes()
+def test_result_tables_read_back_equal_the_api(folders):
+    root, qc = folders
+    stored = pd.read_csv(root / "csv" / "observations.csv",
+                         keep_default_na=False, na_values=[""], dtype={"point": str})
+    table = qc.table()
+    for c in table.columns:
+        if table[c].dtype == float:
+            assert np.array_equal(stored[c].to_numpy(), table[c].to_numpy(),
+                                  equal_nan=True), c
+    res = qc.adjustment
+    photos = pd.read_csv(root / "csv" / "photos.csv")
+    assert np.array_equal(photos[["X0", "Y0", "Z0"]].to_numpy(), res.eo[:, :3])
 
 
-def test_parquet_round_trips_to_the_last_printed_digit(folders):
+def test_parquet_holds_the_numbers_of_the_csv(folders):
     root, qc = folders
     pq = root / "parquet"
     assert not (pq / "observations.csv").exists()
     stored = pd.read_parquet(pq / "observations.parquet")
     pd.testing.assert_frame_equal(stored, qc.table())  # the numbers as computed
-    assert pandas_csv_text(stored) == (root / "pandas" / "observations.csv").read_text()
     manifest = json.loads((pq / "run.json").read_text())
     assert "observations.parquet" in manifest["files"]
     a = read_results(pq).obs
-    b = read_observations(root / "pandas" / "observations.csv")
+    b = read_observations(root / "csv" / "observations.csv")
     assert list(a.columns) == list(b.columns)
     for c in a.columns:
         if a[c].dtype == float:
-            x, y = a[c].to_numpy(), b[c].to_numpy()
-            assert np.array_equal([f"{t:.10g}" for t in x], [f"{t:.10g}" for t in y]), c
+            assert np.array_equal(a[c].to_numpy(), b[c].to_numpy(), equal_nan=True), c
         else:
             assert (a[c].astype(str).to_numpy() == b[c].astype(str).to_numpy()).all(), c
 

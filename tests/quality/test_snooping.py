@@ -112,4 +112,8 @@ def test_component_the_block_needs_is_kept_and_reported():
 
     run = iterative_snooping(fit(np.ones(30, bool)))
     assert run.active[4] and not run.active[9]
-    assert any("cannot be rejected" in n for n in run.quality.notes)
+    assert any("cannot be tested by removing it: without it the exterior orientation of "
+               "photo 7 is not determined" in n for n in run.quality.notes)
+    kept = run.refused
+    assert [s.rows for s in kept] == [[4]] and "photo 7" in kept[0].reason
+    assert "removal(s) refused" in run.summary_lines()[0]

@@ -100,7 +100,9 @@ def test_command_line_summary_and_report(tmp_path):
     assert {"image", "control Z"} <= set(groups)
     g = groups["image"]
     assert abs(g["redundancy"] - doc["sum_redundancy_numbers"]) < doc["redundancy"]
-    assert g["estimated_factor"] is not None and abs(g["estimated_factor"] - 1) < 0.3
+    f = g["estimated_variance_factor"]
+    assert f is not None and abs(f - 1) < 0.3
+    assert g["estimated_sigma_factor"] == pytest.approx(np.sqrt(f), rel=1e-12)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         assert main(["report", str(tmp_path / "o"), "--text"]) == 0
@@ -208,3 +210,102 @@ def test_weak_control_axes_pooled_in_small_blocks(layout, pooled, estimated):
     assert (f"{pooled} (" + ", ".join(group.members)) in text
     if not estimated:
         assert "too little redundancy even together" in text
+
+
+def _helmert(a, v1, p0, groups, estimated, tolerance=1e-12, max_iterations=500):
+    """Helmert's iteration, dense, on the linearised model of a first adjustment: with
+    l = -v1 the residuals for any weights P are v = (I - A (A'PA)^-1 A'P) v1 (exact in the
+    linear model).  `estimated`: name -> the groups it re-weights, for exactly the groups the
+    report says are estimated; a group whose r_k falls below 5 is frozen, as reported.
+    Returns (cumulative variance factor per name, {name: iteration frozen})."""
+    p = p0.copy()
+    cum = dict.fromkeys(estimated, 1.0)
+    frozen = {}
+    for it in range(1, max_iterations + 1):
+        n = a.T @ (p[:, None] * a)
+        q = np.linalg.solve(n, a.T * p)  # (A'PA)^-1 A'P
+        v = v1 - a @ (q @ v1)
+        r = 1 - np.einsum("ij,ji->i", a, q)
+        f = {}
+        for name, members in estimated.items():
+            sel = np.isin(groups, members) & (p > 0)
+            rk = r[sel].sum()
+            if name not in frozen and rk < 5:
+                frozen[name] = it
+            f[name] = float(np.sum(p[sel] * v[sel] ** 2) / rk)
+        live = [k for k in estimated if k not in frozen]
+        if max((abs(f[k] - 1) for k in live), default=0) < tolerance:
+            return cum, frozen
+        for k in live:
+            p[np.isin(groups, estimated[k])] /= f[k]
+            cum[k] *= f[k]
+    raise AssertionError("the dense Helmert iteration did not converge")
+
+
+def _vce_case(image_um, control_m, true_control_m, plan):
+    """A simulated block whose a-priori sigmas are image_um and control_m (control noise
+    true_control_m); the bundle's estimation (tight tolerance) and its first adjustment."""
+    block, truth = simulate_block(plan)
+    pts = block.points
+    ctrl = np.isfinite(pts.sigma)
+    true = np.array([truth["points"][q] for q in pts.ids])
+    noise = np.random.default_rng(4).normal(0, true_control_m, true.shape)
+    block = replace(block, image=replace(block.image, sigma_mm=np.full(len(block.image),
+                                                                       image_um * 1e-3)),
+                    points=replace(pts, xyz=np.where(ctrl, true + noise, pts.xyz),
+                                   sigma=np.where(ctrl, control_m, np.nan)))
+    first = BundleModel(adjust(block))
+    return first, iterate(first, tolerance=1e-10)
+
+
+def _check_against_dense(first, est):
+    """The summary's words and factors equal a dense Helmert iteration that holds or
+    estimates each group as the summary says."""
+    from dense import dense_system
+
+    comps = est.components()
+    estimated = {}
+    for c in comps:
+        if c.reweights:
+            estimated[c.group] = c.groups
+    a, p0 = dense_system(first)
+    cum, frozen = _helmert(a, first.residuals, p0, first.variance_groups(), estimated)
+    for c in comps:
+        text = c.summary()
+        if c.group in estimated:
+            assert np.isclose(c.estimated, cum[c.group], rtol=1e-3), (c.group, c.estimated,
+                                                                      cum[c.group])
+            assert c.frozen_at == frozen.get(c.group, 0), c.group
+            assert ("frozen at iteration" in text) == bool(c.frozen_at)
+        elif not c.pooled_into:  # reported as not estimated: held at its a-priori sigma
+            assert "not estimated" in text and not np.isfinite(c.estimated)
+            assert np.all(est.factors[np.isin(first.variance_groups(), c.groups)] == 1.0)
+    return comps
+
+
+def test_a_group_reported_not_estimated_is_never_reweighted():
+    """Issue 26, item 3 (a): image 4 µm given as 6 µm, control 9 cm given as 3 cm, control
+    too weak even pooled (r 4.25 < 5): it keeps its a-priori sigma through every iteration
+    (it was re-weighted by 12.99 from iteration 2 on, although reported not estimated)."""
+    first, est = _vce_case(6.0, 0.03, 0.09, FlightPlan(strips=4, photos_per_strip=10,
+                                                        pattern=3, sigma_image_um=4.0,
+                                                        seed=3))
+    comps = {c.group: c for c in _check_against_dense(first, est)}
+    pooled = comps["control XYZ"]
+    assert pooled.members and not pooled.reweights and pooled.redundancy < 5
+    assert abs(np.sqrt(comps["image"].estimated) - 4 / 6) < 0.1
+
+
+def test_a_group_whose_redundancy_falls_is_frozen_as_reported():
+    """Issue 26, item 3 (b): control noise 1 cm given as 50 cm: the control groups start
+    with r >= 5, their factors fall towards 0.0004 and so do their redundancies; each is
+    frozen at the iteration its r_k falls below 5, reported so, and the dense iteration
+    with the same rule freezes it at the same iteration with the same factor."""
+    first, est = _vce_case(5.0, 0.5, 0.01, FlightPlan(strips=4, photos_per_strip=10,
+                                                       pattern=5, control_spacing=1,
+                                                       height_chains=1, seed=5))
+    comps = _check_against_dense(first, est)
+    frozen = [c for c in comps if c.frozen_at]
+    assert frozen, [c.summary() for c in comps]
+    for c in frozen:
+        assert c.frozen_at > 1 and c.frozen_redundancy < 5

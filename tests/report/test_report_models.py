@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from baarda.cli import main
 from baarda.output.result_folder import read_results
@@ -31,7 +32,7 @@ def test_report_of_an_independent_model_block(tmp_path, capsys):
     assert list(t["model"]) == sorted(set(obs.loc[obs["kind"] == "model", "model"]))
     mx = res.obs[(res.obs["kind"] == "model") & (res.obs["component"] == "x")
                  & ~res.obs["rejected"] & (res.obs["model"] == t["model"][0])]
-    assert t["rms_x"][0] == np.sqrt(np.mean(mx["residual"] ** 2))
+    assert t["rms_x"][0] == pytest.approx(np.sqrt(np.mean(mx["residual"] ** 2)), rel=1e-12)
     h = html_report(res)
     assert "Per model" in h and 'id="snooping-table"' in h
     assert res.global_test_passed == s["global_test"]["passed"]
