@@ -233,6 +233,11 @@ class BundleResult(AdjustmentCounts):
     def sections(self) -> list[Section]:
         d = self.to_dict()
         im = np.where(self.lin.w > 0, self.image_residuals * 1e3, np.nan)
+        mb = len(self.problem.border_obs)  # image rows of points tied by distances
+        if mb:
+            wb = self.lin.wx[:2 * mb, 0].reshape(mb, 2)
+            im = np.vstack([im, np.where(wb > 0, -self.lin.ex[:2 * mb, 0].reshape(mb, 2) * 1e3,
+                                         np.nan)])
         lines = [] if self.converged else [
             f"NOT CONVERGED after {self.iterations} iterations: the results are not a "
             "least-squares solution (see the notes)"]

@@ -41,6 +41,9 @@ COMMANDS = {
                  "strategies on simulated blocks with planted blunders"),
     "compile": ("baarda.cli.compile", "compile the numerical kernels into numba's cache now "
                 "(after installing)"),
+    "check": ("baarda.cli.check", "check a result folder's invariants: sum of r = "
+              "redundancy, sigma0 from every used observation, the global test, every RMS "
+              "line"),
     "screen": ("baarda.cli.screen", "pre-adjustment screening: photo pairs, strip formation, "
                "control; writes a cleaned project and the screening log"),
 }
@@ -66,7 +69,9 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         prog="baarda", description="Quality-controlled aerial triangulation: bundle adjustment, "
         "data snooping and reliability.", epilog="exit codes: 0 success, 2 bad input (the "
         "message names the file, line and field, or the geometry), 3 not converged (results "
-        "written and marked NOT CONVERGED), 130 interrupted (nothing written)")
+        "written and marked NOT CONVERGED; also snooping stopped at its step limit), 5 an "
+        "invariant of a result folder does not hold (baarda check), 130 interrupted "
+        "(nothing written)")
     parser.add_argument("--version", action="version", version=f"baarda {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, (module, text) in COMMANDS.items():

@@ -23,6 +23,7 @@ def add_out_argument(p, what: str = "output folder") -> None:
 
 # exit codes (the parser's epilog)
 OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
+CHECK_FAILED = 5  # baarda check: an invariant of the result folder does not hold
 
 
 def progress(quiet: bool):

@@ -61,9 +61,20 @@ def _rms(x) -> float:
 
 
 def _rms_per_axis(rows: pd.DataFrame) -> str:
-    """'X .. m, Y .. m, Z .. m': the RMS of the residuals of each axis."""
-    return ", ".join(f"{c} {_rms(rows.loc[rows['component'] == c, 'residual']):.3f} m"
-                     for c in ("X", "Y", "Z"))
+    """'X .. m, Y .. m, Z .. m': the RMS of the residuals of each axis over the components
+    that were used (rejected ones left out; an axis with none: '-')."""
+    used = rows[~rows["rejected"].to_numpy(bool)]
+    out = []
+    for c in ("X", "Y", "Z"):
+        v = used.loc[used["component"] == c, "residual"]
+        out.append(f"{c} {_rms(v):.3f} m" if len(v) else f"{c} -")
+    n = int(rows["rejected"].to_numpy(bool).sum())
+    return ", ".join(out) + (f" ({n} rejected component(s) left out)" if n else "")
+
+
+def _rejected(g: pd.DataFrame) -> str:
+    """The rejected components of one point or photo, e.g. 'Y' or 'X Z' ('' for none)."""
+    return " ".join(g.loc[g["rejected"].to_numpy(bool), "component"].astype(str))
 
 
 def camera_parts(res: Results) -> list[Part]:
@@ -129,7 +140,7 @@ def control_parts(res: Results) -> list[Part]:
     if len(ctrl):
         rows = []
         for pt, g in ctrl.groupby("point", sort=False):
-            row = {"point": pt, "role": "control"}
+            row = {"point": pt, "role": "control", "rejected": _rejected(g)}
             for _, o in g.iterrows():
                 c = o["component"]
                 row[f"v{c} m"] = o["residual"]
@@ -144,7 +155,7 @@ def control_parts(res: Results) -> list[Part]:
                           "detectable bias. RMS: " + _rms_per_axis(ctrl)))
         parts.append(Part("table", "control points", table=t,
                           fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
-                               for c in t.columns if c not in ("point", "role")}))
+                               for c in t.columns if c not in ("point", "role", "rejected")}))
     pts = res.points
     if pts is not None and "role" in pts and (pts["role"] == "check").any():
         chk = pts[pts["role"] == "check"]
@@ -178,12 +189,14 @@ def gnss_parts(res: Results) -> list[Part]:
                       values=["residual", "w", "redundancy"], sort=False)
     t.columns = [f"{'v' if a == 'residual' else a} {c}" for a, c in t.columns]
     t = t.reset_index()
+    rejected = {ph: _rejected(r) for ph, r in g.groupby("photo", sort=False)}
+    t["rejected"] = [rejected.get(ph, "") for ph in t["photo"]]
     return [Part("heading", "GNSS positions of the projection centres"),
             Part("text", text="Residual v = adjusted - observed (m), w-test and redundancy "
                  "number per axis. RMS: " + _rms_per_axis(g)),
             Part("table", "GNSS residuals", table=t,
                  fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
-                      if c != "photo"})]
+                      if c not in ("photo", "rejected")})]
 
 
 def image_parts(res: Results) -> list[Part]:

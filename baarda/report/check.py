@@ -1,0 +1,168 @@
+"""The invariants of a result folder, checked from its files alone (`baarda check OUT`).
+
+For every adjustment of the run, from observations.csv (or .parquet) and summary.json:
+
+* the observations are the rows not rejected, and redundancy = observations - unknowns;
+* the redundancy numbers of those rows add up to the redundancy (r_i = (Qvv P)_ii);
+* v'Pv = sum (v / sigma)^2 over those rows, and sigma0 = sqrt(v'Pv / redundancy), which is
+  also the global test's statistic sigma0^2;
+* every RMS line of the summary and of the quality report (image x and y, control, GNSS,
+  check points) recomputed from the rows it covers, to its printed digits.
+
+A folder that passes was written by a run whose numbers agree with each other; one that
+fails names the number, what it should be and what it is.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from baarda.output.result_folder import Results
+
+RTOL = 1e-6  # relative agreement of recomputed sums (the files hold every digit)
+
+
+@dataclass(frozen=True)
+class Finding:
+    """One invariant: what the files say (`stated`) against what their rows give."""
+
+    adjustment: str
+    name: str
+    stated: float
+    recomputed: float
+    ok: bool
+
+    def line(self) -> str:
+        where = f"{self.adjustment}: " if self.adjustment else ""
+        verdict = "ok" if self.ok else "DOES NOT HOLD"
+        return (f"{verdict:>13}  {where}{self.name}: stated {self.stated:.10g}, recomputed "
+                f"{self.recomputed:.10g}")
+
+
+def _close(a: float, b: float, rtol: float = RTOL, atol: float = 0.0) -> bool:
+    return bool(np.isfinite(a) and np.isfinite(b) and abs(a - b) <= atol + rtol * abs(b))
+
+
+def _printed(text: str, value: float) -> bool:
+    """Whether `text` (a number as printed) is `value` rounded to the digits it shows."""
+    decimals = len(text.split(".")[1]) if "." in text else 0
+    return abs(float(text) - value) <= 0.5 * 10.0**-decimals * (1 + 1e-9) + 1e-12
+
+
+def _rms(x: pd.Series) -> float:
+    x = pd.to_numeric(x, errors="coerce").dropna()
+    return float(np.sqrt(np.mean(x.to_numpy(float) ** 2))) if len(x) else float("nan")
+
+
+def _adjustments(res: Results) -> dict[str, tuple[dict, pd.DataFrame]]:
+    parts = res.summary.get("adjustments") or {"": res.summary}
+    obs = res.obs
+    out = {}
+    for name, p in parts.items():
+        if not isinstance(p, dict):
+            continue
+        rows = obs[obs["adjustment"] == name] if "adjustment" in obs and name and \
+            (obs["adjustment"] == name).any() else obs
+        out[name] = (p, rows)
+    return out
+
+
+def check_results(res: Results) -> list[Finding]:
+    """Every invariant of every adjustment of a result folder (module docstring)."""
+    findings: list[Finding] = []
+    several = len(_adjustments(res)) > 1
+    for name, (p, rows) in _adjustments(res).items():
+        label = name if several else ""
+        used = rows[~rows["rejected"].to_numpy(bool)]
+        n, red = len(used), p.get("redundancy")
+        add = findings.append
+        if p.get("n_observations") is not None:
+            add(Finding(label, "observations (components not rejected)",
+                        p["n_observations"], n, p["n_observations"] == n))
+            if p.get("n_unknowns") is not None and red is not None:
+                add(Finding(label, "redundancy = observations - unknowns", red,
+                            n - p["n_unknowns"], red == n - p["n_unknowns"]))
+        if red is None or red <= 0:
+            continue
+        r = pd.to_numeric(used["redundancy"], errors="coerce") if "redundancy" in used else None
+        if r is not None and r.notna().any():
+            s = float(r.sum())
+            add(Finding(label, "sum of the redundancy numbers = redundancy", red, s,
+                        _close(s, red, 1e-6, 1e-6)))
+        z = (used["residual"].to_numpy(float) / used["sigma"].to_numpy(float))
+        vtpv = float(np.sum(z**2))
+        if p.get("vtpv") is not None:
+            add(Finding(label, "vTPv = sum (v / sigma)^2 of the observations", p["vtpv"], vtpv,
+                        _close(p["vtpv"], vtpv)))
+        s0 = float(np.sqrt(vtpv / red))
+        if p.get("sigma0") is not None:
+            add(Finding(label, "sigma0 = sqrt(vTPv / redundancy)", p["sigma0"], s0,
+                        _close(p["sigma0"], s0)))
+        gt = p.get("global_test") or {}
+        if gt.get("statistic") is not None:
+            add(Finding(label, "global test statistic = sigma0^2", gt["statistic"], s0**2,
+                        _close(gt["statistic"], s0**2)))
+        findings += _summary_rms(res, label, used, several)
+    findings += _report_rms(res)
+    return findings
+
+
+_IMAGE_RMS = re.compile(r"RMS image residuals x ([0-9.]+) µm, y ([0-9.]+) µm")
+_CHECK_RMS = re.compile(r"check points \d+: RMS X ([0-9.]+) m, Y ([0-9.]+) m, Z ([0-9.]+) m")
+_AXIS_RMS = re.compile(r"\b([XYZ]) ([0-9.]+) m")
+
+
+def _summary_rms(res: Results, label: str, used: pd.DataFrame,
+                 several: bool) -> list[Finding]:
+    """The summary's RMS lines (a bundle: image x and y, check points)."""
+    if several:
+        return []
+    out = []
+    lines = [line for s in res.sections for line in s.lines]
+    img = used[used["kind"] == "image"]
+    for line in lines:
+        m = _IMAGE_RMS.search(line)
+        if m:
+            for c, text in zip("xy", m.groups(), strict=True):
+                v = _rms(img.loc[img["component"] == c, "residual"])
+                out.append(Finding(label, f"RMS image residuals {c} (µm, as printed)",
+                                   float(text), v, _printed(text, v)))
+        m = _CHECK_RMS.search(line)
+        if m and res.points is not None and "dX" in res.points:
+            chk = res.points[res.points["role"] == "check"]
+            for c, text in zip("XYZ", m.groups(), strict=True):
+                v = _rms(chk[f"d{c}"])
+                out.append(Finding(label, f"RMS of the check points {c} (m, as printed)",
+                                   float(text), v, _printed(text, v)))
+    return out
+
+
+def _report_rms(res: Results) -> list[Finding]:
+    """The RMS sentences of the quality report's control and GNSS parts: over the
+    components that were used (not rejected)."""
+    from baarda.report.quality_report import control_parts, gnss_parts
+
+    out = []
+    obs = res.obs
+    used = obs[~obs["rejected"].to_numpy(bool)]
+    for kind, parts in (("control", control_parts(res)), ("gnss", gnss_parts(res))):
+        texts = [p.text for p in parts if p.kind == "text" and "RMS:" in p.text
+                 and not p.text.startswith("Check points")]
+        for text in texts[:1]:
+            rows = used[used["kind"] == kind]
+            for axis, value in _AXIS_RMS.findall(text.split("RMS:")[1]):
+                v = _rms(rows.loc[rows["component"] == axis, "residual"])
+                out.append(Finding("", f"quality report: RMS of the {kind} {axis} residuals "
+                                   "(m, as printed)", float(value), v, _printed(value, v)))
+    return out
+
+
+def check_folder(folder) -> list[Finding]:
+    """check_results of a result folder (read with output.result_folder.read_results)."""
+    from baarda.output.result_folder import read_results
+
+    return check_results(read_results(folder))
