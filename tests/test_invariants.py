@@ -271,3 +271,53 @@ def test_berlin_snooping_never_builds_on_a_diverged_refit(tmp_path):
         spread[name] = np.linalg.norm(c - c.mean(axis=0), axis=1).max()
     assert abs(spread["snooped"] / spread["plain"] - 1) < 0.15, spread
     assert s["n_rejected"] == 191 and s["sigma0"] == pytest.approx(1.1101, abs=1e-4)
+
+
+def test_one_verdict_per_line_and_the_iterations_the_console_showed(tmp_path, capsys):
+    """Issue 26, item 8: the demo's B-method line (REJECTED) says it is not the verdict and
+    is not coloured as the headline; the iterations are the first adjustment's (4, as the
+    progress lines show) with the re-adjustments of snooping counted beside them."""
+    from baarda.output.result_folder import read_results
+    from baarda.report.html_report import html_report
+
+    out = tmp_path / "o"
+    assert main(["adjust", str(ROOT / "examples" / "demo"), "-o", str(out), "--snoop"]) == 0
+    err = capsys.readouterr().err
+    assert "iteration 4: converged" in err
+    s = hold(out)
+    assert s["iterations"] == 4 and s["readjustments"] == 4
+    lines = [x for sec in s["sections"] for x in sec["lines"]]
+    assert "iterations 4 (converged), then 4 re-adjustment(s) by data snooping (the last: " \
+        "3 iteration(s))" in " ".join(lines)
+    b = [x for x in lines if x.startswith("global test by the B-method")][0]
+    assert "-> REJECTED (not the verdict: the test at alpha 0.05 above decides" in b
+    html = html_report(read_results(out))
+    assert '<span class="ok">global test at alpha 0.05' in html
+    assert '<span class="note">global test by the B-method' in html
+
+
+def test_snooping_stopped_at_its_limit_says_so_first(tmp_path):
+    """Issue 26, item 2: a snooping that reaches its step limit is reported as incomplete
+    on the first line of the text, HTML and quality reports, with the number of components
+    still significant."""
+    from baarda.output.bundle_results import write_results
+    from baarda.output.result_folder import read_results
+    from baarda.pipeline import read, snoop
+    from baarda.report.html_report import html_report
+    from baarda.report.quality_html import quality_page
+    from baarda.report.text_report import text_report
+
+    qc = snoop(read(ROOT / "examples" / "demo"), max_iterations=2)
+    assert not qc.run.converged and qc.run.remaining == 7
+    text = ("snooping incomplete: 7 component(s) still significant when it stopped at its "
+            "limit of 2 step(s)")
+    assert qc.run.incomplete.startswith(text)
+    write_results(tmp_path / "o", qc)
+    res = read_results(tmp_path / "o")
+    assert res.failures == [qc.run.incomplete.replace("snooping incomplete",
+                                                      "SNOOPING INCOMPLETE")]
+    assert text_report(res).split("\n")[2].startswith("SNOOPING INCOMPLETE: 7 component(s)")
+    html = html_report(res)
+    assert html.index("SNOOPING INCOMPLETE") < html.index("<nav>")
+    page = quality_page(res)
+    assert page.index("SNOOPING INCOMPLETE") < page.index("<h3>Summary</h3>")

@@ -6,6 +6,7 @@ every observation.
 
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -70,6 +71,7 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
     """
     problem = block if isinstance(block, BundleProblem) else BundleProblem(block)
     tests = tests or TestOptions.resolve(problem.block.settings)
+    t0 = time.perf_counter()
     result = problem.fit(progress=progress)
     if not result.converged:  # tests on a solution that is none would mislead
         note = "data snooping not run: the adjustment did not converge"
@@ -88,5 +90,11 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
                              by_group=by_point, max_iterations=max_iterations,
                              started_by="Danish method" if robust else "",
                              progress=progress)
-    return Assessment(run.model.result, run.model, run.quality, run,
-                      hypotheses=calibration_tests(run.model.result, run.quality.tests))
+    last = run.model.result
+    # re-adjustments taken: one per rejection and restoration, one after the Danish method
+    refits = sum(s.iteration > 0 and s.action in ("reject", "restore") for s in run.log) + \
+        int(not np.array_equal(active, first.active))
+    final = replace(last, iterations=result.iterations, seconds=time.perf_counter() - t0,
+                    refits=(refits, last.iterations) if refits else (0, 0))
+    return Assessment(final, run.model, run.quality, run,
+                      hypotheses=calibration_tests(last, run.quality.tests))

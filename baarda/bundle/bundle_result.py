@@ -56,6 +56,9 @@ class BundleResult(AdjustmentCounts):
     converged: bool
     notes: tuple[str, ...] = ()
     seconds: float = 0.0
+    # after data snooping: (re-adjustments, iterations of the last one); `iterations` and
+    # `seconds` are then those of the first adjustment and of all of them together
+    refits: tuple[int, int] = (0, 0)
 
     @property
     def block(self) -> Block:
@@ -223,6 +226,8 @@ class BundleResult(AdjustmentCounts):
             "check_rms_Y": None if np.isnan(rms[1]) else float(rms[1]),
             "check_rms_Z": None if np.isnan(rms[2]) else float(rms[2]),
             "seconds": self.seconds,
+            **({"readjustments": self.refits[0], "readjustment_iterations": self.refits[1]}
+               if self.refits[0] else {}),
             "notes": list(self.notes),
             **({"calibration": self.camera_table(),
                 "camera_correlations": self.camera_correlations(),
@@ -247,7 +252,9 @@ class BundleResult(AdjustmentCounts):
             self.problem.apriori_text(),
             self.observations_text(),
             f"iterations {d['iterations']} ({'converged' if d['converged'] else 'NOT converged'}"
-            f"), {d['seconds']:.2f} s",
+            f")" + (f", then {self.refits[0]} re-adjustment(s) by data snooping (the last: "
+                    f"{self.refits[1]} iteration(s))" if self.refits[0] else "")
+            + f", {d['seconds']:.2f} s",
             f"sigma0 a posteriori {d['sigma0']:.4f}",
             f"RMS image residuals x {np.sqrt(np.nanmean(im[:, 0]**2)):.2f} µm, "
             f"y {np.sqrt(np.nanmean(im[:, 1]**2)):.2f} µm (rejected ones left out)",

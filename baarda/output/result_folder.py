@@ -227,7 +227,7 @@ class Results:
         for name, p in parts.items():
             if not isinstance(p, dict):
                 continue
-            of = f" ({name})" if name else ""
+            of = f" ({name})" if name and len(parts) > 1 else ""
             if p.get("converged", True) is False:
                 why = [n for n in p.get("notes", []) if "diverged" in str(n)
                        or "not converged" in str(n)]

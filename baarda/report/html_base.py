@@ -15,6 +15,7 @@ CSS = """
 body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;margin:0;color:#222}
 header{background:#1f3b5a;color:#fff;padding:14px 24px}
 header h1{margin:0;font-size:22px} header p{margin:4px 0 0;font-size:13px;opacity:.85}
+header p.bad{background:#fff;color:#b00020;padding:4px 8px;border-radius:3px;opacity:1}
 nav{padding:6px 24px;background:#e8eef5;font-size:13px}
 nav a{margin-right:14px;color:#1f3b5a}
 main{padding:8px 24px 40px;max-width:1400px}
@@ -24,7 +25,7 @@ th,td{border:1px solid #ccd;padding:2px 6px;text-align:right;white-space:nowrap}
 th{background:#eef2f7} td.t,th.t{text-align:left}
 tr.rejected td{background:#fbd5d5} tr.flagged td{background:#fde7c8}
 tr.uncontrolled td{color:#888}
-.ok{color:#146c2e;font-weight:bold} .bad{color:#b00020;font-weight:bold}
+.ok{color:#146c2e;font-weight:bold} .bad{color:#b00020;font-weight:bold} .note{color:#555}
 pre{font-size:11px;line-height:1.15;background:#f7f7f7;padding:6px;overflow-x:auto}
 figure{margin:10px 0} figcaption{font-size:12px;color:#444;max-width:1100px}
 img{max-width:100%;border:1px solid #ddd}

@@ -141,6 +141,14 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
     return out
 
 
+def _verdict_class(line: str) -> str:
+    """The colour of one global-test line by its own verdict (a B-method line that is not
+    the verdict: neutral)."""
+    if "(not the verdict" in line:
+        return "note"
+    return "bad" if "-> REJECTED" in line else "ok" if "-> accepted" in line else ""
+
+
 def _variance_components(summary: dict) -> pd.DataFrame | None:
     """The variance components of every adjustment (summary.json), one row per group."""
     parts = summary.get("adjustments") or {}
@@ -171,9 +179,10 @@ def html_report(res: Results, opt: ReportOptions | None = None,
                 f'<p class="facts">source {esc(res.summary.get("source", "?"))}</p>' + summary
                 + "".join(f"<p>note: {esc(n)}</p>" for n in res.notes)))
     gt_lines = res.global_test_lines() or ["global test: not available"]
-    sec.append(("global", "Global test",
-                f'<p class="{"ok" if passed else "bad"}" id="global-test">'
-                + "<br>".join(esc(x) for x in gt_lines) + "</p>"))
+    sec.append(("global", "Global test", '<p id="global-test">' + "<br>".join(
+        f'<span class="{_verdict_class(x)}">{esc(x)}</span>' for x in gt_lines) + "</p>"
+        + "<p>The test at the conventional level (first line) gives the verdict; the "
+        "B-method's test is coupled to the w-tests and shown for that reason.</p>"))
     cal = tables_html(res, calibration)
     if cal:
         sec.append(("calibration", "Camera calibration, control and GNSS", cal))
