@@ -215,6 +215,20 @@ def test_micmac_gnss_imu_block(tmp_path):
     points = pd.read_csv(out / "points.csv", dtype={"point": str})
     xyz = frame.from_local(res.coordinates.xyz)
     assert np.abs(points[["X", "Y", "Z"]].to_numpy() - xyz).max() < 1e-4
+    # item 7: units everywhere, reprojection errors in px (the camera's 4 µm pixels)
+    from baarda.output.result_folder import read_results
+    from baarda.report.quality_report import image_parts
+    from baarda.report.stats import group_statistics, weakest
+
+    rf = read_results(out)
+    assert rf.units["gnss"] == "m" and rf.units["imu"] == "mdeg"
+    assert all(g.unit for g in group_statistics(rf.obs, rf.units))
+    assert set(weakest(rf.obs, 5, rf.units)["largest MDB (per kind)"]["unit"]) == \
+        {"µm", "m", "mdeg"}
+    parts = image_parts(rf)
+    assert "1 px = 4 µm" in " ".join(p.text for p in parts)
+    t = [p.table for p in parts if p.kind == "table"][0]
+    assert "RMS x px" in t.columns
 
 
 def test_micmac_snooped(tmp_path):

@@ -162,7 +162,8 @@ def cameras_per_strip(block):
     new = replace(cams, ids=ids, focal_mm=cams.focal_mm[source],
                   principal_point_mm=cams.principal_point_mm[source], model=take(cams.model),
                   coefficients=take(cams.coefficients), constants=take(cams.constants),
-                  free=None if cams.free is None else tuple(cams.free[c] for c in source))
+                  free=None if cams.free is None else tuple(cams.free[c] for c in source),
+                  pixel_mm=take(cams.pixel_mm))
     return replace(block, cameras=new, photos=replace(ph, camera=new_camera),
                    notes=list(block.notes) + [
                        f"calibration per strip: {len(cams)} camera(s) -> {len(new)} "

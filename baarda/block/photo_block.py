@@ -53,6 +53,7 @@ class Cameras:
     coefficients: np.ndarray | None = None  # (n, k) the model's params in order, 0-padded
     constants: np.ndarray | None = None  # (n, kc) the model's constants (R0, grid spacing)
     free: tuple[tuple[str, ...], ...] | None = None  # per camera: the parameters estimated
+    pixel_mm: np.ndarray | None = None  # (n,) pixel size where the source states it (mm)
 
     def __len__(self) -> int:
         return len(self.ids)

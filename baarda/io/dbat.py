@@ -284,7 +284,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
                                               if np.isfinite(psig).any() else (0.05,) * 3)))
     cameras = Cameras(cam_ids, np.array([cam["c"]]), cam["pp"][None, :],
                       np.array([cam["kind"]], dtype=object), np.array([cam["coef"]], float),
-                      None, (free,) if free else None)
+                      None, (free,) if free else None, pixel_mm=np.array([cam["py"]]))
     photos = Photos(photo_ids, np.zeros(len(photo_ids), np.int64),
                     np.full(len(photo_ids), "", dtype=object),
                     np.full((len(photo_ids), 6), np.nan))

@@ -112,7 +112,9 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
         parts=[part], angle_unit=blk.settings.angle_unit,
         cameras=[{"camera": cam.ids[i], "focal_mm": float(cam.focal_mm[i]),
                   "x0_mm": float(cam.principal_point_mm[i, 0]),
-                  "y0_mm": float(cam.principal_point_mm[i, 1])} for i in range(len(cam))])
+                  "y0_mm": float(cam.principal_point_mm[i, 1]),
+                  **({"pixel_mm": float(cam.pixel_mm[i])} if cam.pixel_mm is not None else {})}
+                 for i in range(len(cam))])
     tables = {"photos.csv": photos_table(res), "points.csv": points_table(res)}
     if blk.frame is not None:  # adjusted in a local frame: the tables in the CRS as well
         ph, pt = tables_in_crs(res)

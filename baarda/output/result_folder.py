@@ -18,8 +18,10 @@ from baarda.io.table import Table
 from baarda.output.run_folder import MANIFEST, verify_run
 from baarda.sections import Section
 
-# Units of the residual columns in observations.csv, by observation kind.
-UNITS = {"image": "µm", "model": "µm", "control": "m"}
+# Units of the residual columns in observations.csv, by observation kind (summary.json
+# "units" states them for each run: IMU residuals in the project's angle unit / 1000).
+UNITS = {"image": "µm", "model": "µm", "control": "m", "gnss": "m", "imu": "mrad",
+         "distance": "m"}
 OBS_REQUIRED = ["kind", "point", "component", "residual"]
 OBS_FRAMES = ["photo", "model"]  # at least one of them; `frame` is the one that is given
 OBS_NUMBERS = ["x_mm", "y_mm", "residual", "sigma", "sigma_residual", "redundancy", "w", "tau",
@@ -216,6 +218,11 @@ class Results:
         parts = self.summary.get("adjustments") or {"": self.summary}
         tests = [p.get("global_test") for p in parts.values() if p.get("global_test")]
         return None if not tests else all(gt.get("passed") for gt in tests)
+
+    @property
+    def units(self) -> dict[str, str]:
+        """The unit of each kind's residuals in observations.csv (summary.json 'units')."""
+        return {**UNITS, **(self.summary.get("units") or {})}
 
     @property
     def failures(self) -> list[str]:

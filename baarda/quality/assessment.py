@@ -241,7 +241,9 @@ class Assessment:
         `notes` are the adjustment's and the statistics' notes."""
         adj = self.adjustment.to_dict()
         notes = list(adj.pop("notes", [])) + list(self.quality.notes)
-        return {"adjustment": self.name, **adj, **self.quality_dict(), "notes": notes}
+        units = {str(k): u for k, (_, u) in self.model.units.items()}
+        return {"adjustment": self.name, **adj, **self.quality_dict(), "units": units,
+                "notes": notes}
 
     def quality_sections(self) -> list[Section]:
         q = self.quality

@@ -49,7 +49,8 @@ window.addEventListener('load', function () {
 
 
 def _snoop_table(res: Results, opt: ReportOptions) -> str:
-    t = snooping_table(res.obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
+    t = snooping_table(res.obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top,
+                      units=res.units)
     t, note = first_rows(t, opt.max_rows)
     show = pd.DataFrame({
         "kind": t["kind"], "photo/model": t["frame"], "point": t["point"], "c": t["component"],
@@ -79,7 +80,7 @@ def _log_table(summary: dict) -> str:
 
 
 def _group_table(res: Results) -> str:
-    g = group_statistics(res.obs)
+    g = group_statistics(res.obs, res.units)
 
     def f(x: float, unit: str) -> str:
         return "-" if not np.isfinite(x) else num(x, 3 if unit == "m" else 2)
@@ -130,7 +131,7 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
     if not res.obs["redundancy"].notna().any():
         return ""
     out = ""
-    for title, t in weakest(res.obs, opt.worst).items():
+    for title, t in weakest(res.obs, opt.worst, res.units).items():
         show = pd.DataFrame({"kind": t["kind"], "photo/model": t["frame"], "point": t["point"],
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
                              "MDB": t["mdb"], "unit": [UNITS.get(k, "") for k in t["kind"]],

@@ -42,7 +42,12 @@ class Part:
 
 
 def pixel_um(res: Results) -> float | None:
-    """The nominal pixel size (µm) a reader stated in the notes (COLMAP, BAL, OpenSfM)."""
+    """The pixel size (µm): the cameras' own where the source states it (DBAT, MicMac; one
+    size for every camera), else the nominal one a reader stated in the notes (COLMAP, BAL,
+    OpenSfM)."""
+    sizes = {c.get("pixel_mm") for c in res.summary.get("cameras", [])}
+    if len(sizes) == 1 and None not in sizes:
+        return float(sizes.pop()) * 1e3
     for n in list(res.summary.get("notes", [])) + [line for s in res.sections
                                                    for line in s.lines]:
         m = re.search(r"nominal pixel size ([0-9.eE+-]+) mm", str(n))
@@ -221,7 +226,7 @@ def image_parts(res: Results) -> list[Part]:
                      f"median error {unit}": float(np.median(e)) if n else np.nan,
                      f"max error {unit}": float(np.max(e)) if n else np.nan})
     t = pd.DataFrame(rows)
-    note = (f"1 px = {px:g} µm (the reader's nominal pixel size)" if px else
+    note = (f"1 px = {px:g} µm" if px else
             "in µm in the image plane")
     return [Part("heading", "Reprojection errors per image"),
             Part("text", text=f"Image residuals of the adjusted block (rejected observations "

@@ -329,12 +329,15 @@ def first_rows(t: pd.DataFrame, limit: int) -> tuple[pd.DataFrame, str]:
     return t.iloc[:limit], f"; {limit} of {len(t)} such rows shown: the first in this order"
 
 
-def weakest(obs: pd.DataFrame, n: int) -> dict[str, pd.DataFrame]:
+def weakest(obs: pd.DataFrame, n: int,
+            units: dict[str, str] | None = None) -> dict[str, pd.DataFrame]:
     """The tested, active observations with the smallest redundancy numbers and with the
-    largest MDB (per kind: units differ), n of each."""
+    largest MDB (per kind: units differ; the unit of each row's MDB in `unit`), n of each."""
+    units = {**UNITS, **(units or {})}
     cols = [c for c in ("kind", "photo", "model", "frame", "point", "component", "redundancy",
                         "w", "mdb", "external_max") if c in obs]
     d = obs.loc[~obs["rejected"].to_numpy(bool) & np.isfinite(obs["w"].to_numpy(float)), cols]
+    d.insert(d.columns.get_loc("mdb") + 1, "unit", [units.get(k, "") for k in d["kind"]])
     small = d.nsmallest(n, "redundancy")
     kind = d["kind"].to_numpy(str)
     large = pd.concat([d[kind == k].nlargest(n, "mdb") for k in sorted(set(kind))]

@@ -125,7 +125,7 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     out += [f"note: {n}" for n in res.notes]
     out += ["", "SNOOPING LOG", "-" * 78, format_log(res.summary)]
     out += ["", "GROUP STATISTICS (rejected observations left out; image and model µm, "
-            "control m)", "-" * 78, format_groups(group_statistics(obs))]
+            "control m)", "-" * 78, format_groups(group_statistics(obs, res.units))]
     if res.photos is not None and (obs["kind"] == "image").any():
         out += ["", "PER STRIP", "-" * 78, format_image_groups(per_strip(obs, res.strip_of()),
                                                                "strip")]
@@ -138,7 +138,7 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     if (obs["kind"] == "model").any():
         out += ["", "PER MODEL", "-" * 78, format_model_groups(model_groups(obs))]
     out += ["", f"LARGEST RESIDUALS ({opt.worst} per kind)", "-" * 78,
-            format_worst(worst(obs, opt.worst))]
+            format_worst(worst(obs, opt.worst), res.units)]
     for name, h in image_histograms(obs, opt):
         out += ["", format_histogram(h, f"IMAGE {name.upper()} RESIDUALS", "µm",
                                      opt.line_width)]
@@ -146,26 +146,27 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
         out += ["", format_histogram(h, f"STANDARDIZED RESIDUALS w, {name.upper()}", "",
                                      opt.line_width, expected=h.expected_normal(),
                                      critical=res.k_w)]
-    t = snooping_table(obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top)
+    t = snooping_table(obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top,
+                       units=res.units)
     t, note = first_rows(t, opt.max_rows)
     out += ["", f"SNOOPING TABLE ({len(t)} of {len(obs)} observations: every rejected and "
             f"flagged one, and the largest |w|{note})", "-" * 78, format_snooping(t, res.k_w)]
-    out += weakest_text(obs, opt)
+    out += weakest_text(obs, opt, res.units)
     return "\n".join(out) + "\n"
 
 
-def weakest_text(obs: pd.DataFrame, opt: ReportOptions) -> list[str]:
+def weakest_text(obs: pd.DataFrame, opt: ReportOptions,
+                 units: dict[str, str] | None = None) -> list[str]:
     """The text report's tables of the weakest observations (largest |w|: the snooping
     table)."""
     if not obs["redundancy"].notna().any():
         return []
     out = []
-    for title, t in weakest(obs, opt.worst).items():
+    for title, t in weakest(obs, opt.worst, units).items():
         out += ["", f"{title.upper()} ({opt.worst})", "-" * 78]
         for r, la in zip(t.itertuples(index=False), obs_label(t), strict=True):
-            unit = UNITS.get(r.kind, "")
             out.append(f"{r.kind:<8}{la:<36} r {r.redundancy:6.3f}  w {r.w:6.2f}  MDB "
-                       f"{r.mdb:10.4g} {unit}".rstrip())
+                       f"{r.mdb:10.4g} {r.unit}".rstrip())
     return out
 
 
