@@ -49,7 +49,8 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          sigma_image_um: float | None = None, datum: str | None = None,
          encoding: str = ENCODING, camera_model: str | None = None,
          calibrate=None, camera: str | Path | None = None,
-         calibration_group: str | None = None, check_gcp=None) -> Block:
+         calibration_group: str | None = None, check_gcp=None,
+         control: str | Path | None = None) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
     crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
@@ -65,11 +66,19 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     calibration_group: "strip" estimates the camera parameters per camera and strip
     (block/camera.py cameras_per_strip), "camera" or None as the input says; check_gcp:
     control points to use as check points (with_check_points), e.g. an OpenSfM dataset's
-    GCPs.
+    GCPs; control: a control file (DBAT's text format or a native ground_points.csv,
+    io/control_file.py) whose points replace the input's control, matched by id
+    (block/control.py).
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
                      sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
                      encoding=encoding, camera=camera, crs=crs)
+    if control is not None:
+        from baarda.block.control import with_control
+        from baarda.io.control_file import read_control_file
+
+        cf = read_control_file(control, encoding, block.settings.sigma_control_m)
+        block = with_control(block, cf.ids, cf.xyz, cf.sigma, cf.role, cf.path)
     if check_gcp is not None:
         block = with_check_points(block, check_gcp)
     if datum not in (None, *DATUMS):

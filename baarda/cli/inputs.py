@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
 from baarda.cli.common import add_encoding_option
@@ -39,6 +41,9 @@ def add_input_options(p) -> None:
     p.add_argument("--camera", metavar="FILE", help="a DBAT camera file (e.g. DBAT's "
                    "calibration result) replacing a DBAT script's camera; with --calibrate "
                    "none it is held fixed. Default: the script's camera")
+    p.add_argument("--control", metavar="FILE", help="control points replacing the input's "
+                   "own (matched by id): DBAT's text format 'id[, name], X, Y, Z[, sigmas]' "
+                   "(no sigma: fixed) or a native ground_points.csv. Default: the input's")
     p.add_argument("--datum", choices=DATUMS, help="control: the control fixes the block; "
                    "free: a free network (minimal constraints; control points become check "
                    "points); inner: a free network whose coordinates and standard deviations "
@@ -58,7 +63,13 @@ def read_input(args) -> Block:
                 datum=datum_option(args), encoding=args.encoding,
                 camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate),
                 camera=args.camera, calibration_group=args.calibration_group,
-                check_gcp=args.check_gcp)
+                check_gcp=args.check_gcp, control=args.control)
+
+
+def input_paths(args) -> list[Path]:
+    """The files a command reads (its input, --camera, --control): checked against the
+    output folder, never written over."""
+    return [Path(p) for p in (args.input, args.camera, args.control) if p is not None]
 
 
 def datum_option(args) -> str | None:
