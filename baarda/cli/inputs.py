@@ -18,13 +18,17 @@ def add_input_options(p) -> None:
                    "the path)")
     p.add_argument("--crs", help="CRS of the ground coordinates (e.g. EPSG:32632); overrides "
                    "project.toml")
-    p.add_argument("--pixel-mm", type=float, default=0.001, help="nominal pixel size for "
-                   "COLMAP, BAL and OpenSfM input [mm] (default 0.001: residuals in µm read as "
-                   "pixels)")
-    p.add_argument("--sigma-px", type=float, default=1.0, help="image sigma for COLMAP, "
-                   "BAL and OpenSfM input [px] (default 1)")
-    p.add_argument("--sigma-image-um", type=float, help="image sigma for AICON input [µm] "
-                   "(default: the .phc file's)")
+    p.add_argument("--sigma-image-um", type=float, metavar="UM", help="a-priori sigma of "
+                   "every image coordinate [µm], any input. Default: the input's own (its "
+                   "files, project.toml)")
+    p.add_argument("--sigma-px", type=float, metavar="PX", help="the same in pixels: with "
+                   "the camera's pixel size (DBAT, PhotoModeler, MicMac) or --pixel-mm "
+                   "(default 1 px for COLMAP, BAL, OpenSfM)")
+    p.add_argument("--pixel-mm", type=float, metavar="MM", help="pixel size [mm] of input "
+                   "without one: COLMAP, BAL, OpenSfM (default 0.001: residuals in µm read "
+                   "as pixels), a PhotoModeler export without image size; for a native "
+                   "project or AICON it converts --sigma-px. Refused where the input has "
+                   "its own")
     add_encoding_option(p)
     p.add_argument("--camera-model", choices=[k for k in KINDS if k != "brown_backward"],
                    help="put every camera on this model (docs/camera_models.md; coefficients "
