@@ -67,9 +67,46 @@ def detect(path: str | Path) -> str:
             return "photomodeler"
         if is_bal(p):
             return "bal"
+    if p.is_dir():
+        from baarda.io.project import FILES
+
+        has = [f for f in FILES[1:] if (p / f).is_file()]
+        if has:
+            raise ProjectError(str(p / "project.toml"), "not found: the folder has "
+                               f"{', '.join(has)} but a native project needs project.toml "
+                               "beside them (docs/format.md)")
+        raise ProjectError(str(p), "format not recognised: no project.toml (a native project "
+                           "folder), and not a COLMAP model, AICON project, MicMac/IGN folder, "
+                           "OpenSfM dataset or ODM project folder")
     raise ProjectError(str(p), "format not recognised (native project folder, COLMAP model, "
                        "AICON project, DBAT script .xml, PhotoModeler export .txt, BAL file, "
                        "MicMac/IGN folder, OpenSfM dataset or ODM project)")
+
+
+# what each format's path is: a file, a folder, or either (AICON: the folder or one of its
+# files; OpenSfM: the dataset folder or an ODM project)
+FILE_FORMATS = {"dbat": "a DBAT script .xml", "photomodeler": "a PhotoModeler export .txt",
+                "bal": "a BAL file (.txt or .bz2)"}
+FOLDER_FORMATS = {"project": "a native project folder (project.toml and its CSV files)",
+                  "colmap": "a COLMAP model folder", "micmac": "a MicMac/IGN folder",
+                  "opensfm": "an OpenSfM dataset or ODM project folder"}
+
+
+def _check_kind(p: Path, fmt: str) -> None:
+    """ProjectError when --format names a format whose input is a file and the path is a
+    folder, or the other way round (the reader would say 'file not found')."""
+    if not p.exists():
+        raise ProjectError(str(p), "not found")
+    wrong = (fmt in FILE_FORMATS and p.is_dir()) or (fmt in FOLDER_FORMATS and p.is_file())
+    if not wrong:
+        return
+    try:
+        found = f"; it looks like {detect(p)} input (leave out --format)"
+    except ProjectError:
+        found = ""
+    want = FILE_FORMATS.get(fmt) or FOLDER_FORMATS[fmt]
+    kind = "a folder" if p.is_dir() else "a file"
+    raise ProjectError(str(p), f"--format {fmt} reads {want}, but this is {kind}{found}")
 
 
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None = None,
@@ -91,9 +128,11 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
     from baarda.io.image_sigma import check_image_sigmas, resolve_image_options, with_image_sigma
 
     p = Path(path)
-    fmt = fmt or detect(p)
-    if fmt not in FORMATS:
+    if fmt is not None and fmt not in FORMATS:
         raise ProjectError(str(p), f"unknown format '{fmt}' (one of {', '.join(FORMATS)})")
+    if fmt is not None:
+        _check_kind(p, fmt)
+    fmt = fmt or detect(p)
     if camera is not None and fmt != "dbat":
         raise ProjectError(str(camera), f"a camera file replaces the camera of a DBAT script; "
                            f"{p.name} is {fmt} input (give its cameras in its own files)")
