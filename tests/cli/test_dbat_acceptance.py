@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from baarda.block.camera_models import principal_point_to_dbat
+from baarda.pipeline import read
 
 ROOT = Path(__file__).resolve().parents[2]
 SOURCES = {"tests/data": ROOT / "tests" / "data", "../shared/data": ROOT.parent / "shared" / "data"}
@@ -100,6 +101,10 @@ def test_camcal_photomodeler_export_with_dbat_control(source, tmp_path):
     ref = dbat_report(SOURCES[root] / CAMCAL / "camcal-dbatreport.txt")
     got = _bundle(out)
     assert f"{got['sigma0']:.4f}" == ref["sigma0"] == "1.6148"
+    block = read(ROOT / root / CAMCAL / "camcal-pmexport.txt",
+                 control=ROOT / root / CAMCAL / "camcal-ctrl-fixed.txt")
+    ctrl = block.points.role == "control"
+    assert ctrl.sum() == 4 and np.all(block.points.sigma[ctrl] == 0)  # 4 fixed points
     assert got["redundancy"] == ref["redundancy"] == 3725
     cam = dbat_camera(out / "cameras.csv", 7.25319 / 2272, 5.43764 / 1704)
     assert set(ref) - {"sigma0", "redundancy"} == set(cam)
@@ -121,5 +126,9 @@ def test_sxb_photomodeler_export_with_dbat_control(source, tmp_path):
                       "wsmart-no-orient-dbatreport.txt")
     got = _bundle(out)
     assert f"{got['sigma0']:.5f}" == ref["sigma0"] == "1.07447"
+    block = read(ROOT / root / SXB / "photomodeler_export" / "wsmart-no-orient-pmexport.txt",
+                 control=ROOT / root / SXB / "dbat_script" / "reference" / "sxb-control.txt")
+    ctrl = block.points.role == "control"
+    assert ctrl.sum() == 16 and np.allclose(block.points.sigma[ctrl], [0.02, 0.02, 0.04])
     assert got["redundancy"] == ref["redundancy"] == 1267
     assert "another frame" in run.stdout  # PhotoModeler's shifted frame: resected
