@@ -45,31 +45,42 @@ if TYPE_CHECKING:
 
 
 def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
-         pixel_mm: float = 0.001, sigma_px: float = 1.0,
+         pixel_mm: float | None = None, sigma_px: float | None = None,
          sigma_image_um: float | None = None, datum: str | None = None,
          encoding: str = ENCODING, camera_model: str | None = None,
          calibrate=None, camera: str | Path | None = None,
-         calibration_group: str | None = None, check_gcp=None) -> Block:
+         calibration_group: str | None = None, check_gcp=None,
+         control: str | Path | None = None) -> Block:
     """Read any supported input (io/formats.py) into a Block, as the files give it.
 
-    crs: the CRS of the ground coordinates (overrides project.toml); pixel_mm, sigma_px:
-    nominal pixel size [mm] and image sigma [px] of COLMAP and BAL inputs; sigma_image_um:
-    image sigma of AICON inputs (default: the .phc file's); datum: "control", "free" or
-    "inner" (overrides the input's: see prepare); encoding: of the input's text files (default
-    UTF-8); camera_model: put every camera on this model (block/camera_models.py);
-    calibrate: the camera parameters to estimate, a list of names ('c', 'x0', 'y0', the
-    model's coefficients) for every camera, "all" or "none" (default: what the input says:
-    project.toml [calibration], or what the source program estimated); camera: a DBAT
-    camera file (e.g. DBAT's calibration result) replacing a DBAT script's camera (it is
-    still estimated where the script estimates it, unless calibrate="none");
+    crs: the CRS of the ground coordinates (overrides project.toml); sigma_image_um or
+    sigma_px: the image sigma [µm] or [px] of every observation of any input (default: the
+    input's own), pixel_mm: the pixel size [mm] of inputs without one (io/image_sigma.py
+    says which option applies to which format; one that does not is an error); datum:
+    "control", "free" or "inner" (overrides the input's: see prepare); encoding: of the
+    input's text files (default UTF-8); camera_model: put every camera on this model
+    (block/camera_models.py); calibrate: the camera parameters to estimate, a list of names
+    ('c', 'x0', 'y0', the model's coefficients) for every camera, "all" or "none" (default:
+    what the input says: project.toml [calibration], or what the source program estimated);
+    camera: a DBAT camera file (e.g. DBAT's calibration result) replacing a DBAT script's
+    camera (it is still estimated where the script estimates it, unless calibrate="none");
     calibration_group: "strip" estimates the camera parameters per camera and strip
-    (block/camera.py cameras_per_strip), "camera" or None as the input says; check_gcp:
+    (block/camera.py cameras_per_strip), "camera" shares them (both override project.toml),
+    None as the input says; check_gcp:
     control points to use as check points (with_check_points), e.g. an OpenSfM dataset's
-    GCPs.
+    GCPs; control: a control file (DBAT's text format or a native ground_points.csv,
+    io/control_file.py) whose points replace the input's control, matched by id
+    (block/control.py).
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
-                     sigma_image_mm=None if sigma_image_um is None else sigma_image_um * 1e-3,
-                     encoding=encoding, camera=camera, crs=crs)
+                     sigma_image_um=sigma_image_um, encoding=encoding, camera=camera, crs=crs,
+                     calibration_group=calibration_group)
+    if control is not None:
+        from baarda.block.control import with_control
+        from baarda.io.control_file import read_control_file
+
+        cf = read_control_file(control, encoding, block.settings.sigma_control_m)
+        block = with_control(block, cf.ids, cf.xyz, cf.sigma, cf.role, cf.path)
     if check_gcp is not None:
         block = with_check_points(block, check_gcp)
     if datum not in (None, *DATUMS):

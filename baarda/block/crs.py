@@ -21,6 +21,7 @@ collinearity equations hold without map-projection scale or earth-curvature corr
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 from pyproj import CRS, Transformer
@@ -171,6 +172,7 @@ def localize(block: Block, crs: str | None = None) -> Block:
     if not len(base):
         raise ProjectError(block.source or block.settings.name, "no coordinates to place the "
                            "local frame")
+    _check_geographic(crs, block)
     frame = LocalFrame(crs, base.mean(axis=0))
     xyz = frame.to_local(pts.xyz)
     part = np.isfinite(pts.xyz).any(axis=1) & ~known
@@ -199,6 +201,37 @@ def localize(block: Block, crs: str | None = None) -> Block:
         imu = replace(imu, angles=frame.eo_to_local(np.column_stack([where, imu.angles]))[:, 3:])
     return replace(block, photos=photos, points=points, notes=notes, frame=frame, gnss=gnss,
                    imu=imu)
+
+
+def _check_geographic(crs: str, block: Block) -> None:
+    """ProjectError when a geographic CRS is given for coordinates that are not longitude
+    and latitude (metric coordinates under crs = "EPSG:4326" ended in a generic 'the
+    approximations do not fit'), naming the first point or photo outside the ranges."""
+    try:
+        c = CRS.from_user_input(crs)
+    except CRSError:
+        return  # LocalFrame names the CRS that is not one
+    if not c.is_geographic:
+        return
+    unit = c.axis_info[0].unit_conversion_factor  # radians per angle unit
+    lon_max, lat_max = np.pi / unit, np.pi / 2 / unit
+    pts, ph = block.points, block.photos
+    for what, ids, xy in (("point", pts.ids, pts.xyz[:, :2]),
+                          ("photo", ph.ids, ph.eo[:, :2])):
+        bad = np.flatnonzero(np.isfinite(xy).all(axis=1) & ((np.abs(xy[:, 0]) > lon_max) |
+                                                            (np.abs(xy[:, 1]) > lat_max)))
+        if len(bad):
+            k = int(bad[0])
+            src = Path(block.source) if block.source else None
+            toml = src / "project.toml" if src is not None and src.is_dir() else None
+            where = str(toml) if toml is not None and toml.is_file() else \
+                (block.source or block.settings.name)
+            raise ProjectError(where, f"crs {crs} ({c.name}) is geographic: X and Y are "
+                               f"longitude and latitude in {c.axis_info[0].unit_name}s, but "
+                               f"{what} {ids[k]} has X {xy[k, 0]:.10g}, Y {xy[k, 1]:.10g} "
+                               f"(outside +-{lon_max:g} and +-{lat_max:g}): give the CRS of "
+                               "the coordinates (a projected CRS for metric coordinates, "
+                               "e.g. EPSG:25832)", column="crs" if toml is not None else None)
 
 
 def delocalize(block: Block) -> Block:

@@ -33,6 +33,9 @@ class Settings:
     alpha_global: float = DEFAULT_TESTS.alpha_global
     crs: str | None = None
     datum: str = "control"  # control: the control fixes the block; free: minimal constraints
+    # the minimal constraints of a free network as its source states them (DBAT's set_datum
+    # depend): (id of the photo held, "longest" | "x" | "y" | "z"); None: baarda's choice
+    free_datum: tuple[str, str] | None = None
     # GNSS/IMU (docs/format.md [gnss], [imu]): lever arm (m, camera frame) from the
     # projection centre to the antenna; shifts per block or strip and a linear drift per
     # strip as unknowns; IMU boresight misalignment held (identity) or estimated

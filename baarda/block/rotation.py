@@ -140,3 +140,17 @@ def pose_of_eo(eo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     eo = np.asarray(eo, float)
     r = FLIP @ np.swapaxes(rotation_matrix(eo[..., 3], eo[..., 4], eo[..., 5]), -1, -2)
     return r, -(r @ eo[..., :3, None])[..., 0]
+
+
+def similarity(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """The 7-parameter similarity (scale s, rotation R, translation t) with
+    s R src + t closest to dst in least squares (Umeyama 1991; 3 or more points not on a
+    line).  src, dst (n, 3)."""
+    ms, md = src.mean(axis=0), dst.mean(axis=0)
+    a, b = src - ms, dst - md
+    u, d, vt = np.linalg.svd(b.T @ a / len(src))
+    sign = np.ones(3)
+    sign[2] = np.sign(np.linalg.det(u @ vt)) or 1.0
+    r = u @ np.diag(sign) @ vt
+    s = float(np.sum(d * sign) / (np.sum(a**2) / len(src)))
+    return s, r, md - s * r @ ms

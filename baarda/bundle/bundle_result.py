@@ -13,7 +13,7 @@ from baarda.adjustment.schur import SchurFactor
 from baarda.adjustment.schur_problem import read_only
 from baarda.adjustment.schur_system import Linearization
 from baarda.block.photo_block import Block
-from baarda.bundle.geometry import similarity
+from baarda.block.rotation import similarity
 from baarda.sections import Section, render, section
 
 if TYPE_CHECKING:

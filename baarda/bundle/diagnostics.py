@@ -49,6 +49,7 @@ def diagnose(block: Block, intersected: np.ndarray | None = None) -> list[str]:
         _image_size(block)
         _angle_range(block)
         findings = _coordinate_size(block)
+        findings += _control_fit(block, intersected)
         return findings + misclosures(block, intersected)
 
 
@@ -99,6 +100,50 @@ def _coordinate_size(block: Block) -> list[str]:
     return [f"coordinates up to {big:.3g} m: larger than any map or geocentric coordinate "
             f"(the Earth's radius is 6.4e6 m), and double precision resolves only "
             f"{big * 2.2e-16:.1g} m there: check the units and offsets of the coordinates"]
+
+
+def _control_fit(block: Block, intersected: np.ndarray | None) -> list[str]:
+    """The control against the points intersected from the approximate orientations:
+    GeometryError when it fits far better with X and Y exchanged (the columns of the
+    control swapped: the fault was blamed on the photos' approximations), a finding when
+    it does not fit at all (CRS, units, X/Y order of the control, or the approximations)."""
+    eo, pts = block.photos.eo, block.points
+    if not np.isfinite(eo).all():
+        return []
+    xyz = intersected if intersected is not None else \
+        intersect(block, eo, np.arange(len(pts)))
+    ctrl = (pts.role == "control") & np.isfinite(pts.xyz).all(axis=1) & \
+        np.isfinite(xyz).all(axis=1)
+    if ctrl.sum() < 3:
+        return []
+    given, found = pts.xyz[ctrl], xyz[ctrl]
+    swapped = given[:, [1, 0, 2]]
+    frame = block.frame
+    if frame is not None:  # exchange X and Y of the CRS, not of the local frame
+        try:
+            crs_xyz = frame.from_local(given)
+            swapped = frame.to_local(crs_xyz[:, [1, 0, 2]])
+        except Exception:  # noqa: BLE001 - swapped coordinates the CRS cannot take
+            swapped = np.full_like(given, np.nan)
+    d = float(np.median(np.linalg.norm(given[:, :2] - found[:, :2], axis=1)))
+    d_swap = float(np.nanmedian(np.linalg.norm(swapped[:, :2] - found[:, :2], axis=1))) \
+        if np.isfinite(swapped).any() else np.inf
+    extent = float(np.max(np.ptp(found[:, :2], axis=0)))
+    sigma = float(np.nanmedian(pts.sigma[ctrl, :2])) if np.isfinite(pts.sigma[ctrl, :2]).any() \
+        else 0.0
+    if not d > max(0.05 * extent, 10 * sigma):
+        return []
+    where = f" ({block.source})" if block.source else ""
+    if d_swap < 0.1 * d:
+        raise GeometryError(
+            f"the control's X and Y look swapped{where}: its {int(ctrl.sum())} control points "
+            f"lie {d:.4g} m (median) from where the photos' approximate orientations put "
+            f"them, {d_swap:.4g} m with X and Y exchanged: exchange the X and Y columns of "
+            "the control (ground_points.csv of a native project)")
+    return [f"control: its {int(ctrl.sum())} control points lie {d:.4g} m (median) from where "
+            "the photos' approximate orientations put them (the block spans "
+            f"{extent:.4g} m): check the control's CRS, units and X/Y order, or the "
+            "approximations"]
 
 
 def _misclosure(block: Block, eo: np.ndarray, intersected: np.ndarray | None = None

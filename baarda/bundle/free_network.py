@@ -25,12 +25,22 @@ from baarda.errors import GeometryError
 
 
 def choose_datum(block: Block, first: int = 0) -> tuple[int, int, int]:
-    """(photo held fully, second photo, its coordinate 0/1/2 held) from the approximations."""
+    """(photo held fully, second photo, its coordinate 0/1/2 held) from the approximations:
+    the coordinate with the largest absolute difference from the first photo, or as the
+    block's source states it (settings.free_datum: DBAT's dependent relative orientation,
+    the largest signed difference among the coordinates it allows)."""
     eo = block.photos.eo
     if len(eo) < 2:
         raise GeometryError("a free network needs at least two photos")
+    axes = [0, 1, 2]
     d = np.abs(eo[:, :3] - eo[first, :3])
-    d[first] = -1
+    if block.settings.free_datum is not None:
+        photo, base = block.settings.free_datum
+        first = block.photos.ids.index(photo)
+        axes = [0, 1, 2] if base == "longest" else ["xyz".index(base)]
+        d = eo[:, :3] - eo[first, :3]
+    d = np.where(np.isin(np.arange(3), axes)[None, :], d, -np.inf)
+    d[first] = -np.inf
     second, coord = np.unravel_index(int(np.argmax(d)), d.shape)
     if d[second, coord] <= 0:
         raise GeometryError("the approximate projection centres coincide: the scale of the "

@@ -122,20 +122,6 @@ def predicted_observations(block: Block, eo: np.ndarray | None = None,
     return out
 
 
-def similarity(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """The 7-parameter similarity (scale s, rotation R, translation t) with
-    s R src + t closest to dst in least squares (Umeyama 1991; 3 or more points not on a
-    line).  src, dst (n, 3)."""
-    ms, md = src.mean(axis=0), dst.mean(axis=0)
-    a, b = src - ms, dst - md
-    u, d, vt = np.linalg.svd(b.T @ a / len(src))
-    sign = np.ones(3)
-    sign[2] = np.sign(np.linalg.det(u @ vt)) or 1.0
-    r = u @ np.diag(sign) @ vt
-    s = float(np.sum(d * sign) / (np.sum(a**2) / len(src)))
-    return s, r, md - s * r @ ms
-
-
 def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Least-squares intersection of the rays of `points` (indices) from photos `eo`.
 

@@ -25,8 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.block.rotation import angles_from_matrix, rotation_matrix
-from baarda.bundle.geometry import similarity
+from baarda.block.rotation import angles_from_matrix, rotation_matrix, similarity
 
 
 def _cross(v: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from baarda.cli.common import (
     progress,
     tests_option,
 )
-from baarda.cli.inputs import add_input_options, read_input
+from baarda.cli.inputs import add_input_options, input_paths, read_input
 
 
 def _common(p) -> None:
@@ -70,7 +70,7 @@ def register(sub) -> None:
 
 
 def run_adjust(args) -> int:
-    with open_run(args, [args.input]) as run:
+    with open_run(args, input_paths(args)) as run:
         qc, text = _adjust(args, run)
     if not args.quiet:
         print(text)

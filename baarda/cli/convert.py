@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import add_out_argument, open_run
-from baarda.cli.inputs import add_input_options, read_input
+from baarda.cli.inputs import add_input_options, input_paths, read_input
 from baarda.io.formats import detect
 from baarda.output.project_files import write_project
 from baarda.pipeline import with_approximations
@@ -22,7 +22,7 @@ def register(sub) -> None:
 
 
 def run_convert(args) -> int:
-    with open_run(args, [args.input]) as run:
+    with open_run(args, input_paths(args)) as run:
         fmt = args.format or detect(args.input)
         block = with_approximations(read_input(args))
         write_project(block, run)

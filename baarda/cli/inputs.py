@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
 from baarda.cli.common import add_encoding_option
@@ -16,13 +18,17 @@ def add_input_options(p) -> None:
                    "the path)")
     p.add_argument("--crs", help="CRS of the ground coordinates (e.g. EPSG:32632); overrides "
                    "project.toml")
-    p.add_argument("--pixel-mm", type=float, default=0.001, help="nominal pixel size for "
-                   "COLMAP, BAL and OpenSfM input [mm] (default 0.001: residuals in µm read as "
-                   "pixels)")
-    p.add_argument("--sigma-px", type=float, default=1.0, help="image sigma for COLMAP, "
-                   "BAL and OpenSfM input [px] (default 1)")
-    p.add_argument("--sigma-image-um", type=float, help="image sigma for AICON input [µm] "
-                   "(default: the .phc file's)")
+    p.add_argument("--sigma-image-um", type=float, metavar="UM", help="a-priori sigma of "
+                   "every image coordinate [µm], any input. Default: the input's own (its "
+                   "files, project.toml)")
+    p.add_argument("--sigma-px", type=float, metavar="PX", help="the same in pixels: with "
+                   "the camera's pixel size (DBAT, PhotoModeler, MicMac) or --pixel-mm "
+                   "(default 1 px for COLMAP, BAL, OpenSfM)")
+    p.add_argument("--pixel-mm", type=float, metavar="MM", help="pixel size [mm] of input "
+                   "without one: COLMAP, BAL, OpenSfM (default 0.001: residuals in µm read "
+                   "as pixels), a PhotoModeler export without image size; for a native "
+                   "project or AICON it converts --sigma-px. Refused where the input has "
+                   "its own")
     add_encoding_option(p)
     p.add_argument("--camera-model", choices=[k for k in KINDS if k != "brown_backward"],
                    help="put every camera on this model (docs/camera_models.md; coefficients "
@@ -39,6 +45,9 @@ def add_input_options(p) -> None:
     p.add_argument("--camera", metavar="FILE", help="a DBAT camera file (e.g. DBAT's "
                    "calibration result) replacing a DBAT script's camera; with --calibrate "
                    "none it is held fixed. Default: the script's camera")
+    p.add_argument("--control", metavar="FILE", help="control points replacing the input's "
+                   "own (matched by id): DBAT's text format 'id[, name], X, Y, Z[, sigmas]' "
+                   "(no sigma: fixed) or a native ground_points.csv. Default: the input's")
     p.add_argument("--datum", choices=DATUMS, help="control: the control fixes the block; "
                    "free: a free network (minimal constraints; control points become check "
                    "points); inner: a free network whose coordinates and standard deviations "
@@ -58,7 +67,13 @@ def read_input(args) -> Block:
                 datum=datum_option(args), encoding=args.encoding,
                 camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate),
                 camera=args.camera, calibration_group=args.calibration_group,
-                check_gcp=args.check_gcp)
+                check_gcp=args.check_gcp, control=args.control)
+
+
+def input_paths(args) -> list[Path]:
+    """The files a command reads (its input, --camera, --control): checked against the
+    output folder, never written over."""
+    return [Path(p) for p in (args.input, args.camera, args.control) if p is not None]
 
 
 def datum_option(args) -> str | None:

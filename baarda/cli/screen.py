@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.common import add_out_argument, announce_compile, open_run, progress
-from baarda.cli.inputs import add_input_options, read_input
+from baarda.cli.inputs import add_input_options, input_paths, read_input
 from baarda.screening.options import ScreeningOptions
 
 
@@ -67,7 +67,7 @@ def run(args) -> int:
     from baarda.output.screening_log import write_screening_log
     from baarda.screening.chain import screen
 
-    with open_run(args, [args.input]) as run:
+    with open_run(args, input_paths(args)) as run:
         say = progress(args.quiet)
         block = read_input(args)
         if say:

@@ -43,7 +43,13 @@ from baarda.io.colmap_model import (
     first_repeated,
     lookup,
 )
-from baarda.io.colmap_text import read_cameras_txt, read_images_txt, read_points_txt
+from baarda.io.colmap_text import (
+    check_header_count,
+    data_line,
+    read_cameras_txt,
+    read_images_txt,
+    read_points_txt,
+)
 
 __all__ = ["FILES", "MODELS", "MODEL_ID", "ColmapCamera", "ColmapImages", "ColmapModel",
            "ColmapPoints", "is_colmap_model", "matrix_to_qvec", "model_files", "qvec_to_matrix",
@@ -113,6 +119,8 @@ def read_colmap(folder: str | Path) -> ColmapModel:
         model = ColmapModel(read_cameras_txt(files["cameras"]),
                             read_images_txt(files["images"]),
                             read_points_txt(files["points3D"]))
+        check_header_count(files["images"], len(model.images))
+        check_header_count(files["points3D"], len(model.points))
     _check(model, files["images"], files["points3D"])
     return model
 
@@ -153,5 +161,12 @@ def _check(model: ColmapModel, ifile: Path, pfile: Path) -> None:
     if wrong.any():
         e = int(np.argmax(wrong))
         j = int(np.searchsorted(pt.offsets, e, side="right")) - 1
+        line = data_line(pfile, j) if pfile.suffix == ".txt" else None
+        if im.rows(pt.image_ids[e:e + 1])[0] < 0:
+            raise ProjectError(str(pfile), f"point {pt.ids[j]} is seen in image "
+                               f"{pt.image_ids[e]}, which {ifile.name} does not hold (it holds "
+                               f"{len(im)} image(s): is {ifile.name} cut short?)", line,
+                               "TRACK")
         raise ProjectError(str(pfile), f"point {pt.ids[j]}: track element ({pt.image_ids[e]}, "
-                           f"{pt.point2D_idxs[e]}) does not point back to this point")
+                           f"{pt.point2D_idxs[e]}) does not point back to this point", line,
+                           "TRACK")

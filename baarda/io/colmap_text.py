@@ -9,6 +9,7 @@ error naming file, line and field.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -265,3 +266,30 @@ def _points_lines(path: Path) -> ColmapPoints:
         ims.append(track[0::2])
         idxs.append(track[1::2])
     return ColmapPoints.from_lists(ids, xyzs, rgbs, errs, ims, idxs)
+
+
+# ---------------------------------------------------------------- truncated files
+HEADER_COUNT = re.compile(r"#\s*Number of (images|points)\s*:\s*(\d+)")
+
+
+def check_header_count(path: Path, found: int) -> None:
+    """ProjectError when the count COLMAP wrote into the header of images.txt or
+    points3D.txt ('# Number of images: N') differs from the records read: the file was
+    cut short (or edited), which would otherwise surface in the other file."""
+    for no, s in enumerate(read_lines(path)[:20], start=1):
+        m = HEADER_COUNT.match(s.strip())
+        if m:
+            said = int(m.group(2))
+            if said != found:
+                data = _data_lines(path)
+                last = data[-1][0] if data else no
+                raise ProjectError(str(path), f"holds {found} of the {said} {m.group(1)} "
+                                   f"that its header names (line {no}): the file is cut short "
+                                   "or was edited", last)
+            return
+
+
+def data_line(path: Path, k: int) -> int | None:
+    """The line of the k-th record (0-based) of points3D.txt (one data line each)."""
+    data = _data_lines(path)
+    return data[k][0] if 0 <= k < len(data) else None

@@ -15,20 +15,26 @@ What is read, and how it is converted:
   are rejected.  The aspect enters through the pixel sizes: DBAT scales pixels by the pixel
   height and multiplies x by px/py after subtracting pp, so the x of pp is in units of the
   pixel height and becomes pp_x px/py.  Skew must be 0.
-* self-calibration: when the script's ``set_bundle_estimate_params`` estimates the interior
-  orientation (``<io><all>true</all>``, or ``cc``, ``pp``, ``aspect``, ``skew``, ``K``, ``P``),
+* the camera: a ``<camera>`` element or a DBAT camera file (``<cameras><file>``), with the
+  script's ``set_initial_values`` applied (io/dbat_operations.py).
+* self-calibration: the parameters that the script's ``set_bundle_estimate_params``
+  estimates, flag by flag as DBAT applies them (``all``, ``cc``, ``pp``, ``px``, ``py``,
+  ``aspect``, ``skew``, ``K``, ``P``, ``K1``..``K3``, ``P1``, ``P2``; io/dbat_operations.py);
   the camera becomes baarda's ``dbat3`` model (DBAT's model 3 exactly: the affine
   [1 + b1, b2; 0, 1] after pp, then Brown) in DBAT's own frame: pixels scaled by the pixel
-  height in x and y, b1 = 1 - aspect (DBAT's 'as'), and the estimated parameters are those
-  of the script (``nK`` K and ``nP`` P coefficients; skew only when asked).
+  height in x and y, b1 = 1 - aspect (DBAT's 'as').
 * image sigma ``sxy`` (pixels; the ``sxy`` attribute of the file element overrides the
   column) -> mm with the pixel height (DBAT's pixel size).
 * control points with sigmas -> control; without sigma -> fixed control (sigma 0, as DBAT
   holds them); ``<filter id="..">keep|remove</filter>`` applied; check points -> role check
   (coordinates kept, not used in the adjustment).
-* no exterior orientation is given: the photos' EO is left NaN and baarda.pipeline finds
-  approximations by space resection and intersection (bundle/resection.py), as DBAT's own
-  script does.
+* exterior orientation: the script's ``<prior_eo>`` file (``format`` with id, x, y, z,
+  omega, phi, kappa; ``units`` radian, degrees or gon) gives the approximations; images
+  without one are left NaN and baarda.pipeline finds approximations by space resection and
+  intersection (bundle/resection.py), as DBAT's own script does.
+* datum: the control, or DBAT's ``set_datum depend`` (dependent relative orientation, a free
+  network held as DBAT holds it: Settings.free_datum); a script without control and without
+  set_datum is a free network.
 
 Other processing operations of the script are not executed.  The camera element is read by
 io/dbat_camera.py.
@@ -45,11 +51,11 @@ from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, 
 from baarda.errors import ProjectError
 from baarda.io.dbat_camera import (
     calibrated_camera,
-    estimated_io,
-    estimates_io,
     parse_camera,
     read_dbat_camera,
+    read_dbat_cameras,
 )
+from baarda.io.dbat_operations import initial_camera, read_operations
 from baarda.io.records import Records, first_appearance, parse_number
 from baarda.io.xmltree import Node, parse_xml
 
@@ -145,15 +151,95 @@ def read_dbat_stations(path: str | Path) -> dict[str, np.ndarray]:
     return dict(zip(r.text("id"), eo, strict=True))
 
 
+ANGLE_UNITS = {"radian": 1.0, "radians": 1.0, "degrees": np.pi / 180, "degree": np.pi / 180,
+               "gon": np.pi / 200}
+EO_FIELDS = {"id", "label", "ignored", "x", "y", "z", "omega", "phi", "kappa", "sx", "sy",
+             "sz", "sxy", "sxyz", "so", "sp", "sk", "sang"}
+
+
+def _prior_eo(node: Node, base: Path, xml_dir: Path, path: str,
+              image_ids: list[str]) -> tuple[np.ndarray, list[str]]:
+    """The prior orientations of <input><prior_eo><file format=".." units="..">: (n, 6) EO
+    in the order of the images (NaN for an image the file does not list) and notes."""
+    f = node.find("file")
+    if f is None:
+        raise ProjectError(path, "<prior_eo> without a <file>", node.line, "prior_eo")
+    fmt = f.attrib.get("format")
+    if not fmt:
+        raise ProjectError(path, "<file> of <prior_eo> without a format attribute", f.line,
+                           "format")
+    fields = [x.strip() for x in fmt.split(",")]
+    bad = [x for x in fields if x not in EO_FIELDS]
+    if bad or "id" not in fields:
+        raise ProjectError(path, f"prior_eo format '{fmt}': " + (
+            f"unknown field '{bad[0]}'" if bad else "no 'id'"), f.line, "format")
+    names = [x if x != "ignored" else f"ignored{i}" for i, x in enumerate(fields)]
+    r = Records(_resolve(base, f.text, xml_dir), names)
+    eo = np.full((len(r), 6), np.nan)
+    for k, name in enumerate(("x", "y", "z", "omega", "phi", "kappa")):
+        if name in fields:
+            eo[:, k] = r.numbers(name)
+    notes = []
+    if any(a in fields for a in ("omega", "phi", "kappa")):
+        unit = f.attrib.get("units")
+        if unit not in ANGLE_UNITS:
+            raise ProjectError(path, f"prior_eo angles without a known unit (units="
+                               f"\"{unit or ''}\"; expected radian, degrees or gon), as "
+                               "DBAT requires", f.line, "units")
+        eo[:, 3:] *= ANGLE_UNITS[unit]
+    if set(fields) & {"sx", "sy", "sz", "sxy", "sxyz", "so", "sp", "sk", "sang"}:
+        notes.append(f"{Path(r.path).name}: the prior orientations' standard deviations are "
+                     "not read (the prior EO are approximations only)")
+    index = {s: i for i, s in enumerate(image_ids)}
+    out = np.full((len(image_ids), 6), np.nan)
+    for i, s in enumerate(r.text("id")):
+        if s not in index:
+            raise ProjectError(r.path, f"unknown image id '{s}'", int(r.lines[i]), "id")
+        out[index[s]] = eo[i]
+    partial = np.isfinite(out).any(axis=1) & ~np.isfinite(out).all(axis=1)
+    if partial.any():
+        raise ProjectError(r.path, "prior_eo must give all six orientation values (x, y, z, "
+                           "omega, phi, kappa)", f.line, "format")
+    missing = int((~np.isfinite(out).all(axis=1)).sum())
+    notes.append(f"prior orientations of {len(image_ids) - missing} image(s) from "
+                 f"{Path(r.path).name} as approximations" + (
+                     f"; {missing} image(s) without one are oriented by space resection"
+                     if missing else ""))
+    return out, notes
+
+
+def _script_cameras(inp: Node, base: Path, xml_dir: Path, path: str) -> list[dict]:
+    """The cameras of <input><cameras>: <camera> elements, or a DBAT camera <file>."""
+    node = inp.find("cameras")
+    if node is None:
+        raise ProjectError(path, "no <cameras> in <input>", inp.line, "cameras")
+    cams = [parse_camera(c, path) for c in node.findall("camera")]
+    for f in node.findall("file"):
+        cams += read_dbat_cameras(_resolve(base, f.text, xml_dir))
+    if not cams:
+        raise ProjectError(path, "<cameras> holds neither a <camera> nor a camera <file>",
+                           node.line, "cameras")
+    ids = [str(c["id"]) for c in cams]
+    if len(set(ids)) != len(ids):
+        raise ProjectError(path, "camera ids are not unique", node.line, "id")
+    if len(cams) > 1:
+        raise ProjectError(path, "several cameras: the image-to-camera mapping of DBAT "
+                           "scripts is not supported", node.line, "cameras")
+    return cams
+
+
 def read_dbat(path: str | Path, *, camera: str | Path | None = None,
-              stations: str | Path | None = None, calibrate: bool = True) -> Block:
+              stations: str | Path | None = None, calibrate: bool = True,
+              sigma_px: float | None = None) -> Block:
     """Read a DBAT script project (XML + CSV files) into a Block; see the module docstring.
 
-    camera: a DBAT camera file (e.g. a calibration result) replacing the script's camera.
-    stations: a DBAT camera_stations.txt whose EO become the approximations (else the EO
-    is left NaN: baarda.pipeline orients the photos by space resection).  calibrate: when the
-    script estimates the interior orientation, estimate it too (the camera as DBAT's
-    model 3, `dbat3`); False holds the camera as given.
+    camera: a DBAT camera file (e.g. a calibration result) replacing the script's camera
+    (taken as it is: the script's initial values are not applied to it).  stations: a
+    DBAT camera_stations.txt whose EO become the approximations (else the script's prior
+    EO, or NaN: baarda.pipeline orients the photos by space resection).  calibrate: when
+    the script estimates the interior orientation, estimate it too (the camera as DBAT's
+    model 3, `dbat3`); False holds the camera as given.  sigma_px: the image sigma [px]
+    of every observation instead of the script's (mm with the pixel height, as DBAT).
     """
     path = Path(path)
     spath = str(path)
@@ -170,37 +256,32 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     meta = root.find("meta")
     name = (meta.value("name") if meta is not None else None) or path.stem
 
-    # cameras
-    cams_node = inp.find("cameras")
-    if cams_node is None or not cams_node.findall("camera"):
-        raise ProjectError(spath, "no <cameras><camera> in <input>", inp.line)
-    cams = [parse_camera(c, spath) for c in cams_node.findall("camera")]
-    if camera is not None:
-        cams = [read_dbat_camera(camera)]
-        notes.append(f"camera replaced by {Path(camera).name}")
-    cam_ids = [str(c["id"]) for c in cams]
-    if len(set(cam_ids)) != len(cam_ids):
-        raise ProjectError(spath, "camera ids are not unique", cams_node.line, "id")
-
     # images
     im_node = inp.find("images")
     if im_node is None or im_node.find("file") is None:
         raise ProjectError(spath, "no <images><file> in <input>", inp.line)
-    img_ids, img_names, img_cam = [], [], []
+    img_ids, img_names = [], []
     for f in im_node.findall("file"):
         fields = _fields(f, spath)
         r = Records(_resolve(base, f.text, xml_dir), fields)
         img_ids += list(r.text("id"))
         img_names += [Path(s.replace("\\", "/")).stem for s in
                       (r.text("path") if "path" in fields else r.text("id"))]
-        img_cam += [0] * len(r)
     if len(set(img_ids)) != len(img_ids):
         raise ProjectError(spath, "image ids are not unique", im_node.line)
-    if len(cams) > 1:
-        raise ProjectError(spath, "several cameras: the image-to-camera mapping of DBAT "
-                           "scripts is not supported", cams_node.line)
     photo_ids = img_names if len(set(img_names)) == len(img_names) else list(img_ids)
     photo_of = {s: i for i, s in enumerate(img_ids)}
+
+    # camera and operations
+    if camera is not None:
+        cam = read_dbat_camera(camera)
+        notes.append(f"camera replaced by {Path(camera).name}")
+    else:
+        cam = _script_cameras(inp, base, xml_dir, spath)[0]
+    ops = read_operations(root.find("operations"), spath, cam["n_k"], cam["n_p"],
+                          len(img_ids))
+    if camera is None:
+        cam = initial_camera(cam, ops.initial_io, spath)
 
     # control and check points
     ctrl = inp.find("ctrl_pts")
@@ -218,8 +299,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     ip_node = inp.find("image_pts")
     if ip_node is None or ip_node.find("file") is None:
         raise ProjectError(spath, "no <image_pts><file> in <input>", inp.line)
-    cam = cams[0]
-    free = estimated_io(root.find("operations"), cam["n_k"], cam["n_p"]) if calibrate else ()
+    free = (ops.estimated or ()) if calibrate else ()
     if free:
         cam = calibrated_camera(cam)
         notes.append("the script estimates the interior orientation (" + ", ".join(free)
@@ -232,7 +312,9 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
                 raise ProjectError(spath, f"image point format lacks '{need}'", f.line,
                                    "format")
         r = Records(_resolve(base, f.text, xml_dir), fields)
-        if "sxy" in f.attrib:
+        if sigma_px is not None:
+            s = np.full(len(r), float(sigma_px))
+        elif "sxy" in f.attrib:
             s = np.full(len(r), parse_number(f.attrib["sxy"], spath, f.line, "sxy"))
         elif "sxy" in fields:
             s = r.numbers("sxy")
@@ -258,6 +340,9 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
                            ip_node.line)
     xy = np.vstack(rows_xy)
     sig = np.concatenate(rows_sig)
+    if sigma_px is not None:
+        notes.append(f"image sigma {sigma_px:g} px for every observation (given), "
+                     f"{sigma_px * cam['py'] * 1e3:.4g} µm with the pixel height")
 
     # every point: control, check, then the rest in order of appearance
     ids, index = first_appearance(list(c_ids) + list(h_ids) + rows_point)
@@ -282,16 +367,28 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     settings = Settings(name=name, angle_unit="deg", sigma_image_um=float(np.median(sig)) * 1e3,
                         sigma_control_m=tuple(float(v) for v in (np.nanmedian(psig, axis=0)
                                               if np.isfinite(psig).any() else (0.05,) * 3)))
-    cameras = Cameras(cam_ids, np.array([cam["c"]]), cam["pp"][None, :],
+    if ops.datum is not None:
+        ref, rule = ops.datum
+        settings.datum = "free"
+        settings.free_datum = (photo_ids[ref], rule)
+        notes.append(f"datum: dependent relative orientation as the script sets it (image "
+                     f"{img_ids[ref]} held, base: {rule})")
+    elif not len(c_ids):
+        settings.datum = "free"
+        notes.append("no control points and no set_datum: a free network")
+    cameras = Cameras([str(cam["id"])], np.array([cam["c"]]), cam["pp"][None, :],
                       np.array([cam["kind"]], dtype=object), np.array([cam["coef"]], float),
                       None, (free,) if free else None, pixel_mm=np.array([cam["py"]]))
+    eo = np.full((len(photo_ids), 6), np.nan)
+    prior = inp.find("prior_eo")
+    if prior is not None and stations is None:
+        eo, more = _prior_eo(prior, base, xml_dir, spath, img_ids)
+        notes += more
     photos = Photos(photo_ids, np.zeros(len(photo_ids), np.int64),
-                    np.full(len(photo_ids), "", dtype=object),
-                    np.full((len(photo_ids), 6), np.nan))
+                    np.full(len(photo_ids), "", dtype=object), eo)
     image = ImagePoints(photo, point, xy, sig)
     points = GroundPoints(ids, pxyz, psig, role)
-    est = root.find("operations")
-    if not free and est is not None and estimates_io(est):
+    if not free and ops.estimated:
         notes.append("the script estimates the interior orientation (self-calibration); "
                      "baarda holds it fixed at the given values")
     notes.append(f"DBAT script {path.name}: pixel size {cam['px']:.6g} x {cam['py']:.6g} mm, "

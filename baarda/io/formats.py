@@ -67,36 +67,89 @@ def detect(path: str | Path) -> str:
             return "photomodeler"
         if is_bal(p):
             return "bal"
+    if p.is_dir():
+        from baarda.io.project import FILES
+
+        has = [f for f in FILES[1:] if (p / f).is_file()]
+        if has:
+            raise ProjectError(str(p / "project.toml"), "not found: the folder has "
+                               f"{', '.join(has)} but a native project needs project.toml "
+                               "beside them (docs/format.md)")
+        raise ProjectError(str(p), "format not recognised: no project.toml (a native project "
+                           "folder), and not a COLMAP model, AICON project, MicMac/IGN folder, "
+                           "OpenSfM dataset or ODM project folder")
     raise ProjectError(str(p), "format not recognised (native project folder, COLMAP model, "
                        "AICON project, DBAT script .xml, PhotoModeler export .txt, BAL file, "
                        "MicMac/IGN folder, OpenSfM dataset or ODM project)")
 
 
-def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.001,
-             sigma_px: float = 1.0, sigma_image_mm: float | None = None,
+# what each format's path is: a file, a folder, or either (AICON: the folder or one of its
+# files; OpenSfM: the dataset folder or an ODM project)
+FILE_FORMATS = {"dbat": "a DBAT script .xml", "photomodeler": "a PhotoModeler export .txt",
+                "bal": "a BAL file (.txt or .bz2)"}
+FOLDER_FORMATS = {"project": "a native project folder (project.toml and its CSV files)",
+                  "colmap": "a COLMAP model folder", "micmac": "a MicMac/IGN folder",
+                  "opensfm": "an OpenSfM dataset or ODM project folder"}
+
+
+def _check_kind(p: Path, fmt: str) -> None:
+    """ProjectError when --format names a format whose input is a file and the path is a
+    folder, or the other way round (the reader would say 'file not found')."""
+    if not p.exists():
+        raise ProjectError(str(p), "not found")
+    wrong = (fmt in FILE_FORMATS and p.is_dir()) or (fmt in FOLDER_FORMATS and p.is_file())
+    if not wrong:
+        return
+    try:
+        found = f"; it looks like {detect(p)} input (leave out --format)"
+    except ProjectError:
+        found = ""
+    want = FILE_FORMATS.get(fmt) or FOLDER_FORMATS[fmt]
+    kind = "a folder" if p.is_dir() else "a file"
+    raise ProjectError(str(p), f"--format {fmt} reads {want}, but this is {kind}{found}")
+
+
+def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None = None,
+             sigma_px: float | None = None, sigma_image_um: float | None = None,
              encoding: str = ENCODING, camera: str | Path | None = None,
-             crs: str | None = None) -> Block:
+             crs: str | None = None, calibration_group: str | None = None) -> Block:
     """Read any supported input into a Block.
 
-    pixel_mm, sigma_px: nominal pixel size and image sigma for formats without a physical
-    pixel size (COLMAP, BAL, OpenSfM); sigma_image_mm: image sigma for AICON (default: the file's);
-    encoding: of the text files of a project, AICON or PhotoModeler input (COLMAP and BAL
-    are UTF-8 / ASCII by definition, DBAT's XML names its own); camera: a DBAT camera file
-    (a calibration result) replacing a DBAT script's camera; crs: the project CRS of an
-    OpenSfM dataset (its topocentric frame is placed in it; other formats take the CRS in
-    pipeline.read).
+    pixel_mm, sigma_px, sigma_image_um: pixel size [mm] and image sigma [px] or [µm],
+    resolved for the format by io/image_sigma.py (an option that does not apply to it is
+    an error; None: the format's own); encoding: of the text files of a project, AICON or
+    PhotoModeler input (COLMAP and BAL are UTF-8 / ASCII by definition, DBAT's XML names
+    its own); camera: a DBAT camera file (a calibration result) replacing a DBAT script's
+    camera; crs: the project CRS of an OpenSfM dataset (its topocentric frame is placed in
+    it; other formats take the CRS in pipeline.read); calibration_group: "camera" reads a
+    project with one camera per camera of cameras.csv whatever project.toml's group says
+    (pipeline.read splits the cameras per strip for "strip", after the calibration).
     """
+    from baarda.io.image_sigma import check_image_sigmas, resolve_image_options, with_image_sigma
+
     p = Path(path)
-    fmt = fmt or detect(p)
-    if fmt not in FORMATS:
+    if fmt is not None and fmt not in FORMATS:
         raise ProjectError(str(p), f"unknown format '{fmt}' (one of {', '.join(FORMATS)})")
+    if fmt is not None:
+        _check_kind(p, fmt)
+    fmt = fmt or detect(p)
     if camera is not None and fmt != "dbat":
         raise ProjectError(str(camera), f"a camera file replaces the camera of a DBAT script; "
                            f"{p.name} is {fmt} input (give its cameras in its own files)")
+    opts = resolve_image_options(fmt, pixel_mm, sigma_px, sigma_image_um)
     if fmt == "project":
         from baarda.io.project import read_project
 
-        return read_project(p, encoding)
+        block = read_project(p, encoding, "camera" if calibration_group == "camera" else None)
+    else:
+        block = _read(p, fmt, opts.pixel_mm, opts.sigma_px, encoding, camera, crs)
+    check_image_sigmas(block)
+    return block if opts.sigma_um is None else with_image_sigma(block, opts.sigma_um)
+
+
+def _read(p: Path, fmt: str, pixel_mm: float | None, sigma_px: float | None, encoding: str,
+          camera: str | Path | None, crs: str | None) -> Block:
+    """The reader of `fmt` (the image options resolved: read_any)."""
     if fmt == "colmap":
         from baarda.io.colmap_block import read_colmap_block
 
@@ -106,19 +159,19 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float = 0.00
     if fmt == "aicon":
         from baarda.io.aicon import read_aicon
 
-        return read_aicon(p, encoding).to_block(sigma_image_mm=sigma_image_mm)
+        return read_aicon(p, encoding).to_block()
     if fmt == "dbat":
         from baarda.io.dbat import read_dbat
 
-        return read_dbat(p, camera=camera)
+        return read_dbat(p, camera=camera, sigma_px=sigma_px)
     if fmt == "photomodeler":
         from baarda.io.photomodeler import read_photomodeler
 
-        return read_photomodeler(p, encoding)
+        return read_photomodeler(p, encoding, pixel_mm=pixel_mm, sigma_px=sigma_px)
     if fmt == "micmac":
-        from baarda.io.micmac import read_micmac
+        from baarda.io.micmac import IMAGE_SIGMA_PX, read_micmac
 
-        return read_micmac(p)
+        return read_micmac(p, image_sigma_px=IMAGE_SIGMA_PX if sigma_px is None else sigma_px)
     if fmt == "opensfm":
         from baarda.io.opensfm import read_opensfm
 

@@ -67,18 +67,35 @@ def ground_frame(rec: dict, folder: Path, rpath: Path, text: str, crs: str | Non
     else:
         lla = None
     project_crs = crs or gcp_crs or (utm_crs(lla[0], lla[1]) if lla else None)
+    # where the CRS comes from, for an error: --crs, gcp_list.txt's first line, or the
+    # UTM zone of reference_lla
+    crs_where = ("command line", None, None) if crs else \
+        (str(gcp_file), _first_line(gcp_file), "crs") if gcp_crs else (str(ref_where), None, None)
     frame = None
     if lla is not None:
-        frame = topocentric_frame(project_crs, lla, ref_where)
+        frame = topocentric_frame(project_crs, lla, *crs_where)
     elif gcp_entries or shots.gnss_rows:
         raise ProjectError(str(rpath), "no reference_lla (in the reconstruction or "
                            "reference_lla.json): the GPS positions and GCPs cannot be placed")
     return Ground(lla, project_crs, frame, gcp_file, gcp_entries)
 
 
-def topocentric_frame(crs: str, lla: list[float], where: Path):
+def _first_line(path: Path) -> int:
+    """The line of a gcp_list.txt that names the CRS (its first that is not blank or a
+    comment)."""
+    from baarda.io.records import decode_text, file_bytes, split_lines
+
+    for n, s in enumerate(split_lines(decode_text(file_bytes(path), str(path))), start=1):
+        if s.strip() and not s.lstrip().startswith("#"):
+            return n
+    return 1
+
+
+def topocentric_frame(crs: str, lla: list[float], where: Path | str, line: int | None = None,
+                      column: str | None = None):
     """The LocalFrame of `crs` whose local frame is OpenSfM's topocentric frame at lla
-    (longitude, latitude, ellipsoidal height, WGS84)."""
+    (longitude, latitude, ellipsoidal height, WGS84); a CRS that is not one is an error
+    naming `where` (line, column) it came from."""
     from pyproj import CRS, Transformer
     from pyproj.exceptions import CRSError, ProjError
 
@@ -89,7 +106,7 @@ def topocentric_frame(crs: str, lla: list[float], where: Path):
         origin = Transformer.from_crs("EPSG:4979", target.to_3d(), always_xy=True).transform(
             *lla, errcheck=True)
     except (CRSError, ProjError) as e:
-        raise ProjectError(str(where), f"CRS {crs!r}: {e}") from None
+        raise ProjectError(str(where), f"CRS {crs!r}: {e}", line, column) from None
     return LocalFrame(crs, np.array(origin, float))
 
 
@@ -120,7 +137,7 @@ def control_points(folder: Path, ground: Ground, shots: Shots,
     if ground.gcp_file.name == GCP_JSON:
         from pyproj import Transformer
         lon_lat = Transformer.from_crs("EPSG:4979", frame.crs3, always_xy=True)
-    for pid, where, obs, _ in ground.gcp_entries:
+    for pid, where, obs, line in ground.gcp_entries:
         name = pid if pid not in taken else f"gcp {pid}"
         taken.add(name)
         if where is None:
@@ -134,6 +151,7 @@ def control_points(folder: Path, ground: Ground, shots: Shots,
                 c[2] = np.nan
         else:
             c = frame.to_local(np.asarray(where)[None])[0]
+            _near(c, np.asarray(where), pid, frame, ground.gcp_file, line)
         full = np.isfinite(c)
         rays = len({s for s, _, _ in obs})
         if rays == 0 or (not full.any() and rays < 2):
@@ -153,6 +171,28 @@ def control_points(folder: Path, ground: Ground, shots: Shots,
             out.point.append(j)
             out.xy_mm.append(shots.camera_of[shot].to_mm(xy)[0])
     return out
+
+
+MAX_GCP_DISTANCE_M = 100e3  # a GCP farther from the reconstruction's reference is misplaced
+
+
+def _near(local: np.ndarray, given: np.ndarray, pid: str, frame, path: Path,
+          line: int) -> None:
+    """ProjectError when a GCP of gcp_list.txt lies farther than MAX_GCP_DISTANCE_M from
+    the reconstruction's reference point: its coordinates are not in the CRS that the first
+    line names (longitude and latitude under a UTM header were taken as metres, and the
+    GCP then fell far outside every photo)."""
+    d = float(np.hypot(local[0], local[1]))
+    if not d > MAX_GCP_DISTANCE_M:
+        return
+    hint = ""
+    if abs(given[0]) <= 180 and abs(given[1]) <= 90 and not frame.geographic:
+        hint = (f"; its X {given[0]:.10g}, Y {given[1]:.10g} look like longitude and latitude:"
+                " name EPSG:4326 on the first line, or give the coordinates in "
+                f"{frame.crs.name}")
+    raise ProjectError(str(path), f"control point {pid} lies {d / 1e3:.0f} km from the "
+                       f"reconstruction's reference point (reference_lla): its coordinates are "
+                       f"not in {frame.crs.name}, the CRS of the first line" + hint, line, "X")
 
 
 def datum_of(xyz: np.ndarray, role: np.ndarray, rays: np.ndarray, gnss_xyz: np.ndarray,

@@ -14,10 +14,14 @@ Layout (whitespace separated, CRLF or LF):
     object points "id X Y Z sX sY sZ"; blank line;
     marked points "N id x y sx sy" [pixels]; blank line; features (ignored).
 
-Conversions (stated in the notes of the block):
+Read as DBAT's loadpm reads it (conversions stated in the notes of the block):
 
+* one camera for every photo: the export's default camera (line 4); the photo blocks repeat
+  it rounded to 3 decimals (a note names photos whose camera lines differ beyond that);
 * pixels (origin upper-left, y down) -> mm with origin at the image centre, y up:
-  x = (x_px - w/2) W/w, y = (h/2 - y_px) H/h, W, H the format size;
+  x = (x_px - w/2) W/w, y = (h/2 - y_px) H/h, W, H the format size, w, h the image size of
+  line 2 (an export without it is an error that says so, unless the pixel size is given:
+  w = W / pixel_mm);
 * principal point xp, yp [mm from the upper-left corner, y down] -> (xp - W/2, H/2 - yp);
 * lens distortion: PhotoModeler's K1..K3, P1, P2 are the coefficients of the
   ``brown_backward`` model as they are (ideal = u + delta(u)); DBAT negates them because
@@ -29,8 +33,12 @@ Conversions (stated in the notes of the block):
 * angles kappa, phi, omega in degrees -> omega, phi, kappa; positions are the values of the
   file (PhotoModeler's adjusted EO, used as approximations);
 * marking precision sx [pixels]; 0 (SmartPoints) -> the default of line 3;
+* marks of ids that are neither control nor object points are dropped (a note names them);
 * the control section holds the coordinates and precisions that PhotoModeler lists for its
-  control points (after its adjustment); they become control points with those sigmas.
+  control points (after its adjustment; a precision <= 0 is fixed control); they become
+  control points with those sigmas, unless a control file replaces them (--control,
+  block/control.py), as DBAT's own runs of these exports do;
+* text: UTF-8, or cp1252 (PhotoModeler on Windows) with a note when it is not UTF-8.
 """
 
 from __future__ import annotations
@@ -41,7 +49,15 @@ import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, first_appearance, parse_number, read_lines
+from baarda.io.records import (
+    ENCODING,
+    decode_text,
+    file_bytes,
+    first_appearance,
+    is_utf8,
+    parse_number,
+    split_lines,
+)
 
 
 def is_photomodeler_export(path: str | Path) -> bool:
@@ -72,23 +88,62 @@ def _section(lines: list[str], i: int, path: str, width: int, what: str):
     return np.asarray(rows, float).reshape(-1, width), nos, i + 1
 
 
-def read_photomodeler(path: str | Path, encoding: str = ENCODING) -> Block:
-    """Read a PhotoModeler export into a Block (see the module docstring)."""
+def _lines(path: str | Path, encoding: str) -> tuple[list[str], list[str]]:
+    """The lines of an export and notes: an export that is not UTF-8 (PhotoModeler on
+    Windows writes cp1252) is read as cp1252 when no other encoding was named."""
+    data = file_bytes(path)
+    if is_utf8(encoding):
+        try:
+            return split_lines(decode_text(data, str(path), encoding)), []
+        except ProjectError as e:
+            try:
+                text = data.decode("cp1252")
+            except UnicodeDecodeError:
+                raise e from None
+            return split_lines(text), [f"{Path(path).name} is not UTF-8 ({e.detail.split(' (')[0]}"
+                                       f" on line {e.line}): read as cp1252, the encoding of "
+                                       "PhotoModeler on Windows (--encoding names another)"]
+    return split_lines(decode_text(data, str(path), encoding)), []
+
+
+def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
+                      pixel_mm: float | None = None, sigma_px: float | None = None) -> Block:
+    """Read a PhotoModeler export into a Block (see the module docstring).
+
+    pixel_mm: the pixel size [mm] of an export whose line 2 lacks the image size (the
+    image size is then the format size / pixel_mm); sigma_px: the image sigma [px] of
+    every mark instead of the export's."""
     spath = str(path)
-    lines = read_lines(path, encoding)
+    lines, notes = _lines(path, encoding)
     if len(lines) < 6 or not lines[0].strip().lower().startswith("bundle soln"):
         raise ProjectError(spath, "not a PhotoModeler export (first line 'Bundle Soln')", 1)
     head = _nums(lines[1], spath, 2, "tolerance line", at_least=2)
-    if len(head) < 4:
-        raise ProjectError(spath, "image width and height (end of line 2) are needed to "
-                           "convert pixels to mm", 2)
-    iw, ih = head[2], head[3]
-    if iw <= 0 or ih <= 0:
-        raise ProjectError(spath, "image size must be positive", 2)
     def_std = _nums(lines[2], spath, 3, "default standard deviations", at_least=1)
-    _nums(lines[3], spath, 4, "default camera", 10)  # validated; photos carry their own
+    cam = np.array(_nums(lines[3], spath, 4, "default camera", 10))
+    c, xp, yp, fw, fh = cam[:5]
+    if not (c > 0 and fw > 0 and fh > 0):
+        raise ProjectError(spath, "default camera: camera constant and format size must be "
+                           "positive", 4)
+    if len(head) >= 4:
+        if pixel_mm is not None:
+            raise ProjectError("command line", f"--pixel-mm does not apply to {Path(path).name}"
+                               f": its line 2 gives the image size ({head[2]:g} x {head[3]:g} "
+                               "px), from which the pixel size follows")
+        iw, ih = head[2], head[3]
+        if iw <= 0 or ih <= 0:
+            raise ProjectError(spath, "image size must be positive", 2)
+    elif pixel_mm is not None:
+        iw, ih = fw / pixel_mm, fh / pixel_mm
+        notes.append(f"image size {iw:.6g} x {ih:.6g} px from the format {fw:g} x {fh:g} mm "
+                     f"and the pixel size {pixel_mm:g} mm (given; line 2 has none)")
+    else:
+        raise ProjectError(spath, "line 2 gives no image width and height in pixels (the "
+                           "export was written without them); they convert the marks from "
+                           "pixels to mm: add them after the tolerance and iterations "
+                           "('0.0005 20 WIDTH HEIGHT'), or give the pixel size with "
+                           "--pixel-mm", 2)
 
-    photos, i = [], 5
+    photos, i, differ = [], 5, []
     while i < len(lines) and lines[i].strip():
         parts = lines[i].split(maxsplit=1)
         try:
@@ -107,43 +162,42 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING) -> Block:
             if int(row[0]) != n:
                 raise ProjectError(spath, f"line belongs to photo {int(row[0])}, expected {n}",
                                    i + 1 + k)
-        photos.append((name, np.array(outer[1:]), np.array(inner[1:])))
+        if np.any(np.abs(np.array(inner[1:]) - cam) > 5.01e-4 + 1e-9 * np.abs(cam)):
+            differ.append(n)
+        photos.append((name, np.array(outer[1:])))
         i += 6
     if not photos:
         raise ProjectError(spath, "no photo blocks after the header", 6)
     i += 1
-    ctrl, _, i = _section(lines, i, spath, 7, "control point")
+    ctrl, ctrl_lines, i = _section(lines, i, spath, 7, "control point")
     objs, obj_lines, i = _section(lines, i, spath, 7, "object point")
     marks, mark_lines, i = _section(lines, i, spath, 6, "marked point")
     if not len(marks):
         raise ProjectError(spath, "no marked points (expected after the control and object "
                            "point sections, each ended by a blank line)", min(i, len(lines)))
 
-    # cameras: one per distinct set of inner parameters
-    inner = np.array([p[2] for p in photos])
-    uniq, cam_of = np.unique(inner, axis=0, return_inverse=True)
-    cam_of = cam_of.ravel()
-    c, xp, yp, fw, fh = (uniq[:, k] for k in range(5))
-    if np.any(c <= 0) or np.any(fw <= 0) or np.any(fh <= 0):
-        raise ProjectError(spath, "camera constant and format size must be positive")
+    # one camera: the export's default camera (line 4), as DBAT reads it; the photo lines
+    # repeat it rounded to 3 decimals
     px, py = fw / iw, fh / ih
-    cameras = Cameras([str(k + 1) for k in range(len(uniq))], c,
-                      np.column_stack([xp - fw / 2, fh / 2 - yp]),
-                      np.full(len(uniq), "brown_backward", dtype=object), uniq[:, 5:10].copy())
-    none = ~np.any(uniq[:, 5:10] != 0, axis=1)
-    cameras.model[none] = "none"
+    coef = cam[5:10].copy()
+    cameras = Cameras(["1"], np.array([c]), np.array([[xp - fw / 2, fh / 2 - yp]]),
+                      np.array(["brown_backward" if coef.any() else "none"], dtype=object),
+                      coef[None, :])
+    if differ:
+        notes.append(f"the camera lines of {len(differ)} photo(s) (e.g. photo {differ[0]}) "
+                     "differ from the default camera (line 4) by more than their rounding; "
+                     "as DBAT, every photo takes the default camera")
 
     names = [Path(p[0].replace("\\", "/")).stem for p in photos]
     if len(set(names)) != len(names):
         names = [str(k) for k in range(len(photos))]
     outer = np.array([p[1] for p in photos])
     eo = np.column_stack([outer[:, :3], np.radians(outer[:, [5, 4, 3]])])
-    photo_obj = Photos(names, cam_of.astype(np.int64), np.full(len(names), "", dtype=object),
-                       eo)
+    photo_obj = Photos(names, np.zeros(len(names), np.int64),
+                       np.full(len(names), "", dtype=object), eo)
 
-    # points: control first, then object points, then marked-only ids
-    ids, index = first_appearance(
-        _pid(v) for v in list(ctrl[:, 0]) + list(objs[:, 0]) + list(marks[:, 1]))
+    # points: control first, then object points; marks of other ids are dropped (DBAT)
+    ids, index = first_appearance(_pid(v) for v in list(ctrl[:, 0]) + list(objs[:, 0]))
     k = len(ids)
     xyz = np.full((k, 3), np.nan)
     sig = np.full((k, 3), np.nan)
@@ -152,37 +206,57 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING) -> Block:
         xyz[index[_pid(row[0])]] = row[1:4]
     for row in ctrl:
         j = index[_pid(row[0])]
-        xyz[j], sig[j], role[j] = row[1:4], row[4:7], "control"
-    bad = np.flatnonzero((role == "control") & ~(sig > 0).all(axis=1))
-    if len(bad):
-        raise ProjectError(spath, f"control point {ids[bad[0]]}: standard deviations must be "
-                           "positive")
+        xyz[j], sig[j], role[j] = row[1:4], np.maximum(row[4:7], 0.0), "control"
+    fixed = (ctrl[:, 4:7] <= 0).any(axis=1)
+    if fixed.any():
+        notes.append(f"{int(fixed.sum())} control point(s) with precision <= 0: fixed "
+                     "(PhotoModeler writes a negative precision for fixed control)")
 
     bad = np.flatnonzero(~((marks[:, 0] >= 0) & (marks[:, 0] < len(photos)) &
                            (marks[:, 0] == np.round(marks[:, 0]))))
     if len(bad):
         raise ProjectError(spath, f"unknown photo number {marks[bad[0], 0]:g}",
                            mark_lines[bad[0]], "photo")
+    mark_ids = [_pid(v) for v in marks[:, 1]]
+    known = np.array([m in index for m in mark_ids], dtype=bool)
+    if not known.all():
+        lost = sorted(set(np.asarray(mark_ids, dtype=object)[~known]), key=mark_ids.index)
+        if not known.any():
+            raise ProjectError(spath, "no marked point is an object or control point of the "
+                               "export (the marks refer to other ids)", mark_lines[0], "id")
+        notes.append(f"{int((~known).sum())} mark(s) of {len(lost)} point(s) that are not in "
+                     "the object point list dropped, as DBAT does: " + ", ".join(lost[:10])
+                     + (", ..." if len(lost) > 10 else ""))
+        marks = marks[known]
+        mark_lines = [n for n, ok in zip(mark_lines, known, strict=True) if ok]
+        mark_ids = [m for m, ok in zip(mark_ids, known, strict=True) if ok]
     photo = marks[:, 0].astype(np.int64)
-    point = np.array([index[_pid(v)] for v in marks[:, 1]], dtype=np.int64)
-    cam = cam_of[photo]
-    xy = np.column_stack([(marks[:, 2] - iw / 2) * px[cam], (ih / 2 - marks[:, 3]) * py[cam]])
+    point = np.array([index[m] for m in mark_ids], dtype=np.int64)
+    xy = np.column_stack([(marks[:, 2] - iw / 2) * px, (ih / 2 - marks[:, 3]) * py])
     s_px = np.where(marks[:, 4] > 0, marks[:, 4], def_std[0])
     if np.any(s_px <= 0) or np.any(marks[:, 4:6] < 0):
         raise ProjectError(spath, "marking precision must be positive",
                            mark_lines[int(np.argmin(s_px))], "sx")
+    if sigma_px is not None:
+        s_px = np.full(len(marks), float(sigma_px))
+        notes.append(f"image sigma {sigma_px:g} px for every mark (given)")
     key = photo * k + point
     if len(np.unique(key)) != len(key):
         order = np.argsort(key, kind="stable")
         d = order[np.flatnonzero(np.diff(key[order]) == 0)[0] + 1]
         raise ProjectError(spath, f"point {ids[point[d]]} marked twice on photo {photo[d]}",
                            mark_lines[d], "id")
-    image = ImagePoints(photo, point, xy, s_px * py[cam])
-    notes = [f"PhotoModeler export {Path(path).name}: pixel size {px[0]:.6g} x {py[0]:.6g} mm; "
-             "image origin moved to the image centre, y up; K and P as given (backward model)",
-             "control coordinates and sigmas as listed by PhotoModeler (its adjusted values)"]
+    image = ImagePoints(photo, point, xy, s_px * py)
+    notes = [f"PhotoModeler export {Path(path).name}: pixel size {px:.6g} x {py:.6g} mm; "
+             "image origin moved to the image centre, y up; K and P as given (backward "
+             "model); the default camera (line 4)", *notes]
+    if len(ctrl):
+        notes.append("control: the coordinates and precisions that PhotoModeler lists for its "
+                     "control points, its adjusted values and posterior precisions (not the "
+                     "surveyed control: --control FILE replaces them, as in DBAT's runs)")
     settings = Settings(name=lines[0].strip()[len("Bundle Soln"):].strip() or Path(path).stem,
-                        angle_unit="deg", sigma_image_um=float(def_std[0] * py[0] * 1e3))
+                        angle_unit="deg", sigma_image_um=float(
+                            (def_std[0] if sigma_px is None else sigma_px) * py * 1e3))
     points = GroundPoints(ids, xyz, sig, role)
     return Block(settings, cameras, photo_obj, image, points, source=spath, notes=notes)
 

@@ -32,6 +32,7 @@ from baarda.block.photo_block import (
 from baarda.block.rotation import ANGLE_FACTORS, angle_to_rad
 from baarda.errors import ProjectError
 from baarda.io.gnss_imu_files import gnss_imu_settings, read_gnss, read_imu
+from baarda.io.image_sigma import SIGMA_IMAGE_UM, check_sigma_um
 from baarda.io.records import ENCODING, decode_text, file_bytes
 from baarda.io.table import Table
 
@@ -99,6 +100,7 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
                            column="sigma.control_m")
     positive_settings(path, {"sigma.image_um": s.sigma_image_um,
                              **{f"sigma.control_m[{k}]": c for k, c in enumerate(ctrl)}})
+    check_sigma_um(s.sigma_image_um, str(path), column="sigma.image_um")
     s.sigma_control_m = tuple(ctrl)
     if not 0 < s.alpha_global < 0.5:
         raise ProjectError(str(path), "tests.alpha_global must be in (0, 0.5)",
@@ -234,12 +236,19 @@ def _image_sigmas(t: Table, default_um: float) -> np.ndarray:
             if len(bad):
                 raise ProjectError(t.path, "standard deviation must be positive",
                                    int(t.lines[bad[0]]), name)
+            low, high = SIGMA_IMAGE_UM
+            bad = np.flatnonzero(np.isfinite(out[:, k]) & ((out[:, k] < low) |
+                                                           (out[:, k] > high)))
+            if len(bad):
+                check_sigma_um(float(out[bad[0], k]), t.path, int(t.lines[bad[0]]), name)
     return out
 
 
-def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
+def read_project(folder: str | Path, encoding: str = ENCODING,
+                 calibration_group: str | None = None) -> Block:
     """Read and validate a project folder; see docs/format.md.  encoding: of its text
-    files (default UTF-8, with or without a byte-order mark)."""
+    files (default UTF-8, with or without a byte-order mark); calibration_group: "camera"
+    or "strip" instead of project.toml's [calibration] group (None: project.toml's)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ProjectError(str(folder), "not a project folder")
@@ -340,8 +349,8 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
     imu = read_imu(folder / "imu.csv", photo_ids, settings.angle_unit, imu_sigma, encoding)
     block = Block(settings, cameras, photos, image, points, source=str(folder), notes=notes,
                   distances=distances, gnss=gnss, imu=imu)
-    return cameras_per_strip(block) if _calibration_group(doc, folder / "project.toml") == \
-        "strip" else block
+    group = calibration_group or _calibration_group(doc, folder / "project.toml")
+    return cameras_per_strip(block) if group == "strip" else block
 
 
 def _calibration_group(doc: dict, path: Path) -> str:

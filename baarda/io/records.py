@@ -35,7 +35,10 @@ def decode_text(data: bytes, path: str, encoding: str = ENCODING) -> str:
     if is_utf8(encoding):
         encoding = "utf-8-sig"
     try:
-        return data.decode(encoding)
+        text = data.decode(encoding)
+        if encoding == "utf-8-sig":
+            text = text.lstrip("\ufeff")  # a second byte-order mark (files joined)
+        return no_nul(text, path)
     except LookupError:
         raise ProjectError(path, f"unknown text encoding '{encoding}' (e.g. utf-8, cp1252, "
                            "latin-1)") from None
@@ -48,6 +51,26 @@ def decode_text(data: bytes, path: str, encoding: str = ENCODING) -> str:
 
 
 LINE_END = re.compile(r"\r\n|\r|\n")
+
+
+def line_of(text: str, index: int) -> int:
+    """The 1-based line (as split_lines counts them) of the character at `index`."""
+    return len(LINE_END.findall(text, 0, index)) + 1
+
+
+def no_nul(text: str, path: str, header: list[str] | None = None) -> str:
+    """`text`, or ProjectError naming the line (and, for a CSV table with `header`, the
+    column) of its first NUL character: text files hold none (a damaged file, or a binary
+    one), and inside an id it would make the id differ from the same id elsewhere."""
+    k = text.find("\x00")
+    if k < 0:
+        return text
+    line = line_of(text, k)
+    start = max(text.rfind("\n", 0, k), text.rfind("\r", 0, k)) + 1
+    field = text.count(",", start, k)
+    column = header[field] if header is not None and line > 1 and field < len(header) else None
+    raise ProjectError(path, "a NUL byte (\\x00) in the text: a damaged or binary file "
+                       "(ids and numbers are printable text)", line, column)
 
 
 def split_lines(text: str) -> list[str]:

@@ -24,6 +24,7 @@ from baarda.io.records import (
     decode_text,
     file_bytes,
     is_utf8,
+    no_nul,
     split_lines,
 )
 
@@ -39,10 +40,13 @@ class Table(Columns):
     def __init__(self, path: str | Path, required: list[str], encoding: str = ENCODING):
         self.path = str(path)
         data = file_bytes(path)
-        if data.startswith(b"\xef\xbb\xbf"):
+        while data.startswith(b"\xef\xbb\xbf"):  # a byte-order mark (two: files joined)
             data = data[3:]
         if not is_utf8(encoding):  # the readers below take UTF-8
             data = decode_text(data, self.path, encoding).encode("utf-8")
+        if b"\x00" in data:
+            text = data.decode("utf-8", "replace")
+            no_nul(text, self.path, [c.strip() for c in split_lines(text)[0].split(",")])
         self._arrow = None
         if plain(data):
             self._arrow = _read_arrow(data)
@@ -214,9 +218,14 @@ def _read_arrow(data: bytes):
         names = head.decode("utf-8").split(",")
     except UnicodeDecodeError:
         return None
-    try:
+    if len(set(names)) != len(names) or "\ufeff" in head.decode("utf-8"):
+        return None  # the line-by-line reader names the duplicate column or the mark
+    try:  # the names as read here, every column a string (pyarrow drops a byte-order mark
+        # and would infer the types of columns whose names it then sees otherwise)
         return pcsv.read_csv(
-            io.BytesIO(data), read_options=pcsv.ReadOptions(use_threads=True),
+            io.BytesIO(data), read_options=pcsv.ReadOptions(use_threads=True,
+                                                            column_names=names,
+                                                            skip_rows=1),
             parse_options=pcsv.ParseOptions(delimiter=",", quote_char=False),
             convert_options=pcsv.ConvertOptions(
                 column_types={n: pa.string() for n in names}, strings_can_be_null=False,

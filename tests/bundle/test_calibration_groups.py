@@ -74,3 +74,18 @@ def test_project_toml_and_command_line_agree(block, tmp_path):
     assert cams.count("/") >= 3
     toml.write_text(text + "\n[calibration]\ngroup = \"photo\"\n")
     assert main(["adjust", str(tmp_path / "p"), "-o", str(tmp_path / "bad")]) == 2
+
+
+def test_calibration_group_camera_overrides_project_toml(block, tmp_path):
+    """`baarda.read(project, calibration_group="camera")` and `--calibration-group camera`
+    override project.toml's group = "strip" (issue 28: the per-strip cameras stayed)."""
+    b, _ = block
+    write_project(b, tmp_path / "p")
+    toml = tmp_path / "p" / "project.toml"
+    toml.write_text(toml.read_text() + "\n[calibration]\ngroup = \"strip\"\n")
+    assert len(read(tmp_path / "p").cameras) == 3
+    one = read(tmp_path / "p", calibration_group="camera")
+    assert len(one.cameras) == 1 and one.cameras.ids == b.cameras.ids
+    assert main(["adjust", str(tmp_path / "p"), "--calibration-group", "camera", "-o",
+                 str(tmp_path / "out"), "-q"]) == 0
+    assert "/" not in (tmp_path / "out" / "cameras.csv").read_text()

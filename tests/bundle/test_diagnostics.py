@@ -152,10 +152,14 @@ def test_height_control_without_x_and_y(demo, capsys):
 
 def test_sigma_so_small_that_its_weight_overflows(demo, capsys):
     """Fuzz find (issue 15): sigma_um = 5e-324 gave an infinite weight (numpy's divide by
-    zero warning) and then 'the residuals at the approximate values are not finite'."""
+    zero warning) and then 'the residuals at the approximate values are not finite'; issue
+    28: the reader names file, line and column (it was 'standard deviation 0' with neither)."""
     def tiny(t):
         t.loc[0, "sigma_um"] = "5e-324"
 
     edit(demo, "image_points.csv", tiny)
-    with pytest.raises(GeometryError, match="standard deviation 0 .* too small: its weight"):
+    with pytest.raises(ProjectError, match="image standard deviation 5e-324 µm: expected "
+                       "0.001 to 100000 µm") as e:
         adjust(read(demo))
+    assert (Path(e.value.path).name, e.value.line, e.value.column) == \
+        ("image_points.csv", 2, "sigma_um")

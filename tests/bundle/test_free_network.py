@@ -85,8 +85,7 @@ def test_free_network_refuses_control():
 
 
 def test_similarity_recovers_a_known_transformation():
-    from baarda.block.rotation import rotation_matrix
-    from baarda.bundle.geometry import similarity
+    from baarda.block.rotation import rotation_matrix, similarity
 
     rng = np.random.default_rng(5)
     src = rng.normal(size=(6, 3)) * 100

@@ -1,7 +1,7 @@
 """The fuzz suite's machinery: generated mutations of input files and the properties that
 every generated case must have (issue 15).
 
-The suite (tests/fuzz): 4,688 generated cases, the same on every run (CASES: 4,110 reads
+The suite (tests/fuzz): 4,848 generated cases, the same on every run (CASES: 4,270 reads
 through the public API, 575 runs of the command line in this process, 3 in a process of
 their own), about 35 s on the 2-core development machine.  FUZZ_STATS=1 prints what the
 cases ended with; FUZZ_SCALE=20 FUZZ_RANDOM=1 searches longer with other cases each run,
@@ -12,8 +12,9 @@ file).  `mutations(base)` draws one to three mutations; `apply` makes the broken
 
 * text: delete, duplicate, swap or insert lines, cut the file, replace / insert / delete /
   copy / quote a field (non-numbers, NaN, inf, huge, negative, other ids of the file),
-  random or invalid UTF-8 bytes, byte-order marks, CRLF / CR / other line ends, very long
-  lines, header only, an empty file, random bytes, a deleted file;
+  random or invalid UTF-8 bytes, byte-order marks (two of them: files joined), a NUL byte
+  inside a field, CRLF / CR / other line ends, very long lines, header only, an empty
+  file, random bytes, a deleted file;
 * TOML: a key set to a value of another type or out of range, broken syntax;
 * XML: element text and attribute values replaced, raw markup characters;
 * binary (COLMAP .bin): flipped, overwritten, inserted or deleted bytes, a cut file, and
@@ -55,6 +56,7 @@ from baarda.errors import GeometryError, ProjectError
 # broken inputs end at reading), a process of its own about 3 s.
 CASES = {
     "project read": 800, "project adjust": 200, "project read_models": 50,
+    "project two boms": 60, "project nul": 100,
     "models read": 400, "models command": 80,
     "colmap text read": 400, "colmap whole model read": 60, "colmap binary read": 500,
     "colmap text adjust": 50, "colmap binary adjust": 50,
@@ -156,7 +158,8 @@ LINES = ["", "#", "# a comment", ",", ",,,,", ",,,,,,,,,,,,,,,,,,,,", " ", "\t",
          "0 0 0 0 0 0 0 0 0 0 0", "1 1 1 1 1 1 1 1 1 1 1", "\x00\x00", "\u2028", "\x0c"]
 LONG = [("9", 100_000), ("1,", 50_000), ("1 ", 50_000), ("x", 300_000), (",", 100_000)]
 LINE_ENDS = [b"\r\n", b"\r", b"\n\n", b"\n \n", b"\n#\n"]
-PREFIXES = [b"\xef\xbb\xbf", b"\xef\xbb\xbf\xef\xbb\xbf", b"\xff\xfe", b"\xfe\xff", b"\x00",
+TWO_BOMS = b"\xef\xbb\xbf\xef\xbb\xbf"
+PREFIXES = [b"\xef\xbb\xbf", TWO_BOMS, b"\xff\xfe", b"\xfe\xff", b"\x00",
             b"#", b"\n", b",", b" ", b"\t", b"\r\n"]
 
 values = st.one_of(
@@ -227,6 +230,10 @@ TEXT_OPS: dict[str, tuple] = {
     "flip_bit": (st.tuples(index, st.integers(0, 7)), 1),
     "line_ends": (st.tuples(st.sampled_from(LINE_ENDS)), 1),
     "prefix": (st.tuples(st.sampled_from(PREFIXES)), 1),
+    # issue 28: two byte-order marks (files joined) crashed the fast CSV reader or made ids
+    # like 01001 integers; a NUL byte in an id made it another id
+    "two_boms": (st.tuples(), 1),
+    "nul_field": (st.tuples(index, index, index), 1),
     "header_only": (st.tuples(), 1),
     "whole": (st.tuples(st.one_of(st.sampled_from([b"", b"\n", b" ", b"\xef\xbb\xbf"]),
                                   st.binary(max_size=64))), 1),
@@ -273,7 +280,8 @@ OPS = {
     "toml": {**TEXT_OPS, **TOML_OPS},
     "xml": {**{k: v for k, v in TEXT_OPS.items() if k in (
         "delete_lines", "duplicate_line", "swap_lines", "truncate", "insert_bytes",
-        "flip_bit", "prefix", "line_ends", "whole", "raw_field", "delete_file")}, **XML_OPS},
+        "flip_bit", "prefix", "line_ends", "whole", "raw_field", "delete_file", "two_boms",
+        "nul_field")}, **XML_OPS},
     "bin": BIN_OPS,
     "bz2": {**TEXT_OPS, **BZ2_RAW_OPS},
 }
@@ -405,6 +413,15 @@ def _text_op(data: bytes, op: str, args: tuple, kind: str = "text") -> bytes:
         return data.replace(b"\n", args[0])
     elif op == "prefix":
         return args[0] + data
+    elif op == "two_boms":
+        return TWO_BOMS + data
+    elif op == "nul_field":
+        i = args[0] % n
+        parts = _fields(lines[i])
+        k = 2 * (args[1] % ((len(parts) + 1) // 2))
+        j = args[2] % (len(parts[k]) + 1)
+        parts[k] = parts[k][:j] + b"\x00" + parts[k][j:]
+        lines[i] = b"".join(parts)
     elif op == "header_only":
         keep = [s for s in lines if s.strip() and not s.lstrip().startswith(b"#")][:1]
         return b"\n".join(keep) + b"\n"

@@ -279,9 +279,14 @@ def test_model_checks(tmp_path, binary):
         iid = arr[e] if field == "image_ids" else pt.image_ids[e]
         idx = arr[e] if field == "point2D_idxs" else pt.point2D_idxs[e]
         err = _broken(tmp_path, binary, points={field: arr})
-        assert err.detail == (f"point 5: track element ({iid}, {idx}) does not point back "
-                              "to this point")
+        if field == "image_ids":  # issue 28: the file that lacks the image is named
+            assert err.detail == (f"point 5 is seen in image 9, which images{ext} does not "
+                                  "hold (it holds 4 image(s): is images" + ext + " cut short?)")
+        else:
+            assert err.detail == (f"point 5: track element ({iid}, {idx}) does not point "
+                                  "back to this point")
         assert Path(err.path).name == f"points3D{ext}"
+        assert err.line == (None if binary else 8)  # the fifth record, after 3 comments
 
 
 @pytest.mark.parametrize("binary", [False, True])

@@ -274,3 +274,161 @@ def test_xml_declaration_naming_an_unreadable_encoding(tmp_path, encoding):
     with pytest.raises(ProjectError, match="encoding") as e:
         read_dbat(p)
     assert e.value.path == str(p) and e.value.line == 1
+
+
+# ---------------------------------------------------------------- operations (issue 28)
+OPS_XML = """<?xml version="1.0"?>
+<document dbat_script_version="1.0">
+  <input>
+    <ctrl_pts><file format="id,label,x,y,z,sx,sy,sz">ctrl.txt</file></ctrl_pts>
+    <images><file format="id,path">img.txt</file></images>
+    {prior}
+    <image_pts><file format="id,im,x,y" sxy="0.5">pts.txt</file></image_pts>
+    <cameras>{camera}</cameras>
+  </input>
+  <operations>
+{ops}
+  </operations>
+</document>
+"""
+CAMERA = ("<camera><unit>mm</unit><sensor>53.148,77.976</sensor><image>8858,12996</image>"
+          "<focal>120</focal><cc>123.9</cc><pp>26.5,38.8</pp><K>1e-5,0,0</K></camera>")
+
+
+def _script(tmp, ops="", prior="", camera=CAMERA, files=None):
+    return _write(tmp, OPS_XML.format(ops=ops, prior=prior, camera=camera), files or FILES)
+
+
+def _estimate(io: str) -> str:
+    return f"<operation><set_bundle_estimate_params><io>{io}</io>" \
+           "</set_bundle_estimate_params></operation>"
+
+
+@pytest.mark.parametrize("io, free", [
+    ("<all>true</all><skew>false</skew>",
+     ("c", "x0", "y0", "b1", "k1", "k2", "k3", "p1", "p2")),
+    # DBAT's romabundledemo: 5 parameters, not the 8 that lowercase-only flags gave
+    ("<all>true</all><aspect>false</aspect><skew>false</skew><P>false</P><K3>false</K3>",
+     ("c", "x0", "y0", "k1", "k2")),
+    ("<K2>true</K2>", ("k1", "k2")),  # Kn true: K1..Kn
+    ("<K>true</K><K2>false</K2>", ("k1",)),  # Kn false: Kn..K3
+    ("<P1>true</P1>", ("p1", "p2")),  # P1 and P2 go together
+    ("<all>true</all><P2>false</P2>", ("c", "x0", "y0", "b1", "b2", "k1", "k2", "k3")),
+    ("<cc>true</cc><px>true</px>", ("c", "x0")),
+    ("<c>a comment</c><pp>true</pp>", ("x0", "y0")),
+    ("true", ("c", "x0", "y0", "b1", "b2", "k1", "k2", "k3", "p1", "p2")),
+    ("false", None),
+])
+def test_estimation_flags_as_dbat_applies_them(tmp_path, io, free):
+    b = read_dbat(_script(tmp_path, _estimate(io)))
+    if free is None:
+        assert b.cameras.free is None and b.cameras.model[0] == "brown_backward"
+    else:
+        assert b.cameras.free == (free,) and b.cameras.model[0] == "dbat3"
+
+
+@pytest.mark.parametrize("io, field", [
+    ("<all>true</all><p>false</p>", "p"),  # DBAT's tags are case sensitive
+    ("<K4>true</K4>", "K4"), ("<cc>yes</cc>", "cc"), ("<focal>true</focal>", "focal"),
+])
+def test_bad_estimation_flags_name_the_line(tmp_path, io, field):
+    p = _script(tmp_path, _estimate(io))
+    with pytest.raises(ProjectError) as e:
+        read_dbat(p)
+    assert e.value.path == str(p) and e.value.line == 11 and e.value.column == field
+
+
+def test_initial_values(tmp_path):
+    """set_initial_values: 'default' puts the camera constant to the focal length and
+    removes the distortion (it matters for what is not estimated); numbers are taken."""
+    def initial(io):
+        ops = f"<operation><set_initial_values><io>{io}</io></set_initial_values></operation>"
+        return read_dbat(_script(tmp_path, ops)).cameras
+
+    assert initial("<all>loaded</all>").focal_mm[0] == 123.9
+    cam = initial("<all>default</all>")
+    assert cam.focal_mm[0] == 120 and cam.model[0] == "none"
+    assert np.allclose(cam.principal_point_mm[0], 0)  # the sensor centre
+    assert initial("<cc>125.5</cc>").focal_mm[0] == 125.5
+    with pytest.raises(ProjectError, match="expected 2 numbers"):
+        initial("<pp>1</pp>")
+
+
+def test_camera_file_and_command_line_camera(tmp_path):
+    """<cameras><file>: the camera of a DBAT camera file (was: 'no <cameras><camera> in
+    <input>', also with --camera)."""
+    (tmp_path / "cam.xml").write_text(
+        '<?xml version="1.0"?><document dbat_camera_version="1.0"><cameras>'
+        + CAMERA + "</cameras></document>")
+    b = read_dbat(_script(tmp_path, camera="<file>cam.xml</file>"))
+    assert b.cameras.focal_mm[0] == 123.9
+    other = tmp_path / "other.xml"
+    other.write_text((tmp_path / "cam.xml").read_text().replace("123.9", "150"))
+    (tmp_path / "cam.xml").unlink()  # the script's camera file is not needed then
+    b = read_dbat(tmp_path / "p.xml", camera=other)
+    assert b.cameras.focal_mm[0] == 150
+    with pytest.raises(ProjectError, match="not found") as e:
+        read_dbat(tmp_path / "p.xml")
+    assert Path(e.value.path).name == "cam.xml"
+    p = _script(tmp_path, camera="<c>none</c>")
+    with pytest.raises(ProjectError, match="neither a <camera> nor a camera <file>"):
+        read_dbat(p)
+
+
+PRIOR = '<prior_eo><file format="id,x,y,z,omega,phi,kappa" units="{u}">eo.txt</file></prior_eo>'
+
+
+def test_prior_orientations(tmp_path):
+    files = dict(FILES, **{"eo.txt": "# id, x, y, z, o, p, k\n2, 10, 20, 1000, 1, 2, 90\n"})
+    b = read_dbat(_script(tmp_path, prior=PRIOR.format(u="degrees"), files=files))
+    assert np.isnan(b.photos.eo[0]).all()  # image 1 is not listed: resected
+    assert np.allclose(b.photos.eo[1], [10, 20, 1000, *np.radians([1, 2, 90])])
+    assert any("prior orientations of 1 image(s)" in n for n in b.notes)
+    b = read_dbat(_script(tmp_path, prior=PRIOR.format(u="gon"), files=files))
+    assert np.isclose(b.photos.eo[1, 5], np.pi / 2 * 90 / 100)
+
+
+@pytest.mark.parametrize("units, eo, where", [
+    ("", "2, 10, 20, 1000, 1, 2, 90\n", ("p.xml", 6, "units")),
+    ("deg", "2, 10, 20, 1000, 1, 2, 90\n", ("p.xml", 6, "units")),
+    ("degrees", "7, 10, 20, 1000, 1, 2, 90\n", ("eo.txt", 1, "id")),
+    ("degrees", "2, 10, 20, 1000, 1, 2\n", ("eo.txt", 1, None)),
+])
+def test_bad_prior_orientations(tmp_path, units, eo, where):
+    files = dict(FILES, **{"eo.txt": eo})
+    p = _script(tmp_path, prior=PRIOR.format(u=units), files=files)
+    with pytest.raises(ProjectError) as e:
+        read_dbat(p)
+    assert (Path(e.value.path).name, e.value.line, e.value.column) == where
+
+
+def test_datum_setting(tmp_path):
+    ops = ('<operation><set_datum ref_cam="2" ref_base="z">depend</set_datum></operation>')
+    b = read_dbat(_script(tmp_path, ops))
+    assert b.settings.datum == "free" and b.settings.free_datum == ("b", "z")
+    for bad, field in (('ref_cam="3"', "ref_cam"), ('ref_base="up"', "ref_base")):
+        p = _script(tmp_path, f"<operation><set_datum {bad}>depend</set_datum></operation>")
+        with pytest.raises(ProjectError) as e:
+            read_dbat(p)
+        assert e.value.column == field and e.value.line == 11
+
+
+def test_dbat_datum_rule_chooses_the_largest_signed_offset():
+    """DBAT's 'depend' holds the coordinate with the largest signed offset from the
+    reference image, baarda's own choice the largest absolute one."""
+    from dataclasses import replace
+
+    from baarda.bundle.free_network import choose_datum
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    b = simulate_block(FlightPlan(strips=2, photos_per_strip=3, seed=1))[0]
+    eo = b.photos.eo.copy()
+    eo[:, :3] = [[0, 0, 0], [5, 0, 0], [-9, 0, 0], [0, 2, 0], [0, 0, 1], [0, 0, 3]]
+    b = replace(b, photos=replace(b.photos, eo=eo))
+    assert choose_datum(b) == (0, 2, 0)
+    ids = b.photos.ids
+    for base, expect in (("longest", (0, 1, 0)), ("y", (0, 3, 1)), ("z", (0, 5, 2))):
+        s = replace(b.settings, datum="free", free_datum=(ids[0], base))
+        assert choose_datum(replace(b, settings=s)) == expect
+    s = replace(b.settings, datum="free", free_datum=(ids[2], "x"))
+    assert choose_datum(replace(b, settings=s)) == (2, 1, 0)

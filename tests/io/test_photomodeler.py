@@ -87,3 +87,73 @@ def test_malformed(tmp_path, text, line):
     with pytest.raises(ProjectError) as e:
         read_photomodeler(p)
     assert e.value.line == line and e.value.path == str(p)
+
+
+# ------------------------------------------------------- as DBAT reads an export (issue 28)
+def test_default_camera_of_line_4(tmp_path):
+    """Every photo takes the export's default camera (line 4); the photo lines repeat it
+    rounded to 3 decimals (rounded, they cost 0.6 % in sigma0 for SXB's export)."""
+    p = tmp_path / "x.txt"
+    p.write_text(GOOD.replace("10.0 2.5 2.0 5.0 4.0 0 0 0 0 0\n 0 0", "10.0004 2.5 2.0 5.0 4.0 "
+                              "0 0 0 0 0\n 0 0"))
+    b = read_photomodeler(p)
+    assert b.cameras.focal_mm[0] == 10.0004 and not any("differ" in n for n in b.notes)
+    p.write_text(GOOD.replace("   0 10.0 2.5", "   0 11.0 2.5"))
+    b = read_photomodeler(p)
+    assert b.cameras.focal_mm[0] == 10.0
+    assert any("photo 0" in n and "default camera" in n for n in b.notes)
+
+
+def test_negative_control_precision_is_fixed(tmp_path):
+    p = tmp_path / "x.txt"
+    p.write_text(GOOD.replace("\n 1 0 0 0 0.1 0.1 0.1\n\n", "\n 1 0 0 0 -0.7876 -0.7876 "
+                              "-0.7876\n\n", 1))
+    b = read_photomodeler(p)
+    assert b.points.role[0] == "control" and np.all(b.points.sigma[0] == 0)
+    assert any("fixed" in n for n in b.notes)
+
+
+def test_marks_of_unknown_points_are_dropped(tmp_path):
+    p = tmp_path / "x.txt"
+    p.write_text(GOOD.replace(" 0 1 50 40 1 1\n", " 0 1 50 40 1 1\n 0 7 60 40 1 1\n"))
+    b = read_photomodeler(p)
+    assert len(b.image) == 1 and b.points.ids == ["1"]
+    assert any("dropped" in n and ": 7" in n for n in b.notes)
+    p.write_text(GOOD.replace(" 0 1 50 40 1 1\n", " 0 7 60 40 1 1\n"))
+    with pytest.raises(ProjectError, match="no marked point") as e:
+        read_photomodeler(p)
+    assert e.value.line == 17
+
+
+def test_cp1252_export(tmp_path):
+    p = tmp_path / "x.txt"
+    p.write_bytes(GOOD.replace("Bundle Soln test", "Bundle Soln Façade").encode("cp1252"))
+    b = read_photomodeler(p)
+    assert b.settings.name == "Façade"
+    assert any("cp1252" in n and "line 1" in n for n in b.notes)
+    b = read_photomodeler(p, encoding="latin-1")  # named: no guess, no note
+    assert not any("cp1252" in n for n in b.notes)
+
+
+def test_export_without_image_size(tmp_path):
+    """Line 2 without the image size: an error that says what to add, or the pixel size
+    given (the image size is then the format / pixel size)."""
+    p = tmp_path / "x.txt"
+    p.write_text(GOOD.replace(" 0.0005 20 100 80", " 0.0005 20"))
+    with pytest.raises(ProjectError, match="WIDTH HEIGHT.*--pixel-mm") as e:
+        read_photomodeler(p)
+    assert e.value.line == 2
+    b = read_photomodeler(p, pixel_mm=0.05)  # format 5 x 4 mm -> 100 x 80 px
+    assert np.allclose(b.image.xy_mm[0], [0, 0])
+    p.write_text(GOOD)
+    with pytest.raises(ProjectError, match="--pixel-mm does not apply") as e:
+        read_photomodeler(p, pixel_mm=0.05)
+    assert e.value.path == "command line"
+
+
+def test_sxb_export_with_its_own_control_and_default_camera():
+    """Without --control the export's own (PhotoModeler's adjusted) control is used; the
+    default camera c = 123.9390 of line 4 (the photo lines print 123.939)."""
+    b = read_photomodeler(SXB)
+    assert b.cameras.focal_mm[0] == 123.939 and len(b.cameras) == 1
+    assert any("--control FILE replaces them" in n for n in b.notes)
