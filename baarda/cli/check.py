@@ -12,6 +12,8 @@ def register(sub) -> None:
                        "redundancy, sigma0 from every used observation, the global test, "
                        "every RMS line")
     p.add_argument("folder", type=Path, help="a result folder written by baarda")
+    p.add_argument("--rtol", type=float, default=1e-6, help="relative agreement of the sums "
+                   "recomputed from the rows with the figures stated")
     p.add_argument("-q", "--quiet", action="store_true", help="print only what does not hold")
     p.set_defaults(func=run)
 
@@ -19,7 +21,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from baarda.report.check import check_folder
 
-    findings = check_folder(args.folder)
+    findings = check_folder(args.folder, args.rtol)
     for f in findings:
         if not (args.quiet and f.ok):
             print(f.line())

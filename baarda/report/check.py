@@ -71,8 +71,9 @@ def _adjustments(res: Results) -> dict[str, tuple[dict, pd.DataFrame]]:
     return out
 
 
-def check_results(res: Results) -> list[Finding]:
-    """Every invariant of every adjustment of a result folder (module docstring)."""
+def check_results(res: Results, rtol: float = RTOL) -> list[Finding]:
+    """Every invariant of every adjustment of a result folder (module docstring); sums
+    recomputed from the rows agree with the figures stated to `rtol` (relative)."""
     findings: list[Finding] = []
     several = len(_adjustments(res)) > 1
     for name, (p, rows) in _adjustments(res).items():
@@ -92,20 +93,20 @@ def check_results(res: Results) -> list[Finding]:
         if r is not None and r.notna().any():
             s = float(r.sum())
             add(Finding(label, "sum of the redundancy numbers = redundancy", red, s,
-                        _close(s, red, 1e-6, 1e-6)))
+                        _close(s, red, rtol, rtol)))
         z = (used["residual"].to_numpy(float) / used["sigma"].to_numpy(float))
         vtpv = float(np.sum(z**2))
         if p.get("vtpv") is not None:
             add(Finding(label, "vTPv = sum (v / sigma)^2 of the observations", p["vtpv"], vtpv,
-                        _close(p["vtpv"], vtpv)))
+                        _close(p["vtpv"], vtpv, rtol)))
         s0 = float(np.sqrt(vtpv / red))
         if p.get("sigma0") is not None:
             add(Finding(label, "sigma0 = sqrt(vTPv / redundancy)", p["sigma0"], s0,
-                        _close(p["sigma0"], s0)))
+                        _close(p["sigma0"], s0, rtol)))
         gt = p.get("global_test") or {}
         if gt.get("statistic") is not None:
             add(Finding(label, "global test statistic = sigma0^2", gt["statistic"], s0**2,
-                        _close(gt["statistic"], s0**2)))
+                        _close(gt["statistic"], s0**2, rtol)))
         findings += _summary_rms(res, label, used, several)
     findings += _report_rms(res)
     return findings
@@ -161,8 +162,8 @@ def _report_rms(res: Results) -> list[Finding]:
     return out
 
 
-def check_folder(folder) -> list[Finding]:
+def check_folder(folder, rtol: float = RTOL) -> list[Finding]:
     """check_results of a result folder (read with output.result_folder.read_results)."""
     from baarda.output.result_folder import read_results
 
-    return check_results(read_results(folder))
+    return check_results(read_results(folder), rtol)
