@@ -22,12 +22,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.block.camera import CALIBRATION_GROUPS, cameras_per_strip
+from baarda.block.camera import CALIBRATION_GROUPS, cameras_per_strip, with_calibration
 from baarda.block.model_block import ModelBlock
+from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
 from baarda.block.photo_block import Block, Photos
-from baarda.bundle.calibration import with_calibration
 from baarda.errors import GeometryError, ProjectError
-from baarda.independent.deformations import ALL as ALL_DEFORMATIONS
 from baarda.io.formats import read_any
 from baarda.io.project import DATUMS
 from baarda.io.records import ENCODING
@@ -73,8 +72,7 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     (block/control.py).
     """
     block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
-                     sigma_image_um=sigma_image_um, encoding=encoding, camera=camera, crs=crs,
-                     calibration_group=calibration_group)
+                     sigma_image_um=sigma_image_um, encoding=encoding, camera=camera, crs=crs)
     if control is not None:
         from baarda.block.control import with_control
         from baarda.io.control_file import read_control_file
@@ -96,9 +94,9 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     if calibration_group not in (None, *CALIBRATION_GROUPS):
         raise ValueError(f"calibration group '{calibration_group}' is not one of "
                          f"{', '.join(CALIBRATION_GROUPS)}")
-    if calibration_group == "strip":
-        block = cameras_per_strip(block)
-    return block
+    group = calibration_group or block.settings.calibration_group
+    block = replace(block, settings=replace(block.settings, calibration_group=group))
+    return cameras_per_strip(block) if group == "strip" else block
 
 
 CHECK_ALTERNATE = ("alternate", "every-other")
@@ -149,6 +147,28 @@ def with_approximations(block: Block) -> Block:
     photos = Photos(block.photos.ids, block.photos.camera, block.photos.strip, eo)
     return replace(block, photos=photos, notes=list(block.notes) + [
         f"approximate orientations of {int(missing.sum())} photo(s) by space resection"])
+
+
+def with_tie_coordinates(block: Block) -> Block:
+    """The block in a local frame of its CRS (`localized`) with every tie point that has
+    no coordinates intersected from the photos' orientations (bundle/geometry.py), for
+    the writers of formats that store both (output/format_files.write_opensfm)."""
+    from baarda.bundle.geometry import intersect
+
+    block = localized(block)
+    pts = block.points
+    need = np.flatnonzero((pts.role == "tie") & ~np.isfinite(pts.xyz).all(axis=1))
+    if not len(need):
+        return block
+    xyz = pts.xyz.copy()
+    xyz[need] = intersect(block, block.photos.eo, need)
+    lost = need[~np.isfinite(xyz[need]).all(axis=1)]
+    if len(lost):
+        keep = np.ones(len(pts), bool)
+        keep[lost] = False
+        raise GeometryError(f"{len(lost)} tie point(s) cannot be intersected: "
+                            + ", ".join(pts.ids[j] for j in lost[:10]))
+    return replace(block, points=replace(pts, xyz=xyz))
 
 
 def localized(block: Block) -> Block:
@@ -328,15 +348,27 @@ def adjust_models(block: ModelBlock, mode: str = "3d", *, snoop: bool = True,
                   tests: TestOptions | None = None, statistic: str = "w",
                   by_point: bool = False, external: bool | None = None,
                   deformations: tuple[str, ...] | None = ALL_DEFORMATIONS,
-                  clusters: dict[str, list[str]] | None = None,
-                  user: UserHypotheses | None = None, level_models: bool = False,
+                  clusters: dict[str, list[str]] | str | Path | None = None,
+                  user: UserHypotheses | str | Path | None = None, level_models: bool = False,
                   vce: bool = False, progress: Progress | None = None) -> BlockQuality:
     """The FOTEF procedure on a model block (independent/workflow.py): pre-adjustment search,
     spatial ('3d') or planimetric + height ('2d') adjustment, data snooping, tests of model
     deformations, control clusters and user hypotheses, external reliability; with `vce`
     the variance components of model XY, model Z, projection centres and control X, Y, Z
-    estimated first (with snooping: in turn with it), the tests using the estimated sigmas."""
+    estimated first (with snooping: in turn with it), the tests using the estimated sigmas.
+    `clusters` and `user`: the control clusters and user hypotheses, or the paths of their
+    files (clusters.csv, hypotheses.csv: io/hypotheses_files.py)."""
     from baarda.independent.workflow import process
+
+    if isinstance(clusters, str | Path):
+        from baarda.io.hypotheses_files import read_clusters
+
+        clusters = read_clusters(clusters)
+    if isinstance(user, str | Path):
+        from baarda.independent.model_hypotheses import UserHypotheses
+        from baarda.io.hypotheses_files import read_hypotheses
+
+        user = UserHypotheses(read_hypotheses(user))
 
     return process(block, mode, do_snoop=snoop, statistic=statistic, by_point=by_point,
                    tests=tests, external=external, deformations=deformations,

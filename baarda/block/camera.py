@@ -17,6 +17,8 @@ any of the model's params.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from baarda.block.camera_models import MODELS, CameraModel, get_model, invert
@@ -24,7 +26,6 @@ from baarda.block.camera_models import MODELS, CameraModel, get_model, invert
 ALIASES = {"brown_backward": "brown"}
 KINDS = tuple(MODELS) + tuple(ALIASES)
 INTERIOR = ("c", "x0", "y0")
-COEFFICIENTS = ("k1", "k2", "k3", "p1", "p2")  # the Brown terms every Brown-type model shares
 
 
 def model_of(kind: str) -> CameraModel:
@@ -44,14 +45,6 @@ def kinds(cameras) -> np.ndarray:
 def parameter_names(cameras, i: int) -> tuple[str, ...]:
     """'c', 'x0', 'y0' and the model's params of camera i."""
     return INTERIOR + model_of(kinds(cameras)[i]).params
-
-
-def _padded(values, n: int, width: int) -> np.ndarray:
-    out = np.zeros((n, width))
-    if values is not None:
-        v = np.asarray(values, float).reshape(n, -1)
-        out[:, :min(width, v.shape[1])] = v[:, :width]
-    return out
 
 
 def coefficients(cameras, i: int) -> np.ndarray:
@@ -121,21 +114,6 @@ def ideal_image_coordinates(block) -> np.ndarray:
     return out
 
 
-def check_cameras(cameras) -> None:
-    """ValueError naming the camera whose model is unknown or lacks a constant."""
-    for i, k in enumerate(kinds(cameras)):
-        model = model_of(k)
-        if len(model.constants) and not np.isfinite(constants(cameras, i)).all():
-            raise ValueError(f"camera {cameras.ids[i]}: model '{k}' needs "
-                             f"{', '.join(model.constants)}")
-        free = getattr(cameras, "free", None)
-        if free is not None:
-            bad = [p for p in free[i] if p not in parameter_names(cameras, i)]
-            if bad:
-                raise ValueError(f"camera {cameras.ids[i]}: '{bad[0]}' is not a parameter of "
-                                 f"model '{k}' ({', '.join(parameter_names(cameras, i))})")
-
-
 CALIBRATION_GROUPS = ("camera", "strip")
 
 
@@ -144,8 +122,6 @@ def cameras_per_strip(block):
     a self-calibration estimates each strip's parameters of its own (calibration group
     "strip"); the copies are named "CAMERA/STRIP" and start from their camera's values.  A
     camera used in one strip only keeps its id."""
-    from dataclasses import replace
-
     cams, ph = block.cameras, block.photos
     strips = np.asarray([str(s) for s in ph.strip], dtype=object)
     pairs: dict[tuple[int, str], int] = {}
@@ -168,3 +144,51 @@ def cameras_per_strip(block):
                    notes=list(block.notes) + [
                        f"calibration per strip: {len(cams)} camera(s) -> {len(new)} "
                        "(one per camera and strip)"])
+
+
+def with_calibration(block, model: str | None = None, free=None):
+    """The block with every camera on camera model `model` (coefficients 0 unless it keeps
+    its model; Ebner's and Gruen's grid spacing from the extent of the image points) and
+    with `free` estimated: a list of parameter names for every camera, "none" (nothing
+    estimated) or "all" (c, x0, y0 and every coefficient of the model); None keeps the
+    block's (readers and project.toml set it)."""
+    cams = block.cameras
+    n = len(cams)
+    if model is not None:
+        if model not in KINDS:
+            raise ValueError(f"unknown camera model '{model}' (known: {', '.join(KINDS)})")
+        new = model_of(model)
+        old = kinds(cams)
+        coef = np.zeros((n, new.n_params))
+        for i in range(n):
+            if model_of(old[i]).name == new.name:
+                coef[i] = coefficients(cams, i)
+        const = np.full((n, len(new.constants)), np.nan)
+        if new.name in ("ebner", "gruen"):
+            cam = block.photos.camera[block.image.photo]
+            for i in range(n):
+                xy = block.image.xy_mm[cam == i] - cams.principal_point_mm[i]
+                extent = float(np.max(np.abs(xy), initial=1.0))
+                const[i, 0] = extent if new.name == "ebner" else extent / 2
+        elif new.constants:
+            raise ValueError(f"camera model '{model}' needs {', '.join(new.constants)}: give "
+                             "it in cameras.csv")
+        cams = replace(cams, model=np.full(n, model, dtype=object),
+                       coefficients=coef if new.n_params else None,
+                       constants=const if new.constants else None, free=None)
+    if free is not None:
+        if free == "none":
+            chosen = ((),) * n
+        elif free == "all":
+            chosen = tuple(INTERIOR + model_of(k).params for k in kinds(cams))
+        else:
+            names = tuple(free)
+            for i in range(n):
+                bad = [p for p in names if p not in parameter_names(cams, i)]
+                if bad:
+                    raise ValueError(f"camera {cams.ids[i]}: '{bad[0]}' is not a parameter of "
+                                     f"its model '{kinds(cams)[i]}' "
+                                     f"({', '.join(parameter_names(cams, i))})")
+            chosen = (names,) * n
+        cams = replace(cams, free=chosen)
+    return replace(block, cameras=cams)

@@ -17,7 +17,6 @@ from baarda.options import DEFAULT_TESTS
 if TYPE_CHECKING:
     from baarda.block.crs import LocalFrame
 
-ROLES = ("control", "check", "tie")
 
 
 @dataclass
@@ -36,6 +35,9 @@ class Settings:
     # the minimal constraints of a free network as its source states them (DBAT's set_datum
     # depend): (id of the photo held, "longest" | "x" | "y" | "z"); None: baarda's choice
     free_datum: tuple[str, str] | None = None
+    # camera parameters estimated per camera ("camera") or per camera and strip ("strip":
+    # project.toml [calibration] group; pipeline.read splits the cameras)
+    calibration_group: str = "camera"
     # GNSS/IMU (docs/format.md [gnss], [imu]): lever arm (m, camera frame) from the
     # projection centre to the antenna; shifts per block or strip and a linear drift per
     # strip as unknowns; IMU boresight misalignment held (identity) or estimated

@@ -202,9 +202,6 @@ class BundleProblem(SchurProblem):
         self.control_index = read_only(np.concatenate([
             np.full(2 * m, -1), np.repeat(self.control, 3)[sel], np.full(2 * mb, -1),
             np.repeat(self.border_control, 3)[bsel], np.full(nd + mg, -1)]))
-        self.distance_index = read_only(np.concatenate([
-            np.full(2 * m + nc + 2 * mb + len(bsel), -1), self.distances,
-            np.full(mg, -1)]))
 
     def datum_text(self) -> str:
         """What fixes the datum, in words (the summary's second line)."""

@@ -14,7 +14,6 @@ from dataclasses import replace
 import numpy as np
 
 from baarda.block.camera import (
-    coefficients,
     constants,
     kinds,
     model_of,
@@ -105,53 +104,3 @@ class Calibration:
             if len(rows):
                 out.append((label, rows))
         return out
-
-
-def with_calibration(block, model: str | None = None, free=None):
-    """The block with every camera on camera model `model` (coefficients 0 unless it keeps
-    its model; Ebner's and Gruen's grid spacing from the extent of the image points) and
-    with `free` estimated: a list of parameter names for every camera, "none" (nothing
-    estimated) or "all" (c, x0, y0 and every coefficient of the model); None keeps the
-    block's (readers and project.toml set it)."""
-    from baarda.block.camera import INTERIOR, KINDS
-
-    cams = block.cameras
-    n = len(cams)
-    if model is not None:
-        if model not in KINDS:
-            raise ValueError(f"unknown camera model '{model}' (known: {', '.join(KINDS)})")
-        new = model_of(model)
-        old = kinds(cams)
-        coef = np.zeros((n, new.n_params))
-        for i in range(n):
-            if model_of(old[i]).name == new.name:
-                coef[i] = coefficients(cams, i)
-        const = np.full((n, len(new.constants)), np.nan)
-        if new.name in ("ebner", "gruen"):
-            cam = block.photos.camera[block.image.photo]
-            for i in range(n):
-                xy = block.image.xy_mm[cam == i] - cams.principal_point_mm[i]
-                extent = float(np.max(np.abs(xy), initial=1.0))
-                const[i, 0] = extent if new.name == "ebner" else extent / 2
-        elif new.constants:
-            raise ValueError(f"camera model '{model}' needs {', '.join(new.constants)}: give "
-                             "it in cameras.csv")
-        cams = replace(cams, model=np.full(n, model, dtype=object),
-                       coefficients=coef if new.n_params else None,
-                       constants=const if new.constants else None, free=None)
-    if free is not None:
-        if free == "none":
-            chosen = ((),) * n
-        elif free == "all":
-            chosen = tuple(INTERIOR + model_of(k).params for k in kinds(cams))
-        else:
-            names = tuple(free)
-            for i in range(n):
-                bad = [p for p in names if p not in parameter_names(cams, i)]
-                if bad:
-                    raise ValueError(f"camera {cams.ids[i]}: '{bad[0]}' is not a parameter of "
-                                     f"its model '{kinds(cams)[i]}' "
-                                     f"({', '.join(parameter_names(cams, i))})")
-            chosen = (names,) * n
-        cams = replace(cams, free=chosen)
-    return replace(block, cameras=cams)

@@ -54,7 +54,7 @@ def record_workload() -> None:
     columns) and a block large enough for the multi-threaded kernels."""
     import tempfile
 
-    from baarda.bundle.calibration import with_calibration
+    from baarda.block.camera import with_calibration
     from baarda.output.bundle_results import write_results
     from baarda.output.run_folder import RunFolder
     from baarda.pipeline import adjust, assess, snoop

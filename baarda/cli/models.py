@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from baarda.block.model_deformations import ALL
 from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
@@ -19,7 +20,6 @@ from baarda.cli.common import (
     tests_option,
 )
 from baarda.errors import ProjectError
-from baarda.independent.deformations import ALL
 
 
 def register(sub) -> None:
@@ -93,7 +93,6 @@ def run(args) -> int:
 
 
 def _adjust_models(args, run):
-    from baarda.independent.model_hypotheses import UserHypotheses, read_clusters
     from baarda.output.model_results import write_results
     from baarda.pipeline import adjust_models, read_models
 
@@ -116,8 +115,7 @@ def _adjust_models(args, run):
                  statistic="tau" if args.tau else "w", by_point=args.by_point,
                  tests=tests_option(block.settings, args), external=args.external,
                  deformations=defs,
-                 clusters=read_clusters(args.clusters) if args.clusters else None,
-                 user=UserHypotheses(args.hypotheses) if args.hypotheses else None,
+                 clusters=args.clusters, user=args.hypotheses,
                  level_models=args.level, vce=args.vce, progress=say)
     write_results(run, bq)
     return bq

@@ -19,14 +19,13 @@ nabla, one forward substitution on the Cholesky factor) are quality.hypotheses.
 from __future__ import annotations
 
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 
+from baarda.block.hypothesis_rows import HypothesisRows
+from baarda.block.model_deformations import ALL, deformation_rows
 from baarda.errors import ProjectError
-from baarda.independent.deformations import ALL, deformation_rows
 from baarda.independent.independent_model import IndependentModel
-from baarda.io.table import Table
 from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.hypotheses import HypothesisTest, hypothesis_test
@@ -143,48 +142,23 @@ def cluster_tests(qm: IndependentModel, clusters: dict[str, list[str]],
     return out
 
 
-def read_clusters(path: str | Path) -> dict[str, list[str]]:
-    """clusters.csv: columns cluster, point."""
-    t = Table(path, ["cluster", "point"])
-    out: dict[str, list[str]] = {}
-    for c, p in zip(t.text("cluster"), t.text("point"), strict=True):
-        out.setdefault(str(c), []).append(str(p))
-    return out
-
-
 class UserHypotheses:
-    """Hypotheses read from hypotheses.csv, turned into H for a given quality model."""
+    """The hypotheses of hypotheses.csv (io/hypotheses_files.read_hypotheses), turned into H
+    for a given quality model."""
 
-    def __init__(self, path: str | Path):
-        self.table = t = Table(path, ["hypothesis", "kind", "point", "component", "value"])
-        self.name = t.text("hypothesis")
-        self.kind = t.text("kind")
-        self.model = t.text("model", allow_empty=True) if t.has("model") else \
-            np.full(len(t), "")
-        self.point = t.text("point")
-        self.comp = t.text("component")
-        self.value = t.numbers("value")
-        self.column = (t.numbers("column", allow_empty=True) if t.has("column")
-                       else np.ones(len(t)))
-        self.column = np.where(np.isfinite(self.column), self.column, 1).astype(int)
-        for i in range(len(t)):
-            k, c = self.kind[i], self.comp[i]
-            ok = (k == "model" and c in ("x", "y", "z") and self.model[i]) or \
-                 (k == "control" and c in ("X", "Y", "Z"))
-            if not ok:
-                raise ProjectError(t.path, f"kind '{k}' with component '{c}': use kind model "
-                                   "(with a model, component x/y/z) or control (X/Y/Z)",
-                                   int(t.lines[i]), "kind")
+    def __init__(self, rows: HypothesisRows):
+        self.rows = rows
 
     def names(self) -> list[str]:
-        return list(dict.fromkeys(self.name))
+        return self.rows.names()
 
     def h(self, qm: IndependentModel, name: str) -> np.ndarray:
         """H (n, q) of hypothesis `name`; rows not in this adjustment are ignored."""
+        u = self.rows
         pb = qm.problem
         bl = pb.block
-        sel = np.flatnonzero(self.name == name)
-        cols = sorted(set(self.column[sel]))
+        sel = np.flatnonzero(u.name == name)
+        cols = sorted(set(u.column[sel]))
         mindex = {m: i for i, m in enumerate(bl.models)}
         pindex = {p: i for i, p in enumerate(bl.points)}
         row_of = {(int(m), int(p)): r for r, (m, p) in
@@ -192,23 +166,23 @@ class UserHypotheses:
         field = np.zeros((len(bl.obs_model), 3, len(cols)))
         hc = np.zeros((qm.n, len(cols)))
         for i in sel:
-            line = int(self.table.lines[i])
-            j = pindex.get(self.point[i])
+            line = int(u.lines[i])
+            j = pindex.get(u.point[i])
             if j is None:
-                raise ProjectError(self.table.path, f"unknown point '{self.point[i]}'", line,
+                raise ProjectError(u.path, f"unknown point '{u.point[i]}'", line,
                                    "point")
-            q = cols.index(self.column[i])
-            if self.kind[i] == "model":
-                m = mindex.get(self.model[i])
+            q = cols.index(u.column[i])
+            if u.kind[i] == "model":
+                m = mindex.get(u.model[i])
                 r = row_of.get((m, j)) if m is not None else None
                 if r is None:
-                    raise ProjectError(self.table.path, f"point '{self.point[i]}' is not in "
-                                       f"model '{self.model[i]}'", line, "model")
-                field[r, "xyz".index(self.comp[i]), q] += self.value[i] * 1e-3
+                    raise ProjectError(u.path, f"point '{u.point[i]}' is not in "
+                                       f"model '{u.model[i]}'", line, "model")
+                field[r, "xyz".index(u.component[i]), q] += u.value[i] * 1e-3
             else:
-                hit = (qm.kind == "control") & (qm.point == self.point[i]) & \
-                      (qm.xyz_col == "XYZ".index(self.comp[i]))
-                hc[hit, q] += self.value[i]
+                hit = (qm.kind == "control") & (qm.point == u.point[i]) & \
+                      (qm.xyz_col == "XYZ".index(u.component[i]))
+                hc[hit, q] += u.value[i]
         return _model_part(qm, field) + hc
 
     def tests(self, qm: IndependentModel,

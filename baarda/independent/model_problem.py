@@ -30,9 +30,9 @@ from baarda.adjustment.schur_problem import SchurProblem
 from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
 from baarda.adjustment.solve import solve
 from baarda.block.model_block import ModelBlock
+from baarda.block.model_deformations import model_radius
 from baarda.errors import GeometryError
 from baarda.independent import similarity
-from baarda.independent.deformations import model_radius
 from baarda.options import SolveOptions
 
 if TYPE_CHECKING:
@@ -92,7 +92,6 @@ class ModelProblem(SchurProblem):
         self.held = np.zeros((len(self.point_ids), self.d), bool)  # fixed control (sigma 0)
         self.held[remap[self.control]] = given & (sig == 0)
         self.wc_full = np.where(ok, 1.0 / np.where(ok, sig, 1.0) ** 2, 0.0)
-        self.model_ids = np.unique(bl.obs_model[self.rows])
         self.frame = bl.obs_model[self.rows]
         self.centroid = bl.centroids()
         self.radius = model_radius(bl, self.centroid)

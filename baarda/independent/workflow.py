@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from baarda.block.model_block import ModelBlock
-from baarda.independent.deformations import ALL
+from baarda.block.model_deformations import ALL
 from baarda.independent.model_hypotheses import (
     UserHypotheses,
     cluster_tests,

@@ -26,7 +26,7 @@ gets lens model 'none' and a note says so (the model is a later step).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -58,7 +58,6 @@ class AiconProject:
     points: dict  # id, X, Y, Z, sX, sY, sZ, rays, status, new, datum
     observations: dict  # image, point, x, y, sx, sy, vx, vy, method, status, internal
     scale_bars: dict  # id, name, a, b, length, sigma, status
-    raw_lines: dict = field(default_factory=dict)
 
     # ------------------------------------------------------------- what is used
     def active_images(self) -> np.ndarray:
@@ -115,7 +114,7 @@ class AiconProject:
         act_p = self.active_points()
         pid = self.points["id"][act_p]
         xyz = np.column_stack([self.points[k][act_p] for k in "XYZ"]) * 1e-3
-        points = GroundPoints([_id(p) for p in pid], xyz, np.full(xyz.shape, np.nan),
+        points = GroundPoints([point_id(p) for p in pid], xyz, np.full(xyz.shape, np.nan),
                               np.full(len(pid), "tie", dtype=object))
         o = {k: v[self.active_observations()] for k, v in self.observations.items()}
         if not len(o["x"]):
@@ -129,7 +128,7 @@ class AiconProject:
             po = protocol.observations
             key = {(int(i), str(p)): k for k, (i, p) in enumerate(zip(
                 po["image"].tolist(), po["point"].tolist(), strict=True))}
-            rows = np.array([key.get((int(i), _id(p)), -1) for i, p in zip(
+            rows = np.array([key.get((int(i), point_id(p)), -1) for i, p in zip(
                 o["image"].tolist(), o["point"].tolist(), strict=True)])
             found = rows >= 0
             sxy[found] = np.column_stack([po["sx"], po["sy"]])[rows[found]]
@@ -170,19 +169,16 @@ class AiconProject:
         sb = self.scale_bars
         index = {p: i for i, p in enumerate(point_ids)}
         keep = [k for k in np.flatnonzero(self.active_scale_bars())
-                if _id(sb["a"][k]) in index and _id(sb["b"][k]) in index]
+                if point_id(sb["a"][k]) in index and point_id(sb["b"][k]) in index]
         return Distances([str(sb["name"][k]) for k in keep],
-                         np.array([index[_id(sb["a"][k])] for k in keep], dtype=np.int64),
-                         np.array([index[_id(sb["b"][k])] for k in keep], dtype=np.int64),
+                         np.array([index[point_id(sb["a"][k])] for k in keep], np.int64),
+                         np.array([index[point_id(sb["b"][k])] for k in keep], np.int64),
                          np.array([sb["length"][k] for k in keep], float) * 1e-3,
                          np.array([sb["sigma"][k] for k in keep], float) * 1e-3)
 
 
-def _f(v) -> str:
-    return repr(float(v))
-
-
-def _id(v) -> str:
+def point_id(v) -> str:
+    """An AICON point or image id as text: '12' for 12.0, else every digit."""
     v = float(v)
     return str(int(v)) if v.is_integer() else repr(v)
 
@@ -299,20 +295,15 @@ def read_aicon(path: str | Path, encoding: str = ENCODING) -> AiconProject:
         if len(u) != len(t[key]):
             dup = np.setdiff1d(np.arange(len(t[key])), first)[0]
             raise ProjectError(str(f["eor" if what == "image" else "obc"]),
-                               f"duplicate {what} id {_id(t[key][dup])}", int(t["_lines"][dup]),
-                               "id")
+                               f"duplicate {what} id {point_id(t[key][dup])}",
+                               int(t["_lines"][dup]), "id")
     bad = np.flatnonzero((obs["status"] > 0) & ~np.isin(obs["image"], images["id"]))
     if len(bad):
-        raise ProjectError(str(f["phc"]), f"unknown image {_id(obs['image'][bad[0]])}",
+        raise ProjectError(str(f["phc"]), f"unknown image {point_id(obs['image'][bad[0]])}",
                            int(obs["_lines"][bad[0]]), "image")
     bad = np.flatnonzero((obs["sx"] <= 0) | (obs["sy"] <= 0))
     if len(bad):
         raise ProjectError(str(f["phc"]), "standard deviation must be positive",
                            int(obs["_lines"][bad[0]]), "sx")
     scale = _read_scale(f["scale"], encoding)
-    lines = {e: read_lines(p, encoding) for e, p in f.items() if p.is_file()}
-    return AiconProject(stem, folder, cams, images, points, obs, scale, lines)
-
-
-def read_aicon_block(path: str | Path, **kw) -> Block:
-    return read_aicon(path).to_block(**kw)
+    return AiconProject(stem, folder, cams, images, points, obs, scale)

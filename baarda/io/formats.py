@@ -112,7 +112,7 @@ def _check_kind(p: Path, fmt: str) -> None:
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None = None,
              sigma_px: float | None = None, sigma_image_um: float | None = None,
              encoding: str = ENCODING, camera: str | Path | None = None,
-             crs: str | None = None, calibration_group: str | None = None) -> Block:
+             crs: str | None = None) -> Block:
     """Read any supported input into a Block.
 
     pixel_mm, sigma_px, sigma_image_um: pixel size [mm] and image sigma [px] or [µm],
@@ -121,9 +121,8 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
     PhotoModeler input (COLMAP and BAL are UTF-8 / ASCII by definition, DBAT's XML names
     its own); camera: a DBAT camera file (a calibration result) replacing a DBAT script's
     camera; crs: the project CRS of an OpenSfM dataset (its topocentric frame is placed in
-    it; other formats take the CRS in pipeline.read); calibration_group: "camera" reads a
-    project with one camera per camera of cameras.csv whatever project.toml's group says
-    (pipeline.read splits the cameras per strip for "strip", after the calibration).
+    it; other formats take the CRS in pipeline.read).  The cameras are as the files give
+    them: pipeline.read applies the calibration group (settings.calibration_group).
     """
     from baarda.io.image_sigma import check_image_sigmas, resolve_image_options, with_image_sigma
 
@@ -140,7 +139,7 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
     if fmt == "project":
         from baarda.io.project import read_project
 
-        block = read_project(p, encoding, "camera" if calibration_group == "camera" else None)
+        block = read_project(p, encoding)
     else:
         block = _read(p, fmt, opts.pixel_mm, opts.sigma_px, encoding, camera, crs)
     check_image_sigmas(block)

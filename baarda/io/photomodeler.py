@@ -170,7 +170,7 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
         raise ProjectError(spath, "no photo blocks after the header", 6)
     i += 1
     ctrl, ctrl_lines, i = _section(lines, i, spath, 7, "control point")
-    objs, obj_lines, i = _section(lines, i, spath, 7, "object point")
+    objs, _, i = _section(lines, i, spath, 7, "object point")
     marks, mark_lines, i = _section(lines, i, spath, 6, "marked point")
     if not len(marks):
         raise ProjectError(spath, "no marked points (expected after the control and object "

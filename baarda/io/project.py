@@ -15,7 +15,6 @@ import numpy as np
 from baarda.block.camera import (
     CALIBRATION_GROUPS,
     KINDS,
-    cameras_per_strip,
     model_of,
     parameter_names,
 )
@@ -219,7 +218,7 @@ def _calibration(doc: dict, cameras: Cameras, path: Path) -> tuple[tuple[str, ..
     return tuple(out)
 
 
-def _image_sigmas(t: Table, default_um: float) -> np.ndarray:
+def _image_sigmas(t: Table) -> np.ndarray:
     """(m, 2) a-priori sigmas of x and y in µm from `sigma_um` or `sigma_x_um` and
     `sigma_y_um` (NaN where empty: the project default)."""
     both = [t.has(c) for c in ("sigma_x_um", "sigma_y_um")]
@@ -244,11 +243,10 @@ def _image_sigmas(t: Table, default_um: float) -> np.ndarray:
     return out
 
 
-def read_project(folder: str | Path, encoding: str = ENCODING,
-                 calibration_group: str | None = None) -> Block:
+def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
     """Read and validate a project folder; see docs/format.md.  encoding: of its text
-    files (default UTF-8, with or without a byte-order mark); calibration_group: "camera"
-    or "strip" instead of project.toml's [calibration] group (None: project.toml's)."""
+    files (default UTF-8, with or without a byte-order mark).  project.toml's
+    [calibration] group is in settings.calibration_group (pipeline.read applies it)."""
     folder = Path(folder)
     if not folder.is_dir():
         raise ProjectError(str(folder), "not a project folder")
@@ -297,7 +295,7 @@ def read_project(folder: str | Path, encoding: str = ENCODING,
     photo = t.lookup("photo", {p: i for i, p in enumerate(photo_ids)}, "photo")
     pcode, pnames = t.codes("point")
     xy = np.column_stack([t.numbers("x_mm"), t.numbers("y_mm")])
-    sig_xy = _image_sigmas(t, settings.sigma_image_um)  # (m, 2) µm, NaN: the default
+    sig_xy = _image_sigmas(t)  # (m, 2) µm, NaN: the default
     defaulted = int(np.isnan(sig_xy).any(axis=1).sum())
     sig_xy = np.where(np.isfinite(sig_xy), sig_xy, settings.sigma_image_um)
     sig_um = np.sqrt(0.5 * (sig_xy**2).sum(axis=1))
@@ -347,10 +345,10 @@ def read_project(folder: str | Path, encoding: str = ENCODING,
                  if dist.is_file() else no_distances())
     gnss = read_gnss(folder / "gnss.csv", photo_ids, gnss_sigma, encoding)
     imu = read_imu(folder / "imu.csv", photo_ids, settings.angle_unit, imu_sigma, encoding)
-    block = Block(settings, cameras, photos, image, points, source=str(folder), notes=notes,
-                  distances=distances, gnss=gnss, imu=imu)
-    group = calibration_group or _calibration_group(doc, folder / "project.toml")
-    return cameras_per_strip(block) if group == "strip" else block
+    settings = replace(settings, calibration_group=_calibration_group(
+        doc, folder / "project.toml"))
+    return Block(settings, cameras, photos, image, points, source=str(folder), notes=notes,
+                 distances=distances, gnss=gnss, imu=imu)
 
 
 def _calibration_group(doc: dict, path: Path) -> str:

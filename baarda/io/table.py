@@ -53,7 +53,6 @@ class Table(Columns):
         if self._arrow is not None:
             self.header = list(self._arrow.column_names)
             self._header_line = 1
-            self._data = data
             self._columns: dict[str, np.ndarray] = {}
             self._lines: np.ndarray | None = None
         else:

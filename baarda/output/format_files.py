@@ -14,13 +14,18 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.io.aicon import AiconProject, _f, _id
+from baarda.io.aicon import AiconProject, point_id
 from baarda.io.bal import BalProblem
 from baarda.io.colmap import MODEL_ID, ColmapModel
 from baarda.io.colmap_binary import IMAGE_HEADER, KEYPOINT, POINT_HEADER, TRACK_ELEMENT
 from baarda.io.opensfm_files import utm_crs
 from baarda.io.opensfm_ground import topocentric_frame
 from baarda.output.atomic import write_bytes, write_text
+
+
+def _number(v) -> str:
+    """A number of an AICON file: every digit (repr)."""
+    return repr(float(v))
 
 
 def _fmt(v: float) -> str:
@@ -156,13 +161,12 @@ def write_aicon(project: AiconProject, folder: str | Path, name: str | None = No
     c = project.cameras
     rows = []
     for k in range(len(c["id"])):
-        rows += [f"{int(c['id'][k]):8d} {int(c['internal'][k]):8d} {_f(c['ck'][k])} "
-                 f"{_f(c['xh'][k])} {_f(c['yh'][k])} {_f(c['A1'][k])} {_f(c['A2'][k])} "
-                 f"{_f(c['R0'][k])}",
-                 f"    {_f(c['A3'][k])}", f"    {_f(c['B1'][k])} {_f(c['B2'][k])}",
-                 f"    {_f(c['C1'][k])} {_f(c['C2'][k])}",
-                 f"    {_f(c['width_mm'][k])} {_f(c['height_mm'][k])} {int(c['nx'][k])} "
-                 f"{int(c['ny'][k])}"]
+        n = {f: _number(c[f][k]) for f in ("ck", "xh", "yh", "A1", "A2", "R0", "A3", "B1",
+                                            "B2", "C1", "C2", "width_mm", "height_mm")}
+        rows += [f"{int(c['id'][k]):8d} {int(c['internal'][k]):8d} {n['ck']} {n['xh']} "
+                 f"{n['yh']} {n['A1']} {n['A2']} {n['R0']}", f"    {n['A3']}",
+                 f"    {n['B1']} {n['B2']}", f"    {n['C1']} {n['C2']}",
+                 f"    {n['width_mm']} {n['height_mm']} {int(c['nx'][k])} {int(c['ny'][k])}"]
     write_text(folder / f"{name}.ior", "\n".join(rows) + "\n")
     im = project.images
     e = (np.column_stack([im[k] for k in ("X0", "Y0", "Z0", "omega", "phi", "kappa")])
@@ -174,20 +178,20 @@ def write_aicon(project: AiconProject, folder: str | Path, name: str | None = No
     write_text(folder / f"{name}.eor", "\n".join(rows) + "\n")
     p = project.points
     x = np.column_stack([p[k] for k in "XYZ"]) if xyz is None else xyz
-    rows = [f"{_id(p['id'][k]):>10} " + " ".join(repr(float(v)) for v in x[k]) + " " +
+    rows = [f"{point_id(p['id'][k]):>10} " + " ".join(repr(float(v)) for v in x[k]) + " " +
             " ".join(repr(float(p[s][k])) for s in ("sX", "sY", "sZ")) +
             f" {int(p['rays'][k])} {int(p['status'][k])} {int(p['new'][k])} {int(p['datum'][k])}"
             for k in range(len(p["id"]))]
     write_text(folder / f"{name}.obc", "\n".join(rows) + "\n")
     o = project.observations
-    rows = [f"{int(o['image'][k]):8d} {_id(o['point'][k]):>8} " +
+    rows = [f"{int(o['image'][k]):8d} {point_id(o['point'][k]):>8} " +
             " ".join(repr(float(o[s][k])) for s in ("x", "y", "sx", "sy", "vx", "vy")) +
             f" {int(o['method'][k])} {int(o['status'][k])} {int(o['internal'][k])}"
             for k in range(len(o["image"]))]
     write_text(folder / f"{name}.phc", "\n".join(rows) + "\n")
     s = project.scale_bars
-    rows = [f"{int(s['id'][k])} \"{s['name'][k]}\" {_id(s['a'][k])} {_id(s['b'][k])} "
-            f"{_f(s['length'][k])} {_f(s['sigma'][k])} {int(s['status'][k])}"
+    rows = [f"{int(s['id'][k])} \"{s['name'][k]}\" {point_id(s['a'][k])} {point_id(s['b'][k])} "
+            f"{_number(s['length'][k])} {_number(s['sigma'][k])} {int(s['status'][k])}"
             for k in range(len(s["id"]))]
     write_text(folder / f"{name}.scale", "\n".join(rows) + ("\n" if rows else ""))
 
@@ -198,24 +202,29 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
     reconstruction.json, tracks.csv, ground_control_points.json (control and check points:
     read them back with the check points named in --check-gcp), config.yaml (the control
     sigmas).  Ground coordinates are taken as the topocentric frame at reference_lla
-    (latitude, longitude, altitude) for a block without a CRS, else the block is put in a
-    local frame of its CRS first and that frame's origin is the reference.  Tie points
-    without coordinates are intersected from the orientations.  Cameras must have the
-    models none, brown_forward or fisheye_forward; IMU attitudes and distances have no
-    place in OpenSfM (ValueError), nor do height-only control points or GNSS sigmas that
-    differ by axis."""
+    (latitude, longitude, altitude) for a block without a CRS, else the block must be in a
+    local frame of its CRS, whose origin is the reference.  Every tie point needs
+    coordinates (pipeline.with_tie_coordinates gives both).  Cameras must have the models
+    none, brown_forward or fisheye_forward; IMU attitudes and distances have no place in
+    OpenSfM (ValueError), nor do height-only control points or GNSS sigmas that differ by
+    axis."""
     from pyproj import Transformer
 
     from baarda.block.camera import coefficients, kinds
     from baarda.block.rotation import pose_of_eo, rotation_vector
-    from baarda.bundle.geometry import intersect
-    from baarda.pipeline import localized
 
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
     if len(block.imu) or len(block.distances):
         raise ValueError("OpenSfM datasets have no IMU attitudes or distances")
-    block = localized(block)
+    if block.settings.crs and block.frame is None:
+        raise ValueError("the block is in its CRS: put it in a local frame first "
+                         "(pipeline.with_tie_coordinates)")
+    tie = block.points.role == "tie"
+    missing = tie & ~np.isfinite(block.points.xyz).all(axis=1)
+    if missing.any():
+        raise ValueError(f"{int(missing.sum())} tie point(s) without coordinates: intersect "
+                         "them first (pipeline.with_tie_coordinates)")
+    folder.mkdir(parents=True, exist_ok=True)
     frame = block.frame
     if frame is None:
         lat, lon, h = reference_lla
@@ -273,13 +282,8 @@ def write_opensfm(block, folder: str | Path, *, pixel_mm: float = 0.001,
             shot["gps_position"] = block.gnss.xyz[gnss[i]].tolist()
             shot["gps_dop"] = float(sig[0])
         shots[pid] = shot
-    tie = pts.role == "tie"
-    xyz = pts.xyz.copy()
-    need = np.flatnonzero(tie & ~np.isfinite(xyz).all(axis=1))
-    if len(need):
-        xyz[need] = intersect(block, block.photos.eo, need)
-    points = {pts.ids[j]: {"coordinates": xyz[j].tolist(), "color": [128, 128, 128]}
-              for j in np.flatnonzero(tie & np.isfinite(xyz).all(axis=1))}
+    points = {pts.ids[j]: {"coordinates": pts.xyz[j].tolist(), "color": [128, 128, 128]}
+              for j in np.flatnonzero(tie)}
     recon = [{"cameras": cameras, "shots": shots, "points": points,
               "reference_lla": {"latitude": reference_lla[0], "longitude": reference_lla[1],
                                 "altitude": reference_lla[2]}}]

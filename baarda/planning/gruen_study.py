@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.planning.design import ControlLayout, design_block
-from baarda.planning.design_reliability import PlanResult, analyse_design, class_means
+from baarda.planning.design_reliability import PlanResult, analyse_design
 from baarda.planning.reliability_tables import (
     COLUMNS,
     DesignKey,
@@ -247,12 +247,6 @@ def photo_grid(case: StudyCase, counts: dict[str, int]) -> str:
         row = ph[ph["strip"] == s]
         lines.append(" ".join(f"{counts.get(p, 0) or '.':>2}" for p in row["photo"]))
     return "\n".join(lines)
-
-
-def summary_means(study: Study) -> pd.DataFrame:
-    """All class means pooled over the whole study (for quick looks)."""
-    obs = pd.concat([c.plan.image() for c in study.cases], ignore_index=True)
-    return class_means(obs)
 
 
 # Gruen's analytic mean curves of the control-point classes over the bridging distance i

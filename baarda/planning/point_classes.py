@@ -22,8 +22,6 @@ import numpy as np
 
 from baarda.block.photo_block import Block
 
-GRUEN_CLASSES = ("R2", "RO3", "RI3", "RO4/9", "RI4/9", "CRO4/9", "CRI4/9")
-
 
 @dataclass
 class RowClasses:

@@ -71,9 +71,6 @@ def global_test_lines(q: QualityResult) -> list[str]:
     return [head, b]
 
 
-def global_test_line(q: QualityResult) -> str:
-    """The headline global test in one line (global_test_lines)."""
-    return global_test_lines(q)[0]
 
 
 def quality_lines(model: AdjustedModel, q: QualityResult,

@@ -75,9 +75,6 @@ class DenseModel(AdjustedModel):
     def adjusted_cofactor_diag(self) -> np.ndarray:
         return np.sum((self.a @ self.qxx) * self.a, axis=1)
 
-    def qll_hat(self) -> np.ndarray:
-        return self.a @ self.qxx @ self.a.T
-
     def normal_forward(self, h: np.ndarray) -> np.ndarray:
         g = self.a.T @ (self.p[:, None] * h)
         return np.linalg.solve(self.chol, g)

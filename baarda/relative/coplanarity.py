@@ -74,7 +74,3 @@ def coplanarity(beta: np.ndarray, x_left: np.ndarray, u_right: np.ndarray,
     return ConditionLinearisation(np.einsum("ij,ij->i", m, x2), df, m @ ry, da)
 
 
-def coplanarity_dx(beta: np.ndarray, x_left: np.ndarray, rotation) -> np.ndarray:
-    """dF_p/dx'' (n,): the partial that the parallax-mode model neglects (small: ~beta c)."""
-    b = np.array([1.0, beta[1], beta[2]])
-    return np.cross(b, x_left) @ (rotation @ E_X)

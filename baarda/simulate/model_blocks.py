@@ -129,7 +129,7 @@ def _fotef_layout(plan: ModelPlan):
 
 def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
     """Simulate a model block; returns (block with noisy observations, truth)."""
-    from baarda.independent.deformations import deformation_rows
+    from baarda.block.model_deformations import deformation_rows
 
     rng = np.random.default_rng(plan.seed)
     if plan.layout == "grid":

@@ -7,7 +7,7 @@ of 20 blocks (5 % level)."""
 
 import numpy as np
 
-from baarda.bundle.calibration import with_calibration
+from baarda.block.camera import with_calibration
 from baarda.pipeline import adjust, assess
 from baarda.simulate.aerial import FlightPlan, simulate_block
 

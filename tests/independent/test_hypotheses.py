@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from baarda.block.model_deformations import deformation_rows, model_radius
 from baarda.errors import ProjectError
-from baarda.independent.deformations import deformation_rows, model_radius
 from baarda.independent.model_hypotheses import (
     UserHypotheses,
     cluster_tests,
@@ -14,6 +14,7 @@ from baarda.independent.model_hypotheses import (
 )
 from baarda.independent.model_problem import adjust_models
 from baarda.independent.model_quality import assess, snoop
+from baarda.io.hypotheses_files import read_hypotheses
 from baarda.quality import hypotheses as hyp
 from baarda.quality.dense_model import DenseModel
 from baarda.simulate.model_blocks import ModelPlan, simulate_models
@@ -86,14 +87,14 @@ def test_control_cluster_shift_is_found(tmp_path):
     rows += [f"shift,control,,{p},X,1,1" for p in cluster]
     rows += [f"shift,control,,{p},Y,1,2" for p in cluster]
     f.write_text("\n".join(rows) + "\n")
-    u = UserHypotheses(f).tests(qc.model)
+    u = UserHypotheses(read_hypotheses(f)).tests(qc.model)
     assert u[0].statistic == pytest.approx(t[0].statistic)
     f.write_text("hypothesis,kind,model,point,component,value\nx,model,,P1,x,1\n")
     with pytest.raises(ProjectError, match="line 2"):
-        UserHypotheses(f)
+        UserHypotheses(read_hypotheses(f))
     f.write_text(f"hypothesis,kind,model,point,component,value\nx,model,9.99,{ctrl[0]},x,1\n")
     with pytest.raises(ProjectError, match="not in model"):
-        UserHypotheses(f).tests(qc.model)
+        UserHypotheses(read_hypotheses(f)).tests(qc.model)
 
 
 def test_absorbed_deformation_is_reported_not_testable():

@@ -23,6 +23,7 @@ from baarda.io.opensfm import read_opensfm
 from baarda.io.opensfm_files import parse_crs_line, utm_crs
 from baarda.output.format_files import write_opensfm
 from baarda.output.project_files import write_project
+from baarda.pipeline import with_tie_coordinates
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "opensfm_berlin"
@@ -256,7 +257,7 @@ def test_simulated_block_reads_back_to_the_native_adjustment(tmp_path):
                                      check_points=3, height_chains=0, gnss_sigma_m=0.1,
                                      seed=11))
     write_project(b, tmp_path / "native")
-    write_opensfm(b, tmp_path / "osfm")
+    write_opensfm(with_tie_coordinates(b), tmp_path / "osfm")
     checks = [p for p, r in zip(b.points.ids, b.points.role, strict=True) if r == "check"]
     native = baarda.read(tmp_path / "native")
     osfm = baarda.read(tmp_path / "osfm", calibrate="none", sigma_px=5.0,
@@ -279,7 +280,9 @@ def test_simulated_block_reads_back_to_the_native_adjustment(tmp_path):
 def test_writer_refuses_what_opensfm_cannot_hold(tmp_path):
     b, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=4, seed=3))
     with pytest.raises(ValueError, match="need a horizontal position"):
-        write_opensfm(b, tmp_path / "x")  # height-only control points
+        write_opensfm(with_tie_coordinates(b), tmp_path / "x")  # height-only control points
+    with pytest.raises(ValueError, match="tie point.*without coordinates"):
+        write_opensfm(b, tmp_path / "z")
     b2 = replace(b, imu=replace(b.imu, photo=np.array([0]), angles=np.zeros((1, 3)),
                                 sigma=np.ones((1, 3))))
     with pytest.raises(ValueError, match="IMU"):
