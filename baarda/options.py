@@ -89,3 +89,31 @@ class SolveOptions:
 
 
 DEFAULT_TESTS = TestOptions()
+
+
+@dataclass(frozen=True)
+class ScreeningOptions:
+    """Settings of the screening stages (screening/chain.py): the stages to run, the tests
+    of stages 2 and 3 and of the bundle after them (`tests`: alpha0, beta0, alpha_global;
+    None: the project's), the photo-pair test of stage 1 and the separability threshold."""
+
+    stages: tuple[int, ...] = (1, 2, 3)
+    tests: TestOptions | None = None
+    pair_alpha0: float = 1e-4  # stage 1: the 2D model is approximate, so only clear errors
+    pair_transform: str = "auto"  # auto | similarity | affine | projective
+    pair_statistic: str = "w"  # w (pooled sigma of the pairs) | tau (each pair's own)
+    pair_min_redundancy: int = 4
+    pair_tolerance_mm: float | None = None  # None: the relief parallax of each pair
+    rho_max: float = 0.9  # |correlation| of w-tests above which errors are not separable
+
+    def resolved_tests(self, settings) -> TestOptions:
+        """The tests of stages 2 and 3: the options' own, else the project's."""
+        return self.tests or TestOptions.resolve(settings)
+
+
+# relative orientation with scale transfer (relative/orientation.py; Kratky): the cofactor
+# of y-parallaxes and of x'' at the tie points relative to q_xx, and the named point
+# patterns of his figures (relative/point_pattern.py: name -> columns x rows[+corners])
+DEFAULT_QYY = 2.0
+DEFAULT_QTIE = 1.0  # see docs/online.md
+PATTERNS = {"6": "2x3", "9": "3x3", "10": "2x5", "12": "3x4", "15": "3x5", "13": "3x3+corners"}

@@ -30,7 +30,7 @@ from baarda.errors import GeometryError, ProjectError
 from baarda.io.formats import read_any
 from baarda.io.project import DATUMS
 from baarda.io.records import ENCODING
-from baarda.options import Progress, SolveOptions, TestOptions
+from baarda.options import Progress, ScreeningOptions, SolveOptions, TestOptions
 
 # The computation (numba kernels, SciPy's distributions, pyproj) is imported by the step
 # that needs it: reading a file, and failing on a bad one, costs only the reader's imports.
@@ -40,7 +40,7 @@ if TYPE_CHECKING:
     from baarda.independent.model_hypotheses import UserHypotheses
     from baarda.independent.workflow import BlockQuality
     from baarda.quality.assessment import Assessment
-    from baarda.screening.chain import ScreeningOptions, ScreeningResult
+    from baarda.screening.chain import ScreeningResult
 
 
 def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
@@ -147,6 +147,13 @@ def with_approximations(block: Block) -> Block:
     photos = Photos(block.photos.ids, block.photos.camera, block.photos.strip, eo)
     return replace(block, photos=photos, notes=list(block.notes) + [
         f"approximate orientations of {int(missing.sum())} photo(s) by space resection"])
+
+
+def as_design(block: Block) -> Block:
+    """A block as read, as the design of a plan (baarda plan --project, modified
+    snooping): in the local frame of its CRS, photos without orientation oriented by space
+    resection (the geometry the bundle would see)."""
+    return with_approximations(localized(block))
 
 
 def with_tie_coordinates(block: Block) -> Block:
@@ -303,30 +310,38 @@ def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
                          robust=robust, max_iterations=max_iterations, progress=progress)
 
 
+def screen_block(block: Block, options: ScreeningOptions | None = None, *,
+                 progress: Progress | None = None) -> ScreeningResult:
+    """The screening stages (screening/chain.py) on a block as read: in the local frame of
+    its CRS, with approximations where it has none (the same block the bundle sees)."""
+    from baarda.screening.chain import screen as screen_stages
+
+    return screen_stages(with_approximations(localized(block)), options, progress=progress)
+
+
 def screen(block: Block, options: ScreeningOptions | None = None, *, snoop: bool = False,
            statistic: str = "w",
            progress: Progress | None = None) -> tuple[ScreeningResult, Assessment]:
     """Screening before the bundle (screening/chain.py), then the bundle adjustment of the
     cleaned block: with `snoop`, data snooping that removes what it rejects together with
     the observations it cannot be told from (the result's block is then the block after
-    both), else the statistics of every observation (alpha0 and beta0 of the options)."""
+    both), else the statistics of every observation.  The tests (alpha0, beta0,
+    alpha_global) are the options' (`ScreeningOptions.tests`), else the project's."""
     from baarda.bundle.bundle_problem import BundleProblem
     from baarda.bundle.bundle_quality import assess as assess_result
-    from baarda.screening.chain import ScreeningOptions, screen_and_snoop
-    from baarda.screening.chain import screen as screen_block
+    from baarda.screening.chain import screen_and_snoop
 
     block = with_approximations(localized(block))
     if not block.points.controlled.any():
         raise GeometryError("screening needs control points (stage 3 and the datum of the "
                             "bundle adjustment after it); screen a free network with "
                             "baarda screen --stages 1,2")
+    options = options or ScreeningOptions()
     if snoop:
         return screen_and_snoop(block, options, statistic=statistic, progress=progress)
-    options = options or ScreeningOptions()
     res = screen_block(block, options, progress=progress)
     result = BundleProblem(res.block).fit(progress=progress)
-    return res, assess_result(result, TestOptions.resolve(block.settings, options.alpha0,
-                                                          options.beta0))
+    return res, assess_result(result, options.resolved_tests(block.settings))
 
 
 def read_models(path: str | Path, *, covariance: bool = False,
@@ -374,3 +389,59 @@ def adjust_models(block: ModelBlock, mode: str = "3d", *, snoop: bool = True,
                    tests=tests, external=external, deformations=deformations,
                    clusters=clusters, user=user, level_models=level_models, vce=vce,
                    progress=progress)
+
+
+def online_interpreter(say, *, focal: float | None = None, sigma: float = 10.0,
+                       qyy: float | None = None, qtie: float | None = None,
+                       tests: TestOptions | None = None, statistic: str = "w",
+                       vce: bool = False):
+    """The on-line relative orientation with scale transfer, model by model, fed one
+    measurement line at a time (relative/online_commands.Interpreter; docs/online.md);
+    `say` prints its answers."""
+    from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
+    from baarda.relative.online_commands import Interpreter
+
+    return Interpreter(say=say, focal=focal, sigma=sigma,
+                       qyy=DEFAULT_QYY if qyy is None else qyy,
+                       qtie=DEFAULT_QTIE if qtie is None else qtie,
+                       tests=tests or TestOptions(), statistic=statistic, vce=vce)
+
+
+def strip_coordinates_csv(interpreter) -> str:
+    """The strip coordinates of an on-line session so far (point, X, Y, Z, model) as CSV;
+    '' before the first model is accepted."""
+    from baarda.relative.online_commands import coordinates_csv
+
+    session = interpreter.session
+    return coordinates_csv(session) if session is not None and session.accepted else ""
+
+
+def point_pattern(spec: str | Path, *, ties: int = 0, focal: float = 152.0,
+                  base: float = 92.0, width: float = 92.0, twin_offset: float = 1.0,
+                  qyy: float | None = None, serious: float = 0.8,
+                  qtie: float | None = None):
+    """(the design, its title) of a point pattern for relative orientation with scale
+    transfer (relative/point_pattern.py: Qvv P and the critical transfers): `spec` a named
+    or CxR pattern (options.PATTERNS) or a CSV file (io/pattern_file.py)."""
+    from baarda.io.pattern_file import read_pattern_points
+    from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
+    from baarda.relative.point_pattern import PatternPoint, design, standard_pattern
+
+    path = Path(spec)
+    if path.suffix.lower() == ".csv" or path.is_file():
+        pts = [PatternPoint(*p) for p in read_pattern_points(path)]
+        title = f"pattern {path.name}"
+    else:
+        pts = standard_pattern(str(spec), ties, base, width, twin_offset)
+        title = f"pattern {spec}" + (f" with {ties} tie points" if ties else "")
+    d = design(pts, focal, base, DEFAULT_QYY if qyy is None else qyy, serious,
+               DEFAULT_QTIE if qtie is None else qtie)
+    return d, title
+
+
+def pattern_drawing(design, title: str, svg: bool = False) -> str:
+    """A point-pattern design as text (redundancy numbers, serious transfers) or SVG."""
+    from baarda.relative.pattern_drawing import svg_drawing, text_drawing
+
+    return svg_drawing(design, title) if svg else text_drawing(design, title)
+

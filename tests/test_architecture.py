@@ -80,6 +80,27 @@ def test_readers_import_no_computation():
     assert not bad, "\n".join(bad)
 
 
+# The words of docs/architecture.md as rules (issue 27): package -> what it never imports.
+METHODS = {"bundle", "independent", "relative", "screening"}
+NEVER = {
+    # the methods compute: they neither read files nor write them nor orchestrate
+    **{m: {"io", "output", "report", "pipeline"} for m in METHODS},
+    # the command line only parses: it calls the pipeline (or a method's entry point on a
+    # higher floor: planning, evaluation) and the writers
+    "cli": METHODS | {"adjustment", "quality"},
+    # the writers write what they are given
+    "output": {"pipeline", "adjustment", "relative"},
+}
+
+
+@pytest.mark.parametrize("package", sorted(NEVER))
+def test_what_a_package_never_imports(package):
+    bad = [f"{p.relative_to(ROOT)} line {line}: imports baarda.{pkg}"
+           for p in sorted((ROOT / package).rglob("*.py"))
+           for line, pkg in baarda_imports(p) if pkg in NEVER[package]]
+    assert not bad, "\n".join(bad)
+
+
 def test_the_rule_catches_an_upward_import(tmp_path):
     """The check itself: an io module that imports the bundle is found."""
     f = tmp_path / "bad.py"

@@ -11,7 +11,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from baarda.block.photo_block import Block
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
@@ -59,17 +58,16 @@ def calibration_tests(result: BundleResult, tests: TestOptions) -> tuple[Hypothe
     return tuple(out)
 
 
-def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
+def snoop(problem: BundleProblem, tests: TestOptions | None = None, *,
           statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
           robust: bool = False, progress: Progress | None = None) -> Assessment:
     """Iterative data snooping of a bundle block (re-adjusting after each rejection).
 
-    `block`: a Block with control or a BundleProblem (e.g. a free network,
-    bundle/free_network.py).  With `robust`, the Danish method first down-weights large
-    errors; the components it leaves with (almost) no weight start out rejected and are
-    tested again by snooping.
+    `problem`: the BundleProblem of a prepared block (pipeline.prepare: local frame,
+    approximations, datum; pipeline.snoop takes a block as read).  With `robust`, the
+    Danish method first down-weights large errors; the components it leaves with (almost)
+    no weight start out rejected and are tested again by snooping.
     """
-    problem = block if isinstance(block, BundleProblem) else BundleProblem(block)
     tests = tests or TestOptions.resolve(problem.block.settings)
     t0 = time.perf_counter()
     result = problem.fit(progress=progress)

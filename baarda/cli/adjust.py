@@ -9,6 +9,7 @@ from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
     add_out_argument,
+    add_test_options,
     announce_compile,
     open_run,
     progress,
@@ -21,12 +22,7 @@ def _common(p) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
     add_out_argument(p, "output folder")
-    p.add_argument("--alpha0", type=float, help="significance level of the w-test "
-                   "(default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
-    p.add_argument("--alpha-global", type=float, help="level of the headline global test "
-                   "of the variance factor (default: project.toml [tests] alpha_global, else "
-                   "0.05; the B-method's coupled test is printed beside it)")
+    add_test_options(p, alpha_global=True)
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau (sigma0 a "
                    "posteriori) instead of Baarda's w (sigma0 a priori)")
     p.add_argument("--by-point", action="store_true",
@@ -105,8 +101,8 @@ def _adjust(args, run):
         from baarda.cli.screen import options
         from baarda.output.screening_log import write_screening_log
 
-        res, qc = screen(block, options(args), snoop=args.snoop, statistic=statistic,
-                         progress=say)
+        res, qc = screen(block, options(args, tests), snoop=args.snoop,
+                         statistic=statistic, progress=say)
         write_results(run, qc, **_format(args))
         write_screening_log(run, res.log)
         _gpkg(args, run, qc)

@@ -62,6 +62,25 @@ def announce_compile(say, photos: int | None = None) -> None:
     compile_kernels(parallel=parallel, entries=todo)
 
 
+def add_test_options(p, *, what: str = "the w-test", alpha_global: bool = False,
+                     project: bool = True) -> None:
+    """--alpha0 and --beta0 (and --alpha-global) of a command, one wording for all: their
+    values resolved once over the project's (tests_option).  what: the tests alpha0 is the
+    level of; project: the default comes from project.toml (False: no project, the
+    defaults of TestOptions)."""
+    d = TestOptions()
+    where = "project.toml, else " if project else ""
+    p.add_argument("--alpha0", type=float, help=f"significance level of {what} (default: "
+                   f"{where}{d.alpha0:g})")
+    p.add_argument("--beta0", type=float, help=f"power of the tests (default: {where}"
+                   f"{d.beta0:.2f})")
+    if alpha_global:
+        p.add_argument("--alpha-global", type=float, help="level of the headline global test "
+                       "of the variance factor (default: project.toml [tests] alpha_global, "
+                       f"else {d.alpha_global:g}; the B-method's coupled test is printed "
+                       "beside it)")
+
+
 def tests_option(settings, args) -> TestOptions:
     """TestOptions from --alpha0/--beta0 over the project's settings; bad values are input
     errors."""

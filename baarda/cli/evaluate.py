@@ -11,7 +11,9 @@ from baarda.cli.common import (
     add_flight_plan_arguments,
     add_out_argument,
     add_terrain_and_sigma_arguments,
+    add_test_options,
     open_run,
+    tests_option,
 )
 from baarda.errors import ProjectError
 
@@ -37,8 +39,7 @@ def register(sub) -> None:
                    "X,Y,Z (control)")
     p.add_argument("--strategies", default=",".join(DEFAULT_STRATEGIES),
                    help=f"comma list of {', '.join(STRATEGIES)} (docs/evaluation.md)")
-    p.add_argument("--alpha0", type=float, default=0.001, help="level of the w-test")
-    p.add_argument("--beta0", type=float, default=0.80, help="power of the B-method")
+    add_test_options(p, project=False)
     p.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives "
                    "the same rows however the trials are run")
     p.add_argument("--workers", type=int, default=1, help="local worker processes")
@@ -50,7 +51,6 @@ def register(sub) -> None:
 
 def _options(args):
     from baarda.evaluation.study import StudyOptions
-    from baarda.options import TestOptions
     from baarda.simulate.aerial import FlightPlan
 
     sizes = args.blunder_size_mdb
@@ -69,7 +69,7 @@ def _options(args):
             size_mdb=(sizes[0], sizes[-1]),
             kinds=tuple(k.strip() for k in args.blunder_kinds.split(",") if k.strip()),
             strategies=tuple(s.strip() for s in args.strategies.split(",") if s.strip()),
-            seed=args.seed, tests=TestOptions(args.alpha0, args.beta0))
+            seed=args.seed, tests=tests_option(None, args))
     except ValueError as e:
         raise ProjectError("command line", str(e)) from None
 

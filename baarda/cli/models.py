@@ -14,6 +14,7 @@ from baarda.cli.common import (
     OK,
     add_encoding_option,
     add_out_argument,
+    add_test_options,
     announce_compile,
     open_run,
     progress,
@@ -36,10 +37,7 @@ def register(sub) -> None:
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau")
     p.add_argument("--by-point", action="store_true",
                    help="reject the coordinates of a model point together")
-    p.add_argument("--alpha0", type=float, help="significance level of the w-test "
-                   "(default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default: project.toml, "
-                   "else 0.80)")
+    add_test_options(p)
     ext = p.add_mutually_exclusive_group()
     ext.add_argument("--external", dest="external", action="store_true", default=None,
                      help="external reliability on detail points and distances (default "

@@ -6,12 +6,11 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from baarda.cli.common import tests_option
+from baarda.cli.common import add_test_options, tests_option
 from baarda.errors import GeometryError, ProjectError
+from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import check_output_file
-from baarda.relative.online_commands import Interpreter, LineError, coordinates_csv
-from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
 
 
 def register(sub) -> None:
@@ -27,8 +26,7 @@ def register(sub) -> None:
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1 as Kratky; 5 accounts for the errors of the tie "
                    "coordinates, docs/online.md)")
-    p.add_argument("--alpha0", type=float, help="level of the w-test (default 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
+    add_test_options(p, project=False)
     p.add_argument("--tau", action="store_true", help="test with Pope's tau instead of w")
     p.add_argument("--vce", action="store_true", help="estimate the variance components of "
                    "the y-parallaxes and of the x'' at the tie points over the strip so far "
@@ -39,9 +37,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    interp = Interpreter(say=print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
-                         qtie=args.qtie, tests=tests_option(None, args),
-                         statistic="tau" if args.tau else "w", vce=args.vce)
+    from baarda.pipeline import online_interpreter, strip_coordinates_csv
+
+    interp = online_interpreter(print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
+                                qtie=args.qtie, tests=tests_option(None, args),
+                                statistic="tau" if args.tau else "w", vce=args.vce)
     if args.out is not None:
         check_output_file(args.out, [] if args.file in (None, Path("-")) else [args.file])
     if args.file is None or str(args.file) == "-":
@@ -56,21 +56,20 @@ def run(args) -> int:
             raise ProjectError(args.file, f"cannot read: {e.strerror}") from None
         with fh:
             _batch(interp, fh, str(args.file))
-    if args.out is not None and interp.session is not None and interp.session.accepted:
-        write_text(args.out, coordinates_csv(interp.session))
+    coordinates = strip_coordinates_csv(interp)
+    if args.out is not None and coordinates:
+        write_text(args.out, coordinates)
         print(f"strip coordinates written to {args.out}")
     return 0
 
 
-def _batch(interp: Interpreter, lines, name: str) -> None:
+def _batch(interp, lines, name: str) -> None:
     n = 0
     for n, line in enumerate(lines, 1):  # noqa: B007
         try:
             interp.feed(line)
-        except LineError as e:
-            raise ProjectError(name, str(e), n, e.column) from None
-        except (GeometryError, ValueError) as e:
-            raise ProjectError(name, str(e), n) from None
+        except (GeometryError, ValueError) as e:  # a bad line names its field (column)
+            raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
         if interp.done:
             break
     if n == 0:
@@ -79,11 +78,11 @@ def _batch(interp: Interpreter, lines, name: str) -> None:
                            "baarda online in a terminal to type them")
     try:
         interp.finish()
-    except LineError as e:
-        raise ProjectError(name, str(e), n, e.column) from None
+    except ValueError as e:
+        raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
 
 
-def _prompt(interp: Interpreter) -> None:
+def _prompt(interp) -> None:
     print("baarda online: type 'help' for the commands, 'quit' to stop")
     while not interp.done:
         try:
@@ -93,9 +92,9 @@ def _prompt(interp: Interpreter) -> None:
             break
         try:
             interp.feed(line)
-        except (LineError, GeometryError, ValueError) as e:
+        except (GeometryError, ValueError) as e:
             print(f"error: {e}")
     try:
         interp.finish()
-    except LineError as e:
+    except ValueError as e:
         print(f"error: {e}")

@@ -3,20 +3,16 @@ without measurements (redundancy numbers, r0, trace(Qgg), critical transfers; te
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
-from baarda.errors import ProjectError
+from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, PATTERNS
 from baarda.output.atomic import write_text
-from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
-from baarda.relative.pattern_drawing import svg_drawing, text_drawing
-from baarda.relative.point_pattern import NAMED, PatternPoint, design, standard_pattern
 
 
 def register(sub) -> None:
     p = sub.add_parser("pattern", help="point-pattern design for relative orientation with "
                        "scale transfer (Kratky's Figures 2, 4, 7)")
-    p.add_argument("spec", help=f"pattern: {', '.join(NAMED)}, CxR, CxR+corners, CxR+edges, "
+    p.add_argument("spec", help=f"pattern: {', '.join(PATTERNS)}, CxR, CxR+corners, CxR+edges, "
                    "or a CSV file with columns name,x,y[,tie] (left image mm)")
     p.add_argument("--ties", type=int, default=0, choices=[0, 3, 5],
                    help="tie points (the left column) for the scale transfer")
@@ -37,49 +33,14 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def read_points(path: Path) -> list[PatternPoint]:
-    """CSV with header name,x,y[,tie] (tie: 1/0, yes/no)."""
-    try:
-        fh = open(path, encoding="utf-8", newline="")
-    except OSError as e:
-        raise ProjectError(path, f"cannot read: {e.strerror}") from None
-    with fh:
-        rows = list(csv.reader(fh))
-    if not rows or [c.strip().lower() for c in rows[0][:3]] != ["name", "x", "y"]:
-        raise ProjectError(path, "the header must be name,x,y[,tie]", 1)
-    header = [c.strip().lower() for c in rows[0]]
-    pts = []
-    for n, row in enumerate(rows[1:], 2):
-        if not row or not "".join(row).strip():
-            continue
-        if len(row) != len(header):
-            raise ProjectError(path, f"{len(row)} fields, expected {len(header)}", n)
-        vals = dict(zip(header, (c.strip() for c in row), strict=True))
-        xy = []
-        for k in ("x", "y"):
-            try:
-                xy.append(float(vals[k]))
-            except ValueError:
-                raise ProjectError(path, f"not a number: {vals[k]!r}", n, k) from None
-        tie = vals.get("tie", "0").lower()
-        if tie not in ("0", "1", "yes", "no", "true", "false", ""):
-            raise ProjectError(path, f"tie must be 1/0 or yes/no, got {tie!r}", n, "tie")
-        pts.append(PatternPoint(vals["name"], xy[0], xy[1], tie in ("1", "yes", "true")))
-    if len({p.name for p in pts}) != len(pts):
-        raise ProjectError(path, "point names must be unique")
-    return pts
-
-
 def run(args) -> int:
+    from baarda.pipeline import pattern_drawing, point_pattern
+
     spec_path = Path(args.spec)
-    if spec_path.suffix.lower() == ".csv" or spec_path.is_file():
-        pts = read_points(spec_path)
-        title = f"pattern {spec_path.name}"
-    else:
-        pts = standard_pattern(args.spec, args.ties, args.base, args.width, args.twin_offset)
-        title = f"pattern {args.spec}" + (f" with {args.ties} tie points" if args.ties else "")
-    d = design(pts, args.focal, args.base, args.qyy, args.serious, args.qtie)
-    print(text_drawing(d, title), end="")
+    d, title = point_pattern(args.spec, ties=args.ties, focal=args.focal, base=args.base,
+                             width=args.width, twin_offset=args.twin_offset, qyy=args.qyy,
+                             serious=args.serious, qtie=args.qtie)
+    print(pattern_drawing(d, title), end="")
     if args.matrix:
         labels = [d.label(i) for i in range(d.n)]
         print("Qvv P (column j: effect of an error in observation j):")
@@ -89,6 +50,6 @@ def run(args) -> int:
     if args.svg is not None:
         if spec_path.is_file() and args.svg.resolve() == spec_path.resolve():
             raise FileExistsError(f"output {args.svg} is the input file")
-        write_text(args.svg, svg_drawing(d, title))
+        write_text(args.svg, pattern_drawing(d, title, svg=True))
         print(f"drawing written to {args.svg}")
     return 0

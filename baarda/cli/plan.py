@@ -12,6 +12,7 @@ from baarda.cli.common import (
     add_encoding_option,
     add_flight_plan_arguments,
     add_out_argument,
+    add_test_options,
     announce_compile,
     open_run,
     progress,
@@ -45,9 +46,7 @@ def register(sub) -> None:
                    help="each control point with a close companion")
     p.add_argument("--sigma-control", type=float, nargs=3, metavar=("X", "Y", "Z"),
                    help="m (default: error-free control)")
-    p.add_argument("--alpha0", type=float, help="significance level of the w-test "
-                   "(default 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
+    add_test_options(p)
     p.add_argument("--what-if", action="store_true", help="recompute the plan with each "
                    "remedy (twin control, 5x5 points, 60 %% side overlap, stereo)")
     p.add_argument("--derive-table", type=Path, metavar="CSV", help="also derive a reliability "
@@ -70,10 +69,7 @@ def register(sub) -> None:
                    "in %% (Gruen: 25)")
     m.add_argument("--tau", action="store_true", help="Pope's tau (sigma0 a posteriori) "
                    "instead of Baarda's w")
-    m.add_argument("--alpha0", type=float, help="significance level of the w-test "
-                   "(default: project.toml, else 0.001)")
-    m.add_argument("--beta0", type=float, help="power of the tests (default: project.toml, "
-                   "else 0.80)")
+    add_test_options(m)
     m.add_argument("-q", "--quiet", action="store_true",
                    help="no progress display and nothing printed")
     m.set_defaults(func=run_modified)
@@ -97,7 +93,6 @@ def run_plan(args) -> int:
 
 
 def _plan(args, run) -> list:
-    from baarda.io.project import read_project
     from baarda.output.plan_files import write_plan, write_reliability_table
     from baarda.planning.advice import advise, what_if
     from baarda.planning.design import ControlLayout
@@ -110,7 +105,9 @@ def _plan(args, run) -> list:
     flight = None
     wi = None
     if args.project:
-        subject, layout = read_project(args.project, args.encoding), None
+        from baarda.pipeline import as_design, read
+
+        subject, layout = as_design(read(args.project, encoding=args.encoding)), None
         title = f"design of project {args.project}"
     else:
         flight = _flight(args)
@@ -156,16 +153,15 @@ def run_modified(args) -> int:
 
 
 def _modified(args, run) -> str:
-    from baarda.io.project import read_project
     from baarda.output.plan_files import write_modified_snooping
-    from baarda.pipeline import adjust
+    from baarda.pipeline import adjust, read
     from baarda.planning.modified_snoop import modified_snoop
     from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 
     say = progress(args.quiet)
     table = {"baarda": baarda_table, "gruen": gruen_table}.get(args.table)
     table = table() if table else read_table(args.table)
-    block = read_project(args.project, args.encoding)
+    block = read(args.project, encoding=args.encoding)
     announce_compile(say, len(block.photos))
     res = adjust(block, progress=say)
     ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,

@@ -4,9 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import add_out_argument, announce_compile, open_run, progress
+from baarda.cli.common import (
+    add_out_argument,
+    add_test_options,
+    announce_compile,
+    open_run,
+    progress,
+    tests_option,
+)
 from baarda.cli.inputs import add_input_options, input_paths, read_input
-from baarda.screening.options import ScreeningOptions
+from baarda.options import ScreeningOptions, TestOptions
 
 
 def add_options(p) -> None:
@@ -32,15 +39,17 @@ def add_options(p) -> None:
                    f"(default {d.rho_max})")
 
 
-def options(args) -> ScreeningOptions:
+def options(args, tests: TestOptions | None = None) -> ScreeningOptions:
+    """The screening options of the command line; `tests`: alpha0, beta0 and alpha_global
+    resolved over the project's (cli/common.tests_option)."""
     try:
         stages = tuple(sorted({int(s) for s in str(args.stages).split(",") if s.strip()}))
     except ValueError:
         stages = ()
     if not stages or not set(stages) <= {1, 2, 3}:
         raise SystemExit(f"baarda: error: --stages '{args.stages}': a comma list of 1, 2, 3")
-    return ScreeningOptions(stages=stages, alpha0=args.alpha0, beta0=args.beta0,
-                            pair_alpha0=args.pair_alpha0, pair_transform=args.pair_transform,
+    return ScreeningOptions(stages=stages, tests=tests, pair_alpha0=args.pair_alpha0,
+                            pair_transform=args.pair_transform,
                             pair_statistic=args.pair_test, rho_max=args.rho_max,
                             pair_tolerance_mm=args.pair_tolerance)
 
@@ -53,9 +62,8 @@ def register(sub) -> None:
                    "project")
     add_out_argument(p, "folder of the cleaned project (and "
                                            "screening_log.csv, screening.txt)")
-    p.add_argument("--alpha0", type=float, help="significance level of the w-tests of stages "
-                   "2 and 3 (default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
+    add_test_options(p, what="the w-tests of stages 2 and 3 and of the bundle after them",
+                     alpha_global=True)
     add_options(p)
     p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
     add_input_options(p)
@@ -65,7 +73,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from baarda.output.project_files import write_project
     from baarda.output.screening_log import write_screening_log
-    from baarda.screening.chain import screen
+    from baarda.pipeline import screen_block
 
     with open_run(args, input_paths(args)) as run:
         say = progress(args.quiet)
@@ -73,7 +81,8 @@ def run(args) -> int:
         if say:
             say(f"read {block.summary()}")
         announce_compile(say, len(block.photos))
-        res = screen(block, options(args), progress=say)
+        res = screen_block(block, options(args, tests_option(block.settings, args)),
+                           progress=say)
         write_project(res.block, run)
         write_screening_log(run, res.log)
     if not args.quiet:

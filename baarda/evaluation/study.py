@@ -142,11 +142,10 @@ def _screen(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
     """Screening, then snooping that removes what it rejects from the block
     (pipeline.screen): what the final block lacks of the original, in the original's order,
     then what the final assessment marks rejected."""
+    from baarda.options import ScreeningOptions
     from baarda.pipeline import screen
-    from baarda.screening.chain import ScreeningOptions
 
-    res, a = screen(block, ScreeningOptions(alpha0=tests.alpha0, beta0=tests.beta0),
-                    snoop=True)
+    res, a = screen(block, ScreeningOptions(tests=tests), snoop=True)
     orig, final = res.original, a.adjustment.block
     fi, fp = final.image, final.points
     kept = set(zip((final.photos.ids[i] for i in fi.photo),

@@ -22,9 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from baarda.options import DEFAULT_TESTS, TestOptions
+from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, DEFAULT_TESTS, TestOptions
 from baarda.relative.model_report import model_report
-from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.relative.session import OnlineSession
 
 KEYWORDS = ("camera", "model", "end", "remeasure", "drop", "accept", "discard", "matrix",

@@ -24,7 +24,7 @@ from baarda.adjustment.dense import DenseLeastSquares
 from baarda.adjustment.solve import solve
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import GeometryError
-from baarda.options import SolveOptions
+from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, SolveOptions
 from baarda.quality.dense_model import DenseModel
 from baarda.relative.coplanarity import coplanarity, image_vectors, right_rotation
 from baarda.relative.scale_transfer import collinearity_xz
@@ -33,8 +33,6 @@ from baarda.sections import Section, section
 # the variance-component groups: y'' of every point, x'' of the tie points
 VARIANCE_GROUPS = {"y": "parallax y (coplanarity)", "x": "parallax x (scale transfer)"}
 PARAMETER_NAMES = ("beta_x", "beta_y", "beta_z", "kappa", "phi", "omega")
-DEFAULT_QYY = 2.0  # q_yy / q_xx (Kratky)
-DEFAULT_QTIE = 1.0  # q of x'' at tie points / q_xx (Kratky; see docs/online.md)
 # converged when max |dg| < 1e-12 (rad, base units); at the iteration limit or when no step
 # lowers v'Pv any more, converged if max |dg| <= 1e-9 (the rounding floor)
 SOLVE = SolveOptions(max_iterations=30, tolerance=1e-12, stall_tolerance=1e-9, min_step=1e-6,

@@ -21,18 +21,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, PATTERNS
 from baarda.quality.matrices import Transfer, critical_transfers, qvv_p_matrix
 from baarda.quality.statistics import analyse
 from baarda.relative.orientation import (
-    DEFAULT_QTIE,
-    DEFAULT_QYY,
     ModelSetup,
     Orientation,
     PhotoPose,
     orient,
 )
 
-NAMED = {"6": "2x3", "9": "3x3", "10": "2x5", "12": "3x4", "15": "3x5", "13": "3x3+corners"}
+NAMED = PATTERNS
 
 
 @dataclass

@@ -21,13 +21,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from baarda.options import DEFAULT_TESTS, TestOptions
+from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, DEFAULT_TESTS, TestOptions
 from baarda.quality.dense_model import block_diagonal
 from baarda.quality.variance_components import VarianceEstimation, challenge, iterate
 from baarda.relative.model_qc import ModelQC, assess_model
 from baarda.relative.orientation import (
-    DEFAULT_QTIE,
-    DEFAULT_QYY,
     VARIANCE_GROUPS,
     ModelSetup,
     Orientation,

@@ -12,11 +12,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from baarda.block.photo_block import Block, GroundPoints
-from baarda.options import TestOptions
+from baarda.options import ScreeningOptions, TestOptions
 from baarda.quality.assessment import Assessment
 from baarda.screening.control import ControlCheck, screen_control
 from baarda.screening.log import Entry, ScreeningLog
-from baarda.screening.options import ScreeningOptions
 from baarda.screening.pairs import PairTest, screen_pairs
 from baarda.screening.separable import snoop_separable
 from baarda.screening.strips import Strip, screen_strips
@@ -74,7 +73,7 @@ def screen(block: Block, options: ScreeningOptions | None = None,
     """Run the screening stages on `block` (not modified); returns the cleaned block and log."""
     opt = options or ScreeningOptions()
     say = progress or (lambda m: None)
-    tests = TestOptions.resolve(block.settings, opt.alpha0, opt.beta0)
+    tests = opt.resolved_tests(block.settings)
     log = ScreeningLog()
     keep = np.ones(len(block.image), bool)
     pairs: list[PairTest] = []
@@ -117,7 +116,7 @@ def screen_and_snoop(block: Block, options: ScreeningOptions | None = None, *,
     """
     res = screen(block, options, progress)
     opt = options or ScreeningOptions()
-    tests = TestOptions.resolve(block.settings, opt.alpha0, opt.beta0)
+    tests = opt.resolved_tests(block.settings)
     qc, final, _ = snoop_separable(res.block, res.log, tests=tests, rho_max=opt.rho_max,
                                    statistic=statistic, progress=progress)
     return replace(res, block=final), qc

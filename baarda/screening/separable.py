@@ -18,6 +18,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block, GroundPoints
 from baarda.bundle.bundle_model import BundleModel
+from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_quality import snoop
 from baarda.options import TestOptions
 from baarda.quality.assessment import Assessment
@@ -72,7 +73,7 @@ def snoop_separable(block: Block, log: ScreeningLog | None = None, *,
     ctrl: set[tuple[int, int]] = set()
     current = block
     for npass in range(1, max_passes + 1):
-        qc = snoop(current, tests, statistic=statistic)
+        qc = snoop(BundleProblem(current), tests, statistic=statistic)
         m, q = qc.model, qc.quality
         rejected = np.flatnonzero(~q.active)
         if not len(rejected) or npass == max_passes:
