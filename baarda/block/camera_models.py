@@ -56,6 +56,13 @@ class CameraModel:
     description: str
     terms: Callable[[np.ndarray, np.ndarray, np.ndarray], Terms] = field(
         repr=False, compare=False)
+    # the groups of its parameters that a self-calibration tests together, (label, names);
+    # empty: one group of all of them (named after the model)
+    groups: tuple[tuple[str, tuple[str, ...]], ...] = ()
+
+    @property
+    def parameter_groups(self) -> tuple[tuple[str, tuple[str, ...]], ...]:
+        return self.groups or ((f"{self.name} additional parameters", self.params),)
 
     @property
     def n_params(self) -> int:
@@ -257,23 +264,32 @@ def _aicon(u: np.ndarray, coef: np.ndarray, const: np.ndarray) -> Terms:
 
 
 # ------------------------------------------------------------------ the registry
+BROWN_GROUPS = (("radial distortion", ("k1", "k2", "k3")),
+                ("decentring distortion", ("p1", "p2")),
+                ("affinity and shear", ("b1", "b2", "a")))
+
 MODELS: dict[str, CameraModel] = {m.name: m for m in (
-    CameraModel("none", "backward", (), (), False, "no distortion", _none),
+    CameraModel("none", "backward", (), (), False, "no distortion", _none, BROWN_GROUPS),
     CameraModel("brown", "backward", (*BROWN, "b1", "b2"), (), False,
-                "Brown radial and decentring with affinity and shear (Fraser)", _brown_fraser),
+                "Brown radial and decentring with affinity and shear (Fraser)", _brown_fraser,
+                BROWN_GROUPS),
     CameraModel("dbat3", "backward", (*BROWN, "b1", "b2"), (), False,
-                "DBAT model 3: affine [1+b1, b2; 0, 1] before Brown", _dbat3),
+                "DBAT model 3: affine [1+b1, b2; 0, 1] before Brown", _dbat3, BROWN_GROUPS),
     CameraModel("dbat5", "backward", (*BROWN, "b1", "b2"), (), False,
-                "DBAT model 5: x scaled by 1+b1 before pp, Brown, skew b2 after", _dbat5),
+                "DBAT model 5: x scaled by 1+b1 before pp, Brown, skew b2 after", _dbat5,
+                BROWN_GROUPS),
     CameraModel("brown_forward", "forward", (*BROWN, "a"), (), True,
                 "Brown on normalised coordinates with aspect (OpenCV/COLMAP/BAL)",
-                _brown_forward),
+                _brown_forward, BROWN_GROUPS),
     CameraModel("fisheye_forward", "forward", ("k1", "k2", "k3", "k4", "a"), (), True,
                 "equidistant fisheye with odd polynomial in theta and aspect "
-                "(OpenSfM/OpenCV fisheye)", _fisheye_forward),
+                "(OpenSfM/OpenCV fisheye)", _fisheye_forward,
+                (("radial distortion", ("k1", "k2", "k3", "k4")), ("aspect", ("a",)))),
     CameraModel("aicon", "forward", ("a1", "a2", "a3", "b1", "b2", "c1", "c2"), ("r0",), False,
                 "AICON 3D Studio: radial with zero crossing r0, decentring, affinity",
-                _aicon),
+                _aicon, (("radial distortion", ("a1", "a2", "a3")),
+                         ("decentring distortion", ("b1", "b2")),
+                         ("affinity and shear", ("c1", "c2")))),
     CameraModel("ebner", "backward", tuple(f"b{i}" for i in range(1, 13)), ("b",), False,
                 "Ebner's 12 orthogonal additional parameters (3x3 grid, spacing b)", ebner_terms),
     CameraModel("gruen", "backward", tuple(f"g{i}" for i in range(1, 45)), ("b",), False,

@@ -12,23 +12,18 @@ import numpy as np
 
 from baarda.adjustment.schur_model import SchurModel
 from baarda.bundle.bundle_result import BundleResult
-from baarda.bundle.gnss_imu import ANGLE_UNITS
 from baarda.quality.adjusted_model import kind_groups
 
 
 class BundleModel(SchurModel):
     """The quality layer's view of a BundleResult; labels come from its problem."""
 
-    units = {"image": (1e3, "µm"), "control": (1.0, "m"), "distance": (1.0, "m"),
-             "gnss": (1.0, "m"), "imu": (1e3, "mrad")}
     frame_kind = "photo"
 
     def __init__(self, result: BundleResult):
         self.result = result
         pb = result.problem
-        unit = result.block.settings.angle_unit  # IMU residuals in the project's unit / 1000
-        if unit in ANGLE_UNITS:
-            self.units = {**self.units, "imu": ANGLE_UNITS[unit]}
+        self.units = pb.units  # every kind as shown (IMU in the project's angle unit)
         self.factor, self.layout = result.factor, pb.layout
         self.residuals = self.layout.flat(result.image_residuals,
                                           np.nan_to_num(result.control_residuals),
@@ -69,7 +64,7 @@ class BundleModel(SchurModel):
             return []
         lay = self.layout
         first = lay.m * lay.k + len(lay.ctrl_sel)  # the first extra row in the flat vector
-        start = lay.mx * lay.kx - pb.gnss_imu.m  # GNSS rows: the extra rows after the others
+        start = pb.extra_rows[3].start  # GNSS rows: the extra rows of the GNSS/IMU kind
         rows = start + np.arange(3 * n).reshape(n, 3)
         return [(first + rows, self.factor.extra_cofactor_blocks(rows))]
 
@@ -82,7 +77,7 @@ class BundleModel(SchurModel):
         if not gi.m:
             return effect, labels
         lay = self.layout
-        rows = lay.mx * lay.kx - gi.m + np.arange(gi.m)  # their extra rows
+        rows = pb.extra_rows[3].start + np.arange(gi.m)  # their extra rows
         flat = lay.m * lay.k + len(lay.ctrl_sel) + rows
         f = gi.photos
         jxf = lin.jxf[rows, 0, :]

@@ -25,8 +25,18 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
-from baarda.bundle.gnss_imu import ANGLE_UNITS, GnssImu
+from baarda.bundle.gnss_imu import ANGLE_UNITS
 from baarda.bundle.image_rows import ImageRows
+from baarda.bundle.observation_kinds import (
+    BorderControl,
+    BorderImages,
+    Context,
+    Distances,
+    GlobalLayout,
+    GnssImuKind,
+    ObservationKind,
+    State,
+)
 from baarda.errors import GeometryError
 from baarda.options import Progress, SolveOptions
 
@@ -57,8 +67,10 @@ class BundleProblem(SchurProblem):
 
     Observation vector (flat, the quality layer's): x and y of every adjusted image point of
     an eliminated point (rows `obs` of block.image, mm), every observed control coordinate of
-    an eliminated point (m), then one row each for the x and y of the image points of border
-    points (rows `border_obs`), their observed control coordinates and the distances (m).
+    an eliminated point (m), then the extra rows of every observation kind in turn
+    (bundle/observation_kinds.py: the x and y of the image points of border points, their
+    observed control coordinates, the distances (m), GNSS positions and IMU attitudes, then
+    the `kinds` given); `extra_rows` their ranges among the extra rows.
     Control with sigma 0 is fixed: held exactly, not an unknown, not an observation.
     held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
     network, bundle/free_network.py); None: the control fixes the datum (checked here).
@@ -69,20 +81,26 @@ class BundleProblem(SchurProblem):
 
     def __init__(self, block: Block, *, held: np.ndarray | None = None,
                  notes: tuple[str, ...] = (), diagnosis: tuple[str, ...] = (),
-                 intersected: np.ndarray | None = None):
+                 intersected: np.ndarray | None = None,
+                 kinds: tuple[ObservationKind, ...] = ()):
         self.block = block
         self.solve_options = SOLVE  # every fit of this problem and its re-weightings
         self.diagnosis = tuple(diagnosis)
         ok, point_notes = usable_points(block)
-        im, pts, dist = block.image, block.points, block.distances
+        im, pts = block.image, block.points
         self.point_ids = np.flatnonzero(ok)  # block point index of each adjusted point
         remap = np.full(len(pts), -1)
         remap[self.point_ids] = np.arange(len(self.point_ids))
         self.remap = remap
-        # distances between adjusted points; their end points are border (global) unknowns
-        self.distances = np.flatnonzero(ok[dist.point_a] & ok[dist.point_b])
+        # the observation kinds of the extra rows (bundle/observation_kinds.py): the image
+        # points and control of the border points, distances, GNSS/IMU, and `kinds`
+        self.kinds = (BorderImages(), BorderControl(), Distances(ok), GnssImuKind(),
+                      *kinds)
+        # points that a kind ties together (distances) are border (global) unknowns
         border = np.zeros(len(pts), bool)
-        border[dist.point_a[self.distances]] = border[dist.point_b[self.distances]] = True
+        for kind in self.kinds:
+            border[kind.tied_points(block)] = True
+        border &= ok
         self.border_ids = np.flatnonzero(border)  # block indices, global points
         self.elim_ids = np.flatnonzero(ok & ~border)  # block indices, eliminated points
         self.eremap = np.full(len(pts), -1)
@@ -91,74 +109,83 @@ class BundleProblem(SchurProblem):
         self.bremap[self.border_ids] = np.arange(len(self.border_ids))
         rows = np.flatnonzero(ok[im.point])
         self.obs = rows[~border[im.point[rows]]]  # rows of block.image, eliminated points
-        self.border_obs = rows[border[im.point[rows]]]
         is_control = (pts.role == "control") & ok
         self.control = np.flatnonzero(is_control & ~border)  # block indices
-        self.border_control = np.flatnonzero(is_control & border)
-        sig_c, sig_b = pts.sigma[self.control], pts.sigma[self.border_control]
+        self.border_control = border_control = np.flatnonzero(is_control & border)
+        sig_c, sig_b = pts.sigma[self.control], pts.sigma[border_control]
         observed_c = np.isfinite(sig_c) & (sig_c > 0)
-        self.border_ctrl_sel = np.flatnonzero((np.isfinite(sig_b) & (sig_b > 0)).ravel())
         # fixed control (sigma 0): held exactly
         self.held_points = np.zeros((len(self.elim_ids), 3), bool)
         self.held_points[self.eremap[self.control]] = np.isfinite(sig_c) & (sig_c == 0)
         self.held_border = np.zeros((len(self.border_ids), 3), bool)
-        self.held_border[self.bremap[self.border_control]] = np.isfinite(sig_b) & (sig_b == 0)
-        # global unknowns: free camera parameters, border point coordinates, then the
-        # GNSS shifts and drifts and the IMU boresight (bundle/gnss_imu.py)
+        self.held_border[self.bremap[border_control]] = np.isfinite(sig_b) & (sig_b == 0)
+        # global unknowns, a named layout: free camera parameters, the border points'
+        # coordinates, then each kind's own (GNSS shifts and drifts, IMU boresight)
         self.calibration = Calibration(block.cameras)
-        self.g_points = self.calibration.n  # first global column of the border points
-        self.gnss_imu = GnssImu(block, self.calibration.n + 3 * len(self.border_ids))
-        ng = self.calibration.n + 3 * len(self.border_ids) + self.gnss_imu.n
+        own = [(kind.name, kind.global_labels(block)) for kind in self.kinds]
+        own = [(name, labels) for name, labels in own if labels or name == "gnss_imu"]
+        self.global_layout = GlobalLayout(
+            ("camera", "points", *(name for name, _ in own)),
+            (self.calibration.n, 3 * len(self.border_ids), *(len(la) for _, la in own)),
+            tuple(self.calibration.labels + [f"coordinate {c} of point {pts.ids[j]}"
+                                              for j in self.border_ids for c in "XYZ"]
+                  + [label for _, labels in own for label in labels]))
+        ng = self.global_layout.n
+        context = Context(block, self.calibration, self.global_layout, self.border_ids,
+                          self.bremap)
+        self.extra = tuple(kind.bind(context) for kind in self.kinds)
+        self.border_images = self.extra[0]
+        self.gnss_imu = self.extra[3].gnss_imu
+        ends = np.cumsum([0] + [r.m for r in self.extra])
+        self.extra_rows = tuple(slice(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:],
+                                                                      strict=True))
         m, nc = len(self.obs), len(self.control)
-        mb, nbc, nd = len(self.border_obs), len(self.border_ctrl_sel), len(self.distances)
         self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(observed_c.ravel()),
-                                 2 * mb + nbc + nd + self.gnss_imu.m, 1)
+                                 int(ends[-1]), 1)
         sel = self.layout.ctrl_sel
         self.sigma_apriori = read_only(np.concatenate([
             im.sigma_xy[self.obs].ravel(), sig_c.ravel()[sel],
-            im.sigma_xy[self.border_obs].ravel(), sig_b.ravel()[self.border_ctrl_sel],
-            dist.sigma_m[self.distances], self.gnss_imu.sigma]))
+            *(r.sigma for r in self.extra)]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
         # GNSS positions carry the datum (with shifts as unknowns: scale and orientation,
         # the position then from a control point)
         full_control = bool(pts.controlled[np.concatenate(
-            [self.control, self.border_control])].all(axis=1).any())
+            [self.control, border_control])].all(axis=1).any())
         by_gnss = len(block.gnss) >= 3 and (block.settings.gnss_offsets == "none"
                                             or full_control)
         warnings = [] if self.held is not None or by_gnss else check_datum(
             block, ok & np.isin(np.arange(len(pts)), np.concatenate(
-                [self.control, self.border_control])))
+                [self.control, border_control])))
         self.notes = self.diagnosis + tuple(warnings) + tuple(point_notes) + tuple(notes)
         self._labels(block, sel)
         ph = im.photo[self.obs]
         self.camera_of = block.photos.camera  # camera of each photo
         # what the linearisation needs of each row set that no iteration changes
         self.image_rows = ImageRows(block, self.calibration, self.obs)
-        self.border_image_rows = ImageRows(block, self.calibration, self.border_obs)
         cam = self.camera_of[ph]
         gcol = np.full((m, self.calibration.width), -1, np.int64)
         for i, cols in enumerate(self.calibration.columns):
             gcol[cam == i, :len(cols)] = cols
-        x_frame = np.concatenate([np.repeat(im.photo[self.border_obs], 2),
-                                  np.full(nbc + nd, -1), self.gnss_imu.photos])
+        x_frame = np.concatenate([r.photo for r in self.extra]).astype(np.int64)
         n_fixed = (0 if self.held is None else int(self.held.sum())) + \
             int(self.held_points.sum()) + int(self.held_border.sum())
         self.system = SchurSystem(
             len(block.photos), 6, len(self.elim_ids), 3, ph, self.eremap[im.point[self.obs]],
             self.eremap[self.control], frame_names=[f"photo {p}" for p in block.photos.ids],
             point_names=[pts.ids[j] for j in self.elim_ids], n_fixed=n_fixed, ng=ng,
-            gcol=gcol, x_frame=x_frame,
-            global_names=self.calibration.labels + [
-                f"coordinate {c} of point {pts.ids[j]}" for j in self.border_ids for c in "XYZ"]
-            + self.gnss_imu.labels)
+            gcol=gcol, x_frame=x_frame, global_names=list(self.global_layout.labels))
+        # held global columns (fixed control of border points) and their held values
+        self.held_globals = self.global_layout.start("points") + np.flatnonzero(
+            self.held_border.ravel())
         eo = block.photos.eo
         keep = np.isin(np.arange(len(pts)), self.point_ids)
         xyz = approximate_points(block, keep, intersected)
         start = (read_only(eo.copy()), read_only(xyz[self.elim_ids]))
         if ng:
-            start += (read_only(np.concatenate([self.calibration.start(),
-                                                xyz[self.border_ids].ravel(),
-                                                np.zeros(self.gnss_imu.n)])),)
+            g0 = np.zeros(ng)
+            g0[self.global_layout.columns("camera")] = self.calibration.start()
+            g0[self.global_layout.columns("points")] = xyz[self.border_ids].ravel()
+            start += (read_only(g0),)
         self.approximations = start
         # the size of the block for the convergence test: the flying height
         self.scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[keep, 2])))), 1.0)
@@ -166,42 +193,43 @@ class BundleProblem(SchurProblem):
         self._set_weights(np.ones(n, bool), np.ones(n))
         self._parameter_scale = self._camera_effect()
 
+    @property
+    def units(self) -> dict[str, tuple[float, str]]:
+        """How each kind is shown: kind -> (factor to the shown unit, unit)."""
+        out = {"image": (1e3, "µm"), "control": (1.0, "m")}
+        for r in self.extra:
+            out.update(r.units)
+        return out
+
     def _labels(self, block: Block, sel: np.ndarray) -> None:
-        im, dist = block.image, block.distances
+        im = block.image
         m, nc = len(self.obs), len(sel)
-        mb, nd = len(self.border_obs), len(self.distances)
-        bsel = self.border_ctrl_sel
         photos = np.asarray(block.photos.ids, dtype=object)
         pids = np.asarray(block.points.ids, dtype=object)
-        gi = self.gnss_imu
-        mg = gi.m
-        empty = np.full(len(bsel) + nd, "", dtype=object)
+        x = self.extra
+        mx = sum(r.m for r in x)
         self.kind = read_only(np.concatenate([np.array(
-            ["image"] * (2 * m) + ["control"] * nc + ["image"] * (2 * mb)
-            + ["control"] * len(bsel) + ["distance"] * nd, dtype=object), gi.kind]))
+            ["image"] * (2 * m) + ["control"] * nc, dtype=object), *(r.kind for r in x)]))
         self.component = read_only(np.concatenate(
-            [np.tile(XY, m), np.tile(XYZ, len(self.control))[sel], np.tile(XY, mb),
-             np.tile(XYZ, len(self.border_control))[bsel], np.full(nd, "d", dtype=object),
-             gi.component]))
+            [np.tile(XY, m), np.tile(XYZ, len(self.control))[sel], *(r.component for r in x)]))
         self.frame = read_only(np.concatenate([
             np.repeat(photos[im.photo[self.obs]], 2), np.full(nc, "", dtype=object),
-            np.repeat(photos[im.photo[self.border_obs]], 2), empty, photos[gi.photos]]))
-        names = np.array([dist.ids[k] for k in self.distances], dtype=object)
+            *(r.frame for r in x)]))
         self.point = read_only(np.concatenate([
             np.repeat(pids[im.point[self.obs]], 2), np.repeat(pids[self.control], 3)[sel],
-            np.repeat(pids[im.point[self.border_obs]], 2),
-            np.repeat(pids[self.border_control], 3)[bsel], names,
-            np.full(mg, "", dtype=object)]))
-        self.group = read_only(np.concatenate([
-            np.repeat(np.arange(m), 2), np.full(nc, -1), np.repeat(m + np.arange(mb), 2),
-            np.full(len(bsel) + nd + mg, -1)]))
+            *(r.point for r in x)]))
+        # components measured together: x and y of an image point
+        group = np.full(mx, -1)
+        bi = self.border_images
+        group[self.extra_rows[0]] = np.repeat(m + np.arange(bi.m // 2), 2)
+        self.group = read_only(np.concatenate([np.repeat(np.arange(m), 2), np.full(nc, -1),
+                                               group]))
         # index of each component back into block tables
-        none = np.full(len(bsel) + nd + mg, -1)
         self.image_row = read_only(np.concatenate([
-            np.repeat(self.obs, 2), np.full(nc, -1), np.repeat(self.border_obs, 2), none]))
+            np.repeat(self.obs, 2), np.full(nc, -1), *(r.image_row for r in x)]))
         self.control_index = read_only(np.concatenate([
-            np.full(2 * m, -1), np.repeat(self.control, 3)[sel], np.full(2 * mb, -1),
-            np.repeat(self.border_control, 3)[bsel], np.full(nd + mg, -1)]))
+            np.full(2 * m, -1), np.repeat(self.control, 3)[sel],
+            *(r.control_index for r in x)]))
 
     def datum_text(self) -> str:
         """What fixes the datum, in words (the summary's second line)."""
@@ -243,7 +271,7 @@ class BundleProblem(SchurProblem):
         eo, xyz = state[0], state[1]
         g = state[2] if len(state) == 3 else np.zeros(0)
         return (eo, xyz, self.calibration.current(g),
-                g[self.g_points:self.gnss_imu.first].reshape(-1, 3))
+                g[self.global_layout.columns("points")].reshape(-1, 3))
 
     def linearize(self, state) -> Linearization:
         eo, xyz, params, bxyz = self._split(state)
@@ -273,78 +301,32 @@ class BundleProblem(SchurProblem):
         lin = dict(jg=self.image_rows.free_columns(jpar) if self.system.ng else None)
         if self.system.ng or self.system.mx:
             g = state[2] if len(state) == 3 else np.zeros(0)
-            lin.update(self._border_rows(eo, params, bxyz, g, rot))
+            lin.update(self._extra_rows(State(eo, g, params, bxyz, rot)))
         return Linearization(je, jp, self.w, e, jc, self.wc, ec, wf, ef, wp=wp, ep=ep, **lin)
 
-    def _border_rows(self, eo, params, bxyz, g, rot) -> dict:
-        """The extra rows (image points of border points, their control, distances, GNSS
-        positions and IMU attitudes) and the held global unknowns; rot: the photos'
-        rotation_and_derivatives."""
-        b = self.block
-        im, pts, dist = b.image, b.points, b.distances
-        ng, gp = self.system.ng, self.g_points
-        rows = self.border_obs
-        mb = len(rows)
-        bidx = self.bremap[im.point[rows]]
-        f, je, jp, jpar = self.border_image_rows.evaluate(eo, bxyz[bidx], params, rot)
-        jg = np.zeros((mb, 2, ng))
-        free = self.border_image_rows.free_columns(jpar)
-        cam = self.camera_of[im.photo[rows]]
-        for i, cols in enumerate(self.calibration.columns):
-            sel = np.flatnonzero(cam == i)
-            if len(sel) and len(cols):
-                jg[sel[:, None, None], np.arange(2)[None, :, None], cols[None, None, :]] = \
-                    free[sel][:, :, :len(cols)]
-        held_b = self.held_border
-        jp = np.where(held_b[bidx][:, None, :], 0.0, jp)
-        for k in range(3):
-            jg[np.arange(mb), :, gp + 3 * bidx + k] = jp[:, :, k]
+    def _extra_rows(self, state: State) -> dict:
+        """The extra rows of every observation kind (bundle/observation_kinds.py), with the
+        held unknowns' columns zeroed (a free network's datum, fixed border coordinates),
+        and the held global unknowns."""
+        ng = self.system.ng
+        parts = [r.linearize(state, ng) for r in self.extra]
+        ex = np.concatenate([p[0] for p in parts])
+        jxf = np.concatenate([p[1] for p in parts])
+        jxg = np.concatenate([p[2] for p in parts])
         if self.held is not None:
-            je = np.where(self.held[im.photo[rows]][:, None, :], 0.0, je)
-        ex = [(im.xy_mm[rows] - f).ravel()]
-        jxf = [je.reshape(2 * mb, 1, 6)]
-        jxg = [jg.reshape(2 * mb, 1, ng)]
-        # observed control coordinates of border points
-        given = pts.xyz[self.border_control]
-        cur = bxyz[self.bremap[self.border_control]]
-        sel = self.border_ctrl_sel
-        ci, cc = np.divmod(sel, 3)
-        jc = np.zeros((len(sel), 1, ng))
-        jc[np.arange(len(sel)), 0, gp + 3 * self.bremap[self.border_control[ci]] + cc] = 1.0
-        ex.append((given - cur).ravel()[sel])
-        jxf.append(np.zeros((len(sel), 1, 6)))
-        jxg.append(jc)
-        # distances
-        a = self.bremap[dist.point_a[self.distances]]
-        bb = self.bremap[dist.point_b[self.distances]]
-        diff = bxyz[bb] - bxyz[a]
-        length = np.linalg.norm(diff, axis=1)
-        unit = diff / length[:, None]
-        jd = np.zeros((len(a), 1, ng))
-        for k in range(3):
-            jd[np.arange(len(a)), 0, gp + 3 * a + k] = np.where(held_b[a, k], 0.0, -unit[:, k])
-            jd[np.arange(len(a)), 0, gp + 3 * bb + k] = np.where(held_b[bb, k], 0.0,
-                                                                 unit[:, k])
-        ex.append(dist.length_m[self.distances] - length)
-        jxf.append(np.zeros((len(a), 1, 6)))
-        jxg.append(jd)
-        # GNSS positions and IMU attitudes
-        gi = self.gnss_imu
-        if gi.m:
-            e_g, jf_g, jg_g = gi.rows(eo, g, ng, rot)
-            if self.held is not None:
-                jf_g = np.where(self.held[gi.photos][:, None, :], 0.0, jf_g)
-            ex.append(e_g)
-            jxf.append(jf_g)
-            jxg.append(jg_g)
+            xf = self.system.x_frame
+            has = xf >= 0
+            jxf[has] = np.where(self.held[xf[has]], 0.0, jxf[has])
+        jxg[:, self.held_globals] = 0.0
         wg = np.zeros(ng)
         eg = np.zeros(ng)
-        held_cols = gp + np.flatnonzero(held_b.ravel())
-        wg[held_cols] = HOLD
+        wg[self.held_globals] = HOLD
+        pts = self.block.points
         full = np.where(np.isfinite(pts.xyz[self.border_ids]), pts.xyz[self.border_ids], 0.0)
-        eg[gp:gi.first] = np.where(held_b, full - bxyz, 0.0).ravel()
-        return dict(jxf=np.concatenate(jxf), jxg=np.concatenate(jxg), wx=self.wx,
-                    ex=np.concatenate(ex)[:, None], wg=wg, eg=eg)
+        eg[self.global_layout.columns("points")] = np.where(self.held_border,
+                                                            full - state.bxyz, 0.0).ravel()
+        return dict(jxf=jxf[:, None, :], jxg=jxg[:, None, :], wx=self.wx, ex=ex[:, None],
+                    wg=wg, eg=eg)
 
     def _camera_effect(self) -> np.ndarray:
         """Size in the image (mm) of a unit change of each global unknown, for the
@@ -359,7 +341,7 @@ class BundleProblem(SchurProblem):
             mi, ai = np.nonzero(self.system.gcol >= 0)
             np.maximum.at(out, self.system.gcol[mi, ai], np.abs(lin.jg[mi, :, ai]).max(axis=1))
         c = float(np.median(self.block.cameras.focal_mm))
-        out[self.g_points:] = c / self.scale
+        out[self.global_layout.start("points"):] = c / self.scale
         gi = self.gnss_imu
         if gi.boresight_col >= 0:
             out[gi.boresight_col:gi.boresight_col + 3] = c  # an angle moves the image c da
@@ -372,7 +354,8 @@ class BundleProblem(SchurProblem):
         if len(step) == 3:
             gi = self.gnss_imu
             end = gi.boresight_col if gi.boresight_col >= 0 else len(step[2])
-            dpos = max(dpos, np.max(np.abs(step[2][self.g_points:end]), initial=0.0))
+            first = self.global_layout.start("points")
+            dpos = max(dpos, np.max(np.abs(step[2][first:end]), initial=0.0))
             dang = max(dang, np.max(np.abs(step[2][end:]), initial=0.0))
         return t * float(dpos), t * float(dang)
 
@@ -381,7 +364,8 @@ class BundleProblem(SchurProblem):
         size = max(dpos / self.scale, 1e3 * dang)
         if len(step) == 3 and self.calibration.n:
             c = float(np.median(self.block.cameras.focal_mm))
-            cam = np.abs(step[2][:self.g_points]) * self._parameter_scale[:self.g_points]
+            cols = self.global_layout.columns("camera")
+            cam = np.abs(step[2][cols]) * self._parameter_scale[cols]
             size = max(size, float(np.max(cam, initial=0.0)) / c)
         return size
 
@@ -394,9 +378,10 @@ class BundleProblem(SchurProblem):
         im = self.block.image
         ok = bool(np.all(camera_depth(eo, xyz[self.eremap[im.point[self.obs]]],
                                       im.photo[self.obs]) > 0))
-        if len(self.border_obs):
-            ok &= bool(np.all(camera_depth(eo, bxyz[self.bremap[im.point[self.border_obs]]],
-                                           im.photo[self.border_obs]) > 0))
+        rows = self.border_images.rows
+        if len(rows):
+            ok &= bool(np.all(camera_depth(eo, bxyz[self.bremap[im.point[rows]]],
+                                           im.photo[rows]) > 0))
         return ok
 
     # ------------------------------------------------------------ fit
@@ -447,7 +432,8 @@ class BundleProblem(SchurProblem):
         eo, xyz = start[0], np.asarray(start[1])
         out = (eo, xyz[self.remap[self.elim_ids]])
         if self.system.ng:
-            out += (np.concatenate([self.calibration.start(),
-                                    xyz[self.remap[self.border_ids]].ravel(),
-                                    np.zeros(self.gnss_imu.n)]),)
+            g0 = np.zeros(self.system.ng)
+            g0[self.global_layout.columns("camera")] = self.calibration.start()
+            g0[self.global_layout.columns("points")] = xyz[self.remap[self.border_ids]].ravel()
+            out += (g0,)
         return out

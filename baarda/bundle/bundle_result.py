@@ -76,8 +76,8 @@ class BundleResult(AdjustmentCounts):
         out = np.empty((len(pb.point_ids), 3))
         out[pb.remap[pb.elim_ids]] = self.state[1]
         if len(pb.border_ids):
-            out[pb.remap[pb.border_ids]] = self.state[2][pb.g_points:pb.gnss_imu.first].reshape(
-                -1, 3)
+            out[pb.remap[pb.border_ids]] = \
+                self.state[2][pb.global_layout.columns("points")].reshape(-1, 3)
         return out
 
     @property
@@ -136,7 +136,8 @@ class BundleResult(AdjustmentCounts):
         out[pb.remap[pb.elim_ids]] = self.factor.point_covariance()
         if len(pb.border_ids):
             q = self.factor.global_covariance()
-            cols = pb.g_points + 3 * np.arange(len(pb.border_ids))[:, None] + np.arange(3)
+            cols = pb.global_layout.start("points") + 3 * np.arange(len(pb.border_ids))[:, None] \
+                + np.arange(3)
             out[pb.remap[pb.border_ids]] = q[cols[:, :, None], cols[:, None, :]]
         # coordinates of fixed control (sigma 0) are held, not estimated: cofactor 0 (the
         # factorisation leaves 1 / HOLD there)
@@ -238,10 +239,11 @@ class BundleResult(AdjustmentCounts):
     def sections(self) -> list[Section]:
         d = self.to_dict()
         im = np.where(self.lin.w > 0, self.image_residuals * 1e3, np.nan)
-        mb = len(self.problem.border_obs)  # image rows of points tied by distances
+        rows = self.problem.extra_rows[0]  # image rows of points tied by distances
+        mb = (rows.stop - rows.start) // 2
         if mb:
-            wb = self.lin.wx[:2 * mb, 0].reshape(mb, 2)
-            im = np.vstack([im, np.where(wb > 0, -self.lin.ex[:2 * mb, 0].reshape(mb, 2) * 1e3,
+            wb = self.lin.wx[rows, 0].reshape(mb, 2)
+            im = np.vstack([im, np.where(wb > 0, -self.lin.ex[rows, 0].reshape(mb, 2) * 1e3,
                                          np.nan)])
         lines = [] if self.converged else [
             f"NOT CONVERGED after {self.iterations} iterations: the results are not a "

@@ -26,20 +26,10 @@ INTERIOR_GROUP = ("interior orientation", ("c", "x0", "y0"))
 
 def parameter_groups(model) -> list[tuple[str, tuple[str, ...]]]:
     """Groups of a model's parameters that are tested together (the significance tests of
-    a self-calibration): interior orientation, radial, decentring, affinity; Ebner's and
-    Gruen's sets as one group each."""
-    if model.name == "aicon":
-        extra = [("radial distortion", ("a1", "a2", "a3")),
-                 ("decentring distortion", ("b1", "b2")), ("affinity and shear", ("c1", "c2"))]
-    elif model.name == "fisheye_forward":
-        extra = [("radial distortion", ("k1", "k2", "k3", "k4")), ("aspect", ("a",))]
-    elif model.name in ("ebner", "gruen"):
-        extra = [(f"{model.name} additional parameters", model.params)]
-    else:
-        extra = [("radial distortion", ("k1", "k2", "k3")),
-                 ("decentring distortion", ("p1", "p2")),
-                 ("affinity and shear", ("b1", "b2", "a"))]
-    return [INTERIOR_GROUP] + extra
+    a self-calibration): the interior orientation, then the groups the camera model declares
+    (block/camera_models.py: radial, decentring, affinity; Ebner's and Gruen's sets as one
+    group each)."""
+    return [INTERIOR_GROUP, *model.parameter_groups]
 
 
 class Calibration:

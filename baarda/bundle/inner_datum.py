@@ -103,7 +103,7 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
     S-transformation (module docstring), then carried through that similarity."""
     pb, factor = result.problem, result.factor
     s = factor.system
-    scale = not bool(len(pb.distances))  # distances fix the scale
+    scale = not np.any(pb.kind == "distance")  # distances fix the scale
     d = 7 if scale else 6
     xyz = result.xyz
     sel = np.arange(len(xyz)) if points is None else np.asarray(points)
@@ -115,9 +115,10 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
     elim_rows = pb.remap[pb.elim_ids]
     gp = position_directions(xyz[elim_rows], centre, scale)
     gg = np.zeros((s.ng, d))
+    pcols = pb.global_layout.columns("points")  # the border points' coordinates
     if len(pb.border_ids):
         border_rows = pb.remap[pb.border_ids]
-        gg[pb.g_points:] = position_directions(xyz[border_rows], centre, scale).reshape(-1, d)
+        gg[pcols] = position_directions(xyz[border_rows], centre, scale).reshape(-1, d)
     # Gp: the rows of the datum points only
     is_datum = np.zeros(len(xyz), bool)
     is_datum[sel] = True
@@ -125,7 +126,7 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
     gg_sel = gg.copy()
     if len(pb.border_ids):
         mask = np.repeat(is_datum[pb.remap[pb.border_ids]], 3)
-        gg_sel[pb.g_points:] = np.where(mask[:, None], gg[pb.g_points:], 0.0)
+        gg_sel[pcols] = np.where(mask[:, None], gg[pcols], 0.0)
     gtg = np.einsum("pdi,pdj->ij", gp_sel, gp_sel) + gg_sel.T @ gg_sel
     k = np.linalg.inv(gtg)
     zs = factor.solve_normal(np.zeros((s.nf, 6, d)), gp_sel, gg_sel) if s.ng else \
@@ -139,8 +140,8 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
     z_all = np.zeros((len(xyz), 3, d))
     g_all[elim_rows], z_all[elim_rows] = gp, zp
     if len(pb.border_ids):
-        g_all[pb.remap[pb.border_ids]] = gg[pb.g_points:].reshape(-1, 3, d)
-        z_all[pb.remap[pb.border_ids]] = zg[pb.g_points:].reshape(-1, 3, d)
+        g_all[pb.remap[pb.border_ids]] = gg[pcols].reshape(-1, 3, d)
+        z_all[pb.remap[pb.border_ids]] = zg[pcols].reshape(-1, 3, d)
     gk = g_all @ k
     q_inner = (q - gk @ np.swapaxes(z_all, 1, 2) - z_all @ np.swapaxes(gk, 1, 2)
                + gk @ gz @ np.swapaxes(gk, 1, 2))
@@ -149,7 +150,7 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
     approx[elim_rows] = pb.approximations[1]
     if len(pb.border_ids):
         approx[pb.remap[pb.border_ids]] = \
-            pb.approximations[2][pb.g_points:].reshape(-1, 3)
+            pb.approximations[2][pcols].reshape(-1, 3)
     sc, r, t = similarity(xyz[sel], approx[sel])
     if not scale:
         sc = 1.0

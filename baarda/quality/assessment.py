@@ -58,7 +58,7 @@ def global_test_lines(q: QualityResult) -> list[str]:
             f"{'accepted' if h.passed else 'REJECTED'}"
             + ("; sigma0 is significantly below 1: the a-priori sigmas are too pessimistic"
                if low else ""))
-    b = (f"global test by the B-method (alpha {q.global_alpha:.3g}, coupled to the w-test's "
+    b = (f"global test by the B-method (alpha {q.b_method_alpha:.3g}, coupled to the w-test's "
          f"power {q.beta0:g}): critical {gt.critical:.4f} -> "
          f"{'accepted' if gt.passed else 'REJECTED'}")
     if gt.passed != h.passed:
@@ -208,7 +208,7 @@ class Assessment:
                 "sigma0_interval": list(sigma0_interval(h)),
                 "sigma0_below_one": bool(sigma0_interval(h)[1] < 1.0)},
             "global_test_b_method": None if gt is None else {
-                "statistic": gt.statistic, "critical": gt.critical, "alpha": q.global_alpha,
+                "statistic": gt.statistic, "critical": gt.critical, "alpha": q.b_method_alpha,
                 "p_value": gt.p_value, "passed": bool(gt.passed)},
             "alpha0": q.alpha0, "beta0": q.beta0, "delta0": q.delta0, "k_w": q.k_w,
             "k_tau": q.k_tau, "sum_redundancy_numbers": q.sum_redundancy_numbers,

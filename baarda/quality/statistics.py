@@ -61,7 +61,7 @@ class QualityResult:
     alpha0: float
     beta0: float
     delta0: float
-    global_alpha: float
+    b_method_alpha: float
     global_test: object = None  # the B-method's (its alpha coupled to the w-test's power)
     notes: list[str] = field(default_factory=list)
     alpha_global: float = TestOptions.alpha_global
@@ -144,7 +144,7 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
         external_point=labels, controlled=controlled,
         flagged=act & controlled & (np.abs(np.nan_to_num(w)) > bm.k_w), redundancy=red,
         vtpv=vtpv, sigma0_hat=s0, k_w=bm.k_w, k_tau=k_tau, alpha0=alpha0, beta0=beta0,
-        delta0=bm.delta0, global_alpha=ga, global_test=gt, notes=notes,
+        delta0=bm.delta0, b_method_alpha=ga, global_test=gt, notes=notes,
         alpha_global=tests.alpha_global, headline_test=headline)
 
 

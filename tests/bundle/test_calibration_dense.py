@@ -48,7 +48,7 @@ def _unknown_columns(pb):
     cols += [(1, k) for k in np.flatnonzero(~pb.held_points.ravel())]
     ng = pb.system.ng
     held_g = np.zeros(ng, bool)
-    held_g[pb.g_points:] = pb.held_border.ravel()
+    held_g[pb.global_layout.start("points"):] = pb.held_border.ravel()
     cols += [(2, k) for k in np.flatnonzero(~held_g)]
     return cols
 
@@ -75,11 +75,11 @@ def _dense(res):
     a = np.zeros((len(e0), len(cols)))
     for j, (part, k) in enumerate(cols):
         h = 1e-6 * max(1.0, abs(state[part].ravel()[k]))
-        if part == 2 and k < pb.g_points:  # camera parameters: their own scale
+        if part == 2 and k < pb.global_layout.start("points"):  # camera parameters: their own scale
             h = 1e-6 * max(abs(state[part][k]), 1e-3) if k == 0 else 1e-7 * max(
                 1e-5, abs(state[part][k]))
         a[:, j] = _central(pb, state, part, k, h)
-        if part == 2 and 0 < k < pb.g_points:
+        if part == 2 and 0 < k < pb.global_layout.start("points"):
             # a step of 1e-7 of a small coefficient moves the misclosures so little that
             # their rounding (about 1e-15 mm) shows in the derivative at 1e-7 and in r at
             # 1e-6: again with the step that moves them by 1e-3 mm (the misclosures are
@@ -109,7 +109,8 @@ def test_dense_oracle(case):
     assert abs(q.redundancy_number.sum() - res.redundancy) < 1e-6
     assert res.redundancy == len(e) - len(cols)
     # the camera parameters' cofactors
-    g_cols = [j for j, (part, k) in enumerate(cols) if part == 2 and k < pb.g_points]
+    first = pb.global_layout.start("points")
+    g_cols = [j for j, (part, k) in enumerate(cols) if part == 2 and k < first]
     dense_cam = qxx[np.ix_(g_cols, g_cols)]
     cam = res.camera_covariance()
     d = np.sqrt(np.diag(dense_cam))

@@ -203,7 +203,7 @@ def test_points_tied_by_a_distance_in_a_block_with_gnss_imu_unknowns():
     assert xyz.shape == (len(pb.point_ids), 3)
     border = xyz[pb.remap[pb.border_ids]]
     np.testing.assert_array_equal(
-        border, res.state[2][pb.g_points:pb.gnss_imu.first].reshape(-1, 3))
+        border, res.state[2][pb.global_layout.columns("points")].reshape(-1, 3))
     # and they are where the simulation put them (5 µm image noise: a few cm at most)
     for k, j in enumerate(pb.border_ids):
         assert np.linalg.norm(border[k] - np.array(truth["points"][pb.block.points.ids[j]])) < 0.2
