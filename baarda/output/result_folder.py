@@ -16,17 +16,14 @@ import pandas as pd
 from baarda.errors import ProjectError
 from baarda.io.table import Table
 from baarda.output.run_folder import MANIFEST, verify_run
+from baarda.schema import (  # the contract of the files (baarda/schema.py)
+    FLAG_COLUMNS,
+    FRAME_COLUMNS,
+    NUMBER_COLUMNS,
+    REQUIRED_COLUMNS,
+    UNITS,
+)
 from baarda.sections import Section
-
-# Units of the residual columns in observations.csv, by observation kind (summary.json
-# "units" states them for each run: IMU residuals in the project's angle unit / 1000).
-UNITS = {"image": "µm", "model": "µm", "control": "m", "gnss": "m", "imu": "mrad",
-         "distance": "m"}
-OBS_REQUIRED = ["kind", "point", "component", "residual"]
-OBS_FRAMES = ["photo", "model"]  # at least one of them; `frame` is the one that is given
-OBS_NUMBERS = ["x_mm", "y_mm", "residual", "sigma", "sigma_residual", "redundancy", "w", "tau",
-               "p_value", "mdb", "lambda_bar", "external_max", "point_test"]
-OBS_FLAGS = ["rejected", "flagged"]
 
 
 def numbers(t: Table, name: str) -> np.ndarray:
@@ -76,9 +73,9 @@ def _observation_frame(has, text, number, flag) -> pd.DataFrame:
     columns become NaN / False); `frame` is the photo, else the model."""
     df = pd.DataFrame({c: text(c) for c in OBS_TEXT})
     df["frame"] = df["photo"].where(df["photo"] != "", df["model"])
-    for c in OBS_NUMBERS:
+    for c in NUMBER_COLUMNS:
         df[c] = number(c) if has(c) else np.nan
-    for c in OBS_FLAGS:
+    for c in FLAG_COLUMNS:
         df[c] = flag(c) if has(c) else False
     df["external_point"] = text("external_point")
     return df
@@ -92,8 +89,8 @@ def _empty_residual(df: pd.DataFrame) -> int | None:
 
 def read_observations(path: str | Path) -> pd.DataFrame:
     """observations.csv as a DataFrame (missing statistics columns become NaN / False)."""
-    t = Table(path, OBS_REQUIRED)
-    if not any(t.has(c) for c in OBS_FRAMES):
+    t = Table(path, list(REQUIRED_COLUMNS))
+    if not any(t.has(c) for c in FRAME_COLUMNS):
         raise ProjectError(t.path, "missing column 'photo' (or 'model')")
     def text(c: str):
         if not t.has(c):
@@ -127,10 +124,10 @@ def read_observations_parquet(path: str | Path) -> pd.DataFrame:
     except (pa.ArrowException, OSError) as e:
         raise ProjectError(str(path), f"not a readable Parquet file ({e})") from None
     names = set(t.column_names)
-    for c in OBS_REQUIRED:
+    for c in REQUIRED_COLUMNS:
         if c not in names:
             raise ProjectError(str(path), f"missing column '{c}'")
-    if not names & set(OBS_FRAMES):
+    if not names & set(FRAME_COLUMNS):
         raise ProjectError(str(path), "missing column 'photo' (or 'model')")
     n = t.num_rows
 

@@ -28,12 +28,11 @@ from baarda.quality.hypotheses import (
 )
 from baarda.quality.iterative import SnoopingRun
 from baarda.quality.statistics import QualityResult
+from baarda.schema import OBSERVATION_COLUMNS
 from baarda.sections import Section, render, section
 
 # the columns of observations.csv, in this order, for every method (docs/format.md)
-COLUMNS = ("adjustment", "kind", "photo", "model", "point", "component", "x_mm", "y_mm",
-           "residual", "sigma", "sigma_residual", "redundancy", "w", "tau", "p_value", "mdb",
-           "lambda_bar", "external_max", "external_point", "point_test", "rejected", "flagged")
+COLUMNS = OBSERVATION_COLUMNS  # observations.csv (baarda/schema.py)
 
 
 def sigma0_interval(gt) -> tuple[float, float]:
