@@ -304,7 +304,7 @@ def test_one_verdict_per_line_and_the_iterations_the_console_showed(tmp_path, ca
     assert "iterations 4 (converged), then 4 re-adjustment(s) by data snooping (the last: " \
         "3 iteration(s))" in " ".join(lines)
     b = [x for x in lines if x.startswith("global test by the B-method")][0]
-    assert "-> REJECTED (not the verdict: the test at alpha 0.05 above decides" in b
+    assert "-> REJECTED (not the verdict: the test at alpha 0.05 decides" in b
     html = html_report(read_results(out))
     assert '<span class="ok">global test at alpha 0.05' in html
     assert '<span class="note">global test by the B-method' in html

@@ -61,12 +61,10 @@ def global_test_lines(q: QualityResult) -> list[str]:
          f"power {q.beta0:g}): critical {gt.critical:.4f} -> "
          f"{'accepted' if gt.passed else 'REJECTED'}")
     if gt.passed != h.passed:
-        b += (f" (not the verdict: the test at alpha {q.alpha_global:g} above decides; this "
-              "one's alpha is set so that it finds, with the w-tests' power, the variance "
-              "factor that one error of MDB size causes, so it "
-              + ("rejects sigma0 slightly above 1: look at the largest |w|)" if not gt.passed
-                 else "accepts where the conventional test rejects: the excess is spread "
-                 "over many observations, not one error)"))
+        b += (f" (not the verdict: the test at alpha {q.alpha_global:g} decides; coupled to "
+              "the w-tests, this one looks for the variance factor of one error of MDB size"
+              + (": see the largest |w|)" if not gt.passed else
+                 ": the excess is spread over many observations)"))
     return [head, b]
 
 
