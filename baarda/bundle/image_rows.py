@@ -4,7 +4,8 @@ An ImageRows is one set of rows of block.image (BundleProblem: those of the elim
 points and those of the border points) with what no iteration changes computed once; its
 `evaluate` gives the collinearity equations' values and Jacobians (bundle/collinearity.py)
 of every row with its camera's model, `free_columns` the columns of the free camera
-parameters (bundle/calibration.py).
+parameters in the border and `photo_columns` those in the photos' blocks
+(bundle/calibration.py).
 """
 
 from __future__ import annotations
@@ -53,11 +54,24 @@ class ImageRows:
             if len(sel):
                 self.groups.append((model, cams, sel, photo[sel], im.xy_mm[rows[sel]], which,
                                     k))
-        # (rows of a camera, its free parameters) of every camera with free parameters
+        # (rows of a camera, its free parameters) of every camera with free parameters in
+        # the border
+        owner = calibration.owner
         self.free = [(np.flatnonzero(cam == i), idx)
                      for i, idx in enumerate(calibration.free_index)
-                     if len(idx) and (cam == i).any()]
+                     if len(idx) and owner[i] < 0 and (cam == i).any()]
         self.n_free = calibration.width
+        # (rows, free parameters) of the cameras in their photo's block, grouped by the
+        # parameters they free (BAL: one group, c, k1, k2 of every camera)
+        by_free: dict[tuple, list[int]] = {}
+        for i in np.flatnonzero(owner >= 0):
+            by_free.setdefault(tuple(calibration.free_index[i]), []).append(i)
+        self.owned = []
+        for idx, cams in by_free.items():
+            sel = np.flatnonzero(np.isin(cam, cams))
+            if len(sel):
+                self.owned.append((sel, np.array(idx, np.int64)))
+        self.photo_width = calibration.photo_width
 
     def evaluate(self, eo: np.ndarray, xyz: np.ndarray, params, rot: tuple):
         """f, je, jp, jpar (3 + k columns of its camera) of the rows, camera by camera:
@@ -79,8 +93,20 @@ class ImageRows:
         return f, je, jp, jpar
 
     def free_columns(self, jpar: np.ndarray) -> np.ndarray:
-        """jpar restricted to the free parameters of each row's camera, (m, 2, width)."""
+        """jpar restricted to the free parameters of each row's camera in the border,
+        (m, 2, width)."""
         out = np.zeros((self.m, 2, self.n_free))
         for sel, idx in self.free:
             out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
+        return out
+
+    def photo_columns(self, jpar: np.ndarray) -> np.ndarray:
+        """jpar restricted to the free parameters of a camera in its photo's block (the
+        photo's columns after its orientation), (m, 2, photo_width); 0 for the other rows."""
+        out = np.zeros((self.m, 2, self.photo_width))
+        for sel, idx in self.owned:
+            if len(sel) == self.m:
+                out[:, :, :len(idx)] = jpar[:, :, idx]
+            else:
+                out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
         return out
