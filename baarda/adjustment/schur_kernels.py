@@ -139,18 +139,24 @@ def _pair_term(values, s, tr, t, hfp, a, c, b, d):
 
 @_inline
 def _observation_terms(hfp, hinv, gpj, a, t, g, b, d):
-    """_terms, with literal sizes for a photo and a point (b = 6, d = 3)."""
+    """_terms, with literal sizes for a photo and a point (b = 6, d = 3), and for a photo
+    with its camera's f, k1, k2 (b = 9: BAL)."""
     if b == 6 and d == 3:
         _terms(hfp, hinv, gpj, a, t, g, 6, 3)
+    elif b == 9 and d == 3:
+        _terms(hfp, hinv, gpj, a, t, g, 9, 3)
     else:
         _terms(hfp, hinv, gpj, a, t, g, b, d)
 
 
 @_inline
 def _subtract_pair(values, s, tr, t, hfp, a, c, b, d):
-    """_pair_term, with literal sizes for a photo and a point (b = 6, d = 3)."""
+    """_pair_term, with literal sizes for a photo and a point (b = 6, d = 3), and for a
+    photo with its camera's f, k1, k2 (b = 9: BAL)."""
     if b == 6 and d == 3:
         _pair_term(values, s, tr, t, hfp, a, c, 6, 3)
+    elif b == 9 and d == 3:
+        _pair_term(values, s, tr, t, hfp, a, c, 9, 3)
     else:
         _pair_term(values, s, tr, t, hfp, a, c, b, d)
 
