@@ -159,6 +159,12 @@ class BundleProblem(SchurProblem):
                 held_frame[:, :6] = self.held
             held_frame[:, 6:] = cal.held_photo_columns
         self.held_frame = None if held_frame is None else read_only(held_frame)
+        # of each image row of an eliminated point: photo, point (eliminated index), xy
+        self.obs_photo = read_only(im.photo[self.obs])
+        self.obs_point = read_only(self.eremap[im.point[self.obs]])
+        self.obs_xy = read_only(im.xy_mm[self.obs])
+        self.held_rows = read_only(np.zeros(0, np.int64) if held_frame is None else
+                                   np.flatnonzero(held_frame.any(axis=1)[self.obs_photo]))
         # GNSS positions carry the datum (with shifts as unknowns: scale and orientation,
         # the position then from a control point)
         full_control = bool(pts.controlled[np.concatenate(
@@ -175,9 +181,10 @@ class BundleProblem(SchurProblem):
         # what the linearisation needs of each row set that no iteration changes
         self.image_rows = ImageRows(block, self.calibration, self.obs)
         cam = self.camera_of[ph]
-        gcol = np.full((m, self.calibration.width), -1, np.int64)
-        for i, cols in enumerate(self.calibration.columns):
-            gcol[cam == i, :len(cols)] = cols
+        table = np.full((len(block.cameras), cal.width), -1, np.int64)  # columns per camera
+        for i, cols in enumerate(cal.columns):
+            table[i, :len(cols)] = cols
+        gcol = table[cam]
         x_frame = np.concatenate([r.photo for r in self.extra]).astype(np.int64)
         n_fixed = (0 if self.held_frame is None else int(self.held_frame.sum())) + \
             int(self.held_points.sum()) + int(self.held_border.sum())
@@ -288,27 +295,22 @@ class BundleProblem(SchurProblem):
 
     def linearize(self, state) -> Linearization:
         eo, xyz, params, bxyz = self._split(state)
-        b = self.block
-        im, pts = b.image, b.points
-        ph = im.photo[self.obs]
+        pts = self.block.points
         rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every row set
-        f, je, jp, jpar = self.image_rows.evaluate(eo, xyz[self.eremap[im.point[self.obs]]],
-                                                   params, rot)
-        e = im.xy_mm[self.obs] - f
-        if self.b > 6:  # the free parameters of cameras in their photo's block
-            je = np.concatenate([je, self.image_rows.photo_columns(jpar)], axis=2)
+        f, je, jp, jpar = self.image_rows.evaluate(eo, xyz[self.obs_point], params, rot)
+        e = self.obs_xy - f
         given = pts.xyz[self.control]
         cur = xyz[self.eremap[self.control]]
         ec = np.where(np.isfinite(given), given, 0.0) - cur
         jc = np.broadcast_to(np.eye(3), (len(self.control), 3, 3)).copy()
         wf = ef = wp = ep = None
-        if self.held_frame is not None:
-            je = np.where(self.held_frame[ph][:, None, :], 0.0, je)
+        if self.held_frame is not None:  # zero columns in the rows of the photos concerned
+            hr = self.held_rows
+            je[hr] = np.where(self.held_frame[self.obs_photo[hr]][:, None, :], 0.0, je[hr])
             wf = np.where(self.held_frame, HOLD, 0.0)
             ef = np.zeros_like(wf)
         if self.held_points.any():  # fixed control: not unknowns (zero columns, held)
-            jp = np.where(self.held_points[self.eremap[im.point[self.obs]]][:, None, :], 0.0,
-                          jp)
+            jp = np.where(self.held_points[self.obs_point][:, None, :], 0.0, jp)
             wp = np.where(self.held_points, HOLD, 0.0)
             ep = np.zeros_like(wp)
             rows = self.eremap[self.control]
@@ -404,8 +406,7 @@ class BundleProblem(SchurProblem):
     def admissible(self, state) -> bool:
         eo, xyz, _, bxyz = self._split(state)
         im = self.block.image
-        ok = bool(np.all(camera_depth(eo, xyz[self.eremap[im.point[self.obs]]],
-                                      im.photo[self.obs]) > 0))
+        ok = bool(np.all(camera_depth(eo, xyz[self.obs_point], self.obs_photo) > 0))
         rows = self.border_images.rows
         if len(rows):
             ok &= bool(np.all(camera_depth(eo, bxyz[self.bremap[im.point[rows]]],

@@ -3,9 +3,9 @@
 An ImageRows is one set of rows of block.image (BundleProblem: those of the eliminated
 points and those of the border points) with what no iteration changes computed once; its
 `evaluate` gives the collinearity equations' values and Jacobians (bundle/collinearity.py)
-of every row with its camera's model, `free_columns` the columns of the free camera
-parameters in the border and `photo_columns` those in the photos' blocks
-(bundle/calibration.py).
+of every row with its camera's model (with the columns of the free parameters of a camera
+in its photo's block among the photo's), `free_columns` the columns of the free camera
+parameters in the border (bundle/calibration.py).
 """
 
 from __future__ import annotations
@@ -25,6 +25,11 @@ def model_groups(calibration: Calibration) -> list[tuple]:
     return list(groups.values())
 
 
+def _stacked(rot: tuple) -> np.ndarray:
+    """(n, 3, 3, 3) the derivatives of the rotations by omega, phi, kappa."""
+    return np.ascontiguousarray(np.stack(rot[1:], 1))
+
+
 class ImageRows:
     """One set of image rows (rows of block.image) as the linearisation takes them, with
     what no iteration changes computed once: the photo of each row, the rows of each camera
@@ -36,6 +41,7 @@ class ImageRows:
         photo = im.photo[rows]
         cam = block.photos.camera[photo]
         self.m = len(rows)
+        self.photo = photo
         self.width = 3 + max((mo.n_params for mo in calibration.models), default=0)
         # (model, its cameras, their rows, the photo and observation of each, the index
         # among the cameras of each row (None: one camera), the constants (of each row))
@@ -76,20 +82,34 @@ class ImageRows:
     def evaluate(self, eo: np.ndarray, xyz: np.ndarray, params, rot: tuple):
         """f, je, jp, jpar (3 + k columns of its camera) of the rows, camera by camera:
         eo (n_photos, 6), xyz (m, 3) the point of each row, params the parameters of
-        every camera, rot rotation_and_derivatives of every photo's angles."""
+        every camera, rot rotation_and_derivatives of every photo's angles.  je: d/d(the
+        photo's unknowns), its orientation (6), then the free parameters of a camera in the
+        photo's block (photo_width columns, 0 for the other rows)."""
+        from baarda.bundle.projection_kernel import brown_forward_rows, take_columns
+
         m = self.m
         f = np.zeros((m, 2))
-        je, jp = np.zeros((m, 2, 6)), np.zeros((m, 2, 3))
+        je, jp = np.zeros((m, 2, 6 + self.photo_width)), np.zeros((m, 2, 3))
         jpar = np.zeros((m, 2, self.width))
         for model, cams, sel, photo, observed, which, k in self.groups:
+            if model.name == "brown_forward":  # BAL, COLMAP, OpenSfM: one numba pass
+                table = np.array([params[i] for i in cams], float)
+                brown_forward_rows(
+                    np.ascontiguousarray(rot[0]), _stacked(rot),
+                    np.ascontiguousarray(eo[:, :3], dtype=float), self.photo,
+                    np.ascontiguousarray(xyz, dtype=float), sel, table,
+                    np.zeros(len(sel), np.int64) if which is None else which, f, je, jp, jpar)
+                continue
             p = params[cams[0]] if which is None else np.array(
                 [params[i] for i in cams], float)[which]
             out = camera_projection(eo, xyz[sel], photo, p, model, k, observed, rot)
-            if len(sel) == m:
+            if len(sel) == m and not self.photo_width:
                 f, je, jp = out[0], out[1], out[2]
             else:
-                f[sel], je[sel], jp[sel] = out[0], out[1], out[2]
+                f[sel], je[sel, :, :6], jp[sel] = out[0], out[1], out[2]
             jpar[sel, :, :out[3].shape[2]] = out[3]
+        for sel, idx in self.owned:
+            take_columns(jpar, sel, idx, je, 6)
         return f, je, jp, jpar
 
     def free_columns(self, jpar: np.ndarray) -> np.ndarray:
@@ -98,15 +118,4 @@ class ImageRows:
         out = np.zeros((self.m, 2, self.n_free))
         for sel, idx in self.free:
             out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
-        return out
-
-    def photo_columns(self, jpar: np.ndarray) -> np.ndarray:
-        """jpar restricted to the free parameters of a camera in its photo's block (the
-        photo's columns after its orientation), (m, 2, photo_width); 0 for the other rows."""
-        out = np.zeros((self.m, 2, self.photo_width))
-        for sel, idx in self.owned:
-            if len(sel) == self.m:
-                out[:, :, :len(idx)] = jpar[:, :, idx]
-            else:
-                out[sel, :, :len(idx)] = jpar[sel][:, :, idx]
         return out

@@ -185,8 +185,6 @@ class BorderImageRows(Rows):
                     free[sel][:, :, :len(cols)]
         for k in range(3):
             jg[np.arange(mb), :, self.columns[:, k]] = jp[:, :, k]
-        if self.calibration.photo_width:  # cameras in their photo's block
-            je = np.concatenate([je, self.image_rows.photo_columns(jpar)], axis=2)
         return ((self.xy - f).ravel(), je.reshape(2 * mb, je.shape[2]), jg.reshape(2 * mb, ng))
 
 
