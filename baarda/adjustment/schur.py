@@ -258,12 +258,10 @@ class SchurFactor:
         (mx, kx, kx) for the extra observations when the system has a border)."""
         lin, system = self.lin, self.system
         _, sff, spf, spp = self.covariances()
-        jf, jp = lin.jf, lin.jp
-        sf = sff[system.frame]
-        q = (jf @ sf @ np.swapaxes(jf, 1, 2)
-             + jp @ spp[system.point] @ np.swapaxes(jp, 1, 2))
-        cross = jp @ spf @ np.swapaxes(jf, 1, 2)
-        q += cross + np.swapaxes(cross, 1, 2)
+        q = kernels.observation_cofactors(system.frame, system.point,
+                                          np.ascontiguousarray(lin.jf, dtype=float),
+                                          np.ascontiguousarray(lin.jp, dtype=float), sff,
+                                          spf, spp)
         qc = lin.jc @ spp[system.control_point] @ np.swapaxes(lin.jc, 1, 2)
         if not self.has_border:
             return q, qc

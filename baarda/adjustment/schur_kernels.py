@@ -407,3 +407,56 @@ def reduce_rhs_columns(ptr, frame, hfp, hpp_inv, gp, red):
                     h = hfp[a, p, r]
                     for c in range(q):
                         red[f, p, c] -= h * u[r, c]
+
+
+@kernel
+def observation_cofactors(frame, point, jf, jp, sff, spf, spp):
+    """Cofactor blocks (m, k, k) of the adjusted frame-point observations with the globals
+    held: q = Jf Sff Jf' + Jp Spp Jp' + C + C', C = Jp Spf Jf', from the selected inverse's
+    diagonal frame blocks sff (nf, b, b), Spf per observation (m, d, b) and Spp per point
+    (np, d, d), row by row (no (m, b, b) copy of the frame blocks); each product summed in
+    the order of a matrix product, left to right."""
+    m, k, b = jf.shape
+    d = jp.shape[2]
+    q = np.empty((m, k, k))
+    t = np.empty((k, b))
+    u = np.empty((k, d))
+    x = np.empty((k, b))
+    for i in range(m):
+        f = frame[i]
+        j = point[i]
+        for r in range(k):
+            for c in range(b):
+                acc = 0.0
+                for s in range(b):
+                    acc += jf[i, r, s] * sff[f, s, c]
+                t[r, c] = acc
+            for c in range(d):
+                acc = 0.0
+                for s in range(d):
+                    acc += jp[i, r, s] * spp[j, s, c]
+                u[r, c] = acc
+            for c in range(b):
+                acc = 0.0
+                for s in range(d):
+                    acc += jp[i, r, s] * spf[i, s, c]
+                x[r, c] = acc
+        for r in range(k):
+            for c in range(k):
+                a1 = 0.0
+                for s in range(b):
+                    a1 += t[r, s] * jf[i, c, s]
+                a2 = 0.0
+                for s in range(d):
+                    a2 += u[r, s] * jp[i, c, s]
+                q[i, r, c] = a1 + a2
+        for r in range(k):
+            for c in range(k):
+                c1 = 0.0
+                for s in range(b):
+                    c1 += x[r, s] * jf[i, c, s]
+                c2 = 0.0
+                for s in range(b):
+                    c2 += x[c, s] * jf[i, r, s]
+                q[i, r, c] += c1 + c2
+    return q
