@@ -206,10 +206,9 @@ class SchurFactor:
             sel = self.chol.selected_inverse()
             values = sel.pattern_values()
             spf, spp = kernels.point_covariances(s.ptr, s.frame_sorted, self.hfp,
-                                                 self.hpp_inv, values, s.pair_slot, s.pair_tr)
-            inv = np.empty_like(s.order)
-            inv[s.order] = np.arange(len(s.order))
-            self._sel = (sel, values[s.diag_slot], spf[inv], spp)
+                                                 self.hpp_inv, values, s.pair_slot, s.pair_tr,
+                                                 s.order)
+            self._sel = (sel, values[s.diag_slot], spf, spp)
         return self._sel
 
     def _c_inv(self) -> np.ndarray:

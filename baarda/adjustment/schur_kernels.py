@@ -315,8 +315,9 @@ def back_substitute(ptr, frame, hfp, hpp_inv, gp, xf):
 
 
 @kernel
-def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
-    """Sigma_pf for every observation (m, d, b) and Sigma_pp per point (np, d, d).
+def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr, order):
+    """Sigma_pf for every observation (m, d, b), in the observations' own order (order[a]:
+    the observation at sorted position a), and Sigma_pp per point (np, d, d).
 
     sel: selected inverse of S in pattern storage (same slots as S).
         Sigma_pf[a] = -Hpp^-1 sum_c Hpf_c Sigma_ff[frame c, frame a]
@@ -363,12 +364,13 @@ def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
             for q in range(d):
                 tmp[p, q] = hinv[p, q]
         for a in range(lo, hi):
+            o = order[a]
             for p in range(d):
                 for q in range(b):
                     x = 0.0
                     for r in range(d):
                         x += hinv[p, r] * acc[a, r, q]
-                    spf[a, p, q] = -x
+                    spf[o, p, q] = -x
             # tmp -= spf[a] @ hfp[a] @ hinv
             for p in range(d):
                 for q in range(d):
@@ -377,7 +379,7 @@ def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
                         y = 0.0
                         for t in range(d):
                             y += hfp[a, r, t] * hinv[t, q]
-                        x += spf[a, p, r] * y
+                        x += spf[o, p, r] * y
                     tmp[p, q] -= x
         for p in range(d):
             for q in range(d):

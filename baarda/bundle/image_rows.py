@@ -25,6 +25,9 @@ def model_groups(calibration: Calibration) -> list[tuple]:
     return list(groups.values())
 
 
+FUSED = "brown_forward"  # the camera model linearised in one numba pass
+
+
 def _stacked(rot: tuple) -> np.ndarray:
     """(n, 3, 3, 3) the derivatives of the rotations by omega, phi, kappa."""
     return np.ascontiguousarray(np.stack(rot[1:], 1))
@@ -68,16 +71,32 @@ class ImageRows:
                      if len(idx) and owner[i] < 0 and (cam == i).any()]
         self.n_free = calibration.width
         # (rows, free parameters) of the cameras in their photo's block, grouped by the
-        # parameters they free (BAL: one group, c, k1, k2 of every camera)
+        # parameters they free; the brown_forward kernel writes those of its cameras itself
+        # (`columns`: the column of each parameter of each of its cameras, or -1)
         by_free: dict[tuple, list[int]] = {}
+        fused = {i for model, cams in model_groups(calibration) if model.name == FUSED
+                 for i in cams}
         for i in np.flatnonzero(owner >= 0):
-            by_free.setdefault(tuple(calibration.free_index[i]), []).append(i)
+            if i not in fused:
+                by_free.setdefault(tuple(calibration.free_index[i]), []).append(i)
         self.owned = []
         for idx, cams in by_free.items():
             sel = np.flatnonzero(np.isin(cam, cams))
             if len(sel):
                 self.owned.append((sel, np.array(idx, np.int64)))
+        self.columns = {}
+        for model, cams, *_ in self.groups:
+            if model.name == FUSED:
+                table = np.full((len(cams), 3 + model.n_params), -1, np.int64)
+                for q, i in enumerate(cams):
+                    if owner[i] >= 0:
+                        table[q, calibration.free_index[i]] = 6 + np.arange(
+                            len(calibration.free_index[i]))
+                self.columns[id(model)] = table
         self.photo_width = calibration.photo_width
+        # d f / d(camera parameters) is needed for the border's columns (free_columns) and
+        # the cameras in their photo's block that the kernel does not write itself
+        self.need_jpar = bool(self.free) or bool(self.owned)
 
     def evaluate(self, eo: np.ndarray, xyz: np.ndarray, params, rot: tuple):
         """f, je, jp, jpar (3 + k columns of its camera) of the rows, camera by camera:
@@ -90,15 +109,16 @@ class ImageRows:
         m = self.m
         f = np.zeros((m, 2))
         je, jp = np.zeros((m, 2, 6 + self.photo_width)), np.zeros((m, 2, 3))
-        jpar = np.zeros((m, 2, self.width))
+        jpar = np.zeros((m if self.need_jpar else 0, 2, self.width))
         for model, cams, sel, photo, observed, which, k in self.groups:
-            if model.name == "brown_forward":  # BAL, COLMAP, OpenSfM: one numba pass
+            if model.name == FUSED:  # BAL, COLMAP, OpenSfM: one numba pass
                 table = np.array([params[i] for i in cams], float)
                 brown_forward_rows(
                     np.ascontiguousarray(rot[0]), _stacked(rot),
                     np.ascontiguousarray(eo[:, :3], dtype=float), self.photo,
                     np.ascontiguousarray(xyz, dtype=float), sel, table,
-                    np.zeros(len(sel), np.int64) if which is None else which, f, je, jp, jpar)
+                    np.zeros(len(sel), np.int64) if which is None else which,
+                    self.columns[id(model)], f, je, jp, jpar)
                 continue
             p = params[cams[0]] if which is None else np.array(
                 [params[i] for i in cams], float)[which]
@@ -107,7 +127,8 @@ class ImageRows:
                 f, je, jp = out[0], out[1], out[2]
             else:
                 f[sel], je[sel, :, :6], jp[sel] = out[0], out[1], out[2]
-            jpar[sel, :, :out[3].shape[2]] = out[3]
+            if self.need_jpar:
+                jpar[sel, :, :out[3].shape[2]] = out[3]
         for sel, idx in self.owned:
             take_columns(jpar, sel, idx, je, 6)
         return f, je, jp, jpar

@@ -57,14 +57,16 @@ project_rows = kernel(_project_rows, error_model="numpy")
 
 def _brown_forward_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo: np.ndarray,
                         xyz: np.ndarray, rows: np.ndarray, table: np.ndarray,
-                        which: np.ndarray, f: np.ndarray, je: np.ndarray, jp: np.ndarray,
-                        jpar: np.ndarray) -> None:
+                        which: np.ndarray, columns: np.ndarray, f: np.ndarray, je: np.ndarray,
+                        jp: np.ndarray, jpar: np.ndarray) -> None:
     """The observation equations of cameras of the `brown_forward` model (BAL, COLMAP,
     OpenSfM), projection, lens and chain rule in one pass per row: what
     collinearity.camera_projection computes with the model's array code, in the same
     order (the 2 x 2 products written out).  For rows[i] (of f, je, jp, jpar, photo, xyz):
     the camera's parameters table[which[i]] = c, x0, y0, k1, k2, k3, p1, p2, a; f (m, 2),
-    je (m, 2, 6), jp (m, 2, 3), jpar (m, 2, >= 9)."""
+    je (m, 2, 6 + k), jp (m, 2, 3), jpar (m, 2, >= 9) or (0, 2, w) when not wanted; the
+    derivative by parameter j also goes to je[:, :, columns[which[i], j]] where that is
+    >= 0 (a camera in its photo's block)."""
     for i in range(len(rows)):
         m = rows[i]
         p = photo[m]
@@ -125,18 +127,21 @@ def _brown_forward_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo
             je[m, 0, 3 + k] = dd00 * e0 + dd01 * e1
             je[m, 1, 3 + k] = dd10 * e0 + dd11 * e1
         # d f / d(c, x0, y0, k1, k2, k3, p1, p2, a)
-        jpar[m, 0, 0] = i0 / c + delta0
-        jpar[m, 1, 0] = i1 / c + delta1
-        jpar[m, 0, 1], jpar[m, 1, 1] = 1.0, 0.0
-        jpar[m, 0, 2], jpar[m, 1, 2] = 0.0, 1.0
         r4 = r2 * r2
         r6 = r4 * r2
-        jpar[m, 0, 3], jpar[m, 1, 3] = c * (x * r2), c * ((y * r2) * s)
-        jpar[m, 0, 4], jpar[m, 1, 4] = c * (x * r4), c * ((y * r4) * s)
-        jpar[m, 0, 5], jpar[m, 1, 5] = c * (x * r6), c * ((y * r6) * s)
-        jpar[m, 0, 6], jpar[m, 1, 6] = c * tx0, c * (tx1 * s)
-        jpar[m, 0, 7], jpar[m, 1, 7] = c * ty0, c * (ty1 * s)
-        jpar[m, 0, 8], jpar[m, 1, 8] = c * 0.0, c * (y + bd1)
+        dx = (i0 / c + delta0, 1.0, 0.0, c * (x * r2), c * (x * r4), c * (x * r6), c * tx0,
+              c * ty0, c * 0.0)
+        dy = (i1 / c + delta1, 0.0, 1.0, c * ((y * r2) * s), c * ((y * r4) * s),
+              c * ((y * r6) * s), c * (tx1 * s), c * (ty1 * s), c * (y + bd1))
+        if jpar.shape[0]:
+            for j in range(9):
+                jpar[m, 0, j] = dx[j]
+                jpar[m, 1, j] = dy[j]
+        for j in range(9):
+            col = columns[q, j]
+            if col >= 0:
+                je[m, 0, col] = dx[j]
+                je[m, 1, col] = dy[j]
 
 
 brown_forward_rows = kernel(_brown_forward_rows, error_model="numpy")
