@@ -44,8 +44,12 @@ class SchurFactor:
         hpp = np.zeros((s.np, s.d, s.d))
         gp = np.zeros((s.np, s.d))
         self.hfp = np.zeros((len(s.order), s.b, s.d))
-        kernels.assemble(s.order, s.frame, s.point_sorted, lin.jf, lin.jp, lin.w, lin.e,
-                         self.hfp, hff, gf, hpp, gp)
+        if s.parallel_reduction():
+            kernels.assemble_parallel(s.order, s.ptr, s.frame_ptr, s.frame_obs, lin.jf, lin.jp,
+                                      lin.w, lin.e, self.hfp, hff, gf, hpp, gp)
+        else:  # the same numbers on one thread
+            kernels.assemble(s.order, s.frame, s.point_sorted, lin.jf, lin.jp, lin.w, lin.e,
+                             self.hfp, hff, gf, hpp, gp)
         if lin.wf is not None:  # direct observations of frame unknowns (e.g. GNSS, datum)
             hff[:, np.arange(s.b), np.arange(s.b)] += lin.wf
             gf += lin.wf * lin.ef

@@ -100,6 +100,46 @@ def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp)
     return 0
 
 
+@parallel_kernel
+def assemble_parallel(order, ptr, frame_ptr, frame_obs, jf, jp, w, e, hfp, hff, gf, hpp, gp):
+    """`assemble` on numba's threads, every sum in the serial loop's order (the same numbers
+    to the last bit): the point parts point by point (ptr: each point's observations in
+    sorted order), the frame parts frame by frame, each frame's observations in sorted
+    order (frame_obs[frame_ptr[f]:...])."""
+    k, b = jf.shape[1], jf.shape[2]
+    d = jp.shape[2]
+    for j in prange(len(ptr) - 1):
+        for a in range(ptr[j], ptr[j + 1]):
+            i = order[a]
+            for r in range(k):
+                wr = w[i, r]
+                if wr == 0.0:
+                    continue
+                for p in range(b):
+                    wp = wr * jf[i, r, p]
+                    for q in range(d):
+                        hfp[a, p, q] += wp * jp[i, r, q]
+                for p in range(d):
+                    wp = wr * jp[i, r, p]
+                    gp[j, p] += wp * e[i, r]
+                    for q in range(d):
+                        hpp[j, p, q] += wp * jp[i, r, q]
+    for f in prange(len(frame_ptr) - 1):
+        for x in range(frame_ptr[f], frame_ptr[f + 1]):
+            i = order[frame_obs[x]]
+            for r in range(k):
+                wr = w[i, r]
+                if wr == 0.0:
+                    continue
+                er = wr * e[i, r]
+                for p in range(b):
+                    wp = wr * jf[i, r, p]
+                    gf[f, p] += jf[i, r, p] * er
+                    for q in range(b):
+                        hff[f, p, q] += wp * jf[i, r, q]
+    return 0
+
+
 def _inline(fn):
     """A kernel inlined into its callers, where literal sizes become loop bounds the compiler
     unrolls (the photo's 6 and the point's 3 unknowns: the same operations in the same order,

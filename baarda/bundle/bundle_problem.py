@@ -20,7 +20,7 @@ from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
 from baarda.adjustment.solve import solve
 from baarda.block.photo_block import Block
-from baarda.block.rotation import rotation_and_derivatives
+from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth
@@ -404,9 +404,13 @@ class BundleProblem(SchurProblem):
         return f"{dpos:.3g} m, {dang:.3g} rad"
 
     def admissible(self, state) -> bool:
+        from baarda.bundle.projection_kernel import all_in_front
+
         eo, xyz, _, bxyz = self._split(state)
         im = self.block.image
-        ok = bool(np.all(camera_depth(eo, xyz[self.obs_point], self.obs_photo) > 0))
+        rot = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+        ok = bool(all_in_front(rot, np.ascontiguousarray(eo[:, :3]), self.obs_photo,
+                               self.obs_point, xyz))
         rows = self.border_images.rows
         if len(rows):
             ok &= bool(np.all(camera_depth(eo, bxyz[self.bremap[im.point[rows]]],

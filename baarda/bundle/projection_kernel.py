@@ -157,3 +157,19 @@ def take_columns(src: np.ndarray, rows: np.ndarray, cols: np.ndarray, dst: np.nd
         for a in range(src.shape[1]):
             for s in range(len(cols)):
                 dst[r, a, first + s] = src[r, a, cols[s]]
+
+
+@kernel
+def all_in_front(rot: np.ndarray, x0: np.ndarray, photo: np.ndarray, point: np.ndarray,
+                 xyz: np.ndarray) -> bool:
+    """Whether every observed point xyz[point[i]] lies in front of its photo photo[i]
+    (rotations rot (n, 3, 3), projection centres x0 (n, 3)): -u3 > 0
+    (collinearity.camera_depth), checked row by row up to the first point behind."""
+    for i in range(len(photo)):
+        p = photo[i]
+        j = point[i]
+        depth = -(rot[p, 0, 2] * (xyz[j, 0] - x0[p, 0]) + rot[p, 1, 2] * (xyz[j, 1] - x0[p, 1])
+                  + rot[p, 2, 2] * (xyz[j, 2] - x0[p, 2]))
+        if not depth > 0.0:
+            return False
+    return True
