@@ -137,7 +137,7 @@ def write(problem: dict, path: Path) -> None:
 
 
 # ---------------------------------------------------------------- workers (processes)
-def worker_baarda(path: str, out: str) -> None:
+def worker_baarda(path: str, out: str, damping: str = "gn") -> None:
     t0 = time.perf_counter()
     import baarda
     from baarda.pipeline import prepare
@@ -145,7 +145,7 @@ def worker_baarda(path: str, out: str) -> None:
     t_imp = time.perf_counter()
     block = baarda.read(path)
     t_read = time.perf_counter()
-    problem = prepare(block)
+    problem = prepare(block, solve=damping)
     t_prep = time.perf_counter()
     res = problem.fit()
     t_adj = time.perf_counter()
@@ -159,10 +159,11 @@ def worker_baarda(path: str, out: str) -> None:
         "observations": int(res.n_observations), "unknowns": int(res.n_unknowns),
         "sum_r": float(np.nansum(r)), "redundancy": int(res.redundancy),
         "max_abs_w": float(np.nanmax(np.abs(qc.quality.w))),
-        "photo_block": int(problem.system.b)}))
+        "photo_block": int(problem.system.b), "damping": damping,
+        "message": res.notes[-1] if not res.converged and res.notes else ""}))
 
 
-def worker_pycolmap(path: str, out: str) -> None:
+def worker_pycolmap(path: str, out: str, damping: str = "") -> None:
     t0 = time.perf_counter()
     import pycolmap
 
@@ -220,13 +221,13 @@ def worker_pycolmap(path: str, out: str) -> None:
         "linear_solver": str(so.linear_solver_type)}))
 
 
-def _spawn(engine: str, path: Path, out: Path) -> dict:
+def _spawn(engine: str, path: Path, out: Path, damping: str = "gn") -> dict:
     """One engine in its own process: its record with the process' wall s and peak MB."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + [p for p in [env.get("PYTHONPATH")] if p])
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, __file__, "--worker", engine, str(path), str(out)],
-                            env=env, cwd=ROOT)
+    proc = subprocess.Popen([sys.executable, __file__, "--worker", engine, str(path), str(out),
+                             damping], env=env, cwd=ROOT)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     if os.waitstatus_to_exitcode(status) != 0:
@@ -243,6 +244,9 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--engines", nargs="*", default=["baarda", "pycolmap"])
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--damping", choices=["gn", "lm"], default="gn",
+                    help="baarda's solver: Gauss-Newton with step halving (the default) or "
+                         "Levenberg-Marquardt")
     ap.add_argument("--folder", type=Path, default=None, help="keep the files here")
     args = ap.parse_args(argv)
     folder = args.folder or Path(tempfile.mkdtemp(prefix="bal-scale-"))
@@ -259,7 +263,7 @@ def main(argv=None) -> int:
         runs: dict[str, list[dict]] = {e: [] for e in args.engines}
         for _ in range(args.repeat):
             for engine in args.engines:
-                rec = _spawn(engine, path, folder / f"{engine}-{n}.json")
+                rec = _spawn(engine, path, folder / f"{engine}-{n}.json", args.damping)
                 print(f"  {engine} {n}: {json.dumps(rec)}", file=sys.stderr, flush=True)
                 runs[engine].append(rec)
         lines.append((n, runs))
@@ -294,6 +298,6 @@ def main(argv=None) -> int:
 
 if __name__ == "__main__":
     if len(sys.argv) > 1 and sys.argv[1] == "--worker":
-        {"baarda": worker_baarda, "pycolmap": worker_pycolmap}[sys.argv[2]](*sys.argv[3:5])
+        {"baarda": worker_baarda, "pycolmap": worker_pycolmap}[sys.argv[2]](*sys.argv[3:6])
         sys.exit(0)
     sys.exit(main())
