@@ -291,8 +291,10 @@ def main(argv=None) -> int:
             if len(costs) == 2:
                 a, b = costs.values()
                 rel = f"{abs(a - b) / b:.1e}"
+            its = f"{ok[0]['iterations']}" + ("" if ok[-1].get("converged", True) else
+                                               " (NOT converged)")
             print(f"| {n} | {obs} | {engine} | {med['wall_s']:.2f} | {med['peak_mb']:.0f} | "
-                  f"{ph} | {ok[0]['iterations']} | {ok[-1]['cost']:.10g} | {rel} |")
+                  f"{ph} | {its} | {ok[-1]['cost']:.10g} | {rel} |")
     return 0
 
 

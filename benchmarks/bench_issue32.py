@@ -64,7 +64,8 @@ def bal_scale(sizes: list[int], repeat: int, folder: Path) -> list[tuple]:
         rows.append((f"{name}: baarda adjust + statistics vs pycolmap's solve alone",
                      med(a, "adjust_s", "assess_s"), med(p, "solve_s"), 1.0, rel,
                      f"memory: {med(a, 'peak_mb') / med(p, 'peak_mb'):.2f} x pycolmap's "
-                     "process peak"))
+                     "process peak" + ("" if a[-1]["converged"] else
+                                       "; baarda NOT converged")))
     return rows
 
 
