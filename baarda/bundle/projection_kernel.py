@@ -11,8 +11,26 @@ to pay for starting numba's threads).
 from __future__ import annotations
 
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
 from baarda.linalg._jit import kernel
+
+
+@intrinsic
+def _fma(typingctx, x, y, z):
+    """x * y + z rounded once (LLVM's fma): the 2 x 2 products of NumPy's matmul, which
+    OpenBLAS computes as fma(a1, b1, a0 * b0), so the linearisation keeps their numbers."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        dbl = ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [dbl],
+                                              ir.FunctionType(dbl, [dbl, dbl, dbl]))
+        return builder.call(fn, args)
+
+    return sig, codegen
 
 
 def _project_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo: np.ndarray,
@@ -62,11 +80,11 @@ def _brown_forward_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo
     """The observation equations of cameras of the `brown_forward` model (BAL, COLMAP,
     OpenSfM), projection, lens and chain rule in one pass per row: what
     collinearity.camera_projection computes with the model's array code, in the same
-    order (the 2 x 2 products written out).  For rows[i] (of f, je, jp, jpar, photo, xyz):
-    the camera's parameters table[which[i]] = c, x0, y0, k1, k2, k3, p1, p2, a; f (m, 2),
-    je (m, 2, 6 + k), jp (m, 2, 3), jpar (m, 2, >= 9) or (0, 2, w) when not wanted; the
-    derivative by parameter j also goes to je[:, :, columns[which[i], j]] where that is
-    >= 0 (a camera in its photo's block)."""
+    order (the 2 x 2 products as NumPy's matmul rounds them, `_fma`).  For rows[i] (of
+    f, je, jp, jpar, photo, xyz): the camera's parameters table[which[i]] = c, x0, y0,
+    k1, k2, k3, p1, p2, a; f (m, 2), je (m, 2, 6 + k), jp (m, 2, 3), jpar (m, 2, >= 9)
+    or (0, 2, w) when not wanted; the derivative by parameter j also goes to
+    je[:, :, columns[which[i], j]] where that is >= 0 (a camera in its photo's block)."""
     for i in range(len(rows)):
         m = rows[i]
         p = photo[m]
@@ -114,18 +132,18 @@ def _brown_forward_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo
         for k in range(3):  # d/dX, then d/dX0 = -d/dX, through I + d delta / dn
             e0 = a * rot[p, k, 0] + b0 * rot[p, k, 2]
             e1 = a * rot[p, k, 1] + b1 * rot[p, k, 2]
-            jp[m, 0, k] = dd00 * e0 + dd01 * e1
-            jp[m, 1, k] = dd10 * e0 + dd11 * e1
-            je[m, 0, k] = dd00 * -e0 + dd01 * -e1
-            je[m, 1, k] = dd10 * -e0 + dd11 * -e1
+            jp[m, 0, k] = _fma(dd01, e1, dd00 * e0)
+            jp[m, 1, k] = _fma(dd11, e1, dd10 * e0)
+            je[m, 0, k] = _fma(dd01, -e1, dd00 * -e0)
+            je[m, 1, k] = _fma(dd11, -e1, dd10 * -e0)
         for k in range(3):  # d/d(omega, phi, kappa)
             v0 = drot[p, k, 0, 0] * d0 + drot[p, k, 1, 0] * d1 + drot[p, k, 2, 0] * d2
             v1 = drot[p, k, 0, 1] * d0 + drot[p, k, 1, 1] * d1 + drot[p, k, 2, 1] * d2
             v2 = drot[p, k, 0, 2] * d0 + drot[p, k, 1, 2] * d1 + drot[p, k, 2, 2] * d2
             e0 = a * v0 + b0 * v2
             e1 = a * v1 + b1 * v2
-            je[m, 0, 3 + k] = dd00 * e0 + dd01 * e1
-            je[m, 1, 3 + k] = dd10 * e0 + dd11 * e1
+            je[m, 0, 3 + k] = _fma(dd01, e1, dd00 * e0)
+            je[m, 1, 3 + k] = _fma(dd11, e1, dd10 * e0)
         # d f / d(c, x0, y0, k1, k2, k3, p1, p2, a)
         r4 = r2 * r2
         r6 = r4 * r2
