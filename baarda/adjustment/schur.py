@@ -51,7 +51,7 @@ class SchurFactor:
         hpp = np.zeros((s.np, s.d, s.d))
         gp = np.zeros((s.np, s.d))
         self.hfp = np.zeros((len(s.order), s.b, s.d))
-        if s.parallel_reduction():
+        if s.parallel_assembly():
             kernels.assemble_parallel(s.order, s.ptr, s.frame_ptr, s.frame_obs, lin.jf, lin.jp,
                                       lin.w, lin.e, self.hfp, hff, gf, hpp, gp)
         else:  # the same numbers on one thread
