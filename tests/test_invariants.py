@@ -335,3 +335,19 @@ def test_snooping_stopped_at_its_limit_says_so_first(tmp_path):
     assert html.index("SNOOPING INCOMPLETE") < html.index("<nav>")
     page = quality_page(res)
     assert page.index("SNOOPING INCOMPLETE") < page.index("<h3>Summary</h3>")
+
+
+@pytest.mark.slow
+def test_levenberg_marquardt_on_the_command_line(tmp_path, capsys):
+    """Issue 26, item 5: `--damping lm` on BAL Ladybug-49 with its free intrinsics raised
+    GeometryError from inside the solver; now it ends like Gauss-Newton: exit 3 with the last
+    sound estimate and the reason, no traceback."""
+    src = need(DATA / "bal" / "problem-49-7776-pre.txt.bz2")
+    out = tmp_path / "o"
+    rc = main(["adjust", str(src), "-o", str(out), "--damping", "lm", "-q"])
+    err = capsys.readouterr().err
+    assert rc in (0, 3) and "Traceback" not in err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["converged"] is (rc == 0)
+    if rc == 3:
+        assert any("diverged" in n or "not converged" in n for n in s["notes"])
