@@ -5,26 +5,30 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from baarda.cli.argtypes import probability
 from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
     add_out_argument,
+    add_quiet_option,
     announce_compile,
     open_run,
     progress,
     tests_option,
 )
+from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, read_input
+from baarda.cli.verdicts import adjustment_verdict
 
 
 def _common(p) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
     add_out_argument(p, "output folder")
-    p.add_argument("--alpha0", type=float, help="significance level of the w-test "
+    p.add_argument("--alpha0", type=probability, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
-    p.add_argument("--alpha-global", type=float, help="level of the headline global test "
+    p.add_argument("--beta0", type=probability, help="power of the tests (default 0.80)")
+    p.add_argument("--alpha-global", type=probability, help="level of the headline global test "
                    "of the variance factor (default: project.toml [tests] alpha_global, else "
                    "0.05; the B-method's coupled test is printed beside it)")
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau (sigma0 a "
@@ -44,7 +48,7 @@ def _common(p) -> None:
                    "observations.parquet instead of observations.csv (the same columns and "
                    "numbers; for blocks of millions of observations: written and read "
                    "several times faster; baarda report reads either)")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    add_quiet_option(p)
     add_input_options(p)
 
 
@@ -66,11 +70,12 @@ def register(sub) -> None:
 
 
 def run_adjust(args) -> int:
+    con = console(args)
     with open_run(args, [args.input]) as run:
         qc, text = _adjust(args, run)
-    if not args.quiet:
-        print(text)
-        print(f"results written to {run.describe()}")
+    con.print(text)
+    con.print(f"results written to {run.describe()}")
+    con.verdict(args.command, f"{adjustment_verdict(qc.to_dict())} -> {run.describe()}")
     return OK if qc.adjustment.converged else NOT_CONVERGED
 
 
@@ -86,13 +91,13 @@ def _adjust(args, run):
         with_variance_components,
     )
 
-    say = progress(args.quiet)
+    say = progress(args)
     block = read_input(args)
     tests = tests_option(block.settings, args)
     if say:
         say(f"read {block.summary()}")
     # the computation is imported (and compiled, on a first run) once the input is read
-    announce_compile(say, len(block.photos))
+    announce_compile(args, len(block.photos))
     from baarda.output.bundle_results import write_results
 
     statistic = "tau" if args.tau else "w"
@@ -110,9 +115,8 @@ def _adjust(args, run):
     est = None
     if getattr(args, "vce", False) and not args.snoop:
         problem, est = with_variance_components(problem, progress=say)
-    if say:
-        for note in problem.block.notes:
-            say(f"note: {note}")
+    for note in problem.block.notes:
+        console(args).note(note)
     if args.snoop and getattr(args, "vce", False):
         qc, _ = snoop_with_variance_components(problem, tests, statistic=statistic,
                                                by_point=args.by_point, robust=args.robust,

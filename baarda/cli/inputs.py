@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
+from baarda.cli.argtypes import positive
 from baarda.cli.common import add_encoding_option
 from baarda.errors import ProjectError
 from baarda.io.formats import FORMATS
@@ -16,12 +17,12 @@ def add_input_options(p) -> None:
                    "the path)")
     p.add_argument("--crs", help="CRS of the ground coordinates (e.g. EPSG:32632); overrides "
                    "project.toml")
-    p.add_argument("--pixel-mm", type=float, default=0.001, help="nominal pixel size for "
+    p.add_argument("--pixel-mm", type=positive("mm"), default=0.001, help="nominal pixel size for "
                    "COLMAP, BAL and OpenSfM input [mm] (default 0.001: residuals in µm read as "
                    "pixels)")
-    p.add_argument("--sigma-px", type=float, default=1.0, help="image sigma for COLMAP, "
+    p.add_argument("--sigma-px", type=positive("px"), default=1.0, help="image sigma for COLMAP, "
                    "BAL and OpenSfM input [px] (default 1)")
-    p.add_argument("--sigma-image-um", type=float, help="image sigma for AICON input [µm] "
+    p.add_argument("--sigma-image-um", type=positive("µm"), help="image sigma for AICON input [µm] "
                    "(default: the .phc file's)")
     add_encoding_option(p)
     p.add_argument("--camera-model", choices=[k for k in KINDS if k != "brown_backward"],

@@ -6,7 +6,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from baarda.cli.argtypes import positive, probability
 from baarda.cli.common import tests_option
+from baarda.cli.console import console
 from baarda.errors import GeometryError, ProjectError
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import check_output_file
@@ -20,26 +22,29 @@ def register(sub) -> None:
     p.add_argument("file", nargs="?", type=Path,
                    help="measurement file, e.g. examples/online/strip.txt ('-' or none: "
                    "read lines from the prompt or from stdin)")
-    p.add_argument("--focal", type=float, help="principal distance in mm (or a camera line)")
-    p.add_argument("--sigma", type=float, default=10.0, help="sigma of x'' in µm (default 10)")
-    p.add_argument("--qyy", type=float, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
-    p.add_argument("--qtie", type=float, default=DEFAULT_QTIE,
+    p.add_argument("--focal", type=positive("mm"),
+                   help="principal distance in mm (or a camera line)")
+    p.add_argument("--sigma", type=positive("µm"), default=10.0,
+                   help="sigma of x'' in µm (default 10)")
+    p.add_argument("--qyy", type=positive(), default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=positive(), default=DEFAULT_QTIE,
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1 as Kratky; 5 accounts for the errors of the tie "
                    "coordinates, docs/online.md)")
-    p.add_argument("--alpha0", type=float, help="level of the w-test (default 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
+    p.add_argument("--alpha0", type=probability, help="level of the w-test (default 0.001)")
+    p.add_argument("--beta0", type=probability, help="power of the tests (default 0.80)")
     p.add_argument("--tau", action="store_true", help="test with Pope's tau instead of w")
     p.add_argument("--vce", action="store_true", help="estimate the variance components of "
                    "the y-parallaxes and of the x'' at the tie points over the strip so far "
                    "and orient and test each model with them (q_yy/q_xx and q_tie estimated; "
                    "a group with too little redundancy keeps --qyy / --qtie)")
     p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, prints_results=True)
 
 
 def run(args) -> int:
-    interp = Interpreter(say=print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
+    say = console(args).print
+    interp = Interpreter(say=say, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
                          qtie=args.qtie, tests=tests_option(None, args),
                          statistic="tau" if args.tau else "w", vce=args.vce)
     if args.out is not None:
@@ -58,7 +63,7 @@ def run(args) -> int:
             _batch(interp, fh, str(args.file))
     if args.out is not None and interp.session is not None and interp.session.accepted:
         write_text(args.out, coordinates_csv(interp.session))
-        print(f"strip coordinates written to {args.out}")
+        say(f"strip coordinates written to {args.out}")
     return 0
 
 
@@ -84,7 +89,7 @@ def _batch(interp: Interpreter, lines, name: str) -> None:
 
 
 def _prompt(interp: Interpreter) -> None:
-    print("baarda online: type 'help' for the commands, 'quit' to stop")
+    print("baarda online: type 'help' for the commands, 'quit' to stop")  # a terminal
     while not interp.done:
         try:
             prompt = "point> " if interp.collecting is not None else "online> "

@@ -6,8 +6,11 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from baarda.cli.argtypes import pattern_spec, positive
+from baarda.cli.console import console
 from baarda.errors import ProjectError
 from baarda.output.atomic import write_text
+from baarda.output.run_folder import check_output_file
 from baarda.relative.orientation import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.relative.pattern_drawing import svg_drawing, text_drawing
 from baarda.relative.point_pattern import NAMED, PatternPoint, design, standard_pattern
@@ -16,25 +19,31 @@ from baarda.relative.point_pattern import NAMED, PatternPoint, design, standard_
 def register(sub) -> None:
     p = sub.add_parser("pattern", help="point-pattern design for relative orientation with "
                        "scale transfer (Kratky's Figures 2, 4, 7)")
-    p.add_argument("spec", help=f"pattern: {', '.join(NAMED)}, CxR, CxR+corners, CxR+edges, "
-                   "or a CSV file with columns name,x,y[,tie] (left image mm)")
+    p.add_argument("spec", type=pattern_spec(NAMED, MAX_SIDE), help="pattern: "
+                   f"{', '.join(NAMED)}, CxR, CxR+corners, CxR+edges, or a CSV file with columns "
+                   "name,x,y[,tie] (left image mm)")
     p.add_argument("--ties", type=int, default=0, choices=[0, 3, 5],
                    help="tie points (the left column) for the scale transfer")
-    p.add_argument("--focal", type=float, default=152.0, help="principal distance, mm")
-    p.add_argument("--base", type=float, default=92.0, help="base in the image, mm")
-    p.add_argument("--width", type=float, default=92.0, help="half width of the pattern in y, "
-                   "mm")
-    p.add_argument("--twin-offset", type=float, default=1.0, help="distance of doubled points "
-                   "from their original, mm")
-    p.add_argument("--qyy", type=float, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
-    p.add_argument("--qtie", type=float, default=DEFAULT_QTIE,
+    p.add_argument("--focal", type=positive("mm"), default=152.0,
+                   help="principal distance, mm")
+    p.add_argument("--base", type=positive("mm"), default=92.0, help="base in the image, mm")
+    p.add_argument("--width", type=positive("mm"), default=92.0,
+                   help="half width of the pattern in y, mm")
+    p.add_argument("--twin-offset", type=positive("mm"), default=1.0,
+                   help="distance of doubled points from their original, mm")
+    p.add_argument("--qyy", type=positive(), default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=positive(), default=DEFAULT_QTIE,
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1)")
-    p.add_argument("--serious", type=float, default=0.8, help="ratio to the diagonal from "
+    p.add_argument("--serious", type=positive(), default=0.8, help="ratio to the diagonal from "
                    "which a transfer is listed as serious (default 0.8)")
     p.add_argument("--matrix", action="store_true", help="print the full Qvv P matrix")
     p.add_argument("--svg", type=Path, help="write the drawing as SVG")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, prints_results=True)
+
+
+#: the most columns and rows of a CxR pattern (a relative orientation measures a few dozen)
+MAX_SIDE = 20
 
 
 def read_points(path: Path) -> list[PatternPoint]:
@@ -71,24 +80,30 @@ def read_points(path: Path) -> list[PatternPoint]:
 
 
 def run(args) -> int:
+    say = console(args).print
     spec_path = Path(args.spec)
-    if spec_path.suffix.lower() == ".csv" or spec_path.is_file():
+    from_file = spec_path.suffix.lower() == ".csv" or spec_path.is_file()
+    if args.svg is not None:
+        check_output_file(args.svg, [spec_path] if from_file else [])
+    if from_file:
         pts = read_points(spec_path)
         title = f"pattern {spec_path.name}"
     else:
-        pts = standard_pattern(args.spec, args.ties, args.base, args.width, args.twin_offset)
+        try:
+            pts = standard_pattern(args.spec, args.ties, args.base, args.width,
+                                   args.twin_offset)
+        except ValueError as e:  # --ties that the pattern's left column does not have
+            raise ProjectError("--ties", str(e)) from None
         title = f"pattern {args.spec}" + (f" with {args.ties} tie points" if args.ties else "")
     d = design(pts, args.focal, args.base, args.qyy, args.serious, args.qtie)
-    print(text_drawing(d, title), end="")
+    say(text_drawing(d, title), end="")
     if args.matrix:
         labels = [d.label(i) for i in range(d.n)]
-        print("Qvv P (column j: effect of an error in observation j):")
-        print("        " + "".join(f"{s:>7}" for s in labels))
+        say("Qvv P (column j: effect of an error in observation j):")
+        say("        " + "".join(f"{s:>7}" for s in labels))
         for i, s in enumerate(labels):
-            print(f"  {s:>6}" + "".join(f"{v:7.3f}" for v in d.qvvp[i]))
+            say(f"  {s:>6}" + "".join(f"{v:7.3f}" for v in d.qvvp[i]))
     if args.svg is not None:
-        if spec_path.is_file() and args.svg.resolve() == spec_path.resolve():
-            raise FileExistsError(f"output {args.svg} is the input file")
         write_text(args.svg, svg_drawing(d, title))
-        print(f"drawing written to {args.svg}")
+        say(f"drawing written to {args.svg}")
     return 0

@@ -4,7 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import add_out_argument, announce_compile, open_run, progress
+from baarda.cli.argtypes import choices_list, non_negative, number, probability
+from baarda.cli.common import (
+    add_out_argument,
+    add_quiet_option,
+    announce_compile,
+    open_run,
+    progress,
+)
+from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, read_input
 from baarda.screening.options import ScreeningOptions
 
@@ -12,7 +20,7 @@ from baarda.screening.options import ScreeningOptions
 def add_options(p) -> None:
     """Options of the screening stages (shared with `baarda adjust --screen`)."""
     d = ScreeningOptions()
-    p.add_argument("--stages", default="1,2,3",
+    p.add_argument("--stages", default="1,2,3", type=choices_list("123", what="stages"),
                    help="stages to run: 1 photo pairs, 2 strip formation, 3 control "
                    "(default 1,2,3)")
     p.add_argument("--pair-transform", default=d.pair_transform,
@@ -22,23 +30,18 @@ def add_options(p) -> None:
     p.add_argument("--pair-test", default=d.pair_statistic, choices=["w", "tau"],
                    help="test of the photo pairs: w with the pooled sigma of all pairs "
                    "(default) or tau with each pair's own variance factor")
-    p.add_argument("--pair-alpha0", type=float, default=d.pair_alpha0,
+    p.add_argument("--pair-alpha0", type=probability, default=d.pair_alpha0,
                    help=f"significance level of the photo-pair tests (default {d.pair_alpha0})")
-    p.add_argument("--pair-tolerance", type=float, default=None, metavar="MM",
+    p.add_argument("--pair-tolerance", type=non_negative("mm"), default=None, metavar="MM",
                    help="photo pairs: errors smaller than this (mm) are left to stage 2 "
                    "(default: the parallax the relief of the control heights causes)")
-    p.add_argument("--rho-max", type=float, default=d.rho_max,
+    p.add_argument("--rho-max", type=number(0, 1, lo_open=True), default=d.rho_max,
                    help="errors whose w-tests correlate more than this are not separable "
                    f"(default {d.rho_max})")
 
 
 def options(args) -> ScreeningOptions:
-    try:
-        stages = tuple(sorted({int(s) for s in str(args.stages).split(",") if s.strip()}))
-    except ValueError:
-        stages = ()
-    if not stages or not set(stages) <= {1, 2, 3}:
-        raise SystemExit(f"baarda: error: --stages '{args.stages}': a comma list of 1, 2, 3")
+    stages = tuple(sorted(int(s) for s in args.stages.split(",")))  # checked by the parser
     return ScreeningOptions(stages=stages, alpha0=args.alpha0, beta0=args.beta0,
                             pair_alpha0=args.pair_alpha0, pair_transform=args.pair_transform,
                             pair_statistic=args.pair_test, rho_max=args.rho_max,
@@ -53,11 +56,11 @@ def register(sub) -> None:
                    "project")
     add_out_argument(p, "folder of the cleaned project (and "
                                            "screening_log.csv, screening.txt)")
-    p.add_argument("--alpha0", type=float, help="significance level of the w-tests of stages "
-                   "2 and 3 (default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=float, help="power of the tests (default 0.80)")
+    p.add_argument("--alpha0", type=probability, help="significance level of the w-tests of "
+                   "stages 2 and 3 (default: project.toml, else 0.001)")
+    p.add_argument("--beta0", type=probability, help="power of the tests (default 0.80)")
     add_options(p)
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    add_quiet_option(p)
     add_input_options(p)
     p.set_defaults(func=run)
 
@@ -67,16 +70,23 @@ def run(args) -> int:
     from baarda.output.screening_log import write_screening_log
     from baarda.screening.chain import screen
 
+    con = console(args)
     with open_run(args, [args.input]) as run:
-        say = progress(args.quiet)
+        say = progress(args)
         block = read_input(args)
         if say:
             say(f"read {block.summary()}")
-        announce_compile(say, len(block.photos))
+        announce_compile(args, len(block.photos))
         res = screen(block, options(args), progress=say)
         write_project(res.block, run)
         write_screening_log(run, res.log)
-    if not args.quiet:
-        print(res.summary())
-        print(f"cleaned project and screening log written to {run.describe()}")
+    con.print(res.summary())
+    con.print(f"cleaned project and screening log written to {run.describe()}")
+    con.verdict("screen", f"{_removed(res)} -> {run.describe()}")
     return 0
+
+
+def _removed(res) -> str:
+    """What the screening took out, in numbers."""
+    return (f"{int((~res.image_keep).sum())} image point(s) and the control of "
+            f"{len(res.control_removed)} point(s) removed")
