@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from baarda.cli.argtypes import probability
+from baarda.cli.argtypes import alpha, power
 from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
@@ -25,10 +25,10 @@ def _common(p) -> None:
     p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
                    "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
     add_out_argument(p, "output folder")
-    p.add_argument("--alpha0", type=probability, help="significance level of the w-test "
+    p.add_argument("--alpha0", type=alpha, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=probability, help="power of the tests (default 0.80)")
-    p.add_argument("--alpha-global", type=probability, help="level of the headline global test "
+    p.add_argument("--beta0", type=power, help="power of the tests (default 0.80)")
+    p.add_argument("--alpha-global", type=alpha, help="level of the headline global test "
                    "of the variance factor (default: project.toml [tests] alpha_global, else "
                    "0.05; the B-method's coupled test is printed beside it)")
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau (sigma0 a "

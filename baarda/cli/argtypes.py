@@ -71,18 +71,25 @@ def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
     return parse
 
 
-def positive(unit: str = "") -> Callable[[str], float]:
-    """A finite number > 0."""
-    return number(0.0, lo_open=True, unit=unit)
+def positive(unit: str = "", hi: float | None = None) -> Callable[[str], float]:
+    """A finite number > 0 (and <= hi)."""
+    return number(0.0, hi, lo_open=True, unit=unit)
 
 
-def non_negative(unit: str = "") -> Callable[[str], float]:
-    """A finite number >= 0."""
-    return number(0.0, unit=unit)
+def non_negative(unit: str = "", hi: float | None = None) -> Callable[[str], float]:
+    """A finite number >= 0 (and <= hi)."""
+    return number(0.0, hi, unit=unit)
 
 
-#: a significance level or a power: strictly between 0 and 1
-probability = number(0.0, 1.0, lo_open=True, hi_open=True)
+#: a-priori standard deviations: of image coordinates (µm), of ground coordinates (m), and
+#: cofactor ratios (from a millionth to a million: beyond, the weights overflow)
+SIGMA_UM = number(1e-3, 1e4, unit="µm")
+SIGMA_M = number(1e-6, 1e4, unit="m")
+COFACTOR = number(1e-6, 1e6)
+#: a significance level (alpha0 of the w-test, a global test's level; below 1e-12 the
+#: B-method's non-centrality is beyond double precision) and a power (beta0)
+alpha = number(1e-12, 0.5, hi_open=True)
+power = number(0.5, 0.99999)
 #: an overlap of neighbouring photos: from 0 up to (not including) 1
 overlap = number(0.0, 1.0, hi_open=True)
 #: a random seed (numpy's generators take integers >= 0)

@@ -8,7 +8,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from baarda.cli.argtypes import integer, number, overlap, positive
+from baarda.cli.argtypes import SIGMA_M, SIGMA_UM, integer, number, overlap
 from baarda.cli.console import console
 from baarda.errors import ProjectError
 from baarda.options import TestOptions
@@ -120,11 +120,11 @@ def add_flight_plan_arguments(p, d) -> None:
                    help="forward overlap of neighbouring photos (0 <= overlap < 1)")
     p.add_argument("--side-overlap", type=overlap, default=d.side_overlap,
                    help="side overlap of neighbouring strips (0 <= overlap < 1)")
-    p.add_argument("--scale", type=positive(), default=d.image_scale,
+    p.add_argument("--scale", type=number(1, 1e7), default=d.image_scale,
                    help="image scale 1:SCALE")
-    p.add_argument("--focal", type=positive("mm"), default=d.focal_mm,
+    p.add_argument("--focal", type=number(1, 1e4, unit="mm"), default=d.focal_mm,
                    help="focal length in mm")
-    p.add_argument("--format", type=positive("mm"), default=d.format_mm,
+    p.add_argument("--format", type=number(1, 1e4, unit="mm"), default=d.format_mm,
                    help="image format in mm")
     p.add_argument("--pattern", type=integer(2, MAX_PATTERN), default=d.pattern,
                    help="n x n points per photo")
@@ -144,8 +144,8 @@ def add_control_arguments(p, d) -> None:
 
 def add_terrain_and_sigma_arguments(p, d) -> None:
     """Relief and a-priori sigmas of a simulated block (`simulate`, `evaluate`)."""
-    p.add_argument("--relief", type=number(unit="m"), default=d.relief_m,
+    p.add_argument("--relief", type=number(-1e4, 1e4, unit="m"), default=d.relief_m,
                    help="terrain relief in m")
-    p.add_argument("--sigma-image", type=positive("µm"), default=d.sigma_image_um, help="µm")
-    p.add_argument("--sigma-control", type=positive("m"), nargs=3,
+    p.add_argument("--sigma-image", type=SIGMA_UM, default=d.sigma_image_um, help="µm")
+    p.add_argument("--sigma-control", type=SIGMA_M, nargs=3,
                    default=list(d.sigma_control_m), metavar=("X", "Y", "Z"), help="m")

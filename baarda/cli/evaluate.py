@@ -4,10 +4,11 @@ blocks (baarda/evaluation, docs/evaluation.md)."""
 from __future__ import annotations
 
 from baarda.cli.argtypes import (
+    alpha,
     choices_list,
     integer,
     non_negative,
-    probability,
+    power,
     scheduler_address,
     seed,
 )
@@ -37,7 +38,7 @@ def register(sub) -> None:
     p.add_argument("--trials", type=integer(1), default=100, help="simulated blocks")
     p.add_argument("--blunders", type=integer(0), default=1, help="blunders planted per trial "
                    "(0: noise only, the false-rejection rate)")
-    p.add_argument("--blunder-size-mdb", type=non_negative(), nargs="+", default=[1.0],
+    p.add_argument("--blunder-size-mdb", type=non_negative(hi=1e6), nargs="+", default=[1.0],
                    metavar="A", help="size in units of each observation's own MDB: A, or "
                    "drawn uniformly between A and B (sign random)")
     p.add_argument("--blunder-kinds", default="x,y", type=choices_list("xyXYZ", what="kinds"),
@@ -45,8 +46,8 @@ def register(sub) -> None:
     p.add_argument("--strategies", default=",".join(DEFAULT_STRATEGIES),
                    type=choices_list(STRATEGIES, what="strategies"),
                    help=f"comma list of {', '.join(STRATEGIES)} (docs/evaluation.md)")
-    p.add_argument("--alpha0", type=probability, default=0.001, help="level of the w-test")
-    p.add_argument("--beta0", type=probability, default=0.80, help="power of the B-method")
+    p.add_argument("--alpha0", type=alpha, default=0.001, help="level of the w-test")
+    p.add_argument("--beta0", type=power, default=0.80, help="power of the B-method")
     p.add_argument("--seed", type=seed, default=0, help="random seed: the same seed gives "
                    "the same rows however the trials are run")
     p.add_argument("--workers", type=integer(1), default=1, help="local worker processes")
@@ -106,6 +107,10 @@ def run(args) -> int:
             write_bytes(run.file("power.png"), png)
         write_text(run.file("report.html"), study_html(study, png))
     con.print(study.summary())
+    fewest = int(study.trials["n_planted"].min()) if len(study.trials) else 0
+    if fewest < options.blunders:
+        con.warn(f"--blunders {options.blunders}: some trials planted only {fewest} (the "
+                 "blocks have no more observations of the kinds with a finite MDB)")
     con.verdict("evaluate", f"{options.trials} trials of {len(options.strategies)} "
                 f"strateg{'y' if len(options.strategies) == 1 else 'ies'} -> {run.describe()}")
     return 0

@@ -8,7 +8,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.argtypes import choices_list, integer, non_negative, positive, probability, seed
+from baarda.cli.argtypes import (
+    SIGMA_M,
+    SIGMA_UM,
+    alpha,
+    choices_list,
+    integer,
+    non_negative,
+    number,
+    power,
+    seed,
+)
 from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
@@ -39,9 +49,9 @@ def register(sub) -> None:
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau")
     p.add_argument("--by-point", action="store_true",
                    help="reject the coordinates of a model point together")
-    p.add_argument("--alpha0", type=probability, help="significance level of the w-test "
+    p.add_argument("--alpha0", type=alpha, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=probability, help="power of the tests (default: "
+    p.add_argument("--beta0", type=power, help="power of the tests (default: "
                    "project.toml, else 0.80)")
     ext = p.add_mutually_exclusive_group()
     ext.add_argument("--external", dest="external", action="store_true", default=None,
@@ -72,15 +82,15 @@ def register(sub) -> None:
     q.add_argument("--models", type=integer(1), default=4, help="models per strip")
     q.add_argument("--layout", default="fotef", choices=["fotef", "grid"],
                    help="point layout: FOTEF's study or a regular grid")
-    q.add_argument("--scale", type=positive(), default=5000.0, help="image scale 1:SCALE")
-    q.add_argument("--sigma-model", type=positive("µm"), nargs=2, default=[10.0, 15.0],
+    q.add_argument("--scale", type=number(1, 1e7), default=5000.0, help="image scale 1:SCALE")
+    q.add_argument("--sigma-model", type=SIGMA_UM, nargs=2, default=[10.0, 15.0],
                    metavar=("XY", "Z"), help="µm")
-    q.add_argument("--sigma-control", type=positive("m"), default=0.05, help="m")
+    q.add_argument("--sigma-control", type=SIGMA_M, default=0.05, help="m")
     q.add_argument("--control-spacing", type=integer(1), default=2,
                    help="planimetric control on the long borders every k bases")
     q.add_argument("--height-chains", type=integer(0), default=1,
                    help="height control chains across the strips every k bases")
-    q.add_argument("--tilt", type=non_negative("rad"), default=0.01,
+    q.add_argument("--tilt", type=non_negative("rad", 1.0), default=0.01,
                    help="model tilts, rad (std)")
     q.add_argument("--blunders", type=integer(0), default=0, help="gross errors planted")
     q.add_argument("--deformation", action="append", default=[], metavar="NAME=UM",

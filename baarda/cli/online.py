@@ -6,7 +6,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from baarda.cli.argtypes import positive, probability
+from baarda.cli.argtypes import COFACTOR, SIGMA_UM, alpha, number, power
 from baarda.cli.common import tests_option
 from baarda.cli.console import console
 from baarda.errors import GeometryError, ProjectError
@@ -22,17 +22,17 @@ def register(sub) -> None:
     p.add_argument("file", nargs="?", type=Path,
                    help="measurement file, e.g. examples/online/strip.txt ('-' or none: "
                    "read lines from the prompt or from stdin)")
-    p.add_argument("--focal", type=positive("mm"),
+    p.add_argument("--focal", type=number(1, 1e4, unit="mm"),
                    help="principal distance in mm (or a camera line)")
-    p.add_argument("--sigma", type=positive("µm"), default=10.0,
+    p.add_argument("--sigma", type=SIGMA_UM, default=10.0,
                    help="sigma of x'' in µm (default 10)")
-    p.add_argument("--qyy", type=positive(), default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
-    p.add_argument("--qtie", type=positive(), default=DEFAULT_QTIE,
+    p.add_argument("--qyy", type=COFACTOR, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=COFACTOR, default=DEFAULT_QTIE,
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1 as Kratky; 5 accounts for the errors of the tie "
                    "coordinates, docs/online.md)")
-    p.add_argument("--alpha0", type=probability, help="level of the w-test (default 0.001)")
-    p.add_argument("--beta0", type=probability, help="power of the tests (default 0.80)")
+    p.add_argument("--alpha0", type=alpha, help="level of the w-test (default 0.001)")
+    p.add_argument("--beta0", type=power, help="power of the tests (default 0.80)")
     p.add_argument("--tau", action="store_true", help="test with Pope's tau instead of w")
     p.add_argument("--vce", action="store_true", help="estimate the variance components of "
                    "the y-parallaxes and of the x'' at the tie points over the strip so far "

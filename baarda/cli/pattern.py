@@ -6,7 +6,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from baarda.cli.argtypes import pattern_spec, positive
+from baarda.cli.argtypes import COFACTOR, number, pattern_spec, positive
 from baarda.cli.console import console
 from baarda.errors import ProjectError
 from baarda.output.atomic import write_text
@@ -24,19 +24,20 @@ def register(sub) -> None:
                    "name,x,y[,tie] (left image mm)")
     p.add_argument("--ties", type=int, default=0, choices=[0, 3, 5],
                    help="tie points (the left column) for the scale transfer")
-    p.add_argument("--focal", type=positive("mm"), default=152.0,
+    p.add_argument("--focal", type=number(1, 1e4, unit="mm"), default=152.0,
                    help="principal distance, mm")
-    p.add_argument("--base", type=positive("mm"), default=92.0, help="base in the image, mm")
-    p.add_argument("--width", type=positive("mm"), default=92.0,
+    p.add_argument("--base", type=positive("mm", 1e3), default=92.0, help="base in the image, mm")
+    p.add_argument("--width", type=positive("mm", 1e3), default=92.0,
                    help="half width of the pattern in y, mm")
-    p.add_argument("--twin-offset", type=positive("mm"), default=1.0,
+    p.add_argument("--twin-offset", type=positive("mm", 1e3), default=1.0,
                    help="distance of doubled points from their original, mm")
-    p.add_argument("--qyy", type=positive(), default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
-    p.add_argument("--qtie", type=positive(), default=DEFAULT_QTIE,
+    p.add_argument("--qyy", type=COFACTOR, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=COFACTOR, default=DEFAULT_QTIE,
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1)")
-    p.add_argument("--serious", type=positive(), default=0.8, help="ratio to the diagonal from "
-                   "which a transfer is listed as serious (default 0.8)")
+    p.add_argument("--serious", type=positive(hi=1e3), default=0.8,
+                   help="ratio to the diagonal from which a transfer is listed as serious "
+                   "(default 0.8)")
     p.add_argument("--matrix", action="store_true", help="print the full Qvv P matrix")
     p.add_argument("--svg", type=Path, help="write the drawing as SVG")
     p.set_defaults(func=run, prints_results=True)

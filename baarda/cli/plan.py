@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.argtypes import number, positive, probability
+from baarda.cli.argtypes import SIGMA_M, SIGMA_UM, alpha, number, power
 from baarda.cli.common import (
     add_encoding_option,
     add_flight_plan_arguments,
@@ -36,24 +36,25 @@ def register(sub) -> None:
     p.add_argument("--adjusted", action="store_true", help="with --project: geometry from an "
                    "adjustment of the project (default: its approximate orientations)")
     add_flight_plan_arguments(p, d)
-    p.add_argument("--sigma-image", type=positive("µm"), default=d.sigma_image_um, help="µm")
-    p.add_argument("--bridging", type=positive(), default=2.0, help="control every I base "
+    p.add_argument("--sigma-image", type=SIGMA_UM, default=d.sigma_image_um, help="µm")
+    p.add_argument("--bridging", type=number(0.5, 1e3), default=2.0, help="control every I base "
                    "lengths "
                    "on the perimeter (Gruen's bridging distance)")
-    p.add_argument("--bridging-y", type=positive(), help="control grid across the strips in strip "
-                   "distances (default: as --bridging with 50 %% side overlap or more, else 0.5: "
+    p.add_argument("--bridging-y", type=number(0.1, 1e3),
+                   help="control grid across the strips in strip distances (default: as "
+                   "--bridging with 50 %% side overlap or more, else 0.5: "
                    "height points on every row of tie points between strips)")
-    p.add_argument("--relief", type=number(unit="m"), default=0.0,
+    p.add_argument("--relief", type=number(-1e4, 1e4, unit="m"), default=0.0,
                    help="terrain relief in m (flat)")
     p.add_argument("--interior", default="height", choices=["height", "full", "none"],
                    help="control at the interior grid positions")
     p.add_argument("--twin-control", action="store_true",
                    help="each control point with a close companion")
-    p.add_argument("--sigma-control", type=positive("m"), nargs=3, metavar=("X", "Y", "Z"),
+    p.add_argument("--sigma-control", type=SIGMA_M, nargs=3, metavar=("X", "Y", "Z"),
                    help="m (default: error-free control)")
-    p.add_argument("--alpha0", type=probability, help="significance level of the w-test "
+    p.add_argument("--alpha0", type=alpha, help="significance level of the w-test "
                    "(default 0.001)")
-    p.add_argument("--beta0", type=probability, help="power of the tests (default 0.80)")
+    p.add_argument("--beta0", type=power, help="power of the tests (default 0.80)")
     p.add_argument("--what-if", action="store_true", help="recompute the plan with each "
                    "remedy (twin control, 5x5 points, 60 %% side overlap, stereo)")
     p.add_argument("--derive-table", type=Path, metavar="CSV", help="also derive a reliability "
@@ -75,9 +76,9 @@ def register(sub) -> None:
                    help="tolerance of the approximations in %% (Gruen: 25)")
     m.add_argument("--tau", action="store_true", help="Pope's tau (sigma0 a posteriori) "
                    "instead of Baarda's w")
-    m.add_argument("--alpha0", type=probability, help="significance level of the w-test "
+    m.add_argument("--alpha0", type=alpha, help="significance level of the w-test "
                    "(default: project.toml, else 0.001)")
-    m.add_argument("--beta0", type=probability, help="power of the tests (default: "
+    m.add_argument("--beta0", type=power, help="power of the tests (default: "
                    "project.toml, else 0.80)")
     add_quiet_option(m)
     m.set_defaults(func=run_modified)

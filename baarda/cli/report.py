@@ -14,9 +14,9 @@ if TYPE_CHECKING:
 
 
 def add_histogram_options(p) -> None:
-    p.add_argument("--class-width", type=positive(), default=1.0,
+    p.add_argument("--class-width", type=positive(hi=1e6), default=1.0,
                    help="histogram class width (µm for image residuals; default 1)")
-    p.add_argument("--range", type=number(), nargs=2, default=[-25.0, 25.0],
+    p.add_argument("--range", type=number(-1e6, 1e6), nargs=2, default=[-25.0, 25.0],
                    metavar=("LO", "HI"), action=Pair, strict=True,
                    help="centres of the first and last class (default -25 25)")
     p.add_argument("--line-width", type=integer(1), default=60,
@@ -35,18 +35,18 @@ def register(sub) -> None:
     p.add_argument("--pdf", type=Path, metavar="PDF", help="write the same quality report "
                    "as a PDF")
     add_histogram_options(p)
-    p.add_argument("--w-class-width", type=positive(), default=0.5, help="class width for w")
-    p.add_argument("--w-range", type=number(), nargs=2, default=[-6.0, 6.0],
+    p.add_argument("--w-class-width", type=positive(hi=1e6), default=0.5, help="class width for w")
+    p.add_argument("--w-range", type=number(-1e6, 1e6), nargs=2, default=[-6.0, 6.0],
                    metavar=("LO", "HI"), action=Pair, strict=True,
                    help="centres of the first and last class of the w histogram")
     p.add_argument("--top", type=integer(0), default=50,
                    help="snooping table: rows with the largest |w| shown besides every "
                    "rejected and flagged observation (default 50)")
-    p.add_argument("--min-w", type=non_negative(), help="snooping table: only |w| >= this (besides "
-                   "rejected and flagged)")
+    p.add_argument("--min-w", type=non_negative(hi=1e6),
+                   help="snooping table: only |w| >= this (besides rejected and flagged)")
     p.add_argument("--sort", choices=["w", "input"], default="w",
                    help="snooping table order: largest |w| first, or file order")
-    p.add_argument("--exaggeration", type=positive(),
+    p.add_argument("--exaggeration", type=positive(hi=1e9),
                    help="residual vector exaggeration (default: automatic)")
     p.add_argument("--vector-photos", type=integer(0), default=12,
                    help="photos drawn with residual vectors (those with rejected or flagged "

@@ -17,7 +17,7 @@ def register(sub) -> None:
     p.add_argument("--format", default="auto",
                    choices=["auto", "generic", "photomodeler", "baarda"],
                    help="input format (default: recognised from the header)")
-    p.add_argument("--pixel-size", type=positive("µm"), metavar="UM",
+    p.add_argument("--pixel-size", type=positive("µm", 1e6), metavar="UM",
                    help="pixel size in µm: PhotoModeler residuals (pixels) are converted to µm")
     add_histogram_options(p)
     p.set_defaults(func=run, class_width=None, range=None, prints_results=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.argtypes import choices_list, non_negative, number, probability
+from baarda.cli.argtypes import alpha, choices_list, non_negative, number, power
 from baarda.cli.common import (
     add_out_argument,
     add_quiet_option,
@@ -30,9 +30,9 @@ def add_options(p) -> None:
     p.add_argument("--pair-test", default=d.pair_statistic, choices=["w", "tau"],
                    help="test of the photo pairs: w with the pooled sigma of all pairs "
                    "(default) or tau with each pair's own variance factor")
-    p.add_argument("--pair-alpha0", type=probability, default=d.pair_alpha0,
+    p.add_argument("--pair-alpha0", type=alpha, default=d.pair_alpha0,
                    help=f"significance level of the photo-pair tests (default {d.pair_alpha0})")
-    p.add_argument("--pair-tolerance", type=non_negative("mm"), default=None, metavar="MM",
+    p.add_argument("--pair-tolerance", type=non_negative("mm", 1e3), default=None, metavar="MM",
                    help="photo pairs: errors smaller than this (mm) are left to stage 2 "
                    "(default: the parallax the relief of the control heights causes)")
     p.add_argument("--rho-max", type=number(0, 1, lo_open=True), default=d.rho_max,
@@ -56,9 +56,9 @@ def register(sub) -> None:
                    "project")
     add_out_argument(p, "folder of the cleaned project (and "
                                            "screening_log.csv, screening.txt)")
-    p.add_argument("--alpha0", type=probability, help="significance level of the w-tests of "
+    p.add_argument("--alpha0", type=alpha, help="significance level of the w-tests of "
                    "stages 2 and 3 (default: project.toml, else 0.001)")
-    p.add_argument("--beta0", type=probability, help="power of the tests (default 0.80)")
+    p.add_argument("--beta0", type=power, help="power of the tests (default 0.80)")
     add_options(p)
     add_quiet_option(p)
     add_input_options(p)

@@ -37,20 +37,20 @@ def register(sub) -> None:
     p.add_argument("--blunders", type=integer(0), default=0,
                    help="gross errors planted (listed in truth.json), at most one in each "
                    "observation of the chosen kinds")
-    p.add_argument("--blunder-size", type=positive(), nargs=2, default=list(d.blunder_sigma),
+    p.add_argument("--blunder-size", type=positive(hi=1e6), nargs=2, default=list(d.blunder_sigma),
                    action=Pair, metavar=("MIN", "MAX"), help="in a-priori sigmas")
     p.add_argument("--blunder-kinds", default="x,y", type=choices_list("xyXYZ", what="kinds"),
                    help="comma list of x,y,X,Y,Z")
-    p.add_argument("--gnss", type=non_negative("m"), default=0.0, metavar="SIGMA_M",
+    p.add_argument("--gnss", type=non_negative("m", 1e4), default=0.0, metavar="SIGMA_M",
                    help="GNSS antenna positions of every photo with this noise (m; gnss.csv); "
                    "0: none")
-    p.add_argument("--gnss-offset", type=non_negative("m"), default=0.0, metavar="M",
+    p.add_argument("--gnss-offset", type=non_negative("m", 1e4), default=0.0, metavar="M",
                    help="a GNSS shift per strip, each component drawn with this standard "
                    "deviation (m; estimated per strip)")
-    p.add_argument("--gnss-drift", type=non_negative("m/km"), default=0.0, metavar="M_PER_KM",
+    p.add_argument("--gnss-drift", type=non_negative("m/km", 1e4), default=0.0, metavar="M_PER_KM",
                    help="a GNSS drift per strip along the strip (m/km, drawn with this "
                    "standard deviation; estimated per strip)")
-    p.add_argument("--imu", type=non_negative("deg"), default=0.0, metavar="SIGMA_DEG",
+    p.add_argument("--imu", type=non_negative("deg", 90.0), default=0.0, metavar="SIGMA_DEG",
                    help="IMU attitudes of every photo with this noise (deg; imu.csv); 0: none")
     p.add_argument("--seed", type=seed, default=0,
                    help="random seed (the same seed gives the same project)")

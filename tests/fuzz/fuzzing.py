@@ -64,6 +64,7 @@ CASES = {
     "photomodeler read": 400, "photomodeler adjust": 30,
     "opensfm read": 300, "opensfm adjust": 30,
     "process": 3,
+    "argv": 1200,  # command lines of every command (test_fuzz_argv.py)
 }
 TWICE = ("bal read", "bal adjust")
 
