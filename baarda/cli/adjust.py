@@ -115,7 +115,7 @@ def _adjust(args, run):
     est = None
     if getattr(args, "vce", False) and not args.snoop:
         problem, est = with_variance_components(problem, progress=say)
-    for note in problem.block.notes:
+    for note in dict.fromkeys([*problem.block.notes, *problem.notes]):  # read, prepare
         console(args).note(note)
     if args.snoop and getattr(args, "vce", False):
         qc, _ = snoop_with_variance_components(problem, tests, statistic=statistic,

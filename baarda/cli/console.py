@@ -107,6 +107,8 @@ class Console:
         def show(done: int, total: int) -> None:
             bar = self._status(total, what)
             bar.update(done - bar.n)
+            if done == total:
+                bar.refresh()  # the last count shown, however soon it came
 
         return show
 

@@ -31,6 +31,7 @@ import re
 import secrets
 import shutil
 import sys
+import tempfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
@@ -107,9 +108,12 @@ def check_output_file(out: str | Path, inputs: Iterable[str | Path] = ()) -> Pat
         parent = parent.parent
     if not parent.is_dir():
         raise ProjectError(str(parent), "is not a folder; choose another place with -o")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise ProjectError(str(parent), "the folder is not writable; choose another place "
-                           "with -o")
+    try:  # a file that is gone when closed: whether this place takes files (/proc does not)
+        with tempfile.TemporaryFile(dir=parent):
+            pass
+    except OSError as e:
+        raise ProjectError(str(parent), f"cannot write a file here ({e.strerror}); choose "
+                           "another place with -o") from None
     return out
 
 
