@@ -40,7 +40,7 @@ TEXT = ["", " ", "x", "x,y", "X,Y,Z", "1,2,3", "1", ",", ",,", "all", "none", "a
 LISTS = {
     "stages": ["1", "1,2", "3,2,1", "2", "9", "1,1", "0", "1,,2", ""],
     "blunder_kinds": ["x", "x,y", "X,Y,Z", "y,Z", "q", "x,x", "x,", ""],
-    "strategies": ["snooping", "baarda", "tau", "robust", "danish", "bogus", "snooping,tau",
+    "strategies": ["snoop", "tau", "robust", "screen", "modified", "bogus", "snoop,tau",
                    ""],
     "deformations": ["all", "none", "twist", "bogus", "all,none", ""],
     "calibrate": ["all", "none", "c", "c,x0,y0", "k1,k2", "zz", "c,c", ""],
