@@ -107,14 +107,16 @@ def add_encoding_option(p) -> None:
                    "UTF-8 byte-order mark is always accepted)")
 
 
-#: the largest pattern of points per photo (n x n) a simulated or planned block may have
-MAX_PATTERN = 25
+#: the largest simulated or planned block: strips, photos (or models) per strip, and
+#: pattern of points per photo (n x n)
+MAX_STRIPS, MAX_PHOTOS, MAX_PATTERN = 500, 500, 25
 
 
 def add_flight_plan_arguments(p, d) -> None:
     """Options of a regular block shared by `simulate` and `plan` (defaults from FlightPlan d)."""
-    p.add_argument("--strips", type=integer(1), default=d.strips, help="number of strips")
-    p.add_argument("--photos", type=integer(2), default=d.photos_per_strip,
+    p.add_argument("--strips", type=integer(1, MAX_STRIPS), default=d.strips,
+                   help="number of strips")
+    p.add_argument("--photos", type=integer(2, MAX_PHOTOS), default=d.photos_per_strip,
                    help="photos per strip")
     p.add_argument("--forward-overlap", type=overlap, default=d.forward_overlap,
                    help="forward overlap of neighbouring photos (0 <= overlap < 1)")

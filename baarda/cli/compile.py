@@ -22,7 +22,7 @@ HELP = "compile the numerical kernels into numba's cache now (after installing)"
 def register(sub) -> None:
     p = sub.add_parser("compile", help=HELP, description=HELP + "; a run that finds them "
                        "missing compiles them itself")
-    p.add_argument("-j", "--jobs", type=integer(1), default=None,
+    p.add_argument("-j", "--jobs", type=integer(1, 256), default=None,
                    help="processes (default: the CPUs this process may use, at most 8)")
     add_quiet_option(p, "report of what was compiled")
     p.set_defaults(func=run_compile)

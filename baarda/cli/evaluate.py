@@ -35,7 +35,7 @@ def register(sub) -> None:
     add_flight_plan_arguments(p, d)
     add_control_arguments(p, d)
     add_terrain_and_sigma_arguments(p, d)
-    p.add_argument("--trials", type=integer(1), default=100, help="simulated blocks")
+    p.add_argument("--trials", type=integer(1, 10**7), default=100, help="simulated blocks")
     p.add_argument("--blunders", type=integer(0), default=1, help="blunders planted per trial "
                    "(0: noise only, the false-rejection rate)")
     p.add_argument("--blunder-size-mdb", type=non_negative(hi=1e6), nargs="+", default=[1.0],
@@ -50,7 +50,7 @@ def register(sub) -> None:
     p.add_argument("--beta0", type=power, default=0.80, help="power of the B-method")
     p.add_argument("--seed", type=seed, default=0, help="random seed: the same seed gives "
                    "the same rows however the trials are run")
-    p.add_argument("--workers", type=integer(1), default=1, help="local worker processes")
+    p.add_argument("--workers", type=integer(1, 1024), default=1, help="local worker processes")
     p.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_address,
                    help="a running Dask distributed scheduler, e.g. tcp://host:8786 (instead "
                    "of --workers)")

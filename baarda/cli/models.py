@@ -20,6 +20,8 @@ from baarda.cli.argtypes import (
     seed,
 )
 from baarda.cli.common import (
+    MAX_PHOTOS,
+    MAX_STRIPS,
     NOT_CONVERGED,
     OK,
     add_encoding_option,
@@ -32,6 +34,7 @@ from baarda.cli.common import (
 )
 from baarda.cli.console import console
 from baarda.cli.verdicts import models_verdict
+from baarda.errors import ProjectError
 from baarda.independent.deformations import ALL
 
 
@@ -78,8 +81,10 @@ def register(sub) -> None:
     q = sub.add_parser("simulate-models", help="simulate an independent-model block with "
                        "known truth (truth.json)")
     add_out_argument(q, "model project to write")
-    q.add_argument("--strips", type=integer(1), default=2, help="number of strips")
-    q.add_argument("--models", type=integer(1), default=4, help="models per strip")
+    q.add_argument("--strips", type=integer(1, MAX_STRIPS), default=2,
+                   help="number of strips")
+    q.add_argument("--models", type=integer(1, MAX_PHOTOS), default=4,
+                   help="models per strip")
     q.add_argument("--layout", default="fotef", choices=["fotef", "grid"],
                    help="point layout: FOTEF's study or a regular grid")
     q.add_argument("--scale", type=number(1, 1e7), default=5000.0, help="image scale 1:SCALE")
@@ -168,7 +173,10 @@ def run_simulate(args) -> int:
                      tilt_rad=args.tilt, blunders=args.blunders, deformations=defs,
                      seed=args.seed)
     with open_run(args, []) as run:
-        block, truth = simulate_models(plan)
+        try:
+            block, truth = simulate_models(plan)
+        except ValueError as e:  # more blunders than model coordinates
+            raise ProjectError("--blunders", str(e)) from None
         write_model_project(block, run)
         write_text(run.file("truth.json"), json.dumps(truth, indent=1, default=float) + "\n")
     console(args).print(f"{block.summary()} -> {run.describe()}")

@@ -16,8 +16,8 @@ STRIP = ROOT / "examples" / "online" / "strip.txt"
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["simulate", "--strips", "0"], "argument --strips: an integer >= 1, not '0'"),
-    (["plan", "--strips", "0"], "argument --strips: an integer >= 1, not '0'"),
+    (["simulate", "--strips", "0"], "argument --strips: an integer from 1 to 500, not '0'"),
+    (["plan", "--strips", "0"], "argument --strips: an integer from 1 to 500, not '0'"),
     (["plan", "--side-overlap", "1.0", "--scale", "-5"],
      "argument --side-overlap: a number in [0, 1), not '1.0'"),
     (["plan", "--scale", "-5"], "argument --scale: a number in [1, 1e+07], not '-5'"),
@@ -31,7 +31,7 @@ STRIP = ROOT / "examples" / "online" / "strip.txt"
      "argument --stages: a comma list of stages from 1, 2, 3, not '9'"),
     (["online", "STRIP", "--focal", "0"],
      "argument --focal: a number in [1, 10000] mm, not '0'"),
-    (["evaluate", "--workers", "0"], "argument --workers: an integer >= 1, not '0'"),
+    (["evaluate", "--workers", "0"], "argument --workers: an integer from 1 to 1024, not '0'"),
     (["report", "OUT", "--text", "--exaggeration", "nan"],
      "argument --exaggeration: a number in (0, 1e+09], not 'nan'"),
     (["simulate", "--blunder-size", "5", "1"],
