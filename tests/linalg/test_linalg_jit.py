@@ -57,9 +57,8 @@ def test_no_writable_cache_falls_back_to_the_temporary_directory(tmp_path):
     assert code == "0" and cache == str(tmp_path / f"baarda-numba-{os.getuid()}")
     assert list(Path(cache).rglob("*.nbi")), "nothing was cached"
     assert "Traceback" not in p.stderr and "RuntimeWarning" not in p.stderr
-    first, second_line = p.stderr.splitlines()[:2]  # what was read, then the compile
-    assert "read demo" in first
-    assert "compiling the numerical kernels once" in second_line
+    first = p.stderr.splitlines()[0]  # the compile is said (a note: no terminal here)
+    assert first.startswith("note: compiling the numerical kernels once")
     env["NUMBA_CACHE_DIR"] = cache
     second = subprocess.run([sys.executable, "-m", "baarda", "adjust",
                              str(ROOT / "examples" / "demo"), "-o", str(tmp_path / "b")],
