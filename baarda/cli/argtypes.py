@@ -93,7 +93,7 @@ power = number(0.5, 0.99999)
 #: an overlap of neighbouring photos: from 0 up to (not including) 1
 overlap = number(0.0, 1.0, hi_open=True)
 #: a random seed (numpy's generators take integers >= 0)
-seed = integer(0)
+seed = integer(0, 2**63 - 1)
 
 
 def choices_list(allowed: Iterable[str], *, what: str = "values",

@@ -138,9 +138,9 @@ def add_control_arguments(p, d) -> None:
     p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"],
                    help="full (XYZ) control: every --control-spacing bases along the border of "
                         "the block, each corner photo measuring one; at the four corners; none")
-    p.add_argument("--control-spacing", type=integer(1), default=d.control_spacing,
+    p.add_argument("--control-spacing", type=integer(1, MAX_PHOTOS), default=d.control_spacing,
                    help="perimeter control every k base lengths")
-    p.add_argument("--height-chains", type=integer(0), default=d.height_chains,
+    p.add_argument("--height-chains", type=integer(0, MAX_PHOTOS), default=d.height_chains,
                    help="height control chains across the strips every k bases (0: none)")
 
 

@@ -30,7 +30,7 @@ def run_convert(args) -> int:
     con = console(args)
     con.print(f"read {fmt}: {block.summary()}")
     for note in block.notes:
-        con.print(f"note: {note}")
+        con.note(note)
     con.print(f"project written to {run.describe()}")
     con.verdict("convert", f"{fmt}: {block.summary()} -> {run.describe()}")
     return 0

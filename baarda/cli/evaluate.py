@@ -36,8 +36,8 @@ def register(sub) -> None:
     add_control_arguments(p, d)
     add_terrain_and_sigma_arguments(p, d)
     p.add_argument("--trials", type=integer(1, 10**7), default=100, help="simulated blocks")
-    p.add_argument("--blunders", type=integer(0), default=1, help="blunders planted per trial "
-                   "(0: noise only, the false-rejection rate)")
+    p.add_argument("--blunders", type=integer(0, 10**9), default=1,
+                   help="blunders planted per trial (0: noise only, the false-rejection rate)")
     p.add_argument("--blunder-size-mdb", type=non_negative(hi=1e6), nargs="+", default=[1.0],
                    metavar="A", help="size in units of each observation's own MDB: A, or "
                    "drawn uniformly between A and B (sign random)")

@@ -91,13 +91,13 @@ def register(sub) -> None:
     q.add_argument("--sigma-model", type=SIGMA_UM, nargs=2, default=[10.0, 15.0],
                    metavar=("XY", "Z"), help="µm")
     q.add_argument("--sigma-control", type=SIGMA_M, default=0.05, help="m")
-    q.add_argument("--control-spacing", type=integer(1), default=2,
+    q.add_argument("--control-spacing", type=integer(1, MAX_PHOTOS), default=2,
                    help="planimetric control on the long borders every k bases")
-    q.add_argument("--height-chains", type=integer(0), default=1,
+    q.add_argument("--height-chains", type=integer(0, MAX_PHOTOS), default=1,
                    help="height control chains across the strips every k bases")
     q.add_argument("--tilt", type=non_negative("rad", 1.0), default=0.01,
                    help="model tilts, rad (std)")
-    q.add_argument("--blunders", type=integer(0), default=0, help="gross errors planted")
+    q.add_argument("--blunders", type=integer(0, 10**9), default=0, help="gross errors planted")
     q.add_argument("--deformation", action="append", default=[], metavar="NAME=UM",
                    type=deformation, help="plant a block-invariant deformation "
                    f"({', '.join(ALL)}) of this size in µm")
@@ -140,6 +140,8 @@ def _adjust_models(args, run):
     block = read_models(args.project, covariance=args.covariance, encoding=args.encoding)
     if say:
         say(f"read {block.summary()}")
+    for note in block.notes:
+        console(args).note(note)
     announce_compile(args)
     if args.deformations == "all":
         defs = ALL

@@ -19,7 +19,7 @@ def add_histogram_options(p) -> None:
     p.add_argument("--range", type=number(-1e6, 1e6), nargs=2, default=[-25.0, 25.0],
                    metavar=("LO", "HI"), action=Pair, strict=True,
                    help="centres of the first and last class (default -25 25)")
-    p.add_argument("--line-width", type=integer(1), default=60,
+    p.add_argument("--line-width", type=integer(1, 10**4), default=60,
                    help="longest '*' bar of a text histogram before bars are scaled")
 
 
@@ -39,7 +39,7 @@ def register(sub) -> None:
     p.add_argument("--w-range", type=number(-1e6, 1e6), nargs=2, default=[-6.0, 6.0],
                    metavar=("LO", "HI"), action=Pair, strict=True,
                    help="centres of the first and last class of the w histogram")
-    p.add_argument("--top", type=integer(0), default=50,
+    p.add_argument("--top", type=integer(0, 10**9), default=50,
                    help="snooping table: rows with the largest |w| shown besides every "
                    "rejected and flagged observation (default 50)")
     p.add_argument("--min-w", type=non_negative(hi=1e6),
@@ -48,14 +48,14 @@ def register(sub) -> None:
                    help="snooping table order: largest |w| first, or file order")
     p.add_argument("--exaggeration", type=positive(hi=1e9),
                    help="residual vector exaggeration (default: automatic)")
-    p.add_argument("--vector-photos", type=integer(0), default=12,
+    p.add_argument("--vector-photos", type=integer(0, 10**9), default=12,
                    help="photos drawn with residual vectors (those with rejected or flagged "
                    "observations first)")
-    p.add_argument("--max-points", type=integer(1), default=50_000,
+    p.add_argument("--max-points", type=integer(1, 10**9), default=50_000,
                    help="maps draw at most this many points: beyond it a deterministic "
                    "sample with every control, check, rejected, flagged and uncontrolled "
                    "point (said in the caption; default 50000)")
-    p.add_argument("--max-rows", type=integer(1), default=1_000,
+    p.add_argument("--max-rows", type=integer(1, 10**9), default=1_000,
                    help="the per-photo and snooping tables list at most this many rows: the "
                    "worst (default 1000)")
     add_quiet_option(p, "text report (--text) and no list of the files written")

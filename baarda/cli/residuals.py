@@ -21,7 +21,8 @@ def register(sub) -> None:
                    help="pixel size in µm: PhotoModeler residuals (pixels) are converted to µm")
     add_histogram_options(p)
     p.set_defaults(func=run, class_width=None, range=None, prints_results=True)
-    p.add_argument("--worst", type=integer(0), default=10, help="largest residuals listed per kind")
+    p.add_argument("--worst", type=integer(0, 10**6), default=10,
+                   help="largest residuals listed per kind")
 
 
 def run(args) -> int:

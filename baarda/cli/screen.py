@@ -76,6 +76,8 @@ def run(args) -> int:
         block = read_input(args)
         if say:
             say(f"read {block.summary()}")
+        for note in block.notes:
+            con.note(note)
         announce_compile(args, len(block.photos))
         res = screen(block, options(args), progress=say)
         write_project(res.block, run)

@@ -29,12 +29,12 @@ def register(sub) -> None:
     add_control_arguments(p, d)
     p.add_argument("--twin-control", action="store_true",
                    help="each control point with a close companion (a blunder in one shows)")
-    p.add_argument("--check-points", type=integer(0), default=d.check_points,
+    p.add_argument("--check-points", type=integer(0, 10**9), default=d.check_points,
                    help="check points (not used in the adjustment, compared with it)")
     add_terrain_and_sigma_arguments(p, d)
     p.add_argument("--no-noise", action="store_true",
                    help="error-free observations (for checks of the adjustment itself)")
-    p.add_argument("--blunders", type=integer(0), default=0,
+    p.add_argument("--blunders", type=integer(0, 10**9), default=0,
                    help="gross errors planted (listed in truth.json), at most one in each "
                    "observation of the chosen kinds")
     p.add_argument("--blunder-size", type=positive(hi=1e6), nargs=2, default=list(d.blunder_sigma),

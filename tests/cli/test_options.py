@@ -36,7 +36,8 @@ STRIP = ROOT / "examples" / "online" / "strip.txt"
      "argument --exaggeration: a number in (0, 1e+09], not 'nan'"),
     (["simulate", "--blunder-size", "5", "1"],
      "argument --blunder-size: MIN must be <= MAX, not 5 1"),
-    (["simulate", "--seed", "-1"], "argument --seed: an integer >= 0, not '-1'"),
+    (["simulate", "--seed", "-1"],
+     "argument --seed: an integer from 0 to 9223372036854775807, not '-1'"),
     (["adjust", "DEMO", "--alpha0", "1e-300"],
      "argument --alpha0: a number in [1e-12, 0.5), not '1e-300'"),
     (["adjust", "DEMO", "--beta0", "inf"], "argument --beta0: a number in [0.5, 0.99999], "
