@@ -139,6 +139,17 @@ def pattern_spec(named: Iterable[str], max_side: int) -> Callable[[str], str]:
     return parse
 
 
+def text_encoding(text: str) -> str:
+    """A text encoding Python knows (utf-8, cp1252, latin-1, ...)."""
+    import codecs
+
+    try:
+        codecs.lookup(text)
+    except LookupError:
+        raise _bad("a text encoding such as utf-8, cp1252 or latin-1", text) from None
+    return text
+
+
 def scheduler_address(text: str) -> str:
     """A Dask scheduler's address: [PROTOCOL://]HOST:PORT."""
     m = re.fullmatch(r"(?:(tcp|tls|inproc|ucx|ws|wss)://)?([^\s:/]+|\[[0-9a-fA-F:]+\]):(\d+)",

@@ -8,7 +8,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from baarda.cli.argtypes import SIGMA_M, SIGMA_UM, integer, number, overlap
+from baarda.cli.argtypes import SIGMA_M, SIGMA_UM, integer, number, overlap, text_encoding
 from baarda.cli.console import console
 from baarda.errors import ProjectError
 from baarda.options import TestOptions
@@ -102,9 +102,10 @@ def open_run(args, inputs: list[Path]) -> Iterator[RunFolder]:
 
 
 def add_encoding_option(p) -> None:
-    p.add_argument("--encoding", default="utf-8", help="text encoding of the input files "
-                   "(e.g. cp1252 or latin-1 for files saved by older Windows programs; a "
-                   "UTF-8 byte-order mark is always accepted)")
+    p.add_argument("--encoding", default="utf-8", type=text_encoding,
+                   help="text encoding of the input files (e.g. cp1252 or latin-1 for "
+                   "files saved by older Windows programs; a UTF-8 byte-order mark is always "
+                   "accepted)")
 
 
 #: the largest simulated or planned block: strips, photos (or models) per strip, and
