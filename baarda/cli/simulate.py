@@ -13,7 +13,7 @@ from baarda.cli.common import (
     open_run,
 )
 from baarda.cli.console import console
-from baarda.errors import ProjectError
+from baarda.errors import GeometryError, ProjectError
 from baarda.output.atomic import write_text
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -84,6 +84,8 @@ def _simulate(args, run):
         seed=args.seed, name=args.name)
     try:
         block, truth = simulate_block(plan)
+    except GeometryError:  # no block at all: said in its words
+        raise
     except ValueError as e:  # more blunders than the block has observations of their kinds
         raise ProjectError("--blunders", str(e)) from None
     write_project(block, run)

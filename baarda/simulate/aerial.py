@@ -18,6 +18,7 @@ from baarda.block.camera_models import get_model, invert
 from baarda.block.field_models import ebner_fields
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
+from baarda.errors import GeometryError
 from baarda.simulate.gnss_imu import with_gnss_imu
 from baarda.simulate.ground import block_geometry
 
@@ -165,6 +166,10 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
     if model is not None:
         model = model[order]
 
+    if not len(ph):
+        raise GeometryError(f"no point of the block is measured on two photos "
+                            f"({plan.forward_overlap:.0%} forward and {plan.side_overlap:.0%} "
+                            "side overlap): raise the overlaps")
     # drop points that are not measured at all (and renumber)
     used = np.zeros(len(ids), bool)
     used[pt] = True
