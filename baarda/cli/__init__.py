@@ -212,8 +212,7 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as e:
         if isinstance(e, OutputError) or e.errno in WRITE_ERRNOS:
             where = f"{e.filename}: " if e.filename else ""
-            _error(f"baarda: error: could not write the results: {where}{e.strerror or e} "
-                   "(nothing of this run was kept)")
+            _error(f"baarda: error: could not write the results: {where}{e.strerror or e}")
             return WRITE_FAILED
         where = f"{e.filename}: " if e.filename else ""  # a file that cannot be read
         _error(f"baarda: error: {where}{e.strerror or e}")

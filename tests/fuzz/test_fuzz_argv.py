@@ -245,7 +245,7 @@ def _prepare(out_kind: str | None, out: Path, inputs: Inputs) -> dict | None:
 
 
 # ---------------------------------------------------------------------- the test
-@fuzz_settings("argv", 6 * ADJUST_DEADLINE_MS)  # a first compile of a kernel
+@fuzz_settings("argv", 2 * ADJUST_DEADLINE_MS)  # a first compile of a kernel
 @given(data=st.data())
 def test_command_lines(inputs, work, data):
     with tempfile.TemporaryDirectory(dir=work) as d:
