@@ -47,6 +47,7 @@ def test_the_tutorial_has_console_blocks():
 SHARED = ROOT.parent / "shared"
 
 
+@pytest.mark.slow
 def test_the_tutorial_prints_what_the_program_prints(tmp_path, monkeypatch):
     """Run from a checkout's root: examples/ beside, ../shared/data (real data sets that may
     not be copied) above; blocks that read ../shared are skipped when it is absent."""

@@ -80,6 +80,7 @@ def test_quiet_keeps_the_warning_and_the_verdict_of_a_weak_block(tmp_path, capsy
     assert capsys.readouterr() == ("", "")
 
 
+@pytest.mark.slow
 def test_progress_only_on_a_terminal(tmp_path):
     p = baarda("adjust", str(DEMO), "-o", str(tmp_path / "a"), "--snoop",
                capture_output=True)
@@ -99,6 +100,7 @@ def test_progress_only_on_a_terminal(tmp_path):
     assert "iteration" not in terminal.rest()
 
 
+@pytest.mark.slow
 def test_evaluate_shows_a_bar_on_a_terminal(tmp_path):
     proc, terminal = on_a_terminal(["evaluate", "-o", str(tmp_path / "e"), "--trials", "3",
                                     "--strips", "2", "--photos", "3"], cwd=ROOT)
@@ -108,6 +110,7 @@ def test_evaluate_shows_a_bar_on_a_terminal(tmp_path):
     assert "3/3 trials" in shown and "baarda evaluate: 3 trials of 4 strategies" in shown
 
 
+@pytest.mark.slow
 def test_a_failing_standard_output_is_a_warning_after_complete_results(tmp_path):
     with open("/dev/full", "w") as full:
         p = baarda("adjust", str(DEMO), "-o", str(tmp_path / "o"), stdout=full,
@@ -129,6 +132,7 @@ def _limit_file_size():
     resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
 
 
+@pytest.mark.slow
 def test_a_full_disk_is_exit_4_naming_the_file_and_keeps_the_earlier_run(tmp_path):
     """ulimit -f: a file over the limit cannot be written (EFBIG): exit 4 (not 2, bad
     input), the file named at its place in the output folder, the earlier run intact."""
@@ -144,6 +148,7 @@ def test_a_full_disk_is_exit_4_naming_the_file_and_keeps_the_earlier_run(tmp_pat
     assert leftovers(tmp_path) == []
 
 
+@pytest.mark.slow
 def test_a_single_output_file_that_cannot_be_written_is_exit_4(tmp_path, capsys,
                                                                 monkeypatch):
     out = tmp_path / "o"
@@ -162,6 +167,7 @@ def test_a_single_output_file_that_cannot_be_written_is_exit_4(tmp_path, capsys,
         "space left on device")
 
 
+@pytest.mark.slow
 def test_a_terminal_that_cannot_encode_gets_escapes(tmp_path):
     """PYTHONIOENCODING=ascii: the summary's 'µm' ended in UnicodeEncodeError after the
     results were written."""

@@ -149,6 +149,7 @@ def test_interrupted_run_leaves_the_previous_run(project, tmp_path, capsys, monk
     read_results(out)  # still one whole run
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.0, 0.05, 0.2])
 def test_ctrl_c_in_a_real_process(tmp_path, delay):
     """SIGINT while adjusting: exit 130, one line, no traceback, no folder; also while numba
@@ -187,6 +188,7 @@ def test_report_refuses_a_folder_that_mixes_runs(project, tmp_path, capsys):
         read_results(a)
 
 
+@pytest.mark.slow
 def test_report_file_is_checked_before_reading(project, tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["adjust", str(project), "-o", str(out), "-q"]) == 0

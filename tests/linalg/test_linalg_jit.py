@@ -36,6 +36,7 @@ def test_kernel_compiles_in_memory_when_nothing_can_cache(monkeypatch):
     assert g(21) == 42
 
 
+@pytest.mark.slow
 def test_no_writable_cache_falls_back_to_the_temporary_directory(tmp_path):
     """A process in which numba finds no cache locator (read-only install, no HOME): the
     kernels are cached under $TMPDIR/baarda-numba-<uid>, the first compile is announced and

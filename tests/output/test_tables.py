@@ -36,6 +36,7 @@ def values(n: int, seed: int = 1) -> np.ndarray:
     return np.concatenate([wide, ties, near, short, rng.random(n), EDGES])
 
 
+@pytest.mark.slow
 def test_floats_as_pandas_prints_them():
     v = values(20_000)
     df = pd.DataFrame({"a": v, "b": -v[::-1], "c": np.sqrt(np.abs(v))})
