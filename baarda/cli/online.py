@@ -6,7 +6,9 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from baarda.cli.argtypes import COFACTOR, SIGMA_UM, number
 from baarda.cli.common import add_test_options, tests_option
+from baarda.cli.console import console
 from baarda.errors import GeometryError, ProjectError
 from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.output.atomic import write_text
@@ -19,10 +21,12 @@ def register(sub) -> None:
     p.add_argument("file", nargs="?", type=Path,
                    help="measurement file, e.g. examples/online/strip.txt ('-' or none: "
                    "read lines from the prompt or from stdin)")
-    p.add_argument("--focal", type=float, help="principal distance in mm (or a camera line)")
-    p.add_argument("--sigma", type=float, default=10.0, help="sigma of x'' in µm (default 10)")
-    p.add_argument("--qyy", type=float, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
-    p.add_argument("--qtie", type=float, default=DEFAULT_QTIE,
+    p.add_argument("--focal", type=number(1, 1e4, unit="mm"),
+                   help="principal distance in mm (or a camera line)")
+    p.add_argument("--sigma", type=SIGMA_UM, default=10.0,
+                   help="sigma of x'' in µm (default 10)")
+    p.add_argument("--qyy", type=COFACTOR, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=COFACTOR, default=DEFAULT_QTIE,
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1 as Kratky; 5 accounts for the errors of the tie "
                    "coordinates, docs/online.md)")
@@ -33,13 +37,14 @@ def register(sub) -> None:
                    "and orient and test each model with them (q_yy/q_xx and q_tie estimated; "
                    "a group with too little redundancy keeps --qyy / --qtie)")
     p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, prints_results=True)
 
 
 def run(args) -> int:
     from baarda.pipeline import online_interpreter, strip_coordinates_csv
 
-    interp = online_interpreter(print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
+    say = console(args).print
+    interp = online_interpreter(say, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
                                 qtie=args.qtie, tests=tests_option(None, args),
                                 statistic="tau" if args.tau else "w", vce=args.vce)
     if args.out is not None:
@@ -59,7 +64,7 @@ def run(args) -> int:
     coordinates = strip_coordinates_csv(interp)
     if args.out is not None and coordinates:
         write_text(args.out, coordinates)
-        print(f"strip coordinates written to {args.out}")
+        say(f"strip coordinates written to {args.out}")
     return 0
 
 
@@ -83,7 +88,7 @@ def _batch(interp, lines, name: str) -> None:
 
 
 def _prompt(interp) -> None:
-    print("baarda online: type 'help' for the commands, 'quit' to stop")
+    print("baarda online: type 'help' for the commands, 'quit' to stop")  # a terminal
     while not interp.done:
         try:
             prompt = "point> " if interp.collecting is not None else "online> "

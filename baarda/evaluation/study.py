@@ -341,10 +341,14 @@ def _in_pool(options, trials: Iterable[int], workers: int, progress) -> list[Tri
     out: dict[int, TrialRows] = {}
     with ProcessPoolExecutor(max_workers=workers) as pool:
         futures = {pool.submit(run_trial, options, t): t for t in trials}
-        for n, f in enumerate(as_completed(futures)):
-            out[futures[f]] = f.result()
-            if progress:
-                progress(n + 1, len(futures))
+        try:
+            for n, f in enumerate(as_completed(futures)):
+                out[futures[f]] = f.result()
+                if progress:
+                    progress(n + 1, len(futures))
+        except BaseException:  # Ctrl-C, SIGTERM: the trials not started are not run
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
     return [out[t] for t in sorted(out)]
 
 

@@ -13,6 +13,7 @@ from baarda.simulate.aerial import FlightPlan
 PLAN = FlightPlan(strips=2, photos_per_strip=4, pattern=5, relief_m=50.0)
 
 
+@pytest.mark.slow
 def test_one_mdb_is_found_with_the_power_beta0():
     """One blunder of exactly 1 MDB per trial, 300 trials: the share whose own w-test is
     significant in the first adjustment has beta0 = 0.80 inside its 95 % interval."""
@@ -27,6 +28,7 @@ def test_one_mdb_is_found_with_the_power_beta0():
     assert np.allclose(np.abs(s.blunders["size_mdb"]), 1.0)
 
 
+@pytest.mark.slow
 def test_without_blunders_the_w_test_rejects_alpha0():
     """Noise only, 300 trials: the share of tested components with a significant w-test has
     alpha0 = 0.001 inside its 95 % interval."""
@@ -52,6 +54,7 @@ def test_the_same_rows_in_a_process_pool():
     assert len(local[0]) == 6 * 2 * 3 and len(local[1]) == 6 * 3
 
 
+@pytest.mark.slow
 def test_the_same_rows_on_a_dask_cluster():
     """A scheduler and two worker processes on localhost, started here."""
     distributed = pytest.importorskip("distributed")
@@ -63,6 +66,7 @@ def test_the_same_rows_on_a_dask_cluster():
         pd.testing.assert_frame_equal(a, b)
 
 
+@pytest.mark.slow
 def test_command_line(tmp_path):
     from baarda.cli import main
 

@@ -84,6 +84,7 @@ def test_snooping_with_estimated_sigmas_equals_snooping_with_the_true_ones():
     assert abs(np.sqrt(factors["control Z"]) / 0.4 - 1) < 0.1, factors
 
 
+@pytest.mark.slow
 def test_command_line_summary_and_report(tmp_path):
     """`adjust --vce`: summary.json lists the groups; the text and HTML reports show them."""
     import contextlib

@@ -30,6 +30,7 @@ def results(tmp_path_factory):
     return tmp
 
 
+@pytest.mark.slow
 def test_content_is_read_from_the_results(results):
     res = read_results(results / "out")
     parts = quality_content(res)
@@ -85,6 +86,7 @@ def test_pdf_pages_render(results, tmp_path):
     assert len(np.unique(first.reshape(-1, 3), axis=0)) > 50
 
 
+@pytest.mark.slow
 def test_main_html_report_has_the_camera_and_control_tables(results):
     """baarda report OUT -o report.html: the camera parameters, their correlations (cells
     coloured like the heat map) and the GCP tables, without extra images."""

@@ -21,6 +21,7 @@ def labels(keys):
     return {(f"photo {p} " if p else "") + f"point {q} {c}" for _, p, q, c in keys}
 
 
+@pytest.mark.slow
 def test_snooping_table_marks_exactly_the_rejected(report_case):
     want = rejected_keys(report_case.obs)
     assert len(want) >= 3  # the simulation planted 5 blunders
@@ -84,6 +85,7 @@ def test_html_is_self_contained(report_case):
         assert sec in h
 
 
+@pytest.mark.slow
 def test_cli_text_and_html(report_case, tmp_path, capsys):
     out = str(report_case.out)
     assert main(["report", out, "--text", "--top", "5"]) == 0
@@ -118,6 +120,7 @@ def test_bad_results_name_file_line_column(report_case, tmp_path, capsys):
     assert "observations.csv, line 4, column 'rejected'" in err
 
 
+@pytest.mark.slow
 def test_older_output_folder_still_reports(report_case, tmp_path):
     """Without the report's fields (x_mm, y_mm, cameras): cameras from the project named in
     'source', image-space plots left out with a note."""

@@ -6,6 +6,7 @@ import re
 
 import numpy as np
 import pandas as pd
+import pytest
 from htmlrows import table_rows
 
 from baarda.output.bundle_results import write_results
@@ -53,6 +54,7 @@ def _full(t, top, min_w):
         anaplot._candidates = keep
 
 
+@pytest.mark.slow
 def test_sampled_maps_and_tables_of_the_worst(report_case):
     res = read_results(report_case.out)
     pts = point_summary(res)
@@ -94,6 +96,7 @@ def test_tables_of_the_weakest_are_the_files_extremes(report_case):
     assert float(cells[4]) == round(float(o["redundancy"].min()), 3)
 
 
+@pytest.mark.slow
 def test_report_of_a_parquet_folder(tmp_path):
     block, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=5, blunders=2, seed=4))
     qc = snoop(block)
