@@ -10,6 +10,8 @@ def adjustment_verdict(d: dict) -> str:
     parts = []
     if d.get("converged") is False:
         parts.append(f"NOT CONVERGED after {d.get('iterations')} iterations")
+    if d.get("snooping_incomplete"):  # data snooping stopped at its step limit
+        parts.append(str(d["snooping_incomplete"]).split(";")[0].upper())
     sigma0 = d.get("sigma0")
     if isinstance(sigma0, float):
         gt = d.get("global_test") or {}
