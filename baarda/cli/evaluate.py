@@ -93,17 +93,18 @@ def run(args) -> int:
     from baarda.evaluation.study import run_study
     from baarda.output.atomic import write_text
     from baarda.output.evaluation_files import write_study
-    from baarda.report.evaluation_plots import power_curves, study_html
+    from baarda.report.evaluation_plots import power_curves, read_study, study_html
 
     options = _options(args)
     with open_run(args, []) as run:
         study = run_study(options, workers=args.workers, scheduler=args.scheduler,
                           progress=_bar(args.quiet))
         write_study(run, study)
-        png = power_curves(study)
+        summary, power, curve = read_study(run.file)  # the report shows what was written
+        png = power_curves(summary, power, curve)
         if png is not None:
             run.file("power.png").write_bytes(png)
-        write_text(run.file("report.html"), study_html(study, png))
+        write_text(run.file("report.html"), study_html(summary, power, png))
     if not args.quiet:
         print(study.summary())
     return 0

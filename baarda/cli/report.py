@@ -54,6 +54,9 @@ def register(sub) -> None:
     p.add_argument("--max-rows", type=int, default=1_000,
                    help="the per-photo and snooping tables list at most this many rows: the "
                    "worst (default 1000)")
+    p.add_argument("--templates", type=Path, metavar="DIR", help="a folder of Jinja2 "
+                   "templates that override the reports' own (adjustment.html.j2, "
+                   "quality.html.j2, style.css, macros.html.j2): restyle or brand the pages")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
     p.set_defaults(func=run)
 
@@ -85,6 +88,8 @@ def run(args) -> int:
             classes(w, lo, hi)
         except ValueError as e:
             raise ProjectError("command line", str(e)) from None
+    if args.templates is not None and not args.templates.is_dir():
+        raise ProjectError(str(args.templates), "not a folder of templates")
     for out in (args.out, args.quality, args.pdf):
         if out is not None:
             check_output_file(out, [args.results, *run_files(args.results)])
@@ -105,7 +110,7 @@ def run(args) -> int:
             n_rej = int(res.obs["rejected"].sum())
             say(f"read {args.results}: {len(res.obs)} observation components, "
                 f"{len(res.obs) - n_rej} used and {n_rej} rejected")
-        write_html(args.out, html_report(res, opt, cal))
+        write_html(args.out, html_report(res, opt, cal, args.out, args.templates))
         if not args.quiet:
             print(f"report written to {args.out}")
     if quality:
@@ -116,7 +121,7 @@ def run(args) -> int:
 
         parts = quality_content(res, cal)  # once for the page and the PDF
         if args.quality is not None:
-            write_html(args.quality, quality_page(res, parts))
+            write_html(args.quality, quality_page(res, parts, args.templates))
             if not args.quiet:
                 print(f"quality report written to {args.quality}")
         if args.pdf is not None:

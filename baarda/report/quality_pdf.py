@@ -13,8 +13,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from baarda.output.result_folder import Results  # noqa: E402
+from baarda.report.html_base import cell as format_cell  # noqa: E402
 from baarda.report.plots import to_png  # noqa: E402
-from baarda.report.quality_html import format_cell  # noqa: E402
 from baarda.report.quality_report import Part, quality_content  # noqa: E402
 
 A4 = (8.27, 11.69)
