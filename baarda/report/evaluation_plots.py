@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from markupsafe import Markup
 
 from baarda.report.plots import plt, to_png
 
@@ -47,3 +48,42 @@ def read_study(file: Callable[[str], Path]) -> tuple[dict, pd.DataFrame, pd.Data
     power = pd.read_csv(file("power.csv"), keep_default_na=False, na_values=[""])
     curve = pd.read_csv(file("b_method_power.csv"))
     return summary, power, curve
+
+
+def study_html(summary: dict, power: pd.DataFrame, png: bytes | None,
+               templates: str | Path | None = None) -> str:
+    """A self-contained HTML page in the reports' look: the summary lines, the power
+    curves (legend beside them) and the counts per size class, strategies side by side."""
+    from baarda.report.html_base import esc, figure, page, table
+    from baarda.report.plots import Plot
+
+    lines = "".join(f"<li>{esc(s)}</li>" for s in summary.get("summary", []))
+    sections = [{"id": "summary", "nav": "Summary", "title": "Summary",
+                 "body": Markup(f"<ul>{lines}</ul>")}]
+    if png is not None:
+        sections.append({"id": "curves", "nav": "Power curves", "title": "Power curves",
+                         "body": Markup(figure(Plot(
+                             "power", "power curves", png, "Share of the planted blunders "
+                             "located against their size in units of the observation's own "
+                             "MDB, with 95 % Clopper-Pearson intervals; black: the "
+                             "B-method's power of the w-test.")))})
+        wide = power.assign(cls=[f"{a:.2f} .. {b:.2f}" for a, b in zip(
+            power["lo"], power["hi"], strict=True)], cell=[
+            f"{k}/{n} = {r:.2f}" for k, n, r in zip(power["located"], power["n"],
+                                                   power["rate"], strict=True)])
+        wide = wide.pivot_table(index="cls", columns="series", values="cell",
+                                aggfunc="first", sort=False).reset_index().rename(
+            columns={"cls": "size class (MDB)"}).fillna("")
+        sections.append({"id": "counts", "nav": "Counts per class",
+                         "title": "Located per size class (strategies side by side)",
+                         "body": Markup(table(wide, text_cols=tuple(wide.columns),
+                                              attrs='id="power-counts"'))})
+    else:
+        sections.append({"id": "curves", "nav": "Power curves", "title": "Power curves",
+                         "body": Markup("<p>no blunders planted</p>")})
+    o = summary.get("plan") or {}
+    sub = (f"{summary.get('trials')} trials of {o.get('strips', '?')} x "
+           f"{o.get('photos_per_strip', '?')} photos, alpha0 {summary.get('alpha0')}, beta0 "
+           f"{summary.get('beta0')}")
+    return page("evaluation", templates, title="simulated blocks", subtitle=sub,
+                sections=sections, footer=f"baarda evaluate · run {summary.get('run', '')}")

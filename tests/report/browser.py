@@ -75,7 +75,8 @@ window.addEventListener('load', function () {
     sections: [].map.call(document.querySelectorAll('section[id]'), function (s) {
       return s.id; }),
     section_heights: [].map.call(document.querySelectorAll('section[id]'), function (s) {
-      return [s.id, Math.round(s.getBoundingClientRect().height)]; }), broken_images: imgs, n_images: document.images.length};
+      return [s.id, Math.round(s.getBoundingClientRect().height)]; }),
+    broken_images: imgs, n_images: document.images.length};
   var out = document.createElement('pre');
   out.id = 'layout-facts';
   out.textContent = JSON.stringify(facts);
