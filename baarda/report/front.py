@@ -57,11 +57,24 @@ def quality_check(res: Results) -> Verdict:
     return res.verdict(pixel_um=pixel_um(res), image_sigma_um=image_sigma_um(res))
 
 
-def check_view(v: Verdict) -> dict:
-    """The verdict for the template's `check` macro."""
+FALLBACK = {"control": "calibration", "gnss": "calibration", "global": "summary",
+            "log": "summary", "patterns": "log", "reliability": "observations",
+            "observations": "summary", "accuracy": "check"}
+
+
+def check_view(v: Verdict, ids: set[str] | None = None) -> dict:
+    """The verdict for the template's `check` macro; `ids`: the element ids of the page
+    (a row whose section the page lacks links to the nearest one it has)."""
+    def target(s: str) -> str:
+        seen = set()
+        while ids is not None and s not in ids and s in FALLBACK and s not in seen:
+            seen.add(s)
+            s = FALLBACK[s]
+        return s if ids is None or s in ids else "check"
+
     return {"status": v.status, "headline": v.headline,
             "rows": [{"status": r.status, "word": WORDS[r.status], "label": r.label,
-                      "text": r.text, "section": r.section} for r in v.rows]}
+                      "text": r.text, "section": target(r.section)} for r in v.rows]}
 
 
 def section_line(res: Results, start: str) -> str | None:

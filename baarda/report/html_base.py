@@ -110,7 +110,7 @@ def worst_table(df: pd.DataFrame, order: np.ndarray | pd.Series, n: int, name: s
     key = np.nan_to_num(np.asarray(order, float), nan=-np.inf)
     keep = np.argsort(-key, kind="stable")[:n]
     return table(df.iloc[keep].reset_index(drop=True), fmt, note=(
-        f"The {n} {what} of the worst of {len(df)} shown;"), csv=csv_link(df, name),
+        f"The {n} worst of {len(df)} {what} shown, worst first;"), csv=csv_link(df, name),
         csv_text=f"all {len(df)} {what} (CSV)", download=f"{name}.csv", **kw)
 
 

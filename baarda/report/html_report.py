@@ -7,6 +7,7 @@ A small script at the end writes into #render-status whether every image decoded
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -176,10 +177,12 @@ def _observations_link(res: Results, out: Path | None) -> tuple[str, str]:
     return Path(os.path.relpath(target.resolve(), out.resolve().parent)).as_posix(), name
 
 
-def front_sections(res: Results, opt: ReportOptions) -> list[dict]:
-    """The sections both reports open with: the quality check, the accuracy statement on
-    the check points, the rejection patterns and the metadata with the sign-off block."""
-    check = macro("check")(check_view(quality_check(res)))
+def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[dict]:
+    """The sections both reports open with: the quality check (its rows linked to the
+    sections of `rest`, the page's other sections), the accuracy statement on the check
+    points, the rejection patterns and the metadata with the sign-off block."""
+    ids = {"check", "accuracy", "patterns", "metadata"} | {s["id"] for s in rest} | {
+        i for s in rest for i in re.findall(r'id="([^"]+)"', str(s["body"]))}
     acc = accuracy(res)
     body = "".join(f'<p class="bad">{esc(w)}</p>' if "No check points" in w or
                    "Only" in w else f"<p>{esc(w)}</p>" for w in acc.warnings)
@@ -204,6 +207,9 @@ def front_sections(res: Results, opt: ReportOptions) -> list[dict]:
                 + table(groups, text_cols=("kind", "component", "residual sign",
                                            "most on photo", "strips"),
                         attrs='id="rejection-groups"'))
+    if not pat:
+        ids.discard("patterns")
+    check = macro("check")(check_view(quality_check(res), ids))
     out = [{"id": "check", "nav": "Quality check", "title": "Quality check",
             "body": Markup(check)},
            {"id": "accuracy", "nav": "Accuracy", "title": "Accuracy on check points",
@@ -228,10 +234,9 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     passed = res.global_test_passed
     summary = "".join(f"<h3>{esc(s.title)}</h3><pre>{esc(chr(10).join(s.lines))}</pre>"
                       for s in res.sections) or "<p>summary.json has no sections</p>"
-    sec = [(s["id"], s["title"], str(s["body"])) for s in front_sections(res, opt)]
-    sec.append(("summary", "Project summary",
-                f'<p class="facts">source {esc(res.summary.get("source", "?"))}</p>' + summary
-                + "".join(f"<p>note: {esc(n)}</p>" for n in res.notes)))
+    sec = [("summary", "Project summary",
+            f'<p class="facts">source {esc(res.summary.get("source", "?"))}</p>' + summary
+            + "".join(f"<p>note: {esc(n)}</p>" for n in res.notes))]
     gt_lines = res.global_test_lines() or ["global test: not available"]
     sec.append(("global", "Global test", '<p id="global-test">' + "<br>".join(
         f'<span class="{_verdict_class(x)}">{esc(x)}</span>' for x in gt_lines) + "</p>"
@@ -302,6 +307,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
                   "folder.</p>"))
     sections = [{"id": k, "nav": t.split(" (")[0], "title": t, "body": Markup(b)}
                 for k, t, b in sec]
+    sections = front_sections(res, opt, sections) + sections
     subtitle = (f"{res.folder.name} · " + (f"run {res.run} · " if res.run else "")
                 + f"global test {'n/a' if passed is None else 'accepted' if passed else 'REJECTED'}"
                 f" · {res.summary.get('n_rejected', 0)} rejected, "

@@ -60,7 +60,9 @@ def parts_html(parts: list[Part], figures: bool = True) -> str:
         if p.kind == "alert":
             out.append(f'<p class="banner">{esc(p.text)}</p>')
         elif p.kind == "heading":
-            out.append(f"<h3>{esc(p.title)}</h3>")
+            ident = "" if figures or p.title not in SECTION_IDS else \
+                f' id="{SECTION_IDS[p.title]}"'
+            out.append(f"<h3{ident}>{esc(p.title)}</h3>")
         elif p.kind == "text":
             out.append("<p>" + "<br>".join(esc(x) for x in p.text.split("\n")) + "</p>")
         elif p.kind == "table":
@@ -91,7 +93,8 @@ def quality_sections(parts: list[Part]) -> list[dict]:
              "body": Markup(parts_html(s["parts"]))} for s in out]
 
 
-SECTION_IDS = {"Camera calibration": "camera", "Control and check points": "control",
+SECTION_IDS = {"Summary": "summary", "Camera calibration": "camera",
+               "Control and check points": "control",
                "GNSS positions of the projection centres": "gnss",
                "IMU attitudes of the photos": "imu",
                "Reprojection errors per image": "reprojection",
@@ -123,7 +126,8 @@ def quality_page(res: Results, parts: list[Part] | None = None,
 
     parts = quality_content(res) if parts is None else parts
     body = [p for p in parts if p.kind != "alert"]
-    sections = front_sections(res, ReportOptions()) + quality_sections(body)
+    rest = quality_sections(body)
+    sections = front_sections(res, ReportOptions(), rest) + rest
     return page("quality", templates, title=res.title, subtitle=f"{res.folder.name} · run "
                 f"{res.run or 'not recorded'}", banners=res.failures, sections=sections,
                 footer=footer(res))

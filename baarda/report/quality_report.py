@@ -317,7 +317,8 @@ def summary_parts(res: Results) -> list[Part]:
     lines = [f"project {res.title}, source {s.get('source', '?')}",
              f"sigma0 a posteriori {s.get('sigma0', float('nan')):.4f}, redundancy "
              f"{s.get('redundancy')}, {s.get('n_observations')} observations, "
-             f"{s.get('n_unknowns')} unknowns, converged {s.get('converged')}"]
+             f"{s.get('n_unknowns')} unknowns, "
+             + ("converged" if s.get("converged") else "NOT CONVERGED")]
     lines += res.global_test_lines()
     crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
     lines += crs[:1]
