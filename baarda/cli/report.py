@@ -44,7 +44,7 @@ def register(sub) -> None:
                    help="snooping table order: largest |w| first, or file order")
     p.add_argument("--exaggeration", type=float,
                    help="residual vector exaggeration (default: automatic)")
-    p.add_argument("--vector-photos", type=int, default=12,
+    p.add_argument("--vector-photos", type=int, default=8,
                    help="photos drawn with residual vectors (those with rejected or flagged "
                    "observations first)")
     p.add_argument("--max-points", type=int, default=50_000,

@@ -19,6 +19,7 @@ from baarda.report import maps
 from baarda.report.anaplot import format_log, log_rows, snooping_table
 from baarda.report.footprint import footprints, image_extent
 from baarda.report.front import accuracy, check_view, metadata, patterns, quality_check
+from baarda.report.geometry import geometry_plots
 from baarda.report.histogram import format_histogram
 from baarda.report.html_base import csv_link, esc, figure, macro, num, page, table, worst_table
 from baarda.report.plots import Plot, residual_histograms, w_histogram
@@ -119,6 +120,7 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     out["redundancy_map"] = maps.redundancy_map(res, pts, opt.max_points) if stats else None
     out["reliability_map"] = (maps.reliability_map(res, pts, opt.max_points) if stats
                               else None)
+    out.update(geometry_plots(res))
     return out
 
 
@@ -285,7 +287,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     geo = "".join(str(figure(figs.get(k))) for k in ("centres", "ground_vectors",
                                                      "overlap", "rays", "image_grid"))
     if geo:
-        sec.append(("geometry", "Geometry", f'<div class="grid2">{geo}</div>'))
+        sec.append(("geometry", "Geometry", f'<div class="grid3">{geo}</div>'))
     texts = "".join(
         f"<details><summary>text histogram: image {esc(n)}</summary><pre>"
         f"{esc(format_histogram(h, f'IMAGE {n.upper()} RESIDUALS', 'µm', opt.line_width))}"

@@ -94,7 +94,7 @@ def quality_sections(parts: list[Part]) -> list[dict]:
 
 
 SECTION_IDS = {"Summary": "summary", "Camera calibration": "camera",
-               "Control and check points": "control",
+               "Ground control and check points": "control",
                "GNSS positions of the projection centres": "gnss",
                "IMU attitudes of the photos": "imu",
                "Reprojection errors per image": "reprojection",

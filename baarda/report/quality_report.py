@@ -123,7 +123,7 @@ def camera_parts(res: Results) -> list[Part]:
 
 
 def control_parts(res: Results) -> list[Part]:
-    parts = [Part("heading", "Control and check points")]
+    parts = [Part("heading", "Ground control and check points")]
     obs = res.obs
     ctrl = obs[obs["kind"] == "control"]
     if len(ctrl):

@@ -52,7 +52,7 @@ class ReportOptions:
     min_abs_w: float | None = None
     sort: str = "w"
     exaggeration: float | None = None  # residual vectors; None: automatic
-    vector_photos: int = 12
+    vector_photos: int = 8
     worst: int = 10
     # at scale (issue 16): maps draw at most max_points points (a deterministic sample
     # beyond, said in the caption); tables list at most max_rows rows (the worst)
