@@ -131,6 +131,7 @@ def block_map(res: Results, outlines: dict[str, np.ndarray], annotate: int = 40,
                    linewidths=1.5, label=f"flagged |w| > k ({len(fl)} points)", zorder=4)
     ax.set_aspect("equal")
     ax.autoscale_view()
+    ax.ticklabel_format(useOffset=False, style="plain")  # coordinates as they are
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
     ax.grid(alpha=0.2)
@@ -255,6 +256,7 @@ def _colour_map(ax, fig, pts, col, label, cmap, vmin=None, vmax=None):
                    label=f"uncontrolled (r < 0.001): {len(unc)}")
         ax.legend(fontsize=7, loc="upper left")
     ax.set_aspect("equal")
+    ax.ticklabel_format(useOffset=False, style="plain")  # coordinates as they are
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
 
