@@ -234,8 +234,10 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     opt = opt or ReportOptions()
     figs = plots(res, opt)
     passed = res.global_test_passed
-    summary = "".join(f"<h3>{esc(s.title)}</h3><pre>{esc(chr(10).join(s.lines))}</pre>"
-                      for s in res.sections) or "<p>summary.json has no sections</p>"
+    summary = ('<div class="grid2">' + "".join(
+        f"<div><h3>{esc(s.title)}</h3><pre>{esc(chr(10).join(s.lines))}</pre></div>"
+        for s in res.sections) + "</div>") if res.sections else \
+        "<p>summary.json has no sections</p>"
     sec = [("summary", "Project summary",
             f'<p class="facts">source {esc(res.summary.get("source", "?"))}</p>' + summary
             + "".join(f"<p>note: {esc(n)}</p>" for n in res.notes))]
