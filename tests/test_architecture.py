@@ -101,6 +101,27 @@ def test_what_a_package_never_imports(package):
     assert not bad, "\n".join(bad)
 
 
+REPORT_MAY_NOT_IMPORT = {"pipeline", "bundle", "independent", "relative", "screening",
+                         "adjustment", "quality", "evaluation", "planning", "simulate"}
+
+
+def test_the_report_reads_result_files_only():
+    """report/ renders what the result files say (issue 27): it never imports the
+    pipeline, the methods, the solver, the quality layer, the studies or the planning."""
+    bad = [f"{p.relative_to(ROOT)} line {line}: imports baarda.{pkg}"
+           for p in sorted((ROOT / "report").rglob("*.py"))
+           for line, pkg in baarda_imports(p) if pkg in REPORT_MAY_NOT_IMPORT]
+    assert not bad, "\n".join(bad)
+
+
+def test_readers_live_in_io():
+    """Residual listings of other programs and a result folder's observations are read by
+    io/ (residual_listings.py, observations_file.py), not by the report."""
+    assert (ROOT / "io" / "residual_listings.py").is_file()
+    assert (ROOT / "io" / "observations_file.py").is_file()
+    assert not (ROOT / "report" / "residual_readers.py").exists()
+
+
 def test_the_rule_catches_an_upward_import(tmp_path):
     """The check itself: an io module that imports the bundle is found."""
     f = tmp_path / "bad.py"

@@ -74,9 +74,23 @@ def run_adjust(args) -> int:
         qc, text = _adjust(args, run)
     con.print(text)
     con.print(f"results written to {run.describe()}")
-    con.verdict(args.command, f"{adjustment_verdict(qc.to_dict())} -> {run.describe()}")
+    check = _quality_check(args.out, qc)
+    con.print("\n".join(check.lines()))  # the reports' first section, the same rows
+    con.verdict(args.command, f"{adjustment_verdict(qc.to_dict())}; quality check "
+                f"{check.headline} -> {run.describe()}")
     return OK if qc.adjustment.converged and not (qc.run and qc.run.incomplete) \
         else NOT_CONVERGED
+
+
+def _quality_check(out, qc):
+    """The quality check of the run just written (report/front.folder_quality_check)."""
+    import numpy as np
+
+    from baarda.report.front import folder_quality_check
+
+    image = np.asarray(qc.model.kind) == "image"
+    sigma = qc.model.sigma[image] * 1e3  # µm
+    return folder_quality_check(out, float(np.median(sigma)) if len(sigma) else None)
 
 
 def _adjust(args, run):

@@ -87,7 +87,7 @@ def run(args) -> int:
     from baarda.evaluation.study import run_study
     from baarda.output.atomic import write_bytes, write_text
     from baarda.output.evaluation_files import write_study
-    from baarda.report.evaluation_plots import power_curves, study_html
+    from baarda.report.evaluation_plots import power_curves, read_study, study_html
 
     options = _options(args)
     con = console(args)
@@ -100,10 +100,11 @@ def run(args) -> int:
                 raise
             raise ProjectError("--scheduler", f"{args.scheduler}: {e}") from None
         write_study(run, study)
-        png = power_curves(study)
+        summary, power, curve = read_study(run.file)  # the report shows what was written
+        png = power_curves(summary, power, curve)
         if png is not None:
             write_bytes(run.file("power.png"), png)
-        write_text(run.file("report.html"), study_html(study, png))
+        write_text(run.file("report.html"), study_html(summary, power, png))
     con.print(study.summary())
     fewest = int(study.trials["n_planted"].min()) if len(study.trials) else 0
     if fewest < options.blunders:

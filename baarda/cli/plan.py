@@ -140,6 +140,10 @@ def _plan(args, run) -> list:
     say(f"design block: {plan.block.summary()}")
     advice = advise(plan, flight)
     files = write_plan(run, plan, advice, wi, title, plots=not args.no_plots)
+    from baarda.output.atomic import write_text
+    from baarda.report.plan_page import plan_html
+
+    write_text(run.file("plan_report.html"), plan_html(run.file, title))  # from the files
     if args.derive_table:
         if flight is not None:
             length = flight.photos_per_strip - 1

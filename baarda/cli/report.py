@@ -48,7 +48,7 @@ def register(sub) -> None:
                    help="snooping table order: largest |w| first, or file order")
     p.add_argument("--exaggeration", type=positive(hi=1e9),
                    help="residual vector exaggeration (default: automatic)")
-    p.add_argument("--vector-photos", type=integer(0, 10**9), default=12,
+    p.add_argument("--vector-photos", type=integer(0, 10**9), default=8,
                    help="photos drawn with residual vectors (those with rejected or flagged "
                    "observations first)")
     p.add_argument("--max-points", type=integer(1, 10**9), default=50_000,
@@ -58,6 +58,9 @@ def register(sub) -> None:
     p.add_argument("--max-rows", type=integer(1, 10**9), default=1_000,
                    help="the per-photo and snooping tables list at most this many rows: the "
                    "worst (default 1000)")
+    p.add_argument("--templates", type=Path, metavar="DIR", help="a folder of Jinja2 "
+                   "templates that override the reports' own (adjustment.html.j2, "
+                   "quality.html.j2, style.css, macros.html.j2): restyle or brand the pages")
     add_quiet_option(p, "text report (--text) and no list of the files written")
     p.set_defaults(func=run)
 
@@ -89,6 +92,8 @@ def run(args) -> int:
             classes(w, lo, hi)
         except ValueError as e:
             raise ProjectError("command line", str(e)) from None
+    if args.templates is not None and not args.templates.is_dir():
+        raise ProjectError(str(args.templates), "not a folder of templates")
     for out in (args.out, args.quality, args.pdf):
         if out is not None:
             check_output_file(out, [args.results, *run_files(args.results)])
@@ -113,7 +118,7 @@ def run(args) -> int:
         say = progress(args)
         if say:
             say(f"read {args.results}: {counts}")
-        write_html(args.out, html_report(res, opt, cal))
+        write_html(args.out, html_report(res, opt, cal, args.out, args.templates))
         con.print(f"report written to {args.out}")
         written.append(str(args.out))
     if quality:
@@ -124,7 +129,7 @@ def run(args) -> int:
 
         parts = quality_content(res, cal)  # once for the page and the PDF
         if args.quality is not None:
-            write_html(args.quality, quality_page(res, parts))
+            write_html(args.quality, quality_page(res, parts, args.templates))
             con.print(f"quality report written to {args.quality}")
             written.append(str(args.quality))
         if args.pdf is not None:

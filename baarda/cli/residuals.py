@@ -27,7 +27,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from baarda.errors import ProjectError
-    from baarda.report.residual_readers import read_residuals
+    from baarda.io.residual_listings import read_residuals
     from baarda.report.text_report import residuals_report
 
     res = read_residuals(args.files, args.format, args.pixel_size)

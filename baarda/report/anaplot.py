@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import UNITS
+from baarda.schema import UNITS
 
 COLUMNS = ["kind", "frame", "point", "component", "unit", "redundancy", "residual",
            "sigma_residual", "w", "flag"]

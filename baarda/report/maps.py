@@ -131,6 +131,7 @@ def block_map(res: Results, outlines: dict[str, np.ndarray], annotate: int = 40,
                    linewidths=1.5, label=f"flagged |w| > k ({len(fl)} points)", zorder=4)
     ax.set_aspect("equal")
     ax.autoscale_view()
+    ax.ticklabel_format(useOffset=False, style="plain")  # coordinates as they are
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
     ax.grid(alpha=0.2)
@@ -194,7 +195,7 @@ def residual_vectors(res: Results, exaggeration: float | None = None, limit: int
     ref = _nice(p95) if p95 > 0 else 1.0
     rows = int(np.ceil(len(photos) / cols))
     ncol = min(cols, len(photos))
-    fig, axes = plt.subplots(rows, ncol, figsize=(3.3 * ncol, 3.3 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, ncol, figsize=(2.9 * ncol, 2.9 * rows), squeeze=False)
     marked = []
     s = 1e-3 * exaggeration  # µm -> drawn mm
     for ax, p in zip(axes.ravel(), photos, strict=False):
@@ -226,7 +227,7 @@ def residual_vectors(res: Results, exaggeration: float | None = None, limit: int
         ax.axis("off")
     fig.suptitle(f"Image residual vectors × {exaggeration:g} (x, y in mm); red: rejected, "
                  "orange: flagged", fontsize=10)
-    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.04, top=1 - 0.55 / (rows * 3.3),
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.04, top=1 - 0.55 / (rows * 2.9),
                         wspace=0.25, hspace=0.3)
     n_all = pairs["photo"].nunique()
     cap = (f"{len(photos)} of {n_all} photos (those with rejected or flagged observations "
@@ -255,6 +256,7 @@ def _colour_map(ax, fig, pts, col, label, cmap, vmin=None, vmax=None):
                    label=f"uncontrolled (r < 0.001): {len(unc)}")
         ax.legend(fontsize=7, loc="upper left")
     ax.set_aspect("equal")
+    ax.ticklabel_format(useOffset=False, style="plain")  # coordinates as they are
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
 

@@ -13,7 +13,6 @@ but RMS values and per-group summaries of the observations table.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import matplotlib
@@ -25,6 +24,7 @@ import pandas as pd  # noqa: E402
 
 from baarda.output.result_folder import Results  # noqa: E402
 from baarda.report.anaplot import log_rows  # noqa: E402
+from baarda.report.front import pixel_um  # noqa: E402,F401  (re-exported)
 from baarda.report.stats import pair_xy  # noqa: E402
 
 WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
@@ -39,24 +39,8 @@ class Part:
     fmt: dict | None = None
     figure: object = None  # a function () -> matplotlib Figure
     full_in_html: pd.DataFrame | None = None  # the whole table where the PDF shows a part
-
-
-def pixel_um(res: Results) -> float | None:
-    """The pixel size (µm): the cameras' own where the source states it (DBAT, MicMac; one
-    size for every camera), else the nominal one a reader stated in the notes (COLMAP, BAL,
-    OpenSfM)."""
-    sizes = {c.get("pixel_mm") for c in res.summary.get("cameras", [])}
-    if len(sizes) == 1 and None not in sizes:
-        return float(sizes.pop()) * 1e3
-    for n in list(res.summary.get("notes", [])) + [line for s in res.sections
-                                                   for line in s.lines]:
-        m = re.search(r"nominal pixel size ([0-9.eE+-]+) mm", str(n))
-        if m:
-            try:
-                return float(m.group(1)) * 1e3
-            except ValueError:
-                return None
-    return None
+    order: object = None  # per row of the table: larger is worse (long tables: the worst)
+    rows_are: str = "rows"  # what a row is, e.g. "photos"
 
 
 def _rms(x) -> float:
@@ -158,9 +142,12 @@ def control_parts(res: Results) -> list[Part]:
                           "v = adjusted - given per axis, w-test, redundancy number r (0: the "
                           "point is not checked by the rest of the block) and the minimal "
                           "detectable bias. RMS: " + _rms_per_axis(ctrl)))
+        wcols = [c for c in t.columns if c.startswith("w ")]
         parts.append(Part("table", "control points", table=t,
                           fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
-                               for c in t.columns if c not in ("point", "role", "rejected")}))
+                               for c in t.columns if c not in ("point", "role", "rejected")},
+                          order=t[wcols].abs().max(axis=1).to_numpy(float) + 1e3 * (
+                              t["rejected"] != ""), rows_are="control points"))
     pts = res.points
     if pts is not None and "role" in pts and (pts["role"] == "check").any():
         chk = pts[pts["role"] == "check"]
@@ -201,7 +188,33 @@ def gnss_parts(res: Results) -> list[Part]:
                  "number per axis. RMS: " + _rms_per_axis(g)),
             Part("table", "GNSS residuals", table=t,
                  fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
-                      if c not in ("photo", "rejected")})]
+                      if c not in ("photo", "rejected")},
+                 order=t[[c for c in t.columns if c.startswith("w ")]].abs().max(axis=1)
+                 .to_numpy(float) + 1e3 * (t["rejected"] != ""), rows_are="photos")]
+
+
+def imu_parts(res: Results) -> list[Part]:
+    g = res.obs[res.obs["kind"] == "imu"]
+    if not len(g):
+        return []
+    unit = res.units.get("imu", "")
+    t = g.pivot_table(index="photo", columns="component",
+                      values=["residual", "w", "redundancy"], sort=False)
+    t.columns = [f"{'v' if a == 'residual' else a} {c}" for a, c in t.columns]
+    t = t.reset_index()
+    rejected = {ph: _rejected(r) for ph, r in g.groupby("photo", sort=False)}
+    t["rejected"] = [rejected.get(ph, "") for ph in t["photo"]]
+    used = g[~g["rejected"].to_numpy(bool)]
+    rms = ", ".join(f"{c} {_rms(used.loc[used['component'] == c, 'residual']):.3f} {unit}"
+                    for c in ("omega", "phi", "kappa") if (used["component"] == c).any())
+    return [Part("heading", "IMU attitudes of the photos"),
+            Part("text", text=f"Residual v = adjusted - observed ({unit}), w-test and "
+                 f"redundancy number per angle. RMS: {rms or '-'}"),
+            Part("table", "IMU residuals", table=t,
+                 fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
+                      if c not in ("photo", "rejected")},
+                 order=t[[c for c in t.columns if c.startswith("w ")]].abs().max(axis=1)
+                 .to_numpy(float) + 1e3 * (t["rejected"] != ""), rows_are="photos")]
 
 
 def image_parts(res: Results) -> list[Part]:
@@ -232,7 +245,9 @@ def image_parts(res: Results) -> list[Part]:
             Part("text", text=f"Image residuals of the adjusted block (rejected observations "
                  f"left out), {note}; error = length of the residual vector."),
             Part("table", "reprojection errors", table=t,
-                 fmt={c: ".3f" for c in t.columns if c not in ("photo", "points")})]
+                 fmt={c: ".3f" for c in t.columns if c not in ("photo", "points")},
+                 order=t[f"RMS x {unit}"].fillna(0).to_numpy(float) ** 2
+                 + t[f"RMS y {unit}"].fillna(0).to_numpy(float) ** 2, rows_are="photos")]
 
 
 def observation_parts(res: Results) -> list[Part]:
@@ -302,7 +317,8 @@ def summary_parts(res: Results) -> list[Part]:
     lines = [f"project {res.title}, source {s.get('source', '?')}",
              f"sigma0 a posteriori {s.get('sigma0', float('nan')):.4f}, redundancy "
              f"{s.get('redundancy')}, {s.get('n_observations')} observations, "
-             f"{s.get('n_unknowns')} unknowns, converged {s.get('converged')}"]
+             f"{s.get('n_unknowns')} unknowns, "
+             + ("converged" if s.get("converged") else "NOT CONVERGED")]
     lines += res.global_test_lines()
     crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
     lines += crs[:1]
@@ -311,8 +327,8 @@ def summary_parts(res: Results) -> list[Part]:
 
 
 def calibration_parts(res: Results) -> list[Part]:
-    """The camera, control and GNSS parts (the main HTML report shows them too)."""
-    return camera_parts(res) + control_parts(res) + gnss_parts(res)
+    """The camera, control, GNSS and IMU parts (the main HTML report shows them too)."""
+    return camera_parts(res) + control_parts(res) + gnss_parts(res) + imu_parts(res)
 
 
 def quality_content(res: Results, calibration: list[Part] | None = None) -> list[Part]:

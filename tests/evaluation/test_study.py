@@ -76,8 +76,19 @@ def test_command_line(tmp_path):
                  "--blunder-size-mdb", "2", "4", "--strategies", "snoop,robust,screen",
                  "-q"]) == 0
     names = {"blunders.csv", "trials.csv", "summary.json", "power.png", "report.html",
-             "run.json"}
+             "run.json", "power.csv", "b_method_power.csv"}
     assert names <= {p.name for p in out.iterdir()}
+    power = pd.read_csv(out / "power.csv")  # what the report shows, written by evaluate
+    b_all = pd.read_csv(out / "blunders.csv")
+    for name, part in power.groupby("series"):
+        if name in ("snoop", "robust", "screen"):
+            sub = b_all[b_all["strategy"] == name]
+            assert part["n"].sum() == len(sub) and part["located"].sum() == sub["located"].sum()
+    curve = pd.read_csv(out / "b_method_power.csv")
+    at1 = np.interp(1.0, curve["size_mdb"], curve["power"])
+    assert at1 == pytest.approx(0.80, abs=2e-3)  # beta0 at 1 MDB
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert 'id="power-counts"' in page and '<section id="curves">' in page
     doc = json.loads((out / "summary.json").read_text())
     assert set(doc["rates"]["strategies"]) == {"snoop", "robust", "screen"}
     b = pd.read_csv(out / "blunders.csv")

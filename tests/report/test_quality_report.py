@@ -73,7 +73,7 @@ def test_pdf_pages_render(results, tmp_path):
         image.save(tmp_path / f"page{i}.png")
         a = np.asarray(image.convert("L"), float)
         assert a.shape[0] > a.shape[1] > 500  # A4 portrait
-        assert (a < 128).mean() > 0.005  # printed, not blank
+        assert (a < 128).mean() > 0.001  # printed, not blank
         text += page.get_textpage().get_text_range() + "\n"
     for words in ("Camera calibration", "Ground control and check points",
                   "Correlations of camera", "Control points", "Check points", "RMS", "x0",
@@ -81,9 +81,10 @@ def test_pdf_pages_render(results, tmp_path):
                   "Reprojection errors per image", "Data snooping log",
                   "External reliability"):
         assert words in text
-    # the heat map is a picture on the first page: many colours there
-    first = np.asarray(pdf[0].render(scale=1.0).to_pil().convert("RGB"), int)
-    assert len(np.unique(first.reshape(-1, 3), axis=0)) > 50
+    # the heat map is a picture (after the first page's quality check): many colours
+    colours = [len(np.unique(np.asarray(pdf[i].render(scale=1.0).to_pil().convert("RGB"),
+                                        int).reshape(-1, 3), axis=0)) for i in range(len(pdf))]
+    assert max(colours[1:]) > 50
 
 
 @pytest.mark.slow

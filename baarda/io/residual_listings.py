@@ -24,8 +24,8 @@ import numpy as np
 import pandas as pd
 
 from baarda.errors import ProjectError
+from baarda.io.observations_file import numbers, read_observations
 from baarda.io.table import Table
-from baarda.output.result_folder import numbers, read_observations
 
 PM_HEADER = "Object Point ID"
 FORMATS = ("auto", "generic", "photomodeler", "baarda")
