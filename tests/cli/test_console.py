@@ -30,13 +30,14 @@ def test_quiet_adjust_of_the_demo_prints_the_verdict_line(tmp_path, capsys):
     cap = capsys.readouterr()
     assert cap.out == ""
     assert cap.err == (f"baarda adjust: sigma0 1.463 (global test REJECTED), 0 rejected, 19 "
-                       f"flagged, 4 check points RMS X 0.073 Y 0.042 Z 0.109 m -> "
-                       f"{tmp_path / 'o'}\n")
+                       f"flagged, 4 check points RMS X 0.073 Y 0.042 Z 0.109 m; quality check "
+                       f"FAIL: Global test -> {tmp_path / 'o'}\n")
     first = json.loads((tmp_path / "o" / MANIFEST).read_text())["run"]
     assert main(["adjust", str(DEMO), "-o", str(tmp_path / "o"), "-q", "--snoop"]) == 0
     assert capsys.readouterr().err == (
         "baarda adjust: sigma0 1.051 (global test accepted), 4 rejected, 4 check points RMS "
-        f"X 0.059 Y 0.046 Z 0.117 m -> {tmp_path / 'o'} (replacing run {first})\n")
+        "X 0.059 Y 0.046 Z 0.117 m; quality check REVIEW: Rejections, Uncontrolled "
+        f"observations -> {tmp_path / 'o'} (replacing run {first})\n")
     assert main(["adjust", str(DEMO), "-o", str(tmp_path / "o"), "-qq"]) == 0
     assert capsys.readouterr() == ("", "")
 
