@@ -103,22 +103,6 @@ class Results:
         return dict(zip(self.photos["photo"], self.photos["strip"], strict=True))
 
 
-def _cameras_from_project(source: Path, notes: list[str]) -> tuple[dict, str | None]:
-    """Fallback for folders written before summary.json carried the cameras."""
-    from baarda.io.project import read_project
-
-    try:
-        blk = read_project(source)
-    except (ProjectError, OSError) as e:
-        notes.append(f"project {source} could not be read for the cameras: {e}")
-        return {}, None
-    cams = {c: {"focal_mm": float(blk.cameras.focal_mm[i]),
-                "x0_mm": float(blk.cameras.principal_point_mm[i, 0]),
-                "y0_mm": float(blk.cameras.principal_point_mm[i, 1])}
-            for i, c in enumerate(blk.cameras.ids)}
-    return cams, blk.settings.angle_unit
-
-
 def read_results(folder: str | Path) -> Results:
     """Read summary.json, observations.csv (or observations.parquet, written by adjust
     --parquet) and (when present) photos.csv, points.csv."""
@@ -136,14 +120,14 @@ def read_results(folder: str | Path) -> Results:
         raise ProjectError(str(sp), f"not valid JSON: {e.msg}", e.lineno) from None
     if not isinstance(summary, dict):
         raise ProjectError(str(sp), "expected a JSON object")
+    if run is None:
+        raise ProjectError(str(folder / MANIFEST), "file not found: not a result folder "
+                           "written by baarda (every run lists its files in it)")
     if (folder / "observations.parquet").is_file() and not (folder / "observations.csv").is_file():
         obs = read_observations_parquet(folder / "observations.parquet")
     else:
         obs = read_observations(folder / "observations.csv")
     notes: list[str] = []
-    if run is None:
-        notes.append(f"{folder} has no run manifest ({MANIFEST}: written by an earlier "
-                     "version of baarda): its files were not checked to be of one run")
     photos = points = None
     photo_block = (obs["kind"] == "image").any()  # photos, cameras and footprints apply
     if (folder / "photos.csv").is_file():
@@ -162,19 +146,11 @@ def read_results(folder: str | Path) -> Results:
         notes.append("points.csv missing: no maps")
     cams = {c["camera"]: c for c in summary.get("cameras", []) if "camera" in c}
     unit = summary.get("angle_unit")
-    if not cams and photo_block and summary.get("source"):
-        src = Path(summary["source"])
-        if not src.is_absolute() and not src.is_dir():
-            src = folder.parent / src
-        if src.is_dir():
-            cams, unit = _cameras_from_project(src, notes)
     if not cams and photo_block:
         notes.append("no camera data (summary.json 'cameras'): photo footprints not drawn")
     if obs["x_mm"].isna().all() and (obs["kind"] == "image").any():
         notes.append("observations.csv has no image coordinates (x_mm, y_mm): image-space "
                      "residual plots not drawn (re-run baarda adjust)")
-    manifest = {}
-    if run is not None:  # verified above: the run's own manifest
-        manifest = {k: v for k, v in json.loads((folder / MANIFEST).read_text(
-            encoding="utf-8")).items() if k != "files"}
+    manifest = {k: v for k, v in json.loads((folder / MANIFEST).read_text(
+        encoding="utf-8")).items() if k != "files"}  # verified above: the run's own
     return Results(folder, summary, obs, photos, points, cams, unit, notes, run, manifest)

@@ -146,24 +146,14 @@ def log_rows(summary: dict) -> list[dict]:
 
 def log_test(step: dict) -> tuple[str, float]:
     """(test, value) of a log step: w or tau, or the method that rejected before snooping
-    (with the component's w); folders of earlier versions have only 'w'."""
+    (with the component's w)."""
     stat = step.get("statistic", "w")
-    value = step.get("value", step.get("w", np.nan))
-    return (stat if stat in ("w", "tau") else "robust"), float(value)
+    return (stat if stat in ("w", "tau") else "robust"), float(step.get("value", np.nan))
 
 
 def log_mdb(step: dict) -> tuple[str, str]:
-    """MDB of a log step in report units (image µm, control m; folders of earlier versions
-    stored model units: image mm)."""
-    mdb = step.get("mdb")
-    obs = step.get("observations") or [""]
+    """MDB of a log step as written (summary.json: `mdb` in `mdb_unit`)."""
+    mdb, unit = step.get("mdb"), step.get("mdb_unit", "")
     if mdb is None or not np.isfinite(mdb):
         return "-", ""
-    if "mdb_unit" in step:
-        unit = step["mdb_unit"]
-        return (f"{mdb:.3f}" if unit == "m" else f"{mdb:.1f}" if unit else f"{mdb:.4g}"), unit
-    if obs[0].startswith("image"):
-        return f"{mdb * 1e3:.1f}", "µm"
-    if obs[0].startswith("control"):
-        return f"{mdb:.3f}", "m"
-    return f"{mdb:.4g}", ""
+    return (f"{mdb:.3f}" if unit == "m" else f"{mdb:.1f}" if unit else f"{mdb:.4g}"), unit

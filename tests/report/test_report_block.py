@@ -5,6 +5,7 @@ import re
 import numpy as np
 import pytest
 from htmlrows import table_rows
+from result_files import resign
 
 from baarda.cli import main
 from baarda.output.result_folder import read_results
@@ -111,42 +112,27 @@ def test_bad_results_name_file_line_column(report_case, tmp_path, capsys):
 
     bad = tmp_path / "out"
     shutil.copytree(report_case.out, bad)
-    (bad / "run.json").unlink()  # a folder of an earlier version: its files are parsed
     lines = (bad / "observations.csv").read_text().splitlines()
     lines[3] = lines[3].replace(",False,", ",maybe,", 1)
     (bad / "observations.csv").write_text("\n".join(lines) + "\n")
+    resign(bad)  # the run's own file, with a bad cell
     assert main(["report", str(bad), "--text"]) == 2
     err = capsys.readouterr().err
     assert "observations.csv, line 4, column 'rejected'" in err
 
 
-@pytest.mark.slow
-def test_older_output_folder_still_reports(report_case, tmp_path):
-    """Without the report's fields (x_mm, y_mm, cameras): cameras from the project named in
-    'source', image-space plots left out with a note."""
-    import json
+def test_a_folder_without_its_run_manifest_is_refused(report_case, tmp_path):
+    """Every run lists its files in run.json; a folder without it is not read (no paths
+    for folders of earlier versions: issue 27)."""
     import shutil
 
-    from baarda.report.html_report import html_report
+    from baarda.errors import ProjectError
 
     old = tmp_path / "out"
     shutil.copytree(report_case.out, old)
-    (old / "run.json").unlink()  # written before run manifests existed
-    s = json.loads((old / "summary.json").read_text())
-    del s["cameras"], s["angle_unit"]
-    s["source"] = str(report_case.project)
-    (old / "summary.json").write_text(json.dumps(s))
-    o = report_case.obs.drop(columns=["x_mm", "y_mm"])
-    o.to_csv(old / "observations.csv", index=False)
-    res = read_results(old)
-    assert res.cameras and res.angle_unit == "gon"  # from the project folder
-    assert any("no image coordinates" in n for n in res.notes)
-    h = html_report(res)
-    assert h.count("<img") == 9 and "no image coordinates in the results" in h
-    s["source"] = str(tmp_path / "nowhere")
-    (old / "summary.json").write_text(json.dumps(s))
-    res = read_results(old)
-    assert not res.cameras and any("footprints not drawn" in n for n in res.notes)
+    (old / "run.json").unlink()
+    with pytest.raises(ProjectError, match=r"run.json: file not found: not a result folder"):
+        read_results(old)
 
 
 def test_missing_files(tmp_path):
