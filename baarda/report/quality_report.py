@@ -66,6 +66,54 @@ def _rejected(g: pd.DataFrame) -> str:
     return " ".join(g.loc[g["rejected"].to_numpy(bool), "component"].astype(str))
 
 
+def distortion_parts(res: Results, cal: pd.DataFrame) -> list[Part]:
+    """Per camera whose model has estimated coefficients (and needs no constants): the
+    correction of the adjusted camera model over the measured image area, vectors on a grid
+    and the size in µm (block/camera_models.py: the model's delta, in mm in the image)."""
+    from baarda.block.camera_models import get_model
+
+    out = []
+    obs = res.obs
+    img = obs[(obs["kind"] == "image") & obs["x_mm"].notna()]
+    for cam, rows in cal.groupby("camera", sort=False):
+        model = get_model(str(rows["model"].iloc[0]))
+        coef_rows = rows[rows["parameter"].isin(model.params)]
+        if model.constants or not model.params or not coef_rows["estimated"].any():
+            continue
+        vals = dict(zip(rows["parameter"], rows["value"], strict=True))
+        coef = np.array([[vals[p] for p in model.params]], float)
+        c, pp = vals["c"], np.array([vals["x0"], vals["y0"]])
+        if len(img) < 3:
+            continue
+        lo = img[["x_mm", "y_mm"]].min().to_numpy(float)
+        hi = img[["x_mm", "y_mm"]].max().to_numpy(float)
+        gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], 15), np.linspace(lo[1], hi[1], 11))
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        u = (xy - pp) / c if model.normalized else xy - pp
+        delta = model.correction(u, coef)[0] * (c if model.normalized else 1.0) * 1e3  # µm
+
+        def draw(xy=xy, delta=delta, cam=cam, gx=gx):
+            fig, ax = plt.subplots(figsize=(6.0, 4.2))
+            size = np.hypot(delta[:, 0], delta[:, 1])
+            cs = ax.contourf(xy[:, 0].reshape(gx.shape), xy[:, 1].reshape(gx.shape),
+                             size.reshape(gx.shape), levels=12, cmap="viridis")
+            ax.quiver(xy[:, 0], xy[:, 1], delta[:, 0], delta[:, 1], color="white",
+                      angles="xy")
+            fig.colorbar(cs, ax=ax, label="correction µm")
+            ax.set_xlabel("x mm")
+            ax.set_ylabel("y mm")
+            ax.set_aspect("equal")
+            ax.set_title(f"distortion of camera {cam}"[:60], fontsize=9)
+            return fig
+
+        big = float(np.max(np.hypot(delta[:, 0], delta[:, 1])))
+        out.append(Part("figure", f"distortion of camera {cam}",
+                        text=f"The correction of the adjusted {model.name} model over the "
+                        f"measured image area (largest {big:.1f} µm): direction and size.",
+                        figure=draw))
+    return out
+
+
 def camera_parts(res: Results) -> list[Part]:
     cal = res.summary.get("calibration") or []
     corr = res.summary.get("camera_correlations") or []
@@ -76,21 +124,26 @@ def camera_parts(res: Results) -> list[Part]:
     t = pd.DataFrame(cal)
     t["sigma"] = t["sigma"].astype(float)
     t["value / sigma"] = np.where(t["estimated"], t["value"].abs() / t["sigma"], np.nan)
+    t["initial"] = t.get("initial", pd.Series(np.nan, index=t.index)).astype(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t["change %"] = np.where(t["estimated"] & (t["initial"] != 0),
+                                 100 * (t["value"] - t["initial"]) / t["initial"].abs(), np.nan)
     px = pixel_um(res)
-    cols = ["camera", "model", "parameter", "value", "sigma"]
+    cols = ["camera", "model", "parameter", "initial", "value", "change %", "sigma"]
     if px:  # c, x0, y0 in pixels as well (the nominal pixel size of the reader)
         mm = t["parameter"].isin(["c", "x0", "y0"])
         t["value px"] = np.where(mm, t["value"] * 1e3 / px, np.nan)
         t["sigma px"] = np.where(mm, t["sigma"] * 1e3 / px, np.nan)
         cols += ["value px", "sigma px"]
-    parts.append(Part("text", text="Estimated parameters with their standard deviations "
-                      "(a posteriori, scaled by sigma0); c, x0, y0 in mm, the coefficients in "
-                      "the camera model's units (docs/camera_models.md); held parameters have "
-                      "no standard deviation."))
+    parts.append(Part("text", text="Every parameter as given (initial) and adjusted, the "
+                      "change in % of the initial value, the standard deviation (a posteriori, "
+                      "scaled by sigma0); c, x0, y0 in mm, the coefficients in the camera "
+                      "model's units; held parameters have no standard deviation."))
     parts.append(Part("table", "camera parameters", table=t[
         cols + ["value / sigma", "estimated"]],
-        fmt={"value": ".6g", "sigma": ".3g", "value / sigma": ".1f", "value px": ".2f",
-             "sigma px": ".2f"}))
+        fmt={"initial": ".6g", "value": ".6g", "change %": "+.2f", "sigma": ".3g",
+             "value / sigma": ".1f", "value px": ".2f", "sigma px": ".2f"}))
+    parts += distortion_parts(res, t)
     for c in corr:
         names = c["parameters"]
         m = np.asarray(c["matrix"], float)

@@ -123,3 +123,32 @@ def test_reprojection_errors_pair_x_and_y_of_the_same_image_point():
     assert row["mean error µm"] == pytest.approx(11.5)  # (10 + 13) / 2
     assert row["RMS x µm"] == pytest.approx(np.sqrt((36 + 25) / 2))
     assert row["RMS y µm"] == pytest.approx(np.sqrt((16 + 64 + 144) / 3))
+
+
+def test_camera_parameters_initial_to_adjusted_and_the_distortion_plot(tmp_path):
+    """Issue 31, item 4: every camera parameter as given and adjusted with the change in %,
+    and the adjusted distortion over the measured image area (berlin: c, k1, k2 free), its
+    largest correction recomputed from Brown's radial formula at the area's corners."""
+    from baarda.report.quality_report import camera_parts
+
+    out = tmp_path / "o"
+    assert main(["adjust", "tests/data/opensfm_berlin", "-o", str(out), "-q"]) == 0
+    res = read_results(out)
+    parts = camera_parts(res)
+    t = [p.table for p in parts if p.kind == "table" and p.title == "camera parameters"][0]
+    rows = {r["parameter"]: r for r in t.to_dict("records")}
+    c, k1, k2 = (rows[p] for p in ("c", "k1", "k2"))
+    for r in (c, k1, k2):
+        assert r["change %"] == pytest.approx(100 * (r["value"] - r["initial"])
+                                              / abs(r["initial"]), rel=1e-12)
+    assert c["initial"] == pytest.approx(2.838589, abs=1e-6)  # OpenSfM's focal, mm
+    assert np.isnan(rows["x0"]["change %"])  # held
+    fig = [p for p in parts if p.kind == "figure" and p.title.startswith("distortion")]
+    assert len(fig) == 1
+    img = res.obs[res.obs["kind"] == "image"]
+    x = np.array([img["x_mm"].min(), img["x_mm"].max()])
+    y = np.array([img["y_mm"].min(), img["y_mm"].max()])
+    n2 = (x[:, None] ** 2 + y[None, :] ** 2) / c["value"] ** 2  # normalised radius^2
+    corner = np.sqrt(n2) * c["value"] * np.abs(k1["value"] * n2 + k2["value"] * n2**2) * 1e3
+    largest = float(fig[0].text.split("largest ")[1].split(" µm")[0])
+    assert largest == pytest.approx(corner.max(), abs=0.05)
