@@ -167,3 +167,29 @@ def test_results_without_statistics(report_case, tmp_path):
     planted = {f"photo {b['photo']} point {b['point']} {b['component']}"
                for b in report_case.truth["blunders"]}
     assert g["image x+y"].min_at in planted or g["image x+y"].max_at in planted
+
+
+def test_large_colour_maps_bin_their_tie_points_and_keep_uncontrolled_points_apart():
+    """Issue 31, item 7: beyond HEXBIN_FROM tie points a colour map bins them on a hexagonal
+    grid (each cell its worst value), control stays on top, uncontrolled points are a layer
+    of their own under the colours (rings), not crosses over everything."""
+    import matplotlib.pyplot as plt
+    import pandas as pd
+    from matplotlib.collections import PathCollection, PolyCollection
+
+    from baarda.report.maps import HEXBIN_FROM, _colour_map
+
+    rng = np.random.default_rng(1)
+    n = HEXBIN_FROM + 500
+    pts = pd.DataFrame({"X": rng.uniform(0, 1000, n), "Y": rng.uniform(0, 800, n),
+                        "role": ["control"] * 10 + ["tie"] * (n - 10),
+                        "r_min": rng.uniform(0, 1, n), "uncontrolled": np.arange(n) < 40})
+    fig, ax = plt.subplots()
+    _colour_map(ax, fig, pts, "r_min", "r", "RdYlGn", 0.0, 1.0, worst=np.min)
+    hexes = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(hexes) == 1 and np.nanmin(hexes[0].get_array()) >= 0
+    rings = [c for c in ax.collections if isinstance(c, PathCollection)
+             and c.get_label().startswith("uncontrolled")]
+    assert len(rings) == 1 and rings[0].get_zorder() < hexes[0].get_zorder()
+    assert len(rings[0].get_offsets()) == 40
+    plt.close(fig)
