@@ -122,7 +122,7 @@ COMMANDS = commands()
 POSITIONAL = {"adjust": "project", "snoop": "project", "screen": "project",
               "convert": "project", "modified-snoop": "project", "models": "models",
               "report": "results", "residuals": "observations", "online": "strip",
-              "pattern": "spec"}
+              "pattern": "spec", "check": "results"}
 SINGLE_FILE_OUTPUTS = {"svg", "derive_table", "quality", "pdf"}
 
 
@@ -261,7 +261,8 @@ def test_command_lines(inputs, work, data):
                 code = e.code
         err = stderr.getvalue()
         _record(f"argv {argv[0] if argv else ''}", f"exit {code}")
-        assert code in (0, 2, 3), (code, err)
+        # 5: baarda check found an invariant that does not hold (a tolerance drawn too tight)
+        assert code in (0, 2, 3) or (code == 5 and argv[0] == "check"), (code, err)
         assert "Traceback" not in err + stdout.getvalue(), err
         inputs.unchanged()
         tmp = [p.name for p in d.rglob("*") if p.name.endswith((".partial", ".old", ".tmp"))]
