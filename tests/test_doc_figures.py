@@ -57,6 +57,12 @@ FIGURES = [
      "converge), sigma0 {sigma0:.4f}, c {c:.3f} +- {sigma_c:.3f} mm"),
     ("docs/odm.md", "berlin",
      "Without snooping sigma0 is {sigma0:.2f} (with 1 px assumed)"),
+    ("docs/odm.md", "berlin", "moves by 7 % with them ({c:.3f} to"),
+    ("docs/odm.md", "berlin snooped", "to {c:.3f} mm at the nominal 1 µm pixel"),
+    ("docs/odm.md", "berlin", "The check point GCP 0 misses by {d_gcp_0_X_abs:.1f}, "
+     "{d_gcp_0_Y_abs:.1f} and {d_gcp_0_Z_abs:.1f} m"),
+    ("docs/formats.md", "berlin", "GCP 0 as check point: adjusted - given = {d_gcp_0_X:.2f}, "
+     "{d_gcp_0_Y:.2f}, {d_gcp_0_Z:+.2f} m"),
     ("docs/odm.md", "berlin snooped",
      "snooping rejects {n_rejected} of {n_image:,} image coordinates (w from {w_first:.1f} "
      "down to {w_last:.1f}) and sigma0 falls to {sigma0:.2f}"),
@@ -100,6 +106,14 @@ def values(out: Path) -> dict:
     for kind in {o.split()[0] for e in log for o in e["observations"]}:
         w = sorted(abs(e["value"]) for e in log if e["observations"][0].startswith(kind))
         d[f"w_range_{kind}"] = f"{w[0]:.1f}" if len(w) == 1 else f"{w[0]:.1f}-{w[-1]:.1f}"
+    if (out / "points.csv").is_file():  # the check points' adjusted - given: d_<point>_X
+        pts = pd.read_csv(out / "points.csv", dtype={"point": str}, keep_default_na=False,
+                          na_values=[""])
+        for r in pts[pts["role"] == "check"].itertuples():
+            for c in "XYZ":
+                key = f"d_{r.point}_{c}".replace(" ", "_")
+                d[key] = getattr(r, f"d{c}")
+                d[key + "_abs"] = abs(d[key])
     cal = [r for r in s.get("calibration", []) if r["parameter"] == "c"]
     if cal:
         d["c"], d["sigma_c"] = cal[0]["value"], cal[0]["sigma"] or 0.0
