@@ -95,7 +95,7 @@ def main() -> None:
             for f in sorted((a.write / kind).iterdir()):
                 print(f"  {f.name}: {f.stat().st_size / 1e6:.1f} MB")
         if a.report:
-            from baarda.output.result_folder import read_results
+            from baarda.io.result_folder import read_results
             from baarda.report.html_report import html_report
 
             del qc, res

@@ -4,7 +4,7 @@ report reads only folders whose files are the run's own)."""
 import json
 from pathlib import Path
 
-from baarda.output.run_folder import MANIFEST, file_record
+from baarda.io.run_manifest import MANIFEST, file_record
 
 
 def resign(folder: Path) -> None:

@@ -115,11 +115,13 @@ def test_the_report_reads_result_files_only():
 
 
 def test_readers_live_in_io():
-    """Residual listings of other programs and a result folder's observations are read by
-    io/ (residual_listings.py, observations_file.py), not by the report."""
-    assert (ROOT / "io" / "residual_listings.py").is_file()
-    assert (ROOT / "io" / "observations_file.py").is_file()
+    """Residual listings of other programs and a result folder are read by io/
+    (residual_listings.py, result_folder.py, observations_file.py, run_manifest.py), not by
+    the report or the writers (issue 27)."""
+    for name in ("residual_listings", "result_folder", "observations_file", "run_manifest"):
+        assert (ROOT / "io" / f"{name}.py").is_file(), name
     assert not (ROOT / "report" / "residual_readers.py").exists()
+    assert not (ROOT / "output" / "result_folder.py").exists()
 
 
 def test_the_rule_catches_an_upward_import(tmp_path):

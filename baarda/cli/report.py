@@ -78,7 +78,7 @@ def options(args) -> ReportOptions:
 
 def run(args) -> int:
     from baarda.errors import ProjectError
-    from baarda.output.result_folder import read_results
+    from baarda.io.result_folder import read_results
     from baarda.output.run_folder import check_output_file, run_files
     from baarda.report.histogram import classes
     from baarda.report.text_report import text_report

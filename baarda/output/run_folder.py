@@ -24,7 +24,6 @@ place that would cover an input.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import re
@@ -38,13 +37,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from baarda.errors import OutputError, ProjectError
+from baarda.io.run_manifest import MANIFEST, file_record
 
 try:
     import fcntl
 except ImportError:  # pragma: no cover - not POSIX: leftovers are left, never taken away
     fcntl = None
 
-MANIFEST = "run.json"
 MARKERS = (MANIFEST, "summary.json")  # a folder with one of them was written by baarda
 
 
@@ -324,15 +323,6 @@ def earlier_run(folder: Path) -> str | None:
         return "an earlier run"
 
 
-def file_record(path: Path) -> dict:
-    """Size and SHA-256 of a file (read in 1 MB blocks)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return {"bytes": path.stat().st_size, "sha256": h.hexdigest()}
-
-
 @contextmanager
 def staged(out: str | Path | RunFolder) -> Iterator[RunFolder]:
     """The run to write into: `out` itself when it is a RunFolder (its owner commits it),
@@ -342,30 +332,3 @@ def staged(out: str | Path | RunFolder) -> Iterator[RunFolder]:
         return
     with RunFolder(out, command=" ".join(sys.argv[:1])) as run:
         yield run
-
-
-def verify_run(folder: str | Path, names: Iterable[str]) -> str | None:
-    """Check that the files `names` of a result folder belong to the run its run.json
-    lists (same size and SHA-256); the run id, or None for a folder written before run.json
-    existed.  A file that is missing, changed or not of the run is a ProjectError."""
-    folder = Path(folder)
-    mp = folder / MANIFEST
-    if not mp.is_file():
-        return None
-    try:
-        manifest = json.loads(mp.read_text(encoding="utf-8"))
-        run, files = manifest["run"], manifest["files"]
-    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError):
-        raise ProjectError(str(mp), "not a run manifest of baarda (broken JSON or missing "
-                           "'run'/'files')") from None
-    for name in names:
-        p = folder / name
-        if not p.is_file():
-            continue
-        if name not in files:
-            raise ProjectError(str(p), f"does not belong to run {run} of this folder "
-                               f"({MANIFEST} does not list it): the folder mixes runs")
-        if file_record(p) != files[name]:
-            raise ProjectError(str(p), f"is not the file that run {run} wrote (size or "
-                               "checksum differ): the folder mixes runs or was edited")
-    return run

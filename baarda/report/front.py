@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import Results
-from baarda.output.verdict import WORDS, Verdict, check_point_misses
+from baarda.io.result_folder import Results
+from baarda.output.verdict import WORDS, Verdict, check_point_misses, verdict
 
 NSSDA_H95 = 1.7308
 NSSDA_V95 = 1.9600
@@ -59,7 +59,8 @@ def image_sigma_um(res: Results) -> float | None:
 
 
 def quality_check(res: Results) -> Verdict:
-    return res.verdict(pixel_um=pixel_um(res), image_sigma_um=image_sigma_um(res))
+    return verdict(res.summary, res.points, pixel_um=pixel_um(res),
+                   image_sigma_um=image_sigma_um(res))
 
 
 def folder_quality_check(folder, image_sigma_um: float | None) -> Verdict:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
 from baarda.report.maps import _nice
 from baarda.report.plots import COLORS, Plot, plt, to_png
 

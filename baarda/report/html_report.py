@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
 from baarda.report import maps
 from baarda.report.anaplot import format_log, log_rows, snooping_table
 from baarda.report.footprint import footprints, image_extent
@@ -318,7 +319,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
                 f" · {res.summary.get('n_rejected', 0)} rejected, "
                 f"{res.summary.get('n_flagged', 0)} flagged")
     return page("adjustment", templates, title=res.title, subtitle=subtitle,
-                banners=res.failures, sections=sections, footer=footer(res))
+                banners=failures(res.summary), sections=sections, footer=footer(res))
 
 
 def footer(res: Results) -> str:

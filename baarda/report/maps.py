@@ -12,7 +12,7 @@ import pandas as pd
 from matplotlib.collections import PolyCollection
 from matplotlib.ticker import MaxNLocator
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
 from baarda.report.plots import COLORS, Plot, to_png
 from baarda.report.stats import obs_label, pair_xy
 

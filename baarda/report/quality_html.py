@@ -12,7 +12,8 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
 from baarda.report.html_base import csv_link, esc, figure, page, table, worst_table
 from baarda.report.plots import Plot, to_png
 from baarda.report.quality_report import Part, calibration_parts, quality_content
@@ -129,5 +130,5 @@ def quality_page(res: Results, parts: list[Part] | None = None,
     rest = quality_sections(body)
     sections = front_sections(res, ReportOptions(), rest) + rest
     return page("quality", templates, title=res.title, subtitle=f"{res.folder.name} · run "
-                f"{res.run or 'not recorded'}", banners=res.failures, sections=sections,
+                f"{res.run or 'not recorded'}", banners=failures(res.summary), sections=sections,
                 footer=footer(res))

@@ -28,7 +28,8 @@ from reportlab.platypus import (
     TableStyle,
 )
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
 from baarda.report.front import accuracy, metadata, patterns, quality_check
 from baarda.report.html_base import cell
 from baarda.report.plots import to_png
@@ -142,7 +143,7 @@ def _front(res: Results, st: dict) -> list:
     sign-off."""
     v = quality_check(res)
     out: list = [_p(f"Quality report: {res.title}", st["h1"])]
-    out += [_p(f, st["banner"]) for f in res.failures]
+    out += [_p(f, st["banner"]) for f in failures(res.summary)]
     out.append(_p(v.headline, ParagraphStyle("head", parent=st["body"], fontSize=11,
                                              fontName="Helvetica-Bold",
                                              textColor=colors.HexColor(STATUS[v.status]))))

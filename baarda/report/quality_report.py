@@ -7,7 +7,7 @@ external reliability of the ground points.
 `quality_content(res)` gives the content once, as `Part`s (a heading, text, a table or a
 figure); report/quality_html.py lays them out as HTML sections, report/quality_pdf.py as
 PDF pages.
-Everything is read from the result folder (output/result_folder.py); nothing is recomputed
+Everything is read from the result folder (io/result_folder.py); nothing is recomputed
 but RMS values and per-group summaries of the observations table.
 """
 
@@ -22,7 +22,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from baarda.output.result_folder import Results  # noqa: E402
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures  # noqa: E402
 from baarda.report.anaplot import log_rows  # noqa: E402
 from baarda.report.front import pixel_um  # noqa: E402,F401  (re-exported)
 from baarda.report.stats import pair_xy  # noqa: E402
@@ -375,7 +376,7 @@ def summary_parts(res: Results) -> list[Part]:
     lines += res.global_test_lines()
     crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
     lines += crs[:1]
-    return ([Part("alert", text=f) for f in res.failures]
+    return ([Part("alert", text=f) for f in failures(res.summary)]
             + [Part("heading", "Summary"), Part("text", text="\n".join(lines))])
 
 

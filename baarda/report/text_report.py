@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
 from baarda.report.stats import (
@@ -123,7 +124,7 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     opt = opt or ReportOptions()
     obs = res.obs
     out = ["BAARDA ADJUSTMENT REPORT", "=" * 78]
-    out += res.failures
+    out += failures(res.summary)
     if res.run:
         out.append(f"run {res.run}")
     out += summary_lines(res)

@@ -14,7 +14,7 @@ import pytest
 from cli.test_runs import leftovers, on_a_terminal
 
 from baarda.cli import main
-from baarda.output.run_folder import MANIFEST
+from baarda.io.run_manifest import MANIFEST
 
 ROOT = Path(__file__).parents[2]
 DEMO = ROOT / "examples" / "demo"

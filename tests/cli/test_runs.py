@@ -14,8 +14,8 @@ import pytest
 
 from baarda.cli import main
 from baarda.errors import ProjectError
-from baarda.output.result_folder import read_results
-from baarda.output.run_folder import MANIFEST, file_record
+from baarda.io.result_folder import read_results
+from baarda.io.run_manifest import MANIFEST, file_record
 
 DEMO = Path(__file__).parents[2] / "examples" / "demo"
 

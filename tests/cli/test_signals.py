@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from baarda.cli import main
-from baarda.output.run_folder import MANIFEST, RunFolder, _lock, _unlock, new_run_id
+from baarda.io.run_manifest import MANIFEST
+from baarda.output.run_folder import RunFolder, _lock, _unlock, new_run_id
 
 ROOT = Path(__file__).parents[2]
 DEMO = ROOT / "examples" / "demo"

@@ -572,7 +572,7 @@ def check_output(out: Path, code: int, err: str) -> None:
     """OUT is absent after an error, else one complete run; no .partial/.old beside it."""
     import json
 
-    from baarda.output.run_folder import MANIFEST, verify_run
+    from baarda.io.run_manifest import MANIFEST, verify_run
 
     left = [p.name for p in out.parent.iterdir() if p.name.endswith((".partial", ".old"))]
     assert not left, f"staging folders left: {left}"

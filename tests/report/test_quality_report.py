@@ -9,8 +9,8 @@ import pypdfium2 as pdfium
 import pytest
 
 from baarda.cli import main
+from baarda.io.result_folder import read_results
 from baarda.output.project_files import write_project
-from baarda.output.result_folder import read_results
 from baarda.report.quality_report import quality_content
 from baarda.simulate.aerial import FlightPlan, simulate_block
 

@@ -8,7 +8,7 @@ from htmlrows import table_rows
 from result_files import resign
 
 from baarda.cli import main
-from baarda.output.result_folder import read_results
+from baarda.io.result_folder import read_results
 from baarda.report.maps import block_map, residual_vectors
 
 

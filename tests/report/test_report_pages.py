@@ -21,9 +21,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 from browser import CHROMIUM, NO_BROWSER, layout_facts  # noqa: E402
 
 from baarda.cli import main  # noqa: E402
+from baarda.io.result_folder import read_results  # noqa: E402
 from baarda.output.bundle_results import write_results  # noqa: E402
-from baarda.output.result_folder import read_results  # noqa: E402
 from baarda.pipeline import snoop  # noqa: E402
+from baarda.report.front import quality_check  # noqa: E402
 from baarda.simulate.aerial import FlightPlan, simulate_block  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -96,7 +97,7 @@ def test_the_quality_check_comes_first_and_is_the_console_verdict(pages):
     page = (d / "report.html").read_text(encoding="utf-8")
     ids = re.findall(r'<section id="([^"]+)"', page)
     assert ids[:2] == ["check", "accuracy"] and set(ADJUSTMENT) <= set(ids)
-    v = read_results(d / "out").verdict()
+    v = quality_check(read_results(d / "out"))
     rows = re.findall(r'<tr data-status="(\w+)"><td class="status">(\w+)</td>\s*'
                       r'<td class="what"><a href="#([\w-]+)">([^<]+)</a>', page)
     assert [(s, lab) for s, _, _, lab in rows] == [(r.status, r.label) for r in v.rows]

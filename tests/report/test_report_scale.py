@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 from htmlrows import table_rows
 
+from baarda.io.result_folder import read_results
 from baarda.output.bundle_results import write_results
-from baarda.output.result_folder import read_results
 from baarda.pipeline import snoop
 from baarda.report.anaplot import snooping_table
 from baarda.report.html_report import html_report, plots

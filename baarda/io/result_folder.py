@@ -1,4 +1,5 @@
-"""Reading an adjustment output folder (written by baarda.output.bundle_results) for the report.
+"""Reading a result folder (written by baarda.output: results.py, bundle_results.py) for the
+report and `baarda check`: summary.json, the tables, checked against run.json.
 
 The report renders what the adjustment wrote; it never recomputes w, r or MDB.  Bad or
 missing files raise ProjectError naming the file, line and column.
@@ -14,9 +15,8 @@ import pandas as pd
 
 from baarda.errors import ProjectError
 from baarda.io.observations_file import numbers, read_observations, read_observations_parquet
+from baarda.io.run_manifest import MANIFEST, verify_run
 from baarda.io.table import Table
-from baarda.output.run_folder import MANIFEST, verify_run
-from baarda.output.verdict import NOT_CONVERGED, Verdict, failures, verdict  # noqa: F401
 from baarda.schema import UNITS
 from baarda.sections import Section
 
@@ -75,18 +75,6 @@ class Results:
     def units(self) -> dict[str, str]:
         """The unit of each kind's residuals in observations.csv (summary.json 'units')."""
         return {**UNITS, **(self.summary.get("units") or {})}
-
-    @property
-    def failures(self) -> list[str]:
-        """What keeps this run from being a result, in words, for the first lines of every
-        report (output.verdict.failures)."""
-        return failures(self.summary)
-
-    def verdict(self, pixel_um: float | None = None,
-                image_sigma_um: float | None = None) -> Verdict:
-        """The quality check of this run (output.verdict)."""
-        return verdict(self.summary, self.points, pixel_um=pixel_um,
-                       image_sigma_um=image_sigma_um)
 
     @property
     def converged(self) -> bool:
