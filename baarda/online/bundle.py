@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.adjustment.dense import DenseLeastSquares
+from baarda.adjustment.solve import solve
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.bundle.bundle_model import BundleModel
@@ -42,6 +44,9 @@ from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 
 MAX_ROWS = 120  # rows added before the block is factored again
+# the new unknowns alone: done when a step lowers the sum of squares by less than 1e-14
+REFINE = SolveOptions(max_iterations=20, tolerance=0.0, flat_cost=1e-14, min_step=1e-6,
+                      cost_rtol=0.0)
 LINEAR_LIMIT = 1e-4  # corrections (angles rad, positions / flying height) that refactor
 COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
               "imu": ("omega", "phi", "kappa")}
@@ -926,10 +931,10 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
     return keys
 
 
-def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray,
-            iterations: int = 10) -> None:
-    """Gauss-Newton on the group's new photos and points alone (everything else held at
-    eo, xyz), in place: a good linearisation point for the low-rank update."""
+def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> None:
+    """The group's new photos and points adjusted alone (everything else held at eo, xyz),
+    in place: a good linearisation point for the low-rank update (the one solver on a
+    small dense problem)."""
     m, f = ob.m, ob._f
     photos, points = group["photos"], group["points"]
     col = {("photo", i): 6 * n for n, i in enumerate(photos)}
@@ -940,27 +945,41 @@ def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray,
     if not img or not nu:
         return
     cams = np.array([m.photo_cam[m.im_photo[r]] for r in img])
-    sig = np.array([m.im_sigma[r] for r in img])
+    sig = np.array([m.im_sigma[r] for r in img]).reshape(-1)
     xy = np.array([m.im_xy[r] for r in img])
+    ph = np.array([m.im_photo[r] for r in img])
+    pt = np.array([m.im_point[r] for r in img])
+    pcol = np.array([col.get(("photo", i), -1) for i in ph])
+    qcol = np.array([col.get(("point", j), -1) for j in pt])
     g = ob._globals()
-    for _ in range(iterations):
-        e, je, jp, _ = image_rows(f.problem.block, f.problem, cams,
-                                  eo[[m.im_photo[r] for r in img]],
-                                  xyz[[m.im_point[r] for r in img]], xy, g)
-        a = np.zeros((2 * len(img), nu))
-        for n, r in enumerate(img):
-            c = col.get(("photo", m.im_photo[r]))
-            if c is not None:
-                a[2 * n:2 * n + 2, c:c + 6] = je[n]
-            c = col.get(("point", m.im_point[r]))
-            if c is not None:
-                a[2 * n:2 * n + 2, c:c + 3] = jp[n]
-        wgt = 1.0 / sig.reshape(-1)
-        dx, *_ = np.linalg.lstsq(a * wgt[:, None], e.reshape(-1) * wgt, rcond=None)
+
+    def unpack(y):
+        e, x = eo.copy(), xyz.copy()
         for (what, u), c in col.items():
             if what == "photo":
-                eo[u] += dx[c:c + 6]
+                e[u] = y[c:c + 6]
             else:
-                xyz[u] += dx[c:c + 3]
-        if np.max(np.abs(dx), initial=0.0) < 1e-10 * max(1.0, float(np.nanmax(np.abs(xyz)))):
-            break
+                x[u] = y[c:c + 3]
+        return e, x
+
+    def func(y):
+        e, x = unpack(y)
+        mis, je, jp, _ = image_rows(f.problem.block, f.problem, cams, e[ph], x[pt], xy, g)
+        a = np.zeros((len(img), 2, nu))
+        for n in np.flatnonzero(pcol >= 0):
+            a[n, :, pcol[n]:pcol[n] + 6] = je[n]
+        for n in np.flatnonzero(qcol >= 0):
+            a[n, :, qcol[n]:qcol[n] + 3] = jp[n]
+        return (xy - mis).reshape(-1), a.reshape(-1, nu)
+
+    y = np.zeros(nu)
+    for (what, u), c in col.items():
+        y[c:c + (6 if what == "photo" else 3)] = eo[u] if what == "photo" else xyz[u]
+    problem = DenseLeastSquares(func, xy.reshape(-1), 1.0 / sig**2, method="lstsq",
+                                what="the new photos and points")
+    try:
+        y = solve(problem, y, REFINE).state
+    except GeometryError:
+        return
+    e, x = unpack(y)
+    eo[:], xyz[:] = e, x
