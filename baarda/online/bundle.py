@@ -37,17 +37,18 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
 from baarda.online.answers import Answer, Change, ComponentTest, verdicts
-from baarda.online.lowrank import LowRank, Rows
+from baarda.online.lowrank import UNDETERMINED, LowRank, Rows
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
 from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 
 MAX_ROWS = 120  # rows added before the block is factored again
-# the new unknowns alone: done when a step lowers the sum of squares by less than 1e-14
-REFINE = SolveOptions(max_iterations=20, tolerance=0.0, flat_cost=1e-14, min_step=1e-6,
-                      cost_rtol=0.0)
-LINEAR_LIMIT = 1e-4  # corrections (angles rad, positions / flying height) that refactor
+# the new unknowns alone, damped (weak directions stay near the approximations)
+REFINE = SolveOptions(max_iterations=50, tolerance=1e-9, min_step=1e-6, damping=1e-3)
+MAX_HELD_PHOTOS = 200  # held photos looked at together when one is added
+SPREAD = 0.1  # points on a photo spread less than this across their line: on one line
+LINEAR_LIMIT = 3e-4  # corrections (angles rad, positions / flying height) that refactor
 COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
               "imu": ("omega", "phi", "kappa")}
 Key = tuple[str, int, int]  # (kind, universe index, component number)
@@ -231,6 +232,21 @@ class OnlineBundle:
         the block estimates them now (NaN: not in the block), in the order given."""
         return self._current()
 
+    def is_in(self, kind: str, photo: str, point: str) -> bool:
+        """Whether an observation is in the block now (image point `point` on `photo`, the
+        control of `point`, the GNSS position of `photo`)."""
+        m = self.m
+        if kind == "control":
+            j = m.point_at.get(point)
+            return j is not None and m.ctrl_status[j] == IN
+        i = m.photo_at.get(photo)
+        if i is None:
+            return False
+        if kind == "gnss":
+            return any(m.g_status[r] == IN for r in m.gnss_of(i))
+        j = m.point_at.get(point)
+        return any(m.im_point[r] == j and m.im_status[r] == IN for r in m.rows_of_photo[i])
+
     @property
     def photo_ids(self) -> list[str]:
         return list(self.m.photo_ids)
@@ -284,63 +300,58 @@ class OnlineBundle:
 
     # ------------------------------------------------------------ which rows enter
     def _entering(self) -> dict:
-        """The held observations that enter the block now: image rows whose photo and point
-        are (or now become) determined, with the control of entering points and the GNSS/IMU
-        of entering photos.  Returns {"image": rows, "control": points, "gnss": rows,
-        "imu": rows, "photos": new photos, "points": new points} or {} when none."""
+        """The held observations that enter the block now: the photos of this step and the
+        held photos connected to them through held points, with the points they see, pruned
+        to those that determine each other (`_prune`), with every held row between them and
+        the block, the control of entering points and the GNSS/IMU of entering photos.
+        Returns {"image": rows, "control": points, "gnss": rows, "imu": rows, "photos": new
+        photos, "points": new points} or {} when nothing enters."""
         m = self.m
-        held_rows = m.fresh()
-        photos_in = m.photo_in
-        points_in = m.point_in
-        new_photos: set[int] = set()
-        new_points: set[int] = set()
-        cand_photos = {m.im_photo[r] for r in held_rows if not photos_in[m.im_photo[r]]}
-        cand_points = {m.im_point[r] for r in held_rows if not points_in[m.im_point[r]]}
-        cand_points |= {j for j in m.fresh_points if not points_in[j]}
-        cand_photos |= {i for i in m.fresh_photos if not photos_in[i]}
+        held = m.fresh()
+        cand = {i for i in m.fresh_photos if not m.photo_in[i]} | \
+            {m.im_photo[r] for r in held if not m.photo_in[m.im_photo[r]]}
+        frontier = list(cand)
+        while frontier and len(cand) < MAX_HELD_PHOTOS:  # a strip measured before it holds
+            i = frontier.pop()
+            for r in m.rows_of_photo[i]:
+                j = m.im_point[r]
+                if m.im_status[r] != HELD or m.point_in[j]:
+                    continue
+                for x in m.rows_of_point[j]:
+                    k = m.im_photo[x]
+                    if m.im_status[x] == HELD and not m.photo_in[k] and k not in cand:
+                        cand.add(k)
+                        frontier.append(k)
+        photos = {i for i in cand if self._has_orientation(i)}
+        points = {m.im_point[r] for r in held if not m.point_in[m.im_point[r]]}
+        points |= {m.im_point[r] for i in photos for r in m.rows_of_photo[i]
+                   if m.im_status[r] == HELD and not m.point_in[m.im_point[r]]}
+        points |= {j for j in m.fresh_points if not m.point_in[j]}
+        photos, points = _prune(m, photos, points, m.photo_in, m.point_in)
 
         def photo_ok(i):
-            return photos_in[i] or i in new_photos
+            return m.photo_in[i] or i in photos
 
         def point_ok(j):
-            return points_in[j] or j in new_points
+            return m.point_in[j] or j in points
 
-        changed = True
-        while changed:
-            changed = False
-            for j in sorted(cand_points - new_points):
-                rays = [r for r in m.live_rays(j) if photo_ok(m.im_photo[r])]
-                if len(rays) >= 2 or (rays and m.full_control(j)):
-                    new_points.add(j)
-                    cand_photos |= {m.im_photo[r] for r in m.live_rays(j)
-                                    if not photo_ok(m.im_photo[r])}
-                    changed = True
-            for i in sorted(cand_photos - new_photos):
-                if photos_in[i]:
-                    continue
-                pts = {m.im_point[r] for r in m.rows_of_photo[i] if m.im_status[r] == HELD}
-                known = [j for j in pts if point_ok(j)]
-                if len(known) >= MIN_PHOTO_POINTS and self._has_orientation(i, known):
-                    new_photos.add(i)
-                    cand_points |= {j for j in pts if not point_ok(j)}
-                    changed = True
-        rows = sorted(r for r in set(held_rows) | {r for i in new_photos
-                                                   for r in m.rows_of_photo[i]}
-                      | {r for j in new_points for r in m.rows_of_point[j]}
-                      if m.im_status[r] == HELD and photo_ok(m.im_photo[r])
+        rows = set(held) | {r for i in photos for r in m.rows_of_photo[i]} | \
+            {r for j in points for r in m.rows_of_point[j]}
+        rows = sorted(r for r in rows if m.im_status[r] == HELD and photo_ok(m.im_photo[r])
                       and point_ok(m.im_point[r]))
-        ctrl = sorted(j for j in range(len(m.ctrl_status)) if m.ctrl_status[j] == HELD
-                      and point_ok(j))
-        gnss = [r for r in range(len(m.g_status)) if m.g_status[r] == HELD
-                and photo_ok(m.g_photo[r])]
-        imu = [r for r in range(len(m.i_status)) if m.i_status[r] == HELD
-               and photo_ok(m.i_photo[r])]
+        ctrl = sorted(j for j in set(points) | m.fresh_points
+                      if m.ctrl_status[j] == HELD and point_ok(j))
+        touched = photos | m.fresh_photos
+        gnss = [r for i in sorted(touched) for r in m.gnss_of(i)
+                if m.g_status[r] == HELD and photo_ok(i)]
+        imu = [r for i in sorted(touched) for r in m.imu_of(i)
+               if m.i_status[r] == HELD and photo_ok(i)]
         if not (rows or ctrl or gnss or imu):
             return {}
         return {"image": rows, "control": ctrl, "gnss": gnss, "imu": imu,
-                "photos": sorted(new_photos), "points": sorted(new_points)}
+                "photos": sorted(photos), "points": sorted(points)}
 
-    def _has_orientation(self, i: int, known: list[int]) -> bool:
+    def _has_orientation(self, i: int) -> bool:
         """Whether photo i has an approximate orientation, resecting it from the block's
         points where it has none."""
         if np.isfinite(self.m.photo_eo[i]).all():
@@ -571,7 +582,7 @@ class OnlineBundle:
         they were linearised that the one-step solution is no longer exact enough: a
         position by more than LINEAR_LIMIT of the flying height or an angle by more than
         LINEAR_LIMIT rad (the error of the linearisation, c * LINEAR_LIMIT^2, then stays
-        below 0.002 µm)."""
+        below 0.015 µm for c = 153 mm)."""
         f = self._f
         sol = f.lowrank.solution()
         h = f.problem.scale
@@ -738,7 +749,9 @@ class OnlineBundle:
             eo[i] = m.photo_eo[i]
         for j in group["points"]:
             xyz[j] = self._intersect(j, eo, group)
-        _refine(self, group, eo, xyz)
+        if not _refine(self, group, eo, xyz):
+            raise GeometryError("held: these observations do not determine the new photo "
+                                "or point yet")
         y = np.zeros(n - len(self._y0))
         base = len(self._y0)
         for (what, u), c in cols.items():
@@ -883,24 +896,39 @@ class OnlineBundle:
         return Change(kind, photo, point, comp, before, after, w)
 
 
-def _prune(m: Measurements, photos: set, points: set) -> tuple[set, set]:
-    """The photos and points of the sets that determine each other: points with two rays
-    on the photos (or one and full control), photos with MIN_PHOTO_POINTS of the points."""
+def _prune(m: Measurements, photos: set, points: set, photo_in=None, point_in=None
+           ) -> tuple[set, set]:
+    """The photos and points of the sets that determine each other and the block (photo_in,
+    point_in: what is in it): points with two rays on those photos (or one and full
+    control), photos with MIN_PHOTO_POINTS of those points that are not on one line in the
+    image."""
+    photo_in = photo_in if photo_in is not None else [False] * len(m.photo_ids)
+    point_in = point_in if point_in is not None else [False] * len(m.point_ids)
+    photos, points = set(photos), set(points)
     changed = True
     while changed:
         changed = False
         for j in sorted(points):
-            rays = [r for r in m.live_rays(j) if m.im_photo[r] in photos]
+            rays = [r for r in m.live_rays(j) if photo_in[m.im_photo[r]] or m.im_photo[r] in photos]
             if not (len(rays) >= 2 or (rays and m.full_control(j))):
                 points.discard(j)
                 changed = True
         for i in sorted(photos):
-            pts = {m.im_point[r] for r in m.rows_of_photo[i] if m.im_status[r] == HELD
-                   and m.im_point[r] in points}
-            if len(pts) < MIN_PHOTO_POINTS:
+            rows = [r for r in m.rows_of_photo[i] if m.im_status[r] != REMOVED
+                    and (point_in[m.im_point[r]] or m.im_point[r] in points)]
+            if not _spread(np.array([m.im_xy[r] for r in rows]).reshape(-1, 2)):
                 photos.discard(i)
                 changed = True
     return photos, points
+
+
+def _spread(xy: np.ndarray) -> bool:
+    """MIN_PHOTO_POINTS image points or more, not on one line (the second singular value of
+    their spread at least SPREAD of the first)."""
+    if len(xy) < MIN_PHOTO_POINTS:
+        return False
+    s = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
+    return bool(s[1] >= SPREAD * s[0])
 
 
 def _merge(a: list[Change], b: list[Change]) -> list[Change]:
@@ -931,10 +959,11 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
     return keys
 
 
-def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> None:
+def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> bool:
     """The group's new photos and points adjusted alone (everything else held at eo, xyz),
     in place: a good linearisation point for the low-rank update (the one solver on a
-    small dense problem)."""
+    small dense problem, Levenberg-Marquardt from the approximations); False when they are
+    not determined (the undamped normal equations at the solution singular, scaled)."""
     m, f = ob.m, ob._f
     photos, points = group["photos"], group["points"]
     col = {("photo", i): 6 * n for n, i in enumerate(photos)}
@@ -943,7 +972,7 @@ def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> N
     img = [r for r in group["image"]
            if ("photo", m.im_photo[r]) in col or ("point", m.im_point[r]) in col]
     if not img or not nu:
-        return
+        return True
     cams = np.array([m.photo_cam[m.im_photo[r]] for r in img])
     sig = np.array([m.im_sigma[r] for r in img]).reshape(-1)
     xy = np.array([m.im_xy[r] for r in img])
@@ -962,6 +991,12 @@ def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> N
                 x[u] = y[c:c + 3]
         return e, x
 
+    # control coordinates of the new points (a point with one ray and full control)
+    ctrl = [(j, a) for j in group["control"] if ("point", j) in col
+            for a in np.flatnonzero(np.isfinite(m.point_sigma[j]))]
+    c_obs = np.array([m.point_xyz[j][a] for j, a in ctrl])
+    c_sig = np.array([m.point_sigma[j][a] for j, a in ctrl])
+
     def func(y):
         e, x = unpack(y)
         mis, je, jp, _ = image_rows(f.problem.block, f.problem, cams, e[ph], x[pt], xy, g)
@@ -970,16 +1005,32 @@ def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> N
             a[n, :, pcol[n]:pcol[n] + 6] = je[n]
         for n in np.flatnonzero(qcol >= 0):
             a[n, :, qcol[n]:qcol[n] + 3] = jp[n]
-        return (xy - mis).reshape(-1), a.reshape(-1, nu)
+        ac = np.zeros((len(ctrl), nu))
+        for n, (j, k) in enumerate(ctrl):
+            ac[n, col[("point", j)] + k] = 1.0
+        fc = np.array([x[j][k] for j, k in ctrl])
+        return (np.concatenate([(xy - mis).reshape(-1), fc]),
+                np.vstack([a.reshape(-1, nu), ac]))
 
     y = np.zeros(nu)
     for (what, u), c in col.items():
         y[c:c + (6 if what == "photo" else 3)] = eo[u] if what == "photo" else xyz[u]
-    problem = DenseLeastSquares(func, xy.reshape(-1), 1.0 / sig**2, method="lstsq",
+    sig = np.concatenate([sig, c_sig])
+    p = 1.0 / sig**2
+    problem = DenseLeastSquares(func, np.concatenate([xy.reshape(-1), c_obs]), p,
+                                method="lstsq",
                                 what="the new photos and points")
     try:
-        y = solve(problem, y, REFINE).state
+        sol = solve(problem, y, REFINE)
     except GeometryError:
-        return
-    e, x = unpack(y)
+        return False
+    # determined: the undamped normal equations at the solution are regular (scaled)
+    a = sol.lin.a
+    n = a.T @ (p[:, None] * a)
+    d = np.sqrt(np.maximum(np.diag(n), 1e-300))
+    lam = np.linalg.eigvalsh(n / np.outer(d, d))
+    if not (sol.converged and lam[0] > UNDETERMINED):
+        return False
+    e, x = unpack(sol.state)
     eo[:], xyz[:] = e, x
+    return True
