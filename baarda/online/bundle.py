@@ -87,6 +87,7 @@ class OnlineBundle:
 
     def __init__(self, block: Block, tests: TestOptions | None = None, *,
                  max_rows: int = MAX_ROWS, solve: SolveOptions = SOLVE):
+        block = _prepared(block)
         s = block.settings
         if s.gnss_offsets != "none" or s.gnss_drift or s.imu_boresight != "fixed":
             raise ValueError("the on-line bundle takes GNSS positions and IMU attitudes "
@@ -231,6 +232,33 @@ class OnlineBundle:
         """(eo (n_photos, 6), xyz (n_points, 3)) of every photo and point given so far, as
         the block estimates them now (NaN: not in the block), in the order given."""
         return self._current()
+
+    def status(self) -> str:
+        """The block now, in words: what is in it and held, sigma0 and the rejected
+        observations at the last factorisation (the answers since say the rest)."""
+        m = self.m
+        held = sum(st == HELD for st in m.im_status)
+        head = (f"{sum(m.photo_in)} of {len(m.photo_ids)} photos and {sum(m.point_in)} points "
+                f"in the block, {sum(st == IN for st in m.im_status)} image points ({held} "
+                "held)")
+        if self._f is None:
+            return head + "; not adjusted yet: " + self._why_not
+        res = self._f.result
+        rej = [k for k, v in self._verdict.items() if v == "reject" and self._in(k)]
+        lines = [head, f"at the last factorisation: redundancy {res.redundancy}, sigma0 "
+                 f"{res.sigma0:.4f}; {len(self._pending)} component(s) added since"]
+        if rej:
+            lines.append(f"rejected now ({len(rej)}): " + ", ".join(
+                " ".join(x for x in self._label(k) if x) for k in rej[:10])
+                + (" ..." if len(rej) > 10 else ""))
+        return "\n".join(lines)
+
+    def _in(self, key: Key) -> bool:
+        kind, u, _ = key
+        m = self.m
+        st = {"image": m.im_status, "control": m.ctrl_status, "gnss": m.g_status,
+              "imu": m.i_status}[kind]
+        return st[u] == IN
 
     def is_in(self, kind: str, photo: str, point: str) -> bool:
         """Whether an observation is in the block now (image point `point` on `photo`, the
@@ -894,6 +922,21 @@ class OnlineBundle:
     def _change(self, key: Key, before: str, after: str, w: float) -> Change:
         kind, photo, point, comp = self._label(key)
         return Change(kind, photo, point, comp, before, after, w)
+
+
+def _prepared(block: Block) -> Block:
+    """The block in the local frame of its CRS, with approximate orientations where they can
+    be had by resection now (pipeline.localized, pipeline.with_approximations); photos that
+    cannot keep none (they are resected from the block's points when they come in)."""
+    from baarda.pipeline import localized, with_approximations
+
+    block = localized(block)
+    if np.isfinite(block.photos.eo).all() or not len(block.image):
+        return block
+    try:
+        return with_approximations(block)
+    except GeometryError:
+        return block
 
 
 def _prune(m: Measurements, photos: set, points: set, photo_in=None, point_in=None

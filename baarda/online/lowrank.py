@@ -34,7 +34,7 @@ from scipy.linalg import cho_factor, cho_solve
 from baarda.adjustment.schur import SchurFactor
 from baarda.errors import GeometryError
 
-UNDETERMINED = 1e-6  # smallest eigenvalue of the scaled G: below it, new unknowns not determined
+UNDETERMINED = 1e-8  # smallest eigenvalue of the scaled G: below it, new unknowns not determined
 
 
 @dataclass(frozen=True)

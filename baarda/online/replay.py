@@ -28,6 +28,19 @@ COLUMNS = ("step", "kind", "photo", "point", "component", "w", "mdb", "unit", "r
 MAX_REMOVALS = 10  # re-measurements after one step, at most
 
 
+def tests_table(answers) -> pd.DataFrame:
+    """One row per tested component of each answer: the step, what it is, w, MDB (in the
+    kind's unit: µm for image coordinates, m for control and GNSS), r, the verdict and the
+    step's time in ms (COLUMNS)."""
+    rows = []
+    for a in answers:
+        for t in a.tested:
+            f, unit = UNITS.get(t.kind, (1.0, ""))
+            rows.append((a.step, t.kind, t.photo, t.point, t.component, t.w, t.mdb * f,
+                         unit, t.redundancy, t.verdict, 1e3 * a.seconds))
+    return pd.DataFrame(rows, columns=list(COLUMNS))
+
+
 def strip_order(block: Block) -> list[int]:
     """The photos in strip order: strips in the order they first appear, photos in the
     block's order within each."""
@@ -47,15 +60,8 @@ class Replay:
     seconds: float
 
     def table(self) -> pd.DataFrame:
-        """replay.csv: one row per tested component (w, MDB in the kind's unit, r, verdict,
-        the step's time in ms)."""
-        rows = []
-        for a in self.answers:
-            for t in a.tested:
-                f, unit = UNITS.get(t.kind, (1.0, ""))
-                rows.append((a.step, t.kind, t.photo, t.point, t.component, t.w, t.mdb * f,
-                             unit, t.redundancy, t.verdict, 1e3 * a.seconds))
-        return pd.DataFrame(rows, columns=list(COLUMNS))
+        """replay.csv (tests_table)."""
+        return tests_table(self.answers)
 
     def summary_lines(self) -> list[str]:
         tested = sum(len(a.tested) for a in self.answers)
