@@ -80,13 +80,15 @@ class OnlineBundle:
     block: what is measured so far (a Block as read, in its local frame, with approximate
     orientations: pipeline.online prepares one); tests: alpha0, beta0 (default the block's);
     max_rows: rows added before the normal equations are factored again (0: after every
-    step, every test then on the exact solution).  Needs control (or GNSS positions) for
+    step, every test then on the exact solution); linear_limit: corrections since the last
+    factorisation (angles rad, positions / flying height) beyond which it is done at once.  Needs control (or GNSS positions) for
     its datum; GNSS shifts, drifts and an estimated boresight, fixed control (sigma 0) and
     distances are not supported on-line.
     """
 
     def __init__(self, block: Block, tests: TestOptions | None = None, *,
-                 max_rows: int = MAX_ROWS, solve: SolveOptions = SOLVE):
+                 max_rows: int = MAX_ROWS, solve: SolveOptions = SOLVE,
+                 linear_limit: float = LINEAR_LIMIT):
         block = _prepared(block)
         s = block.settings
         if s.gnss_offsets != "none" or s.gnss_drift or s.imu_boresight != "fixed":
@@ -104,6 +106,7 @@ class OnlineBundle:
         self.tests = tests or TestOptions.resolve(s)
         self._bm = b_method(self.tests.alpha0, self.tests.beta0)
         self.max_rows = int(max_rows)
+        self.linear_limit = float(linear_limit)
         self.solve_options = solve
         self.m = Measurements(block)
         self._f: _Factored | None = None
@@ -621,7 +624,7 @@ class OnlineBundle:
             d = sol.dy[c:c + (6 if what == "photo" else 3)]
             size = max(size, np.max(np.abs(d[:3])) / h,
                        np.max(np.abs(d[3:]), initial=0.0) if what == "photo" else 0.0)
-        return size > LINEAR_LIMIT
+        return size > self.linear_limit
 
     def _exact(self, tested: list[ComponentTest]) -> list[ComponentTest]:
         """The tests of components now in the factorisation, from its solution (the
