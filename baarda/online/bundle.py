@@ -81,9 +81,9 @@ class OnlineBundle:
     orientations: pipeline.online prepares one); tests: alpha0, beta0 (default the block's);
     max_rows: rows added before the normal equations are factored again (0: after every
     step, every test then on the exact solution); linear_limit: corrections since the last
-    factorisation (angles rad, positions / flying height) beyond which it is done at once.  Needs control (or GNSS positions) for
-    its datum; GNSS shifts, drifts and an estimated boresight, fixed control (sigma 0) and
-    distances are not supported on-line.
+    factorisation (angles rad, positions / flying height) beyond which it is done at once.
+    Needs control (or GNSS positions) for its datum; GNSS shifts, drifts and an estimated
+    boresight, fixed control (sigma 0) and distances are not supported on-line.
     """
 
     def __init__(self, block: Block, tests: TestOptions | None = None, *,

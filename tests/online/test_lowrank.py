@@ -6,6 +6,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from dense import dense_system
 
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import BundleProblem
@@ -13,7 +14,6 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.online.bundle import OnlineBundle
 from baarda.options import SolveOptions
 from baarda.simulate.aerial import FlightPlan, simulate_block
-from dense import dense_system
 
 TIGHT = SolveOptions(max_iterations=50, tolerance=1e-10, min_step=1e-3, final_step=True)
 
