@@ -36,6 +36,7 @@ from baarda.bundle.bundle_problem import SOLVE, BundleProblem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
+from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, verdicts
 from baarda.online.lowrank import UNDETERMINED, LowRank, Rows
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
@@ -157,6 +158,7 @@ class OnlineBundle:
                         np.full(6, np.nan) if eo is None else eo)
         elif eo is not None:
             m.photo_eo[i] = np.asarray(eo, float).copy()
+            m.changed()
         for pid, obs in points.items():
             obs = tuple(obs)
             sig = self._image_sigma(obs[2] if len(obs) > 2 else sigma_um)
@@ -198,6 +200,7 @@ class OnlineBundle:
             raise ValueError(f"point {point} has no control")
         self.m.ctrl_status[j] = REMOVED
         self.m.point_role[j] = "tie"
+        self.m.changed()
         return self._removed(t0, f"control of point {point}")
 
     def remove_gnss(self, photo: str) -> Answer:
@@ -300,6 +303,7 @@ class OnlineBundle:
         self.m.clear_fresh()
         return a
 
+    @single_threaded_blas
     def _added(self, t0: float, what: str) -> Answer:
         if self._f is None:
             return self._start(t0, what)
@@ -321,6 +325,7 @@ class OnlineBundle:
                             held=tuple(self._held_words()), changed=tuple(changed),
                             refactorised=refac, seconds=time.perf_counter() - t0)
 
+    @single_threaded_blas
     def _removed(self, t0: float, what: str) -> Answer:
         if self._f is None:
             return self._answer(action="remove", what=what, seconds=time.perf_counter() - t0)
@@ -402,6 +407,7 @@ class OnlineBundle:
         except GeometryError:
             return False
         m.photo_eo[i] = e
+        m.changed()
         return True
 
     def _held_words(self) -> list[str]:
@@ -453,6 +459,7 @@ class OnlineBundle:
                     st[r] = HELD
 
     # ------------------------------------------------------------ the first adjustment
+    @single_threaded_blas
     def _start(self, t0: float, what: str) -> Answer | None:
         """Adjust everything held once the control fixes the block: photos and points
         pruned to those the block determines, then the batch adjustment."""
@@ -522,11 +529,9 @@ class OnlineBundle:
     def _current(self) -> tuple[np.ndarray, np.ndarray]:
         """Current estimates of every photo and point (approximations where not in the
         block; NaN where none)."""
-        m = self.m
-        eo = np.array(m.photo_eo, float).reshape(-1, 6)
-        xyz = np.array(m.point_xyz, float).reshape(-1, 3)
-        xyz = np.where(np.array([r == "tie" for r in m.point_role])[:, None]
-                       if len(xyz) else xyz, np.nan, xyz)
+        eo, xyz, tie = self.m.arrays()
+        eo = eo.copy()
+        xyz = np.where(tie[:, None], np.nan, xyz)
         f = self._f
         if f is None:
             return eo, xyz
@@ -765,6 +770,8 @@ class OnlineBundle:
         their approximate orientation, points intersected, then both refined by
         Gauss-Newton with everything in the block held at its current estimate."""
         m = self.m
+        if not (group["photos"] or group["points"]):
+            return self._y0
         eo, xyz = self._current()
         cols = {}
         n = len(self._y0)

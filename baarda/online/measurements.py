@@ -76,6 +76,7 @@ class Measurements:
         self.fresh_rows: set[int] = set()
         self.fresh_points: set[int] = set()
         self.fresh_photos: set[int] = set()
+        self._arrays = None  # (photo_eo, point_xyz, tie) as arrays, until something changes
         ph = block.photos
         for i, pid in enumerate(ph.ids):
             self.photo(pid, int(ph.camera[i]), ph.strip[i], ph.eo[i])
@@ -92,7 +93,20 @@ class Measurements:
             self.imu(int(block.imu.photo[r]), block.imu.angles[r], block.imu.sigma[r])
 
     # ------------------------------------------------------------ adding
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(photo approximations (n, 6), point coordinates as given (k, 3), tie mask (k,)):
+        arrays of the lists, kept until a photo or point is added or changed (`changed`)."""
+        if self._arrays is None:
+            self._arrays = (np.array(self.photo_eo, float).reshape(-1, 6),
+                            np.array(self.point_xyz, float).reshape(-1, 3),
+                            np.array([r == "tie" for r in self.point_role], bool))
+        return self._arrays
+
+    def changed(self) -> None:
+        self._arrays = None
+
     def photo(self, pid: str, camera: int, strip, eo) -> int:
+        self._arrays = None
         if pid in self.photo_at:
             raise ValueError(f"photo {pid} is known already")
         self.photo_at[pid] = len(self.photo_ids)
@@ -105,6 +119,7 @@ class Measurements:
         return len(self.photo_ids) - 1
 
     def point(self, pid: str, xyz, sigma, role: str) -> int:
+        self._arrays = None
         self.point_at[pid] = len(self.point_ids)
         self.point_ids.append(pid)
         self.point_xyz.append(np.asarray(xyz, float).copy())
@@ -171,6 +186,7 @@ class Measurements:
         if self.ctrl_status[point] in (HELD, IN):
             raise ValueError(f"point {self.point_ids[point]} has control already "
                                "(remove it first)")
+        self._arrays = None
         self.point_xyz[point] = np.asarray(xyz, float).copy()
         self.point_sigma[point] = np.asarray(sigma, float).copy()
         self.point_role[point] = "control"
