@@ -3,6 +3,7 @@
 import io
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -62,13 +63,29 @@ def test_replay_has_one_row_per_tested_component(replayed):
     assert (np.abs(t.loc[t["verdict"] == "reject", "w"]) > 3.29).all()
 
 
-def test_the_planted_blunders_when_their_rays_arrive():
+@pytest.fixture(scope="module")
+def demo_replay():
+    return replay(baarda.read(DEMO))
+
+
+def test_the_documented_answer(demo_replay):
+    """docs/online.md's answer to photo 01007, line by line ('...' leaves lines out)."""
+    page = (Path(__file__).resolve().parents[2] / "docs" / "online.md").read_text()
+    shown = page.split("The answer to photo 01007")[1].split("```")[1].strip("\n")
+    text = next(a for a in demo_replay.answers if a.what.startswith("photo 01007")).text()
+    lines = text.splitlines()
+    for line in shown.splitlines():
+        if line.strip() != "...":
+            assert line in lines
+
+
+def test_the_planted_blunders_when_their_rays_arrive(demo_replay):
     """Each planted blunder at the step its observation is taken in (the second ray for a
     point's first two): 001008 y and 007008 x rejected there; 002005 x and 007002 y below
     their MDB at that moment (0.88 and 0.67 MDB) accepted, and rejected one step later when
     the next photo strengthens the point; 005010 y (a two-ray point across the strips, r of
     order 1e-8) not checked by anything: 'suspect' when it arrives, and for ever."""
-    rp = replay(baarda.read(DEMO))
+    rp = demo_replay
     facts = {}
     for b in TRUTH:
         key = (b["photo"], b["point"], b["component"])
