@@ -184,44 +184,53 @@ class OnlineBundle:
         return self._added(t0, f"GNSS position of photo {photo}")
 
     def remove_image_point(self, photo: str, point: str) -> Answer:
+        """Take an image point out (both coordinates)."""
         t0 = time.perf_counter()
-        i, j = self.m.photo_index(photo), self.m.point_at.get(point)
-        rows = [r for r in self.m.rows_of_photo[i] if self.m.im_point[r] == j
-                and self.m.im_status[r] != REMOVED]
+        m = self.m
+        i, j = m.photo_index(photo), m.point_at.get(point)
+        rows = [r for r in m.rows_of_photo[i] if m.im_point[r] == j
+                and m.im_status[r] != REMOVED]
         if j is None or not rows:
             raise ValueError(f"point {point} is not measured on photo {photo}")
-        self.m.im_status[rows[0]] = REMOVED
-        return self._removed(t0, f"point {point} on photo {photo}")
+        return self._removed(t0, f"point {point} on photo {photo}",
+                             lambda: m.im_status.__setitem__(rows[0], REMOVED))
 
     def remove_control(self, point: str) -> Answer:
         t0 = time.perf_counter()
-        j = self.m.point_at.get(point)
-        if j is None or self.m.ctrl_status[j] not in (HELD, IN):
+        m = self.m
+        j = m.point_at.get(point)
+        if j is None or m.ctrl_status[j] not in (HELD, IN):
             raise ValueError(f"point {point} has no control")
-        self.m.ctrl_status[j] = REMOVED
-        self.m.point_role[j] = "tie"
-        self.m.changed()
-        return self._removed(t0, f"control of point {point}")
+
+        def apply():
+            m.ctrl_status[j] = REMOVED
+            m.point_role[j] = "tie"
+            m.changed()
+        return self._removed(t0, f"control of point {point}", apply)
 
     def remove_gnss(self, photo: str) -> Answer:
         t0 = time.perf_counter()
-        rows = self.m.gnss_of(self.m.photo_index(photo))
+        m = self.m
+        rows = m.gnss_of(m.photo_index(photo))
         if not rows:
             raise ValueError(f"photo {photo} has no GNSS position")
-        self.m.g_status[rows[0]] = REMOVED
-        return self._removed(t0, f"GNSS position of photo {photo}")
+        return self._removed(t0, f"GNSS position of photo {photo}",
+                             lambda: m.g_status.__setitem__(rows[0], REMOVED))
 
     def remove_photo(self, photo: str) -> Answer:
         """Every observation of a photo."""
         t0 = time.perf_counter()
-        i = self.m.photo_index(photo)
-        for r in self.m.rows_of_photo[i]:
-            self.m.im_status[r] = REMOVED
-        for r in self.m.gnss_of(i):
-            self.m.g_status[r] = REMOVED
-        for r in self.m.imu_of(i):
-            self.m.i_status[r] = REMOVED
-        return self._removed(t0, f"photo {photo}")
+        m = self.m
+        i = m.photo_index(photo)
+
+        def apply():
+            for r in m.rows_of_photo[i]:
+                m.im_status[r] = REMOVED
+            for r in m.gnss_of(i):
+                m.g_status[r] = REMOVED
+            for r in m.imu_of(i):
+                m.i_status[r] = REMOVED
+        return self._removed(t0, f"photo {photo}", apply)
 
     def result(self):
         """The Assessment of the block as it is now (every observation in it tested): the
@@ -326,11 +335,27 @@ class OnlineBundle:
                             refactorised=refac, seconds=time.perf_counter() - t0)
 
     @single_threaded_blas
-    def _removed(self, t0: float, what: str) -> Answer:
-        if self._f is None:
-            return self._answer(action="remove", what=what, seconds=time.perf_counter() - t0)
+    def _removed(self, t0: float, what: str, apply) -> Answer:
+        """Take observations out (`apply` marks them removed): the points and photos the
+        block no longer determines leave it, and it is factored again; a removal that leaves
+        the block undetermined is not made (GeometryError)."""
+        m = self.m
+        before = m.snapshot()
+        apply()
+        was_in = any(b == IN and a == REMOVED for b, a in zip(
+            before[0] + before[1] + before[2] + before[3],
+            m.im_status + m.ctrl_status + m.g_status + m.i_status, strict=True))
+        if self._f is None or not was_in:
+            return self._answer(action="remove", what=what,
+                                note="" if self._f is None else "it was not in the block",
+                                seconds=time.perf_counter() - t0)
         self._leaving()
-        changed = self._refactor()
+        try:
+            changed = self._refactor()
+        except GeometryError as e:
+            m.restore(before)
+            self._refactor()
+            raise GeometryError(f"{what} cannot be taken out: {e}") from None
         return self._answer(action="remove", what=what, changed=tuple(changed),
                             refactorised=True, seconds=time.perf_counter() - t0)
 

@@ -209,6 +209,17 @@ class Measurements:
     def clear_fresh(self) -> None:
         self.fresh_rows, self.fresh_points, self.fresh_photos = set(), set(), set()
 
+    def snapshot(self) -> tuple:
+        """Every status and role, to put back (`restore`) when a removal cannot be made."""
+        return tuple(list(x) for x in (self.im_status, self.ctrl_status, self.g_status,
+                                       self.i_status, self.photo_in, self.point_in,
+                                       self.point_role))
+
+    def restore(self, snap: tuple) -> None:
+        (self.im_status, self.ctrl_status, self.g_status, self.i_status, self.photo_in,
+         self.point_in, self.point_role) = (list(x) for x in snap)
+        self._arrays = None
+
     # ------------------------------------------------------------ questions
     def full_control(self, point: int) -> bool:
         return self.ctrl_status[point] in (HELD, IN) and \
