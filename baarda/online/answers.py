@@ -24,6 +24,7 @@ import numpy as np
 from baarda.quality.statistics import R_MIN
 
 VERDICTS = ("accept", "suspect", "reject")
+MAX_LINES = 60  # an answer's text lists at most this many components (else the rejected)
 UNITS = {"image": (1e3, "µm"), "control": (1.0, "m"), "gnss": (1.0, "m"),
          "imu": (1e3, "mrad")}
 
@@ -138,10 +139,18 @@ class Answer:
         lines = [head]
         if self.held:
             lines.append("  held: " + "; ".join(self.held))
-        if self.tested:
+        shown = list(self.tested)
+        if len(shown) > MAX_LINES:  # a first adjustment: the rejected ones only
+            shown = [t for t in shown if t.verdict == "reject"][:MAX_LINES]
+            n_acc = sum(t.verdict == "accept" for t in self.tested)
+            n_sus = sum(t.verdict == "suspect" for t in self.tested)
+            lines.append(f"  {len(self.tested)} components tested: {n_acc} accepted, {n_sus} "
+                         f"not checked, {len(self.tested) - n_acc - n_sus} rejected"
+                         + (" (listed)" if shown else ""))
+        if shown:
             lines.append("  POINT      PHOTO    OBS   RED-N      PRED      +-     PARX     EXPD"
                          "    SIGF       MDB")
-            for t in self.tested:
+            for t in shown:
                 f, unit = UNITS.get(t.kind, (1.0, ""))
                 star = " *" if t.verdict == "reject" else (" ?" if t.verdict == "suspect"
                                                             else "")

@@ -47,7 +47,7 @@ from baarda.quality.distributions import b_method
 MAX_ROWS = 120  # rows added before the block is factored again
 # the new unknowns alone, damped (weak directions stay near the approximations)
 REFINE = SolveOptions(max_iterations=50, tolerance=1e-9, min_step=1e-6, damping=1e-3)
-MAX_HELD_PHOTOS = 200  # held photos looked at together when one is added
+MAX_HELD_PHOTOS = 50  # held photos looked at together when one is added
 SPREAD = 0.1  # points on a photo spread less than this across their line: on one line
 LINEAR_LIMIT = 3e-4  # corrections (angles rad, positions / flying height) that refactor
 COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
