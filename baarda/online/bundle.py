@@ -350,14 +350,28 @@ class OnlineBundle:
                                 note="" if self._f is None else "it was not in the block",
                                 seconds=time.perf_counter() - t0)
         self._leaving()
-        try:
-            changed = self._refactor()
-        except GeometryError as e:
+        left = []
+        for _ in range(20):  # a photo the block no longer determines leaves it, again
+            try:
+                changed = self._refactor()
+                break
+            except GeometryError as e:
+                bad = re.search(r"orientation of photo (\S+) is not determined", str(e))
+                if bad is None or bad.group(1) not in m.photo_at:
+                    m.restore(before)
+                    self._refactor()
+                    raise GeometryError(f"{what} cannot be taken out: {e}") from None
+                m.photo_in[m.photo_at[bad.group(1)]] = False
+                left.append(bad.group(1))
+                self._leaving()
+        else:
             m.restore(before)
             self._refactor()
-            raise GeometryError(f"{what} cannot be taken out: {e}") from None
+            raise GeometryError(f"{what} cannot be taken out: the block falls apart")
         return self._answer(action="remove", what=what, changed=tuple(changed),
-                            refactorised=True, seconds=time.perf_counter() - t0)
+                            refactorised=True, seconds=time.perf_counter() - t0,
+                            note=f"photo(s) {', '.join(left)} no longer determined: held"
+                            if left else "")
 
     # ------------------------------------------------------------ which rows enter
     def _entering(self) -> dict:

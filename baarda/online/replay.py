@@ -110,6 +110,8 @@ def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "non
 def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
     """Take out the worst rejected observation while there is one (the step's tested
     components and the verdicts it changed)."""
+    from baarda.errors import GeometryError
+
     out = []
     bad = {(t.kind, t.photo, t.point, t.component): t.w for t in a.tested
            if t.verdict == "reject"}
@@ -119,20 +121,26 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
             break
         key = max(bad, key=lambda k: abs(bad[k]))
         kind, photo, point, comp = key
-        removed.append((a.step, kind, photo, point, comp, bad[key]))
-        if kind == "image":
-            b = ob.remove_image_point(photo, point)
-            bad = {k: w for k, w in bad.items() if k[:3] != key[:3]}
-        elif kind == "control":
-            b = ob.remove_control(point)
-            bad = {k: w for k, w in bad.items() if not (k[0] == "control" and k[2] == point)}
-        elif kind == "gnss":
-            b = ob.remove_gnss(photo)
-            bad = {k: w for k, w in bad.items() if not (k[0] == "gnss" and k[1] == photo)}
-        else:
-            break
+        w = bad[key]
+        try:
+            if kind == "image":
+                b = ob.remove_image_point(photo, point)
+                bad = {k: v for k, v in bad.items() if k[:3] != key[:3]}
+            elif kind == "control":
+                b = ob.remove_control(point)
+                bad = {k: v for k, v in bad.items()
+                       if not (k[0] == "control" and k[2] == point)}
+            elif kind == "gnss":
+                b = ob.remove_gnss(photo)
+                bad = {k: v for k, v in bad.items() if not (k[0] == "gnss" and k[1] == photo)}
+            else:
+                break
+        except GeometryError:  # the block would not be determined without it: kept
+            bad.pop(key)
+            continue
+        removed.append((a.step, kind, photo, point, comp, w))
         _update(bad, b.changed)
-        bad = {k: w for k, w in bad.items() if ob.is_in(k[0], k[1], k[2])}
+        bad = {k: v for k, v in bad.items() if ob.is_in(k[0], k[1], k[2])}
         out.append(replace(b, what=f"{b.what} (rejected: w {removed[-1][-1]:.2f})"))
     return out
 
