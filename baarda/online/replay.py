@@ -6,7 +6,8 @@ wait for their photos) and adds each photo with all its image points.  `remove="
 keeps every observation, so that the result is the adjustment of the whole block, as
 `baarda adjust` gives it; `remove="worst"` acts as an operator who re-measures: after each
 step, while an observation is rejected, the one with the largest |w| is taken out (an image
-point with both coordinates), as in the replay study (docs/online.md).
+point with both coordinates), together with those the test cannot tell from it (|w| equal:
+the two rays of a two-ray point), as in the replay study (docs/online.md).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from baarda.options import TestOptions
 COLUMNS = ("step", "kind", "photo", "point", "component", "w", "mdb", "unit", "redundancy",
            "verdict", "ms")
 MAX_REMOVALS = 10  # re-measurements after one step, at most
+TIE = 1e-6  # |w| within this (relative) of the largest: the test cannot tell them apart
 
 
 def tests_table(answers) -> pd.DataFrame:
@@ -119,29 +121,35 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
     for _ in range(MAX_REMOVALS):
         if not bad:
             break
-        key = max(bad, key=lambda k: abs(bad[k]))
-        kind, photo, point, comp = key
-        w = bad[key]
-        try:
-            if kind == "image":
-                b = ob.remove_image_point(photo, point)
-                bad = {k: v for k, v in bad.items() if k[:3] != key[:3]}
-            elif kind == "control":
-                b = ob.remove_control(point)
-                bad = {k: v for k, v in bad.items()
-                       if not (k[0] == "control" and k[2] == point)}
-            elif kind == "gnss":
-                b = ob.remove_gnss(photo)
-                bad = {k: v for k, v in bad.items() if not (k[0] == "gnss" and k[1] == photo)}
-            else:
-                break
-        except GeometryError:  # the block would not be determined without it: kept
-            bad.pop(key)
-            continue
-        removed.append((a.step, kind, photo, point, comp, w))
-        _update(bad, b.changed)
+        top = max(abs(v) for v in bad.values())
+        # the largest |w|, with the components the test cannot tell from it (the same
+        # component on the two rays of a two-ray point: |w| equal): re-measured together
+        group = sorted((k for k, v in bad.items() if abs(v) >= (1 - TIE) * top),
+                       key=lambda k: -abs(bad[k]))
+        taken = False
+        for key in group:
+            kind, photo, point, comp = key
+            w = bad.pop(key)
+            if not ob.is_in(kind, photo, point):
+                continue
+            try:
+                if kind == "image":
+                    b = ob.remove_image_point(photo, point)
+                elif kind == "control":
+                    b = ob.remove_control(point)
+                elif kind == "gnss":
+                    b = ob.remove_gnss(photo)
+                else:
+                    continue
+            except GeometryError:  # the block would not be determined without it: kept
+                continue
+            taken = True
+            removed.append((a.step, kind, photo, point, comp, w))
+            _update(bad, b.changed)
+            out.append(replace(b, what=f"{b.what} (rejected: w {w:.2f})"))
         bad = {k: v for k, v in bad.items() if ob.is_in(k[0], k[1], k[2])}
-        out.append(replace(b, what=f"{b.what} (rejected: w {removed[-1][-1]:.2f})"))
+        if not taken and not bad:
+            break
     return out
 
 
