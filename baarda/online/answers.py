@@ -166,11 +166,13 @@ class Answer:
         if rem:
             t = rem[0]
             twins = [u for u in rem[1:] if abs(abs(u.w) - abs(t.w)) <= 1e-6 * abs(t.w)]
-            where = f"{t.component} of point {t.point}" + (f" on photo {t.photo}" if t.photo
-                                                             else "")
-            lines.append(f"  REMEASURE {t.kind.upper()} {where} (SIGF {abs(t.w):.2f} > "
+            what = {"image": f"POINT {t.point} ON PHOTO {t.photo}",
+                    "control": f"CONTROL POINT {t.point}",
+                    "gnss": f"THE GNSS POSITION OF PHOTO {t.photo}",
+                    "imu": f"THE IMU ATTITUDE OF PHOTO {t.photo}"}[t.kind]
+            lines.append(f"  REMEASURE {what} ({t.component}: SIGF {abs(t.w):.2f} > "
                          f"{self.k_w:.2f})" + (
-                             " - the test cannot tell it from " + ", ".join(
+                             "; the test cannot tell it from " + ", ".join(
                                  _name(u) for u in twins) if twins else ""))
         elif self.tested:
             unchecked = [t for t in self.tested if t.verdict == "suspect"]
