@@ -129,9 +129,9 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
         taken = False
         for key in group:
             kind, photo, point, comp = key
-            w = bad.pop(key)
-            if not ob.is_in(kind, photo, point):
-                continue
+            w = bad.pop(key, None)
+            if w is None or not ob.is_in(kind, photo, point):
+                continue  # no longer rejected, or out with its twin
             try:
                 if kind == "image":
                     b = ob.remove_image_point(photo, point)
