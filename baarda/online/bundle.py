@@ -13,8 +13,9 @@ inverse); a point's first ray is held until its second arrives (then both are te
 photo until the block determines it (MIN_PHOTO_POINTS of its points), the first adjustment
 until the control fixes the block.  The observations whose verdict the addition changed are
 looked for among those that share a photo or a point with it and those added since the last
-factorisation; every `max_rows` added rows (and at every removal and `result()`) the block
-is factored again at its Gauss-Newton solution (warm-started), and every verdict is checked.
+factorisation; every `max_rows` added rows, when the corrections since exceed
+`linear_limit`, at every removal and at `result()` the block is factored again at its
+Gauss-Newton solution (warm-started), and every verdict is checked.
 After any sequence of additions and removals `result()` is the batch adjustment of the same
 observations (tests/online/test_equivalence.py).
 """
@@ -78,8 +79,8 @@ class _Factored:
 class OnlineBundle:
     """A bundle block that grows one measurement at a time (module docstring).
 
-    block: what is measured so far (a Block as read, in its local frame, with approximate
-    orientations: pipeline.online prepares one); tests: alpha0, beta0 (default the block's);
+    block: what is measured so far, as read (put in the local frame of its CRS, photos
+    without approximations resected where they can be: `_prepared`); tests: alpha0, beta0 (default the block's);
     max_rows: rows added before the normal equations are factored again (0: after every
     step, every test then on the exact solution); linear_limit: corrections since the last
     factorisation (angles rad, positions / flying height) beyond which it is done at once.
