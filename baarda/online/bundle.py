@@ -81,9 +81,10 @@ class OnlineBundle:
 
     block: what is measured so far, as read (put in the local frame of its CRS, photos
     without approximations resected where they can be: `_prepared`); tests: alpha0, beta0
-    (default the block's); max_rows: rows added before the normal equations are factored again (0: after every
-    step, every test then on the exact solution); linear_limit: corrections since the last
-    factorisation (angles rad, positions / flying height) beyond which it is done at once.
+    (default the block's); max_rows: rows added before the normal equations are factored
+    again (0: after every step, every test then on the exact solution); linear_limit:
+    corrections since the last factorisation (angles rad, positions / flying height) beyond
+    which it is done at once.
     Needs control (or GNSS positions) for its datum; GNSS shifts, drifts and an estimated
     boresight, fixed control (sigma 0) and distances are not supported on-line.
     """
