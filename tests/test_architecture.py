@@ -21,7 +21,7 @@ FLOORS = [
     {"bundle", "relative"},
     {"screening", "independent"},
     {"pipeline", "simulate"},
-    {"planning"},
+    {"planning", "online"},
     {"evaluation"},
     {"output"},
     {"report"},

@@ -33,8 +33,9 @@ COMMANDS = {
     "adjust": ("baarda.cli.adjust", "bundle block adjustment with observation statistics"),
     "snoop": ("baarda.cli.adjust", "bundle adjustment with iterative data snooping"),
     "simulate": ("baarda.cli.simulate", "simulate an aerial block with known truth"),
-    "online": ("baarda.cli.online", "on-line strip bridging with data snooping per model "
-               "(relative orientation with scale transfer)"),
+    "online": ("baarda.cli.online", "on-line QC: strip bridging model by model (relative "
+               "orientation with scale transfer), or a bundle block tested measurement by "
+               "measurement (--bundle, --replay)"),
     "pattern": ("baarda.cli.pattern", "point-pattern design for relative orientation with "
                 "scale transfer (Kratky's Figures 2, 4, 7)"),
     "plan": ("baarda.cli.plan", "design-stage reliability of a planned block (no "

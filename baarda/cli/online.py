@@ -1,5 +1,7 @@
 """`baarda online [FILE]`: on-line relative orientation with scale transfer, model by model,
-with the ANAPLOT quality control after each model (docs/online.md)."""
+with the ANAPLOT quality control after each model; `baarda online --bundle PROJECT` and
+`--replay PROJECT`: the growing bundle block, every measurement tested as it is made
+(cli/online_bundle.py; docs/online.md)."""
 
 from __future__ import annotations
 
@@ -16,8 +18,9 @@ from baarda.output.run_folder import check_output_file
 
 
 def register(sub) -> None:
-    p = sub.add_parser("online", help="on-line strip bridging with data snooping per model "
-                       "(relative orientation with scale transfer)")
+    p = sub.add_parser("online", help="on-line QC: strip bridging model by model (relative "
+                       "orientation with scale transfer), or a bundle block tested measurement "
+                       "by measurement (--bundle, --replay)")
     p.add_argument("file", nargs="?", type=Path,
                    help="measurement file, e.g. examples/online/strip.txt ('-' or none: "
                    "read lines from the prompt or from stdin)")
@@ -36,13 +39,20 @@ def register(sub) -> None:
                    "the y-parallaxes and of the x'' at the tie points over the strip so far "
                    "and orient and test each model with them (q_yy/q_xx and q_tie estimated; "
                    "a group with too little redundancy keeps --qyy / --qtie)")
-    p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV)")
+    p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV); with "
+                   "--bundle / --replay: the output folder")
+    from baarda.cli.online_bundle import add_options
+
+    add_options(p)
     p.set_defaults(func=run, prints_results=True)
 
 
 def run(args) -> int:
+    from baarda.cli.online_bundle import bundle_mode, run_bundle
     from baarda.pipeline import online_interpreter, strip_coordinates_csv
 
+    if bundle_mode(args):
+        return run_bundle(args)
     say = console(args).print
     interp = online_interpreter(say, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
                                 qtie=args.qtie, tests=tests_option(None, args),

@@ -48,4 +48,10 @@ def study_rates(study) -> dict:
             "false_rate": nf / good if good else float("nan"),
             "false_ci": clopper_pearson(nf, good),
             "seconds_per_trial": float(np.mean(tt["seconds"])) if len(tt) else float("nan")}
+        if "at_entry" in tb and tb["at_entry"].notna().any():  # the on-line replay
+            e = int((tb["at_entry"] == "reject").sum())
+            out["strategies"][name].update({
+                "rejected_at_entry": e, "at_entry_rate": e / n if n else float("nan"),
+                "at_entry_ci": clopper_pearson(e, n),
+                "suspect_at_entry": int((tb["at_entry"] == "suspect").sum())})
     return out

@@ -22,7 +22,10 @@ Strategies: `snoop` (iterative w-test), `tau` (Pope's tau), `by-point` (snooping
 rejects an image point's x and y together), `robust` (Danish method, then snooping),
 `screen` (sequential screening before the bundle, then snooping), `modified` (Gruen's
 modified snooping, one pass), `threshold` (iteratively reject the largest |v| / sigma above
-THRESHOLD: a residual threshold without redundancy numbers, as the seeds compare).
+THRESHOLD: a residual threshold without redundancy numbers, as the seeds compare), `online`
+(the block measured again photo by photo in strip order, each photo tested as it comes, the
+worst rejected observation taken out while there is one: online/replay.py; its blunder rows
+also say whether the blunder was rejected at the step it was taken in, `at_entry`).
 """
 
 from __future__ import annotations
@@ -41,7 +44,8 @@ from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.pipeline import adjust, assess, snoop
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
-STRATEGIES = ("snoop", "tau", "by-point", "robust", "screen", "modified", "threshold")
+STRATEGIES = ("snoop", "tau", "by-point", "robust", "screen", "modified", "threshold",
+              "online")
 DEFAULT_STRATEGIES = ("snoop", "tau", "by-point", "robust")
 KINDS = ("x", "y", "X", "Y", "Z")
 THRESHOLD = 3.0  # |v| / sigma a priori of the `threshold` strategy
@@ -177,8 +181,26 @@ def _modified(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
     return [keys[i] for i in order], float(res.sigma0)
 
 
+def _online(block: Block, tests: TestOptions) -> tuple[list[Key], float, dict]:
+    """The on-line replay with re-measurement (online/replay.py): the observations taken
+    out, in order (the rejected component of each), sigma0 of the block at the end, and the
+    verdict of every component at the step it was taken in."""
+    from baarda.online.replay import replay
+
+    rp = replay(block, tests, remove="worst")
+    keys = [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.removed]
+    entry: dict[Key, str] = {}
+    for a in rp.answers:
+        for t in a.tested:
+            entry.setdefault((t.kind, t.photo, t.point, t.component), t.verdict)
+    sigma0 = float(rp.online.result().adjustment.sigma0) if rp.online.started else np.nan
+    return keys, sigma0, entry
+
+
 def run_strategy(name: str, block: Block, tests: TestOptions) -> tuple[list[Key], float]:
     """(keys rejected, in order; sigma0 at the end) of one strategy on a block."""
+    if name == "online":
+        return _online(block, tests)[:2]
     if name == "snoop":
         return _snooping_order(snoop(block, tests))
     if name == "tau":
@@ -234,11 +256,15 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
     unit = np.where(model.kind[rows] == "image", 1e3, 1.0)  # µm, m
     for name in options.strategies or ("",):  # none: the first adjustment only
         t0 = time.perf_counter()
+        entry: dict | None = None  # online: the verdict of each component when taken in
         if not name:
             rejected, sigma0, failed = [], float(first.adjustment.sigma0), ""
         else:
             try:
-                rejected, sigma0 = run_strategy(name, blundered, options.tests)
+                if name == "online":
+                    rejected, sigma0, entry = _online(blundered, options.tests)
+                else:
+                    rejected, sigma0 = run_strategy(name, blundered, options.tests)
                 failed = ""
             except GeometryError as e:  # e.g. a rejection that leaves a point with one ray
                 rejected, sigma0, failed = [], float("nan"), str(e)
@@ -252,7 +278,8 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
                 "point": point, "component": comp, "size": float(sizes[j] * unit[j]),
                 "unit": "um" if kind == "image" else "m", "size_mdb": float(size_mdb[j]),
                 "w_first": float(fq.w[i]), "significant_first": bool(significant[i]),
-                "located": located[j], "rank": rank.get(planted[j])})
+                "located": located[j], "rank": rank.get(planted[j]),
+                "at_entry": None if entry is None else entry.get(planted[j], "held")})
         trial_rows.append({
             "trial": trial, "strategy": name, "n_observations": int(model.n),
             "n_planted": k, "n_located": int(sum(located)),
@@ -302,6 +329,11 @@ class Study:
                          f"{s['located_ci'][1]:.3f}], good observations rejected "
                          f"{s['false_per_trial']:.2f} per trial ({s['false_rate']:.5f}), "
                          f"{s['seconds_per_trial']:.3f} s per trial")
+            if "rejected_at_entry" in s:
+                lines.append(f"{'':<10} rejected when taken in {s['rejected_at_entry']}/"
+                             f"{s['planted']} = {s['at_entry_rate']:.3f} "
+                             f"[{s['at_entry_ci'][0]:.3f}, {s['at_entry_ci'][1]:.3f}], not "
+                             f"checked then (suspect) {s['suspect_at_entry']}")
         return "\n".join(lines)
 
 
@@ -330,7 +362,7 @@ def run_study(options: StudyOptions, *, workers: int = 1, scheduler: str | None 
 
 
 BLUNDER_COLUMNS = ["trial", "strategy", "kind", "photo", "point", "component", "size", "unit",
-                   "size_mdb", "w_first", "significant_first", "located", "rank"]
+                   "size_mdb", "w_first", "significant_first", "located", "rank", "at_entry"]
 TRIAL_COLUMNS = ["trial", "strategy", "n_observations", "n_planted", "n_located", "n_false",
                  "n_tested_first", "n_significant_first", "sigma0_final", "failed", "seconds"]
 
