@@ -130,28 +130,22 @@ def _brief(a) -> None:
 
 
 def _lines(interp, lines, name: str) -> None:
-    from baarda.relative.online_commands import LineError
-
     n = 0
     for n, line in enumerate(lines, 1):  # noqa: B007
         try:
             interp.feed(line)
-        except LineError as e:
-            raise ProjectError(name, str(e), n, e.column) from None
-        except (GeometryError, ValueError) as e:
-            raise ProjectError(name, str(e), n) from None
+        except (GeometryError, ValueError) as e:  # a bad line names its field (column)
+            raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
         if interp.done:
             break
     try:
         interp.finish()
-    except LineError as e:
-        raise ProjectError(name, str(e), n, e.column) from None
+    except ValueError as e:
+        raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
 
 
 def _prompt(interp) -> None:
     """Lines typed at the prompt: a bad line is said and the session goes on."""
-    from baarda.relative.online_commands import LineError
-
     print("baarda online --bundle: type 'help' for the commands, 'quit' to stop")
     while not interp.done:
         try:
@@ -160,7 +154,7 @@ def _prompt(interp) -> None:
             break
         try:
             interp.feed(line)
-        except (LineError, GeometryError, ValueError) as e:
+        except (GeometryError, ValueError) as e:
             print(f"error: {e}")
     if interp.collecting is not None:
         print(f"photo {interp.collecting[0]} was not closed with 'end': its points are "
