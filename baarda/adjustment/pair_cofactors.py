@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from baarda.linalg._jit import kernel
-from baarda.linalg.extended import selected_inverse_including
+from baarda.linalg.extended import block_lookup, read_block, selected_inverse_including
 
 if TYPE_CHECKING:
     from baarda.adjustment.schur import SchurFactor
@@ -204,82 +204,170 @@ def point_pairs(factor: SchurFactor, layout: FlatLayout) -> Iterator[Triplets]:
         yield oi[:n], oj[:n], oq[:n]
 
 
-def _frame_rows(factor: SchurFactor, layout: FlatLayout, frames: np.ndarray):
-    """For each frame in `frames`: its observations (original indices) and extra rows."""
-    s = factor.system
-    by_frame = np.argsort(s.frame, kind="stable")
-    fptr = np.searchsorted(s.frame[by_frame], np.arange(s.nf + 1))
-    xf = s.x_frame
-    x_by = np.argsort(xf, kind="stable")
-    xptr = np.searchsorted(xf[x_by], np.arange(-1, s.nf + 1))[1:]  # skip frame -1
-    return [(by_frame[fptr[f]:fptr[f + 1]], x_by[xptr[f]:xptr[f + 1]]) for f in frames]
+def _by_frame(keys: np.ndarray, nf: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR (ptr (nf + 1,), index) of the items of each frame (keys -1: none)."""
+    order = np.argsort(keys, kind="stable")
+    ptr = np.searchsorted(keys[order], np.arange(nf + 1))
+    return ptr.astype(np.int64), order.astype(np.int64)
+
+
+@kernel
+def _frame_pairs(frames, fptr, fobs, xptr, xobs, ptr, frame_sorted, point, jf, jp, hinv,
+                 hfp, jxf, e, k, kx, base, colptr, rowind, iperm, slot_pos, slot_stride,
+                 panels, oi, oj, oq):
+    """Triplets of every two rows on each frame of `frames`: B Sigma B^T over the frames
+    that see its points, the point-local term of rows of one point, the border term.
+    Returns the number written."""
+    nf = fptr.size - 1
+    b = jf.shape[2]
+    d = jp.shape[2]
+    ng = e.shape[1]
+    mark = np.full(nf, -1, np.int64)
+    colof = np.zeros(nf, np.int64)
+    hood = np.zeros(nf, np.int64)
+    blk = np.zeros((b, b))
+    n = 0
+    for fi in range(frames.size):
+        f = frames[fi]
+        o0, o1 = fptr[f], fptr[f + 1]
+        x0, x1 = xptr[f], xptr[f + 1]
+        nobs = o1 - o0
+        nr = nobs * k + (x1 - x0) * kx
+        if nr < 2:
+            continue
+        nh = 0
+        mark[f] = fi
+        colof[f] = 0
+        hood[0] = f
+        nh = 1
+        for a in range(o0, o1):
+            p = point[fobs[a]]
+            for t in range(ptr[p], ptr[p + 1]):
+                g = frame_sorted[t]
+                if mark[g] != fi:
+                    mark[g] = fi
+                    colof[g] = nh
+                    hood[nh] = g
+                    nh += 1
+        bm = np.zeros((nr, nh * b))
+        flat = np.empty(nr, np.int64)
+        tmp = np.empty((k, d))
+        for a in range(nobs):
+            o = fobs[o0 + a]
+            p = point[o]
+            for r in range(k):
+                flat[a * k + r] = o * k + r
+                for y in range(b):
+                    bm[a * k + r, y] += jf[o, r, y]
+                for y in range(d):
+                    acc = 0.0
+                    for x in range(d):
+                        acc += jp[o, r, x] * hinv[p, x, y]
+                    tmp[r, y] = acc
+            for t in range(ptr[p], ptr[p + 1]):
+                c0 = colof[frame_sorted[t]] * b
+                for r in range(k):
+                    for y in range(b):
+                        acc = 0.0
+                        for x in range(d):
+                            acc += tmp[r, x] * hfp[t, y, x]
+                        bm[a * k + r, c0 + y] -= acc
+        for a in range(x1 - x0):
+            x = xobs[x0 + a]
+            for r in range(kx):
+                row = nobs * k + a * kx + r
+                flat[row] = base + x * kx + r
+                for y in range(b):
+                    bm[row, y] = jxf[x, r, y]
+        sig = np.zeros((nh * b, nh * b))
+        for a in range(nh):
+            for c in range(nh):
+                if not read_block(colptr, rowind, iperm, slot_pos, slot_stride, panels,
+                                  hood[a], hood[c], blk):
+                    raise ValueError("a block of the frames' covariance is missing")
+                for r in range(b):
+                    for y in range(b):
+                        sig[a * b + r, c * b + y] = blk[r, y]
+        q = np.dot(np.dot(bm, sig), bm.T)
+        for a in range(nobs):
+            oa = fobs[o0 + a]
+            p = point[oa]
+            for c in range(a, nobs):
+                oc = fobs[o0 + c]
+                if point[oc] != p:
+                    continue
+                for r in range(k):
+                    for y in range(d):
+                        acc = 0.0
+                        for x in range(d):
+                            acc += jp[oa, r, x] * hinv[p, x, y]
+                        tmp[r, y] = acc
+                for r in range(k):
+                    for s in range(k):
+                        acc = 0.0
+                        for y in range(d):
+                            acc += tmp[r, y] * jp[oc, s, y]
+                        q[a * k + r, c * k + s] += acc
+                        if c != a:
+                            q[c * k + s, a * k + r] += acc
+        for r in range(nr):
+            for s in range(r + 1, nr):
+                i = flat[r]
+                j = flat[s]
+                acc = q[r, s]
+                for g in range(ng):
+                    acc += e[i, g] * e[j, g]
+                oi[n] = min(i, j)
+                oj[n] = max(i, j)
+                oq[n] = acc
+                n += 1
+    return n
 
 
 def frame_pairs(factor: SchurFactor, layout: FlatLayout,
                 frames: np.ndarray) -> Iterator[Triplets]:
     """(i, j, q_ij) of every two rows on one of the system frames `frames` (image rows of
-    its observations and extra rows tied to it), i < j, one frame at a time."""
+    its observations and extra rows tied to it), i < j, in chunks of frames."""
     s, lin = factor.system, factor.lin
     frames = np.unique(np.asarray(frames, np.int64))
     if not len(frames):
         return
-    k, b = layout.k, s.b
+    k = layout.k
+    kx = layout.kx if layout.mx else 0
     e = border_factor(factor, layout)
-    rows = _frame_rows(factor, layout, frames)
-    # the frames that see the points of each frame, and the pairs of them that Sigma needs
-    hoods, need_r, need_c = [], [], []
-    for f, (obs, _) in zip(frames, rows, strict=True):
+    fptr, fobs = _by_frame(s.frame, s.nf)
+    xptr, xobs = _by_frame(s.x_frame, s.nf) if layout.mx else (
+        np.zeros(s.nf + 1, np.int64), np.zeros(0, np.int64))
+    jxf = lin.jxf if layout.mx else np.zeros((0, 0, s.b))
+    rows = np.diff(fptr)[frames] * k + np.diff(xptr)[frames] * kx
+    # the frames that see the points of each frame: Sigma is needed between every two
+    need_r, need_c = [], []
+    for f in frames:
+        obs = fobs[fptr[f]:fptr[f + 1]]
         pts = np.unique(s.point[obs])
-        seen = np.concatenate([s.frame_sorted[s.ptr[p]:s.ptr[p + 1]] for p in pts] + [[f]])
-        hood = np.unique(seen)
-        hoods.append(hood)
+        hood = np.unique(np.concatenate(
+            [s.frame_sorted[s.ptr[p]:s.ptr[p + 1]] for p in pts] + [[f]]))
         rr, cc = np.meshgrid(hood, hood, indexing="ij")
         low = rr > cc
         need_r.append(rr[low])
         need_c.append(cc[low])
     sel = selected_inverse_including(factor.chol, np.concatenate(need_r),
                                      np.concatenate(need_c))
-    hinv = factor.hpp_inv
+    look = block_lookup(sel)
     base = layout.m * k + len(layout.ctrl_sel)  # the first extra row
-    for f, (obs, xr), hood in zip(frames, rows, hoods, strict=True):
-        nh = len(hood)
-        col = {int(g): n for n, g in enumerate(hood)}
-        nr = len(obs) * k + len(xr) * (layout.kx if layout.mx else 0)
-        bm = np.zeros((nr, nh * b))
-        flat = np.empty(nr, np.int64)
-        for n, o in enumerate(obs):
-            r0 = n * k
-            flat[r0:r0 + k] = o * k + np.arange(k)
-            c = col[int(f)]
-            bm[r0:r0 + k, c * b:(c + 1) * b] += lin.jf[o]
-            p = s.point[o]
-            jpm = lin.jp[o] @ hinv[p]  # (k, d)
-            for t in range(s.ptr[p], s.ptr[p + 1]):
-                g = col[int(s.frame_sorted[t])]
-                bm[r0:r0 + k, g * b:(g + 1) * b] -= jpm @ factor.hfp[t].T
-        if len(xr):
-            kx = layout.kx
-            r1 = len(obs) * k
-            c = col[int(f)]
-            for n, x in enumerate(xr):
-                flat[r1 + n * kx:r1 + (n + 1) * kx] = base + x * kx + np.arange(kx)
-                bm[r1 + n * kx:r1 + (n + 1) * kx, c * b:(c + 1) * b] = lin.jxf[x]
-        rr, cc = np.meshgrid(hood, hood, indexing="ij")
-        sig = sel.blocks(rr.ravel(), cc.ravel()).reshape(nh, nh, b, b)
-        sig = sig.transpose(0, 2, 1, 3).reshape(nh * b, nh * b)
-        q = bm @ sig @ bm.T + e[flat] @ e[flat].T
-        # the same point on this frame: the x and y of one image point (and twin rays)
-        if len(obs):
-            jp = lin.jp[obs]
-            pts = s.point[obs]
-            same = pts[:, None] == pts[None, :]
-            loc = np.einsum("akd,ade,cle->akcl", jp, hinv[pts], jp)
-            loc = loc * same[:, None, :, None]
-            q[:len(obs) * k, :len(obs) * k] += loc.reshape(len(obs) * k, len(obs) * k)
-        iu, ju = np.triu_indices(nr, 1)
-        a, c = flat[iu], flat[ju]
-        yield np.minimum(a, c), np.maximum(a, c), q[iu, ju]
-
+    hinv = factor.hpp_inv
+    pairs = rows * (rows - 1) // 2
+    lo = 0
+    while lo < len(frames):
+        hi = lo + max(1, int(np.searchsorted(np.cumsum(pairs[lo:]), 4 * CHUNK)))
+        size = int(pairs[lo:hi].sum())
+        oi, oj = np.empty(size, np.int64), np.empty(size, np.int64)
+        oq = np.empty(size)
+        n = _frame_pairs(frames[lo:hi], fptr, fobs, xptr, xobs, s.ptr, s.frame_sorted,
+                         s.point, lin.jf, lin.jp, hinv, factor.hfp, jxf, e, k, kx, base,
+                         *look, oi, oj, oq)
+        yield oi[:n], oj[:n], oq[:n]
+        lo = hi
 
 
 def columns(factor: SchurFactor, layout: FlatLayout, rows: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ from .kernels import gather_blocks, scatter_blocks
 from .ordering import adjacency_from_pairs, inverse_permutation
 from .symbolic import lower_rows, postordered, symbolic_factor
 
-__all__ = ["in_pattern", "selected_inverse_including"]
+__all__ = ["block_lookup", "in_pattern", "read_block", "selected_inverse_including"]
 
 
 @kernel
@@ -91,3 +91,44 @@ def selected_inverse_including(chol: BlockCholesky, rows: np.ndarray,
     scatter_blocks(values, big.slot_pos, big.slot_stride, factor._buf)
     factor._factored = True
     return factor.selected_inverse(overwrite_factor=True)
+
+
+def block_lookup(sel: SelectedInverse) -> tuple[np.ndarray, ...]:
+    """The arrays by which a numba kernel reads block (i, j) (original numbering) of a
+    selected inverse: (colptr, rowind, iperm, slot_pos, slot_stride, panels); see
+    `read_block`."""
+    pat = sel.pattern
+    sym = pat.symbolic
+    return sym.colptr, sym.rowind, pat.iperm, pat.slot_pos, pat.slot_stride, sel._panels
+
+
+@kernel
+def read_block(colptr: np.ndarray, rowind: np.ndarray, iperm: np.ndarray,
+               slot_pos: np.ndarray, slot_stride: np.ndarray, panels: np.ndarray,
+               i: int, j: int, out: np.ndarray) -> bool:
+    """out (b, b) = block (i, j) of the selected inverse (`block_lookup`); False when the pair
+    is not on its pattern (out untouched)."""
+    a = iperm[i]
+    c = iperm[j]
+    hi, lo = (a, c) if a >= c else (c, a)
+    s = colptr[lo]
+    z = colptr[lo + 1]
+    while s < z:
+        mid = (s + z) >> 1
+        if rowind[mid] < hi:
+            s = mid + 1
+        else:
+            z = mid
+    if s == colptr[lo + 1] or rowind[s] != hi:
+        return False
+    p = slot_pos[s]
+    st = slot_stride[s]
+    b = out.shape[0]
+    for r in range(b):
+        for q in range(b):
+            v = panels[p + r * st + q]
+            if a >= c:
+                out[r, q] = v
+            else:
+                out[q, r] = v
+    return True

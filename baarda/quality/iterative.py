@@ -21,7 +21,7 @@ import numpy as np
 from baarda.errors import GeometryError
 from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
-from baarda.quality.statistics import QualityResult, analyse
+from baarda.quality.statistics import QualityResult, analyse, with_separability
 
 
 @dataclass(frozen=True)
@@ -138,7 +138,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     kept_why: dict[int, str] = {}
     log: list[SnoopingStep] = []
     for it in range(1, max_iterations + 1):
-        q = analyse(model, tests)
+        q = analyse(model, tests, separability=False)
         stat = q.w if statistic == "w" else q.tau
         crit = q.k_w if statistic == "w" else q.k_tau
         mag = np.abs(np.nan_to_num(stat))
@@ -178,7 +178,8 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             back = np.flatnonzero(~active & q.controlled & (mag < crit))
             back = np.array([b for b in back if int(b) not in restored], dtype=int)
             if not len(back):
-                return SnoopingRun(model, q, active, log, True, statistic)
+                return SnoopingRun(model, with_separability(model, q), active, log, True,
+                                   statistic)
             i = int(back[np.argmin(mag[back])])
             rows = [i]
             if by_group and model.group[i] >= 0:

@@ -33,6 +33,7 @@ import functools
 from collections.abc import Iterable
 
 import numpy as np
+import pandas as pd
 from scipy import special
 
 from baarda.linalg._jit import kernel
@@ -163,7 +164,7 @@ def w_correlations(model, qvv: np.ndarray, tested: np.ndarray
         qll = np.maximum(model.adjusted_cofactor_diag(), 0.0)
         t = np.maximum(qll - local, 0.0)
         u = np.where(on_frame, np.sqrt(t) / d, 0.0)
-        _, f = np.unique(frame, return_inverse=True)
+        f = pd.factorize(frame)[0]
         top = np.zeros(f.max() + 1)
         np.maximum.at(top, f, u)
         # the bound of the pairs with the largest u on the frame (which could be i itself:

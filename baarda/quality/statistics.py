@@ -17,7 +17,7 @@ priori; cofactors in observation units squared.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -144,14 +144,7 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
         notes.append(f"{unc} observation component(s) with redundancy number below {r_min} are "
                      "not controlled by other observations: an error in them cannot be "
                      "detected (not tested)")
-    sep = {}
-    if separability:
-        rho, partner = w_correlations(model, qvv, controlled)
-        with np.errstate(invalid="ignore"):
-            factor = separable_delta(np.nan_to_num(rho), bm.k_w, beta0) / bm.delta0
-        sep = {"rho_max": rho, "rho_partner": partner,
-               "msb": np.where(controlled, mdb * factor, np.inf)}
-    return QualityResult(
+    out = QualityResult(
         residual=v, sigma=s, active=act, qvv=qvv, redundancy_number=r, sigma_residual=sv,
         w=w, tau=tau, p_value=w_test_pvalue(np.nan_to_num(w)) * np.where(controlled, 1, np.nan),
         tau_p_value=(tau_pvalue(np.nan_to_num(tau), red) if red >= 2 else np.full(len(v), np.nan))
@@ -161,7 +154,19 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
         flagged=act & controlled & (np.abs(np.nan_to_num(w)) > bm.k_w), redundancy=red,
         vtpv=vtpv, sigma0_hat=s0, k_w=bm.k_w, k_tau=k_tau, alpha0=alpha0, beta0=beta0,
         delta0=bm.delta0, b_method_alpha=ga, global_test=gt, notes=notes,
-        alpha_global=tests.alpha_global, headline_test=headline, **sep)
+        alpha_global=tests.alpha_global, headline_test=headline)
+    return with_separability(model, out) if separability else out
+
+
+def with_separability(model: AdjustedModel, q: QualityResult) -> QualityResult:
+    """`q` with rho_max, rho_partner and the MSB (quality/separability.py); `q` itself when
+    it has them."""
+    if q.rho_max is not None:
+        return q
+    rho, partner = w_correlations(model, q.qvv, q.controlled)
+    factor = separable_delta(np.nan_to_num(rho), q.k_w, q.beta0) / q.delta0
+    return replace(q, rho_max=rho, rho_partner=partner,
+                   msb=np.where(q.controlled, q.mdb * factor, np.inf))
 
 
 def qvv_columns(model: AdjustedModel, rows: np.ndarray) -> np.ndarray:
