@@ -164,7 +164,8 @@ def with_separability(model: AdjustedModel, q: QualityResult) -> QualityResult:
     if q.rho_max is not None:
         return q
     rho, partner = w_correlations(model, q.qvv, q.controlled)
-    factor = separable_delta(np.nan_to_num(rho), q.k_w, q.beta0) / q.delta0
+    others = int(np.sum(np.isfinite(rho))) - 2  # the tests besides i and its partner
+    factor = separable_delta(np.nan_to_num(rho), q.k_w, q.beta0, others) / q.delta0
     return replace(q, rho_max=rho, rho_partner=partner,
                    msb=np.where(q.controlled, q.mdb * factor, np.inf))
 
