@@ -27,6 +27,7 @@ from baarda.quality.hypotheses import (
     image_point_tests,
 )
 from baarda.quality.iterative import SnoopingRun
+from baarda.quality.separability_report import separability_dict, separability_lines
 from baarda.quality.statistics import QualityResult
 from baarda.schema import OBSERVATION_COLUMNS
 from baarda.sections import Section, render, section
@@ -212,6 +213,8 @@ class Assessment:
             "n_rejected": int(np.sum(~q.active)),
             "n_flagged": int(np.sum(q.flagged)),
             "n_uncontrolled": int(np.sum(q.active & ~q.controlled)),
+            **({"separability": separability_dict(self.model, q)}
+               if q.rho_max is not None else {}),
             "rejection_log": [] if self.run is None else
             [self._log_entry(s) for s in self.run.log],
             "snooping_converged": None if self.run is None else self.run.converged,
@@ -241,7 +244,8 @@ class Assessment:
 
     def quality_sections(self) -> list[Section]:
         q = self.quality
-        lines = quality_lines(self.model, q, self.kind_suffix) + self.extra_quality_lines()
+        lines = (quality_lines(self.model, q, self.kind_suffix)
+                 + separability_lines(self.model, q) + self.extra_quality_lines())
         if self.run is not None:
             lines += self.run.summary_lines()
         params = [t for t in self.hypotheses if t.parameters]
