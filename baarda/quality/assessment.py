@@ -26,7 +26,7 @@ from baarda.quality.hypotheses import (
     hypothesis_test,
     image_point_tests,
 )
-from baarda.quality.iterative import SnoopingRun
+from baarda.quality.iterative import SnoopingRun, labels
 from baarda.quality.separability_report import separability_dict, separability_lines
 from baarda.quality.statistics import QualityResult
 from baarda.schema import OBSERVATION_COLUMNS
@@ -124,7 +124,21 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
             "w": q.w, "tau": q.tau, "p_value": q.p_value, "mdb": q.mdb * scale,
             "lambda_bar": q.lambda_bar, "external_max": q.external_max,
             "external_point": q.external_point, "point_test": point_t, "flagged": q.flagged})
+        if q.rho_max is not None:  # separability (quality/separability.py)
+            cols.update({"rho_max": q.rho_max, "msb": q.msb * scale,
+                         "rho_partner": partner_labels(m, q.rho_partner)})
+    cols.setdefault("rho_partner", empty)
     return pd.DataFrame({c: cols.get(c, nan) for c in COLUMNS}, columns=list(COLUMNS))
+
+
+def partner_labels(model: AdjustedModel, partner: np.ndarray) -> np.ndarray:
+    """(n,) the snooping log's label of each component's most correlated partner, or ""."""
+    out = np.full(model.n, "", dtype=object)
+    has = np.flatnonzero(partner >= 0)
+    if len(has):
+        uniq, inv = np.unique(partner[has], return_inverse=True)
+        out[has] = np.array(labels(model, uniq), dtype=object)[inv]
+    return out
 
 
 @dataclass(frozen=True)

@@ -169,6 +169,19 @@ def label(model: AdjustedModel, i: int) -> str:
 INSEPARABLE = ("flag", "group")
 
 
+def labels(model: AdjustedModel, rows: np.ndarray) -> list[str]:
+    """label() of many rows at once (the same words, without a call per row)."""
+    rows = np.asarray(rows, np.int64)
+    kind, frame, point, comp = (np.asarray(getattr(model, a), dtype=object)[rows].tolist()
+                                for a in ("kind", "frame", "point", "component"))
+    out = []
+    for k, f, p, c in zip(kind, frame, point, comp, strict=True):
+        fw = (f" photo {f}" if k in ("image", "gnss", "imu") else f" {f}") if f else ""
+        pw = f" point {p}" if p or k not in ("gnss", "imu") else ""
+        out.append(f"{k}{fw}{pw} {c}")
+    return out
+
+
 def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS, *,
                        active: np.ndarray | None = None, statistic: str = "w",
                        by_group: bool = False, max_iterations: int = 200,

@@ -87,3 +87,23 @@ def test_the_demo_names_the_absorbed_fifth_blunder():
     assert {"point": "005010", "component": "y", "frames": ["02008", "03008"]} in \
         sep["uncontrolled_components"]
     assert sep["uncontrolled"] == 16 and "005010" in sep["two_ray_points"]
+
+
+@pytest.mark.parametrize("parquet", [False, True])
+def test_the_observation_table_carries_rho_max_partner_and_msb(tmp_path, parquet):
+    from baarda.output.bundle_results import write_results
+    from baarda.output.result_folder import read_results
+
+    qc = baarda.snoop(baarda.read("examples/demo"))
+    write_results(tmp_path / "out", qc, parquet=parquet)
+    df = read_results(tmp_path / "out").obs
+    q, m = qc.quality, qc.model
+    unit = np.where(m.kind == "image", 1e3, 1.0)
+    t = np.flatnonzero(q.controlled)
+    assert np.array_equal(df["rho_max"].to_numpy()[t], q.rho_max[t])
+    assert np.allclose(df["msb"].to_numpy()[t], q.msb[t] * unit[t], rtol=1e-15)
+    i = int(np.flatnonzero(q.controlled & (q.rho_max > 0.99))[0])
+    j = int(q.rho_partner[i])
+    assert df["rho_partner"].iloc[i] == (f"{m.kind[j]} photo {m.frame[j]} point {m.point[j]} "
+                                         f"{m.component[j]}")
+    assert (df["msb"].to_numpy()[t] >= df["mdb"].to_numpy()[t]).all()
