@@ -18,8 +18,8 @@ from baarda.io.table import Table
 from baarda.output.run_folder import MANIFEST, verify_run
 from baarda.schema import (  # the contract of the files (baarda/schema.py)
     FLAG_COLUMNS,
-    LABEL_COLUMNS,
     FRAME_COLUMNS,
+    LABEL_COLUMNS,
     NUMBER_COLUMNS,
     REQUIRED_COLUMNS,
     UNITS,

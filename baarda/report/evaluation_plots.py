@@ -1,6 +1,7 @@
-"""Power curves of a detection-power study: the share of planted blunders each strategy
-located against their size in MDB, with the B-method's curve of the w-test (docs/
-evaluation.md); as PNG and a self-contained HTML page."""
+"""Power curves of a detection-power study: detection (the planted component's w-test
+significant in the first adjustment, with the B-method's curve) next to identification
+(the share each strategy located, and identified up to the inseparable group) against the
+blunder's size in MDB (docs/evaluation.md); as PNG and a self-contained HTML page."""
 
 from __future__ import annotations
 
@@ -43,8 +44,12 @@ def power_curves(study: Study) -> bytes | None:
     ax.plot(x, b_method_power(x, o.tests.alpha0, o.tests.beta0), color="black", lw=1,
             label=f"B-method, w-test (alpha0 {o.tests.alpha0:g})")
     first = b.drop_duplicates(["trial", "kind", "photo", "point", "component"])
-    series = [("first adjustment: |w| > k", first, "significant_first")] + [
-        (name, b[b["strategy"] == name], "located") for name in o.strategies]
+    series = [("detected: |w| > k in the first adjustment", first, "significant_first")]
+    for name in o.strategies:
+        part = b[b["strategy"] == name]
+        series.append((f"{name}: located", part, "located"))
+        if "identified" in part and not part["separable"].all():
+            series.append((f"{name}: identified up to the group", part, "identified"))
     for n, (name, part, col) in enumerate(series):
         s = np.abs(part["size_mdb"].to_numpy(float))
         hit = part[col].to_numpy(bool)
@@ -59,9 +64,10 @@ def power_curves(study: Study) -> bytes | None:
                 err.append((k / m - ci[0], ci[1] - k / m))
         if mids:
             ax.errorbar(mids, rate, yerr=np.array(err).T, marker="o", ms=4, capsize=2,
-                        lw=1, ls="--" if col == "significant_first" else "-", label=name)
+                        lw=1, ls={"significant_first": "--", "identified": ":"}.get(col, "-"),
+                        label=name)
     ax.set_xlabel("blunder size in units of the observation's own MDB")
-    ax.set_ylabel("share located")
+    ax.set_ylabel("share detected / identified")
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="lower right")
