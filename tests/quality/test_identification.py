@@ -107,3 +107,23 @@ def test_the_observation_table_carries_rho_max_partner_and_msb(tmp_path, parquet
     assert df["rho_partner"].iloc[i] == (f"{m.kind[j]} photo {m.frame[j]} point {m.point[j]} "
                                          f"{m.component[j]}")
     assert (df["msb"].to_numpy()[t] >= df["mdb"].to_numpy()[t]).all()
+
+
+def test_the_reports_show_the_inseparable_group_and_the_least_separable(clean, tmp_path):
+    from baarda.output.bundle_results import write_results
+    from baarda.output.result_folder import read_results
+    from baarda.report.html_report import html_report
+    from baarda.report.text_report import text_report
+
+    block, model, q = clean
+    i, _ = _pair(model, q, tie=True)
+    qc = snoop(planted(block, model, i, 4.0, q))
+    write_results(tmp_path / "out", qc)
+    res = read_results(tmp_path / "out")
+    text = text_report(res)
+    log = text[text.index("SNOOPING LOG"):text.index("GROUP STATISTICS")]
+    assert "identified up to {" in log and "can no longer be checked" in log
+    assert "LEAST SEPARABLE" in text and "MSB/MDB" in text
+    page = html_report(res)
+    assert "identified up to {" in page and "Least separable" in page
+    assert 'id="fig-msb_mdb"' in page
