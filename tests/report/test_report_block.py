@@ -76,7 +76,8 @@ def test_html_is_self_contained(report_case):
     h = report_case.html
     assert not re.search(r"""(src|href)=["']?(https?:)?//""", h)
     assert "<link" not in h and "@import" not in h
-    assert h.count("<img") == 6 and h.count('src="data:image/png;base64,') == 6
+    # six figures and the histogram of MSB/MDB (issue 30)
+    assert h.count("<img") == 7 and h.count('src="data:image/png;base64,') == 7
     assert 'id="render-status"' in h
     for sec in ("Project summary", "Global test", "Data snooping log", "Group statistics",
                 "Histograms", "Block map", "Image residual vectors", "Redundancy",
@@ -98,7 +99,7 @@ def test_cli_text_and_html(report_case, tmp_path, capsys):
                          table, re.M), lab
     html = tmp_path / "r.html"
     assert main(["report", out, "-o", str(html), "-q"]) == 0
-    assert html.read_text(encoding="utf-8").count("<img") == 6
+    assert html.read_text(encoding="utf-8").count("<img") == 7
     assert main(["report", out]) == 2  # nothing to do
     assert main(["report", out, "-o", str(report_case.out / "observations.csv")]) == 2
     assert main(["report", out, "--text", "--class-width", "0.3"]) == 2
@@ -139,7 +140,7 @@ def test_older_output_folder_still_reports(report_case, tmp_path):
     assert res.cameras and res.angle_unit == "gon"  # from the project folder
     assert any("no image coordinates" in n for n in res.notes)
     h = html_report(res)
-    assert h.count("<img") == 5 and "no image coordinates in the results" in h
+    assert h.count("<img") == 6 and "no image coordinates in the results" in h
     s["source"] = str(tmp_path / "nowhere")
     (old / "summary.json").write_text(json.dumps(s))
     res = read_results(old)
