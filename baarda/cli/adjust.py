@@ -30,6 +30,10 @@ def _common(p) -> None:
                    "posteriori) instead of Baarda's w (sigma0 a priori)")
     p.add_argument("--by-point", action="store_true",
                    help="reject both coordinates of an image point together")
+    p.add_argument("--inseparable", choices=("flag", "group"), default="flag",
+                   help="when the rejected observation cannot be told from others (|rho| >= "
+                   "0.99): flag them (default) or reject the group where the block stays "
+                   "determined (docs/quality.md)")
     p.add_argument("--robust", action="store_true", help="Danish-method re-weighting before "
                    "snooping (for blocks with many large errors)")
     p.add_argument("--vce", action="store_true", help="estimate a variance component per "
@@ -134,10 +138,10 @@ def _adjust(args, run):
     if args.snoop and getattr(args, "vce", False):
         qc, _ = snoop_with_variance_components(problem, tests, statistic=statistic,
                                                by_point=args.by_point, robust=args.robust,
-                                               progress=say)
+                                               inseparable=args.inseparable, progress=say)
     elif args.snoop:
         qc = snoop(problem, tests, statistic=statistic, by_point=args.by_point,
-                   robust=args.robust, progress=say)
+                   robust=args.robust, inseparable=args.inseparable, progress=say)
     else:
         qc = assess(adjust(problem, progress=say), tests)
     if est is not None:

@@ -27,7 +27,8 @@ def b_method_power(size_mdb: np.ndarray, alpha0: float, beta0: float) -> np.ndar
 
 
 def power_table(study: Study, bins: int = BINS) -> pd.DataFrame:
-    """One row per series (the first adjustment's w-test, then each strategy) and size
+    """One row per series (the first adjustment's w-test, then each strategy: located, and
+    identified up to the inseparable group where some blunders are not separable) and size
     class: series, lo, hi (|size| in MDB), n planted, located (or significant), rate,
     ci_lo, ci_hi (95 % Clopper-Pearson).  Empty without blunders."""
     cols = ["series", "lo", "hi", "n", "located", "rate", "ci_lo", "ci_hi"]
@@ -38,8 +39,12 @@ def power_table(study: Study, bins: int = BINS) -> pd.DataFrame:
     lo, hi = float(size.min()), float(size.max())
     edges = np.linspace(lo, hi, bins + 1) if hi > lo else np.array([lo - 0.05, hi + 0.05])
     first = b.drop_duplicates(["trial", "kind", "photo", "point", "component"])
-    series = [(FIRST, first, "significant_first")] + [
-        (name, b[b["strategy"] == name], "located") for name in study.options.strategies]
+    series = [(FIRST, first, "significant_first")]
+    for name in study.options.strategies:
+        part = b[b["strategy"] == name]
+        series.append((name, part, "located"))
+        if "identified" in part and not part["separable"].all():  # identification (issue 30)
+            series.append((f"{name}: identified up to the group", part, "identified"))
     rows = []
     for name, part, col in series:
         s = np.abs(part["size_mdb"].to_numpy(float))

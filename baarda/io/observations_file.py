@@ -14,6 +14,7 @@ from baarda.io.table import Table
 from baarda.schema import (  # the contract of the files (baarda/schema.py)
     FLAG_COLUMNS,
     FRAME_COLUMNS,
+    LABEL_COLUMNS,
     NUMBER_COLUMNS,
     REQUIRED_COLUMNS,
 )
@@ -70,7 +71,8 @@ def _observation_frame(has, text, number, flag) -> pd.DataFrame:
         df[c] = number(c) if has(c) else np.nan
     for c in FLAG_COLUMNS:
         df[c] = flag(c) if has(c) else False
-    df["external_point"] = text("external_point")
+    for c in LABEL_COLUMNS:
+        df[c] = text(c)
     return df
 
 

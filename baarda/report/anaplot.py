@@ -121,12 +121,26 @@ def format_log(summary: dict) -> str:
         lines.append(f"{s.get('iteration', ''):>4}  {s.get('action', ''):<8}"
                      f"{s.get('sigma0', np.nan):8.3f}{test:>6}{value:8.2f}"
                      f"{mdb:>10} {unit:<3} {obs}"
-                     + (f"\n{'':>14}{s['reason']}" if s.get("reason") else ""))
+                     + (f"\n{'':>14}{s['reason']}" if s.get("reason") else "")
+                     + "".join(f"\n{'':>14}{w}" for w in identification_words(s)))
     if summary.get("snooping_incomplete"):
         lines.append(str(summary["snooping_incomplete"]))
     elif summary.get("snooping_converged") is False:
         lines.append("snooping did NOT converge (iteration limit)")
     return "\n".join(lines)
+
+
+def identification_words(step: dict) -> list[str]:
+    """What a log step says about separability (issue 30): the inseparable group and what
+    was done with it, the components it left uncontrolled."""
+    out = []
+    group = step.get("identified_up_to")
+    if group:
+        flagged = step.get("not_separable") or []
+        out.append(f"identified up to {{{', '.join(group)}}}: " + (
+            f"{'; '.join(flagged)} flagged: not separable" if flagged else "all rejected"))
+    out += list(step.get("uncontrolled") or [])
+    return out
 
 
 def log_rows(summary: dict) -> list[dict]:
@@ -138,7 +152,8 @@ def log_rows(summary: dict) -> list[dict]:
         test, value = log_test(s)
         rows.append({"step": s.get("iteration"), "action": s.get("action"),
                      "observation": "; ".join(s.get("observations", []))
-                     + (f" ({s['reason']})" if s.get("reason") else ""),
+                     + (f" ({s['reason']})" if s.get("reason") else "")
+                     + "".join(f"; {w}" for w in identification_words(s)),
                      "test": test, "value": value, "MDB": f"{mdb} {unit}",
                      "sigma0 before": s.get("sigma0", np.nan)})
     return rows

@@ -163,7 +163,7 @@ def _report_rms(res: Results) -> list[Finding]:
 
 
 def check_folder(folder, rtol: float = RTOL) -> list[Finding]:
-    """check_results of a result folder (read with output.result_folder.read_results)."""
+    """check_results of a result folder (read with io.result_folder.read_results)."""
     from baarda.io.result_folder import read_results
 
     return check_results(read_results(folder), rtol)

@@ -33,9 +33,10 @@ def power_curves(summary: dict, power: pd.DataFrame, curve: pd.DataFrame) -> byt
         err = np.vstack([rate - part["ci_lo"].to_numpy(float),
                          part["ci_hi"].to_numpy(float) - rate])
         ax.errorbar(mid, rate, yerr=err, marker="o", ms=4, capsize=2, lw=1,
-                    ls="--" if name == FIRST else "-", label=name)
+                    ls="--" if name == FIRST else ":" if "identified" in name else "-",
+                    label=name)
     ax.set_xlabel("blunder size in units of the observation's own MDB")
-    ax.set_ylabel("share located")
+    ax.set_ylabel("share detected / identified")
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))

@@ -25,6 +25,7 @@ from baarda.report.histogram import format_histogram
 from baarda.report.html_base import csv_link, esc, figure, macro, num, page, table, worst_table
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.quality_html import tables_html
+from baarda.report.separability import counts_line, least_separable, msb_histogram
 from baarda.report.stats import (
     gnss_imu_per_strip,
     group_statistics,
@@ -123,6 +124,7 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     out["reliability_map"] = (maps.reliability_map(res, pts, opt.max_points) if stats
                               else None)
     out.update(geometry_plots(res))
+    out["msb_mdb"] = msb_histogram(res.obs)
     return out
 
 
@@ -141,6 +143,18 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
             show, {"r": ".3f", "w": ".2f", "MDB": ".4g", "external": ".4g"},
             text_cols=("kind", "photo/model", "point", "c", "unit"))
     return out
+
+
+def _separability(res: Results, opt: ReportOptions, fig) -> str:
+    """The least separable observations and the histogram of MSB/MDB (issue 30)."""
+    t = least_separable(res.obs, opt.worst)
+    if not len(t):
+        return ""
+    t = t.rename(columns={"frame": "photo/model"})
+    return (f"<h3>Least separable</h3><p>{esc(counts_line(res.obs))}; MDB and MSB in the "
+            "units of the kind</p>" + table(
+                t, {"rho_max": ".4f", "MDB": ".4g", "MSB": ".4g", "MSB/MDB": ".2f"},
+                text_cols=("kind", "photo/model", "point", "c", "partner")) + figure(fig))
 
 
 def _verdict_class(line: str) -> str:
@@ -304,6 +318,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     sec.append(("reliability", "Redundancy and reliability",
                 f'<div class="grid2">{figure(figs["redundancy_map"])}'
                 f'{figure(figs["reliability_map"])}</div>' + _weakest_tables(res, opt)
+                + _separability(res, opt, figs.get("msb_mdb"))
                 if figs["redundancy_map"] else
                 "<p>no redundancy numbers in the results (adjusted without statistics)</p>"))
     href, name = _observations_link(res, out)

@@ -13,6 +13,7 @@ from baarda.io.result_folder import Results
 from baarda.output.verdict import failures
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
+from baarda.report.separability import counts_line, format_least_separable, least_separable
 from baarda.report.stats import (
     Labels,
     first_rows,
@@ -158,6 +159,10 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     out += ["", f"SNOOPING TABLE ({len(t)} of {len(obs)} observations: every rejected and "
             f"flagged one, and the largest |w|{note})", "-" * 78, format_snooping(t, res.k_w)]
     out += weakest_text(obs, opt, res.units)
+    sep = least_separable(obs, opt.worst)
+    if len(sep):
+        out += ["", f"LEAST SEPARABLE ({len(sep)}; MDB and MSB in the units of the kind)",
+                "-" * 78, counts_line(obs), format_least_separable(sep)]
     return "\n".join(out) + "\n"
 
 

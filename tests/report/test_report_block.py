@@ -78,7 +78,8 @@ def test_html_is_self_contained(report_case):
     h = report_case.html
     assert not re.search(r"""(src|href)=["']?(https?:)?//""", h)
     assert "<link" not in h and "@import" not in h
-    assert h.count("<img") == 11 and h.count('src="data:image/png;base64,') == 11
+    # the figures and the histogram of MSB/MDB (issue 30)
+    assert h.count("<img") == 12 and h.count('src="data:image/png;base64,') == 12
     assert 'id="render-status"' in h
     for sec in ("Project summary", "Global test", "Data snooping log", "Group statistics",
                 "Histograms", "Block map", "Image residual vectors", "Redundancy",
@@ -101,7 +102,7 @@ def test_cli_text_and_html(report_case, tmp_path, capsys):
                          table, re.M), lab
     html = tmp_path / "r.html"
     assert main(["report", out, "-o", str(html), "-q"]) == 0
-    assert html.read_text(encoding="utf-8").count("<img") == 11
+    assert html.read_text(encoding="utf-8").count("<img") == 12
     assert main(["report", out]) == 2  # nothing to do
     assert main(["report", out, "-o", str(report_case.out / "observations.csv")]) == 2
     assert main(["report", out, "--text", "--class-width", "0.3"]) == 2
