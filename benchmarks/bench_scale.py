@@ -28,9 +28,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from worker import peak, reset_peak  # noqa: E402
-
 import numpy as np  # noqa: E402
+from worker import peak, reset_peak  # noqa: E402
 
 from baarda.pipeline import adjust  # noqa: E402
 from baarda.simulate.aerial import FlightPlan, simulate_block  # noqa: E402

@@ -139,14 +139,15 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
                              "MDB": t["mdb"], "unit": [UNITS.get(k, "") for k in t["kind"]],
                              "external": t["external_max"]})
-        out += f"<h3>{esc(title)}</h3>" + table(
+        out += f'<div class="wrap"><h3>{esc(title)}</h3>' + table(
             show, {"r": ".3f", "w": ".2f", "MDB": ".4g", "external": ".4g"},
-            text_cols=("kind", "photo/model", "point", "c", "unit"))
-    return out
+            text_cols=("kind", "photo/model", "point", "c", "unit")) + "</div>"
+    return f'<div class="grid2">{out}</div>'  # side by side where the page is wide
 
 
-def _separability(res: Results, opt: ReportOptions, fig) -> str:
-    """The least separable observations and the histogram of MSB/MDB (issue 30)."""
+def _separability(res: Results, opt: ReportOptions) -> str:
+    """The least separable observations (issue 30; the histogram of MSB/MDB stands beside
+    the reliability maps)."""
     t = least_separable(res.obs, opt.worst)
     if not len(t):
         return ""
@@ -154,7 +155,7 @@ def _separability(res: Results, opt: ReportOptions, fig) -> str:
     return (f"<h3>Least separable</h3><p>{esc(counts_line(res.obs))}; MDB and MSB in the "
             "units of the kind</p>" + table(
                 t, {"rho_max": ".4f", "MDB": ".4g", "MSB": ".4g", "MSB/MDB": ".2f"},
-                text_cols=("kind", "photo/model", "point", "c", "partner")) + figure(fig))
+                text_cols=("kind", "photo/model", "point", "c", "partner")))
 
 
 def _verdict_class(line: str) -> str:
@@ -316,9 +317,9 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     sec.append(("vectors", "Image residual vectors", figure(figs["vectors"])
                 or "<p>no image coordinates in the results</p>"))
     sec.append(("reliability", "Redundancy and reliability",
-                f'<div class="grid2">{figure(figs["redundancy_map"])}'
-                f'{figure(figs["reliability_map"])}</div>' + _weakest_tables(res, opt)
-                + _separability(res, opt, figs.get("msb_mdb"))
+                f'<div class="grid3">{figure(figs["redundancy_map"])}'
+                f'{figure(figs["reliability_map"])}{figure(figs.get("msb_mdb"))}</div>'
+                + _weakest_tables(res, opt) + _separability(res, opt)
                 if figs["redundancy_map"] else
                 "<p>no redundancy numbers in the results (adjusted without statistics)</p>"))
     href, name = _observations_link(res, out)
