@@ -31,7 +31,7 @@ _WHERE = {
     "modified_snoop": "baarda.planning.modified_snoop",
     "FlightPlan": "baarda.simulate.aerial", "simulate_block": "baarda.simulate.aerial",
     "ModelPlan": "baarda.simulate.model_blocks", "simulate_models": "baarda.simulate.model_blocks",
-    "OnlineSession": "baarda.relative.session",
+    "OnlineSession": "baarda.relative.session", "OnlineBundle": "baarda.online.bundle",
     "ScreeningOptions": "baarda.screening.chain",
     # data, results, options, errors
     "Block": "baarda.block.photo_block", "ModelBlock": "baarda.block.model_block",

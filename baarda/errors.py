@@ -19,3 +19,11 @@ class ProjectError(ValueError):
 
 class GeometryError(ValueError):
     """The block cannot be adjusted as given (datum defect, undetermined photo or point)."""
+
+
+class OutputError(OSError):
+    """A result could not be written (disk full, file too large, no permission): the
+    OSError of the write with the file it was writing (`filename`)."""
+
+    def __str__(self) -> str:
+        return f"{self.filename}: could not write ({self.strerror})"

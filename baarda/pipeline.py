@@ -302,14 +302,17 @@ def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment
 
 def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,
           statistic: str = "w", by_point: bool = False, robust: bool = False,
-          max_iterations: int = 200, progress: Progress | None = None) -> Assessment:
-    """Iterative data snooping of a block as read (see bundle/bundle_quality.py)."""
+          max_iterations: int = 200, inseparable: str = "flag",
+          progress: Progress | None = None) -> Assessment:
+    """Iterative data snooping of a block as read (see bundle/bundle_quality.py);
+    `inseparable`: "flag" or "group" (quality/iterative.py)."""
     from baarda.bundle.bundle_problem import BundleProblem
     from baarda.bundle.bundle_quality import snoop as snoop_problem
 
     problem = block if isinstance(block, BundleProblem) else prepare(block)
     return snoop_problem(problem, tests, statistic=statistic, by_point=by_point,
-                         robust=robust, max_iterations=max_iterations, progress=progress)
+                         robust=robust, max_iterations=max_iterations,
+                         inseparable=inseparable, progress=progress)
 
 
 def screen_block(block: Block, options: ScreeningOptions | None = None, *,

@@ -5,7 +5,8 @@
 
 e.g. `50 100 0.6 5` (5,000 photos), `50 200 0.6 15` (10,000 photos with 15 x 15 points,
 issue 16) or `250 200 0.6 3` (50,000 photos).  Prints the sizes, wall time and peak memory
-of each phase (simulate, adjust, assess; with --write the result folder with
+of each phase (simulate, adjust, the statistics of every component and, apart, the
+separability of issue 30 (rho_max, partner, MSB); with --write the result folder with
 observations.csv and again with observations.parquet; with --report the HTML report of
 each folder), the sum of the redundancy numbers (= redundancy) and the peak memory of the
 process.  The peak of a phase is the resident-set high-water mark during it (reset through
@@ -27,9 +28,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent))
 
+import numpy as np  # noqa: E402
 from worker import peak, reset_peak  # noqa: E402
 
-from baarda.pipeline import adjust, assess  # noqa: E402
+from baarda.pipeline import adjust  # noqa: E402
 from baarda.simulate.aerial import FlightPlan, simulate_block  # noqa: E402
 
 
@@ -75,7 +77,18 @@ def main() -> None:
         strips=a.strips, photos_per_strip=a.photos, side_overlap=a.side_overlap,
         pattern=a.pattern, relief_m=100, seed=1)))
     res = ph.run("adjust", lambda: adjust(block))
-    qc = ph.run("assess", lambda: assess(res))
+    # the statistics as before issue 30, then the separability (rho_max, partner, MSB)
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.quality.assessment import Assessment
+    from baarda.quality.statistics import analyse, with_separability
+
+    model = BundleModel(res)
+    q0 = ph.run("assess (statistics)", lambda: analyse(model, separability=False))
+    q = ph.run("separability (rho_max, partner, MSB)", lambda: with_separability(model, q0))
+    qc = Assessment(res, model, q)
+    t = q.active & q.controlled
+    print(f"rho_max >= 0.99: {int((q.rho_max[t] >= 0.99).sum())} of {int(t.sum())} tested; "
+          f"MSB/MDB median {float(np.median((q.msb / q.mdb)[t])):.3f}", flush=True)
     print(block.summary())
     print(f"observation components {qc.model.n}, unknowns {res.n_unknowns}, redundancy "
           f"{res.redundancy}, {res.iterations} iterations")
@@ -95,7 +108,7 @@ def main() -> None:
             for f in sorted((a.write / kind).iterdir()):
                 print(f"  {f.name}: {f.stat().st_size / 1e6:.1f} MB")
         if a.report:
-            from baarda.output.result_folder import read_results
+            from baarda.io.result_folder import read_results
             from baarda.report.html_report import html_report
 
             del qc, res

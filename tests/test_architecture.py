@@ -21,7 +21,7 @@ FLOORS = [
     {"bundle", "relative"},
     {"screening", "independent"},
     {"pipeline", "simulate"},
-    {"planning"},
+    {"planning", "online"},
     {"evaluation"},
     {"output"},
     {"report"},
@@ -99,6 +99,29 @@ def test_what_a_package_never_imports(package):
            for p in sorted((ROOT / package).rglob("*.py"))
            for line, pkg in baarda_imports(p) if pkg in NEVER[package]]
     assert not bad, "\n".join(bad)
+
+
+REPORT_MAY_NOT_IMPORT = {"pipeline", "bundle", "independent", "relative", "screening",
+                         "adjustment", "quality", "evaluation", "planning", "simulate"}
+
+
+def test_the_report_reads_result_files_only():
+    """report/ renders what the result files say (issue 27): it never imports the
+    pipeline, the methods, the solver, the quality layer, the studies or the planning."""
+    bad = [f"{p.relative_to(ROOT)} line {line}: imports baarda.{pkg}"
+           for p in sorted((ROOT / "report").rglob("*.py"))
+           for line, pkg in baarda_imports(p) if pkg in REPORT_MAY_NOT_IMPORT]
+    assert not bad, "\n".join(bad)
+
+
+def test_readers_live_in_io():
+    """Residual listings of other programs and a result folder are read by io/
+    (residual_listings.py, result_folder.py, observations_file.py, run_manifest.py), not by
+    the report or the writers (issue 27)."""
+    for name in ("residual_listings", "result_folder", "observations_file", "run_manifest"):
+        assert (ROOT / "io" / f"{name}.py").is_file(), name
+    assert not (ROOT / "report" / "residual_readers.py").exists()
+    assert not (ROOT / "output" / "result_folder.py").exists()
 
 
 def test_the_rule_catches_an_upward_import(tmp_path):

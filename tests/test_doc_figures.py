@@ -26,6 +26,7 @@ RUNS = {
     "micmac snooped": ["adjust", "SHARED/micmac_ign_ultracam_aerial", "-o", "OUT", "--snoop"],
     "berlin": ["adjust", "tests/data/opensfm_berlin", "-o", "OUT"],
     "berlin snooped": ["adjust", "tests/data/opensfm_berlin", "-o", "OUT", "--snoop"],
+    "demo replayed": ["online", "--bundle", "--replay", "examples/demo", "-o", "OUT"],
 }
 
 # (page, run, sentence)
@@ -57,6 +58,27 @@ FIGURES = [
      "converge), sigma0 {sigma0:.4f}, c {c:.3f} +- {sigma_c:.3f} mm"),
     ("docs/odm.md", "berlin",
      "Without snooping sigma0 is {sigma0:.2f} (with 1 px assumed)"),
+    ("docs/odm.md", "berlin", "moves by 7 % with them ({c:.3f} to"),
+    ("docs/odm.md", "berlin snooped", "to {c:.3f} mm at the nominal 1 µm pixel"),
+    ("docs/odm.md", "berlin", "The check point GCP 0 misses by {d_gcp_0_X_abs:.1f}, "
+     "{d_gcp_0_Y_abs:.1f} and {d_gcp_0_Z_abs:.1f} m"),
+    ("docs/formats.md", "berlin", "GCP 0 as check point: adjusted - given = {d_gcp_0_X:.2f}, "
+     "{d_gcp_0_Y:.2f}, {d_gcp_0_Z:+.2f} m"),
+    ("docs/online.md", "demo replayed",
+     "{replay_rows} components tested in {replay_steps} steps ({replay_reject} rejected, "
+     "{replay_suspect} not checked when they were taken in); the result folder has sigma0 "
+     "{sigma0:.4f} and redundancy {redundancy}"),
+    ("docs/online.md", "demo replayed",
+     "arrives (photo 01007, step {replay_step_01006_001008_y}): w "
+     "{replay_w_01006_001008_y:.2f}, r {replay_r_01006_001008_y:.3f}, MDB "
+     "{replay_mdb_01006_001008_y:.1f} µm"),
+    ("docs/online.md", "demo replayed",
+     "is rejected at once: w {replay_w_03008_007008_x:.2f}, r {replay_r_03008_007008_x:.3f}"),
+    ("docs/online.md", "demo replayed",
+     "MDB of {replay_mdb_01004_002005_x:.1f} µm when it comes (w {replay_w_01004_002005_x:.2f}, "
+     "r {replay_r_01004_002005_x:.3f})"),
+    ("docs/online.md", "demo replayed",
+     "MDB then (w {replay_w_03002_007002_y:.2f}, r {replay_r_03002_007002_y:.3f})"),
     ("docs/odm.md", "berlin snooped",
      "snooping rejects {n_rejected} of {n_image:,} image coordinates (w from {w_first:.1f} "
      "down to {w_last:.1f}) and sigma0 falls to {sigma0:.2f}"),
@@ -100,6 +122,25 @@ def values(out: Path) -> dict:
     for kind in {o.split()[0] for e in log for o in e["observations"]}:
         w = sorted(abs(e["value"]) for e in log if e["observations"][0].startswith(kind))
         d[f"w_range_{kind}"] = f"{w[0]:.1f}" if len(w) == 1 else f"{w[0]:.1f}-{w[-1]:.1f}"
+    if (out / "points.csv").is_file():  # the check points' adjusted - given: d_<point>_X
+        pts = pd.read_csv(out / "points.csv", dtype={"point": str}, keep_default_na=False,
+                          na_values=[""])
+        for r in pts[pts["role"] == "check"].itertuples():
+            for c in "XYZ":
+                key = f"d_{r.point}_{c}".replace(" ", "_")
+                d[key] = getattr(r, f"d{c}")
+                d[key + "_abs"] = abs(d[key])
+    replay = out / "replay.csv"  # baarda online --replay: the test of each component
+    if replay.exists():
+        t = pd.read_csv(replay, keep_default_na=False, na_values=[""],
+                        dtype={"point": str, "photo": str})
+        d["replay_rows"], d["replay_steps"] = len(t), int(t["step"].nunique())
+        for v, g in t.groupby("verdict"):
+            d[f"replay_{v}"] = len(g)
+        for r in t.itertuples():
+            key = f"{r.photo}_{r.point}_{r.component}"
+            d[f"replay_w_{key}"], d[f"replay_r_{key}"] = r.w, r.redundancy
+            d[f"replay_step_{key}"], d[f"replay_mdb_{key}"] = r.step, r.mdb
     cal = [r for r in s.get("calibration", []) if r["parameter"] == "c"]
     if cal:
         d["c"], d["sigma_c"] = cal[0]["value"], cal[0]["sigma"] or 0.0
@@ -158,5 +199,5 @@ def test_the_page_quotes_the_run(runs, page, run, template):
 
 def test_every_page_with_a_quoted_run_is_covered():
     pages = {p for p, _, _ in FIGURES}
-    assert {"docs/formats.md", "docs/odm.md"} <= pages
+    assert {"docs/formats.md", "docs/odm.md", "docs/online.md"} <= pages
     assert set(RUNS) == {r for _, r, _ in FIGURES}

@@ -216,7 +216,7 @@ def test_micmac_gnss_imu_block(tmp_path):
     xyz = frame.from_local(res.coordinates.xyz)
     assert np.abs(points[["X", "Y", "Z"]].to_numpy() - xyz).max() < 1e-4
     # item 7: units everywhere, reprojection errors in px (the camera's 4 µm pixels)
-    from baarda.output.result_folder import read_results
+    from baarda.io.result_folder import read_results
     from baarda.report.quality_report import image_parts
     from baarda.report.stats import group_statistics, weakest
 
@@ -291,13 +291,15 @@ def test_one_verdict_per_line_and_the_iterations_the_console_showed(tmp_path, ca
     """Issue 26, item 8: the demo's B-method line (REJECTED) says it is not the verdict and
     is not coloured as the headline; the iterations are the first adjustment's (4, as the
     progress lines show) with the re-adjustments of snooping counted beside them."""
-    from baarda.output.result_folder import read_results
+    from baarda.io.result_folder import read_results
+    from baarda.pipeline import read, snoop
     from baarda.report.html_report import html_report
 
+    shown = []  # what the progress display shows (on a terminal)
+    snoop(read(ROOT / "examples" / "demo"), progress=shown.append)
+    assert any(m.startswith("iteration 4: converged") for m in shown)
     out = tmp_path / "o"
     assert main(["adjust", str(ROOT / "examples" / "demo"), "-o", str(out), "--snoop"]) == 0
-    err = capsys.readouterr().err
-    assert "iteration 4: converged" in err
     s = hold(out)
     assert s["iterations"] == 4 and s["readjustments"] == 4
     lines = [x for sec in s["sections"] for x in sec["lines"]]
@@ -314,8 +316,9 @@ def test_snooping_stopped_at_its_limit_says_so_first(tmp_path):
     """Issue 26, item 2: a snooping that reaches its step limit is reported as incomplete
     on the first line of the text, HTML and quality reports, with the number of components
     still significant."""
+    from baarda.io.result_folder import read_results
     from baarda.output.bundle_results import write_results
-    from baarda.output.result_folder import read_results
+    from baarda.output.verdict import failures
     from baarda.pipeline import read, snoop
     from baarda.report.html_report import html_report
     from baarda.report.quality_html import quality_page
@@ -328,10 +331,26 @@ def test_snooping_stopped_at_its_limit_says_so_first(tmp_path):
     assert qc.run.incomplete.startswith(text)
     write_results(tmp_path / "o", qc)
     res = read_results(tmp_path / "o")
-    assert res.failures == [qc.run.incomplete.replace("snooping incomplete",
+    assert failures(res.summary) == [qc.run.incomplete.replace("snooping incomplete",
                                                       "SNOOPING INCOMPLETE")]
     assert text_report(res).split("\n")[2].startswith("SNOOPING INCOMPLETE: 7 component(s)")
     html = html_report(res)
     assert html.index("SNOOPING INCOMPLETE") < html.index("<nav>")
     page = quality_page(res)
-    assert page.index("SNOOPING INCOMPLETE") < page.index("<h3>Summary</h3>")
+    assert page.index("SNOOPING INCOMPLETE") < page.index('<section id="summary">')
+
+
+@pytest.mark.slow
+def test_levenberg_marquardt_on_the_command_line(tmp_path, capsys):
+    """Issue 26, item 5: `--damping lm` on BAL Ladybug-49 with its free intrinsics raised
+    GeometryError from inside the solver; now it ends like Gauss-Newton: exit 3 with the last
+    sound estimate and the reason, no traceback."""
+    src = need(DATA / "bal" / "problem-49-7776-pre.txt.bz2")
+    out = tmp_path / "o"
+    rc = main(["adjust", str(src), "-o", str(out), "--damping", "lm", "-q"])
+    err = capsys.readouterr().err
+    assert rc in (0, 3) and "Traceback" not in err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["converged"] is (rc == 0)
+    if rc == 3:
+        assert any("diverged" in n or "not converged" in n for n in s["notes"])

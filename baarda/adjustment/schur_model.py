@@ -10,11 +10,13 @@ SchurFactor of the solution.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from baarda.adjustment import pair_cofactors
 from baarda.adjustment.schur import SchurFactor
 from baarda.quality.adjusted_model import AdjustedModel
 
@@ -112,3 +114,38 @@ class SchurModel(AdjustedModel):
     def point_effect_rows(self) -> np.ndarray:
         """Effect of a unit error of each component on its point's unknowns, (n, d)."""
         return self.layout.flat(*self.factor.point_effect())
+
+    # ------------------------------------------------- cofactors of pairs (separability)
+    def local_cofactor_diag(self) -> np.ndarray:
+        return pair_cofactors.local_diag(self.factor, self.layout)
+
+    def adjusted_cofactor_columns(self, rows: np.ndarray) -> np.ndarray:
+        return pair_cofactors.columns(self.factor, self.layout, rows)
+
+    def point_pair_cofactors(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Pairs of one eliminated point from the factor (pair_cofactors.point_pairs); the
+        extra rows that share a point label (border points, distances) by their columns."""
+        yield from pair_cofactors.point_pairs(self.factor, self.layout)
+        lay = self.layout
+        first = lay.m * lay.k + len(lay.ctrl_sel)
+        if lay.mx:
+            labels = np.asarray(self.point, dtype=object)
+            extra = labels[first:]
+            named = np.unique(extra[extra != ""])
+            rows = np.flatnonzero(np.isin(labels, named))
+            if len(rows):
+                cols = self.adjusted_cofactor_columns(rows)[rows]
+                same = labels[rows][:, None] == labels[rows][None, :]
+                a, c = np.nonzero(np.triu(same, 1))
+                yield rows[a], rows[c], cols[a, c]
+
+    def frame_pair_cofactors(self, rows: np.ndarray
+                             ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        lay, s = self.layout, self.factor.system
+        rows = np.asarray(rows, np.int64)
+        nm, first = lay.m * lay.k, lay.m * lay.k + len(lay.ctrl_sel)
+        frames = [s.frame[rows[rows < nm] // lay.k]]
+        if lay.mx:
+            x = s.x_frame[(rows[rows >= first] - first) // lay.kx]
+            frames.append(x[x >= 0])
+        yield from pair_cofactors.frame_pairs(self.factor, self.layout, np.concatenate(frames))

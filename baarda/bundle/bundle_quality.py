@@ -65,13 +65,16 @@ def calibration_tests(result: BundleResult, tests: TestOptions) -> tuple[Hypothe
 
 def snoop(problem: BundleProblem, tests: TestOptions | None = None, *,
           statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
-          robust: bool = False, progress: Progress | None = None) -> Assessment:
+          robust: bool = False, inseparable: str = "flag",
+          progress: Progress | None = None) -> Assessment:
     """Iterative data snooping of a bundle block (re-adjusting after each rejection).
 
     `problem`: the BundleProblem of a prepared block (pipeline.prepare: local frame,
     approximations, datum; pipeline.snoop takes a block as read).  With `robust`, the
     Danish method first down-weights large errors; the components it leaves with (almost)
-    no weight start out rejected and are tested again by snooping.
+    no weight start out rejected and are tested again by snooping.  `inseparable`: what a
+    rejection does with the components it cannot be told from (quality/iterative.py):
+    "flag" them, or reject the "group".
     """
     tests = tests or TestOptions.resolve(problem.block.settings)
     t0 = time.perf_counter()
@@ -92,7 +95,7 @@ def snoop(problem: BundleProblem, tests: TestOptions | None = None, *,
     run = iterative_snooping(first, tests, active=active, statistic=statistic,
                              by_group=by_point, max_iterations=max_iterations,
                              started_by="Danish method" if robust else "",
-                             progress=progress)
+                             inseparable=inseparable, progress=progress)
     last = run.model.result
     # re-adjustments taken: one per rejection and restoration, one after the Danish method
     refits = sum(s.iteration > 0 and s.action in ("reject", "restore") for s in run.log) + \

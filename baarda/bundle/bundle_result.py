@@ -314,8 +314,9 @@ class BundleResult(AdjustmentCounts):
 
     # --------------------------------------------------------- self-calibration
     def camera_table(self) -> list[dict]:
-        """Every parameter of every camera: value, standard deviation (None when held),
-        estimated or not (units: mm for c, x0, y0; the model's units else)."""
+        """Every parameter of every camera: its initial (given) value, the adjusted value, the
+        standard deviation (None when held), estimated or not (units: mm for c, x0, y0; the
+        model's units else)."""
         cal = self.problem.calibration
         params = cal.current(self._g, self.state[0][:, 6:])
         out = []
@@ -325,6 +326,7 @@ class BundleResult(AdjustmentCounts):
             free = dict(zip(cal.free_index[i].tolist(), std.tolist(), strict=True))
             for j, name in enumerate(cal.names[i]):
                 out.append({"camera": cid, "model": cal.models[i].name, "parameter": name,
+                            "initial": float(cal.nominal[i][j]),
                             "value": float(params[i][j]),
                             "sigma": float(free[j]) if j in free else None,
                             "estimated": j in free})

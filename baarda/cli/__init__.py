@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import signal
@@ -11,8 +12,20 @@ import sys
 import threading
 from contextlib import contextmanager
 
-from baarda.errors import GeometryError, ProjectError
+from baarda.cli.common import (
+    BAD_INPUT,
+    EXIT_CODES,
+    INTERRUPTED,
+    TERMINATED,
+    WRITE_FAILED,
+)
+from baarda.cli.console import console
+from baarda.errors import GeometryError, OutputError, ProjectError
 from baarda.output.run_folder import package_version
+
+#: errors of writing, never of reading: a full disk or quota, a file over the size limit
+#: (ulimit -f), a read-only file system
+WRITE_ERRNOS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EROFS}
 
 # every command: the module that registers it and its one-line help (what `baarda --help`
 # shows without importing the commands; tests/cli/test_cli.py checks they agree)
@@ -20,8 +33,9 @@ COMMANDS = {
     "adjust": ("baarda.cli.adjust", "bundle block adjustment with observation statistics"),
     "snoop": ("baarda.cli.adjust", "bundle adjustment with iterative data snooping"),
     "simulate": ("baarda.cli.simulate", "simulate an aerial block with known truth"),
-    "online": ("baarda.cli.online", "on-line strip bridging with data snooping per model "
-               "(relative orientation with scale transfer)"),
+    "online": ("baarda.cli.online", "on-line QC: strip bridging model by model (relative "
+               "orientation with scale transfer), or a bundle block tested measurement by "
+               "measurement (--bundle, --replay)"),
     "pattern": ("baarda.cli.pattern", "point-pattern design for relative orientation with "
                 "scale transfer (Kratky's Figures 2, 4, 7)"),
     "plan": ("baarda.cli.plan", "design-stage reliability of a planned block (no "
@@ -67,11 +81,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     and the others are named with their one-line help (a fast `baarda --help`)."""
     parser = argparse.ArgumentParser(
         prog="baarda", description="Quality-controlled aerial triangulation: bundle adjustment, "
-        "data snooping and reliability.", epilog="exit codes: 0 success, 2 bad input (the "
-        "message names the file, line and field, or the geometry), 3 not converged (results "
-        "written and marked NOT CONVERGED; also snooping stopped at its step limit), 5 an "
-        "invariant of a result folder does not hold (baarda check), 130 interrupted "
-        "(nothing written)")
+        "data snooping and reliability.", epilog=EXIT_CODES)
     parser.add_argument("--version", action="version", version=f"baarda {package_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     for name, (module, text) in COMMANDS.items():
@@ -91,18 +101,19 @@ def _command(argv: list[str]) -> str:
     return next((a for a in argv if not a.startswith("-")), "")
 
 
-def _interrupt(signum, frame) -> None:
-    """Ctrl-C: KeyboardInterrupt, except while numba compiles or loads a kernel (its compiler
-    lock held), runs its own Python code inside a compiled function (a frame of numba or
-    llvmlite on the stack: LLVM's callbacks, the unpickling of a kernel's constants) or Python
-    imports a module (importlib's frames: a module lock's callback): an exception there is
-    lost, turns into a SystemError or crashes the process.  Then it comes 50 ms later, again
-    until numba or the import is done."""
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (what timeout, docker stop, systemd and Slurm send), handled as Ctrl-C: the run
+    folder is discarded and the earlier run stays; exit 143."""
+
+
+def _busy(frame) -> bool:
+    """Whether an exception raised now could be lost or crash the process: numba compiles or
+    loads a kernel (its compiler lock held), runs its own Python code inside a compiled
+    function (a frame of numba or llvmlite on the stack: LLVM's callbacks, the unpickling of
+    a kernel's constants) or Python imports a module (importlib's frames: a module lock's
+    callback); an exception there is lost, turns into a SystemError or crashes the process."""
     lock = sys.modules.get("numba.core.compiler_lock")
-    if (lock is not None and lock.global_compiler_lock.is_locked()) or _in_numba(frame):
-        signal.setitimer(signal.ITIMER_REAL, 0.05)
-        return
-    raise KeyboardInterrupt
+    return (lock is not None and lock.global_compiler_lock.is_locked()) or _in_numba(frame)
 
 
 def _in_numba(frame) -> bool:
@@ -118,42 +129,113 @@ def _in_numba(frame) -> bool:
 
 @contextmanager
 def _safe_interrupts():
-    """_interrupt as the handler of SIGINT (and of the timer that repeats it) while a command
-    runs in the main thread; the handlers before it are restored."""
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        yield  # another program's handler (or none) stays in charge
+    """While a command runs in the main thread: Ctrl-C (SIGINT) raises KeyboardInterrupt and
+    SIGTERM raises Terminated, except while `_busy`: then the exception comes 50 ms later
+    (a timer, SIGALRM), again until numba or the import is done.  Only signals whose
+    handlers are Python's defaults are taken over (another program's handler stays in
+    charge); the handlers before are restored."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
         return
-    before = signal.signal(signal.SIGINT, _interrupt), signal.signal(signal.SIGALRM, _interrupt)
+    pending: list[type[BaseException]] = []
+
+    def handle(signum, frame) -> None:
+        if signum == signal.SIGTERM:
+            pending.append(Terminated)
+        elif signum == signal.SIGINT:
+            pending.append(KeyboardInterrupt)
+        if not pending:
+            return  # a timer of nothing pending
+        if _busy(frame):
+            signal.setitimer(signal.ITIMER_REAL, 0.05)
+            return
+        exc = Terminated if Terminated in pending else KeyboardInterrupt
+        pending.clear()
+        raise exc
+
+    ours = []
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        ours.append(signal.SIGINT)
+    if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:
+        ours.append(signal.SIGTERM)
+    if not ours:
+        yield
+        return
+    before = {s: signal.signal(s, handle) for s in [*ours, signal.SIGALRM]}
     try:
         yield
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGINT, before[0])
-        signal.signal(signal.SIGALRM, before[1])
+        for s, h in before.items():
+            signal.signal(s, h)
+
+
+def _tolerant_streams() -> None:
+    """Standard output and error that cannot encode a character (PYTHONIOENCODING=ascii, a
+    Latin-1 terminal) write it as an escape instead of failing."""
+    import codecs
+
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            utf8 = codecs.lookup(stream.encoding or "utf-8").name.startswith("utf")
+        except (AttributeError, LookupError, TypeError):
+            continue
+        if not utf8 and getattr(stream, "errors", "strict") == "strict" and \
+                hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run one command; the exit code: 0 success, 2 bad input (a message names the file,
-    line and field, or the geometry), 3 not converged (results written and marked),
-    130 interrupted (nothing half-written is left)."""
+    """Run one command; the exit code (cli/common.py EXIT_CODES): 0 success, 2 bad input
+    (a message names the file, line and field, the option, or the geometry), 3 not
+    converged (results written and marked), 4 the results could not be written (the file
+    named), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); after 4, 130 and 143 the
+    output folder holds the earlier run as it was and no staging folder is left."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    _tolerant_streams()
     parser = build_parser(_command(argv))
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # argparse's error (printed): a bad option is bad input
+        if e.code == BAD_INPUT:
+            return BAD_INPUT
+        raise  # --help, --version
     args.argv = argv
+    con = console(args)
     try:
         with _safe_interrupts():
-            return int(args.func(args) or 0)
+            code = int(args.func(args) or 0)
+        if con.stdout_failed and getattr(args, "prints_results", False):
+            _error(f"baarda: error: could not write the results to standard output "
+                   f"({con.stdout_failed})")
+            return WRITE_FAILED
+        return code
     except (ProjectError, GeometryError) as e:
-        print(f"baarda: error: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:  # a file that cannot be read or written (disk full, permissions)
-        where = f"{e.filename}: " if e.filename else ""
-        print(f"baarda: error: {where}{e.strerror or e}", file=sys.stderr)
-        return 2
+        _error(f"baarda: error: {e}")
+        return BAD_INPUT
+    except OSError as e:
+        if isinstance(e, OutputError) or e.errno in WRITE_ERRNOS:
+            where = f"{e.filename}: " if e.filename else ""
+            _error(f"baarda: error: could not write the results: {where}{e.strerror or e}")
+            return WRITE_FAILED
+        where = f"{e.filename}: " if e.filename else ""  # a file that cannot be read
+        _error(f"baarda: error: {where}{e.strerror or e}")
+        return BAD_INPUT
+    except Terminated:
+        _error("\nbaarda: terminated by SIGTERM (nothing of this run was written)")
+        return TERMINATED
     except KeyboardInterrupt:
-        print("\nbaarda: interrupted (nothing of this run was written)", file=sys.stderr)
-        return 130
+        _error("\nbaarda: interrupted (nothing of this run was written)")
+        return INTERRUPTED
+    finally:
+        con.close()
+
+
+def _error(text: str) -> None:
+    try:
+        print(text, file=sys.stderr, flush=True)
+    except OSError:
+        pass
 
 
 if __name__ == "__main__":

@@ -9,13 +9,16 @@ from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
     add_out_argument,
+    add_quiet_option,
     add_test_options,
     announce_compile,
     open_run,
     progress,
     tests_option,
 )
+from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, input_paths, read_input
+from baarda.cli.verdicts import adjustment_verdict
 
 
 def _common(p) -> None:
@@ -27,6 +30,10 @@ def _common(p) -> None:
                    "posteriori) instead of Baarda's w (sigma0 a priori)")
     p.add_argument("--by-point", action="store_true",
                    help="reject both coordinates of an image point together")
+    p.add_argument("--inseparable", choices=("flag", "group"), default="flag",
+                   help="when the rejected observation cannot be told from others (|rho| >= "
+                   "0.99): flag them (default) or reject the group where the block stays "
+                   "determined (docs/quality.md)")
     p.add_argument("--robust", action="store_true", help="Danish-method re-weighting before "
                    "snooping (for blocks with many large errors)")
     p.add_argument("--vce", action="store_true", help="estimate a variance component per "
@@ -44,7 +51,7 @@ def _common(p) -> None:
                    "Gauss-Newton with step halving (default), lm Levenberg-Marquardt (damped "
                    "steps, for poor approximations); either way the statistics use the "
                    "undamped normal equations at the solution")
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    add_quiet_option(p)
     add_input_options(p)
 
 
@@ -66,13 +73,28 @@ def register(sub) -> None:
 
 
 def run_adjust(args) -> int:
+    con = console(args)
     with open_run(args, input_paths(args)) as run:
         qc, text = _adjust(args, run)
-    if not args.quiet:
-        print(text)
-        print(f"results written to {run.describe()}")
+    con.print(text)
+    con.print(f"results written to {run.describe()}")
+    check = _quality_check(args.out, qc)
+    con.print("\n".join(check.lines()))  # the reports' first section, the same rows
+    con.verdict(args.command, f"{adjustment_verdict(qc.to_dict())}; quality check "
+                f"{check.headline} -> {run.describe()}")
     return OK if qc.adjustment.converged and not (qc.run and qc.run.incomplete) \
         else NOT_CONVERGED
+
+
+def _quality_check(out, qc):
+    """The quality check of the run just written (report/front.folder_quality_check)."""
+    import numpy as np
+
+    from baarda.report.front import folder_quality_check
+
+    image = np.asarray(qc.model.kind) == "image"
+    sigma = qc.model.sigma[image] * 1e3  # µm
+    return folder_quality_check(out, float(np.median(sigma)) if len(sigma) else None)
 
 
 def _adjust(args, run):
@@ -87,13 +109,13 @@ def _adjust(args, run):
         with_variance_components,
     )
 
-    say = progress(args.quiet)
+    say = progress(args)
     block = read_input(args)
     tests = tests_option(block.settings, args)
     if say:
         say(f"read {block.summary()}")
     # the computation is imported (and compiled, on a first run) once the input is read
-    announce_compile(say, len(block.photos))
+    announce_compile(args, len(block.photos))
     from baarda.output.bundle_results import write_results
 
     statistic = "tau" if args.tau else "w"
@@ -111,16 +133,15 @@ def _adjust(args, run):
     est = None
     if getattr(args, "vce", False) and not args.snoop:
         problem, est = with_variance_components(problem, progress=say)
-    if say:
-        for note in problem.block.notes:
-            say(f"note: {note}")
+    for note in dict.fromkeys([*problem.block.notes, *problem.notes]):  # read, prepare
+        console(args).note(note)
     if args.snoop and getattr(args, "vce", False):
         qc, _ = snoop_with_variance_components(problem, tests, statistic=statistic,
                                                by_point=args.by_point, robust=args.robust,
-                                               progress=say)
+                                               inseparable=args.inseparable, progress=say)
     elif args.snoop:
         qc = snoop(problem, tests, statistic=statistic, by_point=args.by_point,
-                   robust=args.robust, progress=say)
+                   robust=args.robust, inseparable=args.inseparable, progress=say)
     else:
         qc = assess(adjust(problem, progress=say), tests)
     if est is not None:

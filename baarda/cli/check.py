@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from baarda.cli.argtypes import number
 from baarda.cli.common import CHECK_FAILED, OK
 
 
@@ -12,8 +13,8 @@ def register(sub) -> None:
                        "redundancy, sigma0 from every used observation, the global test, "
                        "every RMS line")
     p.add_argument("folder", type=Path, help="a result folder written by baarda")
-    p.add_argument("--rtol", type=float, default=1e-6, help="relative agreement of the sums "
-                   "recomputed from the rows with the figures stated")
+    p.add_argument("--rtol", type=number(1e-15, 1.0), default=1e-6, help="relative "
+                   "agreement of the sums recomputed from the rows with the figures stated")
     p.add_argument("-q", "--quiet", action="store_true", help="print only what does not hold")
     p.set_defaults(func=run)
 

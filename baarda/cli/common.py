@@ -1,12 +1,24 @@
-"""Helpers shared by the commands: progress display, test options and the run folder."""
+"""Helpers shared by the commands: exit codes, progress display and -q, test options and the
+run folder."""
 
 from __future__ import annotations
 
 import shlex
-import sys
-import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
+from baarda.cli.argtypes import (
+    SIGMA_M,
+    SIGMA_UM,
+    alpha,
+    integer,
+    number,
+    overlap,
+    power,
+    text_encoding,
+)
+from baarda.cli.console import console
 from baarda.errors import ProjectError
 from baarda.options import TestOptions
 from baarda.output.run_folder import RunFolder
@@ -21,21 +33,31 @@ def add_out_argument(p, what: str = "output folder") -> None:
     p.add_argument("-o", "--out", type=Path, required=True, help=FOLDER_HELP.format(what))
 
 
-# exit codes (the parser's epilog)
-OK, BAD_INPUT, NOT_CONVERGED, INTERRUPTED = 0, 2, 3, 130
+# exit codes (the parser's epilog, README): 130 and 143 are 128 + the number of SIGINT and
+# SIGTERM, as a shell reports a process those signals end
+OK, BAD_INPUT, NOT_CONVERGED, WRITE_FAILED, INTERRUPTED, TERMINATED = 0, 2, 3, 4, 130, 143
 CHECK_FAILED = 5  # baarda check: an invariant of the result folder does not hold
+EXIT_CODES = ("exit codes: 0 success, 2 bad input (the message names the file, line and "
+              "field, the option and its valid range, or the geometry), 3 not converged "
+              "(results written and marked NOT CONVERGED; also data snooping stopped at its "
+              "step limit), 4 the results could not be written (the message names the file; "
+              "the output folder keeps the earlier run), 5 an invariant of a result folder "
+              "does not hold (baarda check), 130 interrupted (Ctrl-C), 143 terminated "
+              "(SIGTERM); after 130 and 143 nothing of the run was written")
 
 
-def progress(quiet: bool):
-    """A progress printer to stderr with elapsed time, or None when quiet."""
-    if quiet:
-        return None
-    t0 = time.perf_counter()
+def progress(args):
+    """The command's progress display (cli/console.py): a function that shows a message, or
+    None (with -q, or when stderr is not a terminal)."""
+    return console(args).progress()
 
-    def say(msg: str) -> None:
-        print(f"[{time.perf_counter() - t0:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    return say
+def add_quiet_option(p, printout: str = "the printed summary") -> None:
+    """-q (counted): -q drops the progress display and the printout on stdout, -qq the
+    notes, warnings and the closing verdict line on stderr too (errors are always shown)."""
+    p.add_argument("-q", "--quiet", action="count", default=0,
+                   help=f"-q: no progress display and no {printout} (notes, warnings and "
+                   "the one-line verdict stay on stderr); -qq: only errors")
 
 
 #: blocks with at least this many photos use the multi-threaded kernels (linalg/parallel.py:
@@ -43,7 +65,7 @@ def progress(quiet: bool):
 PARALLEL_PHOTOS = 80
 
 
-def announce_compile(say, photos: int | None = None) -> None:
+def announce_compile(args, photos: int | None = None) -> None:
     """When numerical kernels have yet to be compiled, say so and compile them now in
     parallel processes (linalg/precompile.py; a command calls it once its input is read, with
     the block's number of `photos` when it has one: the multi-threaded kernels are compiled
@@ -56,9 +78,8 @@ def announce_compile(say, photos: int | None = None) -> None:
     todo = pending_kernels(parallel)
     if not todo:
         return
-    if say is not None:
-        say("compiling the numerical kernels once (5-20 s, on every CPU; later runs start at "
-            "once)")
+    console(args).note("compiling the numerical kernels once (5-20 s, on every CPU; later "
+                       "runs start at once)")
     compile_kernels(parallel=parallel, entries=todo)
 
 
@@ -70,12 +91,12 @@ def add_test_options(p, *, what: str = "the w-test", alpha_global: bool = False,
     defaults of TestOptions)."""
     d = TestOptions()
     where = "project.toml, else " if project else ""
-    p.add_argument("--alpha0", type=float, help=f"significance level of {what} (default: "
+    p.add_argument("--alpha0", type=alpha, help=f"significance level of {what} (default: "
                    f"{where}{d.alpha0:g})")
-    p.add_argument("--beta0", type=float, help=f"power of the tests (default: {where}"
+    p.add_argument("--beta0", type=power, help=f"power of the tests (default: {where}"
                    f"{d.beta0:.2f})")
     if alpha_global:
-        p.add_argument("--alpha-global", type=float, help="level of the headline global test "
+        p.add_argument("--alpha-global", type=alpha, help="level of the headline global test "
                        "of the variance factor (default: project.toml [tests] alpha_global, "
                        f"else {d.alpha_global:g}; the B-method's coupled test is printed "
                        "beside it)")
@@ -92,32 +113,54 @@ def tests_option(settings, args) -> TestOptions:
         raise ProjectError("command line", str(e)) from None
 
 
-def open_run(args, inputs: list[Path]) -> RunFolder:
-    """The run folder of `args.out`, checked before any work (output/run_folder.py); the
+@contextmanager
+def open_run(args, inputs: list[Path]) -> Iterator[RunFolder]:
+    """The run folder of `args.out`, checked before any work (output/run_folder.py), as a
+    context: committed when the block ends, discarded on an error.  What killed runs left
+    beside it is removed and said, and so is an earlier run that could not be removed.  The
     manifest records the command line."""
     argv = getattr(args, "argv", None)
     command = shlex.join(["baarda", *argv]) if argv is not None else None
-    return RunFolder(args.out, [p for p in inputs if p is not None], command=command)
+    con = console(args)
+    run = RunFolder(args.out, [p for p in inputs if p is not None], command=command)
+    for text in run.cleaned:
+        con.warn(text)
+    with run:
+        yield run
+    for text in run.warnings:
+        con.warn(text)
 
 
 def add_encoding_option(p) -> None:
-    p.add_argument("--encoding", default="utf-8", help="text encoding of the input files "
-                   "(e.g. cp1252 or latin-1 for files saved by older Windows programs; a "
-                   "UTF-8 byte-order mark is always accepted)")
+    p.add_argument("--encoding", default="utf-8", type=text_encoding,
+                   help="text encoding of the input files (e.g. cp1252 or latin-1 for "
+                   "files saved by older Windows programs; a UTF-8 byte-order mark is always "
+                   "accepted)")
+
+
+#: the largest simulated or planned block: strips, photos (or models) per strip, and
+#: pattern of points per photo (n x n)
+MAX_STRIPS, MAX_PHOTOS, MAX_PATTERN = 500, 500, 25
 
 
 def add_flight_plan_arguments(p, d) -> None:
     """Options of a regular block shared by `simulate` and `plan` (defaults from FlightPlan d)."""
-    p.add_argument("--strips", type=int, default=d.strips, help="number of strips")
-    p.add_argument("--photos", type=int, default=d.photos_per_strip, help="photos per strip")
-    p.add_argument("--forward-overlap", type=float, default=d.forward_overlap,
-                   help="forward overlap of neighbouring photos (0..1)")
-    p.add_argument("--side-overlap", type=float, default=d.side_overlap,
-                   help="side overlap of neighbouring strips (0..1)")
-    p.add_argument("--scale", type=float, default=d.image_scale, help="image scale 1:SCALE")
-    p.add_argument("--focal", type=float, default=d.focal_mm, help="focal length in mm")
-    p.add_argument("--format", type=float, default=d.format_mm, help="image format in mm")
-    p.add_argument("--pattern", type=int, default=d.pattern, help="n x n points per photo")
+    p.add_argument("--strips", type=integer(1, MAX_STRIPS), default=d.strips,
+                   help="number of strips")
+    p.add_argument("--photos", type=integer(2, MAX_PHOTOS), default=d.photos_per_strip,
+                   help="photos per strip")
+    p.add_argument("--forward-overlap", type=overlap, default=d.forward_overlap,
+                   help="forward overlap of neighbouring photos (0 <= overlap < 1)")
+    p.add_argument("--side-overlap", type=overlap, default=d.side_overlap,
+                   help="side overlap of neighbouring strips (0 <= overlap < 1)")
+    p.add_argument("--scale", type=number(1, 1e7), default=d.image_scale,
+                   help="image scale 1:SCALE")
+    p.add_argument("--focal", type=number(1, 1e4, unit="mm"), default=d.focal_mm,
+                   help="focal length in mm")
+    p.add_argument("--format", type=number(1, 1e4, unit="mm"), default=d.format_mm,
+                   help="image format in mm")
+    p.add_argument("--pattern", type=integer(2, MAX_PATTERN), default=d.pattern,
+                   help="n x n points per photo")
     p.add_argument("--stereo", action="store_true", help="stereo mode (twin rays)")
 
 
@@ -126,15 +169,16 @@ def add_control_arguments(p, d) -> None:
     p.add_argument("--control", default=d.control, choices=["perimeter", "corners", "none"],
                    help="full (XYZ) control: every --control-spacing bases along the border of "
                         "the block, each corner photo measuring one; at the four corners; none")
-    p.add_argument("--control-spacing", type=int, default=d.control_spacing,
+    p.add_argument("--control-spacing", type=integer(1, MAX_PHOTOS), default=d.control_spacing,
                    help="perimeter control every k base lengths")
-    p.add_argument("--height-chains", type=int, default=d.height_chains,
+    p.add_argument("--height-chains", type=integer(0, MAX_PHOTOS), default=d.height_chains,
                    help="height control chains across the strips every k bases (0: none)")
 
 
 def add_terrain_and_sigma_arguments(p, d) -> None:
     """Relief and a-priori sigmas of a simulated block (`simulate`, `evaluate`)."""
-    p.add_argument("--relief", type=float, default=d.relief_m, help="terrain relief in m")
-    p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
-    p.add_argument("--sigma-control", type=float, nargs=3, default=list(d.sigma_control_m),
-                   metavar=("X", "Y", "Z"), help="m")
+    p.add_argument("--relief", type=number(-1e4, 1e4, unit="m"), default=d.relief_m,
+                   help="terrain relief in m")
+    p.add_argument("--sigma-image", type=SIGMA_UM, default=d.sigma_image_um, help="µm")
+    p.add_argument("--sigma-control", type=SIGMA_M, nargs=3,
+                   default=list(d.sigma_control_m), metavar=("X", "Y", "Z"), help="m")

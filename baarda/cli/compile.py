@@ -11,6 +11,9 @@ import sys
 import time
 from pathlib import Path
 
+from baarda.cli.argtypes import integer
+from baarda.cli.common import add_quiet_option
+from baarda.cli.console import console
 from baarda.linalg.precompile import TABLE_FILE, signature_spec
 
 HELP = "compile the numerical kernels into numba's cache now (after installing)"
@@ -19,9 +22,9 @@ HELP = "compile the numerical kernels into numba's cache now (after installing)"
 def register(sub) -> None:
     p = sub.add_parser("compile", help=HELP, description=HELP + "; a run that finds them "
                        "missing compiles them itself")
-    p.add_argument("-j", "--jobs", type=int, default=None,
+    p.add_argument("-j", "--jobs", type=integer(1, 256), default=None,
                    help="processes (default: the CPUs this process may use, at most 8)")
-    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
+    add_quiet_option(p, "report of what was compiled")
     p.set_defaults(func=run_compile)
 
 
@@ -30,10 +33,10 @@ def run_compile(args) -> int:
 
     from baarda.linalg.precompile import compile_kernels, pending_kernels
 
+    con = console(args)
     todo = pending_kernels()
     if not todo:
-        if not args.quiet:
-            print(f"every kernel is compiled already (numba's cache: "
+        con.print(f"every kernel is compiled already (numba's cache: "
                   f"{config.CACHE_DIR or 'beside the package'})")
         return 0
     t0 = time.perf_counter()
@@ -42,8 +45,7 @@ def run_compile(args) -> int:
         print(f"could not compile {len(failed)} kernel(s): {', '.join(failed)}; the runs "
               "will compile them when they need them")
         return 1
-    if not args.quiet:
-        print(f"compiled {len(todo)} kernels in {time.perf_counter() - t0:.1f} s (numba's "
+    con.print(f"compiled {len(todo)} kernels in {time.perf_counter() - t0:.1f} s (numba's "
               f"cache: {config.CACHE_DIR or 'beside the package'})")
     return 0
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
+from baarda.cli.argtypes import positive
 from baarda.cli.common import add_encoding_option
 from baarda.errors import ProjectError
 from baarda.io.formats import FORMATS
@@ -18,13 +19,13 @@ def add_input_options(p) -> None:
                    "the path)")
     p.add_argument("--crs", help="CRS of the ground coordinates (e.g. EPSG:32632); overrides "
                    "project.toml")
-    p.add_argument("--sigma-image-um", type=float, metavar="UM", help="a-priori sigma of "
+    p.add_argument("--sigma-image-um", type=positive("µm"), metavar="UM", help="a-priori sigma of "
                    "every image coordinate [µm], any input. Default: the input's own (its "
                    "files, project.toml)")
-    p.add_argument("--sigma-px", type=float, metavar="PX", help="the same in pixels: with "
+    p.add_argument("--sigma-px", type=positive("px"), metavar="PX", help="the same in pixels: with "
                    "the camera's pixel size (DBAT, PhotoModeler, MicMac) or --pixel-mm "
                    "(default 1 px for COLMAP, BAL, OpenSfM)")
-    p.add_argument("--pixel-mm", type=float, metavar="MM", help="pixel size [mm] of input "
+    p.add_argument("--pixel-mm", type=positive("mm"), metavar="MM", help="pixel size [mm] of input "
                    "without one: COLMAP, BAL, OpenSfM (default 0.001: residuals in µm read "
                    "as pixels), a PhotoModeler export without image size; for a native "
                    "project or AICON it converts --sigma-px. Refused where the input has "

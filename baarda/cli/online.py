@@ -1,12 +1,16 @@
 """`baarda online [FILE]`: on-line relative orientation with scale transfer, model by model,
-with the ANAPLOT quality control after each model (docs/online.md)."""
+with the ANAPLOT quality control after each model; `baarda online --bundle PROJECT` and
+`--replay PROJECT`: the growing bundle block, every measurement tested as it is made
+(cli/online_bundle.py; docs/online.md)."""
 
 from __future__ import annotations
 
 import sys
 from pathlib import Path
 
+from baarda.cli.argtypes import COFACTOR, SIGMA_UM, number
 from baarda.cli.common import add_test_options, tests_option
+from baarda.cli.console import console
 from baarda.errors import GeometryError, ProjectError
 from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.output.atomic import write_text
@@ -14,15 +18,18 @@ from baarda.output.run_folder import check_output_file
 
 
 def register(sub) -> None:
-    p = sub.add_parser("online", help="on-line strip bridging with data snooping per model "
-                       "(relative orientation with scale transfer)")
+    p = sub.add_parser("online", help="on-line QC: strip bridging model by model (relative "
+                       "orientation with scale transfer), or a bundle block tested measurement "
+                       "by measurement (--bundle, --replay)")
     p.add_argument("file", nargs="?", type=Path,
                    help="measurement file, e.g. examples/online/strip.txt ('-' or none: "
                    "read lines from the prompt or from stdin)")
-    p.add_argument("--focal", type=float, help="principal distance in mm (or a camera line)")
-    p.add_argument("--sigma", type=float, default=10.0, help="sigma of x'' in µm (default 10)")
-    p.add_argument("--qyy", type=float, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
-    p.add_argument("--qtie", type=float, default=DEFAULT_QTIE,
+    p.add_argument("--focal", type=number(1, 1e4, unit="mm"),
+                   help="principal distance in mm (or a camera line)")
+    p.add_argument("--sigma", type=SIGMA_UM, default=10.0,
+                   help="sigma of x'' in µm (default 10)")
+    p.add_argument("--qyy", type=COFACTOR, default=DEFAULT_QYY, help="q_yy / q_xx (default 2)")
+    p.add_argument("--qtie", type=COFACTOR, default=DEFAULT_QTIE,
                    help="cofactor of x'' at tie points / "
                    "q_xx (default 1 as Kratky; 5 accounts for the errors of the tie "
                    "coordinates, docs/online.md)")
@@ -32,14 +39,22 @@ def register(sub) -> None:
                    "the y-parallaxes and of the x'' at the tie points over the strip so far "
                    "and orient and test each model with them (q_yy/q_xx and q_tie estimated; "
                    "a group with too little redundancy keeps --qyy / --qtie)")
-    p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV)")
-    p.set_defaults(func=run)
+    p.add_argument("-o", "--out", type=Path, help="write the strip coordinates (CSV); with "
+                   "--bundle / --replay: the output folder")
+    from baarda.cli.online_bundle import add_options
+
+    add_options(p)
+    p.set_defaults(func=run, prints_results=True)
 
 
 def run(args) -> int:
+    from baarda.cli.online_bundle import bundle_mode, run_bundle
     from baarda.pipeline import online_interpreter, strip_coordinates_csv
 
-    interp = online_interpreter(print, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
+    if bundle_mode(args):
+        return run_bundle(args)
+    say = console(args).print
+    interp = online_interpreter(say, focal=args.focal, sigma=args.sigma, qyy=args.qyy,
                                 qtie=args.qtie, tests=tests_option(None, args),
                                 statistic="tau" if args.tau else "w", vce=args.vce)
     if args.out is not None:
@@ -59,7 +74,7 @@ def run(args) -> int:
     coordinates = strip_coordinates_csv(interp)
     if args.out is not None and coordinates:
         write_text(args.out, coordinates)
-        print(f"strip coordinates written to {args.out}")
+        say(f"strip coordinates written to {args.out}")
     return 0
 
 
@@ -83,7 +98,7 @@ def _batch(interp, lines, name: str) -> None:
 
 
 def _prompt(interp) -> None:
-    print("baarda online: type 'help' for the commands, 'quit' to stop")
+    print("baarda online: type 'help' for the commands, 'quit' to stop")  # a terminal
     while not interp.done:
         try:
             prompt = "point> " if interp.collecting is not None else "online> "

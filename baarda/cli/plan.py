@@ -8,16 +8,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from baarda.cli.argtypes import SIGMA_M, SIGMA_UM, number
 from baarda.cli.common import (
     add_encoding_option,
     add_flight_plan_arguments,
     add_out_argument,
+    add_quiet_option,
     add_test_options,
     announce_compile,
     open_run,
     progress,
     tests_option,
 )
+from baarda.cli.console import console
+from baarda.errors import ProjectError
 from baarda.output.run_folder import check_output_file
 from baarda.simulate.aerial import FlightPlan
 
@@ -33,18 +37,21 @@ def register(sub) -> None:
     p.add_argument("--adjusted", action="store_true", help="with --project: geometry from an "
                    "adjustment of the project (default: its approximate orientations)")
     add_flight_plan_arguments(p, d)
-    p.add_argument("--sigma-image", type=float, default=d.sigma_image_um, help="µm")
-    p.add_argument("--bridging", type=float, default=2.0, help="control every I base lengths "
+    p.add_argument("--sigma-image", type=SIGMA_UM, default=d.sigma_image_um, help="µm")
+    p.add_argument("--bridging", type=number(0.5, 1e3), default=2.0, help="control every I base "
+                   "lengths "
                    "on the perimeter (Gruen's bridging distance)")
-    p.add_argument("--bridging-y", type=float, help="control grid across the strips in strip "
-                   "distances (default: as --bridging with 50 %% side overlap or more, else 0.5: "
+    p.add_argument("--bridging-y", type=number(0.1, 1e3),
+                   help="control grid across the strips in strip distances (default: as "
+                   "--bridging with 50 %% side overlap or more, else 0.5: "
                    "height points on every row of tie points between strips)")
-    p.add_argument("--relief", type=float, default=0.0, help="terrain relief in m (flat)")
+    p.add_argument("--relief", type=number(-1e4, 1e4, unit="m"), default=0.0,
+                   help="terrain relief in m (flat)")
     p.add_argument("--interior", default="height", choices=["height", "full", "none"],
                    help="control at the interior grid positions")
     p.add_argument("--twin-control", action="store_true",
                    help="each control point with a close companion")
-    p.add_argument("--sigma-control", type=float, nargs=3, metavar=("X", "Y", "Z"),
+    p.add_argument("--sigma-control", type=SIGMA_M, nargs=3, metavar=("X", "Y", "Z"),
                    help="m (default: error-free control)")
     add_test_options(p)
     p.add_argument("--what-if", action="store_true", help="recompute the plan with each "
@@ -54,8 +61,7 @@ def register(sub) -> None:
                    "for `modified-snoop --table`")
     p.add_argument("--no-plots", action="store_true", help="no plan_maps.png")
     p.add_argument("--name", default="plan", help="name of the design block")
-    p.add_argument("-q", "--quiet", action="store_true",
-                   help="no progress display and no printed report")
+    add_quiet_option(p, "printed report")
     p.set_defaults(func=run_plan)
 
     m = sub.add_parser("modified-snoop", help="Gruen's modified data snooping: approximate "
@@ -65,13 +71,12 @@ def register(sub) -> None:
     add_out_argument(m, "output folder")
     m.add_argument("--table", default="baarda", help="'baarda' (our study table), 'gruen' "
                    "(Table 2 of Gruen 1980) or a CSV written by `plan --derive-table`")
-    m.add_argument("--k-q", type=float, default=25.0, help="tolerance of the approximations "
-                   "in %% (Gruen: 25)")
+    m.add_argument("--k-q", type=number(0, 100, lo_open=True), default=25.0,
+                   help="tolerance of the approximations in %% (Gruen: 25)")
     m.add_argument("--tau", action="store_true", help="Pope's tau (sigma0 a posteriori) "
                    "instead of Baarda's w")
     add_test_options(m)
-    m.add_argument("-q", "--quiet", action="store_true",
-                   help="no progress display and nothing printed")
+    add_quiet_option(m)
     m.set_defaults(func=run_modified)
 
 
@@ -84,11 +89,13 @@ def _flight(args) -> FlightPlan:
 
 
 def run_plan(args) -> int:
+    con = console(args)
     with open_run(args, [args.project]) as run:
-        files = _plan(args, run)
-    if not args.quiet:
-        print((Path(args.out) / "plan_report.txt").read_text(encoding="utf-8"))
-        print("written: " + ", ".join(str(f) for f in files))
+        files, verdict = _plan(args, run)
+    if not con.quiet:
+        con.print((Path(args.out) / "plan_report.txt").read_text(encoding="utf-8"))
+    con.print("written: " + ", ".join(str(f) for f in files))
+    con.verdict("plan", f"{verdict} -> {run.describe()}")
     return 0
 
 
@@ -101,7 +108,9 @@ def _plan(args, run) -> list:
 
     if args.derive_table:
         check_output_file(args.derive_table, [args.project])
-    say = progress(args.quiet) or (lambda m: None)
+        if args.project:
+            raise ProjectError("--derive-table", "needs a flight plan, not --project")
+    say = progress(args) or (lambda m: None)
     flight = None
     wi = None
     if args.project:
@@ -123,7 +132,7 @@ def _plan(args, run) -> list:
                  f"{flight.pattern}x{flight.pattern} points, "
                  f"{'stereo' if flight.stereo else 'mono'}, control every {args.bridging:g} "
                  f"bases{', twin' if args.twin_control else ''}")
-    announce_compile(say)
+    announce_compile(args)
     if flight is not None and args.what_if:
         say("computing the remedies")
         wi = what_if(flight, layout)
@@ -131,24 +140,28 @@ def _plan(args, run) -> list:
     say(f"design block: {plan.block.summary()}")
     advice = advise(plan, flight)
     files = write_plan(run, plan, advice, wi, title, plots=not args.no_plots)
+    from baarda.output.atomic import write_text
+    from baarda.report.plan_page import plan_html
+
+    write_text(run.file("plan_report.html"), plan_html(run.file, title))  # from the files
     if args.derive_table:
-        if flight is None:
-            say("--derive-table needs a flight plan (not --project): skipped")
-        else:
+        if flight is not None:
             length = flight.photos_per_strip - 1
             cases = simulate_cases(flight, (length / 3, length / 2, float(length)))
             write_reliability_table(args.derive_table,
                                     derive_table(cases, f"baarda plan ({title})"),
                                     header=f"reliability table derived by baarda plan: {title}")
             files.append(args.derive_table)
-    return files
+    return files, (f"redundancy {plan.redundancy}, {len(advice)} weak place(s) with remedies "
+                   "in plan_report.txt")
 
 
 def run_modified(args) -> int:
+    con = console(args)
     with open_run(args, [args.project]) as run:
-        text = _modified(args, run)
-    if not args.quiet:
-        print(text + f"results written to {run.describe()}")
+        text, verdict = _modified(args, run)
+    con.print(text + f"results written to {run.describe()}")
+    con.verdict("modified-snoop", f"{verdict} -> {run.describe()}")
     return 0
 
 
@@ -158,11 +171,11 @@ def _modified(args, run) -> str:
     from baarda.planning.modified_snoop import modified_snoop
     from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 
-    say = progress(args.quiet)
+    say = progress(args)
     table = {"baarda": baarda_table, "gruen": gruen_table}.get(args.table)
     table = table() if table else read_table(args.table)
     block = read(args.project, encoding=args.encoding)
-    announce_compile(say, len(block.photos))
+    announce_compile(args, len(block.photos))
     res = adjust(block, progress=say)
     ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,
                         tests=tests_option(block.settings, args),
@@ -174,4 +187,4 @@ def _modified(args, run) -> str:
         text += "rejected:\n" + rej[["kind", "photo", "point", "component", "class", "residual",
                                      "statistic", "exact"]].to_string(index=False) + "\n"
     write_modified_snooping(run, df, text)
-    return text
+    return text, f"sigma0 {res.sigma0:.4g}, {len(rej)} rejected"

@@ -5,18 +5,21 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from baarda.cli.common import progress
+from baarda.cli.argtypes import Pair, integer, non_negative, number, positive
+from baarda.cli.common import add_quiet_option, progress
+from baarda.cli.console import console
 
 if TYPE_CHECKING:
     from baarda.report.text_report import ReportOptions
 
 
 def add_histogram_options(p) -> None:
-    p.add_argument("--class-width", type=float, default=1.0,
+    p.add_argument("--class-width", type=positive(hi=1e6), default=1.0,
                    help="histogram class width (µm for image residuals; default 1)")
-    p.add_argument("--range", type=float, nargs=2, default=[-25.0, 25.0], metavar=("LO", "HI"),
+    p.add_argument("--range", type=number(-1e6, 1e6), nargs=2, default=[-25.0, 25.0],
+                   metavar=("LO", "HI"), action=Pair, strict=True,
                    help="centres of the first and last class (default -25 25)")
-    p.add_argument("--line-width", type=int, default=60,
+    p.add_argument("--line-width", type=integer(1, 10**4), default=60,
                    help="longest '*' bar of a text histogram before bars are scaled")
 
 
@@ -32,29 +35,33 @@ def register(sub) -> None:
     p.add_argument("--pdf", type=Path, metavar="PDF", help="write the same quality report "
                    "as a PDF")
     add_histogram_options(p)
-    p.add_argument("--w-class-width", type=float, default=0.5, help="class width for w")
-    p.add_argument("--w-range", type=float, nargs=2, default=[-6.0, 6.0], metavar=("LO", "HI"),
+    p.add_argument("--w-class-width", type=positive(hi=1e6), default=0.5, help="class width for w")
+    p.add_argument("--w-range", type=number(-1e6, 1e6), nargs=2, default=[-6.0, 6.0],
+                   metavar=("LO", "HI"), action=Pair, strict=True,
                    help="centres of the first and last class of the w histogram")
-    p.add_argument("--top", type=int, default=50,
+    p.add_argument("--top", type=integer(0, 10**9), default=50,
                    help="snooping table: rows with the largest |w| shown besides every "
                    "rejected and flagged observation (default 50)")
-    p.add_argument("--min-w", type=float, help="snooping table: only |w| >= this (besides "
-                   "rejected and flagged)")
+    p.add_argument("--min-w", type=non_negative(hi=1e6),
+                   help="snooping table: only |w| >= this (besides rejected and flagged)")
     p.add_argument("--sort", choices=["w", "input"], default="w",
                    help="snooping table order: largest |w| first, or file order")
-    p.add_argument("--exaggeration", type=float,
+    p.add_argument("--exaggeration", type=positive(hi=1e9),
                    help="residual vector exaggeration (default: automatic)")
-    p.add_argument("--vector-photos", type=int, default=12,
+    p.add_argument("--vector-photos", type=integer(0, 10**9), default=8,
                    help="photos drawn with residual vectors (those with rejected or flagged "
                    "observations first)")
-    p.add_argument("--max-points", type=int, default=50_000,
+    p.add_argument("--max-points", type=integer(1, 10**9), default=50_000,
                    help="maps draw at most this many points: beyond it a deterministic "
                    "sample with every control, check, rejected, flagged and uncontrolled "
                    "point (said in the caption; default 50000)")
-    p.add_argument("--max-rows", type=int, default=1_000,
+    p.add_argument("--max-rows", type=integer(1, 10**9), default=1_000,
                    help="the per-photo and snooping tables list at most this many rows: the "
                    "worst (default 1000)")
-    p.add_argument("-q", "--quiet", action="store_true", help="print nothing")
+    p.add_argument("--templates", type=Path, metavar="DIR", help="a folder of Jinja2 "
+                   "templates that override the reports' own (adjustment.html.j2, "
+                   "quality.html.j2, style.css, macros.html.j2): restyle or brand the pages")
+    add_quiet_option(p, "text report (--text) and no list of the files written")
     p.set_defaults(func=run)
 
 
@@ -71,7 +78,7 @@ def options(args) -> ReportOptions:
 
 def run(args) -> int:
     from baarda.errors import ProjectError
-    from baarda.output.result_folder import read_results
+    from baarda.io.result_folder import read_results
     from baarda.output.run_folder import check_output_file, run_files
     from baarda.report.histogram import classes
     from baarda.report.text_report import text_report
@@ -85,12 +92,20 @@ def run(args) -> int:
             classes(w, lo, hi)
         except ValueError as e:
             raise ProjectError("command line", str(e)) from None
+    if args.templates is not None and not args.templates.is_dir():
+        raise ProjectError(str(args.templates), "not a folder of templates")
     for out in (args.out, args.quality, args.pdf):
         if out is not None:
             check_output_file(out, [args.results, *run_files(args.results)])
+    con = console(args)
+    args.prints_results = args.text  # the text report is the result
     res = read_results(args.results)
+    n_rej = int(res.obs["rejected"].sum())
+    counts = (f"{len(res.obs)} observation components, {len(res.obs) - n_rej} used and "
+              f"{n_rej} rejected")
     if args.text:
-        print(text_report(res, opt), end="")
+        con.print(text_report(res, opt), end="")
+    written = []
     quality = args.quality is not None or args.pdf is not None
     cal = None
     if args.out is not None or quality:  # the camera, control and GNSS parts: built once
@@ -100,14 +115,12 @@ def run(args) -> int:
     if args.out is not None:
         from baarda.report.html_report import html_report, write_html
 
-        say = progress(args.quiet or args.text)
+        say = progress(args)
         if say:
-            n_rej = int(res.obs["rejected"].sum())
-            say(f"read {args.results}: {len(res.obs)} observation components, "
-                f"{len(res.obs) - n_rej} used and {n_rej} rejected")
-        write_html(args.out, html_report(res, opt, cal))
-        if not args.quiet:
-            print(f"report written to {args.out}")
+            say(f"read {args.results}: {counts}")
+        write_html(args.out, html_report(res, opt, cal, args.out, args.templates))
+        con.print(f"report written to {args.out}")
+        written.append(str(args.out))
     if quality:
         from baarda.report.html_report import write_html
         from baarda.report.quality_html import quality_page
@@ -116,11 +129,13 @@ def run(args) -> int:
 
         parts = quality_content(res, cal)  # once for the page and the PDF
         if args.quality is not None:
-            write_html(args.quality, quality_page(res, parts))
-            if not args.quiet:
-                print(f"quality report written to {args.quality}")
+            write_html(args.quality, quality_page(res, parts, args.templates))
+            con.print(f"quality report written to {args.quality}")
+            written.append(str(args.quality))
         if args.pdf is not None:
             n = write_quality_pdf(res, args.pdf, parts)
-            if not args.quiet:
-                print(f"quality report written to {args.pdf} ({n} pages)")
+            con.print(f"quality report written to {args.pdf} ({n} pages)")
+            written.append(f"{args.pdf} ({n} pages)")
+    con.verdict("report", f"{args.results}: {counts}" + (
+        f" -> {', '.join(written)}" if written else ""))
     return 0

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from baarda.cli.argtypes import integer, positive
+from baarda.cli.console import console
 from baarda.cli.report import add_histogram_options
 
 
@@ -15,16 +17,17 @@ def register(sub) -> None:
     p.add_argument("--format", default="auto",
                    choices=["auto", "generic", "photomodeler", "baarda"],
                    help="input format (default: recognised from the header)")
-    p.add_argument("--pixel-size", type=float, metavar="UM",
+    p.add_argument("--pixel-size", type=positive("µm", 1e6), metavar="UM",
                    help="pixel size in µm: PhotoModeler residuals (pixels) are converted to µm")
     add_histogram_options(p)
-    p.set_defaults(func=run, class_width=None, range=None)
-    p.add_argument("--worst", type=int, default=10, help="largest residuals listed per kind")
+    p.set_defaults(func=run, class_width=None, range=None, prints_results=True)
+    p.add_argument("--worst", type=integer(0, 10**6), default=10,
+                   help="largest residuals listed per kind")
 
 
 def run(args) -> int:
     from baarda.errors import ProjectError
-    from baarda.report.residual_readers import read_residuals
+    from baarda.io.residual_listings import read_residuals
     from baarda.report.text_report import residuals_report
 
     res = read_residuals(args.files, args.format, args.pixel_size)
@@ -35,5 +38,5 @@ def run(args) -> int:
         text = residuals_report(res, width, rng[0], rng[1], args.line_width, args.worst)
     except ValueError as e:
         raise ProjectError("command line", str(e)) from None
-    print(text, end="")
+    console(args).print(text, end="")
     return 0

@@ -4,14 +4,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from baarda.cli.argtypes import alpha, choices_list, non_negative, number
 from baarda.cli.common import (
     add_out_argument,
+    add_quiet_option,
     add_test_options,
     announce_compile,
     open_run,
     progress,
     tests_option,
 )
+from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, input_paths, read_input
 from baarda.options import ScreeningOptions, TestOptions
 
@@ -19,7 +22,7 @@ from baarda.options import ScreeningOptions, TestOptions
 def add_options(p) -> None:
     """Options of the screening stages (shared with `baarda adjust --screen`)."""
     d = ScreeningOptions()
-    p.add_argument("--stages", default="1,2,3",
+    p.add_argument("--stages", default="1,2,3", type=choices_list("123", what="stages"),
                    help="stages to run: 1 photo pairs, 2 strip formation, 3 control "
                    "(default 1,2,3)")
     p.add_argument("--pair-transform", default=d.pair_transform,
@@ -29,12 +32,12 @@ def add_options(p) -> None:
     p.add_argument("--pair-test", default=d.pair_statistic, choices=["w", "tau"],
                    help="test of the photo pairs: w with the pooled sigma of all pairs "
                    "(default) or tau with each pair's own variance factor")
-    p.add_argument("--pair-alpha0", type=float, default=d.pair_alpha0,
+    p.add_argument("--pair-alpha0", type=alpha, default=d.pair_alpha0,
                    help=f"significance level of the photo-pair tests (default {d.pair_alpha0})")
-    p.add_argument("--pair-tolerance", type=float, default=None, metavar="MM",
+    p.add_argument("--pair-tolerance", type=non_negative("mm", 1e3), default=None, metavar="MM",
                    help="photo pairs: errors smaller than this (mm) are left to stage 2 "
                    "(default: the parallax the relief of the control heights causes)")
-    p.add_argument("--rho-max", type=float, default=d.rho_max,
+    p.add_argument("--rho-max", type=number(0, 1, lo_open=True), default=d.rho_max,
                    help="errors whose w-tests correlate more than this are not separable "
                    f"(default {d.rho_max})")
 
@@ -42,12 +45,7 @@ def add_options(p) -> None:
 def options(args, tests: TestOptions | None = None) -> ScreeningOptions:
     """The screening options of the command line; `tests`: alpha0, beta0 and alpha_global
     resolved over the project's (cli/common.tests_option)."""
-    try:
-        stages = tuple(sorted({int(s) for s in str(args.stages).split(",") if s.strip()}))
-    except ValueError:
-        stages = ()
-    if not stages or not set(stages) <= {1, 2, 3}:
-        raise SystemExit(f"baarda: error: --stages '{args.stages}': a comma list of 1, 2, 3")
+    stages = tuple(sorted(int(s) for s in args.stages.split(",")))  # checked by the parser
     return ScreeningOptions(stages=stages, tests=tests, pair_alpha0=args.pair_alpha0,
                             pair_transform=args.pair_transform,
                             pair_statistic=args.pair_test, rho_max=args.rho_max,
@@ -65,7 +63,7 @@ def register(sub) -> None:
     add_test_options(p, what="the w-tests of stages 2 and 3 and of the bundle after them",
                      alpha_global=True)
     add_options(p)
-    p.add_argument("-q", "--quiet", action="store_true", help="no progress display")
+    add_quiet_option(p)
     add_input_options(p)
     p.set_defaults(func=run)
 
@@ -75,17 +73,26 @@ def run(args) -> int:
     from baarda.output.screening_log import write_screening_log
     from baarda.pipeline import screen_block
 
+    con = console(args)
     with open_run(args, input_paths(args)) as run:
-        say = progress(args.quiet)
+        say = progress(args)
         block = read_input(args)
         if say:
             say(f"read {block.summary()}")
-        announce_compile(say, len(block.photos))
+        for note in block.notes:
+            con.note(note)
+        announce_compile(args, len(block.photos))
         res = screen_block(block, options(args, tests_option(block.settings, args)),
                            progress=say)
         write_project(res.block, run)
         write_screening_log(run, res.log)
-    if not args.quiet:
-        print(res.summary())
-        print(f"cleaned project and screening log written to {run.describe()}")
+    con.print(res.summary())
+    con.print(f"cleaned project and screening log written to {run.describe()}")
+    con.verdict("screen", f"{_removed(res)} -> {run.describe()}")
     return 0
+
+
+def _removed(res) -> str:
+    """What the screening took out, in numbers."""
+    return (f"{int((~res.image_keep).sum())} image point(s) and the control of "
+            f"{len(res.control_removed)} point(s) removed")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from baarda.cli.argtypes import Pair, choices_list, integer, non_negative, positive, seed
 from baarda.cli.common import (
     add_control_arguments,
     add_flight_plan_arguments,
@@ -11,6 +12,8 @@ from baarda.cli.common import (
     add_terrain_and_sigma_arguments,
     open_run,
 )
+from baarda.cli.console import console
+from baarda.errors import GeometryError, ProjectError
 from baarda.output.atomic import write_text
 from baarda.output.project_files import write_project
 from baarda.simulate.aerial import FlightPlan, simulate_block
@@ -26,28 +29,30 @@ def register(sub) -> None:
     add_control_arguments(p, d)
     p.add_argument("--twin-control", action="store_true",
                    help="each control point with a close companion (a blunder in one shows)")
-    p.add_argument("--check-points", type=int, default=d.check_points,
+    p.add_argument("--check-points", type=integer(0, 10**9), default=d.check_points,
                    help="check points (not used in the adjustment, compared with it)")
     add_terrain_and_sigma_arguments(p, d)
     p.add_argument("--no-noise", action="store_true",
                    help="error-free observations (for checks of the adjustment itself)")
-    p.add_argument("--blunders", type=int, default=0,
-                   help="gross errors planted (listed in truth.json)")
-    p.add_argument("--blunder-size", type=float, nargs=2, default=list(d.blunder_sigma),
-                   metavar=("MIN", "MAX"), help="in a-priori sigmas")
-    p.add_argument("--blunder-kinds", default="x,y", help="comma list of x,y,X,Y,Z")
-    p.add_argument("--gnss", type=float, default=0.0, metavar="SIGMA_M",
+    p.add_argument("--blunders", type=integer(0, 10**9), default=0,
+                   help="gross errors planted (listed in truth.json), at most one in each "
+                   "observation of the chosen kinds")
+    p.add_argument("--blunder-size", type=positive(hi=1e6), nargs=2, default=list(d.blunder_sigma),
+                   action=Pair, metavar=("MIN", "MAX"), help="in a-priori sigmas")
+    p.add_argument("--blunder-kinds", default="x,y", type=choices_list("xyXYZ", what="kinds"),
+                   help="comma list of x,y,X,Y,Z")
+    p.add_argument("--gnss", type=non_negative("m", 1e4), default=0.0, metavar="SIGMA_M",
                    help="GNSS antenna positions of every photo with this noise (m; gnss.csv); "
                    "0: none")
-    p.add_argument("--gnss-offset", type=float, default=0.0, metavar="M",
+    p.add_argument("--gnss-offset", type=non_negative("m", 1e4), default=0.0, metavar="M",
                    help="a GNSS shift per strip, each component drawn with this standard "
                    "deviation (m; estimated per strip)")
-    p.add_argument("--gnss-drift", type=float, default=0.0, metavar="M_PER_KM",
+    p.add_argument("--gnss-drift", type=non_negative("m/km", 1e4), default=0.0, metavar="M_PER_KM",
                    help="a GNSS drift per strip along the strip (m/km, drawn with this "
                    "standard deviation; estimated per strip)")
-    p.add_argument("--imu", type=float, default=0.0, metavar="SIGMA_DEG",
+    p.add_argument("--imu", type=non_negative("deg", 90.0), default=0.0, metavar="SIGMA_DEG",
                    help="IMU attitudes of every photo with this noise (deg; imu.csv); 0: none")
-    p.add_argument("--seed", type=int, default=0,
+    p.add_argument("--seed", type=seed, default=0,
                    help="random seed (the same seed gives the same project)")
     p.add_argument("--name", default="simulated", help="project name")
     p.set_defaults(func=run)
@@ -56,7 +61,9 @@ def register(sub) -> None:
 def run(args) -> int:
     with open_run(args, []) as run:
         block = _simulate(args, run)
-    print(f"{block.summary()} -> {run.describe()}")
+    for note in block.notes:
+        console(args).note(note)
+    console(args).print(f"{block.summary()} -> {run.describe()}")
     return 0
 
 
@@ -75,7 +82,12 @@ def _simulate(args, run):
         gnss_sigma_m=args.gnss, gnss_offset_m=args.gnss_offset,
         gnss_drift_m_per_km=args.gnss_drift, imu_sigma_deg=args.imu,
         seed=args.seed, name=args.name)
-    block, truth = simulate_block(plan)
+    try:
+        block, truth = simulate_block(plan)
+    except GeometryError:  # no block at all: said in its words
+        raise
+    except ValueError as e:  # more blunders than the block has observations of their kinds
+        raise ProjectError("--blunders", str(e)) from None
     write_project(block, run)
     write_text(run.file("truth.json"), json.dumps(truth, indent=1, default=float) + "\n")
     return block

@@ -18,11 +18,21 @@ Each trial:
    order (a strategy whose rejections make the block singular, e.g. a point left with one
    ray, is recorded as failed with the message, nothing located).
 
+A planted blunder is *located* when that very component is rejected, *identified* (up to
+its inseparable group) when it or a component it cannot be told from (|rho| >= 0.99 in the
+blunder-free block, every component: one column of Qvv) is rejected, and *first* when the
+first rejection takes it.
+
 Strategies: `snoop` (iterative w-test), `tau` (Pope's tau), `by-point` (snooping that
-rejects an image point's x and y together), `robust` (Danish method, then snooping),
+rejects an image point's x and y together), `grouped` (snooping that rejects a component
+with the ones it cannot be told from, |rho| >= 0.99, where the block stays determined:
+quality/iterative.py), `robust` (Danish method, then snooping),
 `screen` (sequential screening before the bundle, then snooping), `modified` (Gruen's
 modified snooping, one pass), `threshold` (iteratively reject the largest |v| / sigma above
-THRESHOLD: a residual threshold without redundancy numbers, as the seeds compare).
+THRESHOLD: a residual threshold without redundancy numbers, as the seeds compare), `online`
+(the block measured again photo by photo in strip order, each photo tested as it comes, the
+worst rejected observation taken out while there is one: online/replay.py; its blunder rows
+also say whether the blunder was rejected at the step it was taken in, `at_entry`).
 """
 
 from __future__ import annotations
@@ -38,10 +48,14 @@ from baarda.bundle.bundle_model import BundleModel
 from baarda.errors import GeometryError
 from baarda.linalg.threads import one_kernel_thread
 from baarda.options import DEFAULT_TESTS, TestOptions
-from baarda.pipeline import adjust, assess, snoop
+from baarda.pipeline import adjust, snoop
+from baarda.quality.iterative import inseparable_partners
+from baarda.quality.separability import RHO_INSEPARABLE
+from baarda.quality.statistics import analyse
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
-STRATEGIES = ("snoop", "tau", "by-point", "robust", "screen", "modified", "threshold")
+STRATEGIES = ("snoop", "tau", "by-point", "grouped", "robust", "screen", "modified",
+              "threshold", "online")
 DEFAULT_STRATEGIES = ("snoop", "tau", "by-point", "robust")
 KINDS = ("x", "y", "X", "Y", "Z")
 THRESHOLD = 3.0  # |v| / sigma a priori of the `threshold` strategy
@@ -105,22 +119,41 @@ def _plant(block: Block, model: BundleModel, rows: np.ndarray, sizes: np.ndarray
     return replace(block, image=replace(im, xy_mm=xy), points=replace(pts, xyz=xyz))
 
 
-def _snooping_order(a) -> tuple[list[Key], float]:
-    """Keys finally rejected by a snooping run, in the order of their last rejection, and
-    the final sigma0."""
+@dataclass(frozen=True)
+class Outcome:
+    """What a strategy did: the keys it rejected in the end, in order; those of its first
+    rejection (a group's together); sigma0 at the end."""
+
+    rejected: list[Key]
+    first: set[Key]
+    sigma0: float
+    entry: dict | None = None  # the on-line strategy: each component's verdict when taken in
+
+
+def _snooping_order(a) -> Outcome:
+    """Keys finally rejected by a snooping run, in the order of their last rejection (a
+    group's members with it), the first rejection's keys, and the final sigma0."""
     keys = _keys(a.model)
     rejected = set(np.flatnonzero(~a.quality.active).tolist())
     order: dict[int, int] = {}
     steps = a.run.log if a.run is not None else []
+    first: set[Key] = set()
     for n, step in enumerate(steps):
         if step.action == "reject":
-            for r in step.rows:
+            rows = list(step.rows) + (list(step.partners) if step.grouped else [])
+            for r in rows:
                 order[r] = n
+            if not first:
+                first = {keys[r] for r in rows}
     ranked = sorted(rejected, key=lambda r: (order.get(r, -1), r))
-    return [keys[r] for r in ranked], float(a.adjustment.sigma0)
+    return Outcome([keys[r] for r in ranked], first, float(a.adjustment.sigma0))
 
 
-def _threshold(block: Block) -> tuple[list[Key], float]:
+def _outcome(keys: list[Key], sigma0: float) -> Outcome:
+    return Outcome(keys, set(keys[:1]), sigma0)
+
+
+def _threshold(block: Block) -> Outcome:
     res = adjust(block)
     model = BundleModel(res)
     active = np.ones(model.n, bool)
@@ -135,10 +168,10 @@ def _threshold(block: Block) -> tuple[list[Key], float]:
         res = res.refit(active)
         model = BundleModel(res)
     keys = _keys(model)
-    return [keys[i] for i in out], float(res.sigma0)
+    return _outcome([keys[i] for i in out], float(res.sigma0))
 
 
-def _screen(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
+def _screen(block: Block, tests: TestOptions) -> Outcome:
     """Screening, then snooping that removes what it rejects from the block
     (pipeline.screen): what the final block lacks of the original, in the original's order,
     then what the final assessment marks rejected."""
@@ -161,12 +194,12 @@ def _screen(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
         now = fctrl.get(pts.ids[j], np.zeros(3, bool))
         out += [("control", "", pts.ids[j], c) for k, c in enumerate("XYZ")
                 if pts.controlled[j, k] and not now[k]]
-    keys, sigma0 = _snooping_order(a)
+    snooped = _snooping_order(a)
     seen = set(out)
-    return out + [k for k in keys if k not in seen], sigma0
+    return _outcome(out + [k for k in snooped.rejected if k not in seen], snooped.sigma0)
 
 
-def _modified(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
+def _modified(block: Block, tests: TestOptions) -> Outcome:
     from baarda.planning.modified_snoop import modified_snoop
 
     res = adjust(block)
@@ -174,17 +207,37 @@ def _modified(block: Block, tests: TestOptions) -> tuple[list[Key], float]:
     keys = _keys(ms.model)
     rej = np.flatnonzero(ms.result.rejected)
     order = rej[np.argsort(-np.abs(ms.result.statistic_value[rej]), kind="stable")]
-    return [keys[i] for i in order], float(res.sigma0)
+    return _outcome([keys[i] for i in order], float(res.sigma0))
 
 
-def run_strategy(name: str, block: Block, tests: TestOptions) -> tuple[list[Key], float]:
-    """(keys rejected, in order; sigma0 at the end) of one strategy on a block."""
+def _online(block: Block, tests: TestOptions) -> Outcome:
+    """The on-line replay with re-measurement (online/replay.py): the observations taken
+    out, in order (the rejected component of each; the first one's first), sigma0 of the
+    block at the end, and the verdict of every component at the step it was taken in."""
+    from baarda.online.replay import replay
+
+    rp = replay(block, tests, remove="worst")
+    keys = [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.removed]
+    entry: dict[Key, str] = {}
+    for a in rp.answers:
+        for t in a.tested:
+            entry.setdefault((t.kind, t.photo, t.point, t.component), t.verdict)
+    sigma0 = float(rp.online.result().adjustment.sigma0) if rp.online.started else np.nan
+    return Outcome(keys, set(keys[:1]), sigma0, entry)
+
+
+def run_strategy(name: str, block: Block, tests: TestOptions) -> Outcome:
+    """What one strategy rejected on a block (Outcome)."""
+    if name == "online":
+        return _online(block, tests)
     if name == "snoop":
         return _snooping_order(snoop(block, tests))
     if name == "tau":
         return _snooping_order(snoop(block, tests, statistic="tau"))
     if name == "by-point":
         return _snooping_order(snoop(block, tests, by_point=True))
+    if name == "grouped":
+        return _snooping_order(snoop(block, tests, inseparable="group"))
     if name == "robust":
         return _snooping_order(snoop(block, tests, robust=True))
     if name == "screen":
@@ -210,8 +263,8 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
                    noise=True)
     rng = np.random.default_rng(seq.spawn(1)[0])
     block, _ = simulate_block(plan)
-    base = assess(adjust(block), options.tests)
-    model, q = base.model, base.quality
+    model = BundleModel(adjust(block))
+    q = analyse(model, options.tests, separability=False)
     kind_ok = np.isin(model.component, options.kinds) & np.isin(model.kind,
                                                                 ["image", "control"])
     candidates = np.flatnonzero(kind_ok & q.active & (q.redundancy_number >= R_MIN)
@@ -222,11 +275,19 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
     a, b = options.size_mdb
     size_mdb = rng.uniform(a, b, k) * rng.choice([-1.0, 1.0], k)
     sizes = size_mdb * q.mdb[rows]
+    # the components each blunder cannot be told from in the blunder-free block
+    groups, rho_max = [], []
+    for i in rows.tolist():
+        idx, rho = inseparable_partners(model, q, i, model.active, threshold=0.0)
+        big = np.abs(rho) >= RHO_INSEPARABLE
+        groups.append(set(idx[big].tolist()))
+        rho_max.append(float(np.max(np.abs(rho))) if len(rho) else 0.0)
     blundered = _plant(block, model, rows, sizes)
-    first = assess(adjust(blundered), options.tests)
-    fq = first.quality
-    keys = _keys(first.model)
+    fmodel = BundleModel(adjust(blundered))
+    fq = analyse(fmodel, options.tests, separability=False)
+    keys = _keys(fmodel)
     planted = [keys[i] for i in rows]
+    partner_keys = [{keys[j] for j in g} for g in groups]
     significant = np.abs(np.nan_to_num(fq.w)) > fq.k_w
     tested = fq.active & np.isfinite(fq.w)  # controlled components (r >= r_min)
     n_sig = int(np.sum(significant & tested))
@@ -235,16 +296,18 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
     for name in options.strategies or ("",):  # none: the first adjustment only
         t0 = time.perf_counter()
         if not name:
-            rejected, sigma0, failed = [], float(first.adjustment.sigma0), ""
+            out, failed = Outcome([], set(), float(fmodel.result.sigma0)), ""
         else:
             try:
-                rejected, sigma0 = run_strategy(name, blundered, options.tests)
-                failed = ""
+                out, failed = run_strategy(name, blundered, options.tests), ""
             except GeometryError as e:  # e.g. a rejection that leaves a point with one ray
-                rejected, sigma0, failed = [], float("nan"), str(e)
+                out, failed = Outcome([], set(), float("nan")), str(e)
+        rejected, sigma0 = out.rejected, out.sigma0
         seconds = time.perf_counter() - t0
         rank = {key: n + 1 for n, key in enumerate(rejected)}
         located = [key in rank for key in planted]
+        identified = [loc or bool(pk & set(rank)) for loc, pk in
+                      zip(located, partner_keys, strict=True)]
         for j, i in enumerate(rows.tolist()):
             kind, photo, point, comp = planted[j]
             blunder_rows.append({
@@ -252,10 +315,14 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
                 "point": point, "component": comp, "size": float(sizes[j] * unit[j]),
                 "unit": "um" if kind == "image" else "m", "size_mdb": float(size_mdb[j]),
                 "w_first": float(fq.w[i]), "significant_first": bool(significant[i]),
-                "located": located[j], "rank": rank.get(planted[j])})
+                "rho_max": rho_max[j], "separable": not groups[j],
+                "located": located[j], "identified": identified[j],
+                "first": planted[j] in out.first, "rank": rank.get(planted[j]),
+                "at_entry": None if out.entry is None else out.entry.get(planted[j], "held")})
         trial_rows.append({
             "trial": trial, "strategy": name, "n_observations": int(model.n),
             "n_planted": k, "n_located": int(sum(located)),
+            "n_identified": int(sum(identified)),
             "n_false": len(set(rejected) - set(planted)),
             "n_tested_first": int(tested.sum()), "n_significant_first": n_sig,
             "sigma0_final": sigma0, "failed": failed,
@@ -293,16 +360,45 @@ class Study:
                          f"{f['planted_significant']}/{f['planted']} = {f['power']:.3f} "
                          f"[{f['power_ci'][0]:.3f}, {f['power_ci'][1]:.3f}] (B-method: "
                          f"{o.tests.beta0:g} at 1 MDB)")
-        lines.append(f"unplanted components significant in the first adjustment: "
-                     f"{f['false_share']:.5f} [{f['false_ci'][0]:.5f}, {f['false_ci'][1]:.5f}]"
-                     f" (alpha0 {o.tests.alpha0:g})")
+        share = (f"{f['false_share']:.5f} [{f['false_ci'][0]:.5f}, {f['false_ci'][1]:.5f}]")
+        if f["planted"]:
+            lines.append(f"spill-over: unplanted components significant in the first "
+                         f"adjustment {share} (the blunders' correlated neighbours, and false "
+                         f"alarms at alpha0 {o.tests.alpha0:g})")
+        else:
+            b = f["blocks_with_false_alarm"]
+            lines.append(f"false alarms: components significant in the first adjustment "
+                         f"{share} (alpha0 {o.tests.alpha0:g}); blocks with at least one "
+                         f"|w| > k: {b['k']}/{b['n']} = {b['rate']:.3f} [{b['ci'][0]:.3f}, "
+                         f"{b['ci'][1]:.3f}] (independent tests: "
+                         f"{b['independent_tests']:.3f})")
         for name, s in r["strategies"].items():
+            if not s["planted"]:
+                lines.append(f"{name:<10} good observations rejected "
+                             f"{s['false_per_trial']:.2f} per trial ({s['false_rate']:.5f}), "
+                             f"{s['seconds_per_trial']:.3f} s per trial")
+                continue
             lines.append(f"{name:<10} located {s['located']}/{s['planted']} = "
                          f"{s['located_rate']:.3f} [{s['located_ci'][0]:.3f}, "
-                         f"{s['located_ci'][1]:.3f}], good observations rejected "
-                         f"{s['false_per_trial']:.2f} per trial ({s['false_rate']:.5f}), "
-                         f"{s['seconds_per_trial']:.3f} s per trial")
+                         f"{s['located_ci'][1]:.3f}], identified up to its group "
+                         f"{_fmt(s['identified'])}, rejected first {_fmt(s['first'])}; "
+                         f"good observations rejected {s['false_per_trial']:.2f} per trial "
+                         f"({s['false_rate']:.5f}), {s['seconds_per_trial']:.3f} s per trial")
+            if s["inseparable_located"]["n"]:
+                lines.append(f"{'':<10} separable blunders located "
+                             f"{_fmt(s['separable_located'])}; not separable (|rho| >= "
+                             f"{RHO_INSEPARABLE}): located {_fmt(s['inseparable_located'])}, "
+                             f"identified up to the group {_fmt(s['inseparable_identified'])}")
+            if "rejected_at_entry" in s:
+                lines.append(f"{'':<10} rejected when taken in {s['rejected_at_entry']}/"
+                             f"{s['planted']} = {s['at_entry_rate']:.3f} "
+                             f"[{s['at_entry_ci'][0]:.3f}, {s['at_entry_ci'][1]:.3f}], not "
+                             f"checked then (suspect) {s['suspect_at_entry']}")
         return "\n".join(lines)
+
+
+def _fmt(r: dict) -> str:
+    return f"{r['k']}/{r['n']} = {r['rate']:.3f} [{r['ci'][0]:.3f}, {r['ci'][1]:.3f}]"
 
 
 def run_study(options: StudyOptions, *, workers: int = 1, scheduler: str | None = None,
@@ -330,9 +426,11 @@ def run_study(options: StudyOptions, *, workers: int = 1, scheduler: str | None 
 
 
 BLUNDER_COLUMNS = ["trial", "strategy", "kind", "photo", "point", "component", "size", "unit",
-                   "size_mdb", "w_first", "significant_first", "located", "rank"]
-TRIAL_COLUMNS = ["trial", "strategy", "n_observations", "n_planted", "n_located", "n_false",
-                 "n_tested_first", "n_significant_first", "sigma0_final", "failed", "seconds"]
+                   "size_mdb", "w_first", "significant_first", "rho_max", "separable",
+                   "located", "identified", "first", "rank", "at_entry"]
+TRIAL_COLUMNS = ["trial", "strategy", "n_observations", "n_planted", "n_located",
+                 "n_identified", "n_false", "n_tested_first", "n_significant_first",
+                 "sigma0_final", "failed", "seconds"]
 
 
 def _in_pool(options, trials: Iterable[int], workers: int, progress) -> list[TrialRows]:
@@ -341,10 +439,14 @@ def _in_pool(options, trials: Iterable[int], workers: int, progress) -> list[Tri
     out: dict[int, TrialRows] = {}
     with ProcessPoolExecutor(max_workers=workers) as pool:
         futures = {pool.submit(run_trial, options, t): t for t in trials}
-        for n, f in enumerate(as_completed(futures)):
-            out[futures[f]] = f.result()
-            if progress:
-                progress(n + 1, len(futures))
+        try:
+            for n, f in enumerate(as_completed(futures)):
+                out[futures[f]] = f.result()
+                if progress:
+                    progress(n + 1, len(futures))
+        except BaseException:  # Ctrl-C, SIGTERM: the trials not started are not run
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
     return [out[t] for t in sorted(out)]
 
 

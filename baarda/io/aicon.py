@@ -42,6 +42,7 @@ from baarda.block.photo_block import (
 )
 from baarda.errors import ProjectError
 from baarda.io.aicon_protocol import AiconProtocol, read_protocol
+from baarda.io.image_sigma import SIGMA_IMAGE_UM
 from baarda.io.records import ENCODING, read_lines, to_numbers
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
@@ -301,9 +302,12 @@ def read_aicon(path: str | Path, encoding: str = ENCODING) -> AiconProject:
     if len(bad):
         raise ProjectError(str(f["phc"]), f"unknown image {point_id(obs['image'][bad[0]])}",
                            int(obs["_lines"][bad[0]]), "image")
-    bad = np.flatnonzero((obs["sx"] <= 0) | (obs["sy"] <= 0))
-    if len(bad):
-        raise ProjectError(str(f["phc"]), "standard deviation must be positive",
-                           int(obs["_lines"][bad[0]]), "sx")
+    low, high = (v * 1e-3 for v in SIGMA_IMAGE_UM)  # µm -> mm
+    for name in ("sx", "sy"):
+        bad = np.flatnonzero(~((obs[name] >= low) & (obs[name] <= high)))
+        if len(bad):
+            raise ProjectError(str(f["phc"]), f"standard deviation {obs[name][bad[0]]:g} mm: "
+                               f"expected {low:g} to {high:g} mm", int(obs["_lines"][bad[0]]),
+                               name)
     scale = _read_scale(f["scale"], encoding)
     return AiconProject(stem, folder, cams, images, points, obs, scale)

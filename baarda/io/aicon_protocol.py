@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
+from baarda.io.image_sigma import SIGMA_IMAGE_UM
 
 NAMES = {"Ck": "c", "Xh": "x0", "Yh": "y0", "A1": "a1", "A2": "a2", "A3": "a3", "B1": "b1",
          "B2": "b2", "C1": "c1", "C2": "c2"}
@@ -80,8 +81,10 @@ def read_protocol(path: str | Path) -> AiconProtocol:
     cols: dict[str, list] = {k: [] for k in ("point", "image", "x", "y", "vx", "vy", "sx", "sy",
                                              "rx", "ry", "t1", "t2")}
     table = text.find("Bildkoordinaten ***")
+    low, high = (v * 1e-3 for v in SIGMA_IMAGE_UM)  # µm -> mm
     if table >= 0:
-        for line in text[table:].splitlines()[2:]:
+        first = text.count("\n", 0, table) + 1  # the line of the table's title
+        for no, line in enumerate(text[table:].splitlines()[2:], start=first + 2):
             m = _ROW.match(line)
             if m is None:
                 if line.strip().startswith("***"):
@@ -91,6 +94,10 @@ def read_protocol(path: str | Path) -> AiconProtocol:
             cols["image"].append(int(m.group(2)))
             for k, name in enumerate(("x", "y", "vx", "vy", "sx", "sy", "rx", "ry", "t1", "t2")):
                 cols[name].append(float(m.group(3 + k)))
+            for name in ("sx", "sy"):
+                if not low <= cols[name][-1] <= high:
+                    raise ProjectError(str(path), f"standard deviation {cols[name][-1]:g} mm: "
+                                       f"expected {low:g} to {high:g} mm", no, name)
     obs = {k: np.array(v, dtype=object if k == "point" else float) for k, v in cols.items()}
     obs["image"] = obs["image"].astype(np.int64)
     return AiconProtocol(path, camera, obs)

@@ -311,16 +311,28 @@ def supernodal_forward(
     b: int,
     x: np.ndarray,
 ) -> None:
-    """Solve ``L y = x`` in place; ``x`` is (n * b, k) in permuted numbering."""
+    """Solve ``L y = x`` in place; ``x`` is (n * b, k) in permuted numbering.  A supernode
+    whose part of x is zero is skipped (its solution is zero and changes nothing): a sparse
+    right-hand side costs only the supernodes on its paths to the root."""
     k = x.shape[1]
     for J in range(sn_start.size - 1):
         f = sn_start[J]
         s = sn_start[J + 1] - f
         w = s * b
+        x0 = f * b
+        zero = True
+        for r in range(w):
+            for c in range(k):
+                if x[x0 + r, c] != 0.0:
+                    zero = False
+                    break
+            if not zero:
+                break
+        if zero:
+            continue
         p0 = colptr[f]
         nr = colptr[f + 1] - p0
         pj = _view(buf, sn_off[J], nr * b, w)
-        x0 = f * b
         for r in range(w):
             for t in range(r):
                 lrt = pj[r, t]

@@ -11,7 +11,7 @@ import pandas as pd
 from baarda.block.rotation import rad_to_angle
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_result import BundleResult
-from baarda.output.results import summary_document, write_folder
+from baarda.output.results import input_fingerprint, summary_document, write_folder
 from baarda.output.run_folder import RunFolder
 from baarda.quality.assessment import Assessment, observation_table
 
@@ -107,9 +107,18 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
     else:
         part, sections = {"adjustment": "bundle", **res.to_dict()}, res.sections()
         obs = observation_table(BundleModel(res))
+    crs = None
+    if blk.frame is not None:  # adjusted in a local frame of a CRS
+        c = blk.frame.crs
+        crs = {"name": c.name, "epsg": c.to_epsg(), "heights": "ellipsoidal",
+               "adjusted_in": "a local east-north-up frame of the CRS"}
+    elif blk.settings.crs:
+        crs = {"name": str(blk.settings.crs), "epsg": None, "heights": None,
+               "adjusted_in": "the CRS's coordinates"}
     summary = summary_document(
         project=blk.settings.name, source=blk.source, method="bundle", sections=sections,
-        parts=[part], angle_unit=blk.settings.angle_unit,
+        parts=[part], angle_unit=blk.settings.angle_unit, crs=crs,
+        input=input_fingerprint(blk.source),
         cameras=[{"camera": cam.ids[i], "focal_mm": float(cam.focal_mm[i]),
                   "x0_mm": float(cam.principal_point_mm[i, 0]),
                   "y0_mm": float(cam.principal_point_mm[i, 1]),

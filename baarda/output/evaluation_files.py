@@ -1,5 +1,6 @@
 """The result folder of a detection-power study (`baarda evaluate`): blunders.csv,
-trials.csv and summary.json (docs/evaluation.md)."""
+trials.csv, power.csv (the located share per size class, what the report draws),
+b_method_power.csv and summary.json (docs/evaluation.md)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import json
 from dataclasses import asdict
 from pathlib import Path
 
+from baarda.evaluation.power import b_method_table, power_table
 from baarda.evaluation.study import Study
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import RunFolder, staged
@@ -24,11 +26,15 @@ def study_document(study: Study, run: str = "") -> dict:
 
 
 def write_study(out: str | Path | RunFolder, study: Study) -> list[Path]:
-    """Write blunders.csv, trials.csv and summary.json into one run; returns the paths."""
+    """Write blunders.csv, trials.csv, power.csv, b_method_power.csv and summary.json into
+    one run; returns the paths."""
     with staged(out) as run:
-        paths = [run.file("blunders.csv"), run.file("trials.csv"), run.file("summary.json")]
+        paths = [run.file(n) for n in ("blunders.csv", "trials.csv", "power.csv",
+                                       "b_method_power.csv", "summary.json")]
         write_text(paths[0], study.blunders.to_csv(index=False))
         write_text(paths[1], study.trials.to_csv(index=False))
-        write_text(paths[2], json.dumps(study_document(study, run.run_id), indent=1,
+        write_text(paths[2], power_table(study).to_csv(index=False))
+        write_text(paths[3], b_method_table(study).to_csv(index=False))
+        write_text(paths[4], json.dumps(study_document(study, run.run_id), indent=1,
                                         default=float) + "\n")
     return paths

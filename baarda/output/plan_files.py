@@ -124,6 +124,10 @@ def write_plan(out: str | Path | RunFolder, plan: PlanResult, advice: list[Advic
         "plan_points.csv": _csv(plan.points),
         "plan_photos.csv": _csv(plan.photos),
     }
+    files["plan_advice.csv"] = _csv(pd.DataFrame(
+        [{"topic": a.topic, "finding": a.finding, "remedy": a.remedy,
+          "where": "; ".join(a.where)} for a in advice],
+        columns=["topic", "finding", "remedy", "where"]))
     if what_if is not None:
         files["plan_what_if.csv"] = _csv(what_if)
     with staged(out) as run:

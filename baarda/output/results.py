@@ -16,6 +16,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from baarda.output.atomic import write_text
@@ -38,12 +39,58 @@ def summary_document(*, project: str, source: str, method: str, sections: Iterab
     return doc
 
 
+def input_fingerprint(source: str | Path | None) -> dict | None:
+    """The input as the reports state it: its path, the number of files and bytes and one
+    SHA-256 over them (a folder: every file under it in sorted order, each as its relative
+    path and its bytes); None when the source is not a file or folder here."""
+    import hashlib
+
+    if not source:
+        return None
+    path = Path(source)
+    if path.is_file():
+        files, root = [path], path.parent
+    elif path.is_dir():
+        files, root = sorted(p for p in path.rglob("*") if p.is_file()), path
+    else:
+        return None
+    h = hashlib.sha256()
+    size = 0
+    for f in files:
+        h.update(f.relative_to(root).as_posix().encode() + b"\0")
+        with open(f, "rb") as fh:
+            for chunk in iter(lambda fh=fh: fh.read(1 << 20), b""):
+                h.update(chunk)
+                size += len(chunk)
+    return {"path": str(source), "files": len(files), "bytes": size, "sha256": h.hexdigest()}
+
+
+def observation_groups(obs: pd.DataFrame) -> dict[str, dict[str, str]]:
+    """kind -> component -> the observation group of those components (control and GNSS by
+    axis, model coordinates in planimetry and height, any other kind by itself:
+    quality.adjusted_model.kind_groups), for summary.json 'observation_groups': the report
+    draws a histogram of w per group from it."""
+    from baarda.quality.adjusted_model import kind_groups
+
+    if not {"kind", "component"} <= set(obs.columns) or not len(obs):
+        return {}
+    pairs = obs[["kind", "component"]].astype(str).drop_duplicates()
+    group = kind_groups(pairs["kind"].to_numpy(object), pairs["component"].to_numpy(object))
+    out: dict[str, dict[str, str]] = {}
+    for k, c, g in zip(pairs["kind"], pairs["component"], np.asarray(group, str), strict=True):
+        out.setdefault(k, {})[c] = g
+    return out
+
+
 def write_folder(out: str | Path | RunFolder, summary: dict,
                  tables: Mapping[str, pd.DataFrame],
                  texts: Mapping[str, str] | None = None) -> list[Path]:
     """summary.json (with the run id under 'run'), the tables (CSV, or Parquet when the
     name ends in .parquet) and any texts, as one run of the folder `out`
     (output/run_folder.py); the final paths."""
+    obs = next((t for n, t in tables.items() if n.startswith("observations.")), None)
+    if obs is not None and "observation_groups" not in summary:
+        summary = {**summary, "observation_groups": observation_groups(obs)}
     with staged(out) as run:
         write_text(run.file("summary.json"), json_text({"run": run.run_id, **summary}))
         for name, df in tables.items():  # large tables in chunks (output/tables.py)

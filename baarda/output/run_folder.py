@@ -8,6 +8,13 @@ previous one, never a mix.
     # on leaving: run.json (the manifest) is written and the folder moved into place;
     # on an error or Ctrl-C the staging folder is removed and `out` is untouched
 
+A run killed outright (SIGKILL, a power cut) cannot remove its staging folder: the next run
+into the same place removes what such runs left (`.OUT.<run>.partial`, and `.OUT.<run>.old`,
+an earlier run moved aside while a run was committing; when the output folder itself is
+missing, that earlier run is moved back) and says so in `cleaned`.  A folder still in use by
+a live run is told apart by its lock (flock on the staging folder, released by the kernel when
+the process dies).
+
 run.json names the run (id, time, baarda version) and every file with its size and SHA-256,
 so that `baarda report` can refuse a folder whose files do not belong to one run
 (`verify_run`).  An output folder may be new, empty, or a folder that baarda wrote (it has
@@ -17,20 +24,26 @@ place that would cover an input.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
+import re
 import secrets
 import shutil
 import sys
+import tempfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
 
-from baarda.errors import ProjectError
+from baarda.errors import OutputError, ProjectError
+from baarda.io.run_manifest import MANIFEST, file_record
 
-MANIFEST = "run.json"
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not POSIX: leftovers are left, never taken away
+    fcntl = None
+
 MARKERS = (MANIFEST, "summary.json")  # a folder with one of them was written by baarda
 
 
@@ -80,7 +93,8 @@ def check_output_folder(out: str | Path, inputs: Iterable[str | Path] = ()) -> P
 
 def check_output_file(out: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     """The resolved path of a single output file (a report, a drawing), checked before any
-    work: not a folder, not one of the inputs, its folder writable."""
+    work: not a folder, not one of the inputs, its folder writable (or creatable: missing
+    folders are made when the file is written, so a failed run leaves none)."""
     out = Path(out).expanduser().resolve()
     for p in (Path(q).expanduser().resolve() for q in inputs if q is not None):
         if out == p:
@@ -88,14 +102,17 @@ def check_output_file(out: str | Path, inputs: Iterable[str | Path] = ()) -> Pat
                                "another file with -o")
     if out.is_dir():
         raise ProjectError(str(out), "is a folder; give a file name with -o")
-    parent = out.parent
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
+    parent = out.parent  # created when the file is written, not before: the nearest folder
+    while not parent.exists() and parent != parent.parent:  # that exists must allow it
+        parent = parent.parent
+    if not parent.is_dir():
+        raise ProjectError(str(parent), "is not a folder; choose another place with -o")
+    try:  # a file that is gone when closed: whether this place takes files (/proc does not)
+        with tempfile.TemporaryFile(dir=parent):
+            pass
     except OSError as e:
-        raise ProjectError(str(parent), f"cannot create the folder ({e.strerror})") from None
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise ProjectError(str(parent), "the folder is not writable; choose another place "
-                           "with -o")
+        raise ProjectError(str(parent), f"cannot write a file here ({e.strerror}); choose "
+                           "another place with -o") from None
     return out
 
 
@@ -110,18 +127,93 @@ def run_files(folder: str | Path) -> list[Path]:
         return [p for p in folder.glob("*") if p.suffix in (".csv", ".json", ".txt")]
 
 
+_LEFTOVER = re.compile(r"\.(?P<name>.+)\.(?P<run>\d{8}T\d{6}Z-[0-9a-f]{6})\."
+                       r"(?P<kind>partial|old)")
+
+
+def _lock(path: Path) -> int | None:
+    """An exclusive lock on the folder `path` (its file descriptor), None when another
+    process holds one (or the folder is gone)."""
+    if fcntl is None:  # pragma: no cover
+        return None
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _unlock(fd: int | None) -> None:
+    if fd is not None:
+        os.close(fd)  # closing releases the lock
+
+
+def remove_leftovers(final: Path) -> list[str]:
+    """Remove what runs into `final` that were killed left beside it (module docstring); a
+    sentence for each.  When `final` is missing and an earlier run was moved aside
+    (.old), the newest such run is moved back first."""
+    said = []
+    try:
+        found = sorted((m.group("run"), m.group("kind"), p) for p in final.parent.iterdir()
+                       if (m := _LEFTOVER.fullmatch(p.name)) and m.group("name") == final.name
+                       and p.is_dir() and not p.is_symlink())
+    except OSError:
+        return said
+    olds = [p for _, kind, p in found if kind == "old"]
+    if olds and not final.exists():
+        fd = _lock(olds[-1])
+        if fd is not None:
+            try:
+                os.replace(olds[-1], final)
+                said.append(f"moved {olds[-1].name} back to {final}: a killed run had moved "
+                            f"{earlier_run(final) or 'the earlier run'} aside")
+            except OSError:
+                pass
+            finally:
+                _unlock(fd)
+    for _, kind, p in found:
+        if not p.exists():
+            continue
+        fd = _lock(p)
+        if fd is None:  # in use by a live run
+            continue
+        try:
+            shutil.rmtree(p, ignore_errors=True)
+        finally:
+            _unlock(fd)
+        what = "staging folder" if kind == "partial" else "earlier run"
+        if p.exists():
+            said.append(f"could not remove {p} (the {what} of a killed run); remove it by "
+                        "hand")
+        else:
+            said.append(f"removed {p.name}, the {what} that a killed run left beside "
+                        f"{final.name}")
+    return said
+
+
 class RunFolder:
     """The staging folder of one run (module docstring).  `path` is where to write, `final`
-    the output folder, `run_id` the id every file of the run is listed under."""
+    the output folder, `run_id` the id every file of the run is listed under; `cleaned`
+    says what killed runs had left and this one removed, `warnings` what went wrong after
+    the results were in place (an earlier run that could not be removed)."""
 
     def __init__(self, out: str | Path, inputs: Iterable[str | Path] = (),
                  command: str | None = None):
         self.given = Path(out)
         self.final = check_output_folder(out, inputs)
+        self.cleaned = remove_leftovers(self.final)
+        if self.cleaned:
+            check_output_folder(out, inputs)  # an earlier run moved back is checked too
         self.replaces = earlier_run(self.final)
         self.run_id = new_run_id()
         self.command = command
         self.started = datetime.now(UTC)
+        self.warnings: list[str] = []
         parent = self.final.parent
         try:
             parent.mkdir(parents=True, exist_ok=True)
@@ -130,6 +222,7 @@ class RunFolder:
         except OSError as e:
             raise ProjectError(str(self.final), "cannot write the output folder here "
                                f"({e.strerror}); choose another place with -o") from None
+        self._lock = _lock(self.path)
         self.done = False
 
     def describe(self) -> str:
@@ -146,12 +239,31 @@ class RunFolder:
     def __exit__(self, kind, value, tb) -> None:
         if kind is None:
             self.commit()
-        else:
-            self.discard()
+            return
+        self.discard()
+        if isinstance(value, OSError) and not isinstance(value, OutputError) and \
+                self._inside(value.filename):
+            raise self._output_error(value) from value
+        if isinstance(value, OutputError) and self._inside(value.filename):
+            raise self._output_error(value) from value.__cause__
+
+    def _inside(self, filename) -> bool:
+        if not isinstance(filename, (str, os.PathLike)):
+            return False
+        p = Path(filename)
+        return p == self.path or self.path in p.parents
+
+    def _output_error(self, e: OSError) -> OutputError:
+        """The error of a write into the staging folder, for the file's place in the output
+        folder (the staging folder is gone)."""
+        name = Path(e.filename).relative_to(self.path)
+        return OutputError(e.errno, e.strerror or str(e), str(self.given / name))
 
     def discard(self) -> None:
         """Remove the staging folder; the output folder is left as it was."""
         shutil.rmtree(self.path, ignore_errors=True)
+        _unlock(self._lock)
+        self._lock = None
 
     def commit(self) -> Path:
         """Write run.json and move the staging folder into place (replacing an earlier run
@@ -166,16 +278,36 @@ class RunFolder:
                     "started": self.started.isoformat(timespec="seconds"),
                     "finished": datetime.now(UTC).isoformat(timespec="seconds"),
                     "command": self.command, "files": files}
-        (self.path / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n",
-                                          encoding="utf-8")
-        old = None
-        if self.final.exists():
-            check_output_folder(self.final)  # still one of ours
-            old = self.final.parent / f".{self.final.name}.{self.run_id}.old"
-            os.replace(self.final, old)
-        os.replace(self.path, self.final)
+        try:
+            (self.path / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n",
+                                              encoding="utf-8")
+        except OSError as e:
+            self.discard()
+            raise OutputError(e.errno, e.strerror, str(self.given / MANIFEST)) from e
+        old, held = None, None
+        try:
+            if self.final.exists():
+                check_output_folder(self.final)  # still one of ours
+                held = _lock(self.final)  # moved aside under a lock: not a leftover
+                old = self.final.parent / f".{self.final.name}.{self.run_id}.old"
+                os.replace(self.final, old)
+            os.replace(self.path, self.final)
+        except BaseException as e:
+            if old is not None and old.exists() and not self.final.exists():
+                os.replace(old, self.final)  # the earlier run back in its place
+            _unlock(held)
+            self.discard()
+            if isinstance(e, OSError):
+                raise OutputError(e.errno, e.strerror, str(self.given)) from e
+            raise
+        _unlock(self._lock)
+        self._lock = None
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
+            _unlock(held)
+            if old.exists():
+                self.warnings.append(f"could not remove the earlier run, moved aside to "
+                                     f"{old}: remove it by hand")
         self.done = True
         return self.final
 
@@ -191,15 +323,6 @@ def earlier_run(folder: Path) -> str | None:
         return "an earlier run"
 
 
-def file_record(path: Path) -> dict:
-    """Size and SHA-256 of a file (read in 1 MB blocks)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return {"bytes": path.stat().st_size, "sha256": h.hexdigest()}
-
-
 @contextmanager
 def staged(out: str | Path | RunFolder) -> Iterator[RunFolder]:
     """The run to write into: `out` itself when it is a RunFolder (its owner commits it),
@@ -209,30 +332,3 @@ def staged(out: str | Path | RunFolder) -> Iterator[RunFolder]:
         return
     with RunFolder(out, command=" ".join(sys.argv[:1])) as run:
         yield run
-
-
-def verify_run(folder: str | Path, names: Iterable[str]) -> str | None:
-    """Check that the files `names` of a result folder belong to the run its run.json
-    lists (same size and SHA-256); the run id, or None for a folder written before run.json
-    existed.  A file that is missing, changed or not of the run is a ProjectError."""
-    folder = Path(folder)
-    mp = folder / MANIFEST
-    if not mp.is_file():
-        return None
-    try:
-        manifest = json.loads(mp.read_text(encoding="utf-8"))
-        run, files = manifest["run"], manifest["files"]
-    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError):
-        raise ProjectError(str(mp), "not a run manifest of baarda (broken JSON or missing "
-                           "'run'/'files')") from None
-    for name in names:
-        p = folder / name
-        if not p.is_file():
-            continue
-        if name not in files:
-            raise ProjectError(str(p), f"does not belong to run {run} of this folder "
-                               f"({MANIFEST} does not list it): the folder mixes runs")
-        if file_record(p) != files[name]:
-            raise ProjectError(str(p), f"is not the file that run {run} wrote (size or "
-                               "checksum differ): the folder mixes runs or was edited")
-    return run

@@ -125,6 +125,10 @@ def apply_control(block: Block, eo: np.ndarray, xyz: np.ndarray, plan: FlightPla
         sig = tuple(layout.sigma_m)
     rays = block.rays()
     cand = np.flatnonzero(rays >= 2)
+    if not len(cand):
+        raise GeometryError(f"no point of the planned block is measured on two photos "
+                            f"({plan.forward_overlap:.0%} forward and {plan.side_overlap:.0%} "
+                            "side overlap): raise the overlaps")
     chosen: dict[int, str] = {}
     sites = [(px, py, "full" if i in (0, len(gx) - 1) or j in (0, len(gy) - 1)
               else layout.interior) for i, px in enumerate(gx) for j, py in enumerate(gy)]

@@ -12,6 +12,7 @@ again and returns a new model; data snooping and robust re-weighting work throug
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -130,10 +131,49 @@ class AdjustedModel(ABC):
             out[gi] = self.solve_columns(h)[rows] * self.sigma[rows][None, :] ** 2
         return idx, out
 
+    # ------------------------------------------ cofactors of pairs (quality/separability.py)
+    def local_cofactor_diag(self) -> np.ndarray | None:
+        """(n,) the part of diag(A N^-1 A^T) that stays when every unknown but the
+        component's own point is known (bundle: jp M^-1 jp^T), or None: the rest bounds the
+        cofactors of pairs on one frame with different points (quality/separability.py)."""
+        return None
+
+    def adjusted_cofactor_columns(self, rows: np.ndarray) -> np.ndarray:
+        """Columns `rows` of A N^-1 A^T (n, len(rows)).  Default: from solve_columns (a
+        rejected row's column is then zero: small models override it)."""
+        rows = np.atleast_1d(np.asarray(rows))
+        h = np.zeros((self.n, len(rows)))
+        h[rows, np.arange(len(rows))] = 1.0
+        return self.solve_columns(h) * self.sigma[rows][None, :] ** 2
+
+    def point_pair_cofactors(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """(i, j, (A N^-1 A^T)_ij) of every two components of one point (label), i < j, in
+        chunks.  Default: from adjusted_cofactor_columns (small models)."""
+        yield from _label_pairs(self, np.asarray(self.point, dtype=object),
+                                np.arange(self.n))
+
+    def frame_pair_cofactors(self, rows: np.ndarray
+                             ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """(i, j, (A N^-1 A^T)_ij) of every two components on the frames (photos, models)
+        of the components `rows`, i < j, in chunks."""
+        yield from _label_pairs(self, np.asarray(self.frame, dtype=object), rows)
+
     def other_cofactor_blocks(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """Other groups tested as a whole, each (index (g, k), cofactor blocks (g, k, k))
         (a bundle's GNSS positions); none by default."""
         return []
+
+
+def _label_pairs(model: AdjustedModel, labels: np.ndarray, rows: np.ndarray):
+    """Pairs of components with one (non-empty) label among the labels of `rows`."""
+    want = set(labels[np.asarray(rows, int)].tolist()) - {""}
+    idx = np.flatnonzero(np.array([x in want for x in labels.tolist()], bool))
+    if not len(idx):
+        return
+    cols = model.adjusted_cofactor_columns(idx)[idx]
+    same = labels[idx][:, None] == labels[idx][None, :]
+    a, c = np.nonzero(np.triu(same, 1))
+    yield idx[a], idx[c], cols[a, c]
 
 
 def weight_factors(n: int, factors: np.ndarray | None) -> np.ndarray:

@@ -26,7 +26,8 @@ from baarda.quality.hypotheses import (
     hypothesis_test,
     image_point_tests,
 )
-from baarda.quality.iterative import SnoopingRun
+from baarda.quality.iterative import SnoopingRun, labels
+from baarda.quality.separability_report import separability_dict, separability_lines
 from baarda.quality.statistics import QualityResult
 from baarda.schema import OBSERVATION_COLUMNS
 from baarda.sections import Section, render, section
@@ -123,7 +124,21 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
             "w": q.w, "tau": q.tau, "p_value": q.p_value, "mdb": q.mdb * scale,
             "lambda_bar": q.lambda_bar, "external_max": q.external_max,
             "external_point": q.external_point, "point_test": point_t, "flagged": q.flagged})
+        if q.rho_max is not None:  # separability (quality/separability.py)
+            cols.update({"rho_max": q.rho_max, "msb": q.msb * scale,
+                         "rho_partner": partner_labels(m, q.rho_partner)})
+    cols.setdefault("rho_partner", empty)
     return pd.DataFrame({c: cols.get(c, nan) for c in COLUMNS}, columns=list(COLUMNS))
+
+
+def partner_labels(model: AdjustedModel, partner: np.ndarray) -> np.ndarray:
+    """(n,) the snooping log's label of each component's most correlated partner, or ""."""
+    out = np.full(model.n, "", dtype=object)
+    has = np.flatnonzero(partner >= 0)
+    if len(has):
+        uniq, inv = np.unique(partner[has], return_inverse=True)
+        out[has] = np.array(labels(model, uniq), dtype=object)[inv]
+    return out
 
 
 @dataclass(frozen=True)
@@ -212,6 +227,8 @@ class Assessment:
             "n_rejected": int(np.sum(~q.active)),
             "n_flagged": int(np.sum(q.flagged)),
             "n_uncontrolled": int(np.sum(q.active & ~q.controlled)),
+            **({"separability": separability_dict(self.model, q)}
+               if q.rho_max is not None else {}),
             "rejection_log": [] if self.run is None else
             [self._log_entry(s) for s in self.run.log],
             "snooping_converged": None if self.run is None else self.run.converged,
@@ -241,7 +258,8 @@ class Assessment:
 
     def quality_sections(self) -> list[Section]:
         q = self.quality
-        lines = quality_lines(self.model, q, self.kind_suffix) + self.extra_quality_lines()
+        lines = (quality_lines(self.model, q, self.kind_suffix)
+                 + separability_lines(self.model, q) + self.extra_quality_lines())
         if self.run is not None:
             lines += self.run.summary_lines()
         params = [t for t in self.hypotheses if t.parameters]

@@ -75,6 +75,11 @@ class DenseModel(AdjustedModel):
     def adjusted_cofactor_diag(self) -> np.ndarray:
         return np.sum((self.a @ self.qxx) * self.a, axis=1)
 
+    def adjusted_cofactor_columns(self, rows: np.ndarray) -> np.ndarray:
+        """Columns of A N^-1 A^T, rejected rows included (their Jacobians are kept)."""
+        rows = np.atleast_1d(np.asarray(rows))
+        return self.a @ (self.qxx @ self.a[rows].T)
+
     def normal_forward(self, h: np.ndarray) -> np.ndarray:
         g = self.a.T @ (self.p[:, None] * h)
         return np.linalg.solve(self.chol, g)

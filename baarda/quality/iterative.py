@@ -4,6 +4,17 @@ Rejected components stay in the observation vector as predicted residuals and ar
 at every iteration; one that is no longer significant comes back (once).  Rejection by
 component or by group (both coordinates of an image point).
 
+Identification (Teunissen's DIA): before a rejection the candidate's w-test is correlated
+with every other (one column of Qvv); the active tested components with |rho| >=
+RHO_INSEPARABLE (0.99) cannot be told from it, and the step is logged "identified up to
+{i, j}".  `inseparable` chooses the action: "flag" (default) rejects the largest |w| as
+Baarda's rule does and flags the others as not separable; "group" rejects the whole group
+when the adjustment without it is still determined (the adapted solution is then free of
+the error whichever of them holds it; its members are not restored one by one: their
+predicted residuals cannot tell them apart either), else falls back to "flag".  A rejection
+that leaves another active component uncontrolled (its r drops below R_MIN) names it in its
+step.
+
 Every re-adjustment is checked: when removing a component leaves the block undetermined
 (a datum defect, a point or photo without enough observations) or makes the adjustment
 diverge, that removal is not taken: the component stays in, the log says so ("kept") and
@@ -14,14 +25,15 @@ that reaches its step limit says how many components are still significant.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from baarda.errors import GeometryError
 from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
-from baarda.quality.statistics import QualityResult, analyse
+from baarda.quality.separability import RHO_INSEPARABLE
+from baarda.quality.statistics import QualityResult, analyse, qvv_columns, with_separability
 
 
 @dataclass(frozen=True)
@@ -39,22 +51,57 @@ class SnoopingStep:
     mdb: float
     statistic: str = "w"
     reason: str = ""  # why a removal (or restoration) was not taken
+    # identification: the components whose w-tests cannot be told from the decisive one
+    # (|rho| >= RHO_INSEPARABLE), their correlations, and what was done with them
+    partners: tuple[int, ...] = ()
+    partner_labels: tuple[str, ...] = ()
+    partner_rho: tuple[float, ...] = ()
+    grouped: bool = False  # the partners were rejected too (inseparable="group")
+    # active components this rejection left uncontrolled (r < R_MIN), in words
+    uncontrolled: tuple[int, ...] = ()
+    uncontrolled_words: tuple[str, ...] = ()
 
     @property
     def w(self) -> float:  # the name of the value before tau and robust starts were logged
         return self.value
 
+    @property
+    def group(self) -> list[str]:
+        """The inseparable group: the decisive component(s) and their partners."""
+        return [*self.labels, *(x for x in self.partner_labels if x not in self.labels)]
+
     def to_dict(self) -> dict:
         return {"iteration": self.iteration, "sigma0": self.sigma0, "action": self.action,
                 "observations": self.labels, "statistic": self.statistic,
                 "value": self.value, "mdb": self.mdb,
-                **({"reason": self.reason} if self.reason else {})}
+                **({"reason": self.reason} if self.reason else {}),
+                **({"identified_up_to": self.group,
+                    "rho": list(self.partner_rho),
+                    "not_separable": [] if self.grouped else list(self.partner_labels)}
+                   if self.partners else {}),
+                **({"uncontrolled": list(self.uncontrolled_words)}
+                   if self.uncontrolled else {})}
+
+    def identification(self) -> str:
+        """The inseparable group and what was done, in words ("" when there is none)."""
+        if not self.partners:
+            return ""
+        rho = ", ".join(f"{r:+.4f}" for r in self.partner_rho)
+        what = ("all rejected (the error may be in any of them)" if self.grouped else
+                f"{'; '.join(self.partner_labels)} flagged: not separable (rho {rho}), the "
+                "error may be there instead")
+        return f"identified up to {{{', '.join(self.group)}}}: {what}"
 
     def line(self) -> str:
         by = (f"{self.statistic} = {self.value:.2f}" if self.statistic in ("w", "tau") else
               f"by the {self.statistic} (w = {self.value:.2f})")
-        return (f"  {self.iteration:3d} {self.action:7s} {'; '.join(self.labels)}  {by}  "
-                f"sigma0 {self.sigma0:.3f}" + (f": {self.reason}" if self.reason else ""))
+        out = (f"  {self.iteration:3d} {self.action:7s} {'; '.join(self.labels)}  {by}  "
+               f"sigma0 {self.sigma0:.3f}" + (f": {self.reason}" if self.reason else ""))
+        if self.partners and self.action == "reject":
+            out += "\n        " + self.identification()
+        for words in self.uncontrolled_words:
+            out += f"\n        {words}"
+        return out
 
 
 @dataclass(frozen=True)
@@ -99,6 +146,12 @@ class SnoopingRun:
             + (f"; {kept} removal(s) refused (the adjustment without them would fail)"
                if kept else "")]
         lines += [s.line() for s in self.log]
+        groups = [s for s in self.log if s.partners and s.action == "reject"]
+        if groups:
+            lines.append(f"{len(groups)} rejection(s) identified only up to an inseparable "
+                         "group (the error may be in the flagged partner: remeasure, or "
+                         "--inseparable group)" if any(not s.grouped for s in groups) else
+                         f"{len(groups)} inseparable group(s) rejected as a whole")
         return lines
 
 
@@ -113,10 +166,26 @@ def label(model: AdjustedModel, i: int) -> str:
     return " ".join(parts)
 
 
+INSEPARABLE = ("flag", "group")
+
+
+def labels(model: AdjustedModel, rows: np.ndarray) -> list[str]:
+    """label() of many rows at once (the same words, without a call per row)."""
+    rows = np.asarray(rows, np.int64)
+    kind, frame, point, comp = (np.asarray(getattr(model, a), dtype=object)[rows].tolist()
+                                for a in ("kind", "frame", "point", "component"))
+    out = []
+    for k, f, p, c in zip(kind, frame, point, comp, strict=True):
+        fw = (f" photo {f}" if k in ("image", "gnss", "imu") else f" {f}") if f else ""
+        pw = f" point {p}" if p or k not in ("gnss", "imu") else ""
+        out.append(f"{k}{fw}{pw} {c}")
+    return out
+
+
 def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS, *,
                        active: np.ndarray | None = None, statistic: str = "w",
                        by_group: bool = False, max_iterations: int = 200,
-                       started_by: str = "",
+                       started_by: str = "", inseparable: str = "flag",
                        progress: Callable[[str], None] | None = None) -> SnoopingRun:
     """Run Baarda's iterative data snooping with the w-test ("w") or Pope's tau ("tau").
 
@@ -128,6 +197,8 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     """
     if statistic not in ("w", "tau"):
         raise ValueError("statistic must be 'w' or 'tau'")
+    if inseparable not in INSEPARABLE:
+        raise ValueError(f"inseparable must be one of {', '.join(INSEPARABLE)}")
     say = progress or (lambda m: None)
     active = np.array(model.active if active is None else active, bool)
     started = np.flatnonzero(model.active & ~active)
@@ -137,8 +208,15 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     needed = np.zeros(len(active), bool)  # cannot be rejected: the block needs them
     kept_why: dict[int, str] = {}
     log: list[SnoopingStep] = []
+    before: np.ndarray | None = None  # what was controlled before the last rejection
     for it in range(1, max_iterations + 1):
-        q = analyse(model, tests)
+        q = analyse(model, tests, separability=False)
+        if before is not None and log and log[-1].action == "reject":
+            lost = np.flatnonzero(before & active & ~q.controlled)
+            if len(lost):
+                log[-1] = replace(log[-1], uncontrolled=tuple(int(x) for x in lost),
+                                  uncontrolled_words=tuple(no_longer_checked(model, lost)))
+        before = q.controlled.copy()
         stat = q.w if statistic == "w" else q.tau
         crit = q.k_w if statistic == "w" else q.k_tau
         mag = np.abs(np.nan_to_num(stat))
@@ -155,12 +233,30 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             rows = [i]
             if by_group and model.group[i] >= 0:
                 rows = list(np.flatnonzero(model.group == model.group[i]))
+            found, corr = inseparable_partners(model, q, i, active & ~needed)
+            keep = ~np.isin(found, rows)
+            part = [int(j) for j in found[keep]]
+            rho = [float(r) for r in corr[keep]]
             trial = active.copy()
             trial[rows] = False
-            new, why = _refit(model, trial)
+            new, why = None, ""
+            grouped = False
+            if part and inseparable == "group":
+                both = trial.copy()
+                both[part] = False
+                new, why = _refit(model, both)
+                grouped = not why
+                if grouped:
+                    trial = both
+            if not grouped:
+                new, why = _refit(model, trial)
             step = SnoopingStep(it, q.sigma0_hat, "kept" if why else "reject", rows,
                                 [label(model, r) for r in rows], float(stat[i]),
-                                float(q.mdb[i]), statistic, why)
+                                float(q.mdb[i]), statistic, why, tuple(part),
+                                tuple(label(model, j) for j in part), tuple(rho), grouped)
+            if grouped:
+                rows = rows + part
+                restored.update(int(r) for r in rows)  # a group is not taken apart again
             log.append(step)
             if why:
                 # without it the block is undetermined or the adjustment fails: keep those
@@ -171,14 +267,16 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                 cand = cand[~np.isin(cand, rows)]
                 continue
             say(f"snooping {it}: sigma0 {q.sigma0_hat:.3f}, reject {step.labels[0]}"
-                f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}")
+                f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}"
+                + (f"; {step.identification()}" if part else ""))
             active, model = trial, new
             break
         else:
             back = np.flatnonzero(~active & q.controlled & (mag < crit))
             back = np.array([b for b in back if int(b) not in restored], dtype=int)
             if not len(back):
-                return SnoopingRun(model, q, active, log, True, statistic)
+                return SnoopingRun(model, with_separability(model, q), active, log, True,
+                                   statistic)
             i = int(back[np.argmin(mag[back])])
             rows = [i]
             if by_group and model.group[i] >= 0:
@@ -204,6 +302,32 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     crit = q.k_w if statistic == "w" else q.k_tau
     left = active & ~needed & q.controlled & (np.abs(np.nan_to_num(stat)) > crit)
     return SnoopingRun(model, q, active, log, False, statistic, int(np.sum(left)))
+
+
+def inseparable_partners(model: AdjustedModel, q: QualityResult, i: int,
+                         among: np.ndarray, threshold: float = RHO_INSEPARABLE
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """(indices, rho) of the active tested components in `among` whose w-tests are
+    correlated with that of active component i by |rho| >= threshold (one column of Qvv by
+    Gruen's identity-matrix observation: every component, near or far)."""
+    col = qvv_columns(model, np.array([i]))[:, 0]
+    ok = among & model.active & q.controlled & (q.qvv > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = np.where(ok, col / np.sqrt(q.qvv * q.qvv[i]), 0.0)
+    rho[i] = 0.0
+    idx = np.flatnonzero(np.abs(rho) >= threshold)
+    return idx, rho[idx]
+
+
+def no_longer_checked(model: AdjustedModel, rows) -> list[str]:
+    """'the remaining y of point P on photo Q can no longer be checked' for each row."""
+    out = []
+    for r in rows:
+        where = (f" on {model.frame_kind} {model.frame[r]}" if model.frame[r] else "")
+        what = f"{model.component[r]} of point {model.point[r]}" if model.point[r] else \
+            label(model, int(r))
+        out.append(f"the remaining {what}{where} can no longer be checked (r < 0.001)")
+    return out
 
 
 def _refit(model: AdjustedModel, active: np.ndarray) -> tuple[AdjustedModel | None, str]:

@@ -11,11 +11,13 @@ priori; cofactors in observation units squared.
     MDB   = delta0 * sigma / sqrt(r)          (boundary value, internal reliability)
     lambda_bar = delta0 * sqrt((1 - r) / r)   (external reliability, normalised)
     effect = MDB * dX/dl                      (on the adjusted coordinates of a point)
+    rho_max = max_j |q_vv,ij| / sqrt(q_vv,ii q_vv,jj)   (j sharing a point or a frame)
+    MSB   = MDB * delta_s(rho_max) / delta0   (minimal separable bias, quality/separability.py)
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -28,6 +30,7 @@ from baarda.quality.distributions import (
     tau_pvalue,
     w_test_pvalue,
 )
+from baarda.quality.separability import separable_delta, w_correlations
 
 R_MIN = 1e-3  # redundancy numbers below this: uncontrolled, not tested
 
@@ -66,6 +69,10 @@ class QualityResult:
     notes: list[str] = field(default_factory=list)
     alpha_global: float = TestOptions.alpha_global
     headline_test: object = None  # the global test at the conventional level alpha_global
+    # separability (quality/separability.py); None when not computed (inside snooping)
+    rho_max: np.ndarray | None = None  # (n,) largest |rho| with a tested neighbour, NaN
+    rho_partner: np.ndarray | None = None  # (n,) that neighbour's index, -1: none
+    msb: np.ndarray | None = None  # (n,) minimal separable bias (model units), inf: none
 
     @property
     def tests(self) -> TestOptions:
@@ -94,10 +101,12 @@ def cofactors(model: AdjustedModel) -> tuple[np.ndarray, np.ndarray]:
 
 def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             r_min: float = R_MIN, *,
-            known: tuple[np.ndarray, np.ndarray] | None = None) -> QualityResult:
+            known: tuple[np.ndarray, np.ndarray] | None = None,
+            separability: bool = True) -> QualityResult:
     """Every statistic of data snooping and reliability for every component of `model`.
     `known`: its (q_vv, r) from `cofactors(model)` when they are at hand (not computed
-    again)."""
+    again); `separability`: the w-test correlations and the MSB as well (snooping's
+    intermediate adjustments leave them out)."""
     alpha0, beta0 = tests.alpha0, tests.beta0
     bm = b_method(alpha0, beta0)
     v, s, act = model.residuals, model.sigma, model.active
@@ -135,7 +144,7 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
         notes.append(f"{unc} observation component(s) with redundancy number below {r_min} are "
                      "not controlled by other observations: an error in them cannot be "
                      "detected (not tested)")
-    return QualityResult(
+    out = QualityResult(
         residual=v, sigma=s, active=act, qvv=qvv, redundancy_number=r, sigma_residual=sv,
         w=w, tau=tau, p_value=w_test_pvalue(np.nan_to_num(w)) * np.where(controlled, 1, np.nan),
         tau_p_value=(tau_pvalue(np.nan_to_num(tau), red) if red >= 2 else np.full(len(v), np.nan))
@@ -146,6 +155,19 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
         vtpv=vtpv, sigma0_hat=s0, k_w=bm.k_w, k_tau=k_tau, alpha0=alpha0, beta0=beta0,
         delta0=bm.delta0, b_method_alpha=ga, global_test=gt, notes=notes,
         alpha_global=tests.alpha_global, headline_test=headline)
+    return with_separability(model, out) if separability else out
+
+
+def with_separability(model: AdjustedModel, q: QualityResult) -> QualityResult:
+    """`q` with rho_max, rho_partner and the MSB (quality/separability.py); `q` itself when
+    it has them."""
+    if q.rho_max is not None:
+        return q
+    rho, partner = w_correlations(model, q.qvv, q.controlled)
+    others = int(np.sum(np.isfinite(rho))) - 2  # the tests besides i and its partner
+    factor = separable_delta(np.nan_to_num(rho), q.k_w, q.beta0, others) / q.delta0
+    return replace(q, rho_max=rho, rho_partner=partner,
+                   msb=np.where(q.controlled, q.mdb * factor, np.inf))
 
 
 def qvv_columns(model: AdjustedModel, rows: np.ndarray) -> np.ndarray:

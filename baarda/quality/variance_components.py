@@ -300,7 +300,7 @@ def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TEST
     significant (|w| / sqrt(factor) > 0.9 k, or the approximation is not positive); the
     candidate is switched off, the factors estimated again (iterate, from the current
     weights) and its statistic (predicted residual) tested with them."""
-    q = analyse(model, tests, known=known)
+    q = analyse(model, tests, known=known, separability=False)
     g = model.variance_groups()
     act = np.asarray(model.active, bool)
     cands = []
@@ -322,7 +322,7 @@ def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TEST
             est = iterate(model.refit(trial, model.factors), alpha, plan=plan or {})
         except GeometryError:
             continue
-        q2 = analyse(est.model, tests, known=est.cofactors)
+        q2 = analyse(est.model, tests, known=est.cofactors, separability=False)
         s2, k2 = (q2.w, q2.k_w) if statistic == "w" else (q2.tau, q2.k_tau)
         if progress:
             progress(f"variance components: component {i} of {name} tested against the "

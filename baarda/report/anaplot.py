@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import UNITS
+from baarda.schema import UNITS
 
 COLUMNS = ["kind", "frame", "point", "component", "unit", "redundancy", "residual",
            "sigma_residual", "w", "flag"]
@@ -121,12 +121,26 @@ def format_log(summary: dict) -> str:
         lines.append(f"{s.get('iteration', ''):>4}  {s.get('action', ''):<8}"
                      f"{s.get('sigma0', np.nan):8.3f}{test:>6}{value:8.2f}"
                      f"{mdb:>10} {unit:<3} {obs}"
-                     + (f"\n{'':>14}{s['reason']}" if s.get("reason") else ""))
+                     + (f"\n{'':>14}{s['reason']}" if s.get("reason") else "")
+                     + "".join(f"\n{'':>14}{w}" for w in identification_words(s)))
     if summary.get("snooping_incomplete"):
         lines.append(str(summary["snooping_incomplete"]))
     elif summary.get("snooping_converged") is False:
         lines.append("snooping did NOT converge (iteration limit)")
     return "\n".join(lines)
+
+
+def identification_words(step: dict) -> list[str]:
+    """What a log step says about separability (issue 30): the inseparable group and what
+    was done with it, the components it left uncontrolled."""
+    out = []
+    group = step.get("identified_up_to")
+    if group:
+        flagged = step.get("not_separable") or []
+        out.append(f"identified up to {{{', '.join(group)}}}: " + (
+            f"{'; '.join(flagged)} flagged: not separable" if flagged else "all rejected"))
+    out += list(step.get("uncontrolled") or [])
+    return out
 
 
 def log_rows(summary: dict) -> list[dict]:
@@ -138,7 +152,8 @@ def log_rows(summary: dict) -> list[dict]:
         test, value = log_test(s)
         rows.append({"step": s.get("iteration"), "action": s.get("action"),
                      "observation": "; ".join(s.get("observations", []))
-                     + (f" ({s['reason']})" if s.get("reason") else ""),
+                     + (f" ({s['reason']})" if s.get("reason") else "")
+                     + "".join(f"; {w}" for w in identification_words(s)),
                      "test": test, "value": value, "MDB": f"{mdb} {unit}",
                      "sigma0 before": s.get("sigma0", np.nan)})
     return rows
@@ -146,24 +161,14 @@ def log_rows(summary: dict) -> list[dict]:
 
 def log_test(step: dict) -> tuple[str, float]:
     """(test, value) of a log step: w or tau, or the method that rejected before snooping
-    (with the component's w); folders of earlier versions have only 'w'."""
+    (with the component's w)."""
     stat = step.get("statistic", "w")
-    value = step.get("value", step.get("w", np.nan))
-    return (stat if stat in ("w", "tau") else "robust"), float(value)
+    return (stat if stat in ("w", "tau") else "robust"), float(step.get("value", np.nan))
 
 
 def log_mdb(step: dict) -> tuple[str, str]:
-    """MDB of a log step in report units (image µm, control m; folders of earlier versions
-    stored model units: image mm)."""
-    mdb = step.get("mdb")
-    obs = step.get("observations") or [""]
+    """MDB of a log step as written (summary.json: `mdb` in `mdb_unit`)."""
+    mdb, unit = step.get("mdb"), step.get("mdb_unit", "")
     if mdb is None or not np.isfinite(mdb):
         return "-", ""
-    if "mdb_unit" in step:
-        unit = step["mdb_unit"]
-        return (f"{mdb:.3f}" if unit == "m" else f"{mdb:.1f}" if unit else f"{mdb:.4g}"), unit
-    if obs[0].startswith("image"):
-        return f"{mdb * 1e3:.1f}", "µm"
-    if obs[0].startswith("control"):
-        return f"{mdb:.3f}", "m"
-    return f"{mdb:.4g}", ""
+    return (f"{mdb:.3f}" if unit == "m" else f"{mdb:.1f}" if unit else f"{mdb:.4g}"), unit

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
 
 RTOL = 1e-6  # relative agreement of recomputed sums (the files hold every digit)
 
@@ -163,7 +163,7 @@ def _report_rms(res: Results) -> list[Finding]:
 
 
 def check_folder(folder, rtol: float = RTOL) -> list[Finding]:
-    """check_results of a result folder (read with output.result_folder.read_results)."""
-    from baarda.output.result_folder import read_results
+    """check_results of a result folder (read with io.result_folder.read_results)."""
+    from baarda.io.result_folder import read_results
 
     return check_results(read_results(folder), rtol)

@@ -1,78 +1,90 @@
-"""Power curves of a detection-power study: the share of planted blunders each strategy
-located against their size in MDB, with the B-method's curve of the w-test (docs/
-evaluation.md); as PNG and a self-contained HTML page."""
+"""The report of a detection-power study (`baarda evaluate`): the power curves drawn from
+the files the study wrote (power.csv: the located share per size class with its 95 %
+interval, b_method_power.csv: the B-method's curve of the w-test; docs/evaluation.md), as
+PNG and a self-contained HTML page.  Nothing is recomputed here."""
 
 from __future__ import annotations
 
-import base64
-import html
+import json
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
-from scipy.stats import norm
+import pandas as pd
+from markupsafe import Markup
 
-from baarda.evaluation.rates import clopper_pearson
-from baarda.evaluation.study import Study
-from baarda.quality.distributions import b_method
 from baarda.report.plots import plt, to_png
 
-BINS = 8
+FIRST = "first adjustment: |w| > k"
 
 
-def b_method_power(size_mdb: np.ndarray, alpha0: float, beta0: float) -> np.ndarray:
-    """P(|w| > k) for a blunder of `size_mdb` MDB: the w-test's noncentrality is
-    size_mdb * delta0 (delta0 of alpha0, beta0), so 1 MDB gives beta0."""
-    bm = b_method(alpha0, beta0)
-    k = norm.ppf(1 - alpha0 / 2)
-    d = np.abs(size_mdb) * bm.delta0
-    return norm.sf(k - d) + norm.cdf(-k - d)
-
-
-def power_curves(study: Study) -> bytes | None:
-    """PNG of the located share against |size| in MDB per strategy (95 % intervals), the
-    share significant in the first adjustment and the B-method's curve; None without
-    blunders."""
-    b = study.blunders
-    if not len(b):
+def power_curves(summary: dict, power: pd.DataFrame, curve: pd.DataFrame) -> bytes | None:
+    """PNG of the located share against |size| in MDB per series (95 % intervals), with
+    the B-method's curve; the legend beside the axes; None without blunders."""
+    if not len(power):
         return None
-    o = study.options
-    size = np.abs(b["size_mdb"].to_numpy(float))
-    lo, hi = float(size.min()), float(size.max())
-    edges = np.linspace(lo, hi, BINS + 1) if hi > lo else np.array([lo - 0.05, hi + 0.05])
-    fig, ax = plt.subplots(figsize=(7.5, 4.5))
-    x = np.linspace(0, max(hi, 1.0) * 1.1, 200)
-    ax.plot(x, b_method_power(x, o.tests.alpha0, o.tests.beta0), color="black", lw=1,
-            label=f"B-method, w-test (alpha0 {o.tests.alpha0:g})")
-    first = b.drop_duplicates(["trial", "kind", "photo", "point", "component"])
-    series = [("first adjustment: |w| > k", first, "significant_first")] + [
-        (name, b[b["strategy"] == name], "located") for name in o.strategies]
-    for n, (name, part, col) in enumerate(series):
-        s = np.abs(part["size_mdb"].to_numpy(float))
-        hit = part[col].to_numpy(bool)
-        mids, rate, err = [], [], []
-        for a, z in zip(edges[:-1], edges[1:], strict=True):
-            sel = (s >= a) & (s <= z)
-            if sel.any():
-                k, m = int(hit[sel].sum()), int(sel.sum())
-                ci = clopper_pearson(k, m)
-                mids.append(0.5 * (a + z) + 0.01 * n * (z - a))
-                rate.append(k / m)
-                err.append((k / m - ci[0], ci[1] - k / m))
-        if mids:
-            ax.errorbar(mids, rate, yerr=np.array(err).T, marker="o", ms=4, capsize=2,
-                        lw=1, ls="--" if col == "significant_first" else "-", label=name)
+    fig, ax = plt.subplots(figsize=(8.5, 4.2))
+    ax.plot(curve["size_mdb"], curve["power"], color="black", lw=1,
+            label=f"B-method, w-test (alpha0 {summary.get('alpha0', float('nan')):g})")
+    for n, (name, part) in enumerate(power.groupby("series", sort=False)):
+        width = (part["hi"] - part["lo"]).to_numpy(float)
+        mid = 0.5 * (part["lo"] + part["hi"]).to_numpy(float) + 0.01 * n * width
+        rate = part["rate"].to_numpy(float)
+        err = np.vstack([rate - part["ci_lo"].to_numpy(float),
+                         part["ci_hi"].to_numpy(float) - rate])
+        ax.errorbar(mid, rate, yerr=err, marker="o", ms=4, capsize=2, lw=1,
+                    ls="--" if name == FIRST else ":" if "identified" in name else "-",
+                    label=name)
     ax.set_xlabel("blunder size in units of the observation's own MDB")
-    ax.set_ylabel("share located")
+    ax.set_ylabel("share detected / identified")
     ax.set_ylim(-0.02, 1.02)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return to_png(fig)
 
 
-def study_html(study: Study, png: bytes | None) -> str:
-    """A self-contained HTML page: the summary lines and the power curves."""
-    lines = "".join(f"<li>{html.escape(s)}</li>" for s in study.summary().splitlines())
-    img = (f'<img alt="power curves" src="data:image/png;base64,'
-           f'{base64.b64encode(png).decode()}">' if png else "<p>no blunders planted</p>")
-    return ("<!doctype html><html><head><meta charset='utf-8'><title>baarda evaluate"
-            "</title></head><body><h1>Detection power</h1><ul>" + lines + "</ul>" + img
-            + "</body></html>\n")
+def read_study(file: Callable[[str], Path]) -> tuple[dict, pd.DataFrame, pd.DataFrame]:
+    """summary.json, power.csv and b_method_power.csv of a study (`file(name)`: the path)."""
+    summary = json.loads(Path(file("summary.json")).read_text(encoding="utf-8"))
+    power = pd.read_csv(file("power.csv"), keep_default_na=False, na_values=[""])
+    curve = pd.read_csv(file("b_method_power.csv"))
+    return summary, power, curve
+
+
+def study_html(summary: dict, power: pd.DataFrame, png: bytes | None,
+               templates: str | Path | None = None) -> str:
+    """A self-contained HTML page in the reports' look: the summary lines, the power
+    curves (legend beside them) and the counts per size class, strategies side by side."""
+    from baarda.report.html_base import esc, figure, page, table
+    from baarda.report.plots import Plot
+
+    lines = "".join(f"<li>{esc(s)}</li>" for s in summary.get("summary", []))
+    sections = [{"id": "summary", "nav": "Summary", "title": "Summary",
+                 "body": Markup(f"<ul>{lines}</ul>")}]
+    if png is not None:
+        sections.append({"id": "curves", "nav": "Power curves", "title": "Power curves",
+                         "body": Markup(figure(Plot(
+                             "power", "power curves", png, "Share of the planted blunders "
+                             "located against their size in units of the observation's own "
+                             "MDB, with 95 % Clopper-Pearson intervals; black: the "
+                             "B-method's power of the w-test.")))})
+        wide = power.assign(cls=[f"{a:.2f} .. {b:.2f}" for a, b in zip(
+            power["lo"], power["hi"], strict=True)], cell=[
+            f"{k}/{n} = {r:.2f}" for k, n, r in zip(power["located"], power["n"],
+                                                   power["rate"], strict=True)])
+        wide = wide.pivot_table(index="cls", columns="series", values="cell",
+                                aggfunc="first", sort=False).reset_index().rename(
+            columns={"cls": "size class (MDB)"}).fillna("")
+        sections.append({"id": "counts", "nav": "Counts per class",
+                         "title": "Located per size class (strategies side by side)",
+                         "body": Markup(table(wide, text_cols=tuple(wide.columns),
+                                              attrs='id="power-counts"'))})
+    else:
+        sections.append({"id": "curves", "nav": "Power curves", "title": "Power curves",
+                         "body": Markup("<p>no blunders planted</p>")})
+    o = summary.get("plan") or {}
+    sub = (f"{summary.get('trials')} trials of {o.get('strips', '?')} x "
+           f"{o.get('photos_per_strip', '?')} photos, alpha0 {summary.get('alpha0')}, beta0 "
+           f"{summary.get('beta0')}")
+    return page("evaluation", templates, title="simulated blocks", subtitle=sub,
+                sections=sections, footer=f"baarda evaluate · run {summary.get('run', '')}")

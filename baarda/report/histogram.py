@@ -35,6 +35,10 @@ class Histogram:
         return self.n * (ndtr(hi) - ndtr(lo))
 
 
+#: the most classes of a histogram (a text histogram prints a line for each)
+MAX_CLASSES = 10_000
+
+
 def classes(width: float, lo: float, hi: float) -> np.ndarray:
     """Class centres lo, lo + width, ..., hi (the range must hold a whole number of classes)."""
     if not width > 0:
@@ -42,6 +46,9 @@ def classes(width: float, lo: float, hi: float) -> np.ndarray:
     if not hi > lo:
         raise ValueError(f"histogram range: upper end {hi} must exceed lower end {lo}")
     k = (hi - lo) / width
+    if not k <= MAX_CLASSES:
+        raise ValueError(f"the range {lo} .. {hi} in classes of {width} would be {k:.3g} "
+                         f"classes: at most {MAX_CLASSES}")
     if abs(k - round(k)) > 1e-9 * max(1.0, abs(k)):
         raise ValueError(f"the range {lo} .. {hi} is not a whole number of classes of {width}")
     return lo + width * np.arange(int(round(k)) + 1)

@@ -1,36 +1,52 @@
-"""The pieces every HTML page of the report is made of: the style sheet, escaped text,
-numbers, tables and embedded figures (base64 PNG, no network access)."""
+"""The pieces every HTML page of the reports is made of: the Jinja2 templates
+(report/templates: the pages, the style sheet and the macros for tables, figures, the
+quality check and the sign-off block; a user's folder of templates of the same names
+overrides them), escaped text, the formatting rules of numbers, tables and embedded
+figures (base64 PNG, no network access).
+
+Number rules: a fixed number of decimals per column (format specs like ".3f"), no "-0",
+no "True"/"False" (yes / blank), "-" for a missing value.
+"""
 
 from __future__ import annotations
 
 import base64
 import html
+import re
+from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from jinja2 import ChoiceLoader, Environment, FileSystemLoader, StrictUndefined
 
 from baarda.report.plots import Plot
 
-CSS = """
-body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;margin:0;color:#222}
-header{background:#1f3b5a;color:#fff;padding:14px 24px}
-header h1{margin:0;font-size:22px} header p{margin:4px 0 0;font-size:13px;opacity:.85}
-header p.bad{background:#fff;color:#b00020;padding:4px 8px;border-radius:3px;opacity:1}
-nav{padding:6px 24px;background:#e8eef5;font-size:13px}
-nav a{margin-right:14px;color:#1f3b5a}
-main{padding:8px 24px 40px;max-width:1400px}
-h2{border-bottom:2px solid #1f3b5a;padding-bottom:2px;margin-top:28px;font-size:18px}
-table{border-collapse:collapse;font-size:12px;margin:6px 0}
-th,td{border:1px solid #ccd;padding:2px 6px;text-align:right;white-space:nowrap}
-th{background:#eef2f7} td.t,th.t{text-align:left}
-tr.rejected td{background:#fbd5d5} tr.flagged td{background:#fde7c8}
-tr.uncontrolled td{color:#888}
-.ok{color:#146c2e;font-weight:bold} .bad{color:#b00020;font-weight:bold} .note{color:#555}
-pre{font-size:11px;line-height:1.15;background:#f7f7f7;padding:6px;overflow-x:auto}
-figure{margin:10px 0} figcaption{font-size:12px;color:#444;max-width:1100px}
-img{max-width:100%;border:1px solid #ddd}
-.facts{font-size:14px;line-height:1.5} #render-status{font-size:11px;color:#666}
-"""
+TEMPLATES = Path(__file__).parent / "templates"
+CSS = (TEMPLATES / "style.css").read_text(encoding="utf-8")
+
+
+@lru_cache(maxsize=4)
+def environment(user_dir: str | None = None) -> Environment:
+    """The templates: a user's folder first (restyling, branding), then baarda's own."""
+    loaders = [FileSystemLoader(user_dir)] if user_dir else []
+    return Environment(loader=ChoiceLoader([*loaders, FileSystemLoader(str(TEMPLATES))]),
+                       autoescape=True, undefined=StrictUndefined, trim_blocks=False)
+
+
+def page(name: str, user_dir: str | Path | None = None, **context) -> str:
+    """A whole page from template `name` (adjustment, quality, evaluation, plan)."""
+    env = environment(str(user_dir) if user_dir else None)
+    context.setdefault("banners", [])
+    context.setdefault("sections", [])
+    context.setdefault("footer", "")
+    return env.get_template(f"{name}.html.j2").render(**context) + "\n"
+
+
+def macro(name: str):
+    """A macro of macros.html.j2 (table, figure, check, meta, signoff)."""
+    return getattr(environment().get_template("macros.html.j2").module, name)
+
 
 def esc(x) -> str:
     return html.escape(str(x))
@@ -41,32 +57,66 @@ def num(x: float, decimals: int) -> str:
     return f"{round(float(x), decimals) + 0.0:.{decimals}f}"
 
 
+def cell(v, f: str | None = None) -> str:
+    """A table cell as text by the number rules (module docstring); f: a format spec."""
+    if isinstance(v, bool | np.bool_):
+        return "yes" if v else ""
+    if isinstance(v, float | np.floating | int | np.integer) and not isinstance(v, bool):
+        x = float(v)
+        if not np.isfinite(x):
+            return "∞" if np.isinf(x) and x > 0 and f == "inf" else "-"
+        if isinstance(v, int | np.integer) and not f:
+            return str(int(v))
+        f = f or ".4g"
+        m = re.fullmatch(r"([+]?)\.(\d+)f", f)
+        if m:
+            s = num(x, int(m.group(2)))
+            return ("+" + s if m.group(1) and not s.startswith("-") else s)
+        s = format(x, f)
+        return s[1:] if re.fullmatch(r"-0(\.0*)?(e[+-]?0+)?", s) else s
+    return "" if v is None else str(v)
+
+
+def csv_link(df: pd.DataFrame, name: str) -> str:
+    """The whole table as a CSV data URI (the report stays one file)."""
+    data = df.to_csv(index=False).encode("utf-8")
+    return "data:text/csv;base64," + base64.b64encode(data).decode("ascii")
+
+
 def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
-          text_cols: tuple[str, ...] = (), attrs: str = "") -> str:
-    """An HTML table of `df`; numbers formatted with `fmt` (column -> format spec)."""
+          text_cols: tuple[str, ...] = (), attrs: str = "", *, note: str = "",
+          csv: str | None = None, csv_text: str = "", download: str | None = None) -> str:
+    """An HTML table of `df`, numbers formatted with `fmt` (column -> format spec);
+    `attrs` may name its id; `note` and a link (`csv`: a data URI or a relative path) above
+    it."""
     fmt = fmt or {}
-    head = "".join(f"<th{' class=t' if c in text_cols else ''}>{esc(c)}</th>"
-                   for c in df.columns)
-    rows = []
+    m = re.search(r'id="([^"]+)"', attrs)
     classes = row_class(df) if row_class is not None else [""] * len(df)
-    for rec, cls in zip(df.itertuples(index=False), classes, strict=True):
-        cells = []
-        for c, v in zip(df.columns, rec, strict=True):
-            if isinstance(v, float | np.floating):
-                f = fmt.get(c, ".4g")
-                s = ("-" if not np.isfinite(v) else num(v, int(f[1:-1])) if f.endswith("f")
-                     else format(v, f))
-            else:
-                s = str(v)
-            cells.append(f"<td{' class=t' if c in text_cols else ''}>{esc(s)}</td>")
-        rows.append(f"<tr{f' class={cls}' if cls else ''}>{''.join(cells)}</tr>")
-    return f"<table {attrs}><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>"
+    cols = [str(c) for c in df.columns]
+    rows = [(cls, [(c, cell(v, fmt.get(c))) for c, v in zip(cols, rec, strict=True)])
+            for rec, cls in zip(df.itertuples(index=False), classes, strict=True)]
+    view = {"id": m.group(1) if m else "", "columns": cols, "text_cols": set(text_cols),
+            "rows": rows, "note": note, "csv": csv, "csv_text": csv_text or "whole table (CSV)",
+            "download": download}
+    return str(macro("table")(view))
 
 
-def figure(p: Plot | None) -> str:
+def worst_table(df: pd.DataFrame, order: np.ndarray | pd.Series, n: int, name: str,
+                what: str, fmt: dict[str, str] | None = None, **kw) -> str:
+    """The n worst rows of `df` (`order`: larger is worse), in that order, with the whole
+    table linked as CSV when it has more; what: the rows' noun, e.g. 'photos'."""
+    if len(df) <= n:
+        return table(df, fmt, **kw)
+    key = np.nan_to_num(np.asarray(order, float), nan=-np.inf)
+    keep = np.argsort(-key, kind="stable")[:n]
+    return table(df.iloc[keep].reset_index(drop=True), fmt, note=(
+        f"The {n} worst of {len(df)} {what} shown, worst first;"), csv=csv_link(df, name),
+        csv_text=f"all {len(df)} {what} (CSV)", download=f"{name}.csv", **kw)
+
+
+def figure(p: Plot | None, width: int | None = None) -> str:
     if p is None:
         return ""
-    b64 = base64.b64encode(p.png).decode("ascii")
-    return (f'<figure id="fig-{esc(p.name)}"><img alt="{esc(p.title)}" '
-            f'src="data:image/png;base64,{b64}"><figcaption>{esc(p.caption)}</figcaption>'
-            "</figure>")
+    return str(macro("figure")({"name": p.name, "title": p.title, "caption": p.caption,
+                                   "b64": base64.b64encode(p.png).decode("ascii"),
+                                   "width": width}))

@@ -6,21 +6,27 @@ A small script at the end writes into #render-status whether every image decoded
 
 from __future__ import annotations
 
+import os
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from markupsafe import Markup
 
-from baarda.output.result_folder import UNITS, Results
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
 from baarda.report import maps
 from baarda.report.anaplot import format_log, log_rows, snooping_table
 from baarda.report.footprint import footprints, image_extent
+from baarda.report.front import accuracy, check_view, metadata, patterns, quality_check
+from baarda.report.geometry import geometry_plots
 from baarda.report.histogram import format_histogram
-from baarda.report.html_base import CSS, esc, figure, num, table
+from baarda.report.html_base import csv_link, esc, figure, macro, num, page, table, worst_table
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.quality_html import tables_html
+from baarda.report.separability import counts_line, least_separable, msb_histogram
 from baarda.report.stats import (
-    first_rows,
     gnss_imu_per_strip,
     group_statistics,
     largest_rms,
@@ -30,28 +36,20 @@ from baarda.report.stats import (
     weakest,
 )
 from baarda.report.text_report import ReportOptions, image_histograms, w_hists
-
-SCRIPT = """
-<script>
-window.addEventListener('load', function () {
-  var imgs = document.images, ok = 0, bad = [];
-  for (var i = 0; i < imgs.length; i++) {
-    if (imgs[i].complete && imgs[i].naturalWidth > 0) ok++; else bad.push(imgs[i].alt);
-  }
-  var s = document.getElementById('render-status');
-  s.setAttribute('data-rendered', ok);
-  s.setAttribute('data-total', imgs.length);
-  s.textContent = (bad.length ? 'PLOTS FAILED: ' + bad.join(', ') + '; ' : '') +
-                  ok + ' of ' + imgs.length + ' plots rendered';
-});
-</script>
-"""
+from baarda.schema import UNITS
 
 
 def _snoop_table(res: Results, opt: ReportOptions) -> str:
-    t = snooping_table(res.obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top,
-                      units=res.units)
-    t, note = first_rows(t, opt.max_rows)
+    every = snooping_table(res.obs, sort=opt.sort, min_abs_w=opt.min_abs_w, top=opt.top,
+                           units=res.units)
+    limit = min(opt.max_rows, SNOOP_ROWS)
+    t, note = every, ""
+    if len(every) > limit:  # every rejected row, then the first others in this order
+        rej = (every["flag"] == "REJECTED").to_numpy()
+        keep = rej | (np.cumsum(~rej) <= max(limit - int(rej.sum()), 0)) & ~rej
+        t = every[keep]
+        note = (f"; {len(t)} of {len(every)} such rows shown: every rejected one and the "
+                "first others in this order")
     show = pd.DataFrame({
         "kind": t["kind"], "photo/model": t["frame"], "point": t["point"], "c": t["component"],
         "RED-N": t["redundancy"], "PARX": t["residual"], "EXPD": t["sigma_residual"],
@@ -64,7 +62,10 @@ def _snoop_table(res: Results, opt: ReportOptions) -> str:
             + table(show, {"RED-N": ".3f", "PARX": ".4g", "EXPD": ".4g", "SIGF (w)": ".2f"},
                     lambda d: [cls.get(f, "") for f in d["flag"]],
                     ("kind", "photo/model", "point", "c", "unit", "flag"),
-                    'id="snooping-table"'))
+                    'id="snooping-table"', csv=csv_link(every, "snooping_table")
+                    if len(t) < len(every) else None, csv_text=f"all {len(every)} rows (CSV)",
+                    download="snooping_table.csv", note="" if len(t) == len(every) else
+                    "Largest |w| first;"))
 
 
 def _log_table(summary: dict) -> str:
@@ -106,7 +107,7 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     hists = image_histograms(res.obs, opt)
     out: dict[str, Plot | None] = {}
     out["hist_image"] = (residual_histograms(hists, "µm") if hists[2][1].n else None)
-    wh = w_hists(res.obs, opt)
+    wh = w_hists(res.obs, opt, res.summary.get("observation_groups"))
     out["hist_w"] = w_histogram(wh, res.k_w) if wh else None
     outlines = {}
     if res.photos is not None and res.points is not None and res.cameras:
@@ -122,6 +123,8 @@ def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     out["redundancy_map"] = maps.redundancy_map(res, pts, opt.max_points) if stats else None
     out["reliability_map"] = (maps.reliability_map(res, pts, opt.max_points) if stats
                               else None)
+    out.update(geometry_plots(res))
+    out["msb_mdb"] = msb_histogram(res.obs)
     return out
 
 
@@ -136,10 +139,23 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
                              "MDB": t["mdb"], "unit": [UNITS.get(k, "") for k in t["kind"]],
                              "external": t["external_max"]})
-        out += f"<h3>{esc(title)}</h3>" + table(
+        out += f'<div class="wrap"><h3>{esc(title)}</h3>' + table(
             show, {"r": ".3f", "w": ".2f", "MDB": ".4g", "external": ".4g"},
-            text_cols=("kind", "photo/model", "point", "c", "unit"))
-    return out
+            text_cols=("kind", "photo/model", "point", "c", "unit")) + "</div>"
+    return f'<div class="grid2">{out}</div>'  # side by side where the page is wide
+
+
+def _separability(res: Results, opt: ReportOptions) -> str:
+    """The least separable observations (issue 30; the histogram of MSB/MDB stands beside
+    the reliability maps)."""
+    t = least_separable(res.obs, opt.worst)
+    if not len(t):
+        return ""
+    t = t.rename(columns={"frame": "photo/model"})
+    return (f"<h3>Least separable</h3><p>{esc(counts_line(res.obs))}; MDB and MSB in the "
+            "units of the kind</p>" + table(
+                t, {"rho_max": ".4f", "MDB": ".4g", "MSB": ".4g", "MSB/MDB": ".2f"},
+                text_cols=("kind", "photo/model", "point", "c", "partner")))
 
 
 def _verdict_class(line: str) -> str:
@@ -166,19 +182,82 @@ def _variance_components(summary: dict) -> pd.DataFrame | None:
     return t if len(parts) > 1 else t.drop(columns="adjustment")
 
 
+SNOOP_ROWS = 60  # rows of the snooping table in the HTML (every rejected one among them)
+HTML_ROWS = 20  # rows of a long table shown in the HTML (the worst; the whole as CSV)
+
+
+def _observations_link(res: Results, out: Path | None) -> tuple[str, str]:
+    """A link to the result folder's observation table, relative to the report's place."""
+    name = ("observations.csv" if (res.folder / "observations.csv").is_file()
+            else "observations.parquet")
+    target = res.folder / name
+    if out is None:
+        return target.resolve().as_uri(), name
+    return Path(os.path.relpath(target.resolve(), out.resolve().parent)).as_posix(), name
+
+
+def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[dict]:
+    """The sections both reports open with: the quality check (its rows linked to the
+    sections of `rest`, the page's other sections), the accuracy statement on the check
+    points, the rejection patterns and the metadata with the sign-off block."""
+    ids = {"check", "accuracy", "patterns", "metadata"} | {s["id"] for s in rest} | {
+        i for s in rest for i in re.findall(r'id="([^"]+)"', str(s["body"]))}
+    acc = accuracy(res)
+    body = "".join(f'<p class="bad">{esc(w)}</p>' if "No check points" in w or
+                   "Only" in w else f"<p>{esc(w)}</p>" for w in acc.warnings)
+    if acc.n:
+        body = (table(acc.table, {"mean m": ".3f", "std m": ".3f", "RMSE m": ".3f",
+                                  "largest |d| m": ".3f"}, text_cols=("axis",),
+                      attrs='id="accuracy-table"')
+                + macro("meta")(acc.statements) + body
+                + "<h3>Check points (adjusted - given), largest miss first</h3>"
+                + worst_table(acc.misses, acc.misses["d"], HTML_ROWS, "check_points",
+                              "check points", {c: ".3f" for c in ("dX", "dY", "dZ", "d")}
+                              | {"sigma": ".3f", "ratio": ".1f"}, text_cols=("point",),
+                              attrs='id="check-points"'))
+    groups, advice = patterns(res)
+    pat = ""
+    if advice:
+        pat += "<h3>Advice</h3>" + table(pd.DataFrame(
+            [{"what": a.what, "remedy": a.remedy, "where": a.where} for a in advice]),
+            text_cols=("what", "remedy", "where"), attrs='id="advice" class="advice"')
+    if len(groups):
+        pat += ("<h3>Rejections by kind, component and sign of the residual</h3>"
+                + table(groups, text_cols=("kind", "component", "residual sign",
+                                           "most on photo", "strips"),
+                        attrs='id="rejection-groups"'))
+    if not pat:
+        ids.discard("patterns")
+    check = macro("check")(check_view(quality_check(res), ids))
+    out = [{"id": "check", "nav": "Quality check", "title": "Quality check",
+            "body": Markup(check)},
+           {"id": "accuracy", "nav": "Accuracy", "title": "Accuracy on check points",
+            "body": Markup(body)}]
+    if pat:
+        out.append({"id": "patterns", "nav": "Patterns", "title": "Rejection patterns",
+                    "body": Markup(pat)})
+    out.append({"id": "metadata", "nav": "Metadata", "title": "Run, input and settings",
+                "body": Markup(macro("meta")(metadata(res)) + macro("signoff")())})
+    return out
+
+
 def html_report(res: Results, opt: ReportOptions | None = None,
-                calibration: list | None = None) -> str:
+                calibration: list | None = None, out: Path | None = None,
+                templates: str | Path | None = None) -> str:
     """The whole report as one HTML string; `calibration`: the quality report's camera,
-    control and GNSS parts (quality_report.calibration_parts) when they are at hand."""
+    control and GNSS parts (quality_report.calibration_parts) when they are at hand; `out`:
+    where it will be written (links to the result folder are relative to it);
+    `templates`: a folder of templates that override baarda's own."""
     opt = opt or ReportOptions()
     figs = plots(res, opt)
     passed = res.global_test_passed
-    summary = "".join(f"<h3>{esc(s.title)}</h3><pre>{esc(chr(10).join(s.lines))}</pre>"
-                      for s in res.sections) or "<p>summary.json has no sections</p>"
-    sec = []
-    sec.append(("summary", "Project summary",
-                f'<p class="facts">source {esc(res.summary.get("source", "?"))}</p>' + summary
-                + "".join(f"<p>note: {esc(n)}</p>" for n in res.notes)))
+    summary = ('<div class="grid2">' + "".join(
+        f"<div><h3>{esc(s.title)}</h3><pre>{esc(chr(10).join(s.lines))}</pre></div>"
+        for s in res.sections) + "</div>") if res.sections else \
+        "<p>summary.json has no sections</p>"
+    sec = [("summary", "Project summary",
+            f'<p class="facts">source {esc(res.summary.get("source", "?"))}</p>' + summary
+            + "".join(f"<p>note: {esc(n)}</p>" for n in res.notes))]
     gt_lines = res.global_test_lines() or ["global test: not available"]
     sec.append(("global", "Global test", '<p id="global-test">' + "<br>".join(
         f'<span class="{_verdict_class(x)}">{esc(x)}</span>' for x in gt_lines) + "</p>"
@@ -204,9 +283,13 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     body = _group_table(res)
     if res.photos is not None and (res.obs["kind"] == "image").any():
         body += "<h3>Per strip</h3>" + _image_table(per_strip(res.obs, res.strip_of()), "strip")
-        t, note = largest_rms(per_photo(res.obs), opt.max_rows, "photos")
-        body += (f"<details><summary>Per photo{esc(note)}</summary>"
-                 + _image_table(t, "photo") + "</details>")
+        every = per_photo(res.obs)
+        t, note = largest_rms(every, min(opt.max_rows, HTML_ROWS), "photos")
+        link = (f' <a download="per_photo.csv" href="{csv_link(every, "per_photo")}">all '
+                f"{len(every)} photos (CSV)</a>" if len(t) < len(every) else "")
+        body += (f"<h3>Per photo{esc(note)}</h3><p class=more>largest RMS x+y first{link}</p>"
+                 + _image_table(t.iloc[np.argsort(-t["rms_xy"].fillna(-1.0).to_numpy(),
+                                                  kind="stable")], "photo"))
     if res.photos is not None and res.obs["kind"].isin(["gnss", "imu"]).any():
         t = gnss_imu_per_strip(res.obs, res.strip_of())
         body += "<h3>GNSS and IMU per strip</h3>" + table(
@@ -220,6 +303,10 @@ def html_report(res: Results, opt: ReportOptions | None = None,
             text_cols=("model", "at"))
     sec.append(("groups", "Group statistics (rejected observations left out; image and model "
                 "µm, control m)", body))
+    geo = "".join(str(figure(figs.get(k))) for k in ("centres", "ground_vectors",
+                                                     "overlap", "rays", "image_grid"))
+    if geo:
+        sec.append(("geometry", "Geometry", f'<div class="grid3">{geo}</div>'))
     texts = "".join(
         f"<details><summary>text histogram: image {esc(n)}</summary><pre>"
         f"{esc(format_histogram(h, f'IMAGE {n.upper()} RESIDUALS', 'µm', opt.line_width))}"
@@ -229,24 +316,31 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     sec.append(("maps", "Block map", figure(figs["block_map"])))
     sec.append(("vectors", "Image residual vectors", figure(figs["vectors"])
                 or "<p>no image coordinates in the results</p>"))
-    sec.append(("reliability", "Redundancy and reliability", figure(figs["redundancy_map"])
-                + figure(figs["reliability_map"]) + _weakest_tables(res, opt)
+    sec.append(("reliability", "Redundancy and reliability",
+                f'<div class="grid3">{figure(figs["redundancy_map"])}'
+                f'{figure(figs["reliability_map"])}{figure(figs.get("msb_mdb"))}</div>'
+                + _weakest_tables(res, opt) + _separability(res, opt)
                 if figs["redundancy_map"] else
                 "<p>no redundancy numbers in the results (adjusted without statistics)</p>"))
-    sec.append(("table", "Snooping table (ANAPLOT)", _snoop_table(res, opt)))
-    nav = "".join(f'<a href="#{k}">{esc(t.split(" (")[0])}</a>' for k, t, _ in sec)
-    main = "".join(f'<section id="{k}"><h2>{esc(t)}</h2>{b}</section>' for k, t, b in sec)
-    warn = "".join(f'<p class="bad">{esc(f)}</p>' for f in res.failures)
-    head = (f"<header><h1>Adjustment report: {esc(res.title)}</h1>{warn}<p>{esc(res.folder)} · "
-            + (f"run {esc(res.run)} · " if res.run else "") +
-            f"global test {'n/a' if passed is None else 'accepted' if passed else 'REJECTED'} · "
-            f"{res.summary.get('n_rejected', 0)} rejected, {res.summary.get('n_flagged', 0)} "
-            "flagged</p></header>")
-    return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
-            f"<title>baarda report: {esc(res.title)}</title><style>{CSS}</style></head><body>"
-            f"{head}<nav>{nav}</nav><main>{main}"
-            '<p id="render-status" data-rendered="0">plots not checked (no script)</p>'
-            f"</main>{SCRIPT}</body></html>\n")
+    href, name = _observations_link(res, out)
+    sec.append(("table", "Snooping table (ANAPLOT)", _snoop_table(res, opt)
+                + f'<p class=more>Every observation with r, w, MDB and the external '
+                  f'reliability: <a href="{esc(href)}">{esc(name)}</a> of the result '
+                  "folder.</p>"))
+    sections = [{"id": k, "nav": t.split(" (")[0], "title": t, "body": Markup(b)}
+                for k, t, b in sec]
+    sections = front_sections(res, opt, sections) + sections
+    subtitle = (f"{res.folder.name} · " + (f"run {res.run} · " if res.run else "")
+                + f"global test {'n/a' if passed is None else 'accepted' if passed else 'REJECTED'}"
+                f" · {res.summary.get('n_rejected', 0)} rejected, "
+                f"{res.summary.get('n_flagged', 0)} flagged")
+    return page("adjustment", templates, title=res.title, subtitle=subtitle,
+                banners=failures(res.summary), sections=sections, footer=footer(res))
+
+
+def footer(res: Results) -> str:
+    return (f"baarda {res.manifest.get('baarda', '')} · run {res.run or 'not recorded'} · "
+            f"{res.manifest.get('finished', '')}")
 
 
 def write_html(path: str | Path, text: str) -> None:

@@ -12,7 +12,7 @@ import pandas as pd
 from matplotlib.collections import PolyCollection
 from matplotlib.ticker import MaxNLocator
 
-from baarda.output.result_folder import Results
+from baarda.io.result_folder import Results
 from baarda.report.plots import COLORS, Plot, to_png
 from baarda.report.stats import obs_label, pair_xy
 
@@ -131,6 +131,7 @@ def block_map(res: Results, outlines: dict[str, np.ndarray], annotate: int = 40,
                    linewidths=1.5, label=f"flagged |w| > k ({len(fl)} points)", zorder=4)
     ax.set_aspect("equal")
     ax.autoscale_view()
+    ax.ticklabel_format(useOffset=False, style="plain")  # coordinates as they are
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
     ax.grid(alpha=0.2)
@@ -194,7 +195,7 @@ def residual_vectors(res: Results, exaggeration: float | None = None, limit: int
     ref = _nice(p95) if p95 > 0 else 1.0
     rows = int(np.ceil(len(photos) / cols))
     ncol = min(cols, len(photos))
-    fig, axes = plt.subplots(rows, ncol, figsize=(3.3 * ncol, 3.3 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, ncol, figsize=(2.9 * ncol, 2.9 * rows), squeeze=False)
     marked = []
     s = 1e-3 * exaggeration  # µm -> drawn mm
     for ax, p in zip(axes.ravel(), photos, strict=False):
@@ -226,7 +227,7 @@ def residual_vectors(res: Results, exaggeration: float | None = None, limit: int
         ax.axis("off")
     fig.suptitle(f"Image residual vectors × {exaggeration:g} (x, y in mm); red: rejected, "
                  "orange: flagged", fontsize=10)
-    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.04, top=1 - 0.55 / (rows * 3.3),
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.04, top=1 - 0.55 / (rows * 2.9),
                         wspace=0.25, hspace=0.3)
     n_all = pairs["photo"].nunique()
     cap = (f"{len(photos)} of {n_all} photos (those with rejected or flagged observations "
@@ -235,26 +236,44 @@ def residual_vectors(res: Results, exaggeration: float | None = None, limit: int
     return Plot("vectors", "Image residual vectors", to_png(fig, tight=False), cap, marked)
 
 
-def _colour_map(ax, fig, pts, col, label, cmap, vmin=None, vmax=None):
+HEXBIN_FROM = 3000  # tie points from which a colour map bins them on a hexagonal grid
+
+
+def _colour_map(ax, fig, pts, col, label, cmap, vmin=None, vmax=None, worst=np.max):
+    """Points coloured by `col`: tie points one by one, or beyond HEXBIN_FROM binned on a
+    hexagonal grid (each cell the `worst` of its points); control and check points always
+    on top; uncontrolled points on a layer of their own, as rings under the colours."""
     have = pts[np.isfinite(pts[col].to_numpy(float))]
     ax.scatter(pts["X"], pts["Y"], s=3, c="#cccccc", zorder=1)
-    for role, m, s in (("tie", "o", 14), ("check", "s", 30), ("control", "^", 50)):
+    unc = pts[pts["uncontrolled"]]
+    if len(unc):
+        ax.scatter(unc["X"], unc["Y"], marker="o", s=40, facecolors="none",
+                   edgecolors="#c2187a", linewidths=0.9, zorder=1.5,
+                   label=f"uncontrolled (r < 0.001): {len(unc)}")
+    sc = None
+    tie = have["role"] == "tie"
+    if tie.sum() > HEXBIN_FROM:
+        sc = ax.hexbin(have.loc[tie, "X"], have.loc[tie, "Y"], C=have.loc[tie, col],
+                       reduce_C_function=worst, gridsize=60, cmap=cmap, vmin=vmin, vmax=vmax,
+                       mincnt=1, zorder=2, linewidths=0.2)
+        roles = (("check", "s", 30), ("control", "^", 50))
+    else:
+        roles = (("tie", "o", 14), ("check", "s", 30), ("control", "^", 50))
+    for role, m, s in roles:
         sel = have["role"] == role
         if sel.any():
             sc = ax.scatter(have.loc[sel, "X"], have.loc[sel, "Y"], c=have.loc[sel, col],
-                            marker=m, s=s, cmap=cmap, vmin=vmin, vmax=vmax, zorder=2,
+                            marker=m, s=s, cmap=cmap, vmin=vmin, vmax=vmax, zorder=3,
                             edgecolors="black" if role != "tie" else "none", linewidths=0.4)
-    if len(have):
+    if len(have) and sc is not None:
         lo = vmin if vmin is not None else float(have[col].min())
         hi = vmax if vmax is not None else float(have[col].max())
         sc.set_clim(lo, hi)
         fig.colorbar(sc, ax=ax, label=label, shrink=0.8)
-    unc = pts[pts["uncontrolled"]]
     if len(unc):
-        ax.scatter(unc["X"], unc["Y"], marker="x", s=30, c="black", zorder=3,
-                   label=f"uncontrolled (r < 0.001): {len(unc)}")
         ax.legend(fontsize=7, loc="upper left")
     ax.set_aspect("equal")
+    ax.ticklabel_format(useOffset=False, style="plain")  # coordinates as they are
     ax.set_xlabel("X [m]")
     ax.set_ylabel("Y [m]")
 
@@ -264,12 +283,15 @@ def redundancy_map(res: Results, pts: pd.DataFrame | None = None,
     pts = point_summary(res) if pts is None else pts
     drawn, sampled = sample_points(pts, max_points)
     fig, ax = plt.subplots(figsize=(8, 6))
-    _colour_map(ax, fig, drawn, "r_min", "smallest redundancy number r", "RdYlGn", 0.0, 1.0)
+    _colour_map(ax, fig, drawn, "r_min", "smallest redundancy number r", "RdYlGn", 0.0, 1.0,
+                worst=np.min)
     ax.set_title("Redundancy numbers: smallest r of each point's observations (triangles: "
                  "control)", fontsize=10)
     n_unc = int(pts["uncontrolled"].sum())
     cap = (f"{int(np.isfinite(pts['r_min']).sum())} points coloured by their smallest "
-           f"redundancy number; {n_unc} with an uncontrolled observation (x){sampled}")
+           f"redundancy number (beyond {HEXBIN_FROM} tie points: the smallest of each "
+           f"hexagonal cell); {n_unc} with an uncontrolled observation (magenta rings)"
+           f"{sampled}")
     return Plot("redundancy_map", "Map of redundancy numbers", to_png(fig), cap)
 
 

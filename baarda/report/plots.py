@@ -48,7 +48,7 @@ def _bars(ax, h: Histogram, color: str) -> None:
 def residual_histograms(hists: list[tuple[str, Histogram]], unit: str,
                         name: str = "hist_image") -> Plot:
     """Side-by-side histograms (e.g. image x, y, x+y) with the outside counts."""
-    fig, axes = plt.subplots(1, len(hists), figsize=(4.2 * len(hists), 3.2), squeeze=False)
+    fig, axes = plt.subplots(1, len(hists), figsize=(3.6 * len(hists), 2.8), squeeze=False)
     for ax, (title, h) in zip(axes[0], hists, strict=True):
         _bars(ax, h, COLORS["active"])
         out = len(h.outside_values)
@@ -64,9 +64,13 @@ def residual_histograms(hists: list[tuple[str, Histogram]], unit: str,
 def w_histogram(hists: list[tuple[str, Histogram]], k: float | None,
                 name: str = "hist_w") -> Plot:
     """Histograms of w with the standard normal curve (scaled to the count) and +-k marked."""
-    fig, axes = plt.subplots(1, len(hists), figsize=(4.2 * len(hists), 3.3), squeeze=False)
+    cols = min(4, len(hists))  # a grid, four per row: readable at any number of groups
+    rows = -(-len(hists) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.5 * cols, 2.75 * rows), squeeze=False)
+    for ax in axes.ravel()[len(hists):]:
+        ax.axis("off")
     caps = []
-    for ax, (title, h) in zip(axes[0], hists, strict=True):
+    for ax, (title, h) in zip(axes.ravel(), hists, strict=False):
         _bars(ax, h, COLORS["active"])
         x = np.linspace(h.centers[0] - h.width / 2, h.centers[-1] + h.width / 2, 400)
         ax.plot(x, h.n * h.width * norm.pdf(x), color="black", lw=1.2, label="N(0, 1)")

@@ -5,34 +5,35 @@ the main HTML report (`tables_html`, the correlations coloured like the heat map
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import matplotlib
 import numpy as np
 import pandas as pd
+from markupsafe import Markup
 
-from baarda.output.result_folder import Results
-from baarda.report.html_base import CSS, esc, figure
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
+from baarda.report.html_base import csv_link, esc, figure, page, table, worst_table
 from baarda.report.plots import Plot, to_png
 from baarda.report.quality_report import Part, calibration_parts, quality_content
 
-
-def format_cell(v, f: str | None) -> str:
-    """A table cell as text: a number in format f (blank when not finite), anything else
-    HTML-escaped (the PDF passes its text cells as they are)."""
-    if isinstance(v, float | np.floating):
-        if not np.isfinite(v):
-            return ""
-        return format(float(v), f) if f else f"{float(v):.6g}"
-    return esc(v)
+HTML_ROWS = 20  # rows of a long table shown (the worst; the whole table linked as CSV)
 
 
-def html_table(t: pd.DataFrame, fmt: dict | None, attrs: str = "") -> str:
-    fmt = fmt or {}
-    head = "".join(f"<th>{esc(c)}</th>" for c in t.columns)
-    rows = "".join("<tr>" + "".join(f"<td>{format_cell(v, fmt.get(c))}</td>" for c, v in
-                                    zip(t.columns, r, strict=True)) + "</tr>"
-                   for r in t.itertuples(index=False))
-    return f"<table {attrs}><tr>{head}</tr>{rows}</table>"
+def _table(p: Part, attrs: str = "") -> str:
+    """A part's table: all rows, or the HTML_ROWS worst (p.order) with the whole as CSV."""
+    t = p.full_in_html if p.full_in_html is not None else p.table
+    text = tuple(c for c in t.columns if t[c].dtype == object)
+    name = re.sub(r"[^a-z0-9]+", "_", p.title.lower()).strip("_")
+    if p.order is not None and len(t) > HTML_ROWS:
+        return str(worst_table(t, p.order, HTML_ROWS, name, p.rows_are, p.fmt,
+                               text_cols=text, attrs=attrs))
+    if p.full_in_html is not None and len(t) > len(p.table):
+        return str(table(p.table, p.fmt, text_cols=text, attrs=attrs, note=(
+            f"{len(p.table)} of {len(t)} rows shown;"), csv=csv_link(t, name),
+            csv_text=f"all {len(t)} rows (CSV)", download=f"{name}.csv"))
+    return str(table(t, p.fmt, text_cols=text, attrs=attrs))
 
 
 def _corr_cell(v: float) -> str:
@@ -53,14 +54,16 @@ def _corr_table(t: pd.DataFrame) -> str:
 
 
 def parts_html(parts: list[Part], figures: bool = True) -> str:
-    """The parts as HTML sections.  figures: draw them, the tables with ids (the quality
-    page); without (the main report), a correlation matrix is coloured like its heat map."""
+    """The parts as HTML.  figures: draw them, the tables with ids (the quality page);
+    without (the main report), a correlation matrix is coloured like its heat map."""
     out = []
     for p in parts:
         if p.kind == "alert":
-            out.append(f'<p class="bad">{esc(p.text)}</p>')
+            out.append(f'<p class="banner">{esc(p.text)}</p>')
         elif p.kind == "heading":
-            out.append(f"<h3>{esc(p.title)}</h3>")
+            ident = "" if figures or p.title not in SECTION_IDS else \
+                f' id="{SECTION_IDS[p.title]}"'
+            out.append(f"<h3{ident}>{esc(p.title)}</h3>")
         elif p.kind == "text":
             out.append("<p>" + "<br>".join(esc(x) for x in p.text.split("\n")) + "</p>")
         elif p.kind == "table":
@@ -69,14 +72,36 @@ def parts_html(parts: list[Part], figures: bool = True) -> str:
                 out.append(title + _corr_table(p.table))
                 continue
             ident = re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
-            out.append(title + html_table(p.table, p.fmt, f'id="q-{ident}"' if figures else ""))
-            if p.full_in_html is not None and len(p.full_in_html) > len(p.table):
-                out.append(f"<details><summary>all {len(p.full_in_html)} rows</summary>"
-                           + html_table(p.full_in_html, p.fmt) + "</details>")
+            out.append(title + _table(p, f'id="q-{ident}"' if figures else ""))
         elif p.kind == "figure" and figures:
-            out.append(figure(Plot(re.sub(r"\W+", "-", p.title), p.title,
-                                   to_png(p.figure()), p.text)))
+            out.append(str(figure(Plot(re.sub(r"\W+", "-", p.title), p.title,
+                                       to_png(p.figure()), p.text))))
     return "".join(out)
+
+
+def quality_sections(parts: list[Part]) -> list[dict]:
+    """The parts as page sections, one per heading (its id from the heading)."""
+    out: list[dict] = []
+    for p in parts:
+        if p.kind == "heading":
+            ident = SECTION_IDS.get(p.title) or re.sub(r"[^a-z0-9]+", "-",
+                                                       p.title.lower()).strip("-")
+            out.append({"id": ident, "nav": p.title.split(" (")[0], "title": p.title,
+                        "parts": []})
+        elif out:
+            out[-1]["parts"].append(p)
+    return [{"id": s["id"], "nav": s["nav"], "title": s["title"],
+             "body": Markup(parts_html(s["parts"]))} for s in out]
+
+
+SECTION_IDS = {"Summary": "summary", "Camera calibration": "camera",
+               "Ground control and check points": "control",
+               "GNSS positions of the projection centres": "gnss",
+               "IMU attitudes of the photos": "imu",
+               "Reprojection errors per image": "reprojection",
+               "Every observation: redundancy number, w-test, MDB": "observations",
+               "Data snooping log": "log",
+               "External reliability of the ground points": "reliability"}
 
 
 def tables_html(res: Results, calibration: list[Part] | None = None) -> str:
@@ -92,12 +117,18 @@ def tables_html(res: Results, calibration: list[Part] | None = None) -> str:
         "reliability.</p>")
 
 
-def quality_page(res: Results, parts: list[Part] | None = None) -> str:
-    """The quality report as a self-contained HTML page (the PDF's content); `parts`:
+def quality_page(res: Results, parts: list[Part] | None = None,
+                 templates: str | Path | None = None) -> str:
+    """The quality report as a self-contained HTML page (the PDF's content): the quality
+    check, accuracy, patterns and metadata first, then the parts; `parts`:
     quality_content(res) when it is at hand."""
+    from baarda.report.html_report import footer, front_sections
+    from baarda.report.text_report import ReportOptions
+
     parts = quality_content(res) if parts is None else parts
-    return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
-            f"<title>baarda quality report: {esc(res.title)}</title><style>{CSS}"
-            "</style></head><body><header><h1>Quality report: "
-            f"{esc(res.title)}</h1><p>{esc(res.folder)}</p></header>"
-            f"<main>{parts_html(parts)}</main></body></html>\n")
+    body = [p for p in parts if p.kind != "alert"]
+    rest = quality_sections(body)
+    sections = front_sections(res, ReportOptions(), rest) + rest
+    return page("quality", templates, title=res.title, subtitle=f"{res.folder.name} · run "
+                f"{res.run or 'not recorded'}", banners=failures(res.summary), sections=sections,
+                footer=footer(res))

@@ -1,110 +1,241 @@
-"""The quality report (report/quality_report.py) as a PDF of A4 pages: the same `Part`s as
-the HTML, laid out by matplotlib's PdfPages (tables drawn as text, figures as vector
-graphics)."""
+"""The quality report as a PDF typeset by ReportLab: A4 pages with the quality check, the
+accuracy statement, the rejection patterns and the metadata with a sign-off block first,
+then the same `Part`s as the HTML (report/quality_report.py): tables as tables (long ones:
+the worst rows, the whole in the HTML and its CSV), figures as images; searchable text,
+"page x of y" on every page."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
+from reportlab.lib import colors
+from reportlab.lib.enums import TA_CENTER
+from reportlab.lib.pagesizes import A4
+from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
+from reportlab.lib.units import mm
+from reportlab.pdfbase.pdfmetrics import stringWidth
+from reportlab.pdfgen import canvas
+from reportlab.platypus import (
+    Image,
+    KeepTogether,
+    PageBreak,
+    Paragraph,
+    SimpleDocTemplate,
+    Spacer,
+    Table,
+    TableStyle,
+)
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import pandas as pd  # noqa: E402
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
+from baarda.report.front import accuracy, metadata, patterns, quality_check
+from baarda.report.html_base import cell
+from baarda.report.plots import to_png
+from baarda.report.quality_report import Part, quality_content
 
-from baarda.output.result_folder import Results  # noqa: E402
-from baarda.report.plots import to_png  # noqa: E402
-from baarda.report.quality_html import format_cell  # noqa: E402
-from baarda.report.quality_report import Part, quality_content  # noqa: E402
-
-A4 = (8.27, 11.69)
-ROWS_PER_PAGE = 46
+PDF_ROWS = 25  # rows of a long table in the PDF (the worst)
+MARGIN = 14 * mm
+WIDTH = A4[0] - 2 * MARGIN
+STATUS = {"pass": "#146c2e", "warn": "#8a4b00", "fail": "#9b001b", "info": "#4a5563"}
+WORDS = {"pass": "PASS", "warn": "REVIEW", "fail": "FAIL", "info": "NOTE"}
 
 
-def _text_lines(t: pd.DataFrame, fmt: dict | None) -> list[str]:
+def _styles() -> dict[str, ParagraphStyle]:
+    base = getSampleStyleSheet()
+    body = ParagraphStyle("body", parent=base["BodyText"], fontName="Helvetica", fontSize=9,
+                          leading=11.5, spaceAfter=3)
+    return {"body": body,
+            "small": ParagraphStyle("small", parent=body, fontSize=8, leading=10),
+            "cell": ParagraphStyle("cell", parent=body, fontSize=8, leading=10, spaceAfter=0),
+            "h1": ParagraphStyle("h1", parent=base["Heading1"], fontSize=16, spaceAfter=4),
+            "h2": ParagraphStyle("h2", parent=base["Heading2"], fontSize=12.5, spaceBefore=8,
+                                 spaceAfter=3, textColor=colors.HexColor("#1f3b5a")),
+            "h3": ParagraphStyle("h3", parent=base["Heading3"], fontSize=10, spaceBefore=5,
+                                 spaceAfter=2),
+            "banner": ParagraphStyle("banner", parent=body, fontName="Helvetica-Bold",
+                                     textColor=colors.HexColor("#9b001b"), borderPadding=4,
+                                     borderColor=colors.HexColor("#9b001b"), borderWidth=1,
+                                     spaceBefore=4, spaceAfter=6),
+            "status": ParagraphStyle("status", parent=body, fontName="Helvetica-Bold",
+                                     fontSize=8, textColor=colors.white, alignment=TA_CENTER)}
+
+
+def _p(text: str, style: ParagraphStyle) -> Paragraph:
+    from xml.sax.saxutils import escape
+
+    return Paragraph(escape(str(text)).replace("\n", "<br/>"), style)
+
+
+class _NumberedCanvas(canvas.Canvas):
+    """A canvas that writes "page x of y" once the number of pages is known."""
+
+    def __init__(self, *args, title: str = "", **kwargs):
+        super().__init__(*args, **kwargs)
+        self._pages: list[dict] = []
+        self._title = title
+
+    def showPage(self):  # noqa: N802 (ReportLab's name)
+        self._pages.append(dict(self.__dict__))
+        self._startPage()
+
+    def save(self):
+        n = len(self._pages)
+        for state in self._pages:
+            self.__dict__.update(state)
+            self.setFont("Helvetica", 8)
+            self.setFillColor(colors.HexColor("#333333"))
+            self.drawString(MARGIN, 8 * mm, f"baarda quality report: {self._title}"[:100])
+            self.drawRightString(A4[0] - MARGIN, 8 * mm, f"page {self._pageNumber} of {n}")
+            super().showPage()
+        super().save()
+
+
+def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> list:
+    """One or more ReportLab tables of df (wide ones split by columns, the first column
+    repeated)."""
     fmt = fmt or {}
-    cells = [[str(c) for c in t.columns]] + [
-        [(format_cell(v, fmt.get(c)) if not isinstance(v, str) else v) for c, v in
-         zip(t.columns, r, strict=True)] for r in t.itertuples(index=False)]
-    cells = [[c[:48] for c in row] for row in cells]
-    width = [max(len(row[k]) for row in cells) for k in range(len(cells[0]))]
-    return ["  ".join(c.rjust(w) for c, w in zip(row, width, strict=True)) for row in cells]
+    cols = [str(c) for c in df.columns]
+    body = [[cell(v, fmt.get(c)) for c, v in zip(cols, r, strict=True)]
+            for r in df.itertuples(index=False)]
+    size = 7.0
+    width = [max([stringWidth(c, "Helvetica-Bold", size)] + [
+        stringWidth(r[k], "Helvetica", size) for r in body]) + 6 for k, c in enumerate(cols)]
+    chunks, cur, used = [], [0], width[0]
+    for k in range(1, len(cols)):
+        if used + width[k] > WIDTH and len(cur) > 1:
+            chunks.append(cur)
+            cur, used = [0], width[0]
+        cur.append(k)
+        used += width[k]
+    chunks.append(cur)
+    out = []
+    for ks in chunks:
+        data = [[cols[k] for k in ks]] + [[r[k] for k in ks] for r in body]
+        t = Table(data, colWidths=[min(width[k], WIDTH) for k in ks], repeatRows=1)
+        t.setStyle(TableStyle([
+            ("FONT", (0, 0), (-1, 0), "Helvetica-Bold", size),
+            ("FONT", (0, 1), (-1, -1), "Helvetica", size),
+            ("BACKGROUND", (0, 0), (-1, 0), colors.HexColor(head_bg)),
+            ("GRID", (0, 0), (-1, -1), 0.3, colors.HexColor("#c8cfda")),
+            ("ALIGN", (0, 0), (-1, -1), "RIGHT"), ("ALIGN", (0, 0), (0, -1), "LEFT"),
+            ("TOPPADDING", (0, 0), (-1, -1), 1), ("BOTTOMPADDING", (0, 0), (-1, -1), 1)]))
+        out += [t, Spacer(1, 4)]
+    return out
+
+
+def _worst(p: Part) -> tuple[pd.DataFrame, str]:
+    """The rows of a part's table the PDF shows, and the words that say which."""
+    t = p.table
+    if len(t) <= PDF_ROWS:
+        return t, ""
+    if p.order is not None:
+        key = np.nan_to_num(np.asarray(p.order, float), nan=-np.inf)
+        keep = np.argsort(-key, kind="stable")[:PDF_ROWS]
+        return (t.iloc[keep], f"The {PDF_ROWS} worst of {len(t)} {p.rows_are} (the HTML "
+                f"report links the whole table as CSV).")
+    return t.head(PDF_ROWS), f"The first {PDF_ROWS} of {len(t)} rows."
+
+
+def _front(res: Results, st: dict) -> list:
+    """The first page: banners, the quality check, the accuracy statement, metadata and
+    sign-off."""
+    v = quality_check(res)
+    out: list = [_p(f"Quality report: {res.title}", st["h1"])]
+    out += [_p(f, st["banner"]) for f in failures(res.summary)]
+    out.append(_p(v.headline, ParagraphStyle("head", parent=st["body"], fontSize=11,
+                                             fontName="Helvetica-Bold",
+                                             textColor=colors.HexColor(STATUS[v.status]))))
+    rows = [[_p(WORDS[r.status], st["status"]), _p(r.label, st["cell"]), _p(r.text, st["cell"])]
+            for r in v.rows]
+    t = Table(rows, colWidths=[17 * mm, 34 * mm, WIDTH - 51 * mm])
+    t.setStyle(TableStyle([("GRID", (0, 0), (-1, -1), 0.3, colors.HexColor("#c8cfda")),
+                           ("VALIGN", (0, 0), (-1, -1), "TOP")] + [
+        ("BACKGROUND", (0, i), (0, i), colors.HexColor(STATUS[r.status]))
+        for i, r in enumerate(v.rows)]))
+    out += [_p("Quality check", st["h2"]), t]
+    acc = accuracy(res)
+    out.append(_p("Accuracy on check points", st["h2"]))
+    if acc.n:
+        out += _table(acc.table, {"mean m": ".3f", "std m": ".3f", "RMSE m": ".3f",
+                                  "largest |d| m": ".3f"}, st)
+        out += [_p(f"{k}: {val}", st["body"]) for k, val in acc.statements]
+    out += [_p(w, st["body"]) for w in acc.warnings]
+    _, advice = patterns(res)
+    if advice:
+        out.append(_p("Rejection patterns", st["h2"]))
+        out += [_p(f"{a.what}. Remedy: {a.remedy}. Where: {a.where}.", st["body"])
+                for a in advice]
+    out.append(_p("Run, input and settings", st["h2"]))
+    meta = [[_p(k, st["cell"]), _p(val, st["cell"])] for k, val in metadata(res)]
+    mt = Table(meta, colWidths=[45 * mm, WIDTH - 45 * mm])
+    mt.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"),
+                            ("LINEBELOW", (0, 0), (-1, -1), 0.2, colors.HexColor("#dddddd"))]))
+    out.append(mt)
+    sign = Table([["Processed by (name, date)", "Checked by (name, date)",
+                   "Accepted for delivery (signature)"], ["", "", ""]],
+                 colWidths=[WIDTH / 3] * 3, rowHeights=[12, 28])
+    sign.setStyle(TableStyle([("FONT", (0, 0), (-1, -1), "Helvetica", 8),
+                              ("LINEABOVE", (0, 0), (-1, 0), 0.6, colors.black)]))
+    out += [Spacer(1, 8), KeepTogether([_p("Sign-off", st["h3"]), sign]), PageBreak()]
+    return out
+
+
+def _figure(p: Part, st: dict) -> list:
+    import io
+
+    fig = p.figure()
+    w, h = fig.get_size_inches()
+    png = to_png(fig)
+    width = min(WIDTH, w * 72)
+    img = Image(io.BytesIO(png), width=width, height=width * h / w)
+    return [KeepTogether([img, _p(p.text, st["small"])])]
+
+
+def story(res: Results, parts: list[Part]) -> list:
+    st = _styles()
+    out = _front(res, st)
+    for p in parts:
+        if p.kind == "alert":
+            continue  # on the first page already
+        if p.kind == "heading":
+            out.append(_p(p.title, st["h2"]))
+        elif p.kind == "text":
+            out.append(_p(p.text, st["body"]))
+        elif p.kind == "table":
+            t, note = _worst(p)
+            out.append(_p(p.title[0].upper() + p.title[1:], st["h3"]))
+            if note:
+                out.append(_p(note, st["small"]))
+            out += _table(t, p.fmt, st)
+        elif p.kind == "figure":
+            out += _figure(p, st)
+    return out
 
 
 def write_quality_pdf(res: Results, path: str | Path, parts: list[Part] | None = None) -> int:
     """The quality report as a PDF (A4 pages); returns the number of pages.  `parts`:
     quality_content(res) when it is at hand."""
-    parts = quality_content(res) if parts is None else parts
-    from matplotlib.backends.backend_pdf import PdfPages
+    import io
 
     from baarda.output.atomic import atomic_open
 
-    pages = 0
-    with plt.rc_context({"pdf.fonttype": 42}), atomic_open(path, "wb") as f, \
-            PdfPages(f, metadata={"Title": f"baarda quality report: {res.title}"}) as pdf:
-        fig, y = None, 0.0
+    parts = quality_content(res) if parts is None else parts
+    buf = io.BytesIO()
+    doc = SimpleDocTemplate(buf, pagesize=A4, leftMargin=MARGIN, rightMargin=MARGIN,
+                            topMargin=MARGIN, bottomMargin=16 * mm,
+                            title=f"baarda quality report: {res.title}", author="baarda",
+                            subject="bundle adjustment quality report")
+    doc.build(story(res, parts),
+              canvasmaker=lambda *a, **k: _NumberedCanvas(*a, title=res.title, **k))
+    data = buf.getvalue()
+    with atomic_open(path, "wb") as f:
+        f.write(data)
+    return _page_count(data)
 
-        def new_page():
-            nonlocal fig, y, pages
-            if fig is not None:
-                pdf.savefig(fig)
-                plt.close(fig)
-            fig = plt.figure(figsize=A4)
-            pages += 1
-            fig.text(0.5, 0.985, f"baarda quality report: {res.title}", ha="center",
-                     va="top", fontsize=8, color="#555")
-            fig.text(0.5, 0.01, f"page {pages}", ha="center", fontsize=7, color="#555")
-            y = 0.96
 
-        def line(text: str, size: float = 7.0, mono: bool = False, bold: bool = False,
-                 color: str = "black"):
-            nonlocal y
-            step = size / 72 / A4[1] * 1.35
-            if y - step < 0.03:
-                new_page()
-            fig.text(0.05, y, text, fontsize=size, va="top",
-                     family="monospace" if mono else "sans-serif",
-                     weight="bold" if bold else "normal", color=color)
-            y -= step
+def _page_count(data: bytes) -> int:
+    import re
 
-        new_page()
-        import textwrap
-
-        for p in parts:
-            if p.kind == "alert":
-                for w in textwrap.wrap(p.text, 100):
-                    line(w, 9, bold=True, color="#b00000")
-            elif p.kind == "heading":
-                if y < 0.2:
-                    new_page()
-                y -= 0.01
-                line(p.title, 12, bold=True)
-            elif p.kind == "text":
-                for para in p.text.split("\n"):
-                    for w in textwrap.wrap(para, 120) or [""]:
-                        line(w, 7.5)
-            elif p.kind == "table":
-                line(p.title[0].upper() + p.title[1:], 8, bold=True)
-                rows = _text_lines(p.table, p.fmt)
-                size = 6.0 if max(len(r) for r in rows) < 150 else 4.5
-                for r in rows:
-                    line(r, size, mono=True)
-            elif p.kind == "figure":
-                src = p.figure()
-                w, h = src.get_size_inches()
-                png = to_png(src)
-                frac_h = min(0.45, h / A4[1])
-                if y - frac_h < 0.05:
-                    new_page()
-                ax = fig.add_axes([0.05, y - frac_h, min(0.9, w / A4[0] * frac_h / (h / A4[1])),
-                                   frac_h])
-                import io
-
-                ax.imshow(plt.imread(io.BytesIO(png)))
-                ax.axis("off")
-                y -= frac_h + 0.01
-                for t in textwrap.wrap(p.text, 120):
-                    line(t, 7)
-        pdf.savefig(fig)
-        plt.close(fig)
-    return pages
+    return len(re.findall(rb"/Type\s*/Page[^s]", data))

@@ -7,13 +7,12 @@ external reliability of the ground points.
 `quality_content(res)` gives the content once, as `Part`s (a heading, text, a table or a
 figure); report/quality_html.py lays them out as HTML sections, report/quality_pdf.py as
 PDF pages.
-Everything is read from the result folder (output/result_folder.py); nothing is recomputed
+Everything is read from the result folder (io/result_folder.py); nothing is recomputed
 but RMS values and per-group summaries of the observations table.
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import matplotlib
@@ -23,8 +22,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from baarda.output.result_folder import Results  # noqa: E402
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures  # noqa: E402
 from baarda.report.anaplot import log_rows  # noqa: E402
+from baarda.report.front import pixel_um  # noqa: E402,F401  (re-exported)
 from baarda.report.stats import pair_xy  # noqa: E402
 
 WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
@@ -39,24 +40,8 @@ class Part:
     fmt: dict | None = None
     figure: object = None  # a function () -> matplotlib Figure
     full_in_html: pd.DataFrame | None = None  # the whole table where the PDF shows a part
-
-
-def pixel_um(res: Results) -> float | None:
-    """The pixel size (µm): the cameras' own where the source states it (DBAT, MicMac; one
-    size for every camera), else the nominal one a reader stated in the notes (COLMAP, BAL,
-    OpenSfM)."""
-    sizes = {c.get("pixel_mm") for c in res.summary.get("cameras", [])}
-    if len(sizes) == 1 and None not in sizes:
-        return float(sizes.pop()) * 1e3
-    for n in list(res.summary.get("notes", [])) + [line for s in res.sections
-                                                   for line in s.lines]:
-        m = re.search(r"nominal pixel size ([0-9.eE+-]+) mm", str(n))
-        if m:
-            try:
-                return float(m.group(1)) * 1e3
-            except ValueError:
-                return None
-    return None
+    order: object = None  # per row of the table: larger is worse (long tables: the worst)
+    rows_are: str = "rows"  # what a row is, e.g. "photos"
 
 
 def _rms(x) -> float:
@@ -82,6 +67,54 @@ def _rejected(g: pd.DataFrame) -> str:
     return " ".join(g.loc[g["rejected"].to_numpy(bool), "component"].astype(str))
 
 
+def distortion_parts(res: Results, cal: pd.DataFrame) -> list[Part]:
+    """Per camera whose model has estimated coefficients (and needs no constants): the
+    correction of the adjusted camera model over the measured image area, vectors on a grid
+    and the size in µm (block/camera_models.py: the model's delta, in mm in the image)."""
+    from baarda.block.camera_models import get_model
+
+    out = []
+    obs = res.obs
+    img = obs[(obs["kind"] == "image") & obs["x_mm"].notna()]
+    for cam, rows in cal.groupby("camera", sort=False):
+        model = get_model(str(rows["model"].iloc[0]))
+        coef_rows = rows[rows["parameter"].isin(model.params)]
+        if model.constants or not model.params or not coef_rows["estimated"].any():
+            continue
+        vals = dict(zip(rows["parameter"], rows["value"], strict=True))
+        coef = np.array([[vals[p] for p in model.params]], float)
+        c, pp = vals["c"], np.array([vals["x0"], vals["y0"]])
+        if len(img) < 3:
+            continue
+        lo = img[["x_mm", "y_mm"]].min().to_numpy(float)
+        hi = img[["x_mm", "y_mm"]].max().to_numpy(float)
+        gx, gy = np.meshgrid(np.linspace(lo[0], hi[0], 15), np.linspace(lo[1], hi[1], 11))
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        u = (xy - pp) / c if model.normalized else xy - pp
+        delta = model.correction(u, coef)[0] * (c if model.normalized else 1.0) * 1e3  # µm
+
+        def draw(xy=xy, delta=delta, cam=cam, gx=gx):
+            fig, ax = plt.subplots(figsize=(6.0, 4.2))
+            size = np.hypot(delta[:, 0], delta[:, 1])
+            cs = ax.contourf(xy[:, 0].reshape(gx.shape), xy[:, 1].reshape(gx.shape),
+                             size.reshape(gx.shape), levels=12, cmap="viridis")
+            ax.quiver(xy[:, 0], xy[:, 1], delta[:, 0], delta[:, 1], color="white",
+                      angles="xy")
+            fig.colorbar(cs, ax=ax, label="correction µm")
+            ax.set_xlabel("x mm")
+            ax.set_ylabel("y mm")
+            ax.set_aspect("equal")
+            ax.set_title(f"distortion of camera {cam}"[:60], fontsize=9)
+            return fig
+
+        big = float(np.max(np.hypot(delta[:, 0], delta[:, 1])))
+        out.append(Part("figure", f"distortion of camera {cam}",
+                        text=f"The correction of the adjusted {model.name} model over the "
+                        f"measured image area (largest {big:.1f} µm): direction and size.",
+                        figure=draw))
+    return out
+
+
 def camera_parts(res: Results) -> list[Part]:
     cal = res.summary.get("calibration") or []
     corr = res.summary.get("camera_correlations") or []
@@ -92,21 +125,26 @@ def camera_parts(res: Results) -> list[Part]:
     t = pd.DataFrame(cal)
     t["sigma"] = t["sigma"].astype(float)
     t["value / sigma"] = np.where(t["estimated"], t["value"].abs() / t["sigma"], np.nan)
+    t["initial"] = t.get("initial", pd.Series(np.nan, index=t.index)).astype(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t["change %"] = np.where(t["estimated"] & (t["initial"] != 0),
+                                 100 * (t["value"] - t["initial"]) / t["initial"].abs(), np.nan)
     px = pixel_um(res)
-    cols = ["camera", "model", "parameter", "value", "sigma"]
+    cols = ["camera", "model", "parameter", "initial", "value", "change %", "sigma"]
     if px:  # c, x0, y0 in pixels as well (the nominal pixel size of the reader)
         mm = t["parameter"].isin(["c", "x0", "y0"])
         t["value px"] = np.where(mm, t["value"] * 1e3 / px, np.nan)
         t["sigma px"] = np.where(mm, t["sigma"] * 1e3 / px, np.nan)
         cols += ["value px", "sigma px"]
-    parts.append(Part("text", text="Estimated parameters with their standard deviations "
-                      "(a posteriori, scaled by sigma0); c, x0, y0 in mm, the coefficients in "
-                      "the camera model's units (docs/camera_models.md); held parameters have "
-                      "no standard deviation."))
+    parts.append(Part("text", text="Every parameter as given (initial) and adjusted, the "
+                      "change in % of the initial value, the standard deviation (a posteriori, "
+                      "scaled by sigma0); c, x0, y0 in mm, the coefficients in the camera "
+                      "model's units; held parameters have no standard deviation."))
     parts.append(Part("table", "camera parameters", table=t[
         cols + ["value / sigma", "estimated"]],
-        fmt={"value": ".6g", "sigma": ".3g", "value / sigma": ".1f", "value px": ".2f",
-             "sigma px": ".2f"}))
+        fmt={"initial": ".6g", "value": ".6g", "change %": "+.2f", "sigma": ".3g",
+             "value / sigma": ".1f", "value px": ".2f", "sigma px": ".2f"}))
+    parts += distortion_parts(res, t)
     for c in corr:
         names = c["parameters"]
         m = np.asarray(c["matrix"], float)
@@ -158,9 +196,12 @@ def control_parts(res: Results) -> list[Part]:
                           "v = adjusted - given per axis, w-test, redundancy number r (0: the "
                           "point is not checked by the rest of the block) and the minimal "
                           "detectable bias. RMS: " + _rms_per_axis(ctrl)))
+        wcols = [c for c in t.columns if c.startswith("w ")]
         parts.append(Part("table", "control points", table=t,
                           fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
-                               for c in t.columns if c not in ("point", "role", "rejected")}))
+                               for c in t.columns if c not in ("point", "role", "rejected")},
+                          order=t[wcols].abs().max(axis=1).to_numpy(float) + 1e3 * (
+                              t["rejected"] != ""), rows_are="control points"))
     pts = res.points
     if pts is not None and "role" in pts and (pts["role"] == "check").any():
         chk = pts[pts["role"] == "check"]
@@ -201,7 +242,33 @@ def gnss_parts(res: Results) -> list[Part]:
                  "number per axis. RMS: " + _rms_per_axis(g)),
             Part("table", "GNSS residuals", table=t,
                  fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
-                      if c not in ("photo", "rejected")})]
+                      if c not in ("photo", "rejected")},
+                 order=t[[c for c in t.columns if c.startswith("w ")]].abs().max(axis=1)
+                 .to_numpy(float) + 1e3 * (t["rejected"] != ""), rows_are="photos")]
+
+
+def imu_parts(res: Results) -> list[Part]:
+    g = res.obs[res.obs["kind"] == "imu"]
+    if not len(g):
+        return []
+    unit = res.units.get("imu", "")
+    t = g.pivot_table(index="photo", columns="component",
+                      values=["residual", "w", "redundancy"], sort=False)
+    t.columns = [f"{'v' if a == 'residual' else a} {c}" for a, c in t.columns]
+    t = t.reset_index()
+    rejected = {ph: _rejected(r) for ph, r in g.groupby("photo", sort=False)}
+    t["rejected"] = [rejected.get(ph, "") for ph in t["photo"]]
+    used = g[~g["rejected"].to_numpy(bool)]
+    rms = ", ".join(f"{c} {_rms(used.loc[used['component'] == c, 'residual']):.3f} {unit}"
+                    for c in ("omega", "phi", "kappa") if (used["component"] == c).any())
+    return [Part("heading", "IMU attitudes of the photos"),
+            Part("text", text=f"Residual v = adjusted - observed ({unit}), w-test and "
+                 f"redundancy number per angle. RMS: {rms or '-'}"),
+            Part("table", "IMU residuals", table=t,
+                 fmt={c: ".3f" if c.startswith("v") else ".2f" for c in t.columns
+                      if c not in ("photo", "rejected")},
+                 order=t[[c for c in t.columns if c.startswith("w ")]].abs().max(axis=1)
+                 .to_numpy(float) + 1e3 * (t["rejected"] != ""), rows_are="photos")]
 
 
 def image_parts(res: Results) -> list[Part]:
@@ -232,7 +299,9 @@ def image_parts(res: Results) -> list[Part]:
             Part("text", text=f"Image residuals of the adjusted block (rejected observations "
                  f"left out), {note}; error = length of the residual vector."),
             Part("table", "reprojection errors", table=t,
-                 fmt={c: ".3f" for c in t.columns if c not in ("photo", "points")})]
+                 fmt={c: ".3f" for c in t.columns if c not in ("photo", "points")},
+                 order=t[f"RMS x {unit}"].fillna(0).to_numpy(float) ** 2
+                 + t[f"RMS y {unit}"].fillna(0).to_numpy(float) ** 2, rows_are="photos")]
 
 
 def observation_parts(res: Results) -> list[Part]:
@@ -302,17 +371,18 @@ def summary_parts(res: Results) -> list[Part]:
     lines = [f"project {res.title}, source {s.get('source', '?')}",
              f"sigma0 a posteriori {s.get('sigma0', float('nan')):.4f}, redundancy "
              f"{s.get('redundancy')}, {s.get('n_observations')} observations, "
-             f"{s.get('n_unknowns')} unknowns, converged {s.get('converged')}"]
+             f"{s.get('n_unknowns')} unknowns, "
+             + ("converged" if s.get("converged") else "NOT CONVERGED")]
     lines += res.global_test_lines()
     crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
     lines += crs[:1]
-    return ([Part("alert", text=f) for f in res.failures]
+    return ([Part("alert", text=f) for f in failures(res.summary)]
             + [Part("heading", "Summary"), Part("text", text="\n".join(lines))])
 
 
 def calibration_parts(res: Results) -> list[Part]:
-    """The camera, control and GNSS parts (the main HTML report shows them too)."""
-    return camera_parts(res) + control_parts(res) + gnss_parts(res)
+    """The camera, control, GNSS and IMU parts (the main HTML report shows them too)."""
+    return camera_parts(res) + control_parts(res) + gnss_parts(res) + imu_parts(res)
 
 
 def quality_content(res: Results, calibration: list[Part] | None = None) -> list[Part]:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import UNITS
+from baarda.schema import UNITS
 
 
 @dataclass

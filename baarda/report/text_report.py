@@ -9,10 +9,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from baarda.output.result_folder import UNITS, Results
-from baarda.quality.adjusted_model import kind_groups
+from baarda.io.result_folder import Results
+from baarda.output.verdict import failures
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
+from baarda.report.separability import counts_line, format_least_separable, least_separable
 from baarda.report.stats import (
     Labels,
     first_rows,
@@ -32,10 +33,11 @@ from baarda.report.stats import (
     weakest,
     worst,
 )
+from baarda.schema import UNITS
 from baarda.sections import render
 
 if TYPE_CHECKING:
-    from baarda.report.residual_readers import ResidualSet
+    from baarda.io.residual_listings import ResidualSet
 
 
 @dataclass
@@ -53,7 +55,7 @@ class ReportOptions:
     min_abs_w: float | None = None
     sort: str = "w"
     exaggeration: float | None = None  # residual vectors; None: automatic
-    vector_photos: int = 12
+    vector_photos: int = 8
     worst: int = 10
     # at scale (issue 16): maps draw at most max_points points (a deterministic sample
     # beyond, said in the caption); tables list at most max_rows rows (the worst)
@@ -78,11 +80,13 @@ def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, H
 MIN_GROUP = 10  # tested components for a group's own histogram of w
 
 
-def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
+def w_hists(obs: pd.DataFrame, opt: ReportOptions,
+            groups: dict[str, dict[str, str]] | None = None) -> list[tuple[str, Histogram]]:
     """Histograms of w of the active, tested observations: image x, y, x and y; then per
     observation group of the other kinds with at least MIN_GROUP tested components (control
-    X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: the groups of the variance
-    components, quality.adjusted_model.kind_groups), and all observations together."""
+    X, Y, Z, GNSS X, Y, Z, IMU, distances, model XY and Z, ...: `groups`, kind -> component
+    -> group as summary.json 'observation_groups' states them; a kind it does not name is
+    one group), and all observations together."""
     d = obs.loc[~obs["rejected"] & np.isfinite(obs["w"]), label_columns(obs) + ["w"]]
     lab = Labels(d)
     kind = d["kind"].to_numpy(str)
@@ -91,7 +95,10 @@ def w_hists(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]
     sels = [("image x", img & (comp == "x")), ("image y", img & (comp == "y")),
             ("image x and y", img)]
     if not img.all():
-        group = kind_groups(kind, comp)
+        groups = groups or {}
+        flat = {f"{k}\t{c}": g for k, cs in groups.items() for c, g in cs.items()}
+        group = (pd.Series(np.char.add(np.char.add(kind, "\t"), comp)).map(flat)
+                 .fillna(pd.Series(kind)).to_numpy(object))
         for k in dict.fromkeys(kind[~img].tolist()):  # kinds, then axes, as they come
             names = list(dict.fromkeys(group[kind == k].tolist()))
             if k == "model":
@@ -118,7 +125,7 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     opt = opt or ReportOptions()
     obs = res.obs
     out = ["BAARDA ADJUSTMENT REPORT", "=" * 78]
-    out += res.failures
+    out += failures(res.summary)
     if res.run:
         out.append(f"run {res.run}")
     out += summary_lines(res)
@@ -142,7 +149,7 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     for name, h in image_histograms(obs, opt):
         out += ["", format_histogram(h, f"IMAGE {name.upper()} RESIDUALS", "µm",
                                      opt.line_width)]
-    for name, h in w_hists(obs, opt):
+    for name, h in w_hists(obs, opt, res.summary.get("observation_groups")):
         out += ["", format_histogram(h, f"STANDARDIZED RESIDUALS w, {name.upper()}", "",
                                      opt.line_width, expected=h.expected_normal(),
                                      critical=res.k_w)]
@@ -152,6 +159,10 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     out += ["", f"SNOOPING TABLE ({len(t)} of {len(obs)} observations: every rejected and "
             f"flagged one, and the largest |w|{note})", "-" * 78, format_snooping(t, res.k_w)]
     out += weakest_text(obs, opt, res.units)
+    sep = least_separable(obs, opt.worst)
+    if len(sep):
+        out += ["", f"LEAST SEPARABLE ({len(sep)}; MDB and MSB in the units of the kind)",
+                "-" * 78, counts_line(obs), format_least_separable(sep)]
     return "\n".join(out) + "\n"
 
 
@@ -184,7 +195,7 @@ def format_worst(t: pd.DataFrame, units: dict[str, str] | None = None) -> str:
 def residuals_report(rs: ResidualSet, width: float = 1.0, lo: float = -25.0, hi: float = 25.0,
                      line_width: int = 60, n_worst: int = 10) -> str:
     """The post-processor's text (`baarda residuals`): VAN statistics and histograms of a
-    ResidualSet read by baarda.report.residual_readers."""
+    ResidualSet read by baarda.io.residual_listings."""
     obs, unit = rs.obs, rs.units["image"]
     out = ["RESIDUAL ANALYSIS (VAN)", "=" * 78, *rs.notes]
     groups = group_statistics(obs, rs.units)

@@ -228,7 +228,7 @@ def check_strip(block: Block, strip: Strip, *,
 def _fit(model: SmallModel, active: np.ndarray, tests: TestOptions):
     """The statistics of the similarity with the `active` control, or None (singular)."""
     try:
-        return analyse(model.refit(active), tests)
+        return analyse(model.refit(active), tests, separability=False)
     except GeometryError:
         return None
 

@@ -18,6 +18,7 @@ from baarda.block.camera_models import get_model, invert
 from baarda.block.field_models import ebner_fields
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
+from baarda.errors import GeometryError
 from baarda.simulate.gnss_imu import with_gnss_imu
 from baarda.simulate.ground import block_geometry
 
@@ -128,11 +129,15 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
                                rng.normal(0, 0.01, n_ph), kappa + rng.normal(0, 0.01, n_ph)])
     eo_true[:, 2] = g.flying_height
 
+    notes = []
     if plan.check_points > 0:
         interior = np.flatnonzero((role == "tie") & ~np.concatenate(
             [on_border, np.zeros(len(ids) - len(on_border), bool)]))
         pick = rng.choice(interior, size=min(plan.check_points, len(interior)), replace=False)
         role[pick] = "check"
+        if len(pick) < plan.check_points:
+            notes.append(f"{plan.check_points} check points asked for, but the block has "
+                         f"only {len(pick)} interior tie points: {len(pick)} check points")
 
     # which photo measures which point
     ph = np.repeat(np.arange(n_ph), [len(ix) for ix in seen])
@@ -161,6 +166,10 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
     if model is not None:
         model = model[order]
 
+    if not len(ph):
+        raise GeometryError(f"no point of the block is measured on two photos "
+                            f"({plan.forward_overlap:.0%} forward and {plan.side_overlap:.0%} "
+                            "side overlap): raise the overlaps")
     # drop points that are not measured at all (and renumber)
     used = np.zeros(len(ids), bool)
     used[pt] = True
@@ -184,17 +193,33 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
 
     # blunders
     log = []
+    unknown = sorted(set(plan.blunder_kinds) - set("xyXYZ"))
+    if unknown:
+        raise ValueError(f"blunder kinds: {', '.join(unknown)} unknown (x, y, X, Y, Z)")
     kinds_img = [k for k in plan.blunder_kinds if k in ("x", "y")]
     kinds_ctl = [k for k in plan.blunder_kinds if k in ("X", "Y", "Z")]
+    room = {k: len(ph) for k in kinds_img}  # observations of each kind without a blunder
+    room.update({k: int(np.sum(np.isfinite(sigma[:, "XYZ".index(k)]) & (role == "control")))
+                 for k in kinds_ctl})
+    if plan.blunders > sum(room.values()):
+        raise ValueError(f"{plan.blunders} blunders asked for, but the block has "
+                         f"{sum(room.values())} observations of the kinds "
+                         f"{', '.join(plan.blunder_kinds) or '(none)'} (at most one blunder "
+                         "in each)")
     used_obs = set()
     for _ in range(plan.blunders):
         kind = rng.choice(kinds_img + kinds_ctl)
+        if room[kind] == 0:  # every observation of this kind has one: the next kind
+            kind = next(k for k in kinds_img + kinds_ctl if room[k] > 0)
+        room[kind] -= 1
         mult = rng.uniform(*plan.blunder_sigma) * rng.choice([-1.0, 1.0])
         if kind in ("x", "y"):
             for _try in range(100):
                 i = int(rng.integers(len(ph)))
                 if (i, kind) not in used_obs:
                     break
+            else:  # a crowded block: the first observation without one
+                i = next(j for j in range(len(ph)) if (j, kind) not in used_obs)
             used_obs.add((i, kind))
             size = mult * sig_mm
             xy[i, "xy".index(kind)] += size
@@ -232,6 +257,7 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
                     model),
         GroundPoints(ids, xyz_given, sigma, role),
         source="simulate",
+        notes=notes,
     )
     truth = {
         "plan": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(plan).items()},

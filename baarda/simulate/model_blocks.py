@@ -189,6 +189,9 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
     for name, size_um in plan.deformations.items():
         ox = ox + deformation_rows(block, name) * size_um * 1e-3
     log = []
+    if plan.blunders > ox.size:
+        raise ValueError(f"{plan.blunders} blunders asked for, but the block has {ox.size} "
+                         "model coordinates")
     for _ in range(plan.blunders):
         mult = rng.uniform(*plan.blunder_sigma) * rng.choice([-1.0, 1.0])
         i, c = int(rng.integers(len(om))), int(rng.integers(3))

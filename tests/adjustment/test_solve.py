@@ -157,3 +157,37 @@ def test_divergence_during_the_iterations_is_not_converged():
     assert sol.cost == pytest.approx(problem.linearize(sol.state).cost)
     with pytest.raises(GeometryError, match="P7"):  # singular at the start: the input
         solve(_Runaway(fail_from=1), np.zeros(2), SolveOptions(tolerance=1e-12))
+
+
+class _SingularUndamped(_Runaway):
+    """Damped normal equations regular everywhere; the undamped ones singular from the
+    `fail_from`-th undamped factorisation on (a damped iteration that reaches an estimate
+    where a point has run away: BAL Ladybug-49 with free intrinsics, issue 26)."""
+
+    def __init__(self, fail_from: int):
+        super().__init__(fail_from)
+        self.undamped = 0
+
+    def factorize(self, lin, damping):
+        from baarda.errors import GeometryError
+
+        self.calls += 1
+        if not damping:
+            self.undamped += 1
+            if self.undamped >= self.fail_from:
+                raise GeometryError("1 point(s) cannot be intersected: P7")
+        n = lin.a.T @ lin.a
+        n = n + damping * np.diag(np.diag(n))
+        step = np.linalg.solve(n, lin.a.T @ lin.e) * 0.5
+        return type("F", (), {"step": lambda _self: step, "damping": damping})()
+
+
+def test_a_damped_run_that_meets_singular_normal_equations_ends_not_converged():
+    """Levenberg-Marquardt whose undamped normal equations become singular ends like an
+    undamped run (not converged, the last sound estimate, its damped factorisation for the
+    statistics, the reason in the message), not with an exception from inside the solver."""
+    sol = solve(_SingularUndamped(fail_from=1), np.zeros(2),
+                SolveOptions(tolerance=1e-12, damping=1e-3))
+    assert not sol.converged and sol.reason == "diverged"
+    assert "singular without damping" in sol.message and "P7" in sol.message
+    assert sol.factor.damping > 0

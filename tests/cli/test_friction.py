@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from baarda.cli import main
 
@@ -48,6 +49,7 @@ def test_rejection_log_mdb_in_the_units_of_observations_csv(tmp_path):
     assert 0.5 < first["mdb"] / row["mdb"].item() < 2
 
 
+@pytest.mark.slow
 def test_counts_say_what_was_left_out(tmp_path, capsys):
     assert main(["adjust", str(DEMO), "-o", str(tmp_path / "o"), "--snoop"]) == 0
     out = capsys.readouterr().out

@@ -14,8 +14,8 @@ import pytest
 
 from baarda.cli import main
 from baarda.errors import ProjectError
-from baarda.output.result_folder import read_results
-from baarda.output.run_folder import MANIFEST, file_record
+from baarda.io.result_folder import read_results
+from baarda.io.run_manifest import MANIFEST, file_record
 
 DEMO = Path(__file__).parents[2] / "examples" / "demo"
 
@@ -27,6 +27,53 @@ def snapshot(folder: Path) -> dict:
 
 def leftovers(parent: Path) -> list[str]:
     return [p.name for p in parent.iterdir() if p.name.endswith((".partial", ".old"))]
+
+
+class Terminal:
+    """The reading end of a pseudo-terminal that a process writes its stderr to."""
+
+    def __init__(self, fd: int):
+        self.fd, self.text = fd, ""
+
+    def _read(self, timeout: float) -> bool:
+        import select
+
+        if not select.select([self.fd], [], [], timeout)[0]:
+            return False
+        try:
+            chunk = os.read(self.fd, 65536)
+        except OSError:  # the process closed it
+            return False
+        self.text += chunk.decode("utf-8", "replace")
+        return bool(chunk)
+
+    def wait_for(self, text: str, timeout: float = 120) -> str:
+        """What was written until `text` appeared (or the writer stopped)."""
+        end = time.monotonic() + timeout
+        while text not in self.text and time.monotonic() < end:
+            self._read(0.5)
+        return self.text
+
+    def rest(self) -> str:
+        while self._read(0.5):
+            pass
+        os.close(self.fd)
+        return self.text
+
+
+def on_a_terminal(args: list[str], **kwargs) -> tuple[subprocess.Popen, Terminal]:
+    """`python -m baarda ARGS` with stderr a terminal (a pty), stdout discarded."""
+    import fcntl
+    import pty
+    import struct
+    import termios
+
+    main_fd, sub_fd = pty.openpty()
+    fcntl.ioctl(sub_fd, termios.TIOCSWINSZ, struct.pack("HHHH", 40, 160, 0, 0))  # rows, cols
+    p = subprocess.Popen([sys.executable, "-m", "baarda", *args], stderr=sub_fd,
+                         stdout=subprocess.DEVNULL, **kwargs)
+    os.close(sub_fd)
+    return p, Terminal(main_fd)
 
 
 @pytest.fixture
@@ -102,6 +149,7 @@ def test_interrupted_run_leaves_the_previous_run(project, tmp_path, capsys, monk
     read_results(out)  # still one whole run
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("delay", [0.0, 0.05, 0.2])
 def test_ctrl_c_in_a_real_process(tmp_path, delay):
     """SIGINT while adjusting: exit 130, one line, no traceback, no folder; also while numba
@@ -111,15 +159,14 @@ def test_ctrl_c_in_a_real_process(tmp_path, delay):
     assert main(["simulate", "-o", str(proj), "--strips", "8", "--photos", "25", "--pattern",
                  "5", "--seed", "3"]) == 0
     out = tmp_path / "out"
-    p = subprocess.Popen([sys.executable, "-m", "baarda", "snoop", str(proj), "-o", str(out)],
-                         stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True)
-    line = p.stderr.readline()  # progress lines: wait until reading is done
-    while line and " read " not in line:
-        line = p.stderr.readline()
-    assert " read " in line, line
+    # stderr a terminal: the progress display says when reading is done
+    p, terminal = on_a_terminal(["snoop", str(proj), "-o", str(out)])
+    seen = terminal.wait_for("] read simulated")
+    assert "] read simulated" in seen, seen
     time.sleep(delay)
     p.send_signal(signal.SIGINT)
-    err = p.communicate(timeout=60)[1]
+    p.wait(timeout=60)
+    err = terminal.rest()
     assert p.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
     assert not out.exists() and leftovers(tmp_path) == []
@@ -141,6 +188,7 @@ def test_report_refuses_a_folder_that_mixes_runs(project, tmp_path, capsys):
         read_results(a)
 
 
+@pytest.mark.slow
 def test_report_file_is_checked_before_reading(project, tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["adjust", str(project), "-o", str(out), "-q"]) == 0

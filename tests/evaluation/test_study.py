@@ -13,6 +13,7 @@ from baarda.simulate.aerial import FlightPlan
 PLAN = FlightPlan(strips=2, photos_per_strip=4, pattern=5, relief_m=50.0)
 
 
+@pytest.mark.slow
 def test_one_mdb_is_found_with_the_power_beta0():
     """One blunder of exactly 1 MDB per trial, 300 trials: the share whose own w-test is
     significant in the first adjustment has beta0 = 0.80 inside its 95 % interval."""
@@ -27,6 +28,7 @@ def test_one_mdb_is_found_with_the_power_beta0():
     assert np.allclose(np.abs(s.blunders["size_mdb"]), 1.0)
 
 
+@pytest.mark.slow
 def test_without_blunders_the_w_test_rejects_alpha0():
     """Noise only, 300 trials: the share of tested components with a significant w-test has
     alpha0 = 0.001 inside its 95 % interval."""
@@ -52,6 +54,7 @@ def test_the_same_rows_in_a_process_pool():
     assert len(local[0]) == 6 * 2 * 3 and len(local[1]) == 6 * 3
 
 
+@pytest.mark.slow
 def test_the_same_rows_on_a_dask_cluster():
     """A scheduler and two worker processes on localhost, started here."""
     distributed = pytest.importorskip("distributed")
@@ -63,6 +66,7 @@ def test_the_same_rows_on_a_dask_cluster():
         pd.testing.assert_frame_equal(a, b)
 
 
+@pytest.mark.slow
 def test_command_line(tmp_path):
     from baarda.cli import main
 
@@ -72,8 +76,19 @@ def test_command_line(tmp_path):
                  "--blunder-size-mdb", "2", "4", "--strategies", "snoop,robust,screen",
                  "-q"]) == 0
     names = {"blunders.csv", "trials.csv", "summary.json", "power.png", "report.html",
-             "run.json"}
+             "run.json", "power.csv", "b_method_power.csv"}
     assert names <= {p.name for p in out.iterdir()}
+    power = pd.read_csv(out / "power.csv")  # what the report shows, written by evaluate
+    b_all = pd.read_csv(out / "blunders.csv")
+    for name, part in power.groupby("series"):
+        if name in ("snoop", "robust", "screen"):
+            sub = b_all[b_all["strategy"] == name]
+            assert part["n"].sum() == len(sub) and part["located"].sum() == sub["located"].sum()
+    curve = pd.read_csv(out / "b_method_power.csv")
+    at1 = np.interp(1.0, curve["size_mdb"], curve["power"])
+    assert at1 == pytest.approx(0.80, abs=2e-3)  # beta0 at 1 MDB
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert 'id="power-counts"' in page and '<section id="curves">' in page
     doc = json.loads((out / "summary.json").read_text())
     assert set(doc["rates"]["strategies"]) == {"snoop", "robust", "screen"}
     b = pd.read_csv(out / "blunders.csv")

@@ -102,12 +102,19 @@ def test_minimal_project(tmp_path):
 
 
 def test_huge_sigmas_do_not_overflow(tmp_path):
-    """Fuzz find (issue 15): the mean square of sx and sy overflowed for sx = 1e200."""
+    """Fuzz finds (issue 15: the mean square of sx and sy overflowed for sx = 1e200; later:
+    a sigma beyond SIGMA_IMAGE_UM was named against the project, not its .phc line). It is
+    refused at its line, without a numpy warning."""
     phc = PHC.replace("1.0 2.0 0.0005 0.0005", "1.0 2.0 1e200 1e200")
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        b = read_aicon(_project(tmp_path, phc=phc)).to_block()
-    assert np.allclose(b.image.sigma_mm, [1e200, 0.0005])
+        with pytest.raises(ProjectError, match=r"standard deviation 1e\+200 mm: expected "
+                           r"1e-06 to 100 mm") as e:
+            read_aicon(_project(tmp_path, phc=phc)).to_block()
+    assert e.value.path.endswith("t.phc") and e.value.line == 1 and e.value.column == "sx"
+    phc = PHC.replace("1.0 2.0 0.0005 0.0005", "1.0 2.0 0.0005 99.5")  # within: taken
+    b = read_aicon(_project(tmp_path, phc=phc)).to_block()
+    assert np.allclose(b.image.sigma_mm, [np.sqrt(0.5 * (0.0005**2 + 99.5**2)), 0.0005])
 
 
 def test_no_active_observations(tmp_path):

@@ -368,6 +368,7 @@ def test_duplicate_ids(tmp_path, binary):
     assert "duplicate point id 2" in err.detail and err.line == (None if binary else 8)
 
 
+@pytest.mark.slow
 def test_bad_number_in_a_big_points_file(tmp_path):
     model = _synthetic(n_images=50, n_points=30_000, track=4)
     write_colmap(model, tmp_path)

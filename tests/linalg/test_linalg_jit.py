@@ -36,6 +36,7 @@ def test_kernel_compiles_in_memory_when_nothing_can_cache(monkeypatch):
     assert g(21) == 42
 
 
+@pytest.mark.slow
 def test_no_writable_cache_falls_back_to_the_temporary_directory(tmp_path):
     """A process in which numba finds no cache locator (read-only install, no HOME): the
     kernels are cached under $TMPDIR/baarda-numba-<uid>, the first compile is announced and
@@ -57,9 +58,8 @@ def test_no_writable_cache_falls_back_to_the_temporary_directory(tmp_path):
     assert code == "0" and cache == str(tmp_path / f"baarda-numba-{os.getuid()}")
     assert list(Path(cache).rglob("*.nbi")), "nothing was cached"
     assert "Traceback" not in p.stderr and "RuntimeWarning" not in p.stderr
-    first, second_line = p.stderr.splitlines()[:2]  # what was read, then the compile
-    assert "read demo" in first
-    assert "compiling the numerical kernels once" in second_line
+    first = p.stderr.splitlines()[0]  # the compile is said (a note: no terminal here)
+    assert first.startswith("note: compiling the numerical kernels once")
     env["NUMBA_CACHE_DIR"] = cache
     second = subprocess.run([sys.executable, "-m", "baarda", "adjust",
                              str(ROOT / "examples" / "demo"), "-o", str(tmp_path / "b")],

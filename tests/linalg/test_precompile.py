@@ -47,6 +47,7 @@ print(json.dumps({e["name"]: [precompile.signature_spec(s)
 """
 
 
+@pytest.mark.slow
 def test_table_has_the_argument_types_an_adjustment_compiles():
     # in a child: the workload starts numba's threads, after which pytest could not fork
     out = subprocess.run([sys.executable, "-c", WORKLOAD], capture_output=True, text=True,
@@ -71,6 +72,7 @@ print(json.dumps([sum(k.stats.cache_hits.values()) for k in (elimination_tree, e
 """
 
 
+@pytest.mark.slow
 def test_kernels_compiled_by_child_processes_are_loaded_from_the_cache(tmp_path):
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
     entries = [e for e in precompile.load_table()

@@ -10,9 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from baarda.io.observations_file import read_observations
+from baarda.io.result_folder import read_results
 from baarda.output import tables
 from baarda.output.bundle_results import write_results
-from baarda.output.result_folder import read_observations, read_results
 from baarda.output.tables import csv_chunks, csv_text, write_csv
 from baarda.pipeline import snoop
 from baarda.simulate.aerial import FlightPlan, simulate_block

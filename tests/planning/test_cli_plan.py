@@ -1,5 +1,7 @@
 """`baarda plan` and `baarda modified-snoop` write their outputs; errors are clear."""
 
+import html
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -27,6 +29,13 @@ def test_plan_flight(tmp_path, capsys):
     ok = img["redundancy"] > 1e-3
     assert np.allclose(img.loc[ok, "mdb"], mdb[ok], rtol=1e-3)
     assert "Advice" in text and "twin" in (tmp_path / "table.csv").read_text()
+    # the HTML report in the reports' look, its advice table = plan_advice.csv
+    advice = pd.read_csv(out / "plan_advice.csv", keep_default_na=False)
+    page = (out / "plan_report.html").read_text(encoding="utf-8")
+    assert '<section id="advice">' in page and '<section id="maps">' in page
+    assert page.count("<tr>") >= len(advice) + 1
+    for finding in advice["finding"]:
+        assert html.escape(finding) in page
     # the derived table is usable by modified-snoop
     block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=4, side_overlap=0.6,
                                          stereo=True, focal_mm=150, blunders=2, seed=2))

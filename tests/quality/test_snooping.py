@@ -24,6 +24,7 @@ def test_blunder_changes_residual_by_minus_r_times_d():
         assert v2 - q.residual[i] == pytest.approx(-q.redundancy_number[i] * d, abs=2e-3 * d)
 
 
+@pytest.mark.slow
 def test_snooping_finds_blunders_and_nothing_else():
     """1 % of image observations blundered by 6-20 sigma in a 6 x 10 block."""
     plan = FlightPlan(strips=6, photos_per_strip=10, relief_m=50, pattern=5, seed=7,

@@ -84,6 +84,7 @@ def test_snooping_with_estimated_sigmas_equals_snooping_with_the_true_ones():
     assert abs(np.sqrt(factors["control Z"]) / 0.4 - 1) < 0.1, factors
 
 
+@pytest.mark.slow
 def test_command_line_summary_and_report(tmp_path):
     """`adjust --vce`: summary.json lists the groups; the text and HTML reports show them."""
     import contextlib
@@ -115,6 +116,7 @@ def test_w_histograms_per_group():
     """The report's histograms of w per observation group (control X, Y, Z, GNSS, IMU)."""
     import pandas as pd
 
+    from baarda.output.results import observation_groups
     from baarda.report.text_report import ReportOptions, w_hists
 
     n = 40
@@ -123,7 +125,7 @@ def test_w_histograms_per_group():
         "component": ["x"] * n + ["Z"] * n + ["X"] * n + ["omega"] * n,
         "photo": [""] * (4 * n), "point": ["p"] * (4 * n),
         "w": np.linspace(-3, 3, 4 * n), "rejected": [False] * (4 * n)})
-    names = [name for name, _ in w_hists(obs, ReportOptions())]
+    names = [name for name, _ in w_hists(obs, ReportOptions(), observation_groups(obs))]
     assert names == ["image x", "image x and y", "control Z", "gnss X", "imu",
                      "all observations"]
 

@@ -62,6 +62,7 @@ def test_group_redundancies_and_estimates_equal_dense():
     assert estimate(qc.model)[0].group == Y
 
 
+@pytest.mark.slow
 def test_mis_stated_sigma_is_recovered():
     """x'' noise 5 µm given as 3 µm, 40-model strips (r of the y-parallaxes 190: the
     estimate's standard deviation about 5 % in sigma): the y-parallax sigma x 5/3, on the

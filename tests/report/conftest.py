@@ -8,9 +8,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from baarda.io.result_folder import read_results
 from baarda.output.bundle_results import write_results
 from baarda.output.project_files import write_project
-from baarda.output.result_folder import read_results
 from baarda.pipeline import snoop
 from baarda.report.html_report import html_report
 from baarda.report.text_report import ReportOptions

@@ -9,8 +9,8 @@ import pypdfium2 as pdfium
 import pytest
 
 from baarda.cli import main
+from baarda.io.result_folder import read_results
 from baarda.output.project_files import write_project
-from baarda.output.result_folder import read_results
 from baarda.report.quality_report import quality_content
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
@@ -30,6 +30,7 @@ def results(tmp_path_factory):
     return tmp
 
 
+@pytest.mark.slow
 def test_content_is_read_from_the_results(results):
     res = read_results(results / "out")
     parts = quality_content(res)
@@ -72,7 +73,7 @@ def test_pdf_pages_render(results, tmp_path):
         image.save(tmp_path / f"page{i}.png")
         a = np.asarray(image.convert("L"), float)
         assert a.shape[0] > a.shape[1] > 500  # A4 portrait
-        assert (a < 128).mean() > 0.005  # printed, not blank
+        assert (a < 128).mean() > 0.001  # printed, not blank
         text += page.get_textpage().get_text_range() + "\n"
     for words in ("Camera calibration", "Ground control and check points",
                   "Correlations of camera", "Control points", "Check points", "RMS", "x0",
@@ -80,11 +81,13 @@ def test_pdf_pages_render(results, tmp_path):
                   "Reprojection errors per image", "Data snooping log",
                   "External reliability"):
         assert words in text
-    # the heat map is a picture on the first page: many colours there
-    first = np.asarray(pdf[0].render(scale=1.0).to_pil().convert("RGB"), int)
-    assert len(np.unique(first.reshape(-1, 3), axis=0)) > 50
+    # the heat map is a picture (after the first page's quality check): many colours
+    colours = [len(np.unique(np.asarray(pdf[i].render(scale=1.0).to_pil().convert("RGB"),
+                                        int).reshape(-1, 3), axis=0)) for i in range(len(pdf))]
+    assert max(colours[1:]) > 50
 
 
+@pytest.mark.slow
 def test_main_html_report_has_the_camera_and_control_tables(results):
     """baarda report OUT -o report.html: the camera parameters, their correlations (cells
     coloured like the heat map) and the GCP tables, without extra images."""
@@ -120,3 +123,32 @@ def test_reprojection_errors_pair_x_and_y_of_the_same_image_point():
     assert row["mean error µm"] == pytest.approx(11.5)  # (10 + 13) / 2
     assert row["RMS x µm"] == pytest.approx(np.sqrt((36 + 25) / 2))
     assert row["RMS y µm"] == pytest.approx(np.sqrt((16 + 64 + 144) / 3))
+
+
+def test_camera_parameters_initial_to_adjusted_and_the_distortion_plot(tmp_path):
+    """Issue 31, item 4: every camera parameter as given and adjusted with the change in %,
+    and the adjusted distortion over the measured image area (berlin: c, k1, k2 free), its
+    largest correction recomputed from Brown's radial formula at the area's corners."""
+    from baarda.report.quality_report import camera_parts
+
+    out = tmp_path / "o"
+    assert main(["adjust", "tests/data/opensfm_berlin", "-o", str(out), "-q"]) == 0
+    res = read_results(out)
+    parts = camera_parts(res)
+    t = [p.table for p in parts if p.kind == "table" and p.title == "camera parameters"][0]
+    rows = {r["parameter"]: r for r in t.to_dict("records")}
+    c, k1, k2 = (rows[p] for p in ("c", "k1", "k2"))
+    for r in (c, k1, k2):
+        assert r["change %"] == pytest.approx(100 * (r["value"] - r["initial"])
+                                              / abs(r["initial"]), rel=1e-12)
+    assert c["initial"] == pytest.approx(2.838589, abs=1e-6)  # OpenSfM's focal, mm
+    assert np.isnan(rows["x0"]["change %"])  # held
+    fig = [p for p in parts if p.kind == "figure" and p.title.startswith("distortion")]
+    assert len(fig) == 1
+    img = res.obs[res.obs["kind"] == "image"]
+    x = np.array([img["x_mm"].min(), img["x_mm"].max()])
+    y = np.array([img["y_mm"].min(), img["y_mm"].max()])
+    n2 = (x[:, None] ** 2 + y[None, :] ** 2) / c["value"] ** 2  # normalised radius^2
+    corner = np.sqrt(n2) * c["value"] * np.abs(k1["value"] * n2 + k2["value"] * n2**2) * 1e3
+    largest = float(fig[0].text.split("largest ")[1].split(" µm")[0])
+    assert largest == pytest.approx(corner.max(), abs=0.05)

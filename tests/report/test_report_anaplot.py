@@ -54,10 +54,11 @@ def test_text_columns_are_the_files_values():
 
 def test_log_units():
     s = {"rejection_log": [
-        {"iteration": 1, "sigma0": 1.5, "action": "reject", "w": 7.0, "mdb": 0.029,
-         "observations": ["image photo a point 1 y"]},
-        {"iteration": 2, "sigma0": 1.1, "action": "reject", "w": -5.0, "mdb": 0.25,
-         "observations": ["control point 9 Z"]}], "snooping_converged": True}
+        {"iteration": 1, "sigma0": 1.5, "action": "reject", "statistic": "w", "value": 7.0,
+         "mdb": 29.0, "mdb_unit": "µm", "observations": ["image photo a point 1 y"]},
+        {"iteration": 2, "sigma0": 1.1, "action": "reject", "statistic": "w", "value": -5.0,
+         "mdb": 0.25, "mdb_unit": "m", "observations": ["control point 9 Z"]}],
+        "snooping_converged": True}
     text = format_log(s)
     assert "29.0 µm" in text and "0.250 m" in text
     assert "no data snooping" in format_log({})

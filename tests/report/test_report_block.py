@@ -5,9 +5,10 @@ import re
 import numpy as np
 import pytest
 from htmlrows import table_rows
+from result_files import resign
 
 from baarda.cli import main
-from baarda.output.result_folder import read_results
+from baarda.io.result_folder import read_results
 from baarda.report.maps import block_map, residual_vectors
 
 
@@ -21,6 +22,7 @@ def labels(keys):
     return {(f"photo {p} " if p else "") + f"point {q} {c}" for _, p, q, c in keys}
 
 
+@pytest.mark.slow
 def test_snooping_table_marks_exactly_the_rejected(report_case):
     want = rejected_keys(report_case.obs)
     assert len(want) >= 3  # the simulation planted 5 blunders
@@ -76,7 +78,8 @@ def test_html_is_self_contained(report_case):
     h = report_case.html
     assert not re.search(r"""(src|href)=["']?(https?:)?//""", h)
     assert "<link" not in h and "@import" not in h
-    assert h.count("<img") == 6 and h.count('src="data:image/png;base64,') == 6
+    # the figures and the histogram of MSB/MDB (issue 30)
+    assert h.count("<img") == 12 and h.count('src="data:image/png;base64,') == 12
     assert 'id="render-status"' in h
     for sec in ("Project summary", "Global test", "Data snooping log", "Group statistics",
                 "Histograms", "Block map", "Image residual vectors", "Redundancy",
@@ -84,6 +87,7 @@ def test_html_is_self_contained(report_case):
         assert sec in h
 
 
+@pytest.mark.slow
 def test_cli_text_and_html(report_case, tmp_path, capsys):
     out = str(report_case.out)
     assert main(["report", out, "--text", "--top", "5"]) == 0
@@ -98,7 +102,7 @@ def test_cli_text_and_html(report_case, tmp_path, capsys):
                          table, re.M), lab
     html = tmp_path / "r.html"
     assert main(["report", out, "-o", str(html), "-q"]) == 0
-    assert html.read_text(encoding="utf-8").count("<img") == 6
+    assert html.read_text(encoding="utf-8").count("<img") == 12
     assert main(["report", out]) == 2  # nothing to do
     assert main(["report", out, "-o", str(report_case.out / "observations.csv")]) == 2
     assert main(["report", out, "--text", "--class-width", "0.3"]) == 2
@@ -109,41 +113,27 @@ def test_bad_results_name_file_line_column(report_case, tmp_path, capsys):
 
     bad = tmp_path / "out"
     shutil.copytree(report_case.out, bad)
-    (bad / "run.json").unlink()  # a folder of an earlier version: its files are parsed
     lines = (bad / "observations.csv").read_text().splitlines()
     lines[3] = lines[3].replace(",False,", ",maybe,", 1)
     (bad / "observations.csv").write_text("\n".join(lines) + "\n")
+    resign(bad)  # the run's own file, with a bad cell
     assert main(["report", str(bad), "--text"]) == 2
     err = capsys.readouterr().err
     assert "observations.csv, line 4, column 'rejected'" in err
 
 
-def test_older_output_folder_still_reports(report_case, tmp_path):
-    """Without the report's fields (x_mm, y_mm, cameras): cameras from the project named in
-    'source', image-space plots left out with a note."""
-    import json
+def test_a_folder_without_its_run_manifest_is_refused(report_case, tmp_path):
+    """Every run lists its files in run.json; a folder without it is not read (no paths
+    for folders of earlier versions: issue 27)."""
     import shutil
 
-    from baarda.report.html_report import html_report
+    from baarda.errors import ProjectError
 
     old = tmp_path / "out"
     shutil.copytree(report_case.out, old)
-    (old / "run.json").unlink()  # written before run manifests existed
-    s = json.loads((old / "summary.json").read_text())
-    del s["cameras"], s["angle_unit"]
-    s["source"] = str(report_case.project)
-    (old / "summary.json").write_text(json.dumps(s))
-    o = report_case.obs.drop(columns=["x_mm", "y_mm"])
-    o.to_csv(old / "observations.csv", index=False)
-    res = read_results(old)
-    assert res.cameras and res.angle_unit == "gon"  # from the project folder
-    assert any("no image coordinates" in n for n in res.notes)
-    h = html_report(res)
-    assert h.count("<img") == 5 and "no image coordinates in the results" in h
-    s["source"] = str(tmp_path / "nowhere")
-    (old / "summary.json").write_text(json.dumps(s))
-    res = read_results(old)
-    assert not res.cameras and any("footprints not drawn" in n for n in res.notes)
+    (old / "run.json").unlink()
+    with pytest.raises(ProjectError, match=r"run.json: file not found: not a result folder"):
+        read_results(old)
 
 
 def test_missing_files(tmp_path):
@@ -171,10 +161,36 @@ def test_results_without_statistics(report_case, tmp_path):
     write_results(tmp_path / "out", adjust(read_project(report_case.project)))
     res = read_results(tmp_path / "out")
     h = html_report(res)
-    assert h.count("<img") == 3  # histograms, block map, vectors; no w, no r/MDB maps
+    assert h.count("<img") == 8  # histograms, block map, vectors, 5 of geometry; no w, r, MDB
     assert "no redundancy numbers in the results" in h
     assert "no data snooping run" in text_report(res)
     g = {s.name: s for s in group_statistics(res.obs)}
     planted = {f"photo {b['photo']} point {b['point']} {b['component']}"
                for b in report_case.truth["blunders"]}
     assert g["image x+y"].min_at in planted or g["image x+y"].max_at in planted
+
+
+def test_large_colour_maps_bin_their_tie_points_and_keep_uncontrolled_points_apart():
+    """Issue 31, item 7: beyond HEXBIN_FROM tie points a colour map bins them on a hexagonal
+    grid (each cell its worst value), control stays on top, uncontrolled points are a layer
+    of their own under the colours (rings), not crosses over everything."""
+    import matplotlib.pyplot as plt
+    import pandas as pd
+    from matplotlib.collections import PathCollection, PolyCollection
+
+    from baarda.report.maps import HEXBIN_FROM, _colour_map
+
+    rng = np.random.default_rng(1)
+    n = HEXBIN_FROM + 500
+    pts = pd.DataFrame({"X": rng.uniform(0, 1000, n), "Y": rng.uniform(0, 800, n),
+                        "role": ["control"] * 10 + ["tie"] * (n - 10),
+                        "r_min": rng.uniform(0, 1, n), "uncontrolled": np.arange(n) < 40})
+    fig, ax = plt.subplots()
+    _colour_map(ax, fig, pts, "r_min", "r", "RdYlGn", 0.0, 1.0, worst=np.min)
+    hexes = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(hexes) == 1 and np.nanmin(hexes[0].get_array()) >= 0
+    rings = [c for c in ax.collections if isinstance(c, PathCollection)
+             and c.get_label().startswith("uncontrolled")]
+    assert len(rings) == 1 and rings[0].get_zorder() < hexes[0].get_zorder()
+    assert len(rings[0].get_offsets()) == 40
+    plt.close(fig)

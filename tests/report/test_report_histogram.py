@@ -7,8 +7,8 @@ import pytest
 from salsig import FIG2_X, FIG3_X_COUNTS
 
 from baarda.cli import main
+from baarda.io.residual_listings import read_residuals
 from baarda.report.histogram import bar_scale, classes, format_histogram, histogram
-from baarda.report.residual_readers import read_residuals
 from baarda.report.stats import group_statistics
 
 

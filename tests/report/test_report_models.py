@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from baarda.cli import main
-from baarda.output.result_folder import read_results
+from baarda.io.result_folder import read_results
 from baarda.report.html_report import html_report
 from baarda.report.stats import model_groups
 

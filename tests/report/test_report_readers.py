@@ -8,7 +8,7 @@ import pytest
 
 from baarda.cli import main
 from baarda.errors import ProjectError
-from baarda.report.residual_readers import detect, read_residuals
+from baarda.io.residual_listings import detect, read_residuals
 from baarda.report.stats import group_statistics, vector_statistics
 
 PM = Path(__file__).parents[1] / "data" / "dbat_sxb_photomodeler"

@@ -12,7 +12,7 @@ from salsig import (
     FIG1_RMS,
 )
 
-from baarda.report.residual_readers import read_residuals
+from baarda.io.residual_listings import read_residuals
 from baarda.report.stats import (
     describe,
     group_statistics,

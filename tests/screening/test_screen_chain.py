@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from baarda.cli import main
 from baarda.io.project import read_project
@@ -25,6 +26,7 @@ def test_clean_block_passes_unchanged():
     assert len(res.block.image) == len(block.image)
 
 
+@pytest.mark.slow
 def test_control_error_located_in_stage_3_becomes_a_tie_point():
     """A strip with many control points: a 1.5 m planimetric error is located and removed."""
     plan = FlightPlan(strips=2, photos_per_strip=6, pattern=5, side_overlap=0.6,

@@ -24,8 +24,8 @@ import numpy as np
 import pandas as pd
 
 from baarda.errors import ProjectError
+from baarda.io.observations_file import numbers, read_observations
 from baarda.io.table import Table
-from baarda.output.result_folder import numbers, read_observations
 
 PM_HEADER = "Object Point ID"
 FORMATS = ("auto", "generic", "photomodeler", "baarda")
@@ -35,7 +35,6 @@ FORMATS = ("auto", "generic", "photomodeler", "baarda")
 class ResidualSet:
     obs: pd.DataFrame
     units: dict[str, str]
-    sources: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
 
@@ -207,4 +206,4 @@ def read_residuals(paths: list[str | Path], fmt: str = "auto",
                            "cannot be mixed: give --pixel-size")
     obs = pd.concat(parts, ignore_index=True) if parts else _frame("image", [], [], [], [], [])
     units = {"image": img_units.pop() if img_units else "µm", "control": "m"}
-    return ResidualSet(obs, units, [str(p) for p in paths], notes)
+    return ResidualSet(obs, units, notes)

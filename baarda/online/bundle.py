@@ -1,0 +1,1130 @@
+"""The growing bundle block: every measurement tested the moment it is made (issue 33).
+
+    ob = OnlineBundle(block)               # the block as far as it is measured
+    a = ob.add_image_point("01004", "002005", x, y)    # an Answer: the test, the verdict
+    a = ob.add_photo("01005", {"002005": (x, y), ...})  # a photo's points, tested together
+    ob.add_control(...); ob.add_gnss(...); ob.remove_image_point(...)
+    qc = ob.result()                       # the Assessment of the block as it is now
+
+Each addition is tested before it is taken in: its predicted misclosure with the variance
+of the prediction, and after inclusion its residual, redundancy number, w and MDB in the
+block with it (online/lowrank.py: a few solves with the last factorisation, no selected
+inverse); a point's first ray is held until its second arrives (then both are tested), a
+photo until the block determines it (MIN_PHOTO_POINTS of its points), the first adjustment
+until the control fixes the block.  The observations whose verdict the addition changed are
+looked for among those that share a photo or a point with it and those added since the last
+factorisation; every `max_rows` added rows, when the corrections since exceed
+`linear_limit`, at every removal and at `result()` the block is factored again at its
+Gauss-Newton solution (warm-started), and every verdict is checked.
+After any sequence of additions and removals `result()` is the batch adjustment of the same
+observations (tests/online/test_equivalence.py).
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from baarda.adjustment.dense import DenseLeastSquares
+from baarda.adjustment.solve import solve
+from baarda.block.photo_block import Block
+from baarda.block.rotation import rotation_matrix
+from baarda.bundle.bundle_model import BundleModel
+from baarda.bundle.bundle_problem import SOLVE, BundleProblem
+from baarda.bundle.bundle_result import BundleResult
+from baarda.bundle.resection import resect
+from baarda.errors import GeometryError
+from baarda.linalg.threads import single_threaded_blas
+from baarda.online.answers import Answer, Change, ComponentTest, verdicts
+from baarda.online.lowrank import UNDETERMINED, LowRank, Rows
+from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
+from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows
+from baarda.options import SolveOptions, TestOptions
+from baarda.quality.distributions import b_method
+
+MAX_ROWS = 120  # rows added before the block is factored again
+# the new unknowns alone, damped (weak directions stay near the approximations)
+REFINE = SolveOptions(max_iterations=50, tolerance=1e-9, min_step=1e-6, damping=1e-3)
+MAX_HELD_PHOTOS = 50  # held photos looked at together when one is added
+SPREAD = 0.1  # points on a photo spread less than this across their line: on one line
+LINEAR_LIMIT = 3e-4  # corrections (angles rad, positions / flying height) that refactor
+COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
+              "imu": ("omega", "phi", "kappa")}
+Key = tuple[str, int, int]  # (kind, universe index, component number)
+
+
+@dataclass
+class _Factored:
+    """The block at its last factorisation: the problem, its solution and what the
+    low-rank update needs of it."""
+
+    problem: BundleProblem
+    result: BundleResult
+    model: BundleModel
+    keys: list
+    flat_of: dict
+    q0: np.ndarray  # adjusted cofactors of every component (flat)
+    v0: np.ndarray  # residuals
+    sigma: np.ndarray
+    frame_of: np.ndarray  # universe photo -> frame (-1)
+    elim_of: np.ndarray  # universe point -> eliminated point (-1)
+    by_photo: dict  # universe photo -> flat components on it
+    by_point: dict
+    lowrank: LowRank
+
+
+class OnlineBundle:
+    """A bundle block that grows one measurement at a time (module docstring).
+
+    block: what is measured so far, as read (put in the local frame of its CRS, photos
+    without approximations resected where they can be: `_prepared`); tests: alpha0, beta0
+    (default the block's); max_rows: rows added before the normal equations are factored
+    again (0: after every step, every test then on the exact solution); linear_limit:
+    corrections since the last factorisation (angles rad, positions / flying height) beyond
+    which it is done at once.
+    Needs control (or GNSS positions) for its datum; GNSS shifts, drifts and an estimated
+    boresight, fixed control (sigma 0) and distances are not supported on-line.
+    """
+
+    def __init__(self, block: Block, tests: TestOptions | None = None, *,
+                 max_rows: int = MAX_ROWS, solve: SolveOptions = SOLVE,
+                 linear_limit: float = LINEAR_LIMIT):
+        block = _prepared(block)
+        s = block.settings
+        if s.gnss_offsets != "none" or s.gnss_drift or s.imu_boresight != "fixed":
+            raise ValueError("the on-line bundle takes GNSS positions and IMU attitudes "
+                             "without shifts, drifts or an estimated boresight (they are "
+                             "unknowns of the whole block): adjust with baarda adjust")
+        if len(block.distances):
+            raise ValueError("the on-line bundle does not take distances")
+        if s.datum != "control":
+            raise ValueError("the on-line bundle needs control (or GNSS positions) for its "
+                             "datum, not a free network")
+        if (block.points.sigma == 0).any():
+            raise ValueError("fixed control (sigma 0) is not supported on-line: give it a "
+                             "small standard deviation")
+        self.tests = tests or TestOptions.resolve(s)
+        self._bm = b_method(self.tests.alpha0, self.tests.beta0)
+        self.max_rows = int(max_rows)
+        self.linear_limit = float(linear_limit)
+        self.solve_options = solve
+        self.m = Measurements(block)
+        self._f: _Factored | None = None
+        self._ycol: dict = {}  # ("photo"|"point", universe index) -> first new-unknown column
+        self._y0 = np.zeros(0)
+        self._pending: list[Key] = []
+        self._verdict: dict[Key, str] = {}
+        self._keys_told: dict[tuple, Key] = {}
+        self.steps = 0
+        self.answers: list[Answer] = []
+        self.first: Answer | None = None  # the first adjustment, once there is one
+        self._why_not = "nothing measured"
+        self._start(time.perf_counter(), "the block as given")
+
+    # ================================================================ public API
+    @property
+    def started(self) -> bool:
+        """Whether the block has been adjusted (its control fixes it)."""
+        return self._f is not None
+
+    def add_image_point(self, photo: str, point: str, x_mm: float, y_mm: float,
+                        sigma_um: float | None = None) -> Answer:
+        """Measure point `point` on photo `photo` at (x, y) mm (sigma: the project's)."""
+        t0 = time.perf_counter()
+        i = self.m.photo_index(photo)
+        self.m.image(i, self.m.point_index(point), (x_mm, y_mm), self._image_sigma(sigma_um))
+        return self._added(t0, f"point {point} on photo {photo}")
+
+    def add_photo(self, photo: str, points: dict, *, camera: str | None = None,
+                  eo=None, strip=None, gnss=None, sigma_um: float | None = None) -> Answer:
+        """A photo with its image points {point: (x, y) mm or (x, y, sigma µm)}, tested
+        together.  A photo the block knows keeps its approximations unless `eo` is given
+        (X0, Y0, Z0 m, omega, phi, kappa rad); a new one needs `camera` (default: the only
+        camera) and gets its orientation by resection when `eo` is None.  gnss: (xyz,
+        sigma) of its GNSS position."""
+        t0 = time.perf_counter()
+        m = self.m
+        i = m.photo_at.get(photo)
+        if i is None:
+            cams = list(m.cameras.ids)
+            if camera is None and len(cams) > 1:
+                raise ValueError(f"photo {photo}: name its camera ({', '.join(cams)})")
+            c = 0 if camera is None else cams.index(camera) if camera in cams else None
+            if c is None:
+                raise ValueError(f"photo {photo}: camera {camera} is not known "
+                                 f"({', '.join(cams)})")
+            i = m.photo(photo, c, strip if strip is not None else "",
+                        np.full(6, np.nan) if eo is None else eo)
+        elif eo is not None:
+            m.photo_eo[i] = np.asarray(eo, float).copy()
+            m.changed()
+        for pid, obs in points.items():
+            obs = tuple(obs)
+            sig = self._image_sigma(obs[2] if len(obs) > 2 else sigma_um)
+            m.image(i, m.point_index(str(pid)), obs[:2], sig)
+        if gnss is not None:
+            m.gnss(i, gnss[0], gnss[1])
+        return self._added(t0, f"photo {photo}, {len(points)} image point(s)")
+
+    def add_control(self, point: str, xyz, sigma) -> Answer:
+        """Control coordinates X, Y, Z (m) of a point with their sigmas (NaN: not
+        observed)."""
+        t0 = time.perf_counter()
+        sigma = np.broadcast_to(np.asarray(sigma, float), (3,))
+        if (sigma == 0).any():
+            raise ValueError("fixed control (sigma 0) is not supported on-line")
+        self.m.control(self.m.point_index(point), xyz, sigma)
+        return self._added(t0, f"control point {point}")
+
+    def add_gnss(self, photo: str, xyz, sigma) -> Answer:
+        """The GNSS antenna position (m) of a photo with its sigmas."""
+        t0 = time.perf_counter()
+        self.m.gnss(self.m.photo_index(photo), xyz, sigma)
+        return self._added(t0, f"GNSS position of photo {photo}")
+
+    def remove_image_point(self, photo: str, point: str) -> Answer:
+        """Take an image point out (both coordinates)."""
+        t0 = time.perf_counter()
+        m = self.m
+        i, j = m.photo_index(photo), m.point_at.get(point)
+        rows = [r for r in m.rows_of_photo[i] if m.im_point[r] == j
+                and m.im_status[r] != REMOVED]
+        if j is None or not rows:
+            raise ValueError(f"point {point} is not measured on photo {photo}")
+        return self._removed(t0, f"point {point} on photo {photo}",
+                             lambda: m.im_status.__setitem__(rows[0], REMOVED))
+
+    def remove_control(self, point: str) -> Answer:
+        t0 = time.perf_counter()
+        m = self.m
+        j = m.point_at.get(point)
+        if j is None or m.ctrl_status[j] not in (HELD, IN):
+            raise ValueError(f"point {point} has no control")
+
+        def apply():
+            m.ctrl_status[j] = REMOVED
+            m.point_role[j] = "tie"
+            m.changed()
+        return self._removed(t0, f"control of point {point}", apply)
+
+    def remove_gnss(self, photo: str) -> Answer:
+        t0 = time.perf_counter()
+        m = self.m
+        rows = m.gnss_of(m.photo_index(photo))
+        if not rows:
+            raise ValueError(f"photo {photo} has no GNSS position")
+        return self._removed(t0, f"GNSS position of photo {photo}",
+                             lambda: m.g_status.__setitem__(rows[0], REMOVED))
+
+    def remove_photo(self, photo: str) -> Answer:
+        """Every observation of a photo."""
+        t0 = time.perf_counter()
+        m = self.m
+        i = m.photo_index(photo)
+
+        def apply():
+            for r in m.rows_of_photo[i]:
+                m.im_status[r] = REMOVED
+            for r in m.gnss_of(i):
+                m.g_status[r] = REMOVED
+            for r in m.imu_of(i):
+                m.i_status[r] = REMOVED
+        return self._removed(t0, f"photo {photo}", apply)
+
+    def result(self):
+        """The Assessment of the block as it is now (every observation in it tested): the
+        batch adjustment of the same observations, warm-started."""
+        from baarda.bundle.bundle_quality import assess
+
+        if self._f is None:
+            raise GeometryError("the block cannot be adjusted yet: " + self._why_not)
+        if self._pending:
+            self._refactor()
+        return assess(self._f.result, self.tests)
+
+    def estimates(self) -> tuple[np.ndarray, np.ndarray]:
+        """(eo (n_photos, 6), xyz (n_points, 3)) of every photo and point given so far, as
+        the block estimates them now (NaN: not in the block), in the order given."""
+        return self._current()
+
+    def status(self) -> str:
+        """The block now, in words: what is in it and held, sigma0 and the rejected
+        observations at the last factorisation (the answers since say the rest)."""
+        m = self.m
+        held = sum(st == HELD for st in m.im_status)
+        head = (f"{sum(m.photo_in)} of {len(m.photo_ids)} photos and {sum(m.point_in)} points "
+                f"in the block, {sum(st == IN for st in m.im_status)} image points ({held} "
+                "held)")
+        if self._f is None:
+            return head + "; not adjusted yet: " + self._why_not
+        res = self._f.result
+        rej = [k for k, v in self._verdict.items() if v == "reject" and self._in(k)]
+        lines = [head, f"at the last factorisation: redundancy {res.redundancy}, sigma0 "
+                 f"{res.sigma0:.4f}; {len(self._pending)} component(s) added since"]
+        if rej:
+            lines.append(f"rejected now ({len(rej)}): " + ", ".join(
+                " ".join(x for x in self._label(k) if x) for k in rej[:10])
+                + (" ..." if len(rej) > 10 else ""))
+        return "\n".join(lines)
+
+    def _in(self, key: Key) -> bool:
+        kind, u, _ = key
+        m = self.m
+        st = {"image": m.im_status, "control": m.ctrl_status, "gnss": m.g_status,
+              "imu": m.i_status}[kind]
+        return st[u] == IN
+
+    def is_in(self, kind: str, photo: str, point: str) -> bool:
+        """Whether an observation is in the block now (image point `point` on `photo`, the
+        control of `point`, the GNSS position of `photo`)."""
+        m = self.m
+        if kind == "control":
+            j = m.point_at.get(point)
+            return j is not None and m.ctrl_status[j] == IN
+        i = m.photo_at.get(photo)
+        if i is None:
+            return False
+        if kind == "gnss":
+            return any(m.g_status[r] == IN for r in m.gnss_of(i))
+        j = m.point_at.get(point)
+        return any(m.im_point[r] == j and m.im_status[r] == IN for r in m.rows_of_photo[i])
+
+    @property
+    def photo_ids(self) -> list[str]:
+        return list(self.m.photo_ids)
+
+    @property
+    def point_ids(self) -> list[str]:
+        return list(self.m.point_ids)
+
+    # ================================================================ steps
+    def _image_sigma(self, sigma_um) -> np.ndarray:
+        s = self.m.settings.sigma_image_um if sigma_um is None else float(sigma_um)
+        if not s > 0:
+            raise ValueError(f"image sigma {s} µm: must be positive")
+        return np.full(2, s * 1e-3)
+
+    def _answer(self, **kw) -> Answer:
+        self.steps += 1
+        a = Answer(step=self.steps, k_w=self._bm.k_w, **kw)
+        self.answers.append(a)
+        self.m.clear_fresh()
+        return a
+
+    @single_threaded_blas
+    def _added(self, t0: float, what: str) -> Answer:
+        if self._f is None:
+            return self._start(t0, what)
+        group = self._entering()
+        if not group:
+            return self._answer(action="add", what=what, held=tuple(self._held_words()),
+                                seconds=time.perf_counter() - t0)
+        try:
+            tested, changed = self._take_in(group)
+        except GeometryError as e:
+            return self._answer(action="add", what=what, held=tuple(self._held_words()),
+                                note=str(e), seconds=time.perf_counter() - t0)
+        refac = False
+        if len(self._pending) > self.max_rows or self._nonlinear():
+            changed = _merge(changed, self._refactor())
+            tested = self._exact(tested)
+            refac = True
+        return self._answer(action="add", what=what, tested=tuple(tested),
+                            held=tuple(self._held_words()), changed=tuple(changed),
+                            refactorised=refac, seconds=time.perf_counter() - t0)
+
+    @single_threaded_blas
+    def _removed(self, t0: float, what: str, apply) -> Answer:
+        """Take observations out (`apply` marks them removed): the points and photos the
+        block no longer determines leave it, and it is factored again; a removal that leaves
+        the block undetermined is not made (GeometryError)."""
+        m = self.m
+        before = m.snapshot()
+        apply()
+        was_in = any(b == IN and a == REMOVED for b, a in zip(
+            before[0] + before[1] + before[2] + before[3],
+            m.im_status + m.ctrl_status + m.g_status + m.i_status, strict=True))
+        if self._f is None or not was_in:
+            return self._answer(action="remove", what=what,
+                                note="" if self._f is None else "it was not in the block",
+                                seconds=time.perf_counter() - t0)
+        self._leaving()
+        left = []
+        for _ in range(20):  # a photo the block no longer determines leaves it, again
+            try:
+                changed = self._refactor()
+                break
+            except GeometryError as e:
+                bad = re.search(r"orientation of photo (\S+) is not determined", str(e))
+                if bad is None or bad.group(1) not in m.photo_at:
+                    m.restore(before)
+                    self._refactor()
+                    raise GeometryError(f"{what} cannot be taken out: {e}") from None
+                m.photo_in[m.photo_at[bad.group(1)]] = False
+                left.append(bad.group(1))
+                self._leaving()
+        else:
+            m.restore(before)
+            self._refactor()
+            raise GeometryError(f"{what} cannot be taken out: the block falls apart")
+        return self._answer(action="remove", what=what, changed=tuple(changed),
+                            refactorised=True, seconds=time.perf_counter() - t0,
+                            note=f"photo(s) {', '.join(left)} no longer determined: held"
+                            if left else "")
+
+    # ------------------------------------------------------------ which rows enter
+    def _entering(self) -> dict:
+        """The held observations that enter the block now: the photos of this step and the
+        held photos connected to them through held points, with the points they see, pruned
+        to those that determine each other (`_prune`), with every held row between them and
+        the block, the control of entering points and the GNSS/IMU of entering photos.
+        Returns {"image": rows, "control": points, "gnss": rows, "imu": rows, "photos": new
+        photos, "points": new points} or {} when nothing enters."""
+        m = self.m
+        held = m.fresh()
+        cand = {i for i in m.fresh_photos if not m.photo_in[i]} | \
+            {m.im_photo[r] for r in held if not m.photo_in[m.im_photo[r]]}
+        frontier = list(cand)
+        while frontier and len(cand) < MAX_HELD_PHOTOS:  # a strip measured before it holds
+            i = frontier.pop()
+            for r in m.rows_of_photo[i]:
+                j = m.im_point[r]
+                if m.im_status[r] != HELD or m.point_in[j]:
+                    continue
+                for x in m.rows_of_point[j]:
+                    k = m.im_photo[x]
+                    if m.im_status[x] == HELD and not m.photo_in[k] and k not in cand:
+                        cand.add(k)
+                        frontier.append(k)
+        photos = {i for i in cand if self._has_orientation(i)}
+        points = {m.im_point[r] for r in held if not m.point_in[m.im_point[r]]}
+        points |= {m.im_point[r] for i in photos for r in m.rows_of_photo[i]
+                   if m.im_status[r] == HELD and not m.point_in[m.im_point[r]]}
+        points |= {j for j in m.fresh_points if not m.point_in[j]}
+        photos, points = _prune(m, photos, points, m.photo_in, m.point_in)
+
+        def photo_ok(i):
+            return m.photo_in[i] or i in photos
+
+        def point_ok(j):
+            return m.point_in[j] or j in points
+
+        rows = set(held) | {r for i in photos for r in m.rows_of_photo[i]} | \
+            {r for j in points for r in m.rows_of_point[j]}
+        rows = sorted(r for r in rows if m.im_status[r] == HELD and photo_ok(m.im_photo[r])
+                      and point_ok(m.im_point[r]))
+        ctrl = sorted(j for j in set(points) | m.fresh_points
+                      if m.ctrl_status[j] == HELD and point_ok(j))
+        touched = photos | m.fresh_photos
+        gnss = [r for i in sorted(touched) for r in m.gnss_of(i)
+                if m.g_status[r] == HELD and photo_ok(i)]
+        imu = [r for i in sorted(touched) for r in m.imu_of(i)
+               if m.i_status[r] == HELD and photo_ok(i)]
+        if not (rows or ctrl or gnss or imu):
+            return {}
+        return {"image": rows, "control": ctrl, "gnss": gnss, "imu": imu,
+                "photos": sorted(photos), "points": sorted(points)}
+
+    def _has_orientation(self, i: int) -> bool:
+        """Whether photo i has an approximate orientation, resecting it from the block's
+        points where it has none."""
+        if np.isfinite(self.m.photo_eo[i]).all():
+            return True
+        eo, xyz = self._current()
+        m = self.m
+        rows = [r for r in m.rows_of_photo[i] if m.im_status[r] == HELD
+                and m.point_in[m.im_point[r]]]
+        if len(rows) < 3:
+            return False
+        cam = m.photo_cam[i]
+        pp = m.cameras.principal_point_mm[cam]
+        try:
+            e, _ = resect(np.array([m.im_xy[r] for r in rows]) - pp,
+                          xyz[[m.im_point[r] for r in rows]],
+                          float(m.cameras.focal_mm[cam]))
+        except GeometryError:
+            return False
+        m.photo_eo[i] = e
+        m.changed()
+        return True
+
+    def _held_words(self) -> list[str]:
+        """What of this step is held, in words."""
+        m = self.m
+        out = []
+        for r in sorted(m.fresh_rows):
+            if m.im_status[r] != HELD:
+                continue
+            i, j = m.im_photo[r], m.im_point[r]
+            if not m.photo_in[i]:
+                n = len({m.im_point[x] for x in m.rows_of_photo[i] if m.point_in[m.im_point[x]]})
+                why = f"photo {m.photo_ids[i]} is not determined yet ({n} of its points in " \
+                    f"the block, {MIN_PHOTO_POINTS} needed)"
+            else:
+                why = "its first ray" if len(m.live_rays(j)) < 2 else \
+                    "its point is not determined yet"
+            out.append(f"point {m.point_ids[j]} on photo {m.photo_ids[i]}: {why}")
+        return out
+
+    def _leaving(self) -> None:
+        """After a removal: points and photos the block no longer determines leave it,
+        their observations held again (until a determination of their own)."""
+        m = self.m
+        changed = True
+        while changed:
+            changed = False
+            for j in np.flatnonzero(m.point_in):
+                rays = [r for r in m.live_rays(j) if m.photo_in[m.im_photo[r]]]
+                if not (len(rays) >= 2 or (rays and m.full_control(j))):
+                    m.point_in[j] = False
+                    changed = True
+            for i in np.flatnonzero(m.photo_in):
+                pts = {m.im_point[r] for r in m.rows_of_photo[i] if m.im_status[r] != REMOVED
+                       and m.point_in[m.im_point[r]]}
+                if len(pts) < MIN_PHOTO_POINTS:
+                    m.photo_in[i] = False
+                    changed = True
+        for r in range(len(m.im_status)):
+            if m.im_status[r] == IN and not (m.photo_in[m.im_photo[r]]
+                                             and m.point_in[m.im_point[r]]):
+                m.im_status[r] = HELD
+        for j in range(len(m.ctrl_status)):
+            if m.ctrl_status[j] == IN and not m.point_in[j]:
+                m.ctrl_status[j] = HELD
+        for st, ph in ((m.g_status, m.g_photo), (m.i_status, m.i_photo)):
+            for r in range(len(st)):
+                if st[r] == IN and not m.photo_in[ph[r]]:
+                    st[r] = HELD
+
+    # ------------------------------------------------------------ the first adjustment
+    @single_threaded_blas
+    def _start(self, t0: float, what: str) -> Answer | None:
+        """Adjust everything held once the control fixes the block: photos and points
+        pruned to those the block determines, then the batch adjustment."""
+        m = self.m
+        if not m.im_status:
+            return None
+        photos = {i for i in range(len(m.photo_ids)) if np.isfinite(m.photo_eo[i]).all()}
+        photos, points = _prune(m, photos, set(range(len(m.point_ids))))
+        note = "fewer than two photos are determined"
+        for _ in range(20):  # a photo the adjustment finds undetermined is left out, again
+            if len(photos) < 2:
+                break
+            for i in photos:
+                m.photo_in[i] = True
+            for j in points:
+                m.point_in[j] = True
+            self._mark_in()
+            try:
+                self._refactor(first=True)
+                break
+            except GeometryError as e:
+                note = str(e)
+                self._f = None
+                for i in photos:
+                    m.photo_in[i] = False
+                for j in points:
+                    m.point_in[j] = False
+                self._leaving()
+                bad = re.search(r"orientation of photo (\S+) is not determined", note)
+                if bad is None or bad.group(1) not in m.photo_at:
+                    break
+                photos.discard(m.photo_at[bad.group(1)])
+                photos, points = _prune(m, photos, points)
+        if self._f is None:
+            self._why_not = note
+            return self._answer(action="add", what=what, held=tuple(self._held_words()),
+                                note="the block cannot be adjusted yet: " + note,
+                                seconds=time.perf_counter() - t0)
+        f = self._f
+        q = self._stats(f)
+        tested = [self._component(k, float("nan"), float("nan"), *s)
+                  for k, s in zip(f.keys, zip(*q, strict=True), strict=True)]
+        for k, t in zip(f.keys, tested, strict=True):
+            self._verdict[k] = t.verdict
+        ans = self._answer(action="first adjustment", what=what, tested=tuple(tested),
+                           held=tuple(self._held_words()), refactorised=True,
+                           note=f"first adjustment: {len(photos)} photos, {len(points)} "
+                           f"points", seconds=time.perf_counter() - t0)
+        self.first = ans
+        return ans
+
+    def _mark_in(self) -> None:
+        m = self.m
+        for r in range(len(m.im_status)):
+            if m.im_status[r] == HELD and m.photo_in[m.im_photo[r]] \
+                    and m.point_in[m.im_point[r]]:
+                m.im_status[r] = IN
+        for j in range(len(m.ctrl_status)):
+            if m.ctrl_status[j] == HELD and m.point_in[j]:
+                m.ctrl_status[j] = IN
+        for st, ph in ((m.g_status, m.g_photo), (m.i_status, m.i_photo)):
+            for r in range(len(st)):
+                if st[r] == HELD and m.photo_in[ph[r]]:
+                    st[r] = IN
+
+    # ------------------------------------------------------------ factorisation
+    def _current(self) -> tuple[np.ndarray, np.ndarray]:
+        """Current estimates of every photo and point (approximations where not in the
+        block; NaN where none)."""
+        eo, xyz, tie = self.m.arrays()
+        eo = eo.copy()
+        xyz = np.where(tie[:, None], np.nan, xyz)
+        f = self._f
+        if f is None:
+            return eo, xyz
+        res = f.result
+        sol = f.lowrank.solution() if f.lowrank.r else None
+        fr = np.flatnonzero(f.frame_of >= 0)
+        e = res.state[0][f.frame_of[fr]]
+        if sol is not None:
+            e = e + sol.dxf[f.frame_of[fr]]
+        eo[fr] = e
+        pt = np.flatnonzero(f.elim_of >= 0)
+        x = res.state[1][f.elim_of[pt]]
+        if sol is not None:
+            x = x + sol.dxp[f.elim_of[pt]]
+        xyz[pt] = x
+        for (what, u), c in self._ycol.items():
+            n = 6 if what == "photo" else 3
+            val = self._y0[c:c + n] + (sol.dy[c:c + n] if sol is not None else 0.0)
+            (eo if what == "photo" else xyz)[u] = val
+        return eo, xyz
+
+    def _globals(self) -> np.ndarray:
+        f = self._f
+        g = f.result.state[2] if len(f.result.state) == 3 else np.zeros(0)
+        if f.lowrank.r and len(g):
+            g = g + f.lowrank.solution().dxg
+        return g
+
+    def _refactor(self, first: bool = False) -> list[Change]:
+        """Factor the block again at its Gauss-Newton solution (warm-started from the
+        current estimates); returns the verdicts that changed since they were last told."""
+        m = self.m
+        eo, xyz = self._current()
+        old_g = None if self._f is None else (self._f.problem.system.global_names,
+                                              self._globals())
+        block, maps = m.state_block(np.where(np.isfinite(eo), eo, 0.0), xyz)
+        problem = BundleProblem(block).with_solve_options(self.solve_options)
+        start = (eo[maps.photos], xyz[maps.points[problem.elim_ids]])
+        if problem.system.ng:
+            g = np.concatenate([problem.calibration.start(), np.zeros(problem.gnss_imu.n)])
+            if old_g is not None:
+                at = {n: v for n, v in zip(old_g[0], old_g[1], strict=True)}
+                g = np.array([at.get(n, v) for n, v in
+                              zip(problem.system.global_names, g, strict=True)])
+            start += (g,)
+        result = problem.fit(start=None if first else start)
+        model = BundleModel(result)
+        keys = _flat_keys(problem, maps)
+        nf = len(m.photo_ids)
+        frame_of = np.full(nf, -1)
+        frame_of[maps.photos] = np.arange(len(maps.photos))
+        elim_of = np.full(len(m.point_ids), -1)
+        elim_of[maps.points[problem.elim_ids]] = np.arange(len(problem.elim_ids))
+        by_photo: dict[int, list[int]] = {}
+        by_point: dict[int, list[int]] = {}
+        for n, (kind, u, _c) in enumerate(keys):
+            if kind == "image":
+                by_photo.setdefault(m.im_photo[u], []).append(n)
+                by_point.setdefault(m.im_point[u], []).append(n)
+            elif kind == "control":
+                by_point.setdefault(u, []).append(n)
+            else:
+                by_photo.setdefault((m.g_photo if kind == "gnss" else m.i_photo)[u],
+                                    []).append(n)
+        q0 = np.maximum(model.adjusted_cofactor_diag(), 0.0)
+        self._f = _Factored(
+            problem=problem, result=result, model=model, keys=keys,
+            flat_of={k: n for n, k in enumerate(keys)}, q0=q0, v0=model.residuals,
+            sigma=model.sigma, frame_of=frame_of, elim_of=elim_of,
+            by_photo={k: np.array(v) for k, v in by_photo.items()},
+            by_point={k: np.array(v) for k, v in by_point.items()},
+            lowrank=LowRank(result.factor))
+        self._ycol, self._y0, self._pending = {}, np.zeros(0), []
+        if first and not result.converged:
+            raise GeometryError("the adjustment of the block did not converge: "
+                                + "; ".join(result.notes[-1:]))
+        if first:
+            return []
+        w, r, *_ = self._stats(self._f)
+        return self._changes(keys, w, r)
+
+    def _nonlinear(self) -> bool:
+        """Whether the rows since the factorisation moved the estimates so far from where
+        they were linearised that the one-step solution is no longer exact enough: a
+        position by more than LINEAR_LIMIT of the flying height or an angle by more than
+        LINEAR_LIMIT rad (the error of the linearisation, c * LINEAR_LIMIT^2, then stays
+        below 0.015 µm for c = 153 mm)."""
+        f = self._f
+        sol = f.lowrank.solution()
+        h = f.problem.scale
+        size = max(np.max(np.abs(sol.dxf[:, :3]), initial=0.0) / h,
+                   np.max(np.abs(sol.dxf[:, 3:]), initial=0.0),
+                   np.max(np.abs(sol.dxp), initial=0.0) / h)
+        for (what, _u), c in self._ycol.items():
+            d = sol.dy[c:c + (6 if what == "photo" else 3)]
+            size = max(size, np.max(np.abs(d[:3])) / h,
+                       np.max(np.abs(d[3:]), initial=0.0) if what == "photo" else 0.0)
+        return size > self.linear_limit
+
+    def _exact(self, tested: list[ComponentTest]) -> list[ComponentTest]:
+        """The tests of components now in the factorisation, from its solution (the
+        prediction before inclusion kept)."""
+        f = self._f
+        w, r, v, sv, mdb = self._stats(f)
+        out = []
+        for t in tested:
+            n = f.flat_of.get(self._key_of(t))
+            if n is None:
+                out.append(t)
+                continue
+            out.append(self._component(f.keys[n], t.predicted, t.sigma_predicted, float(w[n]),
+                                       float(r[n]), float(v[n]), float(sv[n]), float(mdb[n])))
+        return out
+
+    def _key_of(self, t: ComponentTest) -> Key:
+        return self._keys_told[(t.kind, t.photo, t.point, t.component)]
+
+    def _stats(self, f: _Factored):
+        """w, r, v, sigma_v, mdb of every component at the factorisation."""
+        s2 = f.sigma ** 2
+        qvv = s2 - f.q0
+        qvv = np.where(qvv < 1e-12 * s2, 0.0, qvv)
+        r = qvv / s2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sv = np.sqrt(qvv)
+            w = np.where(r >= 1e-3, -f.v0 / sv, np.nan)
+            mdb = np.where(r >= 1e-3, self._bm.delta0 * f.sigma / np.sqrt(r), np.inf)
+        return w, r, f.v0, sv, mdb
+
+    def _changes(self, keys, w, r) -> list[Change]:
+        out = []
+        new = verdicts(np.asarray(w, float), np.asarray(r, float), self._bm.k_w)
+        for k, v, wi in zip(keys, new, w, strict=True):
+            before = self._verdict.get(k)
+            if before is not None and before != v:
+                out.append(self._change(k, before, v, float(wi)))
+            self._verdict[k] = v
+        return out
+
+    # ------------------------------------------------------------ taking rows in
+    def _take_in(self, group: dict) -> tuple[list[ComponentTest], list[Change]]:
+        f = self._f
+        lr = f.lowrank
+        m = self.m
+        ny0, ycol0 = len(self._y0), dict(self._ycol)
+        y0 = self._new_unknowns(group)
+        keys, rows = self._rows(group, y0)
+        # the prediction from the block before: e - a dx, variance sigma^2 + a Q_xx a^T
+        prev = lr.solution() if lr.r else None
+        plain = (rows.ycol < 0).all(axis=1)
+        pred = rows.e.copy()
+        var_old = np.zeros(len(rows))
+        if prev is not None:
+            from baarda.online.lowrank import times
+
+            z = times(rows, *lr.columns())
+            pred = pred - z @ prev.we
+            var_old = np.einsum("kr,rs,ks->k", z, prev.w, z)
+        r0 = lr.r
+        lr.add(rows, len(self._y0))
+        try:
+            sol = lr.solution()
+        except GeometryError:
+            lr.drop_last(len(rows), ny0)
+            self._ycol, self._y0 = ycol0, self._y0[:ny0]
+            raise GeometryError("held: these observations do not determine the new photo "
+                                "or point yet") from None
+        # the group is in
+        for r in group["image"]:
+            m.im_status[r] = IN
+        for j in group["control"]:
+            m.ctrl_status[j] = IN
+        for r in group["gnss"]:
+            m.g_status[r] = IN
+        for r in group["imu"]:
+            m.i_status[r] = IN
+        for i in group["photos"]:
+            m.photo_in[i] = True
+        for j in group["points"]:
+            m.point_in[j] = True
+        self._pending += keys
+        k = len(rows)
+        sl = slice(r0, r0 + k)
+        s2 = rows.sigma ** 2
+        qvv = np.diag(sol.qvv)[sl]
+        mdiag = np.diag(lr.m)[sl]
+        sig_pred = np.where(plain, np.sqrt(s2 + mdiag - var_old), np.nan)
+        pred = np.where(plain, pred, np.nan)
+        tested = []
+        for n, key in enumerate(keys):
+            r = max(qvv[n], 0.0) / s2[n]
+            sv = np.sqrt(max(qvv[n], 0.0))
+            w = -sol.v[r0 + n] / sv if r >= 1e-3 else float("nan")
+            mdb = self._bm.delta0 * rows.sigma[n] / np.sqrt(r) if r >= 1e-3 else float("inf")
+            tested.append(self._component(key, float(pred[n]), float(sig_pred[n]),
+                                          float(w), float(r), float(sol.v[r0 + n]), float(sv),
+                                          float(mdb)))
+            self._verdict[key] = tested[-1].verdict
+        changed = self._neighbourhood(group, keys, sol, r0)
+        return tested, changed
+
+    def _neighbourhood(self, group: dict, new_keys: list, sol, r0: int) -> list[Change]:
+        """Verdict changes among the factorisation's observations on the photos and points
+        of the group and the rows added since the factorisation."""
+        f, m = self._f, self.m
+        photos = {m.im_photo[r] for r in group["image"]} | \
+            {m.g_photo[r] for r in group["gnss"]} | {m.i_photo[r] for r in group["imu"]}
+        points = {m.im_point[r] for r in group["image"]} | set(group["control"])
+        flat = set()
+        for i in photos:
+            flat.update(f.by_photo.get(i, np.zeros(0, int)).tolist())
+        for j in points:
+            flat.update(f.by_point.get(j, np.zeros(0, int)).tolist())
+        out = []
+        if flat:
+            flat = np.array(sorted(flat))
+            rows = factor_rows(f.problem, f.result.factor, flat)
+            q, v = f.lowrank.old_rows(rows, f.q0[flat], f.v0[flat])
+            s2 = f.sigma[flat] ** 2
+            qvv = np.where(s2 - q < 1e-12 * s2, 0.0, s2 - q)
+            r = qvv / s2
+            with np.errstate(divide="ignore", invalid="ignore"):
+                w = np.where(r >= 1e-3, -v / np.sqrt(qvv), np.nan)
+            out += self._changes([f.keys[n] for n in flat], w, r)
+        if r0:
+            s2 = f.lowrank.sigma[:r0] ** 2
+            qvv = np.maximum(np.diag(sol.qvv)[:r0], 0.0)
+            r = qvv / s2
+            with np.errstate(divide="ignore", invalid="ignore"):
+                w = np.where(r >= 1e-3, -sol.v[:r0] / np.sqrt(qvv), np.nan)
+            out += self._changes(self._pending[:r0], w, r)
+        return out
+
+    def _new_unknowns(self, group: dict) -> np.ndarray:
+        """Columns and approximations of the group's new photos and points: photos from
+        their approximate orientation, points intersected, then both refined by
+        Gauss-Newton with everything in the block held at its current estimate."""
+        m = self.m
+        if not (group["photos"] or group["points"]):
+            return self._y0
+        eo, xyz = self._current()
+        cols = {}
+        n = len(self._y0)
+        for i in group["photos"]:
+            cols[("photo", i)] = n
+            n += 6
+        for j in group["points"]:
+            cols[("point", j)] = n
+            n += 3
+        if len(cols) == 0:
+            return self._y0
+        for i in group["photos"]:
+            eo[i] = m.photo_eo[i]
+        for j in group["points"]:
+            xyz[j] = self._intersect(j, eo, group)
+        if not _refine(self, group, eo, xyz):
+            raise GeometryError("held: these observations do not determine the new photo "
+                                "or point yet")
+        y = np.zeros(n - len(self._y0))
+        base = len(self._y0)
+        for (what, u), c in cols.items():
+            y[c - base:c - base + (6 if what == "photo" else 3)] = \
+                eo[u] if what == "photo" else xyz[u]
+        self._ycol.update(cols)
+        self._y0 = np.concatenate([self._y0, y])
+        return self._y0
+
+    def _intersect(self, j: int, eo: np.ndarray, group: dict) -> np.ndarray:
+        """A point from its rays (no lens model: a start for the refinement), or its
+        control coordinates."""
+        m = self.m
+        if m.full_control(j):
+            return m.point_xyz[j].copy()
+        rows = [r for r in group["image"] if m.im_point[r] == j]
+        cams = [m.photo_cam[m.im_photo[r]] for r in rows]
+        e = eo[[m.im_photo[r] for r in rows]]
+        rot = rotation_matrix(e[:, 3], e[:, 4], e[:, 5])
+        xy = np.array([m.im_xy[r] for r in rows]) - m.cameras.principal_point_mm[cams]
+        d = np.einsum("mij,mj->mi", rot, np.column_stack([xy, -m.cameras.focal_mm[cams]]))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        proj = np.eye(3)[None] - d[:, :, None] * d[:, None, :]
+        a = proj.sum(axis=0)
+        b = np.einsum("mij,mj->i", proj, e[:, :3])
+        return np.linalg.solve(a, b)
+
+    def _rows(self, group: dict, y0: np.ndarray) -> tuple[list[Key], Rows]:
+        """The group's observation rows linearised at the factorisation's estimate (new
+        unknowns at y0)."""
+        f, m = self._f, self.m
+        res = f.result
+        ng = f.problem.system.ng
+        g = res.state[2] if len(res.state) == 3 else np.zeros(0)
+
+        def photo_at(i):
+            c = self._ycol.get(("photo", i))
+            return (y0[c:c + 6], c) if c is not None else (res.state[0][f.frame_of[i]], -1)
+
+        def point_at(j):
+            c = self._ycol.get(("point", j))
+            return (y0[c:c + 3], c) if c is not None else (res.state[1][f.elim_of[j]], -1)
+
+        keys, parts = [], []
+        img = group["image"]
+        if img:
+            ph = [photo_at(m.im_photo[r]) for r in img]
+            pt = [point_at(m.im_point[r]) for r in img]
+            e, je, jp, jg = image_rows(f.problem.block, f.problem,
+                                       np.array([m.photo_cam[m.im_photo[r]] for r in img]),
+                                       np.array([p[0] for p in ph]), np.array([p[0] for p in pt]),
+                                       np.array([m.im_xy[r] for r in img]), g)
+            k = 2 * len(img)
+            frame = np.repeat([f.frame_of[m.im_photo[r]] if c < 0 else -1
+                               for r, (_, c) in zip(img, ph, strict=True)], 2)
+            point = np.repeat([f.elim_of[m.im_point[r]] if c < 0 else -1
+                               for r, (_, c) in zip(img, pt, strict=True)], 2)
+            pc = np.repeat([c for _, c in ph], 2)
+            qc = np.repeat([c for _, c in pt], 2)
+            je, jp = je.reshape(k, 6), jp.reshape(k, 3)
+            ycol = np.full((k, KY), -1, np.int64)
+            jy = np.zeros((k, KY))
+            on = pc >= 0
+            ycol[on, :6] = pc[on, None] + np.arange(6)
+            jy[on, :6] = je[on]
+            on = qc >= 0
+            ycol[on, 6:] = qc[on, None] + np.arange(3)
+            jy[on, 6:] = jp[on]
+            sig = np.array([m.im_sigma[r] for r in img]).reshape(k)
+            parts.append(Rows(frame, np.where((frame >= 0)[:, None], je, 0.0), point,
+                              np.where((point >= 0)[:, None], jp, 0.0), jg.reshape(k, ng),
+                              ycol, jy, sig, e.reshape(k)))
+            keys += [("image", r, c) for r in img for c in range(2)]
+        for j in group["control"]:
+            sig = m.point_sigma[j]
+            obs = np.flatnonzero(np.isfinite(sig))
+            x, c = point_at(j)
+            k = len(obs)
+            jp = np.eye(3)[obs]
+            ycol = np.full((k, KY), -1, np.int64)
+            jy = np.zeros((k, KY))
+            if c >= 0:
+                ycol[:, 6:] = c + np.arange(3)
+                jy[:, 6:] = jp
+            parts.append(Rows(np.full(k, -1), np.zeros((k, 6)),
+                              np.full(k, f.elim_of[j] if c < 0 else -1),
+                              jp if c < 0 else np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
+                              sig[obs], (m.point_xyz[j] - x)[obs]))
+            keys += [("control", j, int(a)) for a in obs]
+        ext = [("gnss", r, m.g_photo[r]) for r in group["gnss"]] + \
+            [("imu", r, m.i_photo[r]) for r in group["imu"]]
+        if ext:
+            ph = [photo_at(i) for _, _, i in ext]
+            gsel = [r for kind, r, _ in ext if kind == "gnss"]
+            isel = [r for kind, r, _ in ext if kind == "imu"]
+            e, jf = extra_rows(f.problem.block, f.problem,
+                               np.repeat(np.array([p[0] for p in ph]), 1, axis=0),
+                               np.array([m.g_xyz[r] for r in gsel]).reshape(-1, 3),
+                               np.array([m.g_sigma[r] for r in gsel]).reshape(-1, 3),
+                               np.array([m.i_angles[r] for r in isel]).reshape(-1, 3),
+                               np.array([m.i_sigma[r] for r in isel]).reshape(-1, 3))
+            k = 3 * len(ext)
+            frame = np.repeat([f.frame_of[i] if c < 0 else -1
+                               for (_, _, i), (_, c) in zip(ext, ph, strict=True)], 3)
+            pc = np.repeat([c for _, c in ph], 3)
+            ycol = np.full((k, KY), -1, np.int64)
+            jy = np.zeros((k, KY))
+            on = pc >= 0
+            ycol[on, :6] = pc[on, None] + np.arange(6)
+            jy[on, :6] = jf[on]
+            sig = np.concatenate([np.array([m.g_sigma[r] for r in gsel]).reshape(-1),
+                                  np.array([m.i_sigma[r] for r in isel]).reshape(-1)])
+            parts.append(Rows(frame, np.where((frame >= 0)[:, None], jf, 0.0),
+                              np.full(k, -1), np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
+                              sig, e))
+            keys += [(kind, r, c) for kind, r, _ in ext for c in range(3)]
+        return keys, concat(parts, ng)
+
+    # ------------------------------------------------------------ labels
+    def _label(self, key: Key) -> tuple[str, str, str, str]:
+        m = self.m
+        kind, u, c = key
+        comp = COMPONENTS[kind][c]
+        if kind == "image":
+            return kind, m.photo_ids[m.im_photo[u]], m.point_ids[m.im_point[u]], comp
+        if kind == "control":
+            return kind, "", m.point_ids[u], comp
+        ph = (m.g_photo if kind == "gnss" else m.i_photo)[u]
+        return kind, m.photo_ids[ph], "", comp
+
+    def _component(self, key: Key, pred: float, sig_pred: float, w: float, r: float,
+                   v: float, sv: float, mdb: float) -> ComponentTest:
+        from baarda.online.answers import verdict
+
+        kind, photo, point, comp = self._label(key)
+        self._keys_told[(kind, photo, point, comp)] = key
+        return ComponentTest(kind, photo, point, comp, pred, sig_pred, v, sv, r, w, mdb,
+                             verdict(w, r, self._bm.k_w))
+
+    def _change(self, key: Key, before: str, after: str, w: float) -> Change:
+        kind, photo, point, comp = self._label(key)
+        return Change(kind, photo, point, comp, before, after, w)
+
+
+def _prepared(block: Block) -> Block:
+    """The block in the local frame of its CRS, with approximate orientations where they can
+    be had by resection now (pipeline.localized, pipeline.with_approximations); photos that
+    cannot keep none (they are resected from the block's points when they come in)."""
+    from baarda.pipeline import localized, with_approximations
+
+    block = localized(block)
+    if np.isfinite(block.photos.eo).all() or not len(block.image):
+        return block
+    try:
+        return with_approximations(block)
+    except GeometryError:
+        return block
+
+
+def _prune(m: Measurements, photos: set, points: set, photo_in=None, point_in=None
+           ) -> tuple[set, set]:
+    """The photos and points of the sets that determine each other and the block (photo_in,
+    point_in: what is in it): points with two rays on those photos (or one and full
+    control), photos with MIN_PHOTO_POINTS of those points that are not on one line in the
+    image."""
+    photo_in = photo_in if photo_in is not None else [False] * len(m.photo_ids)
+    point_in = point_in if point_in is not None else [False] * len(m.point_ids)
+    photos, points = set(photos), set(points)
+    changed = True
+    while changed:
+        changed = False
+        for j in sorted(points):
+            rays = [r for r in m.live_rays(j) if photo_in[m.im_photo[r]] or m.im_photo[r] in photos]
+            if not (len(rays) >= 2 or (rays and m.full_control(j))):
+                points.discard(j)
+                changed = True
+        for i in sorted(photos):
+            rows = [r for r in m.rows_of_photo[i] if m.im_status[r] != REMOVED
+                    and (point_in[m.im_point[r]] or m.im_point[r] in points)]
+            if not _spread(np.array([m.im_xy[r] for r in rows]).reshape(-1, 2)):
+                photos.discard(i)
+                changed = True
+    return photos, points
+
+
+def _spread(xy: np.ndarray) -> bool:
+    """MIN_PHOTO_POINTS image points or more, not on one line (the second singular value of
+    their spread at least SPREAD of the first)."""
+    if len(xy) < MIN_PHOTO_POINTS:
+        return False
+    s = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
+    return bool(s[1] >= SPREAD * s[0])
+
+
+def _merge(a: list[Change], b: list[Change]) -> list[Change]:
+    """Changes of one step found twice (around the addition, then at the factorisation)."""
+    by = {}
+    for c in a + b:
+        key = (c.kind, c.photo, c.point, c.component)
+        first = by.get(key)
+        by[key] = c if first is None else Change(*key, first.before, c.after, c.w)
+    return [c for c in by.values() if c.before != c.after]
+
+
+def _flat_keys(problem: BundleProblem, maps) -> list:
+    """The universe key of every component of a problem's flat observation vector."""
+    keys = []
+    for r in problem.obs:
+        u = int(maps.image[r])
+        keys += [("image", u, 0), ("image", u, 1)]
+    sel = problem.layout.ctrl_sel
+    ci, cc = np.divmod(sel, 3)
+    for i, c in zip(ci, cc, strict=True):
+        keys.append(("control", int(maps.points[problem.control[i]]), int(c)))
+    gi = problem.gnss_imu
+    for r in range(gi.n_gnss):
+        keys += [("gnss", int(maps.gnss[r]), c) for c in range(3)]
+    for r in range(gi.n_imu):
+        keys += [("imu", int(maps.imu[r]), c) for c in range(3)]
+    return keys
+
+
+def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> bool:
+    """The group's new photos and points adjusted alone (everything else held at eo, xyz),
+    in place: a good linearisation point for the low-rank update (the one solver on a
+    small dense problem, Levenberg-Marquardt from the approximations); False when they are
+    not determined (the undamped normal equations at the solution singular, scaled)."""
+    m, f = ob.m, ob._f
+    photos, points = group["photos"], group["points"]
+    col = {("photo", i): 6 * n for n, i in enumerate(photos)}
+    col.update({("point", j): 6 * len(photos) + 3 * n for n, j in enumerate(points)})
+    nu = 6 * len(photos) + 3 * len(points)
+    img = [r for r in group["image"]
+           if ("photo", m.im_photo[r]) in col or ("point", m.im_point[r]) in col]
+    if not img or not nu:
+        return True
+    cams = np.array([m.photo_cam[m.im_photo[r]] for r in img])
+    sig = np.array([m.im_sigma[r] for r in img]).reshape(-1)
+    xy = np.array([m.im_xy[r] for r in img])
+    ph = np.array([m.im_photo[r] for r in img])
+    pt = np.array([m.im_point[r] for r in img])
+    pcol = np.array([col.get(("photo", i), -1) for i in ph])
+    qcol = np.array([col.get(("point", j), -1) for j in pt])
+    g = ob._globals()
+
+    def unpack(y):
+        e, x = eo.copy(), xyz.copy()
+        for (what, u), c in col.items():
+            if what == "photo":
+                e[u] = y[c:c + 6]
+            else:
+                x[u] = y[c:c + 3]
+        return e, x
+
+    # control coordinates of the new points (a point with one ray and full control)
+    ctrl = [(j, a) for j in group["control"] if ("point", j) in col
+            for a in np.flatnonzero(np.isfinite(m.point_sigma[j]))]
+    c_obs = np.array([m.point_xyz[j][a] for j, a in ctrl])
+    c_sig = np.array([m.point_sigma[j][a] for j, a in ctrl])
+
+    def func(y):
+        e, x = unpack(y)
+        mis, je, jp, _ = image_rows(f.problem.block, f.problem, cams, e[ph], x[pt], xy, g)
+        a = np.zeros((len(img), 2, nu))
+        for n in np.flatnonzero(pcol >= 0):
+            a[n, :, pcol[n]:pcol[n] + 6] = je[n]
+        for n in np.flatnonzero(qcol >= 0):
+            a[n, :, qcol[n]:qcol[n] + 3] = jp[n]
+        ac = np.zeros((len(ctrl), nu))
+        for n, (j, k) in enumerate(ctrl):
+            ac[n, col[("point", j)] + k] = 1.0
+        fc = np.array([x[j][k] for j, k in ctrl])
+        return (np.concatenate([(xy - mis).reshape(-1), fc]),
+                np.vstack([a.reshape(-1, nu), ac]))
+
+    y = np.zeros(nu)
+    for (what, u), c in col.items():
+        y[c:c + (6 if what == "photo" else 3)] = eo[u] if what == "photo" else xyz[u]
+    sig = np.concatenate([sig, c_sig])
+    p = 1.0 / sig**2
+    problem = DenseLeastSquares(func, np.concatenate([xy.reshape(-1), c_obs]), p,
+                                method="lstsq",
+                                what="the new photos and points")
+    try:
+        sol = solve(problem, y, REFINE)
+    except GeometryError:
+        return False
+    # determined: the undamped normal equations at the solution are regular (scaled)
+    a = sol.lin.a
+    n = a.T @ (p[:, None] * a)
+    d = np.sqrt(np.maximum(np.diag(n), 1e-300))
+    lam = np.linalg.eigvalsh(n / np.outer(d, d))
+    if not (sol.converged and lam[0] > UNDETERMINED):
+        return False
+    e, x = unpack(sol.state)
+    eo[:], xyz[:] = e, x
+    return True

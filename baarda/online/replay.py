@@ -1,0 +1,162 @@
+"""A finished block measured again on-line: photo by photo in strip order, every measurement
+tested the moment it is taken in (`baarda online --bundle --replay PROJECT`).
+
+The replay starts from the block's control and approximate orientations (GNSS and IMU rows
+wait for their photos) and adds each photo with all its image points.  `remove="none"`
+keeps every observation, so that the result is the adjustment of the whole block, as
+`baarda adjust` gives it; `remove="worst"` acts as an operator who re-measures: after each
+step, while an observation is rejected, the one with the largest |w| is taken out (an image
+point with both coordinates), together with those the test cannot tell from it (|w| equal:
+the two rays of a two-ray point), as in the replay study (docs/online.md).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+
+from baarda.block.photo_block import Block
+from baarda.online.answers import UNITS, Answer
+from baarda.online.bundle import MAX_ROWS, OnlineBundle
+from baarda.options import TestOptions
+
+COLUMNS = ("step", "kind", "photo", "point", "component", "w", "mdb", "unit", "redundancy",
+           "verdict", "ms")
+MAX_REMOVALS = 10  # re-measurements after one step, at most
+TIE = 1e-6  # |w| within this (relative) of the largest: the test cannot tell them apart
+
+
+def tests_table(answers) -> pd.DataFrame:
+    """One row per tested component of each answer: the step, what it is, w, MDB (in the
+    kind's unit: µm for image coordinates, m for control and GNSS), r, the verdict and the
+    step's time in ms (COLUMNS)."""
+    rows = []
+    for a in answers:
+        for t in a.tested:
+            f, unit = UNITS.get(t.kind, (1.0, ""))
+            rows.append((a.step, t.kind, t.photo, t.point, t.component, t.w, t.mdb * f,
+                         unit, t.redundancy, t.verdict, 1e3 * a.seconds))
+    return pd.DataFrame(rows, columns=list(COLUMNS))
+
+
+def strip_order(block: Block) -> list[int]:
+    """The photos in strip order: strips in the order they first appear, photos in the
+    block's order within each."""
+    strips = [str(s) for s in block.photos.strip]
+    first = {s: n for n, s in reversed(list(enumerate(strips)))}
+    return sorted(range(len(strips)), key=lambda i: (first[strips[i]], i))
+
+
+@dataclass(frozen=True)
+class Replay:
+    """The answers of every step, the on-line bundle at the end, and what was taken out
+    (remove="worst": (step, kind, photo, point, component, w) of each removal, in order)."""
+
+    answers: tuple[Answer, ...]
+    online: OnlineBundle
+    removed: tuple[tuple, ...]
+    seconds: float
+
+    def table(self) -> pd.DataFrame:
+        """replay.csv (tests_table)."""
+        return tests_table(self.answers)
+
+    def summary_lines(self) -> list[str]:
+        tested = sum(len(a.tested) for a in self.answers)
+        rej = sum(t.verdict == "reject" for a in self.answers for t in a.tested)
+        sus = sum(t.verdict == "suspect" for a in self.answers for t in a.tested)
+        adds = [a.seconds for a in self.answers if a.action == "add" and a.tested]
+        out = [f"replay: {len(self.answers)} steps, {tested} components tested, {rej} "
+               f"rejected and {sus} not checked (suspect) when they were taken in; "
+               f"{self.seconds:.2f} s" + (f", median {1e3 * float(np.median(adds)):.1f} ms "
+                                           "per photo" if adds else "")]
+        if self.removed:
+            out.append(f"{len(self.removed)} observation(s) taken out as rejected")
+        return out
+
+
+def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "none",
+           max_rows: int = MAX_ROWS, progress: Callable[[Answer], None] | None = None
+           ) -> Replay:
+    """Replay a finished block (in its local frame, with approximations) photo by photo."""
+    if remove not in ("none", "worst"):
+        raise ValueError("remove: 'none' or 'worst'")
+    t0 = time.perf_counter()
+    im = block.image
+    start = block.select_image(np.zeros(len(im), bool))
+    ob = OnlineBundle(start, tests, max_rows=max_rows)
+    answers: list[Answer] = []
+    removed: list[tuple] = []
+    ids = block.points.ids
+    for i in strip_order(block):
+        rows = np.flatnonzero(im.photo == i)
+        sig = im.sigma_xy
+        pts = {ids[im.point[r]]: (float(im.xy_mm[r, 0]), float(im.xy_mm[r, 1]),
+                                  float(np.sqrt(np.mean(sig[r] ** 2)) * 1e3)) for r in rows}
+        a = ob.add_photo(block.photos.ids[i], pts)
+        answers.append(a)
+        if progress:
+            progress(a)
+        if remove == "worst":
+            for b in _remeasure(ob, a, removed):
+                answers.append(b)
+                if progress:
+                    progress(b)
+    return Replay(tuple(answers), ob, tuple(removed), time.perf_counter() - t0)
+
+
+def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
+    """Take out the worst rejected observation while there is one (the step's tested
+    components and the verdicts it changed)."""
+    from baarda.errors import GeometryError
+
+    out = []
+    bad = {(t.kind, t.photo, t.point, t.component): t.w for t in a.tested
+           if t.verdict == "reject"}
+    _update(bad, a.changed)
+    for _ in range(MAX_REMOVALS):
+        if not bad:
+            break
+        top = max(abs(v) for v in bad.values())
+        # the largest |w|, with the components the test cannot tell from it (the same
+        # component on the two rays of a two-ray point: |w| equal): re-measured together
+        group = sorted((k for k, v in bad.items() if abs(v) >= (1 - TIE) * top),
+                       key=lambda k: -abs(bad[k]))
+        taken = False
+        for key in group:
+            kind, photo, point, comp = key
+            w = bad.pop(key, None)
+            if w is None or not ob.is_in(kind, photo, point):
+                continue  # no longer rejected, or out with its twin
+            try:
+                if kind == "image":
+                    b = ob.remove_image_point(photo, point)
+                elif kind == "control":
+                    b = ob.remove_control(point)
+                elif kind == "gnss":
+                    b = ob.remove_gnss(photo)
+                else:
+                    continue
+            except GeometryError:  # the block would not be determined without it: kept
+                continue
+            taken = True
+            removed.append((a.step, kind, photo, point, comp, w))
+            _update(bad, b.changed)
+            out.append(replace(b, what=f"{b.what} (rejected: w {w:.2f})"))
+        bad = {k: v for k, v in bad.items() if ob.is_in(k[0], k[1], k[2])}
+        if not taken and not bad:
+            break
+    return out
+
+
+def _update(bad: dict, changed) -> None:
+    for c in changed:
+        key = (c.kind, c.photo, c.point, c.component)
+        if c.after == "reject":
+            bad[key] = c.w
+        else:
+            bad.pop(key, None)

@@ -1,0 +1,139 @@
+"""Observation rows of the on-line bundle as the low-rank update takes them (online/lowrank.py).
+
+New image points and GNSS/IMU observations are evaluated with the bundle's own code (the
+camera models of bundle/image_rows.py, bundle/gnss_imu.py) at the factorisation's estimate;
+the rows of the factorisation's own observations come from its linearisation.  Each image
+point gives two rows (x, y), each control point or GNSS position three (X, Y, Z; only the
+observed coordinates of control), each IMU attitude three.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from baarda.adjustment.schur import SchurFactor
+from baarda.block.photo_block import (
+    Block,
+    GnssObservations,
+    GroundPoints,
+    ImagePoints,
+    ImuObservations,
+    Photos,
+)
+from baarda.block.rotation import rotation_and_derivatives
+from baarda.bundle.bundle_problem import BundleProblem
+from baarda.bundle.gnss_imu import GnssImu
+from baarda.bundle.image_rows import ImageRows
+from baarda.online.lowrank import Rows
+
+KY = 9  # new unknowns a row can touch: a photo's six and a point's three
+
+
+def empty_rows(ng: int) -> Rows:
+    return Rows(np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, np.int64),
+                np.zeros((0, 3)), np.zeros((0, ng)), np.zeros((0, KY), np.int64),
+                np.zeros((0, KY)), np.zeros(0), np.zeros(0))
+
+
+def concat(parts: list[Rows], ng: int) -> Rows:
+    parts = [p for p in parts if len(p)]
+    if not parts:
+        return empty_rows(ng)
+    return Rows(*(np.concatenate([getattr(p, f) for p in parts])
+                  for f in Rows.__dataclass_fields__))
+
+
+def _one_photo_each(block: Block, camera: np.ndarray, eo: np.ndarray) -> Photos:
+    k = len(camera)
+    return Photos([str(i) for i in range(k)], np.asarray(camera, np.int64),
+                  np.full(k, "", dtype=object), np.asarray(eo, float))
+
+
+def image_rows(block: Block, problem: BundleProblem, camera: np.ndarray, eo: np.ndarray,
+               xyz: np.ndarray, xy: np.ndarray, g: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Misclosures e (k, 2) = observed - predicted and Jacobians je (k, 2, 6), jp (k, 2, 3),
+    jg (k, 2, ng) of k image points: camera (k,), the photo's orientation eo (k, 6), the
+    point xyz (k, 3), observed xy (k, 2) mm; g the global unknowns of `problem`."""
+    k = len(camera)
+    ng = problem.system.ng
+    if not k:
+        return np.zeros((0, 2)), np.zeros((0, 2, 6)), np.zeros((0, 2, 3)), np.zeros((0, 2, ng))
+    tmp = Block(block.settings, block.cameras, _one_photo_each(block, camera, eo),
+                ImagePoints(np.arange(k), np.arange(k), np.asarray(xy, float), np.ones(k)),
+                GroundPoints([str(i) for i in range(k)], np.asarray(xyz, float),
+                             np.full((k, 3), np.nan), np.full(k, "tie", dtype=object)))
+    cal = problem.calibration
+    rows = ImageRows(tmp, cal, np.arange(k))
+    eo = np.asarray(eo, float)
+    rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])
+    f, je, jp, jpar = rows.evaluate(eo, np.asarray(xyz, float), cal.current(g), rot)
+    jg = np.zeros((k, 2, ng))
+    if cal.n:
+        free = rows.free_columns(jpar)
+        for i, cols in enumerate(cal.columns):
+            sel = np.flatnonzero(np.asarray(camera) == i)
+            if len(sel) and len(cols):
+                jg[sel[:, None, None], np.arange(2)[None, :, None], cols[None, None, :]] = \
+                    free[sel][:, :, :len(cols)]
+    return np.asarray(xy, float) - f, je, jp, jg
+
+
+def extra_rows(block: Block, problem: BundleProblem, eo: np.ndarray, gnss_xyz: np.ndarray,
+               gnss_sigma: np.ndarray, imu_angles: np.ndarray, imu_sigma: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Misclosures e (k,) and Jacobians jf (k, 6) of GNSS positions and IMU attitudes of
+    photos with orientations eo (one per observation: the GNSS ones, then the IMU ones),
+    as bundle/gnss_imu.py has them (lever arm; no shifts, drifts or estimated boresight)."""
+    kg, ki = len(gnss_xyz), len(imu_angles)
+    photos = _one_photo_each(block, np.zeros(kg + ki, np.int64), eo)
+    tmp = Block(block.settings, block.cameras, photos,
+                ImagePoints(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)),
+                            np.zeros(0)),
+                GroundPoints([], np.zeros((0, 3)), np.zeros((0, 3)),
+                             np.zeros(0, dtype=object)),
+                gnss=GnssObservations(np.arange(kg), np.asarray(gnss_xyz, float),
+                                      np.asarray(gnss_sigma, float)),
+                imu=ImuObservations(kg + np.arange(ki), np.asarray(imu_angles, float),
+                                    np.asarray(imu_sigma, float)))
+    gi = GnssImu(tmp, 0)
+    e, jxf, _ = gi.rows(np.asarray(eo, float), np.zeros(0), 0)
+    return e, jxf[:, 0, :]
+
+
+def factor_rows(problem: BundleProblem, factor: SchurFactor, flat: np.ndarray) -> Rows:
+    """The Jacobian rows of components `flat` of the factorisation's own observation
+    vector (BundleProblem.layout order), as its linearisation has them (ycol -1, e 0)."""
+    lay, s, lin = problem.layout, factor.system, factor.lin
+    flat = np.asarray(flat, np.int64)
+    k = len(flat)
+    ng = s.ng
+    frame = np.full(k, -1, np.int64)
+    point = np.full(k, -1, np.int64)
+    jf, jp, jg = np.zeros((k, 6)), np.zeros((k, 3)), np.zeros((k, ng))
+    nm, nc = lay.m * lay.k, len(lay.ctrl_sel)
+    img = flat < nm
+    i, c = np.divmod(flat[img], lay.k)
+    frame[img], point[img] = s.frame[i], s.point[i]
+    jf[img], jp[img] = lin.jf[i, c], lin.jp[i, c]
+    if ng and lin.jg is not None and s.gcol.shape[1]:
+        sub = np.zeros((len(i), ng))
+        for a in range(s.gcol.shape[1]):
+            col = s.gcol[i, a]
+            ok = col >= 0
+            sub[np.flatnonzero(ok), col[ok]] += lin.jg[i[ok], c[ok], a]
+        jg[img] = sub
+    ctl = (flat >= nm) & (flat < nm + nc)
+    ci, cc = np.divmod(lay.ctrl_sel[flat[ctl] - nm], lay.kc)
+    point[ctl] = s.control_point[ci]
+    jp[ctl] = lin.jc[ci, cc]
+    ext = flat >= nm + nc
+    x = flat[ext] - nm - nc
+    if len(x):
+        xr, xc = np.divmod(x, lay.kx)
+        frame[ext] = s.x_frame[xr]
+        jf[ext] = lin.jxf[xr, xc]
+        if ng:
+            jg[ext] = lin.jxg[xr, xc]
+    none = np.full((k, KY), -1, np.int64)
+    return Rows(frame, jf, point, jp, jg, none, np.zeros((k, KY)), np.zeros(k), np.zeros(k))

@@ -1,0 +1,258 @@
+"""The verdict of a run, from its result files: one row per question a client asks first
+(did it converge, did snooping finish, does the model fit, how large is sigma0, what do
+the check points say, how many rejections against the false alarms to expect, what is
+not controlled, which GCPs and GNSS positions are suspicious), each green, amber or red.
+
+`verdict(summary, points)` reads summary.json (and points.csv for the check points); the
+reports show it as their first page and the console prints `Verdict.lines()` as its last
+lines, so both say the same.  `failures(summary)` are the red lines that keep a run from
+being a result (the reports' banner).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+PASS, WARN, FAIL, INFO = "pass", "warn", "fail", "info"
+WORDS = {PASS: "PASS", WARN: "REVIEW", FAIL: "FAIL", INFO: "NOTE"}
+NOT_CONVERGED = ("NOT CONVERGED: the adjustment stopped before its corrections became "
+                 "negligible; the coordinates, residuals and tests in this report are not a "
+                 "least-squares solution")
+MATERIAL = 0.2  # sigma0 off 1 by more than this (and significantly): the sigmas are off
+CHECK_MISS = 3.0  # a check point misses when |d| exceeds this many standard deviations
+
+
+@dataclass(frozen=True)
+class Row:
+    key: str  # the question (also the anchor's stem)
+    status: str  # pass, warn, fail, info
+    label: str  # the question in words
+    text: str  # the answer in words
+    section: str  # the id of the report section that shows the evidence
+
+
+@dataclass(frozen=True)
+class Verdict:
+    rows: tuple[Row, ...]
+
+    @property
+    def status(self) -> str:
+        """fail if any row fails, else warn if any warns, else pass."""
+        got = {r.status for r in self.rows}
+        return FAIL if FAIL in got else WARN if WARN in got else PASS
+
+    @property
+    def headline(self) -> str:
+        bad = [r.label for r in self.rows if r.status == self.status]
+        if self.status == PASS:
+            return "PASS: every check of this run passed"
+        return f"{WORDS[self.status]}: " + ", ".join(bad)
+
+    def lines(self) -> list[str]:
+        """The verdict as console lines: the headline, then one line per row."""
+        return [f"quality check {self.headline}"] + [
+            f"  {WORDS[r.status]:<6} {r.label}: {r.text}" for r in self.rows]
+
+
+def _parts(summary: dict) -> dict[str, dict]:
+    parts = summary.get("adjustments") or {"": summary}
+    return {k: p for k, p in parts.items() if isinstance(p, dict)}
+
+
+def failures(summary: dict) -> list[str]:
+    """What keeps this run from being a result, in words: an adjustment that did not
+    converge (with the solver's reason), snooping that stopped at its step limit."""
+    parts = _parts(summary)
+    out = []
+    for name, p in parts.items():
+        of = f" ({name})" if name and len(parts) > 1 else ""
+        if p.get("converged", True) is False:
+            why = [n for n in p.get("notes", []) if "diverged" in str(n)
+                   or "not converged" in str(n)]
+            out.append(NOT_CONVERGED + of + (f": {why[0]}" if why else ""))
+        text = str(p.get("snooping_incomplete") or "")
+        if text:  # "snooping incomplete: N component(s) still significant ..."
+            head, _, rest = text.partition(":")
+            out.append(f"{head.upper()}{of}:{rest}")
+    return out
+
+
+def _convergence(summary: dict) -> Row:
+    bad = [f for f in failures(summary) if f.startswith("NOT CONVERGED")]
+    if bad:
+        return Row("convergence", FAIL, "Convergence", "; ".join(bad), "summary")
+    it = summary.get("iterations")
+    re_ = summary.get("readjustments")
+    text = "converged" + (f" in {it} iterations" if it is not None else "")
+    if re_:
+        text += f", then {re_} re-adjustment(s) by data snooping"
+    return Row("convergence", PASS, "Convergence", text, "summary")
+
+
+def _snooping(summary: dict) -> Row:
+    bad = [f for f in failures(summary) if not f.startswith("NOT CONVERGED")]
+    if bad:
+        return Row("snooping", FAIL, "Data snooping", "; ".join(bad), "log")
+    if summary.get("snooping_converged") is None:
+        return Row("snooping", INFO, "Data snooping", "not run (baarda adjust --snoop "
+                   "tests and removes errors one at a time)", "log")
+    n = sum(1 for s in summary.get("rejection_log") or [] if s.get("action") == "reject")
+    return Row("snooping", PASS, "Data snooping", f"complete: {n} step(s) of rejection, "
+               "no component left significant", "log")
+
+
+def _global_test(summary: dict) -> Row:
+    gt = summary.get("global_test")
+    if not gt:
+        return Row("global", INFO, "Global test", "not available in the results", "global")
+    sigma0 = summary.get("sigma0", float("nan"))
+    text = (f"sigma0^2 = {gt['statistic']:.4f} against the critical {gt['critical']:.4f} "
+            f"(alpha {gt['alpha']:g}, p = {gt['p_value']:.3g}): "
+            + ("accepted, the residuals agree with the a-priori sigmas" if gt["passed"] else
+               f"REJECTED, the residuals are {sigma0:.2f} times as large as the a-priori "
+               "sigmas predict: an error is left in the data or the sigmas are too small"))
+    b = summary.get("global_test_b_method")
+    if b and bool(b.get("passed")) != bool(gt["passed"]):
+        text += (f"; the B-method's test (alpha {b['alpha']:.3g}, coupled to the w-tests) "
+                 f"{'accepts' if b['passed'] else 'rejects'}: not the verdict, it is "
+                 "shown because it shares the w-tests' power")
+    return Row("global", PASS if gt["passed"] else FAIL, "Global test", text, "global")
+
+
+def _sigma0(summary: dict, pixel_um: float | None, image_sigma_um: float | None) -> Row:
+    s0 = summary.get("sigma0")
+    if s0 is None or not np.isfinite(s0):
+        return Row("sigma0", INFO, "sigma0", "not available", "summary")
+    gt = summary.get("global_test") or {}
+    lo, hi = (gt.get("sigma0_interval") or [np.nan, np.nan])[:2]
+    text = f"sigma0 a posteriori {s0:.3f}"
+    if np.isfinite(lo):
+        text += f" (95 % interval {lo:.3f} .. {hi:.3f})"
+    if image_sigma_um:
+        um = s0 * image_sigma_um
+        text += (f"; the image sigma a posteriori {um:.2f} µm"
+                 + (f" = {um / pixel_um:.2f} px" if pixel_um else "")
+                 + f" against {image_sigma_um:g} µm"
+                 + (f" = {image_sigma_um / pixel_um:.2f} px" if pixel_um else "")
+                 + " a priori")
+    if np.isfinite(lo) and lo > 1.0 and s0 > 1.0 + MATERIAL:
+        return Row("sigma0", WARN, "sigma0", text + ": larger than a priori (the a-priori "
+                   "sigmas are optimistic, or errors are left)", "summary")
+    if np.isfinite(hi) and hi < 1.0 and s0 < 1.0 - MATERIAL:
+        return Row("sigma0", WARN, "sigma0", text + ": smaller than a priori (the a-priori "
+                   "sigmas are pessimistic: the tests are weaker than stated)", "summary")
+    return Row("sigma0", PASS, "sigma0", text, "summary")
+
+
+def check_point_misses(points: pd.DataFrame | None) -> pd.DataFrame:
+    """The check points with a comparison: point, dX, dY, dZ (m), d (3D miss, m), sigma
+    (3D standard deviation of the adjusted point, m), ratio d / sigma; worst first."""
+    cols = ["point", "dX", "dY", "dZ", "d", "sigma", "ratio"]
+    if points is None or "role" not in points or "dX" not in points:
+        return pd.DataFrame(columns=cols)
+    c = points[(points["role"] == "check")
+               & points[["dX", "dY", "dZ"]].notna().all(axis=1)].copy()
+    d = c[["dX", "dY", "dZ"]].to_numpy(float)
+    c["d"] = np.sqrt(np.sum(d * d, axis=1))
+    if {"sigma_X", "sigma_Y", "sigma_Z"} <= set(c.columns):
+        s = c[["sigma_X", "sigma_Y", "sigma_Z"]].to_numpy(float)
+        c["sigma"] = np.sqrt(np.sum(s * s, axis=1))
+    else:
+        c["sigma"] = np.nan
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c["ratio"] = c["d"] / c["sigma"]
+    return c[cols].sort_values("d", ascending=False).reset_index(drop=True)
+
+
+def _check_points(summary: dict, points: pd.DataFrame | None) -> Row:
+    miss = check_point_misses(points)
+    n = len(miss) if points is not None else int(summary.get("n_check_points") or 0)
+    if n == 0:
+        return Row("check", WARN, "Check points", "none measured: the accuracy of the "
+                   "result is not verified by independent points", "accuracy")
+    rms = [summary.get(f"check_rms_{a}") for a in "XYZ"]
+    text = f"{n} check point(s)"
+    if all(r is not None for r in rms):
+        text += f", RMS X {rms[0]:.3f} m, Y {rms[1]:.3f} m, Z {rms[2]:.3f} m"
+    far = miss[miss["ratio"] > CHECK_MISS]
+    if len(far):
+        w = far.iloc[0]
+        return Row("check", FAIL, "Check points", text + f"; check point {w['point']} misses "
+                   f"by {w['d']:.3g} m, {w['ratio']:.0f} times the standard deviation of "
+                   f"its adjusted position ({w['sigma']:.2g} m): the block's georeference "
+                   "disagrees with it by that much (or the point's given coordinates or "
+                   "its identification in the images are wrong)", "accuracy")
+    if n < 3:
+        return Row("check", WARN, "Check points", text + ": fewer than 3, too few for an "
+                   "accuracy statement", "accuracy")
+    return Row("check", PASS, "Check points", text + ", each within "
+               f"{CHECK_MISS:g} standard deviations of its adjusted position", "accuracy")
+
+
+def _rejected_of(summary: dict, kind: str) -> list[str]:
+    """The observations of `kind` rejected in the end (the log's rejections less its
+    restorations)."""
+    out: dict[str, None] = {}
+    for s in summary.get("rejection_log") or []:
+        for o in s.get("observations") or []:
+            if not str(o).startswith(kind + " "):
+                continue
+            if s.get("action") == "reject":
+                out[str(o)] = None
+            elif s.get("action") == "restore":
+                out.pop(str(o), None)
+    return list(out)
+
+
+def _rejections(summary: dict) -> Row:
+    n = int(summary.get("n_rejected") or 0)
+    alpha0 = summary.get("alpha0")
+    m = summary.get("n_observations")
+    if alpha0 is None or not m:
+        return Row("rejections", INFO, "Rejections", f"{n} rejected", "log")
+    expect = float(alpha0) * (int(m) + n)
+    text = (f"{n} observation component(s) rejected; alpha0 x n = {alpha0:g} x {int(m) + n}"
+            f" = {expect:.2g} false alarms expected")
+    if n <= max(1.0, 2.0 * expect):
+        return Row("rejections", PASS, "Rejections", text, "log")
+    return Row("rejections", WARN, "Rejections", text + ": the data held errors (they were "
+               "removed; see the patterns)", "patterns")
+
+
+def _uncontrolled(summary: dict) -> Row:
+    n = int(summary.get("n_uncontrolled") or 0)
+    if not n:
+        return Row("uncontrolled", PASS, "Uncontrolled observations", "none: every "
+                   "observation is checked by the others", "reliability")
+    return Row("uncontrolled", WARN, "Uncontrolled observations", f"{n} observation "
+               "component(s) with redundancy number below 0.001: an error in them cannot be "
+               "detected and goes wholly into the result (points seen by too few photos, "
+               "control without redundancy)", "reliability")
+
+
+def _suspicious(summary: dict, kind: str, label: str, section: str) -> Row | None:
+    if kind not in (summary.get("observation_groups") or {}) and not _rejected_of(summary,
+                                                                                  kind):
+        return None
+    rej = _rejected_of(summary, kind)
+    if not rej:
+        return Row(kind, PASS, label, "none rejected", section)
+    shown = "; ".join(r[len(kind) + 1:] for r in rej[:6]) + ("; ..." if len(rej) > 6 else "")
+    return Row(kind, WARN, label, f"{len(rej)} component(s) rejected: {shown}", section)
+
+
+def verdict(summary: dict, points: pd.DataFrame | None = None, *,
+            pixel_um: float | None = None, image_sigma_um: float | None = None) -> Verdict:
+    """The verdict of a run from summary.json and points.csv (for the check points;
+    without it the check-point row gives the summary's RMS only); `pixel_um` and
+    `image_sigma_um` put sigma0 in pixels."""
+    rows = [_convergence(summary), _snooping(summary), _global_test(summary),
+            _sigma0(summary, pixel_um, image_sigma_um), _check_points(summary, points),
+            _rejections(summary), _uncontrolled(summary)]
+    rows += [r for r in (_suspicious(summary, "control", "Suspicious GCPs", "control"),
+                         _suspicious(summary, "gnss", "Suspicious GNSS positions", "gnss"))
+             if r is not None]
+    return Verdict(tuple(rows))

@@ -1,0 +1,287 @@
+"""The first pages of every report, from the result files: the quality check
+(output/verdict.py), the accuracy statement on the check points, the metadata a client
+signs off, and the patterns in the rejections with advice.
+
+Accuracy statement (FGDC-STD-007.3-1998, NSSDA; ASPRS Positional Accuracy Standards): per
+axis n, mean, standard deviation and RMSE of the check points' misses (adjusted - given);
+RMSE_r = sqrt(RMSE_X^2 + RMSE_Y^2); horizontal accuracy at 95 % = 1.7308 RMSE_r (NSSDA's
+factor for RMSE_X = RMSE_Y; stated with a warning when min/max RMSE < 0.6), vertical at 95 %
+= 1.9600 RMSE_Z; CE90 = 1.5175 RMSE_r (2.1460 sigma of a circular normal distribution),
+LE90 = 1.6449 RMSE_Z.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from baarda.io.result_folder import Results
+from baarda.output.verdict import WORDS, Verdict, check_point_misses, verdict
+
+NSSDA_H95 = 1.7308
+NSSDA_V95 = 1.9600
+CE90 = 1.5175
+LE90 = 1.6449
+ASPRS_MIN = 20  # check points the standards ask for
+
+
+def pixel_um(res: Results) -> float | None:
+    """The pixel size (µm) of a result folder (summary_pixel_um)."""
+    return summary_pixel_um(res.summary)
+
+
+def summary_pixel_um(summary: dict) -> float | None:
+    """The pixel size (µm): the cameras' own where the source states it (DBAT, MicMac; one
+    size for every camera), else the nominal one a reader stated in the notes (COLMAP, BAL,
+    OpenSfM)."""
+    sizes = {c.get("pixel_mm") for c in summary.get("cameras", [])}
+    if len(sizes) == 1 and None not in sizes:
+        return float(sizes.pop()) * 1e3
+    lines = [line for s in summary.get("sections", []) for line in s.get("lines", [])]
+    for n in list(summary.get("notes", [])) + lines:
+        m = re.search(r"nominal pixel size ([0-9.eE+-]+) mm", str(n))
+        if m:
+            try:
+                return float(m.group(1)) * 1e3
+            except ValueError:
+                return None
+    return None
+
+
+def image_sigma_um(res: Results) -> float | None:
+    """The a-priori image sigma (µm): the median of the image rows' sigma."""
+    s = res.obs.loc[res.obs["kind"] == "image", "sigma"].to_numpy(float)
+    s = s[np.isfinite(s)]
+    return float(np.median(s)) if len(s) else None
+
+
+def quality_check(res: Results) -> Verdict:
+    return verdict(res.summary, res.points, pixel_um=pixel_um(res),
+                   image_sigma_um=image_sigma_um(res))
+
+
+def folder_quality_check(folder, image_sigma_um: float | None) -> Verdict:
+    """The quality check of a result folder from its summary.json and points.csv alone (the
+    console's last lines after a run: the same rows as the reports' first section, without
+    reading observations.csv back); `image_sigma_um`: the median a-priori image sigma."""
+    import json
+    from pathlib import Path
+
+    from baarda.output.verdict import verdict
+
+    folder = Path(folder)
+    summary = json.loads((folder / "summary.json").read_text(encoding="utf-8"))
+    points = None
+    if (folder / "points.csv").is_file():
+        points = pd.read_csv(folder / "points.csv", dtype={"point": str, "role": str},
+                             keep_default_na=False, na_values=[""])
+    return verdict(summary, points, pixel_um=summary_pixel_um(summary),
+                   image_sigma_um=image_sigma_um)
+
+
+FALLBACK = {"control": "calibration", "gnss": "calibration", "global": "summary",
+            "log": "summary", "patterns": "log", "reliability": "observations",
+            "observations": "summary", "accuracy": "check"}
+
+
+def check_view(v: Verdict, ids: set[str] | None = None) -> dict:
+    """The verdict for the template's `check` macro; `ids`: the element ids of the page
+    (a row whose section the page lacks links to the nearest one it has)."""
+    def target(s: str) -> str:
+        seen = set()
+        while ids is not None and s not in ids and s in FALLBACK and s not in seen:
+            seen.add(s)
+            s = FALLBACK[s]
+        return s if ids is None or s in ids else "check"
+
+    return {"status": v.status, "headline": v.headline,
+            "rows": [{"status": r.status, "word": WORDS[r.status], "label": r.label,
+                      "text": r.text, "section": target(r.section)} for r in v.rows]}
+
+
+def section_line(res: Results, start: str) -> str | None:
+    """The first summary line that starts with `start` (e.g. 'datum:')."""
+    return next((line for s in res.sections for line in s.lines if line.startswith(start)),
+                None)
+
+
+@dataclass
+class Accuracy:
+    n: int
+    table: pd.DataFrame  # per axis: n, mean, std, RMSE (m)
+    statements: list[tuple[str, str]]  # (what, value in words)
+    warnings: list[str] = field(default_factory=list)
+    misses: pd.DataFrame | None = None  # the check points, worst first
+
+
+def accuracy(res: Results) -> Accuracy:
+    """The accuracy statement on the check points (module docstring)."""
+    miss = check_point_misses(res.points)
+    n = len(miss)
+    warn = []
+    datum = section_line(res, "datum:") or ""
+    if "FREE NETWORK" in datum.upper():
+        warn.append("The datum is free (no control): the check points are compared after "
+                    "a similarity transformation onto them, so these figures describe the "
+                    "block's shape, not its georeference.")
+    if n == 0:
+        warn.append("No check points were measured: the accuracy of the result is not "
+                    "verified by independent points; the standard deviations of the "
+                    "adjusted points are the only statement of accuracy.")
+        return Accuracy(0, pd.DataFrame(), [], warn, miss)
+    rows, rmse = [], {}
+    for a in "XYZ":
+        d = miss[f"d{a}"].to_numpy(float)
+        rmse[a] = float(np.sqrt(np.mean(d * d)))
+        rows.append({"axis": a, "n": n, "mean m": float(np.mean(d)),
+                     "std m": float(np.std(d, ddof=1)) if n > 1 else np.nan,
+                     "RMSE m": rmse[a], "largest |d| m": float(np.max(np.abs(d)))})
+    r = float(np.hypot(rmse["X"], rmse["Y"]))
+    lo, hi = sorted((rmse["X"], rmse["Y"]))
+    st = [("RMSE_r (horizontal)", f"{r:.3f} m"),
+          ("horizontal accuracy at 95 % (NSSDA, ASPRS)", f"{NSSDA_H95 * r:.3f} m"),
+          ("vertical accuracy at 95 % (NSSDA, ASPRS)", f"{NSSDA_V95 * rmse['Z']:.3f} m"),
+          ("CE90 (horizontal, 90 %)", f"{CE90 * r:.3f} m"),
+          ("LE90 (vertical, 90 %)", f"{LE90 * rmse['Z']:.3f} m")]
+    if hi > 0 and lo / hi < 0.6:
+        warn.append(f"RMSE X and Y differ (ratio {lo / hi:.2f} < 0.6): NSSDA's 95 % "
+                    "horizontal factor assumes them about equal; the figure is approximate.")
+    if n < 3:
+        warn.append(f"Only {n} check point(s): fewer than 3, no accuracy statement can be "
+                    "made from them; the figures above are the misses themselves.")
+    elif n < ASPRS_MIN:
+        warn.append(f"{n} check points: NSSDA and ASPRS ask for at least {ASPRS_MIN}; the "
+                    "statement is indicative.")
+    for a, row in zip("XYZ", rows, strict=True):
+        if n > 2 and abs(row["mean m"]) > 2 * row["std m"] / np.sqrt(n):
+            warn.append(f"The mean miss in {a} ({row['mean m']:+.3f} m) is significant: a "
+                        "systematic shift, which the accuracy figures include.")
+    return Accuracy(n, pd.DataFrame(rows), st, warn, miss)
+
+
+def metadata(res: Results) -> list[tuple[str, str]]:
+    """What a client signs off: date, version, input and its checksum, CRS and heights,
+    datum, a-priori sigmas, tests, options."""
+    s, m = res.summary, res.manifest
+    crs = s.get("crs") or {}
+    inp = s.get("input") or {}
+    out = [("project", res.title),
+           ("processed", str(m.get("finished") or m.get("started") or "not recorded")),
+           ("baarda version", str(m.get("baarda") or "not recorded")),
+           ("run", str(res.run or "not recorded")),
+           ("input", str(inp.get("path") or s.get("source") or "?")),
+           ("input checksum (SHA-256)", f"{inp['sha256']} ({inp['files']} file(s), "
+            f"{inp['bytes']:,} bytes)" if inp.get("sha256") else "not recorded")]
+    if crs:
+        name = crs.get("name", "?")
+        epsg = f" (EPSG:{crs['epsg']})" if crs.get("epsg") else ""
+        out.append(("coordinate reference system", f"{name}{epsg}"))
+        out.append(("heights", f"{crs['heights']} heights" if crs.get("heights")
+                    else "as given (vertical datum not stated)"))
+        out.append(("adjusted in", str(crs.get("adjusted_in", ""))))
+    else:
+        out.append(("coordinate reference system", "none given: local coordinates as in "
+                    "the input (vertical datum not stated)"))
+    for key, start in (("datum definition", "datum:"), ("a-priori sigmas", "a-priori "
+                                                                          "sigmas:")):
+        line = section_line(res, start)
+        if line:
+            out.append((key, line[len(start):].strip()))
+    if s.get("alpha0") is not None:
+        gt = s.get("global_test") or {}
+        out.append(("tests", f"alpha0 {s['alpha0']:g}, beta0 {s.get('beta0', 0):g} "
+                    f"(w-test critical |w| {res.k_w:.2f}); global test at alpha "
+                    f"{gt.get('alpha', float('nan')):g}"))
+    if m.get("command"):
+        out.append(("command", str(m["command"])))
+    return out
+
+
+@dataclass
+class Advice:
+    what: str
+    remedy: str
+    where: str
+
+
+def _strip_of(res: Results, photos: pd.Series) -> np.ndarray:
+    key = {str(k): str(v) for k, v in res.strip_of().items()}
+    return np.array([key.get(p, "") for p in photos.astype(str)], dtype=object)
+
+
+def rejected_table(res: Results) -> pd.DataFrame:
+    """The rejected observations: kind, photo, strip, point, component, sign of the
+    residual, w."""
+    o = res.obs[res.obs["rejected"].to_numpy(bool)]
+    t = pd.DataFrame({"kind": o["kind"].astype(str), "photo": o["frame"].astype(str),
+                      "point": o["point"].astype(str), "component": o["component"].astype(str),
+                      "sign": np.where(o["residual"].to_numpy(float) < 0, "-", "+"),
+                      "w": o["w"].to_numpy(float)})
+    t["strip"] = _strip_of(res, t["photo"])
+    return t.reset_index(drop=True)
+
+
+def patterns(res: Results) -> tuple[pd.DataFrame, list[Advice]]:
+    """The rejections grouped by kind, component and sign, and by photo and strip (a
+    table), and advice where they form a pattern (what, remedy, where)."""
+    t = rejected_table(res)
+    if not len(t):
+        return pd.DataFrame(), []
+    rows = []
+    for (k, c, sg), g in t.groupby(["kind", "component", "sign"], sort=True):
+        ph = g["photo"].value_counts()
+        st = g["strip"].value_counts()
+        rows.append({"kind": k, "component": c, "residual sign": sg, "rejected": len(g),
+                     "photos": len(ph), "most on photo": f"{ph.index[0]} ({ph.iloc[0]})"
+                     if ph.index[0] else "", "strips": ", ".join(
+                         f"{s} ({n})" for s, n in st.items() if s)[:60]})
+    groups = pd.DataFrame(rows).sort_values("rejected", ascending=False, kind="stable")
+    advice: list[Advice] = []
+    img = t[t["kind"] == "image"]
+    if len(img) >= 4:
+        cs = img.groupby(["component", "sign"]).size()
+        (c, sg), top = cs.idxmax(), int(cs.max())
+        if top >= 0.8 * len(img):
+            advice.append(Advice(
+                f"{top} of the {len(img)} image rejections are {c} with "
+                f"{'negative' if sg == '-' else 'positive'} residuals: a systematic error, "
+                "not random blunders",
+                f"check the image coordinate system (a shifted or mirrored {c} axis, the "
+                f"principal point {c}0) or estimate the interior orientation and distortion "
+                "(self-calibration)", "image " + c))
+        ph = img["photo"].value_counts()
+        if ph.iloc[0] >= 3 and ph.iloc[0] >= 0.4 * len(img):
+            advice.append(Advice(
+                f"photo {ph.index[0]} holds {ph.iloc[0]} of the {len(img)} image rejections",
+                "check this photo's measurements and interior orientation (fiducials, film "
+                "or scan deformation, the camera assigned to it); re-measure its points",
+                f"photo {ph.index[0]}"))
+    for kind, name in (("gnss", "GNSS"), ("imu", "IMU")):
+        g = t[t["kind"] == kind]
+        if len(g) < 3:
+            continue
+        by = g.groupby(["strip", "component"]).size()
+        (s, c), top = by.idxmax(), int(by.max())
+        n_strip = int((res.photos["strip"].astype(str) == s).sum()) if (
+            res.photos is not None and s) else 0
+        if s and top >= 3 and top >= 0.5 * n_strip:
+            remedy = ('a shift per strip: [gnss] offsets = "strip" in the project settings '
+                      "(an along-track GNSS error of the strip is then estimated, not "
+                      "rejected)" if kind == "gnss" else
+                      "boresight or drift parameters per strip for the IMU attitudes")
+            advice.append(Advice(f"{name} {c} of {top} of the {n_strip} photos of strip {s} "
+                                 "rejected: a systematic error of the strip, not blunders",
+                                 remedy, f"strip {s}"))
+    c = t[t["kind"] == "control"]
+    if len(c):
+        pts = list(dict.fromkeys(c["point"]))
+        advice.append(Advice(
+            f"{len(c)} control component(s) rejected at {len(pts)} GCP(s)",
+            "check these GCPs' given coordinates (a typing error, another datum) and their "
+            "identification in the images (a moved or mis-identified marker); a GCP that "
+            "is wrong should become a check point or be left out",
+            ", ".join(f"GCP {p}" for p in pts[:10])))
+    return groups, advice

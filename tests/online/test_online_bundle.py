@@ -1,0 +1,94 @@
+"""OnlineBundle's rules: what is held, what is refused, removals that cannot be made."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import baarda
+from baarda.errors import GeometryError
+from baarda.online.answers import verdict
+from baarda.online.bundle import OnlineBundle
+from baarda.simulate.aerial import FlightPlan, simulate_block
+
+
+@pytest.fixture(scope="module")
+def block():
+    return simulate_block(FlightPlan(strips=2, photos_per_strip=6, pattern=4, relief_m=30.0,
+                                     seed=4))[0]
+
+
+def test_a_first_ray_is_held_until_the_second(block):
+    im, pts = block.image, block.points
+    rays = np.bincount(im.point, minlength=len(pts))
+    j = int(np.flatnonzero((rays == 3) & (pts.role == "tie"))[0])
+    rows = np.flatnonzero(im.point == j)
+    ob = OnlineBundle(block.select_image(im.point != j))
+    ids = block.photos.ids
+    a = ob.add_image_point(ids[im.photo[rows[0]]], pts.ids[j], *im.xy_mm[rows[0]])
+    assert a.verdict == "held" and not a.tested
+    assert a.held == (f"point {pts.ids[j]} on photo {ids[im.photo[rows[0]]]}: its first ray",)
+    a = ob.add_image_point(ids[im.photo[rows[1]]], pts.ids[j], *im.xy_mm[rows[1]])
+    assert [(t.photo, t.component) for t in a.tested] == [
+        (ids[im.photo[r]], c) for r in rows[:2] for c in "xy"]
+    assert all(np.isnan(t.predicted) for t in a.tested)  # a new point: no prediction
+    a = ob.add_image_point(ids[im.photo[rows[2]]], pts.ids[j], *im.xy_mm[rows[2]])
+    assert len(a.tested) == 2 and np.isfinite(a.tested[0].predicted)
+
+
+def test_refused_blocks(block):
+    with pytest.raises(ValueError, match="shifts, drifts"):
+        OnlineBundle(replace(block, settings=replace(block.settings, gnss_offsets="strip")))
+    with pytest.raises(ValueError, match="free network"):
+        OnlineBundle(replace(block, settings=replace(block.settings, datum="free")))
+    sig = block.points.sigma.copy()
+    sig[np.flatnonzero(block.points.role == "control")[0]] = 0.0
+    with pytest.raises(ValueError, match="sigma 0"):
+        OnlineBundle(replace(block, points=replace(block.points, sigma=sig)))
+
+
+def test_bad_measurements_lose_nothing(block):
+    ob = OnlineBundle(block)
+    n = ob.steps
+    with pytest.raises(ValueError, match="photo X is not known"):
+        ob.add_image_point("X", "p", 0.0, 0.0)
+    r = 0
+    with pytest.raises(ValueError, match="measured on photo .* already"):
+        ob.add_image_point(block.photos.ids[block.image.photo[r]],
+                           block.points.ids[block.image.point[r]], 0.0, 0.0)
+    with pytest.raises(ValueError, match="sigma 0"):
+        ob.add_control(block.points.ids[0], [0, 0, 0], [0.0, 0.1, 0.1])
+    assert ob.steps == n
+    assert ob.result().adjustment.redundancy == baarda.adjust(block).redundancy
+
+
+def test_a_removal_that_leaves_the_block_undetermined_is_not_made(block):
+    ob = OnlineBundle(block)
+    before = ob.result()
+    ctrl = [block.points.ids[j] for j in np.flatnonzero(block.points.controlled.any(axis=1))]
+    with pytest.raises(GeometryError, match="cannot be taken out"):
+        for pid in ctrl:  # take the control away until the datum goes
+            ob.remove_control(pid)
+    removed = [pid for pid in ctrl if ob.m.ctrl_status[ob.m.point_at[pid]] == "removed"]
+    assert 0 < len(removed) < len(ctrl)
+    after = ob.result()
+    assert after.adjustment.redundancy == before.adjustment.redundancy - sum(
+        int(np.isfinite(block.points.sigma[block.points.ids.index(p)]).sum()) for p in removed)
+
+
+def test_removing_what_is_held_factors_nothing(block):
+    im, pts = block.image, block.points
+    rays = np.bincount(im.point, minlength=len(pts))
+    j = int(np.flatnonzero((rays == 3) & (pts.role == "tie"))[0])
+    r = np.flatnonzero(im.point == j)[0]
+    ob = OnlineBundle(block.select_image(im.point != j))
+    ob.add_image_point(block.photos.ids[im.photo[r]], pts.ids[j], *im.xy_mm[r])
+    a = ob.remove_image_point(block.photos.ids[im.photo[r]], pts.ids[j])
+    assert not a.refactorised and a.note == "it was not in the block"
+
+
+def test_verdicts():
+    assert verdict(3.3, 0.2, 3.29) == "reject"
+    assert verdict(-3.2, 0.2, 3.29) == "accept"
+    assert verdict(float("nan"), 5e-4, 3.29) == "suspect"
+    assert verdict(10.0, 5e-4, 3.29) == "suspect"

@@ -1,0 +1,30 @@
+"""`baarda evaluate --strategies online`: the replay with re-measurement as a strategy of a
+study, next to snooping on the same blundered blocks."""
+
+import numpy as np
+
+from baarda.evaluation.study import StudyOptions, run_study
+from baarda.simulate.aerial import FlightPlan
+
+
+def test_online_strategy_in_a_study():
+    opts = StudyOptions(plan=FlightPlan(strips=2, photos_per_strip=6, pattern=4, seed=0),
+                        trials=2, blunders=3, size_mdb=(2.0, 3.0),
+                        strategies=("online", "snoop"), seed=5)
+    study = run_study(opts)
+    b = study.blunders
+    on, sn = b[b["strategy"] == "online"], b[b["strategy"] == "snoop"]
+    assert len(on) == len(sn) == 6
+    assert set(on["at_entry"]) <= {"reject", "accept", "suspect", "held"}
+    assert sn["at_entry"].isna().all()
+    # the same blunders: planted once, run through both strategies
+    keys = ["trial", "photo", "point", "component", "size"]
+    assert on[keys].to_numpy().tolist() == sn[keys].to_numpy().tolist()
+    r = study.rates()["strategies"]
+    assert r["online"]["rejected_at_entry"] == int((on["at_entry"] == "reject").sum())
+    lo, hi = r["online"]["at_entry_ci"]
+    assert lo <= r["online"]["at_entry_rate"] <= hi
+    assert "rejected_at_entry" not in r["snoop"]
+    assert "rejected when taken in" in study.summary()
+    t = study.trials
+    assert np.isfinite(t.loc[t["strategy"] == "online", "sigma0_final"]).all()

@@ -1,0 +1,93 @@
+"""The quality check of a run from its files (output/verdict.py): each row's colour and
+numbers, on summaries made to trigger them."""
+
+import numpy as np
+import pandas as pd
+
+from baarda.output.verdict import FAIL, PASS, WARN, check_point_misses, failures, verdict
+
+
+def summary(**kw) -> dict:
+    s = {"converged": True, "iterations": 4, "snooping_converged": True,
+         "snooping_incomplete": None, "rejection_log": [], "sigma0": 1.02,
+         "global_test": {"statistic": 1.04, "critical": 1.19, "alpha": 0.05, "p_value": 0.3,
+                         "passed": True, "sigma0_interval": [0.93, 1.15]},
+         "alpha0": 0.001, "n_observations": 2000, "n_rejected": 0, "n_uncontrolled": 0,
+         "n_check_points": 0, "observation_groups": {"image": {"x": "image"}}}
+    s.update(kw)
+    return s
+
+
+def row(v, key):
+    return next(r for r in v.rows if r.key == key)
+
+
+def test_a_clean_run_passes_but_for_the_missing_check_points():
+    v = verdict(summary())
+    assert [r.status for r in v.rows] == [PASS, PASS, PASS, PASS, WARN, PASS, PASS]
+    assert v.status == WARN and v.headline == "REVIEW: Check points"
+    assert row(v, "rejections").text.endswith("= 2 false alarms expected")  # 0.001 x 2000
+
+
+def test_not_converged_and_incomplete_snooping_fail_in_the_banners_words():
+    s = summary(converged=False, notes=["not converged after 30 iterations"],
+                snooping_incomplete="snooping incomplete: 3 component(s) still significant")
+    v = verdict(s)
+    assert v.status == FAIL
+    assert row(v, "convergence").text == failures(s)[0]
+    assert failures(s)[0].startswith("NOT CONVERGED") and "30 iterations" in failures(s)[0]
+    assert row(v, "snooping").text == "SNOOPING INCOMPLETE: 3 component(s) still significant"
+
+
+def test_global_test_rejected_and_sigma0_off():
+    s = summary(sigma0=2.6, global_test={"statistic": 6.75, "critical": 1.05, "alpha": 0.05,
+                                         "p_value": 0.0, "passed": False,
+                                         "sigma0_interval": [2.52, 2.68]})
+    v = verdict(s, pixel_um=4.0, image_sigma_um=2.0)
+    assert row(v, "global").status == FAIL and "2.60 times as large" in row(v, "global").text
+    r = row(v, "sigma0")
+    assert r.status == WARN and "5.20 µm = 1.30 px against 2 µm = 0.50 px" in r.text
+    # significant but immaterial (0.97): no warning
+    ok = verdict(summary(sigma0=0.97, global_test={
+        "statistic": 0.94, "critical": 1.04, "alpha": 0.05, "p_value": 0.99, "passed": True,
+        "sigma0_interval": [0.947, 0.992]}))
+    assert row(ok, "sigma0").status == PASS
+
+
+def test_rejections_against_the_false_alarms_to_expect():
+    log = [{"action": "reject", "observations": [f"image photo 1 point {i} x"]}
+           for i in range(6)]
+    v = verdict(summary(n_rejected=6, n_observations=1994, rejection_log=log))
+    assert row(v, "rejections").status == WARN  # 6 > 2 x (0.001 x 2000)
+    v = verdict(summary(n_rejected=4, n_observations=1996, rejection_log=log[:4]))
+    assert row(v, "rejections").status == PASS  # 4 <= 2 x 2
+
+
+def test_suspicious_gcps_are_the_rejected_less_the_restored():
+    log = [{"action": "reject", "observations": ["control point 7 Y"]},
+           {"action": "reject", "observations": ["control point 9 Z"]},
+           {"action": "restore", "observations": ["control point 9 Z"]}]
+    v = verdict(summary(rejection_log=log, observation_groups={"control": {"Y": "control Y"}}))
+    r = row(v, "control")
+    assert r.status == WARN and r.text == "1 component(s) rejected: point 7 Y"
+
+
+def test_a_check_point_that_misses_fails():
+    pts = pd.DataFrame({"point": ["a", "b", "t"], "role": ["check", "check", "tie"],
+                        "dX": [0.02, 30.0, np.nan], "dY": [0.01, 4.0, np.nan],
+                        "dZ": [0.03, -12.0, np.nan], "sigma_X": [0.1, 0.2, 0.1],
+                        "sigma_Y": [0.1, 0.2, 0.1], "sigma_Z": [0.2, 0.1, 0.1]})
+    m = check_point_misses(pts)
+    assert list(m["point"]) == ["b", "a"]
+    d = np.sqrt(30**2 + 4**2 + 12**2)
+    assert m.loc[0, "d"] == d and m.loc[0, "ratio"] == d / np.sqrt(0.2**2 + 0.2**2 + 0.1**2)
+    r = row(verdict(summary(n_check_points=2), pts), "check")
+    assert r.status == FAIL and f"check point b misses by {d:.3g} m" in r.text
+    r = row(verdict(summary(n_check_points=1), pts[pts["point"] != "b"]), "check")
+    assert r.status == WARN and "fewer than 3" in r.text
+
+
+def test_console_lines():
+    lines = verdict(summary()).lines()
+    assert lines[0] == "quality check REVIEW: Check points"
+    assert lines[1].startswith("  PASS   Convergence: converged in 4 iterations")

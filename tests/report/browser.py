@@ -1,0 +1,114 @@
+"""Headless Chromium for the report tests: a page's layout facts measured in the browser.
+
+Chromium's own headless mode (no driver library): the test copies the page, adds a script
+that measures the laid-out page once it has loaded and writes the facts as JSON into the
+DOM, and reads them back from `--dump-dom`.  Needs a chromium binary (Debian package
+'chromium'; .ci/run installs it); the tests skip with that reason where there is none.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+CHROMIUM = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome")
+                 if shutil.which(n)), None)
+NO_BROWSER = ("no chromium binary found (install the Debian package 'chromium'; .ci/run "
+              "does): the reports' layout in a real browser is not checked here")
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+         "--hide-scrollbars", "--force-device-scale-factor=1"]
+
+MEASURE = r"""
+<script>
+window.addEventListener('load', function () {
+  function lum(c) {
+    var m = c.match(/[\d.]+/g).map(Number);
+    var a = m.length > 3 ? m[3] : 1;
+    return {rgb: m.slice(0, 3).map(function (v) {
+      v /= 255; return v <= 0.03928 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4); }),
+      a: a};
+  }
+  function L(c) { var x = lum(c).rgb; return 0.2126 * x[0] + 0.7152 * x[1] + 0.0722 * x[2]; }
+  function background(el) {
+    while (el) {
+      var b = getComputedStyle(el).backgroundColor;
+      if (lum(b).a > 0) return b;
+      el = el.parentElement;
+    }
+    return 'rgb(255, 255, 255)';
+  }
+  function contrast(el) {
+    var f = L(getComputedStyle(el).color), b = L(background(el));
+    return (Math.max(f, b) + 0.05) / (Math.min(f, b) + 0.05);
+  }
+  var W = document.documentElement.clientWidth, wide = [], small = [], minFont = 99;
+  var all = document.body.getElementsByTagName('*');
+  for (var i = 0; i < all.length; i++) {
+    var el = all[i], r = el.getBoundingClientRect();
+    if (r.width === 0 && r.height === 0) continue;
+    if (el.closest('details:not([open])') && el.tagName !== 'SUMMARY') continue;
+    if (r.right > W + 1 || r.left < -1) wide.push(el.tagName + '#' + el.id + '.' +
+      el.className + ' ' + Math.round(r.left) + '..' + Math.round(r.right));
+    var own = Array.prototype.some.call(el.childNodes, function (n) {
+      return n.nodeType === 3 && n.textContent.trim(); });
+    if (own) {
+      var fs = parseFloat(getComputedStyle(el).fontSize);
+      if (fs < minFont) minFont = fs;
+      if (fs < 9) small.push(el.tagName + ' ' + fs + 'px: ' + el.textContent.slice(0, 40));
+    }
+  }
+  var banners = [].map.call(document.querySelectorAll('.banner'), function (b) {
+    return {text: b.textContent.slice(0, 80), contrast: contrast(b)}; });
+  var rows = [].map.call(document.querySelectorAll('#check tr[data-status]'), function (t) {
+    var a = t.querySelector('a');
+    return {status: t.getAttribute('data-status'), contrast: contrast(t.querySelector('td')),
+            link: a ? a.getAttribute('href') : null}; });
+  var imgs = [].filter.call(document.images, function (im) {
+    return !(im.complete && im.naturalWidth > 0); }).map(function (im) { return im.alt; });
+  var facts = {height: document.documentElement.scrollHeight, width: W,
+    scroll_width: document.documentElement.scrollWidth, wide: wide.slice(0, 20),
+    small: small.slice(0, 20), min_font: minFont, banners: banners, check_rows: rows,
+    sections: [].map.call(document.querySelectorAll('section[id]'), function (s) {
+      return s.id; }),
+    section_heights: [].map.call(document.querySelectorAll('section[id]'), function (s) {
+      return [s.id, Math.round(s.getBoundingClientRect().height)]; }),
+    broken_images: imgs, n_images: document.images.length};
+  var out = document.createElement('pre');
+  out.id = 'layout-facts';
+  out.textContent = JSON.stringify(facts);
+  document.body.appendChild(out);
+});
+</script>
+"""
+
+
+def run(args: list[str], profile: Path, timeout: float = 180) -> subprocess.CompletedProcess:
+    return subprocess.run([CHROMIUM, *FLAGS, f"--user-data-dir={profile}", *args],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def layout_facts(page: Path, width: int, work: Path) -> dict:
+    """The facts of `page` laid out `width` px wide: height, elements beyond the page,
+    text below 9 px, banner and verdict-row contrast, sections, images that failed."""
+    work.mkdir(parents=True, exist_ok=True)
+    probe = work / f"probe-{page.stem}.html"
+    text = page.read_text(encoding="utf-8")
+    probe.write_text(text.replace("</body>", MEASURE + "</body>"), encoding="utf-8")
+    r = run([f"--window-size={width},1000", "--virtual-time-budget=20000", "--dump-dom",
+             probe.as_uri()], work / "profile")
+    m = re.search(r'<pre id="layout-facts">([^<]*)</pre>', r.stdout)
+    if not m:
+        raise AssertionError(f"the measuring script did not run (rc {r.returncode}): "
+                             + r.stderr[-1500:])
+    return json.loads(html.unescape(m.group(1)))
+
+
+def print_pdf(page: Path, pdf: Path, work: Path) -> None:
+    """The page printed to PDF by Chromium (what a reader's browser prints)."""
+    r = run(["--no-pdf-header-footer", f"--print-to-pdf={pdf}", page.as_uri()],
+            work / "profile-print")
+    assert r.returncode == 0 and pdf.is_file(), r.stderr[-1500:]

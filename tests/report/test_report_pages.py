@@ -1,0 +1,248 @@
+"""The reports a client signs (issue 31): the quality check first, the accuracy statement,
+metadata, patterns with advice, long tables cut to the worst rows, the PDF typeset with
+searchable text, and the layout in a real browser (headless Chromium).
+
+Rendered once per module: the demo, OpenSfM berlin, the MicMac/IGN block (../shared/data)
+and a 600-photo simulated block (20 strips of 30 photos, 20 planted blunders).
+"""
+
+import html
+import re
+import shutil
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from result_files import resign
+
+sys.path.insert(0, str(Path(__file__).parent))
+from browser import CHROMIUM, NO_BROWSER, layout_facts  # noqa: E402
+
+from baarda.cli import main  # noqa: E402
+from baarda.io.result_folder import read_results  # noqa: E402
+from baarda.output.bundle_results import write_results  # noqa: E402
+from baarda.pipeline import snoop  # noqa: E402
+from baarda.report.front import quality_check  # noqa: E402
+from baarda.simulate.aerial import FlightPlan, simulate_block  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARED = ROOT / ".." / "shared" / "data"
+WIDTH = 1400
+browser = pytest.mark.skipif(CHROMIUM is None, reason=NO_BROWSER)
+
+
+@pytest.fixture(scope="module")
+def pages(tmp_path_factory):
+    """name -> folder with out/ (results), report.html, quality.html, quality.pdf."""
+    root = tmp_path_factory.mktemp("pages")
+    made = {}
+
+    def make(name: str) -> Path:
+        if name in made:
+            return made[name]
+        d = root / name
+        d.mkdir()
+        out = d / "out"
+        if name == "demo":
+            argv = ["adjust", str(ROOT / "examples" / "demo"), "-o", str(out), "--snoop"]
+        elif name == "berlin":
+            argv = ["adjust", str(ROOT / "tests" / "data" / "opensfm_berlin"), "-o", str(out)]
+        elif name == "micmac":
+            if not (SHARED / "micmac_ign_ultracam_aerial").is_dir():
+                pytest.skip("../shared/data is not beside this checkout")
+            argv = ["adjust", str(SHARED / "micmac_ign_ultracam_aerial"), "-o", str(out),
+                    "--snoop"]
+        else:  # the 600-photo block
+            block, _ = simulate_block(FlightPlan(strips=20, photos_per_strip=30, blunders=20,
+                                                 check_points=10, seed=3))
+            write_results(out, snoop(block))
+            argv = None
+        if argv is not None:
+            assert main([*argv, "-q"]) == 0
+        assert main(["report", str(out), "-o", str(d / "report.html"), "--quality",
+                     str(d / "quality.html"), "--pdf", str(d / "quality.pdf"), "-q"]) == 0
+        made[name] = d
+        return d
+
+    return make
+
+
+def text_of(page: str) -> str:
+    """The page's text, tags removed, entities decoded, spaces collapsed."""
+    return re.sub(r"\s+", " ", html.unescape(re.sub(r"<[^>]+>", " ", page)))
+
+
+def section(page: str, ident: str) -> str:
+    m = re.search(rf'<section id="{ident}">(.*?)</section>', page, re.S)
+    assert m, f"no section {ident}"
+    return text_of(m.group(1))
+
+
+def pdf_pages(path: Path) -> list[str]:
+    import pypdfium2
+
+    doc = pypdfium2.PdfDocument(str(path))
+    return [doc[i].get_textpage().get_text_range() for i in range(len(doc))]
+
+
+FRONT = ["check", "accuracy", "metadata"]
+ADJUSTMENT = FRONT + ["summary", "global", "log", "groups", "histograms", "maps", "vectors",
+                      "reliability", "table"]
+
+
+def test_the_quality_check_comes_first_and_is_the_console_verdict(pages):
+    d = pages("demo")
+    page = (d / "report.html").read_text(encoding="utf-8")
+    ids = re.findall(r'<section id="([^"]+)"', page)
+    assert ids[:2] == ["check", "accuracy"] and set(ADJUSTMENT) <= set(ids)
+    v = quality_check(read_results(d / "out"))
+    rows = re.findall(r'<tr data-status="(\w+)"><td class="status">(\w+)</td>\s*'
+                      r'<td class="what"><a href="#([\w-]+)">([^<]+)</a>', page)
+    assert [(s, lab) for s, _, _, lab in rows] == [(r.status, r.label) for r in v.rows]
+    for *_, anchor, _ in rows:  # every row links to a section of the page
+        assert f'id="{anchor}"' in page, anchor
+    # demo: 4 rejections against 0.001 x 598 = 0.6 false alarms, 16 uncontrolled components
+    assert "REVIEW: Rejections, Uncontrolled observations" in page
+    check = section(page, "check")
+    assert "alpha0 x n = 0.001 x 598 = 0.6 false alarms expected" in check
+    assert "16 observation component(s) with redundancy number below 0.001" in check
+
+
+def test_accuracy_statement_of_the_demo_against_the_check_points(pages):
+    d = pages("demo")
+    pts = pd.read_csv(d / "out" / "points.csv", dtype={"point": str})
+    chk = pts[pts["role"] == "check"]
+    rmse = {a: float(np.sqrt(np.mean(chk[f"d{a}"] ** 2))) for a in "XYZ"}
+    r = np.hypot(rmse["X"], rmse["Y"])
+    # the factors from the distributions: circular normal P(|e| <= k sigma) = 1 - exp(-k^2/2)
+    h95 = np.sqrt(-2 * np.log(0.05)) / np.sqrt(2)
+    ce90 = np.sqrt(-2 * np.log(0.10)) / np.sqrt(2)
+    acc = section((d / "report.html").read_text(encoding="utf-8"), "accuracy")
+    assert f"RMSE_r (horizontal) {r:.3f} m" in acc
+    assert f"horizontal accuracy at 95 % (NSSDA, ASPRS) {h95 * r:.3f} m" in acc
+    assert f"vertical accuracy at 95 % (NSSDA, ASPRS) {1.959964 * rmse['Z']:.3f} m" in acc
+    assert f"CE90 (horizontal, 90 %) {ce90 * r:.3f} m" in acc
+    assert f"LE90 (vertical, 90 %) {1.644854 * rmse['Z']:.3f} m" in acc
+    assert "NSSDA and ASPRS ask for at least 20" in acc  # 4 check points
+
+
+def test_berlin_first_page_says_the_check_point_misses_by_31_m(pages):
+    d = pages("berlin")
+    page = (d / "report.html").read_text(encoding="utf-8")
+    pts = pd.read_csv(d / "out" / "points.csv", dtype={"point": str})
+    c = pts[(pts["role"] == "check") & pts["dX"].notna()].iloc[0]
+    miss = float(np.sqrt(c["dX"] ** 2 + c["dY"] ** 2 + c["dZ"] ** 2))
+    assert 31 <= miss < 32
+    want = (f"check point {c['point']} misses by {miss:.3g} m")
+    check = section(page, "check")
+    assert want in check and "the block's georeference disagrees with it by that much" in check
+    assert "FAIL: Global test, Check points" in check
+    acc = section(page, "accuracy")
+    assert "The datum is free (no control)" in acc and "Only 1 check point(s)" in acc
+    first = pdf_pages(d / "quality.pdf")[0]
+    assert want in re.sub(r"\s+", " ", first)
+
+
+def test_micmac_quality_report_states_crs_version_and_sections(pages):
+    d = pages("micmac")
+    page = (d / "quality.html").read_text(encoding="utf-8")
+    meta = section(page, "metadata")
+    assert "RGF93 v1 / Lambert-93 (EPSG:2154)" in meta and "ellipsoidal heights" in meta
+    assert "baarda version 0.1.0" in meta
+    assert re.search(r"input checksum \(SHA-256\) [0-9a-f]{64} \(\d+ file\(s\)", meta)
+    assert "No check points were measured" in section(page, "accuracy")
+    assert "REVIEW Check points none measured" in section(page, "check")
+    rep = section(page, "reprojection")
+    assert "1 px = 4 µm" in rep and "RMS x px" in rep
+    assert "GNSS" in section(page, "gnss") and "RMS: X" in section(page, "gnss")
+    assert "IMU residuals" in section(page, "imu") and "mdeg" in section(page, "imu")
+    pat = section(page, "patterns")
+    assert 'GNSS Y of 7 of the 7 photos of strip 00016 rejected' in pat
+    assert '[gnss] offsets = "strip"' in pat
+    text = " ".join(pdf_pages(d / "quality.pdf"))
+    for s in ("EPSG:2154", "ellipsoidal heights", "No check points were measured",
+              "IMU residuals", "GNSS residuals", "page 1 of"):
+        assert s in re.sub(r"\s+", " ", text), s
+
+
+def test_the_600_photo_block_tables_are_cut_to_the_worst(pages):
+    d = pages("big")
+    page = (d / "report.html").read_text(encoding="utf-8")
+    assert "(20 of 600 photos: those with the largest RMS x+y)" in page
+    assert 'download="per_photo.csv"' in page and "all 600 photos (CSV)" in page
+    q = (d / "quality.html").read_text(encoding="utf-8")
+    assert "The 20 worst of 600 photos" in text_of(q)
+    rows = re.search(r'<table id="q-reprojection-errors">(.*?)</table>', q, re.S).group(1)
+    assert rows.count("<tr>") == 1 + 20
+    pdf = pdf_pages(d / "quality.pdf")
+    assert len(pdf) <= 6 and "page 1 of" in pdf[0]
+    assert all("True" not in p and "False" not in p for p in pdf)
+
+
+def test_user_templates_restyle_the_page(pages, tmp_path):
+    d = pages("demo")
+    own = tmp_path / "tpl"
+    own.mkdir()
+    css = (ROOT / "baarda" / "report" / "templates" / "style.css").read_text()
+    (own / "style.css").write_text(css + "\nheader{background:#004d40}\n/* ACME survey */\n")
+    assert main(["report", str(d / "out"), "-o", str(tmp_path / "r.html"), "--templates",
+                 str(own), "-q"]) == 0
+    page = (tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "ACME survey" in page and '<section id="check">' in page
+
+
+def test_templates_ship_with_the_package():
+    import tomllib
+
+    cfg = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    data = cfg["tool"]["setuptools"]["package-data"]["baarda.report"]
+    assert "templates/*.j2" in data and "templates/*.css" in data
+    assert (ROOT / "baarda" / "report" / "templates" / "adjustment.html.j2").is_file()
+
+
+# ----------------------------------------------------------------- in a real browser
+CASES = [("demo", "report.html"), ("demo", "quality.html"), ("berlin", "report.html"),
+         ("micmac", "quality.html"), ("micmac", "report.html"), ("big", "report.html"),
+         ("big", "quality.html")]
+
+
+@browser
+@pytest.mark.parametrize("name, file", CASES, ids=[f"{n}-{f}" for n, f in CASES])
+def test_layout_in_chromium(pages, name, file, tmp_path):
+    d = pages(name)
+    f = layout_facts(d / file, WIDTH, tmp_path)
+    assert f["scroll_width"] <= WIDTH and not f["wide"], f["wide"]
+    assert f["min_font"] >= 9 and not f["small"], f["small"]
+    assert not f["broken_images"]
+    assert set(FRONT) <= set(f["sections"])
+    if file == "report.html":
+        assert set(ADJUSTMENT) <= set(f["sections"])
+    assert f["check_rows"] and all(r["contrast"] >= 4.5 and r["link"].startswith("#")
+                                   for r in f["check_rows"])
+    if name == "big" and file == "report.html":
+        print(f"600-photo adjustment report: {f['height']} px at {WIDTH} px",
+              f["section_heights"])
+        assert f["height"] <= 12_000
+
+
+@browser
+def test_banner_contrast_in_chromium(pages, tmp_path):
+    """A run whose snooping stopped: the banner is readable (contrast >= 4.5:1)."""
+    import json
+
+    d = pages("demo")
+    out = tmp_path / "out"
+    shutil.copytree(d / "out", out)
+    s = json.loads((out / "summary.json").read_text())
+    s["snooping_incomplete"] = "snooping incomplete: 2 component(s) still significant"
+    s["adjustments"]["bundle"]["snooping_incomplete"] = s["snooping_incomplete"]
+    (out / "summary.json").write_text(json.dumps(s))
+    resign(out)  # edited on purpose: the run's own files again
+    assert main(["report", str(out), "-o", str(tmp_path / "r.html"), "-q"]) == 0
+    f = layout_facts(tmp_path / "r.html", WIDTH, tmp_path)
+    assert [b["text"][:19] for b in f["banners"]] == ["SNOOPING INCOMPLETE"]
+    assert f["banners"][0]["contrast"] >= 4.5
+    fail = [r for r in f["check_rows"] if r["status"] == "fail"]
+    assert fail and fail[0]["link"] == "#log"
