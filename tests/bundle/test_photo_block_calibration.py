@@ -194,6 +194,15 @@ def test_statistics_with_sparse_jacobians_equal_dense_ones(bal_case, mixed_case)
         assert np.allclose(qc.quality.redundancy_number[ok], 1 - p[ok] * qll[ok], atol=1e-9)
 
 
+def test_separability_equals_the_dense_one(bal_case, mixed_case):
+    """rho_max, its partner and the MSB (issue 30) with the camera parameters in the
+    photos' blocks (and a shared camera in the border) equal dense brute force."""
+    from separability_dense import check
+
+    for _, model, _ in (bal_case, mixed_case):
+        check(model)
+
+
 @pytest.mark.parametrize("which", ["bal", "mixed"])
 def test_the_same_numbers_as_with_every_camera_in_the_border(which, bal_case, mixed_case,
                                                              monkeypatch):
