@@ -211,6 +211,7 @@ def prepare(block: Block, free: bool | None = None, *,
 
 
 def _prepare(block: Block, free: bool | None) -> BundleProblem:
+    from baarda.block.camera import ideal_image_coordinates
     from baarda.bundle.bundle_problem import BundleProblem
     from baarda.bundle.diagnostics import diagnose
     from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
@@ -219,8 +220,9 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     inner = block.settings.datum == "inner"
     free = block.settings.datum in ("free", "inner") if free is None else free
     block = with_approximations(localized(block))
-    xyz = intersected_points(block)  # once, for the diagnosis and the approximations
-    diagnosis = tuple(diagnose(block, xyz))
+    ideal = ideal_image_coordinates(block)  # once: distortion-free image coordinates
+    xyz = intersected_points(block, ideal)  # once, for the diagnosis and the approximations
+    diagnosis = tuple(diagnose(block, xyz, ideal))
     if not free:
         return BundleProblem(block, diagnosis=diagnosis, intersected=xyz)
     if block.points.controlled.any():

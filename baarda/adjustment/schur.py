@@ -20,6 +20,13 @@ if TYPE_CHECKING:
     from baarda.adjustment.schur_system import Linearization, SchurSystem
 
 
+# observations x k x b^2 above which the cofactor blocks of the observations are formed row
+# by row (schur_kernels.observation_cofactors: the same products, without BLAS's fused
+# multiply-adds) instead of by NumPy over a copy of a frame block per observation (32 MB);
+# that kernel is compiled when a block this large first needs it, not on every first run
+ROW_BY_ROW = 8_000_000
+
+
 def _inner(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """sum over the first two axes of a[i, j, g] b[i, j, h]: (g, h), one BLAS product."""
     return a.reshape(-1, a.shape[2]).T @ b.reshape(-1, b.shape[2])
@@ -44,8 +51,12 @@ class SchurFactor:
         hpp = np.zeros((s.np, s.d, s.d))
         gp = np.zeros((s.np, s.d))
         self.hfp = np.zeros((len(s.order), s.b, s.d))
-        kernels.assemble(s.order, s.frame, s.point_sorted, lin.jf, lin.jp, lin.w, lin.e,
-                         self.hfp, hff, gf, hpp, gp)
+        if s.parallel_assembly():
+            kernels.assemble_parallel(s.order, s.ptr, s.frame_ptr, s.frame_obs, lin.jf, lin.jp,
+                                      lin.w, lin.e, self.hfp, hff, gf, hpp, gp)
+        else:  # the same numbers on one thread
+            kernels.assemble(s.order, s.frame, s.point_sorted, lin.jf, lin.jp, lin.w, lin.e,
+                             self.hfp, hff, gf, hpp, gp)
         if lin.wf is not None:  # direct observations of frame unknowns (e.g. GNSS, datum)
             hff[:, np.arange(s.b), np.arange(s.b)] += lin.wf
             gf += lin.wf * lin.ef
@@ -206,10 +217,9 @@ class SchurFactor:
             sel = self.chol.selected_inverse()
             values = sel.pattern_values()
             spf, spp = kernels.point_covariances(s.ptr, s.frame_sorted, self.hfp,
-                                                 self.hpp_inv, values, s.pair_slot, s.pair_tr)
-            inv = np.empty_like(s.order)
-            inv[s.order] = np.arange(len(s.order))
-            self._sel = (sel, values[s.diag_slot], spf[inv], spp)
+                                                 self.hpp_inv, values, s.pair_slot, s.pair_tr,
+                                                 s.order)
+            self._sel = (sel, values[s.diag_slot], spf, spp)
         return self._sel
 
     def _c_inv(self) -> np.ndarray:
@@ -259,11 +269,17 @@ class SchurFactor:
         lin, system = self.lin, self.system
         _, sff, spf, spp = self.covariances()
         jf, jp = lin.jf, lin.jp
-        sf = sff[system.frame]
-        q = (jf @ sf @ np.swapaxes(jf, 1, 2)
-             + jp @ spp[system.point] @ np.swapaxes(jp, 1, 2))
-        cross = jp @ spf @ np.swapaxes(jf, 1, 2)
-        q += cross + np.swapaxes(cross, 1, 2)
+        if jf.size * system.b < ROW_BY_ROW:
+            sf = sff[system.frame]
+            q = (jf @ sf @ np.swapaxes(jf, 1, 2)
+                 + jp @ spp[system.point] @ np.swapaxes(jp, 1, 2))
+            cross = jp @ spf @ np.swapaxes(jf, 1, 2)
+            q += cross + np.swapaxes(cross, 1, 2)
+        else:  # no copy of a frame block per observation (540 MB at 1,000 BAL cameras)
+            q = kernels.observation_cofactors(system.frame, system.point,
+                                              np.ascontiguousarray(jf, dtype=float),
+                                              np.ascontiguousarray(jp, dtype=float), sff,
+                                              spf, spp)
         qc = lin.jc @ spp[system.control_point] @ np.swapaxes(lin.jc, 1, 2)
         if not self.has_border:
             return q, qc

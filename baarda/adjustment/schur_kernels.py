@@ -100,6 +100,46 @@ def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp)
     return 0
 
 
+@parallel_kernel
+def assemble_parallel(order, ptr, frame_ptr, frame_obs, jf, jp, w, e, hfp, hff, gf, hpp, gp):
+    """`assemble` on numba's threads, every sum in the serial loop's order (the same numbers
+    to the last bit): the point parts point by point (ptr: each point's observations in
+    sorted order), the frame parts frame by frame, each frame's observations in sorted
+    order (frame_obs[frame_ptr[f]:...])."""
+    k, b = jf.shape[1], jf.shape[2]
+    d = jp.shape[2]
+    for j in prange(len(ptr) - 1):
+        for a in range(ptr[j], ptr[j + 1]):
+            i = order[a]
+            for r in range(k):
+                wr = w[i, r]
+                if wr == 0.0:
+                    continue
+                for p in range(b):
+                    wp = wr * jf[i, r, p]
+                    for q in range(d):
+                        hfp[a, p, q] += wp * jp[i, r, q]
+                for p in range(d):
+                    wp = wr * jp[i, r, p]
+                    gp[j, p] += wp * e[i, r]
+                    for q in range(d):
+                        hpp[j, p, q] += wp * jp[i, r, q]
+    for f in prange(len(frame_ptr) - 1):
+        for x in range(frame_ptr[f], frame_ptr[f + 1]):
+            i = order[frame_obs[x]]
+            for r in range(k):
+                wr = w[i, r]
+                if wr == 0.0:
+                    continue
+                er = wr * e[i, r]
+                for p in range(b):
+                    wp = wr * jf[i, r, p]
+                    gf[f, p] += jf[i, r, p] * er
+                    for q in range(b):
+                        hff[f, p, q] += wp * jf[i, r, q]
+    return 0
+
+
 def _inline(fn):
     """A kernel inlined into its callers, where literal sizes become loop bounds the compiler
     unrolls (the photo's 6 and the point's 3 unknowns: the same operations in the same order,
@@ -139,18 +179,24 @@ def _pair_term(values, s, tr, t, hfp, a, c, b, d):
 
 @_inline
 def _observation_terms(hfp, hinv, gpj, a, t, g, b, d):
-    """_terms, with literal sizes for a photo and a point (b = 6, d = 3)."""
+    """_terms, with literal sizes for a photo and a point (b = 6, d = 3), and for a photo
+    with its camera's f, k1, k2 (b = 9: BAL)."""
     if b == 6 and d == 3:
         _terms(hfp, hinv, gpj, a, t, g, 6, 3)
+    elif b == 9 and d == 3:
+        _terms(hfp, hinv, gpj, a, t, g, 9, 3)
     else:
         _terms(hfp, hinv, gpj, a, t, g, b, d)
 
 
 @_inline
 def _subtract_pair(values, s, tr, t, hfp, a, c, b, d):
-    """_pair_term, with literal sizes for a photo and a point (b = 6, d = 3)."""
+    """_pair_term, with literal sizes for a photo and a point (b = 6, d = 3), and for a
+    photo with its camera's f, k1, k2 (b = 9: BAL)."""
     if b == 6 and d == 3:
         _pair_term(values, s, tr, t, hfp, a, c, 6, 3)
+    elif b == 9 and d == 3:
+        _pair_term(values, s, tr, t, hfp, a, c, 9, 3)
     else:
         _pair_term(values, s, tr, t, hfp, a, c, b, d)
 
@@ -309,8 +355,9 @@ def back_substitute(ptr, frame, hfp, hpp_inv, gp, xf):
 
 
 @kernel
-def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
-    """Sigma_pf for every observation (m, d, b) and Sigma_pp per point (np, d, d).
+def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr, order):
+    """Sigma_pf for every observation (m, d, b), in the observations' own order (order[a]:
+    the observation at sorted position a), and Sigma_pp per point (np, d, d).
 
     sel: selected inverse of S in pattern storage (same slots as S).
         Sigma_pf[a] = -Hpp^-1 sum_c Hpf_c Sigma_ff[frame c, frame a]
@@ -357,12 +404,13 @@ def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
             for q in range(d):
                 tmp[p, q] = hinv[p, q]
         for a in range(lo, hi):
+            o = order[a]
             for p in range(d):
                 for q in range(b):
                     x = 0.0
                     for r in range(d):
                         x += hinv[p, r] * acc[a, r, q]
-                    spf[a, p, q] = -x
+                    spf[o, p, q] = -x
             # tmp -= spf[a] @ hfp[a] @ hinv
             for p in range(d):
                 for q in range(d):
@@ -371,7 +419,7 @@ def point_covariances(ptr, frame, hfp, hpp_inv, sel, pair_slot, pair_tr):
                         y = 0.0
                         for t in range(d):
                             y += hfp[a, r, t] * hinv[t, q]
-                        x += spf[a, p, r] * y
+                        x += spf[o, p, r] * y
                     tmp[p, q] -= x
         for p in range(d):
             for q in range(d):
@@ -401,3 +449,56 @@ def reduce_rhs_columns(ptr, frame, hfp, hpp_inv, gp, red):
                     h = hfp[a, p, r]
                     for c in range(q):
                         red[f, p, c] -= h * u[r, c]
+
+
+@kernel
+def observation_cofactors(frame, point, jf, jp, sff, spf, spp):
+    """Cofactor blocks (m, k, k) of the adjusted frame-point observations with the globals
+    held: q = Jf Sff Jf' + Jp Spp Jp' + C + C', C = Jp Spf Jf', from the selected inverse's
+    diagonal frame blocks sff (nf, b, b), Spf per observation (m, d, b) and Spp per point
+    (np, d, d), row by row (no (m, b, b) copy of the frame blocks); each product summed in
+    the order of a matrix product, left to right."""
+    m, k, b = jf.shape
+    d = jp.shape[2]
+    q = np.empty((m, k, k))
+    t = np.empty((k, b))
+    u = np.empty((k, d))
+    x = np.empty((k, b))
+    for i in range(m):
+        f = frame[i]
+        j = point[i]
+        for r in range(k):
+            for c in range(b):
+                acc = 0.0
+                for s in range(b):
+                    acc += jf[i, r, s] * sff[f, s, c]
+                t[r, c] = acc
+            for c in range(d):
+                acc = 0.0
+                for s in range(d):
+                    acc += jp[i, r, s] * spp[j, s, c]
+                u[r, c] = acc
+            for c in range(b):
+                acc = 0.0
+                for s in range(d):
+                    acc += jp[i, r, s] * spf[i, s, c]
+                x[r, c] = acc
+        for r in range(k):
+            for c in range(k):
+                a1 = 0.0
+                for s in range(b):
+                    a1 += t[r, s] * jf[i, c, s]
+                a2 = 0.0
+                for s in range(d):
+                    a2 += u[r, s] * jp[i, c, s]
+                q[i, r, c] = a1 + a2
+        for r in range(k):
+            for c in range(k):
+                c1 = 0.0
+                for s in range(b):
+                    c1 += x[r, s] * jf[i, c, s]
+                c2 = 0.0
+                for s in range(b):
+                    c2 += x[c, s] * jf[i, r, s]
+                q[i, r, c] += c1 + c2
+    return q

@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from baarda.adjustment.schur import SchurFactor
 
 HOLD = 1e24  # weight of a direct constraint that holds an unknown (datum, fixed control)
+PARALLEL_ASSEMBLY_WORK = 10_000_000  # observations x (b^2 + b d + d^2): the parallel assembly
 
 
 @dataclass(frozen=True)
@@ -140,6 +141,14 @@ class SchurSystem:
         started it cannot fork safely, as `baarda evaluate`'s process pool does)."""
         work = len(self.pair_slot) * self.b * self.b * self.d
         return work >= PARALLEL_MIN_WORK and numba.get_num_threads() > 1
+
+    def parallel_assembly(self) -> bool:
+        """Whether the normal equations are assembled on numba's threads: with the parallel
+        point elimination and enough work to pay for a parallel region (about 10 ms on one
+        thread; where other processes share the cores, each region waits for the
+        scheduler, and on a small block the serial loop is faster)."""
+        work = len(self.order) * (self.b * self.b + self.b * self.d + self.d * self.d)
+        return work >= PARALLEL_ASSEMBLY_WORK and self.parallel_reduction()
 
     @property
     def n_unknowns(self) -> int:

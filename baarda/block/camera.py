@@ -77,40 +77,57 @@ def parameters(cameras, i: int) -> np.ndarray:
                            coefficients(cameras, i)])
 
 
+def _table(values, n: int, k: int, fill: float) -> np.ndarray:
+    """(n, k): the first k columns of a per-camera table, `fill` where missing."""
+    out = np.full((n, k), fill)
+    if values is not None and k:
+        v = np.asarray(values, float).reshape(n, -1)
+        w = min(v.shape[1], k)
+        out[:, :w] = v[:, :w]
+    return out
+
+
 def _cameras_of_side(block, side: str):
-    """(model, rows of block.image, principal point [mm], coefficients (1, k), constants
-    (1, c)) of every camera with a distortion model applied on `side` ("backward": to the
-    observations, "forward": in the projection) that has image points."""
+    """(model, rows of block.image, and per row its principal point [mm] (m, 2),
+    coefficients (m, k), constants (m, c) and camera (m,)) of the cameras with a
+    distortion model applied on `side` ("backward": to the observations, "forward": in the
+    projection), all cameras of one model at once (a block may have a camera per photo)."""
     cams = block.cameras
     cam = block.photos.camera[block.image.photo]
-    for i in range(len(cams)):
-        model = model_of(kinds(cams)[i])
-        rows = np.flatnonzero(cam == i)
-        if model.side != side or not model.n_params or not len(rows):
+    kind = kinds(cams)
+    for name in dict.fromkeys(kind.tolist()):
+        model = model_of(name)
+        if model.side != side or not model.n_params:
             continue
-        yield (model, rows, np.asarray(cams.principal_point_mm[i], float),
-               coefficients(cams, i)[None, :], constants(cams, i)[None, :])
+        rows = np.flatnonzero((kind == name)[cam])
+        if not len(rows):
+            continue
+        c = cam[rows]
+        n = len(cams)
+        yield (model, rows, np.asarray(cams.principal_point_mm, float)[c],
+               _table(getattr(cams, "coefficients", None), n, model.n_params, 0.0)[c],
+               _table(getattr(cams, "constants", None), n, len(model.constants), np.nan)[c],
+               c)
 
 
 def corrected_observations(block) -> np.ndarray:
     """The observations (m, 2) in mm with backward models applied (ideal coordinates);
     rows of forward-model cameras as observed (the projection applies those)."""
     out = np.array(block.image.xy_mm, dtype=float, copy=True)
-    for model, rows, pp, coef, const in _cameras_of_side(block, "backward"):
+    for model, rows, pp, coef, const, _ in _cameras_of_side(block, "backward"):
         out[rows] += model.correction(out[rows] - pp, coef, const)[0]
     return out
 
 
 def ideal_image_coordinates(block) -> np.ndarray:
     """Image coordinates (m, 2) in mm free of distortion, for every row of block.image
-    (backward models: the corrected observations; forward models: inverted, for
-    approximations only: the adjustment applies them in the projection)."""
+    (backward models: the corrected observations; forward models: inverted, camera by
+    camera, for approximations only: the adjustment applies them in the projection)."""
     out = corrected_observations(block)
-    focal = block.cameras.focal_mm
-    cam = block.photos.camera[block.image.photo]
-    for model, rows, pp, coef, const in _cameras_of_side(block, "forward"):
-        s = float(focal[cam[rows[0]]]) if model.normalized else 1.0
-        out[rows] = pp + s * invert(model, (out[rows] - pp) / s, coef, const)
+    focal = np.asarray(block.cameras.focal_mm, float)
+    for model, rows, pp, coef, const, cam in _cameras_of_side(block, "forward"):
+        s = focal[cam][:, None] if model.normalized else 1.0
+        out[rows] = pp + s * invert(model, (out[rows] - pp) / s, coef, const, groups=cam)
     return out
 
 

@@ -323,20 +323,41 @@ def apply_forward(model: CameraModel, u: ArrayLike, coef: ArrayLike | None,
 
 
 def invert(model: CameraModel, target: ArrayLike, coef: ArrayLike | None,
-           const: ArrayLike | None = None, iterations: int = 20) -> np.ndarray:
+           const: ArrayLike | None = None, iterations: int = 20,
+           groups: np.ndarray | None = None) -> np.ndarray:
     """u (m, 2) with u + delta(u) = target (m, 2), by Newton's method (one 2x2 system per
     row; for approximations and writers).  Backward models: the reduced observation whose
-    correction is target; forward: the reduced ideal coordinate that projects to target."""
+    correction is target; forward: the reduced ideal coordinate that projects to target.
+    groups (m,): rows iterated until the largest step of their group (a camera) is
+    negligible, each group as if alone (default: one group)."""
     target = np.asarray(target, dtype=float)
+    m = len(target)
     u = target.copy()
-    tol = 1e-14 * max(1.0, float(np.max(np.abs(target), initial=0.0)))
+    groups = np.zeros(m, np.int64) if groups is None else np.asarray(groups, np.int64)
+    ng = int(groups.max()) + 1 if m else 0
+    big = np.zeros(ng)
+    np.maximum.at(big, groups, np.max(np.abs(target), axis=1, initial=0.0))
+    tol = 1e-14 * np.maximum(1.0, big)
+    coef = None if coef is None else np.broadcast_to(np.asarray(coef, float),
+                                                     (m, model.n_params))
+    const = None if const is None else np.broadcast_to(np.asarray(const, float),
+                                                       (m, len(model.constants)))
+    rows = np.arange(m)
     for _ in range(iterations):
-        delta, jac, _ = model.correction(u, coef, const)
-        jac += np.eye(2)
-        step = np.linalg.solve(jac, (target - u - delta)[:, :, None])[:, :, 0]
-        u += step
-        if np.max(np.abs(step), initial=0.0) <= tol:
+        if not len(rows):
             break
+        every = len(rows) == m
+        ur = u if every else u[rows]
+        delta, jac, _ = model.correction(
+            ur, coef if coef is None or every else coef[rows],
+            const if const is None or every else const[rows])
+        jac += np.eye(2)
+        step = np.linalg.solve(jac, ((target if every else target[rows]) - ur - delta)
+                               [:, :, None])[:, :, 0]
+        u[rows] += step
+        largest = np.zeros(ng)
+        np.maximum.at(largest, groups[rows], np.abs(step).max(axis=1))
+        rows = rows[~(largest <= tol)[groups[rows]]]
     return u
 
 

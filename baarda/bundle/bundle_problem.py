@@ -20,7 +20,7 @@ from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
 from baarda.adjustment.solve import solve
 from baarda.block.photo_block import Block
-from baarda.block.rotation import rotation_and_derivatives
+from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth
@@ -60,10 +60,12 @@ def _spread(values: np.ndarray) -> str:
 class BundleProblem(SchurProblem):
     """The block in the form of the adjustment: index arrays, weights, the Schur structure.
 
-    Unknowns: the photos' orientations (frames), the ground points eliminated point by point,
-    and the global unknowns (adjustment/schur_system.py): the camera parameters that a
-    self-calibration estimates (bundle/calibration.py), then the coordinates of the points
-    that distance observations tie together (border points).
+    Unknowns: the photos' orientations (frames: X0, Y0, Z0, omega, phi, kappa, then the
+    free parameters of a camera that only this photo uses, bundle/calibration.py), the
+    ground points eliminated point by point, and the global unknowns
+    (adjustment/schur_system.py): the free parameters of the cameras that several photos
+    share, then the coordinates of the points that distance observations tie together
+    (border points).
 
     Observation vector (flat, the quality layer's): x and y of every adjusted image point of
     an eliminated point (rows `obs` of block.image, mm), every observed control coordinate of
@@ -74,6 +76,8 @@ class BundleProblem(SchurProblem):
     Control with sigma 0 is fixed: held exactly, not an unknown, not an observation.
     held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
     network, bundle/free_network.py); None: the control fixes the datum (checked here).
+    held_frame: (n_photos, b) every held column of the photos' blocks (held, and the camera
+    columns of photos without a camera of their own), or None.
     diagnosis: findings about the inputs (bundle/diagnostics.py), printed as notes and added
     to the message when the adjustment fails.  intersected: the block's points intersected
     from its approximate orientations (geometry.intersected_points), when known.
@@ -121,14 +125,15 @@ class BundleProblem(SchurProblem):
         self.held_border[self.bremap[border_control]] = np.isfinite(sig_b) & (sig_b == 0)
         # global unknowns, a named layout: free camera parameters, the border points'
         # coordinates, then each kind's own (GNSS shifts and drifts, IMU boresight)
-        self.calibration = Calibration(block.cameras)
+        self.calibration = cal = Calibration(block.cameras, block.photos.camera)
+        self.b = 6 + cal.photo_width  # unknowns of a photo (its camera's, if its own)
         own = [(kind.name, kind.global_labels(block)) for kind in self.kinds]
         own = [(name, labels) for name, labels in own if labels or name == "gnss_imu"]
         self.global_layout = GlobalLayout(
             ("camera", "points", *(name for name, _ in own)),
-            (self.calibration.n, 3 * len(self.border_ids), *(len(la) for _, la in own)),
-            tuple(self.calibration.labels + [f"coordinate {c} of point {pts.ids[j]}"
-                                              for j in self.border_ids for c in "XYZ"]
+            (cal.n_global, 3 * len(self.border_ids), *(len(la) for _, la in own)),
+            tuple(cal.global_labels + [f"coordinate {c} of point {pts.ids[j]}"
+                                       for j in self.border_ids for c in "XYZ"]
                   + [label for _, labels in own for label in labels]))
         ng = self.global_layout.n
         context = Context(block, self.calibration, self.global_layout, self.border_ids,
@@ -147,6 +152,19 @@ class BundleProblem(SchurProblem):
             im.sigma_xy[self.obs].ravel(), sig_c.ravel()[sel],
             *(r.sigma for r in self.extra)]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
+        held_frame = None
+        if self.held is not None or cal.held_photo_columns.any():
+            held_frame = np.zeros((len(block.photos), self.b), bool)
+            if self.held is not None:
+                held_frame[:, :6] = self.held
+            held_frame[:, 6:] = cal.held_photo_columns
+        self.held_frame = None if held_frame is None else read_only(held_frame)
+        # of each image row of an eliminated point: photo, point (eliminated index), xy
+        self.obs_photo = read_only(im.photo[self.obs])
+        self.obs_point = read_only(self.eremap[im.point[self.obs]])
+        self.obs_xy = read_only(im.xy_mm[self.obs])
+        self.held_rows = read_only(np.zeros(0, np.int64) if held_frame is None else
+                                   np.flatnonzero(held_frame.any(axis=1)[self.obs_photo]))
         # GNSS positions carry the datum (with shifts as unknowns: scale and orientation,
         # the position then from a control point)
         full_control = bool(pts.controlled[np.concatenate(
@@ -163,14 +181,15 @@ class BundleProblem(SchurProblem):
         # what the linearisation needs of each row set that no iteration changes
         self.image_rows = ImageRows(block, self.calibration, self.obs)
         cam = self.camera_of[ph]
-        gcol = np.full((m, self.calibration.width), -1, np.int64)
-        for i, cols in enumerate(self.calibration.columns):
-            gcol[cam == i, :len(cols)] = cols
+        table = np.full((len(block.cameras), cal.width), -1, np.int64)  # columns per camera
+        for i, cols in enumerate(cal.columns):
+            table[i, :len(cols)] = cols
+        gcol = table[cam]
         x_frame = np.concatenate([r.photo for r in self.extra]).astype(np.int64)
-        n_fixed = (0 if self.held is None else int(self.held.sum())) + \
+        n_fixed = (0 if self.held_frame is None else int(self.held_frame.sum())) + \
             int(self.held_points.sum()) + int(self.held_border.sum())
         self.system = SchurSystem(
-            len(block.photos), 6, len(self.elim_ids), 3, ph, self.eremap[im.point[self.obs]],
+            len(block.photos), self.b, len(self.elim_ids), 3, ph, self.eremap[im.point[self.obs]],
             self.eremap[self.control], frame_names=[f"photo {p}" for p in block.photos.ids],
             point_names=[pts.ids[j] for j in self.elim_ids], n_fixed=n_fixed, ng=ng,
             gcol=gcol, x_frame=x_frame, global_names=list(self.global_layout.labels))
@@ -180,7 +199,8 @@ class BundleProblem(SchurProblem):
         eo = block.photos.eo
         keep = np.isin(np.arange(len(pts)), self.point_ids)
         xyz = approximate_points(block, keep, intersected)
-        start = (read_only(eo.copy()), read_only(xyz[self.elim_ids]))
+        frames = np.hstack([eo, cal.photo_start()]) if cal.photo_width else eo.copy()
+        start = (read_only(frames), read_only(xyz[self.elim_ids]))
         if ng:
             g0 = np.zeros(ng)
             g0[self.global_layout.columns("camera")] = self.calibration.start()
@@ -191,7 +211,7 @@ class BundleProblem(SchurProblem):
         self.scale = max(float(np.median(np.abs(eo[:, 2] - np.median(xyz[keep, 2])))), 1.0)
         n = self.layout.n
         self._set_weights(np.ones(n, bool), np.ones(n))
-        self._parameter_scale = self._camera_effect()
+        self._parameter_scale, self._photo_scale = self._camera_effect()
 
     @property
     def units(self) -> dict[str, tuple[float, str]]:
@@ -268,32 +288,29 @@ class BundleProblem(SchurProblem):
     # ------------------------------------------------- the solver's protocol
     def _split(self, state):
         """(eo, eliminated points, camera parameters per camera, border points (nb, 3))."""
-        eo, xyz = state[0], state[1]
+        frames, xyz = state[0], state[1]
         g = state[2] if len(state) == 3 else np.zeros(0)
-        return (eo, xyz, self.calibration.current(g),
+        return (frames[:, :6], xyz, self.calibration.current(g, frames[:, 6:]),
                 g[self.global_layout.columns("points")].reshape(-1, 3))
 
     def linearize(self, state) -> Linearization:
         eo, xyz, params, bxyz = self._split(state)
-        b = self.block
-        im, pts = b.image, b.points
-        ph = im.photo[self.obs]
+        pts = self.block.points
         rot = rotation_and_derivatives(eo[:, 3], eo[:, 4], eo[:, 5])  # once, every row set
-        f, je, jp, jpar = self.image_rows.evaluate(eo, xyz[self.eremap[im.point[self.obs]]],
-                                                   params, rot)
-        e = im.xy_mm[self.obs] - f
+        f, je, jp, jpar = self.image_rows.evaluate(eo, xyz[self.obs_point], params, rot)
+        e = self.obs_xy - f
         given = pts.xyz[self.control]
         cur = xyz[self.eremap[self.control]]
         ec = np.where(np.isfinite(given), given, 0.0) - cur
         jc = np.broadcast_to(np.eye(3), (len(self.control), 3, 3)).copy()
         wf = ef = wp = ep = None
-        if self.held is not None:
-            je = np.where(self.held[ph][:, None, :], 0.0, je)
-            wf = np.where(self.held, HOLD, 0.0)
+        if self.held_frame is not None:  # zero columns in the rows of the photos concerned
+            hr = self.held_rows
+            je[hr] = np.where(self.held_frame[self.obs_photo[hr]][:, None, :], 0.0, je[hr])
+            wf = np.where(self.held_frame, HOLD, 0.0)
             ef = np.zeros_like(wf)
         if self.held_points.any():  # fixed control: not unknowns (zero columns, held)
-            jp = np.where(self.held_points[self.eremap[im.point[self.obs]]][:, None, :], 0.0,
-                          jp)
+            jp = np.where(self.held_points[self.obs_point][:, None, :], 0.0, jp)
             wp = np.where(self.held_points, HOLD, 0.0)
             ep = np.zeros_like(wp)
             rows = self.eremap[self.control]
@@ -311,12 +328,15 @@ class BundleProblem(SchurProblem):
         ng = self.system.ng
         parts = [r.linearize(state, ng) for r in self.extra]
         ex = np.concatenate([p[0] for p in parts])
-        jxf = np.concatenate([p[1] for p in parts])
+        # d/d(photo's unknowns): the camera columns of a photo's block are zero in the rows
+        # of kinds that do not depend on them (GNSS, IMU)
+        jxf = np.concatenate([np.pad(p[1], ((0, 0), (0, self.b - p[1].shape[1])))
+                              for p in parts])
         jxg = np.concatenate([p[2] for p in parts])
-        if self.held is not None:
+        if self.held_frame is not None:
             xf = self.system.x_frame
             has = xf >= 0
-            jxf[has] = np.where(self.held[xf[has]], 0.0, jxf[has])
+            jxf[has] = np.where(self.held_frame[xf[has]], 0.0, jxf[has])
         jxg[:, self.held_globals] = 0.0
         wg = np.zeros(ng)
         eg = np.zeros(ng)
@@ -328,15 +348,21 @@ class BundleProblem(SchurProblem):
         return dict(jxf=jxf[:, None, :], jxg=jxg[:, None, :], wx=self.wx, ex=ex[:, None],
                     wg=wg, eg=eg)
 
-    def _camera_effect(self) -> np.ndarray:
+    def _camera_effect(self) -> tuple[np.ndarray, np.ndarray]:
         """Size in the image (mm) of a unit change of each global unknown, for the
         convergence test: camera parameters by their largest effect, points by the image
-        scale (a change dX moves the image by about c dX / flying height)."""
-        ng = self.system.ng
+        scale (a change dX moves the image by about c dX / flying height); and (n_photos,
+        photo_width) that of the camera parameters in the photos' blocks."""
+        ng, kp = self.system.ng, self.b - 6
         out = np.zeros(ng)
-        if not ng:
-            return out
+        photo = np.zeros((len(self.block.photos), kp))
+        if not ng and not kp:
+            return out, photo
         lin = self.linearize(self.approximations)
+        if kp:
+            np.maximum.at(photo, self.system.frame, np.abs(lin.jf[:, :, 6:]).max(axis=1))
+        if not ng:
+            return out, photo
         if lin.jg is not None and self.system.gcol.shape[1]:
             mi, ai = np.nonzero(self.system.gcol >= 0)
             np.maximum.at(out, self.system.gcol[mi, ai], np.abs(lin.jg[mi, :, ai]).max(axis=1))
@@ -345,12 +371,12 @@ class BundleProblem(SchurProblem):
         gi = self.gnss_imu
         if gi.boresight_col >= 0:
             out[gi.boresight_col:gi.boresight_col + 3] = c  # an angle moves the image c da
-        return out
+        return out, photo
 
     def _sizes(self, step, t: float = 1.0) -> tuple[float, float]:
         dxf, dxp = step[0], step[1]
         dpos = max(np.max(np.abs(dxf[:, :3]), initial=0.0), np.max(np.abs(dxp), initial=0.0))
-        dang = np.max(np.abs(dxf[:, 3:]), initial=0.0)
+        dang = np.max(np.abs(dxf[:, 3:6]), initial=0.0)
         if len(step) == 3:
             gi = self.gnss_imu
             end = gi.boresight_col if gi.boresight_col >= 0 else len(step[2])
@@ -362,10 +388,14 @@ class BundleProblem(SchurProblem):
     def correction_size(self, state, step) -> float:
         dpos, dang = self._sizes(step)
         size = max(dpos / self.scale, 1e3 * dang)
-        if len(step) == 3 and self.calibration.n:
+        if len(step) == 3 and self.calibration.n_global:
             c = float(np.median(self.block.cameras.focal_mm))
             cols = self.global_layout.columns("camera")
             cam = np.abs(step[2][cols]) * self._parameter_scale[cols]
+            size = max(size, float(np.max(cam, initial=0.0)) / c)
+        if self.b > 6:  # camera parameters in the photos' blocks
+            c = float(np.median(self.block.cameras.focal_mm))
+            cam = np.abs(step[0][:, 6:]) * self._photo_scale
             size = max(size, float(np.max(cam, initial=0.0)) / c)
         return size
 
@@ -374,10 +404,13 @@ class BundleProblem(SchurProblem):
         return f"{dpos:.3g} m, {dang:.3g} rad"
 
     def admissible(self, state) -> bool:
+        from baarda.bundle.projection_kernel import all_in_front
+
         eo, xyz, _, bxyz = self._split(state)
         im = self.block.image
-        ok = bool(np.all(camera_depth(eo, xyz[self.eremap[im.point[self.obs]]],
-                                      im.photo[self.obs]) > 0))
+        rot = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])
+        ok = bool(all_in_front(rot, np.ascontiguousarray(eo[:, :3]), self.obs_photo,
+                               self.obs_point, xyz))
         rows = self.border_images.rows
         if len(rows):
             ok &= bool(np.all(camera_depth(eo, bxyz[self.bremap[im.point[rows]]],
@@ -400,7 +433,9 @@ class BundleProblem(SchurProblem):
 
         start: (eo (n_photos, 6), xyz (n_adjusted_points, 3)) or the state of an earlier
         result (`BundleResult.state`); default the approximations (the photos' EO,
-        intersected points and the cameras' nominal parameters).
+        intersected points and the cameras' nominal parameters).  A start of (n_photos, 6)
+        orientations takes the nominal values of the camera parameters in the photos'
+        blocks.
         """
         t0 = time.perf_counter()
         options = options or self.solve_options
@@ -427,9 +462,12 @@ class BundleProblem(SchurProblem):
 
     def _start(self, start) -> tuple[np.ndarray, ...]:
         """A start given as (eo, xyz of every adjusted point) in this problem's state."""
+        eo = np.asarray(start[0])
+        if eo.shape[1] != self.b:  # orientations only: the camera parameters' nominal values
+            eo = np.hstack([eo[:, :6], self.approximations[0][:, 6:]])
         if len(start) == len(self.approximations) and len(start[1]) == len(self.elim_ids):
-            return tuple(start)
-        eo, xyz = start[0], np.asarray(start[1])
+            return (eo, *start[1:])
+        xyz = np.asarray(start[1])
         out = (eo, xyz[self.remap[self.elim_ids]])
         if self.system.ng:
             g0 = np.zeros(self.system.ng)

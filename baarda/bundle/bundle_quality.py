@@ -41,18 +41,23 @@ def calibration_tests(result: BundleResult, tests: TestOptions) -> tuple[Hypothe
     gi = result.problem.gnss_imu
     if not cal.n and not gi.n:
         return ()
-    g = result.state[2]
-    q = result.factor.global_covariance()
     out = []
     for i, cid in enumerate(result.block.cameras.ids):
-        cols = cal.columns[i]
-        for label, rows in cal.groups(i):
-            c = cols[rows]
+        groups = cal.groups(i)
+        if not groups:
+            continue
+        values, qi = result.camera_parameters(i), result.camera_cofactors(i)
+        for label, rows in groups:
             if label == "interior orientation":  # tested against the nominal values
-                est = g[c] - cal.nominal[i][cal.free_index[i][rows]]
+                est = values[rows] - cal.nominal[i][cal.free_index[i][rows]]
             else:
-                est = g[c]
-            out.append(parameter_test(f"{label} of camera {cid}", est, q[np.ix_(c, c)], tests))
+                est = values[rows]
+            out.append(parameter_test(f"{label} of camera {cid}", est, qi[np.ix_(rows, rows)],
+                                      tests))
+    if not gi.n:
+        return tuple(out)
+    g = result.state[2]
+    q = result.factor.global_covariance()
     for label, c in gi.parameter_groups():  # GNSS shifts and drifts, IMU boresight
         out.append(parameter_test(label, g[c], q[np.ix_(c, c)], tests))
     return tuple(out)

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from baarda.bundle.bundle_problem import BundleProblem
 
 HIGH_CORRELATION = 0.95  # camera parameters correlated beyond this are reported
+EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,9 @@ class BundleResult(AdjustmentCounts):
     Units: positions in m, angles in rad, image residuals in mm (µm in the outputs).
     Standard deviations are scaled by the a-posteriori sigma0.  `factor` holds the normal
     equations factored at the solution, from which every cofactor is computed.  `state`:
-    (eo, eliminated points[, global unknowns]) of the problem (bundle/bundle_problem.py).
+    (the photos' unknowns (n_photos, b): orientation, then the free parameters of a camera
+    in the photo's block; eliminated points[, global unknowns]) of the problem
+    (bundle/bundle_problem.py).
     """
 
     problem: BundleProblem
@@ -67,7 +70,7 @@ class BundleResult(AdjustmentCounts):
     @property
     def eo(self) -> np.ndarray:
         """(n_photos, 6) adjusted orientations."""
-        return self.state[0]
+        return self.state[0][:, :6]
 
     @property
     def xyz(self) -> np.ndarray:
@@ -81,10 +84,14 @@ class BundleResult(AdjustmentCounts):
         return out
 
     @property
+    def _g(self) -> np.ndarray:
+        return self.state[2] if len(self.state) == 3 else np.zeros(0)
+
+    @property
     def cameras(self):
         """The cameras with their adjusted parameters (block.cameras where none is free)."""
-        g = self.state[2] if len(self.state) == 3 else np.zeros(0)
-        return self.problem.calibration.adjusted_cameras(g) if self.problem.calibration.n \
+        cal = self.problem.calibration
+        return cal.adjusted_cameras(self._g, self.state[0][:, 6:]) if cal.n \
             else self.block.cameras
 
     def refit(self, active: np.ndarray, factors: np.ndarray | None = None) -> BundleResult:
@@ -113,7 +120,16 @@ class BundleResult(AdjustmentCounts):
     # --------------------------------------------------------- precision
     @property
     def eo_std(self) -> np.ndarray:
-        return self.scaled_std(self.factor.frame_covariance())
+        return self.scaled_std(self.frame_covariance())
+
+    def frame_covariance(self) -> np.ndarray:
+        """(n_photos, 6, 6) cofactor blocks of the orientations."""
+        return self._frame_cofactors[:, :6, :6]
+
+    @cached_property
+    def _frame_cofactors(self) -> np.ndarray:
+        """(n_photos, b, b) cofactor blocks of the photos' unknowns (computed once)."""
+        return read_only(self.factor.frame_covariance())
 
     @cached_property
     def coordinates(self) -> Coordinates:
@@ -126,7 +142,7 @@ class BundleResult(AdjustmentCounts):
 
             i = inner_datum(self)
             return Coordinates(i.eo, i.frame_cofactors, i.xyz, i.point_cofactors, "inner")
-        return Coordinates(self.eo, self.factor.frame_covariance(), self.xyz,
+        return Coordinates(self.eo, self.frame_covariance(), self.xyz,
                            self.point_covariance(), "adjusted")
 
     def point_covariance(self) -> np.ndarray:
@@ -153,15 +169,38 @@ class BundleResult(AdjustmentCounts):
         return self.scaled_std(self.point_covariance())
 
     def camera_covariance(self) -> np.ndarray:
-        """(n_free, n_free) cofactor matrix of the estimated camera parameters (order of
-        problem.calibration.labels; read-only, computed once)."""
+        """(n, n) cofactor matrix of the estimated parameters of the cameras in the border,
+        those that several photos share (order of problem.calibration.global_labels: every
+        estimated camera parameter unless cameras are in their photo's block; read-only,
+        computed once).  Cameras in a photo's block: `camera_cofactors`."""
         return self._camera_covariance
 
     @cached_property
     def _camera_covariance(self) -> np.ndarray:
-        n = self.problem.calibration.n
+        n = self.problem.calibration.n_global
         return read_only(np.ascontiguousarray(self.factor.global_covariance()[:n, :n]) if n
                          else np.zeros((0, 0)))
+
+    def camera_cofactors(self, camera: int) -> np.ndarray:
+        """(k, k) cofactor matrix of the k estimated parameters of one camera (order of its
+        free parameters): from the border's, or from its photo's diagonal block of the
+        selected inverse."""
+        cal = self.problem.calibration
+        photo = cal.owner[camera]
+        if photo < 0:
+            cols = cal.columns[camera]
+            return self.camera_covariance()[np.ix_(cols, cols)]
+        k = 6 + np.arange(len(cal.free_index[camera]))
+        return self._frame_cofactors[photo][np.ix_(k, k)]
+
+    def camera_parameters(self, camera: int) -> np.ndarray:
+        """The estimated values of one camera's free parameters (order of its free
+        parameters)."""
+        cal = self.problem.calibration
+        photo = cal.owner[camera]
+        if photo < 0:
+            return self._g[cal.columns[camera]]
+        return self.state[0][photo, 6:6 + len(cal.free_index[camera])]
 
     def points_xyz(self) -> np.ndarray:
         """Adjusted coordinates for every block point, (n_points, 3); NaN if left out."""
@@ -279,17 +318,17 @@ class BundleResult(AdjustmentCounts):
         standard deviation (None when held), estimated or not (units: mm for c, x0, y0; the
         model's units else)."""
         cal = self.problem.calibration
-        g = self.state[2] if len(self.state) == 3 else np.zeros(0)
-        params = cal.current(g)
-        std = np.sqrt(np.maximum(np.diag(self.camera_covariance()), 0)) * self.sigma0
+        params = cal.current(self._g, self.state[0][:, 6:])
         out = []
         for i, cid in enumerate(self.block.cameras.ids):
-            free = dict(zip(cal.free_index[i].tolist(), cal.columns[i].tolist(), strict=True))
+            std = np.sqrt(np.maximum(np.diag(self.camera_cofactors(i)), 0)) * self.sigma0 \
+                if len(cal.free_index[i]) else np.zeros(0)
+            free = dict(zip(cal.free_index[i].tolist(), std.tolist(), strict=True))
             for j, name in enumerate(cal.names[i]):
                 out.append({"camera": cid, "model": cal.models[i].name, "parameter": name,
                             "initial": float(cal.nominal[i][j]),
                             "value": float(params[i][j]),
-                            "sigma": float(std[free[j]]) if j in free else None,
+                            "sigma": float(free[j]) if j in free else None,
                             "estimated": j in free})
         return out
 
@@ -302,39 +341,75 @@ class BundleResult(AdjustmentCounts):
         r = q / np.outer(s, s) if len(q) else q
         out = []
         for i, cid in enumerate(self.block.cameras.ids):
-            cols = cal.columns[i]
-            if not len(cols):
+            if not len(cal.free_index[i]):
                 continue
+            if cal.owner[i] < 0:
+                cols = cal.columns[i]
+                ri = r[np.ix_(cols, cols)]
+            else:
+                qi = self.camera_cofactors(i)
+                si = np.sqrt(np.maximum(np.diag(qi), 1e-300))
+                ri = qi / np.outer(si, si)
             out.append({"camera": cid,
                         "parameters": [cal.names[i][j] for j in cal.free_index[i]],
-                        "matrix": np.round(r[np.ix_(cols, cols)], 6).tolist()})
+                        "matrix": np.round(ri, 6).tolist()})
         return out
 
     def high_correlations(self, limit: float = HIGH_CORRELATION) -> list[str]:
         """Pairs of estimated camera parameters, and camera parameters with orientation
-        unknowns of a photo, correlated beyond `limit` (by the largest |r|)."""
+        unknowns of a photo, correlated beyond `limit` (by the largest |r|).  A camera in its
+        photo's block: with its own parameters and its photo's orientation (the other
+        photos' unknowns are not in the selected inverse's blocks of that photo)."""
         cal = self.problem.calibration
-        q = self.camera_covariance()
-        if not len(q):
-            return []
-        s = np.sqrt(np.maximum(np.diag(q), 1e-300))
-        r = q / np.outer(s, s)
         out = []
-        for a, b in zip(*np.triu_indices(len(q), 1), strict=True):
-            if abs(r[a, b]) > limit:
-                out.append((abs(r[a, b]), f"{cal.labels[a]} with {cal.labels[b]} "
-                                          f"{r[a, b]:+.3f}"))
-        qf = self.factor.frame_covariance()
-        sf = np.sqrt(np.maximum(np.diagonal(qf, axis1=1, axis2=2), 1e-300))
-        qfg = self.factor.frame_global_covariance()[:, :, :cal.n]
-        rfg = qfg / (sf[:, :, None] * s[None, None, :])
-        eo_names = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
-        for g in range(cal.n):
-            f, b = np.unravel_index(int(np.argmax(np.abs(rfg[:, :, g]))), rfg.shape[:2])
-            if abs(rfg[f, b, g]) > limit:
-                out.append((abs(rfg[f, b, g]), f"{cal.labels[g]} with {eo_names[b]} of photo "
-                                                f"{self.block.photos.ids[f]} {rfg[f, b, g]:+.3f}"))
+        q = self.camera_covariance()
+        if len(q):
+            s = np.sqrt(np.maximum(np.diag(q), 1e-300))
+            r = q / np.outer(s, s)
+            labels = cal.global_labels
+            for a, b in zip(*np.triu_indices(len(q), 1), strict=True):
+                if abs(r[a, b]) > limit:
+                    out.append((abs(r[a, b]), f"{labels[a]} with {labels[b]} "
+                                              f"{r[a, b]:+.3f}"))
+            # with the photos' unknowns (orientation, and a camera in the photo's block)
+            qf = self._frame_cofactors
+            sf = np.sqrt(np.maximum(np.diagonal(qf, axis1=1, axis2=2), 1e-300))
+            qfg = self.factor.frame_global_covariance()[:, :, :len(q)]
+            rfg = qfg / (sf[:, :, None] * s[None, None, :])
+            for g in range(len(q)):
+                f, b = np.unravel_index(int(np.argmax(np.abs(rfg[:, :, g]))), rfg.shape[:2])
+                if abs(rfg[f, b, g]) > limit:
+                    out.append((abs(rfg[f, b, g]), f"{labels[g]} with "
+                                f"{self._photo_unknown(f, b)} {rfg[f, b, g]:+.3f}"))
+        owned = np.flatnonzero(cal.owner >= 0)
+        if len(owned):
+            qb = self._frame_cofactors
+            sb = np.sqrt(np.maximum(np.diagonal(qb, axis1=1, axis2=2), 1e-300))
+            rb = qb / (sb[:, :, None] * sb[:, None, :])
+            for i in owned:
+                f = cal.owner[i]
+                names = [cal.names[i][j] for j in cal.free_index[i]]
+                cid = self.block.cameras.ids[i]
+                for a in range(len(names)):
+                    for b in range(a + 1, len(names)):
+                        x = rb[f, 6 + a, 6 + b]
+                        if abs(x) > limit:
+                            out.append((abs(x), f"{names[a]} of camera {cid} with {names[b]} "
+                                                f"of camera {cid} {x:+.3f}"))
+                    b = int(np.argmax(np.abs(rb[f, 6 + a, :6])))
+                    x = rb[f, 6 + a, b]
+                    if abs(x) > limit:
+                        out.append((abs(x), f"{names[a]} of camera {cid} with "
+                                            f"{self._photo_unknown(f, b)} {x:+.3f}"))
         return [text for _, text in sorted(out, reverse=True)]
+
+    def _photo_unknown(self, photo: int, k: int) -> str:
+        """The name of unknown k of a photo's block: 'X0 of photo P', 'c of camera C'."""
+        if k < 6:
+            return f"{EO_NAMES[k]} of photo {self.block.photos.ids[photo]}"
+        cal = self.problem.calibration
+        i = int(np.flatnonzero(cal.owner == photo)[0])
+        return f"{cal.names[i][cal.free_index[i][k - 6]]} of camera {self.block.cameras.ids[i]}"
 
     def calibration_lines(self) -> list[str]:
         """The estimated camera parameters with standard deviations, and the high

@@ -38,10 +38,11 @@ BAD_PHOTO = 0.02  # a photo's median misclosure / c above this: its orientation 
 BAD_BLOCK = 0.05  # the block's median misclosure / c above this: the approximations fail
 
 
-def diagnose(block: Block, intersected: np.ndarray | None = None) -> list[str]:
+def diagnose(block: Block, intersected: np.ndarray | None = None,
+             ideal: np.ndarray | None = None) -> list[str]:
     """Raise GeometryError for inputs no adjustment can use; else the findings in words.
     intersected: the block's points intersected from its approximate orientations
-    (geometry.intersected_points), when known."""
+    (geometry.intersected_points), ideal: its ideal_image_coordinates, when known."""
     if len(block.image) == 0:
         raise GeometryError("the block has no image observations (is image_points.csv empty "
                             "but for its header?)")
@@ -50,7 +51,7 @@ def diagnose(block: Block, intersected: np.ndarray | None = None) -> list[str]:
         _angle_range(block)
         findings = _coordinate_size(block)
         findings += _control_fit(block, intersected)
-        return findings + misclosures(block, intersected)
+        return findings + misclosures(block, intersected, ideal)
 
 
 def _image_size(block: Block) -> None:
@@ -146,24 +147,27 @@ def _control_fit(block: Block, intersected: np.ndarray | None) -> list[str]:
             "approximations"]
 
 
-def _misclosure(block: Block, eo: np.ndarray, intersected: np.ndarray | None = None
-                ) -> np.ndarray:
+def _misclosure(block: Block, eo: np.ndarray, intersected: np.ndarray | None = None,
+                ideal: np.ndarray | None = None) -> np.ndarray:
     """Image misclosure [mm] of every observation of a usable point (NaN for the rest):
     the point (control as given, else intersected from `eo`, or taken from `intersected`,
     the points intersected from `eo`) projected back into the photo, against the ideal
-    (distortion-free) observation."""
+    (distortion-free) observation (`ideal`: ideal_image_coordinates, when known)."""
     ok, _ = usable_points(block)
     pts = block.points
     xyz = pts.xyz.copy()
     given = (pts.role == "control") & np.isfinite(xyz).all(axis=1)
     need = np.flatnonzero(ok & ~given)
     with np.errstate(all="ignore"):
-        xyz[need] = intersect(block, eo, need) if intersected is None else intersected[need]
+        if ideal is None:
+            ideal = ideal_image_coordinates(block)
+        xyz[need] = intersect(block, eo, need, ideal) if intersected is None else \
+            intersected[need]
         im = block.image
         cam = block.photos.camera[im.photo]
         xy = project(eo, xyz[im.point], block.cameras.focal_mm[cam],
                      block.cameras.principal_point_mm[cam], photo=im.photo)
-        d = np.linalg.norm(xy - ideal_image_coordinates(block), axis=1)
+        d = np.linalg.norm(xy - ideal, axis=1)
     d[~ok[im.point]] = np.nan
     return d
 
@@ -190,15 +194,16 @@ def _with_eo(block: Block, eo: np.ndarray) -> Block:
     return replace(block, photos=Photos(p.ids, p.camera, p.strip, eo))
 
 
-def misclosures(block: Block, intersected: np.ndarray | None = None) -> list[str]:
+def misclosures(block: Block, intersected: np.ndarray | None = None,
+                ideal: np.ndarray | None = None) -> list[str]:
     """Findings about the approximate orientations from the rays' misclosures (module
-    docstring); GeometryError when the approximations cannot fit at all.  intersected:
-    as for diagnose."""
+    docstring); GeometryError when the approximations cannot fit at all.  intersected,
+    ideal: as for diagnose."""
     eo = block.photos.eo
     if not np.isfinite(eo).all():
         return []
     c = float(np.median(np.abs(block.cameras.focal_mm)))
-    d = _misclosure(block, eo, intersected)
+    d = _misclosure(block, eo, intersected, ideal)
     if not np.isfinite(d).any():
         return []
     block_med = float(np.nanmedian(d))
@@ -210,7 +215,7 @@ def misclosures(block: Block, intersected: np.ndarray | None = None) -> list[str
                 continue
             alt_eo = eo.copy()
             alt_eo[:, 3:] *= ANGLE_FACTORS[alt] / ANGLE_FACTORS[unit]
-            tried.append((float(np.nanmedian(_misclosure(block, alt_eo))), alt))
+            tried.append((float(np.nanmedian(_misclosure(block, alt_eo, None, ideal))), alt))
         best, alt = min(tried)
         hint = (f"with angle_unit = \"{alt}\" the misclosure would be {best:.3g} mm: the "
                 f"angles look like {alt}, not {unit}" if best < BAD_PHOTO * c else

@@ -122,11 +122,13 @@ def predicted_observations(block: Block, eo: np.ndarray | None = None,
     return out
 
 
-def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
+def intersect(block: Block, eo: np.ndarray, points: np.ndarray,
+              ideal: np.ndarray | None = None) -> np.ndarray:
     """Least-squares intersection of the rays of `points` (indices) from photos `eo`.
 
     Minimises the squared distances of the point to all its rays; returns (len(points), 3)
-    with NaN where fewer than two rays exist.
+    with NaN where fewer than two rays exist.  ideal: the block's
+    ideal_image_coordinates, when known.
     """
     im = block.image
     sel = np.flatnonzero(np.isin(im.point, points))  # the rays of these points only
@@ -135,7 +137,9 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
     c = block.cameras.focal_mm[cam]
     pp = block.cameras.principal_point_mm[cam]
     r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])[photo]
-    dirs_cam = np.column_stack([ideal_image_coordinates(block)[sel] - pp, -c])
+    if ideal is None:
+        ideal = ideal_image_coordinates(block)
+    dirs_cam = np.column_stack([ideal[sel] - pp, -c])
     dirs = np.einsum("mij,mj->mi", r, dirs_cam)
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
     proj = np.eye(3)[None] - dirs[:, :, None] * dirs[:, None, :]
@@ -153,15 +157,15 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray) -> np.ndarray:
     return out
 
 
-def intersected_points(block: Block) -> np.ndarray:
+def intersected_points(block: Block, ideal: np.ndarray | None = None) -> np.ndarray:
     """(n_points, 3): every usable point intersected from the block's approximate
     orientations (NaN for the rest and where the rays do not determine it), for
     approximate_points and the diagnosis (bundle/diagnostics.py) at once; a point's
-    intersection depends on its own rays only."""
+    intersection depends on its own rays only.  ideal: as for intersect."""
     out = np.full((len(block.points), 3), np.nan)
     idx = np.flatnonzero(usable_points(block)[0])
     with np.errstate(all="ignore"):  # absurd inputs: the diagnosis names them
-        out[idx] = intersect(block, block.photos.eo, idx)
+        out[idx] = intersect(block, block.photos.eo, idx, ideal)
     return out
 
 

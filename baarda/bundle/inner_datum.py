@@ -109,7 +109,7 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
     sel = np.arange(len(xyz)) if points is None else np.asarray(points)
     centre = xyz[sel].mean(axis=0)
     # G of every unknown in the order of the Schur system: frames, eliminated points, globals
-    gf = np.zeros((s.nf, 6, d))
+    gf = np.zeros((s.nf, s.b, d))  # a camera in its photo's block does not move
     gf[:, :3] = position_directions(result.eo[:, :3], centre, scale)
     gf[:, 3:, 3:6] = angle_directions(result.eo[:, 3:])
     elim_rows = pb.remap[pb.elim_ids]
@@ -129,8 +129,8 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
         gg_sel[pcols] = np.where(mask[:, None], gg[pcols], 0.0)
     gtg = np.einsum("pdi,pdj->ij", gp_sel, gp_sel) + gg_sel.T @ gg_sel
     k = np.linalg.inv(gtg)
-    zs = factor.solve_normal(np.zeros((s.nf, 6, d)), gp_sel, gg_sel) if s.ng else \
-        factor.solve_normal(np.zeros((s.nf, 6, d)), gp_sel)
+    zs = factor.solve_normal(np.zeros((s.nf, s.b, d)), gp_sel, gg_sel) if s.ng else \
+        factor.solve_normal(np.zeros((s.nf, s.b, d)), gp_sel)
     zf, zp = zs[0], zs[1]
     zg = zs[2] if s.ng else np.zeros((0, d))
     gz = np.einsum("pdi,pdj->ij", gp_sel, zp) + gg_sel.T @ zg
@@ -157,8 +157,9 @@ def inner_datum(result, points: np.ndarray | None = None) -> InnerDatum:
         t = approx[sel].mean(axis=0) - r @ xyz[sel].mean(axis=0)
     # cofactor blocks of every photo, then through the similarity (positions turn and scale,
     # angles change by the Jacobian of the rotated attitude)
-    fk = gf @ k
-    qf = result.factor.frame_covariance()
+    fk = gf[:, :6] @ k
+    zf = zf[:, :6]
+    qf = result.frame_covariance()
     qf_inner = (qf - fk @ np.swapaxes(zf, 1, 2) - zf @ np.swapaxes(fk, 1, 2)
                 + fk @ gz @ np.swapaxes(fk, 1, 2))
     eo = result.eo.copy()

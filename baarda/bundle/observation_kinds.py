@@ -12,7 +12,9 @@ photo and to the global unknowns, and comes from an `ObservationKind`:
 * `global_labels(block)`: unknowns of its own (GNSS shifts, drifts, the IMU boresight);
 * `bind(context)`: its rows in a given problem (`Rows`): the a-priori sigma, the labels and
   the photo of each row, and `linearize(state)` -> misclosures e = observed - computed (m,),
-  d/d(photo's orientation) (m, 6) and d/d(global unknowns) (m, ng).
+  d/d(photo's unknowns) (m, 6): its orientation, or (m, 6 + photo_width) with the free
+  parameters of a camera in the photo's block (bundle/calibration.py), and d/d(global
+  unknowns) (m, ng).
 
 Held unknowns (a free network's datum, fixed control) are the problem's business: it zeroes
 their columns in every kind's Jacobians.  The global unknowns are a named layout
@@ -110,7 +112,7 @@ class Rows(ABC):
 
     @abstractmethod
     def linearize(self, state: State, ng: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(e (m,), jxf (m, 6), jxg (m, ng)) at `state`."""
+        """(e (m,), jxf (m, 6) or (m, 6 + photo_width), jxg (m, ng)) at `state`."""
 
     def _labels(self, kind, component, point, photo=None, image_row=None,
                 control_index=None, block: Block | None = None) -> None:
@@ -183,7 +185,7 @@ class BorderImageRows(Rows):
                     free[sel][:, :, :len(cols)]
         for k in range(3):
             jg[np.arange(mb), :, self.columns[:, k]] = jp[:, :, k]
-        return ((self.xy - f).ravel(), je.reshape(2 * mb, 6), jg.reshape(2 * mb, ng))
+        return ((self.xy - f).ravel(), je.reshape(2 * mb, je.shape[2]), jg.reshape(2 * mb, ng))
 
 
 class BorderControlRows(Rows):

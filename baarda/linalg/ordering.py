@@ -13,8 +13,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 __all__ = [
     "METIS_MIN_BLOCKS",
@@ -61,6 +59,11 @@ def adjacency_from_pairs(
 
 
 def _rcm(n: int, indptr: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    # imported here: scipy.sparse costs a command 0.1-0.2 s, and METIS orders all but tiny
+    # graphs
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
     graph = csr_matrix(
         (np.ones(indices.size, dtype=np.int8), indices.astype(np.int32), indptr.astype(np.int32)),
         shape=(n, n),

@@ -212,6 +212,7 @@ def _asymptotic_coefficient(beta0: float, lambda0: float) -> float:
     return q * (_alpha_for_exact(beta0, lambda0, q) - _alpha_for_normal(beta0, lambda0, q))
 
 
+@functools.lru_cache(maxsize=64)  # a pure function of two numbers (2,000 calls at BAL scale)
 def b_method(alpha0: float = DEFAULT_TESTS.alpha0,
              beta0: float = DEFAULT_TESTS.beta0) -> BMethod:
     """Set up Baarda's B-method for w-test level ``alpha0`` and power ``beta0``.
