@@ -80,7 +80,7 @@ def run_bundle(args) -> int:
 def _session(args, run) -> int:
     block = read_input(args)
     tests = tests_option(block.settings, args)
-    announce_compile(None, len(block.photos))
+    announce_compile(args, len(block.photos))
     from baarda.online.replay import tests_table
 
     if args.replay is not None:
