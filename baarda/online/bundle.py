@@ -204,6 +204,25 @@ class OnlineBundle:
         return self._removed(t0, f"point {point} on photo {photo}",
                              lambda: m.im_status.__setitem__(rows[0], REMOVED))
 
+    def remove_image_points(self, pairs) -> Answer:
+        """Take several image points out at once, [(photo, point), ...] (one factorisation:
+        what a reconstruction's later snapshot no longer has)."""
+        t0 = time.perf_counter()
+        m = self.m
+        rows = []
+        for photo, point in pairs:
+            i, j = m.photo_index(photo), m.point_at.get(point)
+            live = [r for r in m.rows_of_photo[i] if m.im_point[r] == j
+                    and m.im_status[r] != REMOVED]
+            if j is None or not live:
+                raise ValueError(f"point {point} is not measured on photo {photo}")
+            rows.append(live[0])
+
+        def apply():
+            for r in rows:
+                m.im_status[r] = REMOVED
+        return self._removed(t0, f"{len(rows)} image point(s)", apply)
+
     def remove_control(self, point: str) -> Answer:
         t0 = time.perf_counter()
         m = self.m
