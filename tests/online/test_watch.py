@@ -189,3 +189,28 @@ def test_watch_interrupted_writes_what_is_complete(grown, tmp_path, monkeypatch)
     t = pd.read_csv(out / "watch.csv")
     assert set(t.snapshot) == {1}
     assert Path(out / "observations.csv").is_file()
+
+
+def test_watch_a_model_rewritten_in_place(grown, tmp_path):
+    """One COLMAP folder rewritten in place: a new snapshot each time its files change,
+    none while they stay the same."""
+    import os
+
+    src, d = grown[0], tmp_path / "sparse"
+    d.mkdir()
+
+    def write(n, stamp):
+        for f in (src / f"{n:08d}").iterdir():
+            (d / f.name).write_bytes(f.read_bytes())
+            os.utime(d / f.name, ns=(stamp, stamp))
+
+    write(1, 1_000_000_000)
+    w = Watch(d)
+    assert w.poll() == 1 and w.done == ["sparse#1"]
+    assert w.poll() == 0
+    write(2, 2_000_000_000)
+    assert w.poll() == 1 and w.done == ["sparse#1", "sparse#2"]
+    t = w.table()
+    assert set(t.snapshot) == {"sparse#1", "sparse#2"}
+    assert (t[t.snapshot == "sparse#2"].photo.isin(["01007", "01008", "02001",
+                                                   "02002"])).any()
