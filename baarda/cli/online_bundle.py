@@ -58,6 +58,11 @@ def _checked(args) -> Path:
                                "--bundle PROJECT or --replay with it")
         if args.out is None:
             raise ProjectError("command line", "--watch writes a result folder: give -o OUT")
+        out, watched = args.out.resolve(), args.watch.resolve()
+        if out == watched or watched in out.parents:
+            raise ProjectError(str(args.out), "the output folder is inside the watched "
+                               f"folder {args.watch} (it would be read as a snapshot): "
+                               "give -o a place outside it")
         if not args.interval > 0:
             raise ProjectError("command line", "--interval must be positive", None,
                                "--interval")

@@ -165,6 +165,10 @@ def test_watch_exit_codes(grown, tmp_path, capsys):
     assert main(["online", "--bundle", "--watch", str(tmp_path / "none"), "--once", "-o",
                  str(tmp_path / "o2")]) == 2
     assert main(["online", "--bundle", "--once", "-o", str(tmp_path / "o3")]) == 2
+    inside = grown[0] / "00000009"  # OUT inside DIR would be read as a snapshot
+    assert main(["online", "--bundle", "--watch", str(grown[0]), "--once", "-o",
+                 str(inside)]) == 2
+    assert not inside.exists()
 
 
 def test_watch_interrupted_writes_what_is_complete(grown, tmp_path, monkeypatch):
