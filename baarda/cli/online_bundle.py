@@ -24,6 +24,16 @@ def add_options(p) -> None:
     g.add_argument("--replay", type=Path, metavar="PROJECT", help="measure a finished block "
                    "again photo by photo in strip order, testing each photo as it comes; "
                    "writes replay.csv and the result folder of `baarda adjust PROJECT`")
+    g.add_argument("--watch", type=Path, metavar="DIR", help="with --bundle: DIR is a folder "
+                   "in which a reconstruction grows (a COLMAP sparse folder rewritten in place, "
+                   "or numbered snapshot subfolders DIR/00000001, ...; any input baarda reads): "
+                   "each new snapshot's new photos and image points are tested against the "
+                   "block before it, observations it dropped taken out; writes watch.csv and "
+                   "the result folder of the last state (needs -o OUT; Ctrl-C ends it)")
+    g.add_argument("--interval", type=float, default=2.0, metavar="S", help="--watch: seconds "
+                   "between looks at DIR (default 2)")
+    g.add_argument("--once", action="store_true", help="--watch: take in every snapshot in "
+                   "DIR now, then stop")
     g.add_argument("--json", action="store_true", help="--bundle: answer each line with one "
                    "JSON object (for a program that drives the measuring)")
     g.add_argument("--remove-rejected", action="store_true", help="--replay: take out the "
@@ -37,11 +47,30 @@ def add_options(p) -> None:
 
 
 def bundle_mode(args) -> bool:
-    return args.bundle is not None or args.replay is not None
+    return args.bundle is not None or args.replay is not None or args.watch is not None
 
 
 def _checked(args) -> Path:
     """The project of the command; ProjectError for options of the other mode."""
+    if args.watch is not None:
+        if args.bundle or args.replay is not None:
+            raise ProjectError("command line", "--watch DIR is the project: give no "
+                               "--bundle PROJECT or --replay with it")
+        if args.out is None:
+            raise ProjectError("command line", "--watch writes a result folder: give -o OUT")
+        out, watched = args.out.resolve(), args.watch.resolve()
+        if out == watched or watched in out.parents:
+            raise ProjectError(str(args.out), "the output folder is inside the watched "
+                               f"folder {args.watch} (it would be read as a snapshot): "
+                               "give -o a place outside it")
+        if not args.interval > 0:
+            raise ProjectError("command line", "--interval must be positive", None,
+                               "--interval")
+        if args.remove_rejected:
+            raise ProjectError("command line", "--remove-rejected belongs to --replay")
+        return args.watch
+    if args.once:
+        raise ProjectError("command line", "--once belongs to --watch DIR")
     if args.bundle and args.replay is not None:
         raise ProjectError("command line", "--bundle PROJECT and --replay PROJECT: give the "
                            "project once (--bundle --replay PROJECT replays it)")
@@ -78,9 +107,11 @@ def run_bundle(args) -> int:
 
 
 def _session(args, run) -> int:
+    if args.watch is not None:
+        return _watch(args, run)
     block = read_input(args)
     tests = tests_option(block.settings, args)
-    announce_compile(None, len(block.photos))
+    announce_compile(args, len(block.photos))
     from baarda.online.replay import tests_table
 
     if args.replay is not None:
@@ -117,6 +148,47 @@ def _session(args, run) -> int:
         from baarda.output.online_files import write_online
 
         write_online(run, qc, tests_table(answers), name)
+    return OK if qc is None or qc.adjustment.converged else NOT_CONVERGED
+
+
+def _watch(args, run) -> int:
+    """--watch DIR: the snapshots taken in until DIR holds no new one (--once) or Ctrl-C;
+    the result folder of the block as it is then (what is complete)."""
+    import argparse
+
+    from baarda.cli.common import INTERRUPTED, TERMINATED
+    from baarda.online.watch import Watch
+
+    def reader(path):
+        return read_input(argparse.Namespace(**{**vars(args), "input": path}))
+
+    def say(name, a):
+        if args.json:
+            print(a.json(), flush=True)
+        elif not args.quiet:
+            print(f"[{name}] ", end="")
+            _brief(a)
+
+    w = Watch(args.watch, lambda settings: tests_option(settings, args), reader,
+              max_rows=args.refactor_rows, progress=say)
+    stopped = None
+    try:
+        w.run(args.interval, args.once)
+    except KeyboardInterrupt as e:  # Ctrl-C (or SIGTERM): what is complete is written
+        stopped = e
+    ob = w.online
+    qc = ob.result() if ob is not None and ob.started else None
+    if not (args.json or args.quiet):
+        print("\n".join(w.summary_lines()))
+        if qc is not None:
+            print(qc.summary())
+    from baarda.output.online_files import write_online
+
+    write_online(run, qc, w.table(), "watch.csv")
+    if stopped is not None:
+        from baarda.cli import Terminated
+
+        return TERMINATED if isinstance(stopped, Terminated) else INTERRUPTED
     return OK if qc is None or qc.adjustment.converged else NOT_CONVERGED
 
 

@@ -85,8 +85,13 @@ class OnlineBundle:
     again (0: after every step, every test then on the exact solution); linear_limit:
     corrections since the last factorisation (angles rad, positions / flying height) beyond
     which it is done at once.
-    Needs control (or GNSS positions) for its datum; GNSS shifts, drifts and an estimated
-    boresight, fixed control (sigma 0) and distances are not supported on-line.
+    The datum is the control (or GNSS positions) or, for a free network (settings.datum
+    "free" or "inner": COLMAP, BAL, AICON), minimal constraints as `baarda adjust` holds
+    them (bundle/free_network.py): the first adjustment's choice of photos (`choose_datum`)
+    held at its values from then on (chosen again only when a removal takes a datum photo
+    out); the observations' r, w and MDB do not depend on the minimal datum, coordinates
+    and their standard deviations do.  GNSS shifts, drifts and an estimated boresight,
+    fixed control (sigma 0) and distances are not supported on-line.
     """
 
     def __init__(self, block: Block, tests: TestOptions | None = None, *,
@@ -100,9 +105,10 @@ class OnlineBundle:
                              "unknowns of the whole block): adjust with baarda adjust")
         if len(block.distances):
             raise ValueError("the on-line bundle does not take distances")
-        if s.datum != "control":
-            raise ValueError("the on-line bundle needs control (or GNSS positions) for its "
-                             "datum, not a free network")
+        self.free = s.datum in ("free", "inner")
+        if self.free and (block.points.controlled.any() or len(block.gnss)):
+            raise ValueError("a free network (datum free) has no control and no GNSS "
+                             "positions: give them with datum = \"control\"")
         if (block.points.sigma == 0).any():
             raise ValueError("fixed control (sigma 0) is not supported on-line: give it a "
                              "small standard deviation")
@@ -112,6 +118,7 @@ class OnlineBundle:
         self.linear_limit = float(linear_limit)
         self.solve_options = solve
         self.m = Measurements(block)
+        self._datum: tuple[int, int, int] | None = None  # free network: universe photos
         self._f: _Factored | None = None
         self._ycol: dict = {}  # ("photo"|"point", universe index) -> first new-unknown column
         self._y0 = np.zeros(0)
@@ -196,6 +203,25 @@ class OnlineBundle:
             raise ValueError(f"point {point} is not measured on photo {photo}")
         return self._removed(t0, f"point {point} on photo {photo}",
                              lambda: m.im_status.__setitem__(rows[0], REMOVED))
+
+    def remove_image_points(self, pairs) -> Answer:
+        """Take several image points out at once, [(photo, point), ...] (one factorisation:
+        what a reconstruction's later snapshot no longer has)."""
+        t0 = time.perf_counter()
+        m = self.m
+        rows = []
+        for photo, point in pairs:
+            i, j = m.photo_index(photo), m.point_at.get(point)
+            live = [r for r in m.rows_of_photo[i] if m.im_point[r] == j
+                    and m.im_status[r] != REMOVED]
+            if j is None or not live:
+                raise ValueError(f"point {point} is not measured on photo {photo}")
+            rows.append(live[0])
+
+        def apply():
+            for r in rows:
+                m.im_status[r] = REMOVED
+        return self._removed(t0, f"{len(rows)} image point(s)", apply)
 
     def remove_control(self, point: str) -> Answer:
         t0 = time.perf_counter()
@@ -609,7 +635,7 @@ class OnlineBundle:
         old_g = None if self._f is None else (self._f.problem.system.global_names,
                                               self._globals())
         block, maps = m.state_block(np.where(np.isfinite(eo), eo, 0.0), xyz)
-        problem = BundleProblem(block).with_solve_options(self.solve_options)
+        problem = self._problem(block, maps).with_solve_options(self.solve_options)
         start = (eo[maps.photos], xyz[maps.points[problem.elim_ids]])
         if problem.system.ng:
             g = np.concatenate([problem.calibration.start(), np.zeros(problem.gnss_imu.n)])
@@ -653,6 +679,22 @@ class OnlineBundle:
             return []
         w, r, *_ = self._stats(self._f)
         return self._changes(keys, w, r)
+
+    def _problem(self, block: Block, maps) -> BundleProblem:
+        """The bundle problem of the state block: with its control, or a free network held by
+        the minimal constraints of the first adjustment (universe photos, `_datum`), chosen
+        again (choose_datum) when one of its photos has left the block."""
+        if not self.free:
+            return BundleProblem(block)
+        from baarda.bundle.free_network import FreeBundleProblem, choose_datum
+
+        at = {int(u): n for n, u in enumerate(maps.photos)}
+        d = self._datum
+        if d is None or d[0] not in at or d[1] not in at:
+            a, b, k = choose_datum(block)
+            d = self._datum = (int(maps.photos[a]), int(maps.photos[b]), k)
+        return FreeBundleProblem(block, datum=(at[d[0]], at[d[1]], d[2]),
+                                 inner=self.m.settings.datum == "inner")
 
     def _nonlinear(self) -> bool:
         """Whether the rows since the factorisation moved the estimates so far from where
@@ -891,6 +933,9 @@ class OnlineBundle:
             pc = np.repeat([c for _, c in ph], 2)
             qc = np.repeat([c for _, c in pt], 2)
             je, jp = je.reshape(k, 6), jp.reshape(k, 3)
+            held = f.problem.held
+            if held is not None:  # a free network's datum: its columns are not unknowns
+                je = np.where(held[np.maximum(frame, 0)] & (frame >= 0)[:, None], 0.0, je)
             ycol = np.full((k, KY), -1, np.int64)
             jy = np.zeros((k, KY))
             on = pc >= 0
