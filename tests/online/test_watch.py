@@ -22,10 +22,24 @@ W = H = 230_000  # the 230 mm format in pixels
 BLUNDER_PX = 40.0  # 40 µm on a 1 µm image sigma
 
 
-def colmap_model(block, truth_xyz, photos, drop=(), blunder=None) -> ColmapModel:
+def moved_poses(poses, s: float, rot: np.ndarray, t: np.ndarray):
+    """COLMAP poses (qvec w x y z, tvec) after the frame moves by X' = s rot X + t: the same
+    image points (x_cam' = s x_cam = R rot^T X' + s t_c - R rot^T t)."""
+    from scipy.spatial.transform import Rotation
+
+    out = []
+    for q, tc in poses:
+        r = Rotation.from_quat([q[1], q[2], q[3], q[0]]).as_matrix() @ rot.T
+        x, y, z, w = Rotation.from_matrix(r).as_quat()
+        out.append((np.array([w, x, y, z]), s * np.asarray(tc) - r @ t))
+    return out
+
+
+def colmap_model(block, truth_xyz, photos, drop=(), blunder=None, move=None) -> ColmapModel:
     """The COLMAP model of `photos` (indices) of a simulated block: their image points of
     the points seen at least twice among them, less the (photo, point) pairs in `drop`, with
-    `blunder` ((photo, point), dx px) added."""
+    `blunder` ((photo, point), dx px) added; `move` (s, rot, t): in a frame moved by that
+    similarity (a reconstruction's frame moves between snapshots)."""
     im = block.image
     sel = np.isin(im.photo, photos)
     sel &= ~np.array([(block.photos.ids[im.photo[r]], block.points.ids[im.point[r]]) in drop
@@ -46,11 +60,15 @@ def colmap_model(block, truth_xyz, photos, drop=(), blunder=None) -> ColmapModel
         xys.append(xy)
         p3d.append(np.array([pid[j] for j in im.point[rows]], np.int64))
     poses = [eo_to_pose(block.photos.eo[i]) for i in photos]
+    xyz = truth_xyz + 0.3
+    if move is not None:
+        poses = moved_poses(poses, *move)
+        xyz = move[0] * xyz @ move[1].T + move[2]
     images = ColmapImages.from_lists(
         np.arange(1, len(photos) + 1), [q for q, _ in poses], [t for _, t in poses],
         np.ones(len(photos)), [f"{block.photos.ids[i]}.jpg" for i in photos], xys, p3d)
     js = sorted(pid)
-    points = ColmapPoints.from_lists([pid[j] for j in js], truth_xyz[js] + 0.3,
+    points = ColmapPoints.from_lists([pid[j] for j in js], xyz[js],
                                      np.zeros((len(js), 3)), np.zeros(len(js)),
                                      [tracks[j][0] for j in js], [tracks[j][1] for j in js])
     cam = ColmapCamera("SIMPLE_PINHOLE", W, H, np.array([153.0 / PM, W / 2, H / 2]))
@@ -81,7 +99,20 @@ def grown(tmp_path_factory):
               colmap_model(block, xyz, order, drop=(bad, other))]
     for n, m in enumerate(models, 1):
         write_colmap(m, d / f"{n:08d}")
-    return d, bad, other, block
+    # the same growth, the frame moved from the third snapshot on (scale 1.02, 5 gon about
+    # Z, 1 gon about X, 200 m east, 50 m south, 20 m up): the new photos' orientations come
+    # into the block's frame by the similarity of what the snapshots have in common
+    from scipy.spatial.transform import Rotation
+
+    rot = Rotation.from_euler("zx", [0.0785, 0.0157]).as_matrix()
+    move = (1.02, rot, np.array([200.0, -50.0, 20.0]))
+    dm = d.parent / "moved"
+    models = [*models[:2], colmap_model(block, xyz, order, blunder=(bad, BLUNDER_PX),
+                                        move=move),
+              colmap_model(block, xyz, order, drop=(bad, other), move=move)]
+    for n, m in enumerate(models, 1):
+        write_colmap(m, dm / f"{n:08d}")
+    return d, bad, other, block, dm
 
 
 def test_snapshots_in_order(grown):
@@ -90,8 +121,9 @@ def test_snapshots_in_order(grown):
     assert [s.name for s in snapshots(d / "00000002")] == ["00000002"]  # in place
 
 
-def test_watch_once_flags_the_blunder_and_ends_as_adjust(grown, tmp_path):
-    d, bad, other, _ = grown
+@pytest.mark.parametrize("frame", ["fixed", "moved"])
+def test_watch_once_flags_the_blunder_and_ends_as_adjust(grown, tmp_path, frame):
+    d, bad = grown[4] if frame == "moved" else grown[0], grown[1]
     out, ref = tmp_path / "out", tmp_path / "ref"
     assert main(["online", "--bundle", "--watch", str(d), "--once", "-o", str(out),
                  "-q"]) == 0
