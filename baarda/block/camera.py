@@ -208,4 +208,9 @@ def with_calibration(block, model: str | None = None, free=None):
                                      f"({', '.join(parameter_names(cams, i))})")
             chosen = (names,) * n
         cams = replace(cams, free=chosen)
+        what = ("none (every camera's parameters held at the input's values)"
+                if free == "none" else "all" if free == "all" else ", ".join(free))
+        notes = [*block.notes, f"calibrate {what}: chosen for this run, over what the input "
+                 "sets"]
+        return replace(block, cameras=cams, notes=notes)
     return replace(block, cameras=cams)

@@ -135,3 +135,20 @@ def test_minimal_file_and_bad_bzip2(tmp_path):
     (tmp_path / "q.txt.bz2").write_bytes(bz2.compress(GOOD.encode())[:20])
     with pytest.raises(ProjectError, match="bzip2"):
         read_bal(tmp_path / "q.txt.bz2")
+
+
+def test_calibrate_chosen_for_the_run_is_noted(tmp_path):
+    """`--calibrate none` on a BAL file (whose reader notes f, k1, k2 as estimated): the
+    notes say what the run does, after what the reader said."""
+    from baarda.pipeline import read
+
+    p = tmp_path / "problem-6-60.txt"
+    write_bal(_synthetic(seed=2), p)
+    b = read(p, calibrate="none")
+    assert all(f == () for f in b.cameras.free)
+    assert "estimated, as the BAL problems intend" in b.notes[0]
+    assert any(n.startswith("calibrate none (every camera's parameters held at the input's "
+                            "values): chosen for this run") for n in b.notes)
+    b = read(p, calibrate=["c", "k1"])
+    assert b.cameras.free[0] == ("c", "k1")
+    assert any(n.startswith("calibrate c, k1: chosen for this run") for n in b.notes)
