@@ -14,13 +14,16 @@ from baarda.quality.statistics import R_MIN, QualityResult
 MAX_NAMED = 10  # points named in the summary (all of them in summary.json)
 
 
-def _rays(model: AdjustedModel) -> dict[str, int]:
-    """Frames (photos, models) on which each point has an active observation."""
+def _rays(model: AdjustedModel, points: set[str]) -> dict[str, int]:
+    """Frames (photos, models) on which each of `points` has an active observation."""
+    if not points:
+        return {}
+    pts = model.point[model.active].tolist()
+    frs = model.frame[model.active].tolist()
     seen: dict[str, set] = {}
-    for p, f in zip(model.point[model.active].tolist(), model.frame[model.active].tolist(),
-                    strict=True):
-        if p and f:
-            seen.setdefault(p, set()).add(f)
+    for i in np.flatnonzero(np.fromiter((p in points for p in pts), bool, len(pts))):
+        if frs[i]:
+            seen.setdefault(pts[i], set()).add(frs[i])
     return {p: len(s) for p, s in seen.items()}
 
 
@@ -45,11 +48,12 @@ def separability_dict(model: AdjustedModel, q: QualityResult) -> dict:
     with np.errstate(invalid="ignore"):
         ratio = (q.msb / q.mdb)[tested]
     ratio = ratio[np.isfinite(ratio)]
-    rays = _rays(model)
     by_point = uncontrolled_by_point(model, q)
     insep_pts = {str(model.point[i]) for i in np.flatnonzero(
         tested & (np.nan_to_num(q.rho_max) >= RHO_INSEPARABLE))} - {""}
-    weak = sorted(p for p in insep_pts | {u["point"] for u in by_point} if rays.get(p) == 2)
+    named = (insep_pts | {u["point"] for u in by_point}) - {""}
+    rays = _rays(model, named)
+    weak = sorted(p for p in named if rays.get(p) == 2)
     return {
         "rho_inseparable": RHO_INSEPARABLE, "r_min": R_MIN, "tested": nt,
         "not_separable": ins, "share_not_separable": ins / nt if nt else float("nan"),
