@@ -142,3 +142,21 @@ def test_free_network_refuses_control(free_block):
     bad = replace(free_block, points=replace(pts, role=role, sigma=sigma))
     with pytest.raises(ValueError, match="free network"):
         OnlineBundle(bad)
+
+
+def test_inner_datum_equals_the_batch_free_network(free_block):
+    """datum "inner": the on-line bundle holds the inner constraints of the first
+    adjustment's photos (FreeBundleProblem(inner=True)); r, w, MDB and the geometry equal
+    the batch free network's as with the minimal datum."""
+    block = replace(free_block, settings=replace(free_block.settings, datum="inner"))
+    empty = block.select_image(np.zeros(len(block.image), bool))
+    ob = OnlineBundle(empty, solve=TIGHT)
+    assert ob.free
+    for i in range(len(block.photos)):
+        rows = np.flatnonzero(block.image.photo == i)
+        ob.add_photo(block.photos.ids[i],
+                     {block.points.ids[block.image.point[r]]: tuple(block.image.xy_mm[r])
+                      for r in rows})
+    assert ob._f.problem.inner
+    out = compare(ob)
+    assert out["n"] == 2 * len(block.image)

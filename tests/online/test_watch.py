@@ -250,3 +250,20 @@ def test_watch_a_model_rewritten_in_place(grown, tmp_path):
     assert set(t.snapshot) == {"sparse#1", "sparse#2"}
     assert (t[t.snapshot == "sparse#2"].photo.isin(["01007", "01008", "02001",
                                                    "02002"])).any()
+
+
+def test_watch_function_once(grown):
+    """The API's one call (`baarda.online.watch.watch`): every snapshot taken in, in order,
+    each answer passed to `progress`, the blunder rejected at snapshot 3."""
+    from baarda.online.watch import watch
+
+    seen = []
+    w = watch(grown[0], once=True, interval=0.0,
+              progress=lambda name, answer: seen.append(name))
+    assert w.done == ["00000001", "00000002", "00000003", "00000004"]
+    assert set(seen) >= {"00000001", "00000002", "00000003"}
+    t = w.table()
+    bad = grown[1]
+    pt = str(1000 + grown[3].points.ids.index(bad[1]))
+    row = t[(t.photo == bad[0]) & (t.point == pt) & (t.component == "x")]
+    assert list(row.verdict) == ["reject"] and list(row.snapshot) == ["00000003"]
