@@ -109,6 +109,14 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
         except GeometryError as err:
             if before is None:  # singular at the start: the problem as given
                 raise
+            if damping > 0.0 and damping * 10.0 <= MAX_DAMPING:
+                # Levenberg-Marquardt: a damped system that is not positive definite at an
+                # accepted estimate (rounding in a nearly singular block) takes more damping,
+                # as a step that does not lower the cost does
+                damping *= 10.0
+                say(f"{label}iteration {it}: the damped normal equations are singular "
+                    f"({err}); damping raised to {damping:g}")
+                continue
             return _diverged(problem, before, it, err, tuple(history), say, label)
         before = (state, lin, damping)
         step = factor.step()

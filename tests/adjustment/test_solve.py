@@ -191,3 +191,48 @@ def test_a_damped_run_that_meets_singular_normal_equations_ends_not_converged():
     assert not sol.converged and sol.reason == "diverged"
     assert "singular without damping" in sol.message and "P7" in sol.message
     assert sol.factor.damping > 0
+
+
+class SingularOnce:
+    """The problem, but its normal equations at the third factorisation are 'not positive
+    definite' (as rounding in a nearly singular photo block made them in a BAL problem of
+    5,000 cameras)."""
+
+    def __init__(self, problem):
+        self.problem, self.calls, self.refused = problem, 0, []
+
+    def __getattr__(self, name):
+        return getattr(self.problem, name)
+
+    def factorize(self, lin, damping=0.0):
+        from baarda.errors import GeometryError
+
+        self.calls += 1
+        if self.calls == 3:
+            self.refused.append(damping)
+            raise GeometryError("the exterior orientation of photo 7 is not determined")
+        return self.problem.factorize(lin, damping)
+
+
+def test_levenberg_marquardt_raises_the_damping_of_a_singular_system(problem):
+    """A damped system that cannot be factored takes more damping (as a step that does not
+    lower the cost does) instead of ending the adjustment as diverged; Gauss-Newton, which
+    has no damping to raise, reports the estimate before it as diverged."""
+    eo, xyz = problem.approximations
+    rng = np.random.default_rng(1)
+    start = (eo + rng.normal(0, [5, 5, 5, 0.02, 0.02, 0.02], eo.shape), xyz.copy())
+    gn = solve(problem, start, SOLVE)
+    flaky = SingularOnce(problem)
+    lines = []
+    lm = solve(flaky, start, replace(SOLVE, damping=1e-3), lines.append)
+    assert len(flaky.refused) == 1
+    raised = [s for s in lines if "damping raised to" in s]
+    assert len(raised) == 1 and f"raised to {10 * flaky.refused[0]:g}" in raised[0]
+    assert lm.converged and lm.reason == "converged" and lm.factor.damping == 0.0
+    assert lm.lin.cost == pytest.approx(gn.lin.cost, rel=1e-10)
+    assert np.allclose(lm.state[0], gn.state[0], atol=1e-6)
+    # Gauss-Newton has no damping to raise: the same failure ends it as diverged
+    flaky = SingularOnce(problem)
+    out = solve(flaky, start, SOLVE)
+    assert flaky.refused == [0.0]
+    assert not out.converged and out.reason == "diverged" and "photo 7" in out.message
