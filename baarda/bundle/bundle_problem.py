@@ -452,6 +452,9 @@ class BundleProblem(SchurProblem):
                 raise
             raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis)) from None
         notes = list(self.notes) + ([] if sol.converged else [sol.message])
+        if sol.reason == "diverged" and not options.damping:
+            notes.append("Gauss-Newton diverged from these approximations: Levenberg-Marquardt "
+                         "(--damping lm, or solve=\"lm\") may reach the minimum")
         if sol.reason == "diverged" and self.calibration.n:
             notes.append(f"{self.calibration.n} camera parameter(s) are estimated "
                          "(self-calibration): with little depth in the block or far points "
