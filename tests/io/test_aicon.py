@@ -146,3 +146,28 @@ def test_malformed(tmp_path, over, ext, line, column):
     assert e.value.path.endswith(f"t.{ext}") and e.value.line == line
     if column:
         assert e.value.column == column
+
+
+@needs_data
+def test_protocol_image_sigma_out_of_range_names_its_line(tmp_path):
+    """An image sigma in the AICON protocol's 'Bildkoordinaten' table beyond SIGMA_IMAGE_UM
+    (1 nm .. 100 mm) is refused at its line of the .htm (the protocol's sigmas replace the
+    .phc's)."""
+    from baarda.io.aicon_protocol import _ROW, read_protocol
+
+    src = SHARED / "example.htm"
+    raw = src.read_bytes()
+    text = raw.decode("utf-8")
+    lines = text.split("\n")
+    start = next(i for i, t in enumerate(lines) if "Bildkoordinaten ***" in t)
+    no = next(i for i in range(start + 2, len(lines)) if _ROW.match(lines[i].rstrip("\r")))
+    m = _ROW.match(lines[no].rstrip("\r"))
+    a, b = m.span(7)  # sx
+    lines[no] = lines[no][:a] + "1e9" + lines[no][b:]
+    bad = tmp_path / "example.htm"
+    bad.write_bytes("\n".join(lines).encode("utf-8"))
+    with pytest.raises(ProjectError, match=r"standard deviation 1e\+09 mm: expected 1e-06 "
+                       r"to 100 mm") as e:
+        read_protocol(bad)
+    assert e.value.path == str(bad) and e.value.line == no + 1 and e.value.column == "sx"
+    assert len(read_protocol(src).observations["sx"])  # the file as given reads
