@@ -17,7 +17,7 @@ from ._jit import kernel
 from .blocksparse import BlockCholesky, BlockPattern, SelectedInverse
 from .kernels import gather_blocks, scatter_blocks
 from .ordering import adjacency_from_pairs, inverse_permutation
-from .symbolic import lower_rows, postordered, symbolic_factor
+from .symbolic import lower_rows, postordered, slot_of, symbolic_factor
 
 __all__ = ["block_lookup", "in_pattern", "read_block", "selected_inverse_including"]
 
@@ -29,16 +29,7 @@ def _contains(colptr: np.ndarray, rowind: np.ndarray, iperm: np.ndarray, rows: n
     for m in range(rows.size):
         a = iperm[rows[m]]
         c = iperm[cols[m]]
-        hi, lo = (a, c) if a >= c else (c, a)
-        s = colptr[lo]
-        z = colptr[lo + 1]
-        while s < z:
-            mid = (s + z) >> 1
-            if rowind[mid] < hi:
-                s = mid + 1
-            else:
-                z = mid
-        out[m] = s < colptr[lo + 1] and rowind[s] == hi
+        out[m] = slot_of(colptr, rowind, min(a, c), max(a, c)) >= 0
 
 
 def in_pattern(pattern: BlockPattern, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -110,16 +101,8 @@ def read_block(colptr: np.ndarray, rowind: np.ndarray, iperm: np.ndarray,
     is not on its pattern (out untouched)."""
     a = iperm[i]
     c = iperm[j]
-    hi, lo = (a, c) if a >= c else (c, a)
-    s = colptr[lo]
-    z = colptr[lo + 1]
-    while s < z:
-        mid = (s + z) >> 1
-        if rowind[mid] < hi:
-            s = mid + 1
-        else:
-            z = mid
-    if s == colptr[lo + 1] or rowind[s] != hi:
+    s = slot_of(colptr, rowind, min(a, c), max(a, c))
+    if s < 0:
         return False
     p = slot_pos[s]
     st = slot_stride[s]

@@ -367,6 +367,25 @@ def _panel_layout(
     return sn_off, slot_pos, slot_stride
 
 
+def _slot_of(colptr: np.ndarray, rowind: np.ndarray, lo: int, hi: int) -> int:
+    """The slot of block row `hi` in block column `lo` (elimination order, hi >= lo) by
+    binary search within the column; -1 when the pair is not in the pattern."""
+    a = colptr[lo]
+    z = colptr[lo + 1]
+    while a < z:
+        mid = (a + z) >> 1
+        if rowind[mid] < hi:
+            a = mid + 1
+        else:
+            z = mid
+    if a == colptr[lo + 1] or rowind[a] != hi:
+        return -1
+    return a
+
+
+slot_of = kernel(_slot_of, inline="always")
+
+
 @kernel
 def find_slots(
     colptr: np.ndarray,
@@ -394,15 +413,8 @@ def find_slots(
             hi = pc
             lo = pr
             transposed[m] = True
-        a = colptr[lo]
-        z = colptr[lo + 1]
-        while a < z:
-            mid = (a + z) >> 1
-            if rowind[mid] < hi:
-                a = mid + 1
-            else:
-                z = mid
-        if a == colptr[lo + 1] or rowind[a] != hi:
+        a = slot_of(colptr, rowind, lo, hi)
+        if a < 0:
             return m
         slot[m] = a
     return -1
