@@ -66,6 +66,20 @@ def _control_flat(layout: FlatLayout) -> np.ndarray:
     return out.reshape(layout.n_control, layout.kc)
 
 
+def _emit_pair(e, i, j, acc, oi, oj, oq, n):
+    """Write triplet n: rows (i, j) in ascending order and their cofactor acc plus the
+    border's term e_i . e_j (the rows' reduced global columns); returns n + 1."""
+    for g in range(e.shape[1]):
+        acc += e[i, g] * e[j, g]
+    oi[n] = min(i, j)
+    oj[n] = max(i, j)
+    oq[n] = acc
+    return n + 1
+
+
+_emit = kernel(_emit_pair, inline="always")
+
+
 @kernel
 def _point_pairs(pa, pc, slot, tr, order, frame, k, jf, jp, spf, spp, point, zff, e,
                  oi, oj, oq, n0):
@@ -74,7 +88,6 @@ def _point_pairs(pa, pc, slot, tr, order, frame, k, jf, jp, spf, spp, point, zff
     returns the next free position."""
     b = jf.shape[2]
     d = jp.shape[2]
-    ng = e.shape[1]
     n = n0
     t1 = np.empty((k, b))
     t2 = np.empty((k, d))
@@ -115,14 +128,7 @@ def _point_pairs(pa, pc, slot, tr, order, frame, k, jf, jp, spf, spp, point, zff
                     for y in range(b):
                         u += spf[c, x, y] * jf[c, s, y]
                     acc += jp[a, r, x] * u
-                i = a * k + r
-                j = c * k + s
-                for g in range(ng):
-                    acc += e[i, g] * e[j, g]
-                oi[n] = min(i, j)
-                oj[n] = max(i, j)
-                oq[n] = acc
-                n += 1
+                n = _emit(e, a * k + r, c * k + s, acc, oi, oj, oq, n)
     return n
 
 
@@ -132,7 +138,6 @@ def _control_pairs(cpt, cflat, jc, ptr, order, k, jf, jp, spf, spp, e, oi, oj, o
     its point.  Returns the number written."""
     b = jf.shape[2]
     d = jp.shape[2]
-    ng = e.shape[1]
     kc = jc.shape[1]
     n = 0
     for c in range(cpt.size):
@@ -149,12 +154,7 @@ def _control_pairs(cpt, cflat, jc, ptr, order, k, jf, jp, spf, spp, e, oi, oj, o
                 for x in range(d):
                     for y in range(d):
                         acc += jc[c, r, x] * spp[p, x, y] * jc[c, s, y]
-                for g in range(ng):
-                    acc += e[i, g] * e[j, g]
-                oi[n] = i
-                oj[n] = j
-                oq[n] = acc
-                n += 1
+                n = _emit(e, i, j, acc, oi, oj, oq, n)
             for t in range(ptr[p], ptr[p + 1]):
                 o = order[t]
                 for s in range(k):
@@ -166,13 +166,7 @@ def _control_pairs(cpt, cflat, jc, ptr, order, k, jf, jp, spf, spp, e, oi, oj, o
                         for y in range(d):
                             u += spp[p, x, y] * jp[o, s, y]
                         acc += jc[c, r, x] * u
-                    j = o * k + s
-                    for g in range(ng):
-                        acc += e[i, g] * e[j, g]
-                    oi[n] = min(i, j)
-                    oj[n] = max(i, j)
-                    oq[n] = acc
-                    n += 1
+                    n = _emit(e, i, o * k + s, acc, oi, oj, oq, n)
     return n
 
 
@@ -221,7 +215,6 @@ def _frame_pairs(frames, fptr, fobs, xptr, xobs, ptr, frame_sorted, point, jf, j
     nf = fptr.size - 1
     b = jf.shape[2]
     d = jp.shape[2]
-    ng = e.shape[1]
     mark = np.full(nf, -1, np.int64)
     colof = np.zeros(nf, np.int64)
     hood = np.zeros(nf, np.int64)
@@ -312,15 +305,7 @@ def _frame_pairs(frames, fptr, fobs, xptr, xobs, ptr, frame_sorted, point, jf, j
                             q[c * k + s, a * k + r] += acc
         for r in range(nr):
             for s in range(r + 1, nr):
-                i = flat[r]
-                j = flat[s]
-                acc = q[r, s]
-                for g in range(ng):
-                    acc += e[i, g] * e[j, g]
-                oi[n] = min(i, j)
-                oj[n] = max(i, j)
-                oq[n] = acc
-                n += 1
+                n = _emit(e, flat[r], flat[s], q[r, s], oi, oj, oq, n)
     return n
 
 
