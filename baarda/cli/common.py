@@ -19,7 +19,7 @@ from baarda.cli.argtypes import (
     text_encoding,
 )
 from baarda.cli.console import console
-from baarda.errors import ProjectError
+from baarda.errors import GeometryError, ProjectError
 from baarda.options import TestOptions
 from baarda.output.run_folder import RunFolder
 
@@ -182,3 +182,39 @@ def add_terrain_and_sigma_arguments(p, d) -> None:
     p.add_argument("--sigma-image", type=SIGMA_UM, default=d.sigma_image_um, help="µm")
     p.add_argument("--sigma-control", type=SIGMA_M, nargs=3,
                    default=list(d.sigma_control_m), metavar=("X", "Y", "Z"), help="m")
+
+
+def feed_lines(interp, lines, name: str, empty: str | None = None) -> None:
+    """Measurement lines (a file, stdin) into an on-line interpreter (`baarda online`, with
+    or without --bundle): a bad line is an input error naming `name`, its line and its
+    field; `empty`: the error when there was no line at all (None: none)."""
+    n = 0
+    for n, line in enumerate(lines, 1):  # noqa: B007
+        try:
+            interp.feed(line)
+        except (GeometryError, ValueError) as e:  # a bad line names its field (column)
+            raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
+        if interp.done:
+            break
+    if n == 0 and empty is not None:
+        raise ProjectError(name, empty)
+    try:
+        interp.finish()
+    except ValueError as e:
+        raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
+
+
+def prompt_lines(interp, banner: str, prompt: str) -> None:
+    """Lines typed at a terminal into an on-line interpreter until 'quit' or end of input:
+    a bad line is said and the session goes on ('point> ' while a photo's points are
+    being collected)."""
+    print(banner)
+    while not interp.done:
+        try:
+            line = input("point> " if interp.collecting is not None else prompt)
+        except EOFError:
+            break
+        try:
+            interp.feed(line)
+        except (GeometryError, ValueError) as e:
+            print(f"error: {e}")

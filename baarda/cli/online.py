@@ -9,9 +9,9 @@ import sys
 from pathlib import Path
 
 from baarda.cli.argtypes import COFACTOR, SIGMA_UM, number
-from baarda.cli.common import add_test_options, tests_option
+from baarda.cli.common import add_test_options, feed_lines, prompt_lines, tests_option
 from baarda.cli.console import console
-from baarda.errors import GeometryError, ProjectError
+from baarda.errors import ProjectError
 from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import check_output_file
@@ -79,36 +79,14 @@ def run(args) -> int:
 
 
 def _batch(interp, lines, name: str) -> None:
-    n = 0
-    for n, line in enumerate(lines, 1):  # noqa: B007
-        try:
-            interp.feed(line)
-        except (GeometryError, ValueError) as e:  # a bad line names its field (column)
-            raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
-        if interp.done:
-            break
-    if n == 0:
-        raise ProjectError(name, "no measurements: give a measurement file (e.g. "
-                           "examples/online/strip.txt, format in docs/online.md) or run "
-                           "baarda online in a terminal to type them")
-    try:
-        interp.finish()
-    except ValueError as e:
-        raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
+    feed_lines(interp, lines, name, empty="no measurements: give a measurement file (e.g. "
+               "examples/online/strip.txt, format in docs/online.md) or run baarda online "
+               "in a terminal to type them")
 
 
 def _prompt(interp) -> None:
-    print("baarda online: type 'help' for the commands, 'quit' to stop")  # a terminal
-    while not interp.done:
-        try:
-            prompt = "point> " if interp.collecting is not None else "online> "
-            line = input(prompt)
-        except EOFError:
-            break
-        try:
-            interp.feed(line)
-        except (GeometryError, ValueError) as e:
-            print(f"error: {e}")
+    prompt_lines(interp, "baarda online: type 'help' for the commands, 'quit' to stop",
+                 "online> ")  # a terminal
     try:
         interp.finish()
     except ValueError as e:

@@ -7,9 +7,17 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from baarda.cli.common import NOT_CONVERGED, OK, announce_compile, open_run, tests_option
+from baarda.cli.common import (
+    NOT_CONVERGED,
+    OK,
+    announce_compile,
+    feed_lines,
+    open_run,
+    prompt_lines,
+    tests_option,
+)
 from baarda.cli.inputs import add_input_options, input_paths, read_input
-from baarda.errors import GeometryError, ProjectError
+from baarda.errors import ProjectError
 
 MAX_ROWS = 120  # online/bundle.py MAX_ROWS (not imported: the parser stays light)
 RELATIVE_ONLY = ("file", "focal", "tau", "vce")  # options without a default
@@ -135,7 +143,7 @@ def _session(args, run) -> int:
         if sys.stdin.isatty():
             _prompt(interp)
         else:
-            _lines(interp, sys.stdin, "<stdin>")
+            feed_lines(interp, sys.stdin, "<stdin>")
         answers, name = interp.answers, "online.csv"
     qc = None
     if ob.started:
@@ -201,33 +209,10 @@ def _brief(a) -> None:
               + (f", {len(a.changed)} verdict(s) changed" if a.changed else ""))
 
 
-def _lines(interp, lines, name: str) -> None:
-    n = 0
-    for n, line in enumerate(lines, 1):  # noqa: B007
-        try:
-            interp.feed(line)
-        except (GeometryError, ValueError) as e:  # a bad line names its field (column)
-            raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
-        if interp.done:
-            break
-    try:
-        interp.finish()
-    except ValueError as e:
-        raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
-
-
 def _prompt(interp) -> None:
     """Lines typed at the prompt: a bad line is said and the session goes on."""
-    print("baarda online --bundle: type 'help' for the commands, 'quit' to stop")
-    while not interp.done:
-        try:
-            line = input("point> " if interp.collecting is not None else "bundle> ")
-        except EOFError:
-            break
-        try:
-            interp.feed(line)
-        except (GeometryError, ValueError) as e:
-            print(f"error: {e}")
+    prompt_lines(interp, "baarda online --bundle: type 'help' for the commands, 'quit' to "
+                 "stop", "bundle> ")
     if interp.collecting is not None:
         print(f"photo {interp.collecting[0]} was not closed with 'end': its points are "
               "left out")
