@@ -27,23 +27,11 @@ import numpy as np
 from baarda.block.rotation import angle_to_rad
 from baarda.online.answers import Answer
 from baarda.online.bundle import OnlineBundle
-from baarda.relative.online_commands import LineError
+from baarda.relative.online_commands import LineError, parse_number
 
 KEYWORDS = ("point", "photo", "end", "control", "gnss", "remeasure", "remove", "status",
             "help", "quit")
 HELP = __doc__.split("\n\n")[1]
-
-
-def _number(text: str, name: str, allow_missing: bool = False) -> float:
-    if allow_missing and text == "-":
-        return float("nan")
-    try:
-        v = float(text)
-    except ValueError:
-        raise LineError(f"{name} is not a number: {text!r}", name) from None
-    if not np.isfinite(v):
-        raise LineError(f"{name} is not finite: {text!r}", name)
-    return v
 
 
 def _numbers(fields: list[str], names: list[str], optional: list[str] = (),
@@ -51,7 +39,7 @@ def _numbers(fields: list[str], names: list[str], optional: list[str] = (),
     if not len(names) <= len(fields) <= len(names) + len(optional):
         want = " ".join(names) + "".join(f" [{o}]" for o in optional)
         raise LineError(f"expected {want}, got {len(fields)} value(s)")
-    return [_number(f, n, allow_missing) for f, n in
+    return [parse_number(f, n, allow_missing) for f, n in
             zip(fields, list(names) + list(optional), strict=False)]
 
 

@@ -38,20 +38,25 @@ class LineError(ValueError):
         self.column = column
 
 
+def parse_number(text: str, name: str, allow_missing: bool = False) -> float:
+    """A finite number of a measurement line's field `name` ('-': NaN where
+    `allow_missing`); a LineError naming the field otherwise."""
+    if allow_missing and text == "-":
+        return float("nan")
+    try:
+        v = float(text)
+    except ValueError:
+        raise LineError(f"{name} is not a number: {text!r}", name) from None
+    if not np.isfinite(v):
+        raise LineError(f"{name} is not finite: {text!r}", name)
+    return v
+
+
 def _numbers(fields: list[str], names: list[str]) -> list[float]:
     if len(fields) != len(names):
         raise LineError(f"expected {len(names)} numbers ({' '.join(names)}), got "
                         f"{len(fields)}")
-    out = []
-    for f, n in zip(fields, names, strict=True):
-        try:
-            v = float(f)
-        except ValueError:
-            raise LineError(f"{n} is not a number: {f!r}", n) from None
-        if not np.isfinite(v):
-            raise LineError(f"{n} is not finite: {f!r}", n)
-        out.append(v)
-    return out
+    return [parse_number(f, n) for f, n in zip(fields, names, strict=True)]
 
 
 def _options(fields: list[str], allowed: tuple[str, ...]) -> dict[str, str]:
