@@ -33,6 +33,20 @@ def _fma(typingctx, x, y, z):
     return sig, codegen
 
 
+def _camera_vector_of(rot, x0, xyz, p, m):
+    """d = X_m - X0_p and u = R_p^T d (the point in photo p's camera frame) [m]."""
+    d0 = xyz[m, 0] - x0[p, 0]
+    d1 = xyz[m, 1] - x0[p, 1]
+    d2 = xyz[m, 2] - x0[p, 2]
+    u0 = rot[p, 0, 0] * d0 + rot[p, 1, 0] * d1 + rot[p, 2, 0] * d2
+    u1 = rot[p, 0, 1] * d0 + rot[p, 1, 1] * d1 + rot[p, 2, 1] * d2
+    u2 = rot[p, 0, 2] * d0 + rot[p, 1, 2] * d1 + rot[p, 2, 2] * d2
+    return d0, d1, d2, u0, u1, u2
+
+
+_camera_vector = kernel(_camera_vector_of, inline="always")
+
+
 def _project_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo: np.ndarray,
                  xyz: np.ndarray, focal: np.ndarray, pp: np.ndarray, xy: np.ndarray,
                  je: np.ndarray, jp: np.ndarray) -> None:
@@ -41,12 +55,7 @@ def _project_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo: np.n
     by omega, phi, kappa, projection centres x0 (n, 3), focal (m,) and pp (m, 2) [mm]."""
     for m in range(len(photo)):
         p = photo[m]
-        d0 = xyz[m, 0] - x0[p, 0]
-        d1 = xyz[m, 1] - x0[p, 1]
-        d2 = xyz[m, 2] - x0[p, 2]
-        u0 = rot[p, 0, 0] * d0 + rot[p, 1, 0] * d1 + rot[p, 2, 0] * d2
-        u1 = rot[p, 0, 1] * d0 + rot[p, 1, 1] * d1 + rot[p, 2, 1] * d2
-        u2 = rot[p, 0, 2] * d0 + rot[p, 1, 2] * d1 + rot[p, 2, 2] * d2
+        d0, d1, d2, u0, u1, u2 = _camera_vector(rot, x0, xyz, p, m)
         c = focal[m]
         inv3 = 1.0 / u2
         xy[m, 0] = pp[m, 0] - c * u0 * inv3
@@ -92,12 +101,7 @@ def _brown_forward_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo
         c, pp0, pp1 = table[q, 0], table[q, 1], table[q, 2]
         k1, k2, k3, p1, p2, asp = (table[q, 3], table[q, 4], table[q, 5], table[q, 6],
                                    table[q, 7], table[q, 8])
-        d0 = xyz[m, 0] - x0[p, 0]
-        d1 = xyz[m, 1] - x0[p, 1]
-        d2 = xyz[m, 2] - x0[p, 2]
-        u0 = rot[p, 0, 0] * d0 + rot[p, 1, 0] * d1 + rot[p, 2, 0] * d2
-        u1 = rot[p, 0, 1] * d0 + rot[p, 1, 1] * d1 + rot[p, 2, 1] * d2
-        u2 = rot[p, 0, 2] * d0 + rot[p, 1, 2] * d1 + rot[p, 2, 2] * d2
+        d0, d1, d2, u0, u1, u2 = _camera_vector(rot, x0, xyz, p, m)
         inv3 = 1.0 / u2
         xy0 = pp0 - c * u0 * inv3
         xy1 = pp1 - c * u1 * inv3
