@@ -28,10 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.adjustment.dense import DenseLeastSquares
-from baarda.adjustment.solve import solve
 from baarda.block.photo_block import Block
-from baarda.block.rotation import rotation_matrix
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import SOLVE, BundleProblem
 from baarda.bundle.bundle_result import BundleResult
@@ -39,17 +36,15 @@ from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
 from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, verdicts
-from baarda.online.lowrank import UNDETERMINED, LowRank, Rows
+from baarda.online.approximations import intersect, prepared, prune, refine
+from baarda.online.lowrank import LowRank, Rows
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
 from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 
 MAX_ROWS = 120  # rows added before the block is factored again
-# the new unknowns alone, damped (weak directions stay near the approximations)
-REFINE = SolveOptions(max_iterations=50, tolerance=1e-9, min_step=1e-6, damping=1e-3)
 MAX_HELD_PHOTOS = 50  # held photos looked at together when one is added
-SPREAD = 0.1  # points on a photo spread less than this across their line: on one line
 LINEAR_LIMIT = 3e-4  # corrections (angles rad, positions / flying height) that refactor
 COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
               "imu": ("omega", "phi", "kappa")}
@@ -80,9 +75,10 @@ class OnlineBundle:
     """A bundle block that grows one measurement at a time (module docstring).
 
     block: what is measured so far, as read (put in the local frame of its CRS, photos
-    without approximations resected where they can be: `_prepared`); tests: alpha0, beta0
-    (default the block's); max_rows: rows added before the normal equations are factored
-    again (0: after every step, every test then on the exact solution); linear_limit:
+    without approximations resected where they can be: `approximations.prepared`); tests:
+    alpha0, beta0 (default the block's); max_rows: rows added before the normal equations
+    are factored again (0: after every step, every test then on the exact solution);
+    linear_limit:
     corrections since the last factorisation (angles rad, positions / flying height) beyond
     which it is done at once.
     The datum is the control (or GNSS positions) or, for a free network (settings.datum
@@ -97,7 +93,7 @@ class OnlineBundle:
     def __init__(self, block: Block, tests: TestOptions | None = None, *,
                  max_rows: int = MAX_ROWS, solve: SolveOptions = SOLVE,
                  linear_limit: float = LINEAR_LIMIT):
-        block = _prepared(block)
+        block = prepared(block)
         s = block.settings
         if s.gnss_offsets != "none" or s.gnss_drift or s.imu_boresight != "fixed":
             raise ValueError("the on-line bundle takes GNSS positions and IMU attitudes "
@@ -430,7 +426,7 @@ class OnlineBundle:
         points |= {m.im_point[r] for i in photos for r in m.rows_of_photo[i]
                    if m.im_status[r] == HELD and not m.point_in[m.im_point[r]]}
         points |= {j for j in m.fresh_points if not m.point_in[j]}
-        photos, points = _prune(m, photos, points, m.photo_in, m.point_in)
+        photos, points = prune(m, photos, points, m.photo_in, m.point_in)
 
         def photo_ok(i):
             return m.photo_in[i] or i in photos
@@ -534,7 +530,7 @@ class OnlineBundle:
         if not m.im_status:
             return None
         photos = {i for i in range(len(m.photo_ids)) if np.isfinite(m.photo_eo[i]).all()}
-        photos, points = _prune(m, photos, set(range(len(m.point_ids))))
+        photos, points = prune(m, photos, set(range(len(m.point_ids))))
         note = "fewer than two photos are determined"
         for _ in range(20):  # a photo the adjustment finds undetermined is left out, again
             if len(photos) < 2:
@@ -559,7 +555,7 @@ class OnlineBundle:
                 if bad is None or bad.group(1) not in m.photo_at:
                     break
                 photos.discard(m.photo_at[bad.group(1)])
-                photos, points = _prune(m, photos, points)
+                photos, points = prune(m, photos, points)
         if self._f is None:
             self._why_not = note
             return self._answer(action="add", what=what, held=tuple(self._held_words()),
@@ -869,8 +865,8 @@ class OnlineBundle:
         for i in group["photos"]:
             eo[i] = m.photo_eo[i]
         for j in group["points"]:
-            xyz[j] = self._intersect(j, eo, group)
-        if not _refine(self, group, eo, xyz):
+            xyz[j] = intersect(m, j, eo, group)
+        if not refine(m, self._f.problem, self._globals(), group, eo, xyz):
             raise GeometryError("held: these observations do not determine the new photo "
                                 "or point yet")
         y = np.zeros(n - len(self._y0))
@@ -881,24 +877,6 @@ class OnlineBundle:
         self._ycol.update(cols)
         self._y0 = np.concatenate([self._y0, y])
         return self._y0
-
-    def _intersect(self, j: int, eo: np.ndarray, group: dict) -> np.ndarray:
-        """A point from its rays (no lens model: a start for the refinement), or its
-        control coordinates."""
-        m = self.m
-        if m.full_control(j):
-            return m.point_xyz[j].copy()
-        rows = [r for r in group["image"] if m.im_point[r] == j]
-        cams = [m.photo_cam[m.im_photo[r]] for r in rows]
-        e = eo[[m.im_photo[r] for r in rows]]
-        rot = rotation_matrix(e[:, 3], e[:, 4], e[:, 5])
-        xy = np.array([m.im_xy[r] for r in rows]) - m.cameras.principal_point_mm[cams]
-        d = np.einsum("mij,mj->mi", rot, np.column_stack([xy, -m.cameras.focal_mm[cams]]))
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        proj = np.eye(3)[None] - d[:, :, None] * d[:, None, :]
-        a = proj.sum(axis=0)
-        b = np.einsum("mij,mj->i", proj, e[:, :3])
-        return np.linalg.solve(a, b)
 
     def _rows(self, group: dict, y0: np.ndarray) -> tuple[list[Key], Rows]:
         """The group's observation rows linearised at the factorisation's estimate (new
@@ -1020,56 +998,6 @@ class OnlineBundle:
         return Change(kind, photo, point, comp, before, after, w)
 
 
-def _prepared(block: Block) -> Block:
-    """The block in the local frame of its CRS, with approximate orientations where they can
-    be had by resection now (pipeline.localized, pipeline.with_approximations); photos that
-    cannot keep none (they are resected from the block's points when they come in)."""
-    from baarda.pipeline import localized, with_approximations
-
-    block = localized(block)
-    if np.isfinite(block.photos.eo).all() or not len(block.image):
-        return block
-    try:
-        return with_approximations(block)
-    except GeometryError:
-        return block
-
-
-def _prune(m: Measurements, photos: set, points: set, photo_in=None, point_in=None
-           ) -> tuple[set, set]:
-    """The photos and points of the sets that determine each other and the block (photo_in,
-    point_in: what is in it): points with two rays on those photos (or one and full
-    control), photos with MIN_PHOTO_POINTS of those points that are not on one line in the
-    image."""
-    photo_in = photo_in if photo_in is not None else [False] * len(m.photo_ids)
-    point_in = point_in if point_in is not None else [False] * len(m.point_ids)
-    photos, points = set(photos), set(points)
-    changed = True
-    while changed:
-        changed = False
-        for j in sorted(points):
-            rays = [r for r in m.live_rays(j) if photo_in[m.im_photo[r]] or m.im_photo[r] in photos]
-            if not (len(rays) >= 2 or (rays and m.full_control(j))):
-                points.discard(j)
-                changed = True
-        for i in sorted(photos):
-            rows = [r for r in m.rows_of_photo[i] if m.im_status[r] != REMOVED
-                    and (point_in[m.im_point[r]] or m.im_point[r] in points)]
-            if not _spread(np.array([m.im_xy[r] for r in rows]).reshape(-1, 2)):
-                photos.discard(i)
-                changed = True
-    return photos, points
-
-
-def _spread(xy: np.ndarray) -> bool:
-    """MIN_PHOTO_POINTS image points or more, not on one line (the second singular value of
-    their spread at least SPREAD of the first)."""
-    if len(xy) < MIN_PHOTO_POINTS:
-        return False
-    s = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False)
-    return bool(s[1] >= SPREAD * s[0])
-
-
 def _merge(a: list[Change], b: list[Change]) -> list[Change]:
     """Changes of one step found twice (around the addition, then at the factorisation)."""
     by = {}
@@ -1096,80 +1024,3 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
     for r in range(gi.n_imu):
         keys += [("imu", int(maps.imu[r]), c) for c in range(3)]
     return keys
-
-
-def _refine(ob: OnlineBundle, group: dict, eo: np.ndarray, xyz: np.ndarray) -> bool:
-    """The group's new photos and points adjusted alone (everything else held at eo, xyz),
-    in place: a good linearisation point for the low-rank update (the one solver on a
-    small dense problem, Levenberg-Marquardt from the approximations); False when they are
-    not determined (the undamped normal equations at the solution singular, scaled)."""
-    m, f = ob.m, ob._f
-    photos, points = group["photos"], group["points"]
-    col = {("photo", i): 6 * n for n, i in enumerate(photos)}
-    col.update({("point", j): 6 * len(photos) + 3 * n for n, j in enumerate(points)})
-    nu = 6 * len(photos) + 3 * len(points)
-    img = [r for r in group["image"]
-           if ("photo", m.im_photo[r]) in col or ("point", m.im_point[r]) in col]
-    if not img or not nu:
-        return True
-    cams = np.array([m.photo_cam[m.im_photo[r]] for r in img])
-    sig = np.array([m.im_sigma[r] for r in img]).reshape(-1)
-    xy = np.array([m.im_xy[r] for r in img])
-    ph = np.array([m.im_photo[r] for r in img])
-    pt = np.array([m.im_point[r] for r in img])
-    pcol = np.array([col.get(("photo", i), -1) for i in ph])
-    qcol = np.array([col.get(("point", j), -1) for j in pt])
-    g = ob._globals()
-
-    def unpack(y):
-        e, x = eo.copy(), xyz.copy()
-        for (what, u), c in col.items():
-            if what == "photo":
-                e[u] = y[c:c + 6]
-            else:
-                x[u] = y[c:c + 3]
-        return e, x
-
-    # control coordinates of the new points (a point with one ray and full control)
-    ctrl = [(j, a) for j in group["control"] if ("point", j) in col
-            for a in np.flatnonzero(np.isfinite(m.point_sigma[j]))]
-    c_obs = np.array([m.point_xyz[j][a] for j, a in ctrl])
-    c_sig = np.array([m.point_sigma[j][a] for j, a in ctrl])
-
-    def func(y):
-        e, x = unpack(y)
-        mis, je, jp, _ = image_rows(f.problem.block, f.problem, cams, e[ph], x[pt], xy, g)
-        a = np.zeros((len(img), 2, nu))
-        for n in np.flatnonzero(pcol >= 0):
-            a[n, :, pcol[n]:pcol[n] + 6] = je[n]
-        for n in np.flatnonzero(qcol >= 0):
-            a[n, :, qcol[n]:qcol[n] + 3] = jp[n]
-        ac = np.zeros((len(ctrl), nu))
-        for n, (j, k) in enumerate(ctrl):
-            ac[n, col[("point", j)] + k] = 1.0
-        fc = np.array([x[j][k] for j, k in ctrl])
-        return (np.concatenate([(xy - mis).reshape(-1), fc]),
-                np.vstack([a.reshape(-1, nu), ac]))
-
-    y = np.zeros(nu)
-    for (what, u), c in col.items():
-        y[c:c + (6 if what == "photo" else 3)] = eo[u] if what == "photo" else xyz[u]
-    sig = np.concatenate([sig, c_sig])
-    p = 1.0 / sig**2
-    problem = DenseLeastSquares(func, np.concatenate([xy.reshape(-1), c_obs]), p,
-                                method="lstsq",
-                                what="the new photos and points")
-    try:
-        sol = solve(problem, y, REFINE)
-    except GeometryError:
-        return False
-    # determined: the undamped normal equations at the solution are regular (scaled)
-    a = sol.lin.a
-    n = a.T @ (p[:, None] * a)
-    d = np.sqrt(np.maximum(np.diag(n), 1e-300))
-    lam = np.linalg.eigvalsh(n / np.outer(d, d))
-    if not (sol.converged and lam[0] > UNDETERMINED):
-        return False
-    e, x = unpack(sol.state)
-    eo[:], xyz[:] = e, x
-    return True
