@@ -779,14 +779,10 @@ class OnlineBundle:
             raise GeometryError("held: these observations do not determine the new photo "
                                 "or point yet") from None
         # the group is in
-        for r in group["image"]:
-            m.im_status[r] = IN
-        for j in group["control"]:
-            m.ctrl_status[j] = IN
-        for r in group["gnss"]:
-            m.g_status[r] = IN
-        for r in group["imu"]:
-            m.i_status[r] = IN
+        for kind, status in (("image", m.im_status), ("control", m.ctrl_status),
+                             ("gnss", m.g_status), ("imu", m.i_status)):
+            for r in group[kind]:
+                status[r] = IN
         for i in group["photos"]:
             m.photo_in[i] = True
         for j in group["points"]:
