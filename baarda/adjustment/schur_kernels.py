@@ -66,6 +66,46 @@ def _chol_inv(h, out_l, out_inv):
     return True
 
 
+def _frame_part_of(i, f, jf, w, e, hff, gf):
+    """Observation i's terms of its frame f: Jf^T W Jf into hff[f], Jf^T W e into gf[f]."""
+    k, b = jf.shape[1], jf.shape[2]
+    for r in range(k):
+        wr = w[i, r]
+        if wr == 0.0:
+            continue
+        er = wr * e[i, r]
+        for p in range(b):
+            wp = wr * jf[i, r, p]
+            gf[f, p] += jf[i, r, p] * er
+            for q in range(b):
+                hff[f, p, q] += wp * jf[i, r, q]
+
+
+def _point_part_of(i, a, j, jf, jp, w, e, hfp, hpp, gp):
+    """Observation i's terms of its point j (sorted position a): Jf^T W Jp into hfp[a],
+    Jp^T W Jp into hpp[j], Jp^T W e into gp[j]."""
+    k, b = jf.shape[1], jf.shape[2]
+    d = jp.shape[2]
+    for r in range(k):
+        wr = w[i, r]
+        if wr == 0.0:
+            continue
+        for p in range(b):
+            wp = wr * jf[i, r, p]
+            for q in range(d):
+                hfp[a, p, q] += wp * jp[i, r, q]
+        for p in range(d):
+            wp = wr * jp[i, r, p]
+            gp[j, p] += wp * e[i, r]
+            for q in range(d):
+                hpp[j, p, q] += wp * jp[i, r, q]
+
+
+# inlined into assemble and assemble_parallel: each sum in the same order in both
+_frame_part = kernel(_frame_part_of, inline="always")
+_point_part = kernel(_point_part_of, inline="always")
+
+
 @kernel
 def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp):
     """Normal-equation pieces of the frame-point observations, with explicit loops.
@@ -74,29 +114,10 @@ def assemble(order, frame, point_of_sorted, jf, jp, w, e, hfp, hff, gf, hpp, gp)
     sorted position a.  Adds Jf^T W Jf to hff (nf, b, b), Jf^T W e to gf (nf, b),
     Jp^T W Jp to hpp (np, d, d) and Jp^T W e to gp (np, d).
     """
-    m, k, b = jf.shape
-    d = jp.shape[2]
-    for a in range(m):
+    for a in range(len(order)):
         i = order[a]
-        f = frame[i]
-        j = point_of_sorted[a]
-        for r in range(k):
-            wr = w[i, r]
-            if wr == 0.0:
-                continue
-            er = wr * e[i, r]
-            for p in range(b):
-                wp = wr * jf[i, r, p]
-                gf[f, p] += jf[i, r, p] * er
-                for q in range(b):
-                    hff[f, p, q] += wp * jf[i, r, q]
-                for q in range(d):
-                    hfp[a, p, q] += wp * jp[i, r, q]
-            for p in range(d):
-                wp = wr * jp[i, r, p]
-                gp[j, p] += wp * e[i, r]
-                for q in range(d):
-                    hpp[j, p, q] += wp * jp[i, r, q]
+        _frame_part(i, frame[i], jf, w, e, hff, gf)
+        _point_part(i, a, point_of_sorted[a], jf, jp, w, e, hfp, hpp, gp)
     return 0
 
 
@@ -106,37 +127,12 @@ def assemble_parallel(order, ptr, frame_ptr, frame_obs, jf, jp, w, e, hfp, hff, 
     to the last bit): the point parts point by point (ptr: each point's observations in
     sorted order), the frame parts frame by frame, each frame's observations in sorted
     order (frame_obs[frame_ptr[f]:...])."""
-    k, b = jf.shape[1], jf.shape[2]
-    d = jp.shape[2]
     for j in prange(len(ptr) - 1):
         for a in range(ptr[j], ptr[j + 1]):
-            i = order[a]
-            for r in range(k):
-                wr = w[i, r]
-                if wr == 0.0:
-                    continue
-                for p in range(b):
-                    wp = wr * jf[i, r, p]
-                    for q in range(d):
-                        hfp[a, p, q] += wp * jp[i, r, q]
-                for p in range(d):
-                    wp = wr * jp[i, r, p]
-                    gp[j, p] += wp * e[i, r]
-                    for q in range(d):
-                        hpp[j, p, q] += wp * jp[i, r, q]
+            _point_part(order[a], a, j, jf, jp, w, e, hfp, hpp, gp)
     for f in prange(len(frame_ptr) - 1):
         for x in range(frame_ptr[f], frame_ptr[f + 1]):
-            i = order[frame_obs[x]]
-            for r in range(k):
-                wr = w[i, r]
-                if wr == 0.0:
-                    continue
-                er = wr * e[i, r]
-                for p in range(b):
-                    wp = wr * jf[i, r, p]
-                    gf[f, p] += jf[i, r, p] * er
-                    for q in range(b):
-                        hff[f, p, q] += wp * jf[i, r, q]
+            _frame_part(order[frame_obs[x]], f, jf, w, e, hff, gf)
     return 0
 
 
