@@ -227,16 +227,23 @@ def control_parts(res: Results) -> list[Part]:
     return parts
 
 
-def gnss_parts(res: Results) -> list[Part]:
-    g = res.obs[res.obs["kind"] == "gnss"]
-    if not len(g):
-        return []
+def _per_photo(g: pd.DataFrame) -> pd.DataFrame:
+    """One row per photo of its GNSS or IMU rows: v, w and r per component, and the
+    rejected ones named."""
     t = g.pivot_table(index="photo", columns="component",
                       values=["residual", "w", "redundancy"], sort=False)
     t.columns = [f"{'v' if a == 'residual' else a} {c}" for a, c in t.columns]
     t = t.reset_index()
     rejected = {ph: _rejected(r) for ph, r in g.groupby("photo", sort=False)}
     t["rejected"] = [rejected.get(ph, "") for ph in t["photo"]]
+    return t
+
+
+def gnss_parts(res: Results) -> list[Part]:
+    g = res.obs[res.obs["kind"] == "gnss"]
+    if not len(g):
+        return []
+    t = _per_photo(g)
     return [Part("heading", "GNSS positions of the projection centres"),
             Part("text", text="Residual v = adjusted - observed (m), w-test and redundancy "
                  "number per axis. RMS: " + _rms_per_axis(g)),
@@ -252,12 +259,7 @@ def imu_parts(res: Results) -> list[Part]:
     if not len(g):
         return []
     unit = res.units.get("imu", "")
-    t = g.pivot_table(index="photo", columns="component",
-                      values=["residual", "w", "redundancy"], sort=False)
-    t.columns = [f"{'v' if a == 'residual' else a} {c}" for a, c in t.columns]
-    t = t.reset_index()
-    rejected = {ph: _rejected(r) for ph, r in g.groupby("photo", sort=False)}
-    t["rejected"] = [rejected.get(ph, "") for ph in t["photo"]]
+    t = _per_photo(g)
     used = g[~g["rejected"].to_numpy(bool)]
     rms = ", ".join(f"{c} {_rms(used.loc[used['component'] == c, 'residual']):.3f} {unit}"
                     for c in ("omega", "phi", "kappa") if (used["component"] == c).any())
