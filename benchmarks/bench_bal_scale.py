@@ -37,6 +37,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from pycolmap_bal_user import adjust, adjuster_options, reconstruction, rodrigues
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -54,19 +55,9 @@ def _rotation_vector(r: np.ndarray) -> np.ndarray:
     return w * s[:, None]
 
 
-def _rodrigues(aa: np.ndarray) -> np.ndarray:
-    theta = np.linalg.norm(aa, axis=1)
-    k = aa / np.where(theta > 0, theta, 1.0)[:, None]
-    kx = np.zeros((len(aa), 3, 3))
-    kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
-    kx -= kx.transpose(0, 2, 1)
-    s, c = np.sin(theta)[:, None, None], np.cos(theta)[:, None, None]
-    return np.eye(3) + s * kx + (1 - c) * kx @ kx
-
-
 def _project(cams: np.ndarray, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """BAL's projection of every point on one camera: (xy (n, 2) px, depth -P.z)."""
-    pc = pts @ _rodrigues(cams[None, :3])[0].T + cams[3:6]
+    pc = pts @ rodrigues(cams[None, :3])[0].T + cams[3:6]
     q = -pc[:, :2] / pc[:, 2:3]
     n2 = np.sum(q**2, axis=1)
     return (cams[6] * (1 + cams[7] * n2 + cams[8] * n2**2))[:, None] * q, -pc[:, 2]
@@ -165,52 +156,17 @@ def worker_baarda(path: str, out: str, damping: str = "gn") -> None:
 
 def worker_pycolmap(path: str, out: str, damping: str = "") -> None:
     t0 = time.perf_counter()
-    import pycolmap
-
     with open(path, encoding="ascii") as fh:
         nc, npt, nobs = (int(v) for v in fh.readline().split())
         obs = np.loadtxt(fh, max_rows=nobs)
         rest = np.loadtxt(fh).ravel()
     cams, pts = rest[: 9 * nc].reshape(nc, 9), rest[9 * nc:].reshape(npt, 3)
     cam_idx, pt_idx, xy = obs[:, 0].astype(int), obs[:, 1].astype(int), obs[:, 2:]
-    rec = pycolmap.Reconstruction()
-    flip = np.diag([1.0, -1.0, -1.0])
-    rot = _rodrigues(cams[:, :3])
-    half = np.abs(xy).max() + 10
-    point2d_of = np.empty(len(cam_idx), np.int64)
-    order = np.argsort(cam_idx, kind="stable")
-    bounds = np.searchsorted(cam_idx[order], np.arange(nc + 1))
-    for c in range(nc):
-        rows = order[bounds[c]:bounds[c + 1]]
-        f, k1, k2 = cams[c, 6:9]
-        rec.add_camera_with_trivial_rig(pycolmap.Camera(
-            camera_id=c + 1, model="RADIAL", width=int(2 * half), height=int(2 * half),
-            params=[f, 0.0, 0.0, k1, k2]))
-        point2d_of[rows] = np.arange(len(rows))
-        pts2d = pycolmap.Point2DList([pycolmap.Point2D(np.array([x, -y])) for x, y in xy[rows]])
-        rec.add_image_with_trivial_frame(
-            pycolmap.Image(name=str(c), points2D=pts2d, camera_id=c + 1, image_id=c + 1),
-            pycolmap.Rigid3d(pycolmap.Rotation3d(flip @ rot[c]), flip @ cams[c, 3:6]))
-    order = np.argsort(pt_idx, kind="stable")
-    for group in np.split(order, np.flatnonzero(np.diff(pt_idx[order])) + 1):
-        track = pycolmap.Track()
-        for k in group.tolist():
-            track.add_element(int(cam_idx[k]) + 1, int(point2d_of[k]))
-        rec.add_point3D(pts[pt_idx[group[0]]], track)
-    opts = pycolmap.BundleAdjustmentOptions()
-    opts.refine_focal_length = opts.refine_extra_params = True
-    opts.refine_principal_point = False
-    opts.print_summary = False
-    opts.ceres.loss_function_type = pycolmap.LossFunctionType.TRIVIAL
+    opts = adjuster_options(True, 200)
     so = opts.ceres.solver_options
-    so.max_num_iterations = 200
-    so.function_tolerance = so.gradient_tolerance = so.parameter_tolerance = 1e-12
-    cfg = pycolmap.BundleAdjustmentConfig()
-    for iid in rec.reg_image_ids():
-        cfg.add_image(iid)
-    cfg.fix_gauge(pycolmap.BundleAdjustmentGauge.TWO_CAMS_FROM_WORLD)
+    rec = reconstruction(cams, pts, cam_idx, pt_idx, xy)
     t_read = time.perf_counter()
-    summary = pycolmap.create_default_ceres_bundle_adjuster(opts, cfg, rec).solve()
+    summary = adjust(rec, opts)
     t_solve = time.perf_counter()
     cs = summary.ceres_summary
     Path(out).write_text(json.dumps({
