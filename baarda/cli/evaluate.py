@@ -25,7 +25,7 @@ from baarda.errors import ProjectError
 
 
 def register(sub) -> None:
-    from baarda.evaluation.study import DEFAULT_STRATEGIES, STRATEGIES
+    from baarda.evaluation.strategies import DEFAULT_STRATEGIES, STRATEGIES
     from baarda.simulate.aerial import FlightPlan
 
     p = sub.add_parser("evaluate", help="detection power, measured: blunder-detection "

@@ -46,23 +46,23 @@ import numpy as np
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_model import BundleModel
 from baarda.errors import GeometryError
+from baarda.evaluation.strategies import (
+    DEFAULT_STRATEGIES,
+    STRATEGIES,
+    Outcome,
+    component_keys,
+    run_strategy,
+)
 from baarda.linalg.threads import one_kernel_thread
 from baarda.options import DEFAULT_TESTS, TestOptions
-from baarda.pipeline import adjust, snoop
+from baarda.pipeline import adjust
 from baarda.quality.iterative import inseparable_partners
 from baarda.quality.separability import RHO_INSEPARABLE
 from baarda.quality.statistics import analyse
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
-STRATEGIES = ("snoop", "tau", "by-point", "grouped", "robust", "screen", "modified",
-              "threshold", "online")
-DEFAULT_STRATEGIES = ("snoop", "tau", "by-point", "robust")
 KINDS = ("x", "y", "X", "Y", "Z")
-THRESHOLD = 3.0  # |v| / sigma a priori of the `threshold` strategy
 R_MIN = 0.01  # a blunder is planted only where the observation's redundancy number is this
-
-Key = tuple[str, str, str, str]  # kind, photo, point, component
-
 
 @dataclass(frozen=True)
 class StudyOptions:
@@ -100,11 +100,6 @@ class TrialRows:
     trials: list[dict]
 
 
-def _keys(model) -> list[Key]:
-    return [(str(k), str(f), str(p), str(c)) for k, f, p, c in zip(
-        model.kind, model.frame, model.point, model.component, strict=True)]
-
-
 def _plant(block: Block, model: BundleModel, rows: np.ndarray, sizes: np.ndarray) -> Block:
     """The block with `sizes` (model units: image mm, control m) added to the components
     `rows` of the flat observation vector."""
@@ -117,136 +112,6 @@ def _plant(block: Block, model: BundleModel, rows: np.ndarray, sizes: np.ndarray
         else:
             xyz[model.control_index[i], "XYZ".index(c)] += s
     return replace(block, image=replace(im, xy_mm=xy), points=replace(pts, xyz=xyz))
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """What a strategy did: the keys it rejected in the end, in order; those of its first
-    rejection (a group's together); sigma0 at the end."""
-
-    rejected: list[Key]
-    first: set[Key]
-    sigma0: float
-    entry: dict | None = None  # the on-line strategy: each component's verdict when taken in
-
-
-def _snooping_order(a) -> Outcome:
-    """Keys finally rejected by a snooping run, in the order of their last rejection (a
-    group's members with it), the first rejection's keys, and the final sigma0."""
-    keys = _keys(a.model)
-    rejected = set(np.flatnonzero(~a.quality.active).tolist())
-    order: dict[int, int] = {}
-    steps = a.run.log if a.run is not None else []
-    first: set[Key] = set()
-    for n, step in enumerate(steps):
-        if step.action == "reject":
-            rows = list(step.rows) + (list(step.partners) if step.grouped else [])
-            for r in rows:
-                order[r] = n
-            if not first:
-                first = {keys[r] for r in rows}
-    ranked = sorted(rejected, key=lambda r: (order.get(r, -1), r))
-    return Outcome([keys[r] for r in ranked], first, float(a.adjustment.sigma0))
-
-
-def _outcome(keys: list[Key], sigma0: float) -> Outcome:
-    return Outcome(keys, set(keys[:1]), sigma0)
-
-
-def _threshold(block: Block) -> Outcome:
-    res = adjust(block)
-    model = BundleModel(res)
-    active = np.ones(model.n, bool)
-    out = []
-    for _ in range(200):
-        z = np.where(active, np.abs(model.residuals) / model.sigma_apriori, -np.inf)
-        i = int(np.argmax(z))
-        if z[i] <= THRESHOLD:
-            break
-        active[i] = False
-        out.append(i)
-        res = res.refit(active)
-        model = BundleModel(res)
-    keys = _keys(model)
-    return _outcome([keys[i] for i in out], float(res.sigma0))
-
-
-def _screen(block: Block, tests: TestOptions) -> Outcome:
-    """Screening, then snooping that removes what it rejects from the block
-    (pipeline.screen): what the final block lacks of the original, in the original's order,
-    then what the final assessment marks rejected."""
-    from baarda.options import ScreeningOptions
-    from baarda.pipeline import screen
-
-    res, a = screen(block, ScreeningOptions(tests=tests), snoop=True)
-    orig, final = res.original, a.adjustment.block
-    fi, fp = final.image, final.points
-    kept = set(zip((final.photos.ids[i] for i in fi.photo),
-                   (fp.ids[j] for j in fi.point), strict=True))
-    im, pts = orig.image, orig.points
-    out: list[Key] = []
-    for row in range(len(im)):
-        ph, pt = orig.photos.ids[im.photo[row]], pts.ids[im.point[row]]
-        if (ph, pt) not in kept:
-            out += [("image", ph, pt, "x"), ("image", ph, pt, "y")]
-    fctrl = {fp.ids[j]: fp.controlled[j] for j in range(len(fp))}
-    for j in np.flatnonzero(pts.controlled.any(axis=1)):
-        now = fctrl.get(pts.ids[j], np.zeros(3, bool))
-        out += [("control", "", pts.ids[j], c) for k, c in enumerate("XYZ")
-                if pts.controlled[j, k] and not now[k]]
-    snooped = _snooping_order(a)
-    seen = set(out)
-    return _outcome(out + [k for k in snooped.rejected if k not in seen], snooped.sigma0)
-
-
-def _modified(block: Block, tests: TestOptions) -> Outcome:
-    from baarda.planning.modified_snoop import modified_snoop
-
-    res = adjust(block)
-    ms = modified_snoop(res, tests=tests)
-    keys = _keys(ms.model)
-    rej = np.flatnonzero(ms.result.rejected)
-    order = rej[np.argsort(-np.abs(ms.result.statistic_value[rej]), kind="stable")]
-    return _outcome([keys[i] for i in order], float(res.sigma0))
-
-
-def _online(block: Block, tests: TestOptions) -> Outcome:
-    """The on-line replay with re-measurement (online/replay.py): the observations taken
-    out, in order (the rejected component of each; the first one's first), sigma0 of the
-    block at the end, and the verdict of every component at the step it was taken in."""
-    from baarda.online.replay import replay
-
-    rp = replay(block, tests, remove="worst")
-    keys = [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.removed]
-    entry: dict[Key, str] = {}
-    for a in rp.answers:
-        for t in a.tested:
-            entry.setdefault((t.kind, t.photo, t.point, t.component), t.verdict)
-    sigma0 = float(rp.online.result().adjustment.sigma0) if rp.online.started else np.nan
-    return Outcome(keys, set(keys[:1]), sigma0, entry)
-
-
-def run_strategy(name: str, block: Block, tests: TestOptions) -> Outcome:
-    """What one strategy rejected on a block (Outcome)."""
-    if name == "online":
-        return _online(block, tests)
-    if name == "snoop":
-        return _snooping_order(snoop(block, tests))
-    if name == "tau":
-        return _snooping_order(snoop(block, tests, statistic="tau"))
-    if name == "by-point":
-        return _snooping_order(snoop(block, tests, by_point=True))
-    if name == "grouped":
-        return _snooping_order(snoop(block, tests, inseparable="group"))
-    if name == "robust":
-        return _snooping_order(snoop(block, tests, robust=True))
-    if name == "screen":
-        return _screen(block, tests)
-    if name == "modified":
-        return _modified(block, tests)
-    if name == "threshold":
-        return _threshold(block)
-    raise ValueError(f"unknown strategy '{name}'")
 
 
 def run_trial(options: StudyOptions, trial: int) -> TrialRows:
@@ -285,7 +150,7 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
     blundered = _plant(block, model, rows, sizes)
     fmodel = BundleModel(adjust(blundered))
     fq = analyse(fmodel, options.tests, separability=False)
-    keys = _keys(fmodel)
+    keys = component_keys(fmodel)
     planted = [keys[i] for i in rows]
     partner_keys = [{keys[j] for j in g} for g in groups]
     significant = np.abs(np.nan_to_num(fq.w)) > fq.k_w
