@@ -18,7 +18,8 @@ def dense_correlations(model) -> np.ndarray:
     both_out = ~act[:, None] & ~act[None, :]
     qvv = np.where(both_out, qll, qvv)
     d = np.where(act, s2 - np.diag(qll), s2 + np.diag(qll))
-    rho = np.abs(qvv) / np.sqrt(np.outer(d, d))
+    with np.errstate(invalid="ignore"):  # d of an uncontrolled component (r ~ 0) may round
+        rho = np.abs(qvv) / np.sqrt(np.outer(d, d))  # below 0: it is not tested
     np.fill_diagonal(rho, 0.0)
     return rho
 
