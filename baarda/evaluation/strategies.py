@@ -126,19 +126,24 @@ def _modified(block: Block, tests: TestOptions) -> Outcome:
 
 
 def _online(block: Block, tests: TestOptions) -> Outcome:
-    """The on-line replay with re-measurement (online/replay.py): the observations taken
-    out, in order (the rejected component of each; the first one's first), sigma0 of the
-    block at the end, and the verdict of every component at the step it was taken in."""
+    """The on-line replay with re-measurement (online/replay.py): the rejected components
+    taken out, in order (the first removal's first), then those of the points set aside and
+    never taken in again that the test could not tell apart; sigma0 of the block at the end,
+    and the verdict of every component at the step it was taken in."""
     from baarda.online.replay import replay
 
     rp = replay(block, tests, remove="worst")
     keys = [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.removed]
+    # the first removal: one image point (its rejected components) or one control point
+    first = {k for k, r in zip(keys, rp.removed, strict=True) if r[:4] == rp.removed[0][:4]}
+    for _, group in rp.aside:  # set aside and never taken in again: flagged, all of them
+        keys += list(group)
     entry: dict[Key, str] = {}
     for a in rp.answers:
         for t in a.tested:
             entry.setdefault((t.kind, t.photo, t.point, t.component), t.verdict)
     sigma0 = float(rp.online.result().adjustment.sigma0) if rp.online.started else np.nan
-    return Outcome(keys, set(keys[:1]), sigma0, entry)
+    return Outcome(keys, first, sigma0, entry)
 
 
 def run_strategy(name: str, block: Block, tests: TestOptions) -> Outcome:

@@ -42,8 +42,8 @@ def prune(m: Measurements, photos: set, points: set, photo_in=None, point_in=Non
            ) -> tuple[set, set]:
     """The photos and points of the sets that determine each other and the block (photo_in,
     point_in: what is in it): points with two rays on those photos (or one and full
-    control), photos with MIN_PHOTO_POINTS of those points that are not on one line in the
-    image."""
+    control), not set aside waiting for their next ray; photos with MIN_PHOTO_POINTS of
+    those points that are not on one line in the image."""
     photo_in = photo_in if photo_in is not None else [False] * len(m.photo_ids)
     point_in = point_in if point_in is not None else [False] * len(m.point_ids)
     photos, points = set(photos), set(points)
@@ -52,7 +52,7 @@ def prune(m: Measurements, photos: set, points: set, photo_in=None, point_in=Non
         changed = False
         for j in sorted(points):
             rays = [r for r in m.live_rays(j) if photo_in[m.im_photo[r]] or m.im_photo[r] in photos]
-            if not (len(rays) >= 2 or (rays and m.full_control(j))):
+            if m.waiting(j) or not (len(rays) >= 2 or (rays and m.full_control(j))):
                 points.discard(j)
                 changed = True
         for i in sorted(photos):

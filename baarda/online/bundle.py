@@ -37,11 +37,12 @@ from baarda.errors import GeometryError
 from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, verdicts
 from baarda.online.approximations import intersect, prepared, prune, refine
-from baarda.online.lowrank import LowRank, Rows
+from baarda.online.lowrank import LowRank, Rows, times
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
 from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
+from baarda.quality.separability import RHO_INSEPARABLE
 
 MAX_ROWS = 120  # rows added before the block is factored again
 MAX_HELD_PHOTOS = 50  # held photos looked at together when one is added
@@ -219,6 +220,64 @@ class OnlineBundle:
                 m.im_status[r] = REMOVED
         return self._removed(t0, f"{len(rows)} image point(s)", apply)
 
+    def set_aside(self, point: str) -> Answer:
+        """Take a point out of the block until its next ray: its rays and its control are
+        held and come in again, every component tested, with the next ray measured on it.
+        For a point whose rays the test cannot tell apart (`inseparable`: the two rays of a
+        two-ray point, the x of three rays along one strip): a ray from another direction
+        may tell which one is wrong, where re-measuring all of them would lose the good
+        ones."""
+        t0 = time.perf_counter()
+        m = self.m
+        j = m.point_at.get(point)
+        if j is None or not m.live_rays(j):
+            raise ValueError(f"point {point} is not measured")
+
+        def apply():
+            m.aside[j] = max(m.rows_of_point[j])
+            m.point_in[j] = False
+        return self._removed(t0, f"point {point} (set aside until its next ray)", apply)
+
+    def waiting(self, point: str) -> bool:
+        """Whether a point set aside (`set_aside`) still waits for its next ray."""
+        j = self.m.point_at.get(point)
+        return j is not None and self.m.waiting(j)
+
+    def inseparable(self, kind: str, photo: str, point: str, component: str,
+                    threshold: float = RHO_INSEPARABLE) -> list[tuple[tuple, float]]:
+        """The observations in the block whose w-test cannot be told from this one's: |rho|
+        of the two w's at least `threshold` (quality/separability.py), among the components
+        of the same point (its rays and its control) or, for GNSS and IMU, of the same
+        photo; [((kind, photo, point, component), rho)], largest |rho| first.  From the
+        residuals' cofactors in the block as it is now (the factorisation and the rows added
+        since: one solve with the factor for the components involved)."""
+        key = self._keys_told.get((kind, photo, point, component))
+        if self._f is None or key is None or not self._in(key):
+            raise ValueError(f"{kind} {component} of {point or photo} is not in the block")
+        m = self.m
+        if kind in ("image", "control"):
+            j = m.im_point[key[1]] if kind == "image" else key[1]
+            cand = [("image", r, c) for r in m.rows_of_point[j] for c in range(2)]
+            cand += [("control", j, c) for c in range(3)]
+        else:
+            i = (m.g_photo if kind == "gnss" else m.i_photo)[key[1]]
+            cand = [(k, r, c) for k, rows in (("gnss", m.gnss_of(i)), ("imu", m.imu_of(i)))
+                    for r in rows for c in range(3)]
+        pend = set(self._pending)
+        cand = [k for k in cand if k != key and self._in(k)
+                and (k in pend or k in self._f.flat_of)]
+        q = self._qvv([key] + cand)
+        d = np.diag(q)
+        out = []
+        for n, k in enumerate(cand, start=1):
+            s2 = self._sigma_of(k) ** 2
+            if d[n] < 1e-3 * s2 or d[0] <= 0:
+                continue  # not tested (r below 0.001)
+            rho = float(q[0, n] / np.sqrt(d[0] * d[n]))
+            if abs(rho) >= threshold:
+                out.append((self._label(k), rho))
+        return sorted(out, key=lambda t: -abs(t[1]))
+
     def remove_control(self, point: str) -> Answer:
         t0 = time.perf_counter()
         m = self.m
@@ -366,14 +425,14 @@ class OnlineBundle:
         m = self.m
         before = m.snapshot()
         apply()
-        was_in = any(b == IN and a == REMOVED for b, a in zip(
-            before[0] + before[1] + before[2] + before[3],
-            m.im_status + m.ctrl_status + m.g_status + m.i_status, strict=True))
-        if self._f is None or not was_in:
-            return self._answer(action="remove", what=what,
-                                note="" if self._f is None else "it was not in the block",
-                                seconds=time.perf_counter() - t0)
+        if self._f is None:
+            return self._answer(action="remove", what=what, seconds=time.perf_counter() - t0)
         self._leaving()
+        if not any(b == IN and a != IN for b, a in zip(
+                before[0] + before[1] + before[2] + before[3],
+                m.im_status + m.ctrl_status + m.g_status + m.i_status, strict=True)):
+            return self._answer(action="remove", what=what, note="it was not in the block",
+                                seconds=time.perf_counter() - t0)
         left = []
         for _ in range(20):  # a photo the block no longer determines leaves it, again
             try:
@@ -725,6 +784,46 @@ class OnlineBundle:
                                        float(r[n]), float(v[n]), float(sv[n]), float(mdb[n])))
         return out
 
+    def _sigma_of(self, key: Key) -> float:
+        m = self.m
+        kind, u, c = key
+        if kind == "image":
+            return float(np.broadcast_to(m.im_sigma[u], (2,))[c])
+        if kind == "control":
+            return float(m.point_sigma[u][c])
+        return float((m.g_sigma if kind == "gnss" else m.i_sigma)[u][c])
+
+    def _qvv(self, keys: list[Key]) -> np.ndarray:
+        """The cofactors of the residuals of components in the block (in the factorisation
+        or added since), (k, k).  For rows S of the factorisation and rows P added since
+        (lowrank.py: H = N0^-1 A_P^T, W, R = diag(sigma_P^2)):
+            Q_SS = R_S - a_S N0^-1 a_S^T + (a_S H) W (a_S H)^T,
+            Q_PP = R_P W R_P,   Q_SP = -(a_S H) W R_P."""
+        f = self._f
+        lr = f.lowrank
+        pend = {k: n for n, k in enumerate(self._pending)}
+        s_at = [n for n, k in enumerate(keys) if k not in pend]
+        p_at = [n for n, k in enumerate(keys) if k in pend]
+        q = np.zeros((len(keys), len(keys)))
+        sol = lr.solution() if lr.r else None
+        z = None
+        if s_at:
+            flat = np.array([f.flat_of[keys[n]] for n in s_at])
+            rows = factor_rows(f.problem, f.result.factor, flat)
+            qs = np.diag(f.sigma[flat] ** 2) - times(rows, *lr.solve(rows))
+            if sol is not None:
+                z = times(rows, *lr.columns())
+                qs = qs + z @ sol.w @ z.T
+            q[np.ix_(s_at, s_at)] = qs
+        if p_at:
+            pr = [pend[keys[n]] for n in p_at]
+            q[np.ix_(p_at, p_at)] = sol.qvv[np.ix_(pr, pr)]
+            if s_at:
+                qsp = -(z @ sol.w)[:, pr] * (lr.sigma[pr] ** 2)[None, :]
+                q[np.ix_(s_at, p_at)] = qsp
+                q[np.ix_(p_at, s_at)] = qsp.T
+        return 0.5 * (q + q.T)
+
     def _key_of(self, t: ComponentTest) -> Key:
         return self._keys_told[(t.kind, t.photo, t.point, t.component)]
 
@@ -764,8 +863,6 @@ class OnlineBundle:
         pred = rows.e.copy()
         var_old = np.zeros(len(rows))
         if prev is not None:
-            from baarda.online.lowrank import times
-
             z = times(rows, *lr.columns())
             pred = pred - z @ prev.we
             var_old = np.einsum("kr,rs,ks->k", z, prev.w, z)

@@ -72,6 +72,9 @@ class Measurements:
         self.i_angles: list[np.ndarray] = []
         self.i_sigma: list[np.ndarray] = []
         self.i_status: list[str] = []
+        # points set aside (OnlineBundle.set_aside): point -> its last image row then; the
+        # point stays out of the block until a ray newer than that is measured
+        self.aside: dict[int, int] = {}
         # what the current step gave: its image rows, and points and photos it touched
         self.fresh_rows: set[int] = set()
         self.fresh_points: set[int] = set()
@@ -213,17 +216,23 @@ class Measurements:
         """Every status and role, to put back (`restore`) when a removal cannot be made."""
         return tuple(list(x) for x in (self.im_status, self.ctrl_status, self.g_status,
                                        self.i_status, self.photo_in, self.point_in,
-                                       self.point_role))
+                                       self.point_role)) + (dict(self.aside),)
 
     def restore(self, snap: tuple) -> None:
         (self.im_status, self.ctrl_status, self.g_status, self.i_status, self.photo_in,
-         self.point_in, self.point_role) = (list(x) for x in snap)
+         self.point_in, self.point_role) = (list(x) for x in snap[:7])
+        self.aside = dict(snap[7])
         self._arrays = None
 
     # ------------------------------------------------------------ questions
     def full_control(self, point: int) -> bool:
         return self.ctrl_status[point] in (HELD, IN) and \
             bool(np.isfinite(self.point_sigma[point]).all())
+
+    def waiting(self, point: int) -> bool:
+        """Whether a point set aside still waits for a new ray."""
+        last = self.aside.get(point)
+        return last is not None and max(self.live_rays(point), default=-1) <= last
 
     def live_rays(self, point: int) -> list[int]:
         """The image rows of a point that are not removed."""

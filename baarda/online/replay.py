@@ -6,8 +6,11 @@ wait for their photos) and adds each photo with all its image points.  `remove="
 keeps every observation, so that the result is the adjustment of the whole block, as
 `baarda adjust` gives it; `remove="worst"` acts as an operator who re-measures: after each
 step, while an observation is rejected, the one with the largest |w| is taken out (an image
-point with both coordinates), together with those the test cannot tell from it (|w| equal:
-the two rays of a two-ray point), as in the replay study (docs/online.md).
+point with both coordinates) - unless the test cannot tell it from another ray of its
+point (`OnlineBundle.inseparable`: the two rays of a two-ray point, the x of three rays
+along one strip).  Then the point is set aside until its next ray, which may tell which ray
+is wrong (`OnlineBundle.set_aside`); a point still set aside when the block is complete
+stays out of it (re-measure it).  The replay study (docs/online.md) runs it.
 """
 
 from __future__ import annotations
@@ -27,7 +30,6 @@ from baarda.options import TestOptions
 COLUMNS = ("step", "kind", "photo", "point", "component", "w", "mdb", "unit", "redundancy",
            "verdict", "ms")
 MAX_REMOVALS = 10  # re-measurements after one step, at most
-TIE = 1e-6  # |w| within this (relative) of the largest: the test cannot tell them apart
 
 
 def tests_table(answers) -> pd.DataFrame:
@@ -53,13 +55,17 @@ def strip_order(block: Block) -> list[int]:
 
 @dataclass(frozen=True)
 class Replay:
-    """The answers of every step, the on-line bundle at the end, and what was taken out
-    (remove="worst": (step, kind, photo, point, component, w) of each removal, in order)."""
+    """The answers of every step, the on-line bundle at the end, what was taken out
+    (remove="worst": (step, kind, photo, point, component, w) of each removal, in order),
+    and the points set aside and never taken in again (out of the final block), each with
+    the components the test could not tell apart when it was set aside: ((point, ((kind,
+    photo, point, component), ...)), ...)."""
 
     answers: tuple[Answer, ...]
     online: OnlineBundle
     removed: tuple[tuple, ...]
     seconds: float
+    aside: tuple[tuple[str, tuple], ...] = ()
 
     def table(self) -> pd.DataFrame:
         """replay.csv (tests_table)."""
@@ -76,6 +82,11 @@ class Replay:
                                            "per photo" if adds else "")]
         if self.removed:
             out.append(f"{len(self.removed)} observation(s) taken out as rejected")
+        if self.aside:
+            out.append(f"{len(self.aside)} point(s) set aside and not taken in again (the "
+                       "test cannot tell which of their rays is wrong: re-measure them): "
+                       + ", ".join(p for p, _ in self.aside[:10])
+                       + (" ..." if len(self.aside) > 10 else ""))
         return out
 
 
@@ -91,6 +102,7 @@ def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "non
     ob = OnlineBundle(start, tests, max_rows=max_rows)
     answers: list[Answer] = []
     removed: list[tuple] = []
+    aside: dict[str, tuple] = {}  # point set aside -> the components the test cannot tell
     ids = block.points.ids
     for i in strip_order(block):
         rows = np.flatnonzero(im.photo == i)
@@ -102,16 +114,19 @@ def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "non
         if progress:
             progress(a)
         if remove == "worst":
-            for b in _remeasure(ob, a, removed):
+            for b in _remeasure(ob, a, removed, aside):
                 answers.append(b)
                 if progress:
                     progress(b)
-    return Replay(tuple(answers), ob, tuple(removed), time.perf_counter() - t0)
+    still = tuple((p, keys) for p, keys in aside.items() if ob.waiting(p))
+    return Replay(tuple(answers), ob, tuple(removed), time.perf_counter() - t0, still)
 
 
-def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
+def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict) -> list[Answer]:
     """Take out the worst rejected observation while there is one (the step's tested
-    components and the verdicts it changed)."""
+    components and the verdicts it changed; an image point with both coordinates, both
+    recorded where both are rejected); set its point aside instead where the test cannot
+    tell it from another of the point's rays (aside: point -> those components)."""
     from baarda.errors import GeometryError
 
     out = []
@@ -119,20 +134,21 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
            if t.verdict == "reject"}
     _update(bad, a.changed)
     for _ in range(MAX_REMOVALS):
+        bad = {k: v for k, v in bad.items() if ob.is_in(k[0], k[1], k[2])}
         if not bad:
             break
-        top = max(abs(v) for v in bad.values())
-        # the largest |w|, with the components the test cannot tell from it (the same
-        # component on the two rays of a two-ray point: |w| equal): re-measured together
-        group = sorted((k for k, v in bad.items() if abs(v) >= (1 - TIE) * top),
-                       key=lambda k: -abs(bad[k]))
-        taken = False
-        for key in group:
-            kind, photo, point, comp = key
-            w = bad.pop(key, None)
-            if w is None or not ob.is_in(kind, photo, point):
-                continue  # no longer rejected, or out with its twin
-            try:
+        key = max(bad, key=lambda k: abs(bad[k]))
+        kind, photo, point, comp = key
+        w = bad.pop(key)
+        try:
+            twins = [k for k, _ in ob.inseparable(*key) if k[0] == "image" and k[1] != photo] \
+                if kind == "image" else []
+            if twins:
+                b = ob.set_aside(point)
+                aside[point] = (key, *twins)
+                what = f"{b.what} (rejected: {comp} on photo {photo}, w {w:.2f}; the test " \
+                    f"cannot tell it from {', '.join(f'{k[3]} on photo {k[1]}' for k in twins)})"
+            else:
                 if kind == "image":
                     b = ob.remove_image_point(photo, point)
                 elif kind == "control":
@@ -141,15 +157,15 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list) -> list[Answer]:
                     b = ob.remove_gnss(photo)
                 else:
                     continue
-            except GeometryError:  # the block would not be determined without it: kept
-                continue
-            taken = True
-            removed.append((a.step, kind, photo, point, comp, w))
-            _update(bad, b.changed)
-            out.append(replace(b, what=f"{b.what} (rejected: w {w:.2f})"))
-        bad = {k: v for k, v in bad.items() if ob.is_in(k[0], k[1], k[2])}
-        if not taken and not bad:
-            break
+                removed.append((a.step, kind, photo, point, comp, w))
+                other = (kind, photo, point, "y" if comp == "x" else "x")
+                if kind == "image" and other in bad:  # rejected too, and out with it
+                    removed.append((a.step, *other, bad.pop(other)))
+                what = f"{b.what} (rejected: w {w:.2f})"
+        except GeometryError:  # the block would not be determined without it
+            continue
+        _update(bad, b.changed)
+        out.append(replace(b, what=what))
     return out
 
 
