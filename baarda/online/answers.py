@@ -111,6 +111,8 @@ class Answer:
     refactorised: bool = False
     k_w: float = float("nan")
     note: str = ""
+    # what the test cannot tell from the first to re-measure: (kind, photo, point, component)
+    twins: tuple[tuple[str, str, str, str], ...] = ()
 
     @property
     def verdict(self) -> str:
@@ -165,7 +167,6 @@ class Answer:
         rem = self.remeasure()
         if rem:
             t = rem[0]
-            twins = [u for u in rem[1:] if abs(abs(u.w) - abs(t.w)) <= 1e-6 * abs(t.w)]
             what = {"image": f"POINT {t.point} ON PHOTO {t.photo}",
                     "control": f"CONTROL POINT {t.point}",
                     "gnss": f"THE GNSS POSITION OF PHOTO {t.photo}",
@@ -173,7 +174,12 @@ class Answer:
             lines.append(f"  REMEASURE {what} ({t.component}: SIGF {abs(t.w):.2f} > "
                          f"{self.k_w:.2f})" + (
                              "; the test cannot tell it from " + ", ".join(
-                                 _name(u) for u in twins) if twins else ""))
+                                 _name(Change(*u, "", "", 0.0)) for u in self.twins)
+                             if self.twins else ""))
+            if t.kind == "image" and any(u[0] == "image" and u[1] != t.photo
+                                         for u in self.twins):
+                lines.append(f"  or set point {t.point} aside until its next ray tells which "
+                             f"ray is wrong: aside {t.point}")
         elif self.tested:
             unchecked = [t for t in self.tested if t.verdict == "suspect"]
             lines.append(f"  {self.verdict.upper()}" + (

@@ -415,7 +415,8 @@ class OnlineBundle:
             refac = True
         return self._answer(action="add", what=what, tested=tuple(tested),
                             held=tuple(self._held_words()), changed=tuple(changed),
-                            refactorised=refac, seconds=time.perf_counter() - t0)
+                            refactorised=refac, twins=self._twins(tested),
+                            seconds=time.perf_counter() - t0)
 
     @single_threaded_blas
     def _removed(self, t0: float, what: str, apply) -> Answer:
@@ -628,6 +629,7 @@ class OnlineBundle:
             self._verdict[k] = t.verdict
         ans = self._answer(action="first adjustment", what=what, tested=tuple(tested),
                            held=tuple(self._held_words()), refactorised=True,
+                           twins=self._twins(tested),
                            note=f"first adjustment: {len(photos)} photos, {len(points)} "
                            f"points", seconds=time.perf_counter() - t0)
         self.first = ans
@@ -783,6 +785,15 @@ class OnlineBundle:
             out.append(self._component(f.keys[n], t.predicted, t.sigma_predicted, float(w[n]),
                                        float(r[n]), float(v[n]), float(sv[n]), float(mdb[n])))
         return out
+
+    def _twins(self, tested: list[ComponentTest]) -> tuple[tuple, ...]:
+        """What the test cannot tell from the rejected component with the largest |w|
+        (`inseparable`): ((kind, photo, point, component), ...)."""
+        rej = [t for t in tested if t.verdict == "reject"]
+        if not rej:
+            return ()
+        t = max(rej, key=lambda t: abs(t.w))
+        return tuple(k for k, _ in self.inseparable(t.kind, t.photo, t.point, t.component))
 
     def _sigma_of(self, key: Key) -> float:
         m = self.m

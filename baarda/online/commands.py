@@ -11,6 +11,8 @@ each (docs/online.md, "The growing bundle").
     gnss PHOTO X Y Z [sX sY sZ]         the GNSS antenna position of a photo (m)
     remeasure PHOTO POINT x y [sigma]   replace an image point (removed, added, tested)
     remove point PHOTO POINT | remove control POINT | remove gnss PHOTO | remove photo PHOTO
+    aside POINT                         take a point out until its next ray (the test cannot
+                                        tell which of its rays is wrong; the next may)
     status                              the block now: photos, sigma0, rejected observations
     help | quit
 
@@ -29,8 +31,8 @@ from baarda.online.answers import Answer
 from baarda.online.bundle import OnlineBundle
 from baarda.relative.online_commands import LineError, parse_number
 
-KEYWORDS = ("point", "photo", "end", "control", "gnss", "remeasure", "remove", "status",
-            "help", "quit")
+KEYWORDS = ("point", "photo", "end", "control", "gnss", "remeasure", "remove", "aside",
+            "status", "help", "quit")
 HELP = __doc__.split("\n\n")[1]
 
 
@@ -156,6 +158,11 @@ class BundleInterpreter:
             raise LineError("remove point PHOTO POINT | remove control POINT | remove gnss "
                             "PHOTO | remove photo PHOTO")
         self._tell(a)
+
+    def _aside(self, fields, word) -> None:
+        if len(fields) != 1:
+            raise LineError("aside POINT")
+        self._tell(self.ob.set_aside(fields[0]))
 
     def _status(self, fields, word) -> None:
         self.say(self.ob.status())

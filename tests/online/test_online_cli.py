@@ -179,3 +179,24 @@ def test_bad_lines_and_options(partial_project, tmp_path, monkeypatch, capsys):
                  str(tmp_path / "x")]) == 2
     assert "--focal belongs to the model-by-model" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_aside_until_the_next_ray(partial_project, monkeypatch, capsys):
+    """`aside POINT`: the point leaves the block; a new ray brings it back with every ray of
+    it tested again."""
+    folder, lines = partial_project
+    x, y = lines[-1].split()[3:5]
+    text = "\n".join([*lines, "aside 008007", "remove point 04006 008007",
+                      f"point 04006 008007 {x} {y}", "aside 999999"]) + "\n"
+    monkeypatch.setattr(sys, "stdin", io.StringIO(text))
+    assert main(["online", "--bundle", str(folder), "--json"]) == 2  # the unknown point
+    out, err = capsys.readouterr()
+    answers = [json.loads(ln) for ln in out.splitlines()]
+    assert answers[3]["what"] == "point 008007 (set aside until its next ray)"
+    assert answers[3]["refactorised"]
+    back = answers[5]
+    rays = {t["photo"] for t in back["tested"] if t["point"] == "008007"}
+    block = baarda.read(DEMO)
+    j = block.points.ids.index("008007")
+    assert rays == {block.photos.ids[i] for i in block.image.photo[block.image.point == j]}
+    assert f"line {len(lines) + 4}: point 999999 is not measured" in err
