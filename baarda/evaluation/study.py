@@ -58,7 +58,7 @@ from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.pipeline import adjust
 from baarda.quality.iterative import inseparable_partners
 from baarda.quality.separability import RHO_INSEPARABLE
-from baarda.quality.statistics import analyse
+from baarda.quality.statistics import QualityResult, analyse
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
 KINDS = ("x", "y", "X", "Y", "Z")
@@ -122,7 +122,24 @@ def run_trial(options: StudyOptions, trial: int) -> TrialRows:
         return _trial(options, trial)
 
 
-def _trial(options: StudyOptions, trial: int) -> TrialRows:
+@dataclass(frozen=True)
+class PlantedBlock:
+    """A trial's block: simulated without blunders (`block`, its adjustment `model` and
+    statistics `q`), the flat components `rows` that get blunders of `size_mdb` times
+    their MDB (`sizes` in model units), and the blundered block."""
+
+    block: Block
+    model: BundleModel
+    q: QualityResult
+    rows: np.ndarray
+    size_mdb: np.ndarray
+    sizes: np.ndarray
+    blundered: Block
+
+
+def planted_block(options: StudyOptions, trial: int) -> PlantedBlock:
+    """Steps 1-2 of a trial (module docstring): the same block and blunders for every
+    strategy, and for any tool that looks at one trial again."""
     seq = np.random.SeedSequence([options.seed, trial])
     plan = replace(options.plan, seed=int(seq.generate_state(1)[0] % 2**31), blunders=0,
                    noise=True)
@@ -140,6 +157,14 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
     a, b = options.size_mdb
     size_mdb = rng.uniform(a, b, k) * rng.choice([-1.0, 1.0], k)
     sizes = size_mdb * q.mdb[rows]
+    return PlantedBlock(block, model, q, rows, size_mdb, sizes,
+                        _plant(block, model, rows, sizes))
+
+
+def _trial(options: StudyOptions, trial: int) -> TrialRows:
+    p = planted_block(options, trial)
+    model, q, rows, size_mdb, sizes = p.model, p.q, p.rows, p.size_mdb, p.sizes
+    k = len(rows)
     # the components each blunder cannot be told from in the blunder-free block
     groups, rho_max = [], []
     for i in rows.tolist():
@@ -147,7 +172,7 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
         big = np.abs(rho) >= RHO_INSEPARABLE
         groups.append(set(idx[big].tolist()))
         rho_max.append(float(np.max(np.abs(rho))) if len(rho) else 0.0)
-    blundered = _plant(block, model, rows, sizes)
+    blundered = p.blundered
     fmodel = BundleModel(adjust(blundered))
     fq = analyse(fmodel, options.tests, separability=False)
     keys = component_keys(fmodel)
