@@ -37,7 +37,7 @@ from baarda.errors import GeometryError
 from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, verdicts
 from baarda.online.approximations import intersect, prepared, prune, refine
-from baarda.online.lowrank import LowRank, Rows, times
+from baarda.online.lowrank import LowRank, Rows, quad_diag, times
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
 from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows
 from baarda.options import SolveOptions, TestOptions
@@ -876,7 +876,7 @@ class OnlineBundle:
         if prev is not None:
             z = times(rows, *lr.columns())
             pred = pred - z @ prev.we
-            var_old = np.einsum("kr,rs,ks->k", z, prev.w, z)
+            var_old = quad_diag(z, prev.w)
         r0 = lr.r
         lr.add(rows, len(self._y0))
         try:

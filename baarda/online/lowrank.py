@@ -60,20 +60,46 @@ class Rows:
         return len(self.sigma)
 
 
+GATHER = 200_000  # k q above this: rows grouped by unknown block, no (k, b, q) gather
+
+
 def times(rows: Rows, hf: np.ndarray, hp: np.ndarray, hg: np.ndarray) -> np.ndarray:
     """a H for the rows' Jacobians a (over the factorisation's unknowns) and q columns H in
     the factor's parts (nf, b, q), (np, d, q), (ng, q): (k, q)."""
     q = hf.shape[2]
     out = np.zeros((len(rows), q))
-    f = rows.frame >= 0
-    if f.any():
-        out[f] += np.einsum("kb,kbq->kq", rows.jf[f], hf[rows.frame[f]])
-    p = rows.point >= 0
-    if p.any():
-        out[p] += np.einsum("kd,kdq->kq", rows.jp[p], hp[rows.point[p]])
+    f = np.flatnonzero(rows.frame >= 0)
+    if len(f):
+        out[f] += _block_times(rows.jf[f], rows.frame[f], hf)
+    p = np.flatnonzero(rows.point >= 0)
+    if len(p):
+        out[p] += _block_times(rows.jp[p], rows.point[p], hp)
     if hg.shape[0]:
         out += rows.jg @ hg
     return out
+
+
+def _block_times(j: np.ndarray, idx: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """Row i of the result: j[i] @ h[idx[i]] ((k, b), (k,), (n, b, q) -> (k, q)).  Few rows:
+    one einsum over the gathered blocks; many: one product per block they touch (the gather
+    would copy k b q numbers)."""
+    k, q = len(idx), h.shape[2]
+    if k * q <= GATHER:
+        return np.einsum("kb,kbq->kq", j, h[idx])
+    out = np.empty((k, q))
+    order = np.argsort(idx, kind="stable")
+    blocks, start = np.unique(idx[order], return_index=True)
+    stop = np.append(start[1:], k)
+    for u, a, b in zip(blocks.tolist(), start.tolist(), stop.tolist(), strict=True):
+        sel = order[a:b]
+        out[sel] = j[sel] @ h[u]
+    return out
+
+
+def quad_diag(z: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """diag(z W z^T) for z (k, r), W (r, r) symmetric: ((z W) * z) summed over r (a matrix
+    product, not einsum's r^2 loop per row)."""
+    return np.sum((z @ w) * z, axis=1)
 
 
 class LowRank:
@@ -198,7 +224,7 @@ class LowRank:
             return q0, v0
         sol = self.solution()
         z = times(rows, *self.columns())
-        return (q0 - np.einsum("jr,rs,js->j", z, sol.w, z), v0 + z @ sol.we)
+        return q0 - quad_diag(z, sol.w), v0 + z @ sol.we
 
 
 @dataclass(frozen=True)

@@ -142,3 +142,21 @@ def test_prediction_before_inclusion(case):
     assert np.allclose([t[0].redundancy, t[1].redundancy],
                        np.diag(qvv) / ob.m.im_sigma[r] ** 2, rtol=1e-8)
     assert np.allclose([t[0].w, t[1].w], -v / np.sqrt(np.diag(qvv)), rtol=1e-8)
+
+
+def test_block_products_grouped_equal_the_gathered_ones():
+    """times() groups the rows by photo or point when the gather would copy k b q numbers
+    (a snapshot of 400 points on 12 photos: 52 s -> 6 s); the same numbers either way."""
+    from baarda.online.lowrank import GATHER, _block_times, quad_diag
+
+    rng = np.random.default_rng(3)
+    k, b, q, n = 900, 6, 300, 40
+    assert k * q > GATHER
+    j, h = rng.normal(size=(k, b)), rng.normal(size=(n, b, q))
+    idx = rng.integers(0, n, k)
+    ref = np.einsum("kb,kbq->kq", j, h[idx])
+    assert np.abs(_block_times(j, idx, h) - ref).max() < 1e-12 * np.abs(ref).max()
+    z, w = rng.normal(size=(k, q)), rng.normal(size=(q, q))
+    w = w @ w.T
+    ref = np.einsum("kr,rs,ks->k", z, w, z)
+    assert np.abs(quad_diag(z, w) - ref).max() < 1e-12 * np.abs(ref).max()
