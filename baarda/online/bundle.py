@@ -39,13 +39,14 @@ from baarda.online.answers import Answer, Change, ComponentTest, verdicts
 from baarda.online.approximations import intersect, prepared, prune, refine
 from baarda.online.lowrank import LowRank, Rows, quad_diag, times
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
-from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows
+from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows, take
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.separability import RHO_INSEPARABLE
 
 MAX_ROWS = 120  # rows added before the block is factored again
 MAX_HELD_PHOTOS = 50  # held photos looked at together when one is added
+CHUNK = 256  # rows solved together for a large group's predictions
 LINEAR_LIMIT = 3e-4  # corrections (angles rad, positions / flying height) that refactor
 COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
               "imu": ("omega", "phi", "kappa")}
@@ -404,12 +405,11 @@ class OnlineBundle:
             return self._answer(action="add", what=what, held=tuple(self._held_words()),
                                 seconds=time.perf_counter() - t0)
         try:
-            tested, changed = self._take_in(group)
+            tested, changed, refac = self._take_in(group)
         except GeometryError as e:
             return self._answer(action="add", what=what, held=tuple(self._held_words()),
                                 note=str(e), seconds=time.perf_counter() - t0)
-        refac = False
-        if len(self._pending) > self.max_rows or self._nonlinear():
+        if not refac and (len(self._pending) > self.max_rows or self._nonlinear()):
             changed = _merge(changed, self._refactor())
             tested = self._exact(tested)
             refac = True
@@ -861,10 +861,12 @@ class OnlineBundle:
         return out
 
     # ------------------------------------------------------------ taking rows in
-    def _take_in(self, group: dict) -> tuple[list[ComponentTest], list[Change]]:
-        f = self._f
-        lr = f.lowrank
-        m = self.m
+    def _take_in(self, group: dict) -> tuple[list[ComponentTest], list[Change], bool]:
+        """Take a group of held observations in and test them: (the tests, the verdicts
+        that changed, whether the block was factored again).  A group of more rows than a
+        factorisation takes (a photo of hundreds of points) goes straight into a new
+        factorisation (`_take_in_factored`); a smaller one is a low-rank update."""
+        lr = self._f.lowrank
         ny0, ycol0 = len(self._y0), dict(self._ycol)
         y0 = self._new_unknowns(group)
         keys, rows = self._rows(group, y0)
@@ -877,6 +879,8 @@ class OnlineBundle:
             z = times(rows, *lr.columns())
             pred = pred - z @ prev.we
             var_old = quad_diag(z, prev.w)
+        if len(rows) > self.max_rows:
+            return self._take_in_factored(group, keys, rows, plain, pred, var_old, ny0, ycol0)
         r0 = lr.r
         lr.add(rows, len(self._y0))
         try:
@@ -886,15 +890,7 @@ class OnlineBundle:
             self._ycol, self._y0 = ycol0, self._y0[:ny0]
             raise GeometryError("held: these observations do not determine the new photo "
                                 "or point yet") from None
-        # the group is in
-        for kind, status in (("image", m.im_status), ("control", m.ctrl_status),
-                             ("gnss", m.g_status), ("imu", m.i_status)):
-            for r in group[kind]:
-                status[r] = IN
-        for i in group["photos"]:
-            m.photo_in[i] = True
-        for j in group["points"]:
-            m.point_in[j] = True
+        self._mark(group)
         self._pending += keys
         k = len(rows)
         sl = slice(r0, r0 + k)
@@ -913,8 +909,60 @@ class OnlineBundle:
                                           float(w), float(r), float(sol.v[r0 + n]), float(sv),
                                           float(mdb)))
             self._verdict[key] = tested[-1].verdict
-        changed = self._neighbourhood(group, keys, sol, r0)
-        return tested, changed
+        # a step that brings more rows than a factorisation takes since the last one is
+        # factored at once (_added), every verdict checked there: no neighbourhood first
+        changed = [] if len(self._pending) > self.max_rows else \
+            self._neighbourhood(group, keys, sol, r0)
+        return tested, changed, False
+
+    def _mark(self, group: dict) -> None:
+        """The group is in the block."""
+        m = self.m
+        for kind, status in (("image", m.im_status), ("control", m.ctrl_status),
+                             ("gnss", m.g_status), ("imu", m.i_status)):
+            for r in group[kind]:
+                status[r] = IN
+        for i in group["photos"]:
+            m.photo_in[i] = True
+        for j in group["points"]:
+            m.point_in[j] = True
+
+    def _take_in_factored(self, group: dict, keys: list, rows: Rows, plain: np.ndarray,
+                          pred: np.ndarray, var_old: np.ndarray, ny0: int, ycol0: dict
+                          ) -> tuple[list[ComponentTest], list[Change], bool]:
+        """A large group: its prediction's variance sigma^2 + a N0^-1 a^T - (the rows since
+        the factorisation) for the rows between known photos and points (solves with the
+        factor in chunks, nothing kept), then the block factored again with it, every
+        component tested from that factorisation."""
+        lr = self._f.lowrank
+        sel = np.flatnonzero(plain)
+        mdiag = np.zeros(len(rows))
+        for a in range(0, len(sel), CHUNK):
+            part = take(rows, sel[a:a + CHUNK])
+            mdiag[sel[a:a + CHUNK]] = np.diagonal(times(part, *lr.solve(part)))
+        s2 = rows.sigma ** 2
+        sig_pred = np.where(plain, np.sqrt(s2 + mdiag - var_old), np.nan)
+        pred = np.where(plain, pred, np.nan)
+        before = self.m.snapshot()
+        self._mark(group)
+        try:
+            changed = self._refactor()
+        except GeometryError:
+            self.m.restore(before)
+            self._ycol, self._y0 = ycol0, self._y0[:ny0]
+            self._refactor()
+            raise GeometryError("held: these observations do not determine the new photo "
+                                "or point yet") from None
+        f = self._f
+        w, r, v, sv, mdb = self._stats(f)
+        tested = []
+        for n, key in enumerate(keys):
+            at = f.flat_of[key]
+            tested.append(self._component(key, float(pred[n]), float(sig_pred[n]),
+                                          float(w[at]), float(r[at]), float(v[at]),
+                                          float(sv[at]), float(mdb[at])))
+            self._verdict[key] = tested[-1].verdict
+        return tested, changed, True
 
     def _neighbourhood(self, group: dict, new_keys: list, sol, r0: int) -> list[Change]:
         """Verdict changes among the factorisation's observations on the photos and points

@@ -9,6 +9,8 @@ observed coordinates of control), each IMU attitude three.
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
 from baarda.adjustment.schur import SchurFactor
@@ -33,6 +35,11 @@ def empty_rows(ng: int) -> Rows:
     return Rows(np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, np.int64),
                 np.zeros((0, 3)), np.zeros((0, ng)), np.zeros((0, KY), np.int64),
                 np.zeros((0, KY)), np.zeros(0), np.zeros(0))
+
+
+def take(rows: Rows, idx: np.ndarray) -> Rows:
+    """The rows idx of rows."""
+    return Rows(*(getattr(rows, f.name)[idx] for f in fields(Rows)))
 
 
 def concat(parts: list[Rows], ng: int) -> Rows:

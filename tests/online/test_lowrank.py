@@ -160,3 +160,39 @@ def test_block_products_grouped_equal_the_gathered_ones():
     w = w @ w.T
     ref = np.einsum("kr,rs,ks->k", z, w, z)
     assert np.abs(quad_diag(z, w) - ref).max() < 1e-12 * np.abs(ref).max()
+
+
+def test_a_large_photo_goes_straight_into_a_factorisation():
+    """A group of more rows than a factorisation takes is factored with the block at once
+    (no r x r problem of hundreds of rows): its predictions are the low-rank path's, its
+    tests the exact ones (the low-rank path's are first order in the new photo's
+    approximation: r to 5e-3, w to 2e-3 here)."""
+    block = simulate_block(FlightPlan(strips=2, photos_per_strip=6, pattern=5, seed=8))[0]
+    im, ids, pids = block.image, block.photos.ids, block.points.ids
+    late = [i for i, s in enumerate(block.photos.strip) if s == block.photos.strip[-1]][-2:]
+    # and 8 image points of photo 2 whose points stay in the block by their other rays
+    rays = np.bincount(im.point, minlength=len(pids))
+    again = [r for r in np.flatnonzero(im.photo == 2) if rays[im.point[r]] >= 3][:8]
+    keep = ~np.isin(im.photo, late)
+    keep[again] = False
+    start = block.select_image(keep)
+    steps = [(ids[2], again)] + [(ids[i], np.flatnonzero(im.photo == i)) for i in late]
+    answers = {}
+    for max_rows in (5, 10_000):
+        ob = OnlineBundle(start, max_rows=max_rows)
+        answers[max_rows] = [ob.add_photo(photo, {pids[im.point[r]]: tuple(im.xy_mm[r])
+                                                  for r in rows}) for photo, rows in steps]
+    for big, small in zip(answers[5], answers[10_000], strict=True):
+        assert big.refactorised and not small.refactorised and len(big.tested) > 5
+        assert [t.verdict for t in big.tested] == [t.verdict for t in small.tested]
+        for a, b in zip(big.tested, small.tested, strict=True):
+            assert (a.photo, a.point, a.component) == (b.photo, b.point, b.component)
+            assert a.redundancy == pytest.approx(b.redundancy, rel=5e-3, abs=1e-5)
+            assert a.w == pytest.approx(b.w, abs=2e-3, nan_ok=True)
+    # photo 2's points, the first step: predicted from the same block by both paths
+    known = zip(answers[5][0].tested, answers[10_000][0].tested, strict=True)
+    for a, b in known:
+        assert np.isfinite(a.predicted)
+        assert a.predicted == pytest.approx(b.predicted, rel=1e-9, abs=1e-12)
+        assert a.sigma_predicted == pytest.approx(b.sigma_predicted, rel=1e-9)
+    assert len(answers[5][0].tested) == 16
