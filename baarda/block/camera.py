@@ -87,6 +87,39 @@ def _table(values, n: int, k: int, fill: float) -> np.ndarray:
     return out
 
 
+def _width(values, n: int) -> int:
+    return 0 if values is None else np.asarray(values, float).reshape(n, -1).shape[1]
+
+
+def with_camera(cameras, other, i: int):
+    """`cameras` with camera i of `other` appended (a Cameras; the per-camera tables
+    widened to the wider of the two: coefficients 0, constants and pixel sizes NaN where
+    one has none)."""
+    n, m = len(cameras), len(other)
+    kind = np.concatenate([kinds(cameras), kinds(other)[[i]]])
+    kc = max(_width(cameras.coefficients, n), _width(other.coefficients, m))
+    kk = max(_width(cameras.constants, n), _width(other.constants, m))
+
+    def stacked(a, b, k, fill):
+        return np.vstack([_table(a, n, k, fill), _table(b, m, k, fill)[[i]]]) if k else None
+
+    free = None
+    if cameras.free is not None or other.free is not None:
+        free = tuple(cameras.free or ((),) * n) + ((other.free or ((),) * m)[i],)
+    pixel = None
+    if cameras.pixel_mm is not None or other.pixel_mm is not None:
+        pixel = np.append(_table(cameras.pixel_mm, n, 1, np.nan)[:, 0],
+                          _table(other.pixel_mm, m, 1, np.nan)[i, 0])
+    return replace(cameras, ids=list(cameras.ids) + [other.ids[i]],
+                   focal_mm=np.append(cameras.focal_mm, other.focal_mm[i]),
+                   principal_point_mm=np.vstack([cameras.principal_point_mm,
+                                                 other.principal_point_mm[[i]]]),
+                   model=None if (kind == "none").all() else kind,
+                   coefficients=stacked(cameras.coefficients, other.coefficients, kc, 0.0),
+                   constants=stacked(cameras.constants, other.constants, kk, np.nan),
+                   free=free, pixel_mm=pixel)
+
+
 def _cameras_of_side(block, side: str):
     """(model, rows of block.image, and per row its principal point [mm] (m, 2),
     coefficients (m, k), constants (m, c) and camera (m,)) of the cameras with a

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.block.photo_block import Block
+from baarda.block.camera import with_camera
+from baarda.block.photo_block import Block, Cameras
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import SOLVE, BundleProblem
 from baarda.bundle.bundle_result import BundleResult
@@ -173,6 +174,24 @@ class OnlineBundle:
         if gnss is not None:
             m.gnss(i, gnss[0], gnss[1])
         return self._added(t0, f"photo {photo}, {len(points)} image point(s)")
+
+    def add_camera(self, cameras: Cameras, index: int = 0) -> Answer:
+        """A camera for photos still to come: camera `index` of `cameras` (a Block's),
+        its interior orientation and model held as given.  Refused: an id the block has,
+        parameters to be estimated (new unknowns of the whole block: adjust with baarda
+        adjust).  A block already adjusted is factored again with it (the same solution)."""
+        t0 = time.perf_counter()
+        cid = cameras.ids[index]
+        if cid in self.m.cameras.ids:
+            raise ValueError(f"camera {cid} is in the block already")
+        if cameras.free is not None and cameras.free[index]:
+            raise ValueError(f"camera {cid}: the on-line bundle does not estimate the "
+                             f"parameters of a new camera ({', '.join(cameras.free[index])})")
+        self.m.cameras = with_camera(self.m.cameras, cameras, index)
+        changed = self._refactor() if self._f is not None else []
+        return self._answer(action="camera", what=f"camera {cid}", changed=tuple(changed),
+                            refactorised=self._f is not None,
+                            seconds=time.perf_counter() - t0)
 
     def add_control(self, point: str, xyz, sigma) -> Answer:
         """Control coordinates X, Y, Z (m) of a point with their sigmas (NaN: not

@@ -223,9 +223,11 @@ class Watch:
                 i = block.photos.ids.index(photo)
                 cam = cams[int(block.photos.camera[i])]
                 if cam not in ob.m.cameras.ids:
-                    raise ProjectError(name, f"photo {photo}: camera {cam} is not in the "
-                                       "first snapshot (the on-line bundle keeps the cameras "
-                                       "it started with)")
+                    try:
+                        self._say(name, ob.add_camera(block.cameras,
+                                                      int(block.photos.camera[i])))
+                    except ValueError as e:
+                        raise ProjectError(name, f"photo {photo}: {e}") from None
                 kw = {"camera": cam, "eo": eo[photo], "strip": block.photos.strip[i]}
             self._say(name, ob.add_photo(photo, by_photo[photo], **kw))
             self._obs.update({(photo, p): xy for p, xy in by_photo[photo].items()})

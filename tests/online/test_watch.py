@@ -13,7 +13,7 @@ import pytest
 from baarda.cli import main
 from baarda.io.colmap import ColmapCamera, ColmapImages, ColmapModel, ColmapPoints
 from baarda.io.colmap_block import eo_to_pose
-from baarda.online.watch import Watch, snapshots
+from baarda.online.watch import Watch, snapshots, watch
 from baarda.output.format_files import write_colmap
 from baarda.simulate.aerial import FlightPlan, simulate_block
 
@@ -35,7 +35,8 @@ def moved_poses(poses, s: float, rot: np.ndarray, t: np.ndarray):
     return out
 
 
-def colmap_model(block, truth_xyz, photos, drop=(), blunder=None, move=None) -> ColmapModel:
+def colmap_model(block, truth_xyz, photos, drop=(), blunder=None, move=None,
+                 camera2=()) -> ColmapModel:
     """The COLMAP model of `photos` (indices) of a simulated block: their image points of
     the points seen at least twice among them, less the (photo, point) pairs in `drop`, with
     `blunder` ((photo, point), dx px) added; `move` (s, rot, t): in a frame moved by that
@@ -66,13 +67,17 @@ def colmap_model(block, truth_xyz, photos, drop=(), blunder=None, move=None) -> 
         xyz = move[0] * xyz @ move[1].T + move[2]
     images = ColmapImages.from_lists(
         np.arange(1, len(photos) + 1), [q for q, _ in poses], [t for _, t in poses],
-        np.ones(len(photos)), [f"{block.photos.ids[i]}.jpg" for i in photos], xys, p3d)
+        np.array([2 if i in camera2 else 1 for i in photos]),
+        [f"{block.photos.ids[i]}.jpg" for i in photos], xys, p3d)
     js = sorted(pid)
     points = ColmapPoints.from_lists([pid[j] for j in js], xyz[js],
                                      np.zeros((len(js), 3)), np.zeros(len(js)),
                                      [tracks[j][0] for j in js], [tracks[j][1] for j in js])
     cam = ColmapCamera("SIMPLE_PINHOLE", W, H, np.array([153.0 / PM, W / 2, H / 2]))
-    return ColmapModel({1: cam}, images, points)
+    cams = {1: cam}
+    if any(i in camera2 for i in photos):  # a second camera (the same interior orientation)
+        cams[2] = ColmapCamera("SIMPLE_PINHOLE", W, H, np.array([153.0 / PM, W / 2, H / 2]))
+    return ColmapModel(cams, images, points)
 
 
 @pytest.fixture(scope="module")
@@ -112,7 +117,7 @@ def grown(tmp_path_factory):
               colmap_model(block, xyz, order, drop=(bad, other), move=move)]
     for n, m in enumerate(models, 1):
         write_colmap(m, dm / f"{n:08d}")
-    return d, bad, other, block, dm
+    return d, bad, other, block, dm, xyz
 
 
 def test_snapshots_in_order(grown):
@@ -255,8 +260,6 @@ def test_watch_a_model_rewritten_in_place(grown, tmp_path):
 def test_watch_function_once(grown):
     """The API's one call (`baarda.online.watch.watch`): every snapshot taken in, in order,
     each answer passed to `progress`, the blunder rejected at snapshot 3."""
-    from baarda.online.watch import watch
-
     seen = []
     w = watch(grown[0], once=True, interval=0.0,
               progress=lambda name, answer: seen.append(name))
@@ -267,3 +270,31 @@ def test_watch_function_once(grown):
     pt = str(1000 + grown[3].points.ids.index(bad[1]))
     row = t[(t.photo == bad[0]) & (t.point == pt) & (t.component == "x")]
     assert list(row.verdict) == ["reject"] and list(row.snapshot) == ["00000003"]
+
+
+def test_a_new_camera_in_a_later_snapshot(grown, tmp_path):
+    """The photos of the second strip taken with a second camera that the first snapshots
+    do not have (COLMAP gives each camera of a run its own id): the camera is added with
+    them, and the end equals `baarda adjust` of the last snapshot."""
+    block, xyz = grown[3], grown[5]
+    d = tmp_path / "sparse"
+    order = list(range(12))
+    second = set(range(6, 12))
+    for n, photos in enumerate((order[:6], order[:9], order), 1):
+        write_colmap(colmap_model(block, xyz, photos, camera2=second), d / f"{n:08d}")
+    out, ref = tmp_path / "out", tmp_path / "ref"
+    assert main(["online", "--bundle", "--watch", str(d), "--once", "-o", str(out),
+                 "-q"]) == 0
+    assert main(["adjust", str(d / "00000003"), "-o", str(ref), "-q"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    s0 = json.loads((ref / "summary.json").read_text())
+    assert s["redundancy"] == s0["redundancy"]
+    assert s["sigma0"] == pytest.approx(s0["sigma0"], rel=1e-8)
+    w = pd.read_csv(out / "watch.csv", dtype={"snapshot": str, "photo": str})
+    assert set(w.loc[w["snapshot"] == "00000002", "photo"]) >= {"02001", "02002", "02003"}
+    said = []
+    watch(d, once=True, interval=0.0, progress=lambda snap, a: said.append((snap, a)))
+    assert [(snap, a.what) for snap, a in said if a.action == "camera"] == [
+        ("00000002", "camera 2")]
+    assert said[-1][1].tested and all(t.verdict != "reject" for _, a in said
+                                      for t in a.tested)
