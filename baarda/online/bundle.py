@@ -38,15 +38,15 @@ from baarda.errors import GeometryError
 from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, verdicts
 from baarda.online.approximations import intersect, prepared, prune, refine
+from baarda.online.entering import entering, held_words, leaving, mark, mark_in
 from baarda.online.lowrank import LowRank, Rows, quad_diag, times
-from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
+from baarda.online.measurements import HELD, IN, REMOVED, Measurements
 from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows, take
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.separability import RHO_INSEPARABLE
 
 MAX_ROWS = 120  # rows added before the block is factored again
-MAX_HELD_PHOTOS = 50  # held photos looked at together when one is added
 CHUNK = 256  # rows solved together for a large group's predictions
 LINEAR_LIMIT = 3e-4  # corrections (angles rad, positions / flying height) that refactor
 COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
@@ -419,21 +419,21 @@ class OnlineBundle:
     def _added(self, t0: float, what: str) -> Answer:
         if self._f is None:
             return self._start(t0, what)
-        group = self._entering()
+        group = entering(self.m, self._has_orientation)
         if not group:
-            return self._answer(action="add", what=what, held=tuple(self._held_words()),
+            return self._answer(action="add", what=what, held=tuple(held_words(self.m)),
                                 seconds=time.perf_counter() - t0)
         try:
             tested, changed, refac = self._take_in(group)
         except GeometryError as e:
-            return self._answer(action="add", what=what, held=tuple(self._held_words()),
+            return self._answer(action="add", what=what, held=tuple(held_words(self.m)),
                                 note=str(e), seconds=time.perf_counter() - t0)
         if not refac and (len(self._pending) > self.max_rows or self._nonlinear()):
             changed = _merge(changed, self._refactor())
             tested = self._exact(tested)
             refac = True
         return self._answer(action="add", what=what, tested=tuple(tested),
-                            held=tuple(self._held_words()), changed=tuple(changed),
+                            held=tuple(held_words(self.m)), changed=tuple(changed),
                             refactorised=refac, twins=self._twins(tested),
                             seconds=time.perf_counter() - t0)
 
@@ -447,7 +447,7 @@ class OnlineBundle:
         apply()
         if self._f is None:
             return self._answer(action="remove", what=what, seconds=time.perf_counter() - t0)
-        self._leaving()
+        leaving(self.m)
         if not any(b == IN and a != IN for b, a in zip(
                 before[0] + before[1] + before[2] + before[3],
                 m.im_status + m.ctrl_status + m.g_status + m.i_status, strict=True)):
@@ -466,7 +466,7 @@ class OnlineBundle:
                     raise GeometryError(f"{what} cannot be taken out: {e}") from None
                 m.photo_in[m.photo_at[bad.group(1)]] = False
                 left.append(bad.group(1))
-                self._leaving()
+                leaving(self.m)
         else:
             m.restore(before)
             self._refactor()
@@ -476,59 +476,7 @@ class OnlineBundle:
                             note=f"photo(s) {', '.join(left)} no longer determined: held"
                             if left else "")
 
-    # ------------------------------------------------------------ which rows enter
-    def _entering(self) -> dict:
-        """The held observations that enter the block now: the photos of this step and the
-        held photos connected to them through held points, with the points they see, pruned
-        to those that determine each other (`_prune`), with every held row between them and
-        the block, the control of entering points and the GNSS/IMU of entering photos.
-        Returns {"image": rows, "control": points, "gnss": rows, "imu": rows, "photos": new
-        photos, "points": new points} or {} when nothing enters."""
-        m = self.m
-        held = m.fresh()
-        cand = {i for i in m.fresh_photos if not m.photo_in[i]} | \
-            {m.im_photo[r] for r in held if not m.photo_in[m.im_photo[r]]}
-        frontier = list(cand)
-        while frontier and len(cand) < MAX_HELD_PHOTOS:  # a strip measured before it holds
-            i = frontier.pop()
-            for r in m.rows_of_photo[i]:
-                j = m.im_point[r]
-                if m.im_status[r] != HELD or m.point_in[j]:
-                    continue
-                for x in m.rows_of_point[j]:
-                    k = m.im_photo[x]
-                    if m.im_status[x] == HELD and not m.photo_in[k] and k not in cand:
-                        cand.add(k)
-                        frontier.append(k)
-        photos = {i for i in cand if self._has_orientation(i)}
-        points = {m.im_point[r] for r in held if not m.point_in[m.im_point[r]]}
-        points |= {m.im_point[r] for i in photos for r in m.rows_of_photo[i]
-                   if m.im_status[r] == HELD and not m.point_in[m.im_point[r]]}
-        points |= {j for j in m.fresh_points if not m.point_in[j]}
-        photos, points = prune(m, photos, points, m.photo_in, m.point_in)
-
-        def photo_ok(i):
-            return m.photo_in[i] or i in photos
-
-        def point_ok(j):
-            return m.point_in[j] or j in points
-
-        rows = set(held) | {r for i in photos for r in m.rows_of_photo[i]} | \
-            {r for j in points for r in m.rows_of_point[j]}
-        rows = sorted(r for r in rows if m.im_status[r] == HELD and photo_ok(m.im_photo[r])
-                      and point_ok(m.im_point[r]))
-        ctrl = sorted(j for j in set(points) | m.fresh_points
-                      if m.ctrl_status[j] == HELD and point_ok(j))
-        touched = photos | m.fresh_photos
-        gnss = [r for i in sorted(touched) for r in m.gnss_of(i)
-                if m.g_status[r] == HELD and photo_ok(i)]
-        imu = [r for i in sorted(touched) for r in m.imu_of(i)
-               if m.i_status[r] == HELD and photo_ok(i)]
-        if not (rows or ctrl or gnss or imu):
-            return {}
-        return {"image": rows, "control": ctrl, "gnss": gnss, "imu": imu,
-                "photos": sorted(photos), "points": sorted(points)}
-
+    # ------------------------------------------------------------ approximations
     def _has_orientation(self, i: int) -> bool:
         """Whether photo i has an approximate orientation, resecting it from the block's
         points where it has none."""
@@ -552,54 +500,6 @@ class OnlineBundle:
         m.changed()
         return True
 
-    def _held_words(self) -> list[str]:
-        """What of this step is held, in words."""
-        m = self.m
-        out = []
-        for r in sorted(m.fresh_rows):
-            if m.im_status[r] != HELD:
-                continue
-            i, j = m.im_photo[r], m.im_point[r]
-            if not m.photo_in[i]:
-                n = len({m.im_point[x] for x in m.rows_of_photo[i] if m.point_in[m.im_point[x]]})
-                why = f"photo {m.photo_ids[i]} is not determined yet ({n} of its points in " \
-                    f"the block, {MIN_PHOTO_POINTS} needed)"
-            else:
-                why = "its first ray" if len(m.live_rays(j)) < 2 else \
-                    "its point is not determined yet"
-            out.append(f"point {m.point_ids[j]} on photo {m.photo_ids[i]}: {why}")
-        return out
-
-    def _leaving(self) -> None:
-        """After a removal: points and photos the block no longer determines leave it,
-        their observations held again (until a determination of their own)."""
-        m = self.m
-        changed = True
-        while changed:
-            changed = False
-            for j in np.flatnonzero(m.point_in):
-                rays = [r for r in m.live_rays(j) if m.photo_in[m.im_photo[r]]]
-                if not (len(rays) >= 2 or (rays and m.full_control(j))):
-                    m.point_in[j] = False
-                    changed = True
-            for i in np.flatnonzero(m.photo_in):
-                pts = {m.im_point[r] for r in m.rows_of_photo[i] if m.im_status[r] != REMOVED
-                       and m.point_in[m.im_point[r]]}
-                if len(pts) < MIN_PHOTO_POINTS:
-                    m.photo_in[i] = False
-                    changed = True
-        for r in range(len(m.im_status)):
-            if m.im_status[r] == IN and not (m.photo_in[m.im_photo[r]]
-                                             and m.point_in[m.im_point[r]]):
-                m.im_status[r] = HELD
-        for j in range(len(m.ctrl_status)):
-            if m.ctrl_status[j] == IN and not m.point_in[j]:
-                m.ctrl_status[j] = HELD
-        for st, ph in ((m.g_status, m.g_photo), (m.i_status, m.i_photo)):
-            for r in range(len(st)):
-                if st[r] == IN and not m.photo_in[ph[r]]:
-                    st[r] = HELD
-
     # ------------------------------------------------------------ the first adjustment
     @single_threaded_blas
     def _start(self, t0: float, what: str) -> Answer | None:
@@ -618,7 +518,7 @@ class OnlineBundle:
                 m.photo_in[i] = True
             for j in points:
                 m.point_in[j] = True
-            self._mark_in()
+            mark_in(self.m)
             try:
                 self._refactor(first=True)
                 break
@@ -629,7 +529,7 @@ class OnlineBundle:
                     m.photo_in[i] = False
                 for j in points:
                     m.point_in[j] = False
-                self._leaving()
+                leaving(self.m)
                 bad = re.search(r"orientation of photo (\S+) is not determined", note)
                 if bad is None or bad.group(1) not in m.photo_at:
                     break
@@ -637,7 +537,7 @@ class OnlineBundle:
                 photos, points = prune(m, photos, points)
         if self._f is None:
             self._why_not = note
-            return self._answer(action="add", what=what, held=tuple(self._held_words()),
+            return self._answer(action="add", what=what, held=tuple(held_words(self.m)),
                                 note="the block cannot be adjusted yet: " + note,
                                 seconds=time.perf_counter() - t0)
         f = self._f
@@ -647,26 +547,12 @@ class OnlineBundle:
         for k, t in zip(f.keys, tested, strict=True):
             self._verdict[k] = t.verdict
         ans = self._answer(action="first adjustment", what=what, tested=tuple(tested),
-                           held=tuple(self._held_words()), refactorised=True,
+                           held=tuple(held_words(self.m)), refactorised=True,
                            twins=self._twins(tested),
                            note=f"first adjustment: {len(photos)} photos, {len(points)} "
                            f"points", seconds=time.perf_counter() - t0)
         self.first = ans
         return ans
-
-    def _mark_in(self) -> None:
-        m = self.m
-        for r in range(len(m.im_status)):
-            if m.im_status[r] == HELD and m.photo_in[m.im_photo[r]] \
-                    and m.point_in[m.im_point[r]]:
-                m.im_status[r] = IN
-        for j in range(len(m.ctrl_status)):
-            if m.ctrl_status[j] == HELD and m.point_in[j]:
-                m.ctrl_status[j] = IN
-        for st, ph in ((m.g_status, m.g_photo), (m.i_status, m.i_photo)):
-            for r in range(len(st)):
-                if st[r] == HELD and m.photo_in[ph[r]]:
-                    st[r] = IN
 
     # ------------------------------------------------------------ factorisation
     def _current(self) -> tuple[np.ndarray, np.ndarray]:
@@ -909,7 +795,7 @@ class OnlineBundle:
             self._ycol, self._y0 = ycol0, self._y0[:ny0]
             raise GeometryError("held: these observations do not determine the new photo "
                                 "or point yet") from None
-        self._mark(group)
+        mark(self.m, group)
         self._pending += keys
         k = len(rows)
         sl = slice(r0, r0 + k)
@@ -934,18 +820,6 @@ class OnlineBundle:
             self._neighbourhood(group, keys, sol, r0)
         return tested, changed, False
 
-    def _mark(self, group: dict) -> None:
-        """The group is in the block."""
-        m = self.m
-        for kind, status in (("image", m.im_status), ("control", m.ctrl_status),
-                             ("gnss", m.g_status), ("imu", m.i_status)):
-            for r in group[kind]:
-                status[r] = IN
-        for i in group["photos"]:
-            m.photo_in[i] = True
-        for j in group["points"]:
-            m.point_in[j] = True
-
     def _take_in_factored(self, group: dict, keys: list, rows: Rows, plain: np.ndarray,
                           pred: np.ndarray, var_old: np.ndarray, ny0: int, ycol0: dict
                           ) -> tuple[list[ComponentTest], list[Change], bool]:
@@ -963,7 +837,7 @@ class OnlineBundle:
         sig_pred = np.where(plain, np.sqrt(s2 + mdiag - var_old), np.nan)
         pred = np.where(plain, pred, np.nan)
         before = self.m.snapshot()
-        self._mark(group)
+        mark(self.m, group)
         try:
             changed = self._refactor()
         except GeometryError:
