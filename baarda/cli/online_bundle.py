@@ -45,8 +45,10 @@ def add_options(p) -> None:
     g.add_argument("--json", action="store_true", help="--bundle: answer each line with one "
                    "JSON object (for a program that drives the measuring)")
     g.add_argument("--remove-rejected", action="store_true", help="--replay: take out the "
-                   "observation with the largest |w| while one is rejected (as an operator "
-                   "who re-measures; the result is then that of the block without them)")
+                   "observation with the largest |w| while one is rejected, or set its point "
+                   "aside until its next ray where the test cannot tell its rays apart (as "
+                   "an operator who re-measures; the result is then that of the block "
+                   "without them)")
     g.add_argument("--refactor-rows", type=int, default=MAX_ROWS, metavar="N", help="factor "
                    "the normal equations again after N added observation components (0: "
                    "after every measurement: every test on the exact solution)")
