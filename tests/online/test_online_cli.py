@@ -207,3 +207,20 @@ def test_aside_until_the_next_ray(partial_project, monkeypatch, capsys):
     j = block.points.ids.index("008007")
     assert rays == {block.photos.ids[i] for i in block.image.photo[block.image.point == j]}
     assert f"line {len(lines) + 4}: point 999999 is not measured" in err
+
+
+def test_the_demo_replayed_by_an_operator_who_remeasures():
+    """`--remove-rejected` on the demo: the four planted blunders that can be checked are
+    taken out, each where it was planted (001008 y after its point was set aside at its
+    second ray, whose two y's are one test, until the third ray told which), and nothing
+    else but the x of 007002 on 03002, rejected with the y of the same image point."""
+    rp = replay(baarda.read(DEMO), remove="worst")
+    out = [(r[2], r[3], r[4]) for r in rp.removed]
+    assert out == [("01004", "002005", "x"), ("01006", "001008", "y"),
+                   ("03002", "007002", "y"), ("03002", "007002", "x"),
+                   ("03008", "007008", "x")]
+    planted = {(b["photo"], b["point"], b["component"]) for b in TRUTH}
+    assert planted - set(out) == {("03008", "005010", "y")}  # never checkable
+    said = [a.what for a in rp.answers if "set aside" in a.what]
+    assert said[0].startswith("point 001008 (set aside until its next ray)")
+    assert rp.aside == ()
