@@ -70,8 +70,12 @@ def on_a_terminal(args: list[str], **kwargs) -> tuple[subprocess.Popen, Terminal
 
     main_fd, sub_fd = pty.openpty()
     fcntl.ioctl(sub_fd, termios.TIOCSWINSZ, struct.pack("HHHH", 40, 160, 0, 0))  # rows, cols
+    # Ctrl-C reaches a program on a terminal: a suite started in the background by a shell
+    # without job control ignores SIGINT, and its children would inherit that
     p = subprocess.Popen([sys.executable, "-m", "baarda", *args], stderr=sub_fd,
-                         stdout=subprocess.DEVNULL, **kwargs)
+                         stdout=subprocess.DEVNULL,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+                         **kwargs)
     os.close(sub_fd)
     return p, Terminal(main_fd)
 
