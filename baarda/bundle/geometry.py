@@ -136,14 +136,17 @@ def intersect(block: Block, eo: np.ndarray, points: np.ndarray,
     cam = block.photos.camera[photo]
     c = block.cameras.focal_mm[cam]
     pp = block.cameras.principal_point_mm[cam]
-    r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])[photo]
     if ideal is None:
         ideal = ideal_image_coordinates(block)
-    dirs_cam = np.column_stack([ideal[sel] - pp, -c])
-    dirs = np.einsum("mij,mj->mi", r, dirs_cam)
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    proj = np.eye(3)[None] - dirs[:, :, None] * dirs[:, None, :]
-    pc = np.einsum("mij,mj->mi", proj, eo[photo, :3])
+    # an orientation or image coordinate that is not finite (an absurd input) makes its
+    # rays NaN: their points are left out below, without a warning for each
+    with np.errstate(all="ignore"):
+        r = rotation_matrix(eo[:, 3], eo[:, 4], eo[:, 5])[photo]
+        dirs_cam = np.column_stack([ideal[sel] - pp, -c])
+        dirs = np.einsum("mij,mj->mi", r, dirs_cam)
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        proj = np.eye(3)[None] - dirs[:, :, None] * dirs[:, None, :]
+        pc = np.einsum("mij,mj->mi", proj, eo[photo, :3])
     n = len(block.points)
     a = np.stack([np.bincount(point, proj[:, i, j], n) for i in range(3) for j in range(3)],
                  axis=1).reshape(n, 3, 3)[points]

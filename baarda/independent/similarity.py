@@ -111,7 +111,8 @@ def fit3d(src: np.ndarray, dst: np.ndarray, weights: np.ndarray | None = None):
     if np.linalg.det(u) * np.linalg.det(vt) < 0:
         e[2, 2] = -1.0
     r = u @ e @ vt
-    var = float(np.sum(w * np.sum(a**2, axis=1)))
+    with np.errstate(over="ignore"):  # coordinates beyond 1e154: var inf, s 0, which the
+        var = float(np.sum(w * np.sum(a**2, axis=1)))  # callers report as degenerate
     s = float(np.sum(sv * np.diag(e)) / var)
     return s, r, md - s * r @ ms
 
