@@ -35,6 +35,8 @@ from baarda.io.image_sigma import SIGMA_IMAGE_UM, check_sigma_um
 from baarda.io.records import ENCODING, decode_text, file_bytes
 from baarda.io.table import Table
 
+SIGMA_GROUND_MAX_M = 1e6  # a ground standard deviation beyond 1000 km means nothing (and
+# squared beyond 1e154 m it overflows the statistics): leave the coordinate unobserved
 FILES = ("project.toml", "cameras.csv", "photos.csv", "image_points.csv", "ground_points.csv")
 
 
@@ -66,12 +68,16 @@ def toml_table(doc: dict, key: str, path: Path) -> dict:
     return value
 
 
-def positive_settings(path: Path, values: dict[str, float]) -> None:
-    """ProjectError naming the first setting that is not a finite positive number."""
+def positive_settings(path: Path, values: dict[str, float],
+                      most: float = float("inf")) -> None:
+    """ProjectError naming the first setting that is not a finite positive number (at most
+    `most`)."""
     for name, v in values.items():
         if not (np.isfinite(v) and v > 0):
             raise ProjectError(str(path), f"{name} = {v!r}: standard deviations and thresholds "
                                "must be finite positive numbers", column=name)
+        if v > most:
+            raise ProjectError(str(path), f"{name} = {v!r}: at most {most:g}", column=name)
 
 
 def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
@@ -97,8 +103,9 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     if len(ctrl) != 3:
         raise ProjectError(str(path), "sigma.control_m must be one number or [X, Y, Z]",
                            column="sigma.control_m")
-    positive_settings(path, {"sigma.image_um": s.sigma_image_um,
-                             **{f"sigma.control_m[{k}]": c for k, c in enumerate(ctrl)}})
+    positive_settings(path, {"sigma.image_um": s.sigma_image_um})
+    positive_settings(path, {f"sigma.control_m[{k}]": c for k, c in enumerate(ctrl)},
+                      SIGMA_GROUND_MAX_M)
     check_sigma_um(s.sigma_image_um, str(path), column="sigma.image_um")
     s.sigma_control_m = tuple(ctrl)
     if not 0 < s.alpha_global < 0.5:
@@ -146,6 +153,11 @@ def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
         if len(bad):
             raise ProjectError(g.path, "standard deviation must be positive (0: the "
                                "coordinate is fixed)", int(g.lines[bad[0]]), f"sigma_{c}")
+        bad = np.flatnonzero(sig[:, k] > SIGMA_GROUND_MAX_M)
+        if len(bad):
+            raise ProjectError(g.path, f"standard deviation {float(sig[bad[0], k]):g} m: at most "
+                               f"{SIGMA_GROUND_MAX_M:g} m (leave it empty: not observed)",
+                               int(g.lines[bad[0]]), f"sigma_{c}")
         need = np.isfinite(sig[:, k]) | (role == "check")
         bad = np.flatnonzero(need & ~np.isfinite(xyz[:, k]))
         if len(bad):
@@ -381,10 +393,10 @@ def read_distances(path: Path, point_ids: list[str], default_sigma_m: float,
                            "distance_m")
     sig = (t.numbers("sigma_m", allow_empty=True) if t.has("sigma_m")
            else np.full(len(t), np.nan))
-    bad = np.flatnonzero(np.isfinite(sig) & ~(sig > 0))
+    bad = np.flatnonzero(np.isfinite(sig) & ~((sig > 0) & (sig <= SIGMA_GROUND_MAX_M)))
     if len(bad):
-        raise ProjectError(t.path, "standard deviation must be positive", int(t.lines[bad[0]]),
-                           "sigma_m")
+        raise ProjectError(t.path, f"standard deviation must be positive, at most "
+                           f"{SIGMA_GROUND_MAX_M:g} m", int(t.lines[bad[0]]), "sigma_m")
     sig = np.where(np.isfinite(sig), sig, default_sigma_m)
     names = (list(t.text("name", allow_empty=True)) if t.has("name") else
              [f"{point_ids[i]}-{point_ids[j]}" for i, j in zip(a, b, strict=True)])

@@ -177,6 +177,28 @@ def test_bad_role_and_sigma(project):
         read_project(project)
 
 
+def test_a_ground_sigma_beyond_1000_km_is_refused(project):
+    """Fuzz find (FUZZ_STRICT): a control sigma of 1e200 m overflowed sigma^2 in the
+    statistics (r NaN); a ground sigma is at most 1e6 m, in the file and in project.toml."""
+    f = project / "ground_points.csv"
+    lines = f.read_text().splitlines()
+    parts = lines[1].split(",")
+    parts[6] = "1e200"
+    lines[1] = ",".join(parts)
+    f.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ProjectError, match="line 2, column 'sigma_Z': standard deviation "
+                                           "1e[+]200 m: at most 1e[+]06 m"):
+        read_project(project)
+    parts[6] = "1e6"
+    lines[1] = ",".join(parts)
+    f.write_text("\n".join(lines) + "\n")
+    assert read_project(project).points.sigma[0, 2] == 1e6  # the bound itself is taken
+    toml = project / "project.toml"
+    edit(toml, "control_m = [0.05, 0.05, 0.1]", "control_m = [0.05, 0.05, 2e6]")
+    with pytest.raises(ProjectError, match=r"sigma.control_m\[2\] = 2000000.0: at most 1e[+]06"):
+        read_project(project)
+
+
 def test_one_ray_points_are_left_out_and_listed(project):
     f = project / "image_points.csv"
     f.write_text(f.read_text() + "01001,LONELY,1.0,2.0,5\n")
