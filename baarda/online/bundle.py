@@ -4,6 +4,8 @@
     a = ob.add_image_point("01004", "002005", x, y)    # an Answer: the test, the verdict
     a = ob.add_photo("01005", {"002005": (x, y), ...})  # a photo's points, tested together
     ob.add_control(...); ob.add_gnss(...); ob.remove_image_point(...)
+    ob.inseparable("image", "01004", "002005", "y")    # what the test cannot tell it from
+    ob.set_aside("002005")                 # out until its next ray (which may tell)
     qc = ob.result()                       # the Assessment of the block as it is now
 
 Each addition is tested before it is taken in: its predicted misclosure with the variance
@@ -15,7 +17,9 @@ until the control fixes the block.  The observations whose verdict the addition 
 looked for among those that share a photo or a point with it and those added since the last
 factorisation; every `max_rows` added rows, when the corrections since exceed
 `linear_limit`, at every removal and at `result()` the block is factored again at its
-Gauss-Newton solution (warm-started), and every verdict is checked.
+Gauss-Newton solution (warm-started), and every verdict is checked.  A group of more rows
+than `max_rows` (a photo of hundreds of points) goes straight into a new factorisation.
+What enters and leaves the block is online/entering.py's bookkeeping.
 After any sequence of additions and removals `result()` is the batch adjustment of the same
 observations (tests/online/test_equivalence.py).
 """
