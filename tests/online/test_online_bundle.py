@@ -92,3 +92,19 @@ def test_verdicts():
     assert verdict(-3.2, 0.2, 3.29) == "accept"
     assert verdict(float("nan"), 5e-4, 3.29) == "suspect"
     assert verdict(10.0, 5e-4, 3.29) == "suspect"
+
+
+def test_add_camera_refusals(block):
+    """A camera the block has, or one whose parameters are to be estimated, is refused and
+    nothing changes; a new one with its interior orientation held is taken."""
+    ob = OnlineBundle(block)
+    n, steps = len(ob.m.cameras), ob.steps
+    with pytest.raises(ValueError, match="is in the block already"):
+        ob.add_camera(block.cameras, 0)
+    free = replace(block.cameras, ids=["other"], free=(("c",),))
+    with pytest.raises(ValueError, match="does not estimate the parameters of a new camera"):
+        ob.add_camera(free, 0)
+    assert len(ob.m.cameras) == n and ob.steps == steps
+    a = ob.add_camera(replace(block.cameras, ids=["second"]), 0)
+    assert a.what == "camera second" and a.refactorised and not a.changed
+    assert ob.m.cameras.ids[-1] == "second" and len(ob.m.cameras) == n + 1
