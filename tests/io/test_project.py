@@ -26,6 +26,15 @@ def edit(path, old, new, count=1):
     path.write_text(text.replace(old, new, count))
 
 
+def set_field(path, row: int, column: int, value: str) -> None:
+    """Field `column` of data row `row` (1: the first after the header) of a CSV file."""
+    lines = path.read_text().splitlines()
+    parts = lines[row].split(",")
+    parts[column] = value
+    lines[row] = ",".join(parts)
+    path.write_text("\n".join(lines) + "\n")
+
+
 def line_of(path, needle):
     for i, line in enumerate(path.read_text().splitlines(), start=1):
         if needle in line:
@@ -167,12 +176,7 @@ def test_bad_role_and_sigma(project):
     with pytest.raises(ProjectError, match="role 'contrl' must be 'control', 'fixed' or 'check'"):
         read_project(project)
     edit(project / "ground_points.csv", ",contrl", ",control")
-    f = project / "ground_points.csv"
-    lines = f.read_text().splitlines()
-    parts = lines[1].split(",")
-    parts[4] = "-0.05"
-    lines[1] = ",".join(parts)
-    f.write_text("\n".join(lines) + "\n")
+    set_field(project / "ground_points.csv", 1, 4, "-0.05")
     with pytest.raises(ProjectError, match="line 2, column 'sigma_X': standard deviation"):
         read_project(project)
 
@@ -180,18 +184,11 @@ def test_bad_role_and_sigma(project):
 def test_a_ground_sigma_beyond_1000_km_is_refused(project):
     """Fuzz find (FUZZ_STRICT): a control sigma of 1e200 m overflowed sigma^2 in the
     statistics (r NaN); a ground sigma is at most 1e6 m, in the file and in project.toml."""
-    f = project / "ground_points.csv"
-    lines = f.read_text().splitlines()
-    parts = lines[1].split(",")
-    parts[6] = "1e200"
-    lines[1] = ",".join(parts)
-    f.write_text("\n".join(lines) + "\n")
+    set_field(project / "ground_points.csv", 1, 6, "1e200")
     with pytest.raises(ProjectError, match="line 2, column 'sigma_Z': standard deviation "
                                            "1e[+]200 m: at most 1e[+]06 m"):
         read_project(project)
-    parts[6] = "1e6"
-    lines[1] = ",".join(parts)
-    f.write_text("\n".join(lines) + "\n")
+    set_field(project / "ground_points.csv", 1, 6, "1e6")
     assert read_project(project).points.sigma[0, 2] == 1e6  # the bound itself is taken
     toml = project / "project.toml"
     edit(toml, "control_m = [0.05, 0.05, 0.1]", "control_m = [0.05, 0.05, 2e6]")

@@ -126,17 +126,25 @@ def test_snapshots_in_order(grown):
     assert [s.name for s in snapshots(d / "00000002")] == ["00000002"]  # in place
 
 
-@pytest.mark.parametrize("frame", ["fixed", "moved"])
-def test_watch_once_flags_the_blunder_and_ends_as_adjust(grown, tmp_path, frame):
-    d, bad = grown[4] if frame == "moved" else grown[0], grown[1]
+def watched_and_adjusted(d, last: str, tmp_path) -> tuple[dict, dict]:
+    """`baarda online --bundle --watch D --once -o OUT` and `baarda adjust D/LAST -o REF`:
+    their summary.json, after checking that redundancy and sigma0 agree (1e-8)."""
     out, ref = tmp_path / "out", tmp_path / "ref"
     assert main(["online", "--bundle", "--watch", str(d), "--once", "-o", str(out),
                  "-q"]) == 0
-    assert main(["adjust", str(d / "00000004"), "-o", str(ref), "-q"]) == 0
+    assert main(["adjust", str(d / last), "-o", str(ref), "-q"]) == 0
     s = json.loads((out / "summary.json").read_text())
     s0 = json.loads((ref / "summary.json").read_text())
     assert s["redundancy"] == s0["redundancy"]
     assert s["sigma0"] == pytest.approx(s0["sigma0"], rel=1e-8)
+    return s, s0
+
+
+@pytest.mark.parametrize("frame", ["fixed", "moved"])
+def test_watch_once_flags_the_blunder_and_ends_as_adjust(grown, tmp_path, frame):
+    d, bad = grown[4] if frame == "moved" else grown[0], grown[1]
+    out, ref = tmp_path / "out", tmp_path / "ref"
+    s, s0 = watched_and_adjusted(d, "00000004", tmp_path)
     assert s["sum_redundancy_numbers"] == pytest.approx(s0["sum_redundancy_numbers"],
                                                         rel=1e-8)
     o, o0 = (pd.read_csv(p / "observations.csv") for p in (out, ref))
@@ -282,15 +290,8 @@ def test_a_new_camera_in_a_later_snapshot(grown, tmp_path):
     second = set(range(6, 12))
     for n, photos in enumerate((order[:6], order[:9], order), 1):
         write_colmap(colmap_model(block, xyz, photos, camera2=second), d / f"{n:08d}")
-    out, ref = tmp_path / "out", tmp_path / "ref"
-    assert main(["online", "--bundle", "--watch", str(d), "--once", "-o", str(out),
-                 "-q"]) == 0
-    assert main(["adjust", str(d / "00000003"), "-o", str(ref), "-q"]) == 0
-    s = json.loads((out / "summary.json").read_text())
-    s0 = json.loads((ref / "summary.json").read_text())
-    assert s["redundancy"] == s0["redundancy"]
-    assert s["sigma0"] == pytest.approx(s0["sigma0"], rel=1e-8)
-    w = pd.read_csv(out / "watch.csv", dtype={"snapshot": str, "photo": str})
+    watched_and_adjusted(d, "00000003", tmp_path)
+    w = pd.read_csv(tmp_path / "out" / "watch.csv", dtype={"snapshot": str, "photo": str})
     assert set(w.loc[w["snapshot"] == "00000002", "photo"]) >= {"02001", "02002", "02003"}
     said = []
     watch(d, once=True, interval=0.0, progress=lambda snap, a: said.append((snap, a)))
