@@ -5,7 +5,9 @@ block, each saying what it rejected in the end, in order (an Outcome).
 method, then snooping): data snooping in its variants (quality/iterative.py); `screen`
 (sequential screening, then snooping), `modified` (Gruen's modified snooping, one pass),
 `threshold` (iteratively reject the largest |v| / sigma above THRESHOLD: no redundancy
-numbers), `online` (the on-line replay with re-measurement, online/replay.py).
+numbers), `online` (the on-line replay whose operator takes out what is rejected, or sets
+its point aside, online/replay.py), `online-remeasure` (the same operator measures a
+rejected image point again and gets its value without the blunder: nothing good is lost).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from baarda.options import TestOptions
 from baarda.pipeline import adjust, snoop
 
 STRATEGIES = ("snoop", "tau", "by-point", "grouped", "robust", "screen", "modified",
-              "threshold", "online")
+              "threshold", "online", "online-remeasure")
 DEFAULT_STRATEGIES = ("snoop", "tau", "by-point", "robust")
 THRESHOLD = 3.0  # |v| / sigma a priori of the `threshold` strategy
 
@@ -125,17 +127,29 @@ def _modified(block: Block, tests: TestOptions) -> Outcome:
     return _outcome([keys[i] for i in order], float(res.sigma0))
 
 
-def _online(block: Block, tests: TestOptions) -> Outcome:
+def _online(block: Block, tests: TestOptions, clean: Block | None = None) -> Outcome:
     """The on-line replay with re-measurement (online/replay.py): the rejected components
-    taken out, in order (the first removal's first), then those of the points set aside and
-    never taken in again that the test could not tell apart; sigma0 of the block at the end,
-    and the verdict of every component at the step it was taken in."""
+    measured again (with `clean`: their value there) and taken out, in order (the first
+    action's first), then those of the points set aside and never taken in again that the
+    test could not tell apart; sigma0 of the block at the end, and the verdict of every
+    component at the step it was taken in."""
     from baarda.online.replay import replay
 
-    rp = replay(block, tests, remove="worst")
-    keys = [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.removed]
-    # the first removal: one image point (its rejected components) or one control point
-    first = {k for k, r in zip(keys, rp.removed, strict=True) if r[:4] == rp.removed[0][:4]}
+    again = None
+    if clean is not None:  # the operator measures again and gets the value without blunder
+        im, ids, pids = clean.image, clean.photos.ids, clean.points.ids
+        value = {(ids[im.photo[r]], pids[im.point[r]]): (float(im.xy_mm[r, 0]),
+                                                           float(im.xy_mm[r, 1]))
+                 for r in range(len(im))}
+
+        def again(photo: str, point: str) -> tuple[float, float]:
+            return value[(photo, point)]
+    rp = replay(block, tests, remove="worst", remeasure=again)
+    keys = [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.remeasured]
+    keys += [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.removed]
+    # the first action: one image point (its rejected components) or one control point
+    acts = list(rp.remeasured) + list(rp.removed)
+    first = {k for k, r in zip(keys, acts, strict=True) if r[:4] == acts[0][:4]}
     for _, group in rp.aside:  # set aside and never taken in again: flagged, all of them
         keys += list(group)
     entry: dict[Key, str] = {}
@@ -146,10 +160,16 @@ def _online(block: Block, tests: TestOptions) -> Outcome:
     return Outcome(keys, first, sigma0, entry)
 
 
-def run_strategy(name: str, block: Block, tests: TestOptions) -> Outcome:
-    """What one strategy rejected on a block (Outcome)."""
+def run_strategy(name: str, block: Block, tests: TestOptions,
+                 clean: Block | None = None) -> Outcome:
+    """What one strategy rejected on a block (Outcome); clean: the block without its
+    blunders (what `online-remeasure` measures again)."""
     if name == "online":
         return _online(block, tests)
+    if name == "online-remeasure":
+        if clean is None:
+            raise ValueError("online-remeasure needs the block without its blunders")
+        return _online(block, tests, clean)
     if name == "snoop":
         return _snooping_order(snoop(block, tests))
     if name == "tau":

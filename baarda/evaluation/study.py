@@ -32,7 +32,10 @@ modified snooping, one pass), `threshold` (iteratively reject the largest |v| / 
 THRESHOLD: a residual threshold without redundancy numbers, as the seeds compare), `online`
 (the block measured again photo by photo in strip order, each photo tested as it comes, the
 worst rejected observation taken out while there is one: online/replay.py; its blunder rows
-also say whether the blunder was rejected at the step it was taken in, `at_entry`).
+also say whether the blunder was rejected at the step it was taken in, `at_entry`),
+`online-remeasure` (the same, the operator measuring a rejected image point again: the
+value of the block without blunders, one rejected again kept as confirmed; its "rejected"
+are the components measured again).
 """
 
 from __future__ import annotations
@@ -189,7 +192,7 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
             out, failed = Outcome([], set(), float(fmodel.result.sigma0)), ""
         else:
             try:
-                out, failed = run_strategy(name, blundered, options.tests), ""
+                out, failed = run_strategy(name, blundered, options.tests, p.block), ""
             except GeometryError as e:  # e.g. a rejection that leaves a point with one ray
                 out, failed = Outcome([], set(), float("nan")), str(e)
         rejected, sigma0 = out.rejected, out.sigma0

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -66,6 +66,7 @@ class Replay:
     removed: tuple[tuple, ...]
     seconds: float
     aside: tuple[tuple[str, tuple], ...] = ()
+    remeasured: tuple[tuple, ...] = ()  # (step, kind, photo, point, component, w)
 
     def table(self) -> pd.DataFrame:
         """replay.csv (tests_table)."""
@@ -91,11 +92,20 @@ class Replay:
 
 
 def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "none",
-           max_rows: int = MAX_ROWS, progress: Callable[[Answer], None] | None = None
-           ) -> Replay:
-    """Replay a finished block (in its local frame, with approximations) photo by photo."""
+           max_rows: int = MAX_ROWS, progress: Callable[[Answer], None] | None = None,
+           remeasure: Callable[[str, str], tuple[float, float]] | None = None) -> Replay:
+    """Replay a finished block (in its local frame, with approximations) photo by photo.
+
+    remeasure (with remove="worst"): the operator's new measurement (x, y mm) of an image
+    point (photo, point), e.g. a simulation's value without its blunder.  A rejected image
+    point is then measured again (taken out and added with the new value, and tested),
+    with the rays the test cannot tell it from, instead of being taken out or set aside; one
+    rejected again after its re-measurement is kept: measured twice the same, it is
+    confirmed (a false alarm, or an error the test puts on it from elsewhere)."""
     if remove not in ("none", "worst"):
         raise ValueError("remove: 'none' or 'worst'")
+    if remeasure is not None and remove != "worst":
+        raise ValueError("remeasure: with remove='worst'")
     t0 = time.perf_counter()
     im = block.image
     start = block.select_image(np.zeros(len(im), bool))
@@ -103,6 +113,9 @@ def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "non
     answers: list[Answer] = []
     removed: list[tuple] = []
     aside: dict[str, tuple] = {}  # point set aside -> the components the test cannot tell
+    again = _Again(remeasure, {(block.photos.ids[im.photo[r]], block.points.ids[im.point[r]]):
+                               float(np.sqrt(np.mean(im.sigma_xy[r] ** 2)) * 1e3)
+                               for r in range(len(im))}) if remeasure else None
     ids = block.points.ids
     for i in strip_order(block):
         rows = np.flatnonzero(im.photo == i)
@@ -114,15 +127,30 @@ def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "non
         if progress:
             progress(a)
         if remove == "worst":
-            for b in _remeasure(ob, a, removed, aside):
+            for b in _remeasure(ob, a, removed, aside, again):
                 answers.append(b)
                 if progress:
                     progress(b)
     still = tuple((p, keys) for p, keys in aside.items() if ob.waiting(p))
-    return Replay(tuple(answers), ob, tuple(removed), time.perf_counter() - t0, still)
+    return Replay(tuple(answers), ob, tuple(removed), time.perf_counter() - t0, still,
+                  tuple(again.done) if again else ())
 
 
-def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict) -> list[Answer]:
+@dataclass
+class _Again:
+    """The re-measurements of a replay: the operator's callback, each image point's sigma
+    (µm), and what was measured again: (step, kind, photo, point, component, w)."""
+
+    measure: Callable[[str, str], tuple[float, float]]
+    sigma_um: dict
+    done: list = field(default_factory=list)
+
+    def measured(self, photo: str, point: str) -> bool:
+        return any(d[2] == photo and d[3] == point for d in self.done)
+
+
+def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict,
+               again: _Again | None = None) -> list[Answer]:
     """Take out the worst rejected observation while there is one (the step's tested
     components and the verdicts it changed; an image point with both coordinates, both
     recorded where both are rejected); set its point aside instead where the test cannot
@@ -143,6 +171,12 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict) -> list[
         try:
             twins = [k for k, _ in ob.inseparable(*key) if k[0] == "image" and k[1] != photo] \
                 if kind == "image" else []
+            if again is not None and kind == "image":
+                if again.measured(photo, point):
+                    continue  # measured twice, the same: the operator keeps it (confirmed)
+                for k, wk in [(key, w)] + [(t, bad.pop(t, w)) for t in twins]:
+                    out += _measure_again(ob, a.step, k, wk, again, bad)
+                continue
             if twins:
                 b = ob.set_aside(point)
                 aside[point] = (key, *twins)
@@ -167,6 +201,28 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict) -> list[
         _update(bad, b.changed)
         out.append(replace(b, what=what))
     return out
+
+
+def _measure_again(ob: OnlineBundle, step: int, key: tuple, w: float, again: _Again,
+                   bad: dict) -> list[Answer]:
+    """Image point `key` taken out and measured again (again.measure), its test and the
+    verdicts the two steps changed folded into `bad`."""
+    _, photo, point, comp = key
+    if again.measured(photo, point) or not ob.is_in("image", photo, point):
+        return []
+    b = ob.remove_image_point(photo, point)
+    _update(bad, b.changed)
+    x, y = again.measure(photo, point)
+    c = ob.add_image_point(photo, point, x, y, again.sigma_um[(photo, point)])
+    again.done.append((step, "image", photo, point, comp, w))
+    for t in c.tested:
+        k = (t.kind, t.photo, t.point, t.component)
+        if t.verdict == "reject":
+            bad[k] = t.w
+        else:
+            bad.pop(k, None)
+    _update(bad, c.changed)
+    return [replace(b, what=f"{b.what} (rejected: w {w:.2f}; measured again)"), c]
 
 
 def _update(bad: dict, changed) -> None:

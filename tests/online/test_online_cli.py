@@ -224,3 +224,36 @@ def test_the_demo_replayed_by_an_operator_who_remeasures():
     said = [a.what for a in rp.answers if "set aside" in a.what]
     assert said[0].startswith("point 001008 (set aside until its next ray)")
     assert rp.aside == ()
+
+
+def test_the_demo_replayed_by_an_operator_who_measures_again():
+    """`replay(remeasure=...)`: the operator measures a rejected image point again (here:
+    its value without the planted blunder, from truth.json).  Every checkable blunder is
+    measured again, with the rays the test cannot tell it from (which come back the same),
+    nothing is lost, and the block at the end is the batch adjustment of the measurements
+    as corrected (5e-14; 005010 y, never checkable, stays)."""
+    from dataclasses import replace
+
+    block = baarda.read(DEMO)
+    im, ids, pids = block.image, block.photos.ids, block.points.ids
+    clean = {(ids[im.photo[r]], pids[im.point[r]]): im.xy_mm[r].copy() for r in range(len(im))}
+    for b in TRUTH:
+        clean[(b["photo"], b["point"])]["xy".index(b["component"])] -= b["size"] / 1e3
+    rp = replay(block, remove="worst",
+                remeasure=lambda photo, point: tuple(map(float, clean[(photo, point)])))
+    again = [(r[2], r[3], r[4]) for r in rp.remeasured]
+    assert rp.removed == () and rp.aside == ()
+    planted = {(b["photo"], b["point"], b["component"]) for b in TRUTH}
+    assert planted - set(again) == {("03008", "005010", "y")}
+    assert set(again) - planted == {("01007", "001008", "y"), ("03001", "007002", "y"),
+                                    ("03007", "007008", "x"), ("03006", "007008", "x")}
+    rows = [r for r in range(len(im)) if (ids[im.photo[r]], pids[im.point[r]], "x") in
+            {(p, q, "x") for p, q, _ in again}]
+    xy = im.xy_mm.copy()
+    for r in rows:
+        xy[r] = clean[(ids[im.photo[r]], pids[im.point[r]])]
+    ref = baarda.assess(baarda.adjust(replace(block, image=replace(im, xy_mm=xy))))
+    res = rp.online.result()
+    assert res.adjustment.redundancy == ref.adjustment.redundancy == 172
+    assert res.adjustment.sigma0 == pytest.approx(ref.adjustment.sigma0, rel=1e-10)
+    assert round(res.adjustment.sigma0, 4) == 1.0444

@@ -28,3 +28,20 @@ def test_online_strategy_in_a_study():
     assert "rejected when taken in" in study.summary()
     t = study.trials
     assert np.isfinite(t.loc[t["strategy"] == "online", "sigma0_final"]).all()
+
+
+def test_online_remeasure_strategy_loses_nothing():
+    """`online-remeasure`: the operator measures a rejected image point again and gets its
+    value without the blunder; the blunders it flags are those it measured again, and the
+    block at the end keeps every observation of the blundered block but the ones rejected
+    again (none here)."""
+    opts = StudyOptions(plan=FlightPlan(strips=2, photos_per_strip=6, pattern=4, seed=0),
+                        trials=2, blunders=3, size_mdb=(2.0, 3.0),
+                        strategies=("online-remeasure", "online"), seed=5)
+    study = run_study(opts)
+    b, t = study.blunders, study.trials
+    re, on = b[b["strategy"] == "online-remeasure"], b[b["strategy"] == "online"]
+    assert re["located"].sum() >= on["located"].sum() - 1
+    assert re["located"].mean() >= 0.8
+    s_re = t.loc[t["strategy"] == "online-remeasure", "sigma0_final"].to_numpy()
+    assert np.isfinite(s_re).all() and (np.abs(s_re - 1.0) < 0.25).all()
