@@ -23,7 +23,7 @@ import sys
 
 from baarda.evaluation.strategies import component_keys
 from baarda.evaluation.study import StudyOptions, planted_block
-from baarda.online.replay import replay
+from baarda.online.replay import image_values, replay
 from baarda.simulate.aerial import FlightPlan
 
 CLASSES = ("set aside", "other coord", "at entry", "later")
@@ -57,10 +57,7 @@ def remeasured(trial: int, options: StudyOptions) -> dict[str, float]:
     p = planted_block(options, trial)
     keys = component_keys(p.model)
     planted = {keys[i] for i in p.rows}
-    im, ids, pids = p.block.image, p.block.photos.ids, p.block.points.ids
-    value = {(ids[im.photo[r]], pids[im.point[r]]): (float(im.xy_mm[r, 0]),
-                                                       float(im.xy_mm[r, 1]))
-             for r in range(len(im))}
+    value = image_values(p.block)
     rp = replay(p.blundered, options.tests, remove="worst",
                 remeasure=lambda photo, point: value[(photo, point)])
     again = {tuple(r[1:5]) for r in rp.remeasured}

@@ -133,14 +133,11 @@ def _online(block: Block, tests: TestOptions, clean: Block | None = None) -> Out
     action's first), then those of the points set aside and never taken in again that the
     test could not tell apart; sigma0 of the block at the end, and the verdict of every
     component at the step it was taken in."""
-    from baarda.online.replay import replay
+    from baarda.online.replay import image_values, replay
 
     again = None
     if clean is not None:  # the operator measures again and gets the value without blunder
-        im, ids, pids = clean.image, clean.photos.ids, clean.points.ids
-        value = {(ids[im.photo[r]], pids[im.point[r]]): (float(im.xy_mm[r, 0]),
-                                                           float(im.xy_mm[r, 1]))
-                 for r in range(len(im))}
+        value = image_values(clean)
 
         def again(photo: str, point: str) -> tuple[float, float]:
             return value[(photo, point)]

@@ -45,7 +45,7 @@ from baarda.online.approximations import intersect, prepared, prune, refine
 from baarda.online.entering import entering, held_words, leaving, mark, mark_in
 from baarda.online.lowrank import LowRank, Rows, quad_diag, times
 from baarda.online.measurements import HELD, IN, REMOVED, Measurements
-from baarda.online.rows import KY, concat, extra_rows, factor_rows, image_rows, take
+from baarda.online.rows import factor_rows, group_rows, take
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.separability import RHO_INSEPARABLE
@@ -778,7 +778,7 @@ class OnlineBundle:
         lr = self._f.lowrank
         ny0, ycol0 = len(self._y0), dict(self._ycol)
         y0 = self._new_unknowns(group)
-        keys, rows = self._rows(group, y0)
+        keys, rows = group_rows(self._f, self.m, self._ycol, group, y0)
         # the prediction from the block before: e - a dx, variance sigma^2 + a Q_xx a^T
         prev = lr.solution() if lr.r else None
         plain = (rows.ycol < 0).all(axis=1)
@@ -926,100 +926,6 @@ class OnlineBundle:
         self._ycol.update(cols)
         self._y0 = np.concatenate([self._y0, y])
         return self._y0
-
-    def _rows(self, group: dict, y0: np.ndarray) -> tuple[list[Key], Rows]:
-        """The group's observation rows linearised at the factorisation's estimate (new
-        unknowns at y0)."""
-        f, m = self._f, self.m
-        res = f.result
-        ng = f.problem.system.ng
-        g = res.state[2] if len(res.state) == 3 else np.zeros(0)
-
-        def photo_at(i):
-            c = self._ycol.get(("photo", i))
-            return (y0[c:c + 6], c) if c is not None else (res.state[0][f.frame_of[i]], -1)
-
-        def point_at(j):
-            c = self._ycol.get(("point", j))
-            return (y0[c:c + 3], c) if c is not None else (res.state[1][f.elim_of[j]], -1)
-
-        keys, parts = [], []
-        img = group["image"]
-        if img:
-            ph = [photo_at(m.im_photo[r]) for r in img]
-            pt = [point_at(m.im_point[r]) for r in img]
-            e, je, jp, jg = image_rows(f.problem.block, f.problem,
-                                       np.array([m.photo_cam[m.im_photo[r]] for r in img]),
-                                       np.array([p[0] for p in ph]), np.array([p[0] for p in pt]),
-                                       np.array([m.im_xy[r] for r in img]), g)
-            k = 2 * len(img)
-            frame = np.repeat([f.frame_of[m.im_photo[r]] if c < 0 else -1
-                               for r, (_, c) in zip(img, ph, strict=True)], 2)
-            point = np.repeat([f.elim_of[m.im_point[r]] if c < 0 else -1
-                               for r, (_, c) in zip(img, pt, strict=True)], 2)
-            pc = np.repeat([c for _, c in ph], 2)
-            qc = np.repeat([c for _, c in pt], 2)
-            je, jp = je.reshape(k, 6), jp.reshape(k, 3)
-            held = f.problem.held
-            if held is not None:  # a free network's datum: its columns are not unknowns
-                je = np.where(held[np.maximum(frame, 0)] & (frame >= 0)[:, None], 0.0, je)
-            ycol = np.full((k, KY), -1, np.int64)
-            jy = np.zeros((k, KY))
-            on = pc >= 0
-            ycol[on, :6] = pc[on, None] + np.arange(6)
-            jy[on, :6] = je[on]
-            on = qc >= 0
-            ycol[on, 6:] = qc[on, None] + np.arange(3)
-            jy[on, 6:] = jp[on]
-            sig = np.array([m.im_sigma[r] for r in img]).reshape(k)
-            parts.append(Rows(frame, np.where((frame >= 0)[:, None], je, 0.0), point,
-                              np.where((point >= 0)[:, None], jp, 0.0), jg.reshape(k, ng),
-                              ycol, jy, sig, e.reshape(k)))
-            keys += [("image", r, c) for r in img for c in range(2)]
-        for j in group["control"]:
-            sig = m.point_sigma[j]
-            obs = np.flatnonzero(np.isfinite(sig))
-            x, c = point_at(j)
-            k = len(obs)
-            jp = np.eye(3)[obs]
-            ycol = np.full((k, KY), -1, np.int64)
-            jy = np.zeros((k, KY))
-            if c >= 0:
-                ycol[:, 6:] = c + np.arange(3)
-                jy[:, 6:] = jp
-            parts.append(Rows(np.full(k, -1), np.zeros((k, 6)),
-                              np.full(k, f.elim_of[j] if c < 0 else -1),
-                              jp if c < 0 else np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
-                              sig[obs], (m.point_xyz[j] - x)[obs]))
-            keys += [("control", j, int(a)) for a in obs]
-        ext = [("gnss", r, m.g_photo[r]) for r in group["gnss"]] + \
-            [("imu", r, m.i_photo[r]) for r in group["imu"]]
-        if ext:
-            ph = [photo_at(i) for _, _, i in ext]
-            gsel = [r for kind, r, _ in ext if kind == "gnss"]
-            isel = [r for kind, r, _ in ext if kind == "imu"]
-            e, jf = extra_rows(f.problem.block, f.problem,
-                               np.repeat(np.array([p[0] for p in ph]), 1, axis=0),
-                               np.array([m.g_xyz[r] for r in gsel]).reshape(-1, 3),
-                               np.array([m.g_sigma[r] for r in gsel]).reshape(-1, 3),
-                               np.array([m.i_angles[r] for r in isel]).reshape(-1, 3),
-                               np.array([m.i_sigma[r] for r in isel]).reshape(-1, 3))
-            k = 3 * len(ext)
-            frame = np.repeat([f.frame_of[i] if c < 0 else -1
-                               for (_, _, i), (_, c) in zip(ext, ph, strict=True)], 3)
-            pc = np.repeat([c for _, c in ph], 3)
-            ycol = np.full((k, KY), -1, np.int64)
-            jy = np.zeros((k, KY))
-            on = pc >= 0
-            ycol[on, :6] = pc[on, None] + np.arange(6)
-            jy[on, :6] = jf[on]
-            sig = np.concatenate([np.array([m.g_sigma[r] for r in gsel]).reshape(-1),
-                                  np.array([m.i_sigma[r] for r in isel]).reshape(-1)])
-            parts.append(Rows(frame, np.where((frame >= 0)[:, None], jf, 0.0),
-                              np.full(k, -1), np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
-                              sig, e))
-            keys += [(kind, r, c) for kind, r, _ in ext for c in range(3)]
-        return keys, concat(parts, ng)
 
     # ------------------------------------------------------------ labels
     def _label(self, key: Key) -> tuple[str, str, str, str]:

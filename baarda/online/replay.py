@@ -45,6 +45,14 @@ def tests_table(answers) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=list(COLUMNS))
 
 
+def image_values(block: Block) -> dict[tuple[str, str], tuple[float, float]]:
+    """{(photo, point): (x, y) mm} of every image point of a block (what `remeasure` of a
+    simulation gives back: the block without its blunders)."""
+    im, ids, pids = block.image, block.photos.ids, block.points.ids
+    return {(ids[p], pids[q]): (float(x), float(y))
+            for p, q, (x, y) in zip(im.photo, im.point, im.xy_mm, strict=True)}
+
+
 def strip_order(block: Block) -> list[int]:
     """The photos in strip order: strips in the order they first appear, photos in the
     block's order within each."""
@@ -81,6 +89,9 @@ class Replay:
                f"rejected and {sus} not checked (suspect) when they were taken in; "
                f"{self.seconds:.2f} s" + (f", median {1e3 * float(np.median(adds)):.1f} ms "
                                            "per photo" if adds else "")]
+        if self.remeasured:
+            out.append(f"{len(self.remeasured)} rejected image point component(s) measured "
+                       "again")
         if self.removed:
             out.append(f"{len(self.removed)} observation(s) taken out as rejected")
         if self.aside:
@@ -144,9 +155,10 @@ class _Again:
     measure: Callable[[str, str], tuple[float, float]]
     sigma_um: dict
     done: list = field(default_factory=list)
+    points: set = field(default_factory=set)  # (photo, point) of `done`
 
     def measured(self, photo: str, point: str) -> bool:
-        return any(d[2] == photo and d[3] == point for d in self.done)
+        return (photo, point) in self.points
 
 
 def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict,
@@ -215,6 +227,7 @@ def _measure_again(ob: OnlineBundle, step: int, key: tuple, w: float, again: _Ag
     x, y = again.measure(photo, point)
     c = ob.add_image_point(photo, point, x, y, again.sigma_um[(photo, point)])
     again.done.append((step, "image", photo, point, comp, w))
+    again.points.add((photo, point))
     for t in c.tested:
         k = (t.kind, t.photo, t.point, t.component)
         if t.verdict == "reject":

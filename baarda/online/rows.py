@@ -27,6 +27,7 @@ from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.gnss_imu import GnssImu
 from baarda.bundle.image_rows import ImageRows
 from baarda.online.lowrank import Rows
+from baarda.online.measurements import Measurements
 
 KY = 9  # new unknowns a row can touch: a photo's six and a point's three
 
@@ -144,3 +145,100 @@ def factor_rows(problem: BundleProblem, factor: SchurFactor, flat: np.ndarray) -
             jg[ext] = lin.jxg[xr, xc]
     none = np.full((k, KY), -1, np.int64)
     return Rows(frame, jf, point, jp, jg, none, np.zeros((k, KY)), np.zeros(k), np.zeros(k))
+
+
+def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
+               ) -> tuple[list[tuple[str, int, int]], Rows]:
+    """The observation rows of a group of held observations (online/entering.py) linearised
+    at the estimate of the factorisation `f` (online/bundle.py `_Factored`), new photos and
+    points at y0 (their columns in `cols`): (their keys (kind, universe index, component),
+    the Rows)."""
+    res = f.result
+    ng = f.problem.system.ng
+    g = res.state[2] if len(res.state) == 3 else np.zeros(0)
+
+    def photo_at(i):
+        c = cols.get(("photo", i))
+        return (y0[c:c + 6], c) if c is not None else (res.state[0][f.frame_of[i]], -1)
+
+    def point_at(j):
+        c = cols.get(("point", j))
+        return (y0[c:c + 3], c) if c is not None else (res.state[1][f.elim_of[j]], -1)
+
+    keys, parts = [], []
+    img = group["image"]
+    if img:
+        ph = [photo_at(m.im_photo[r]) for r in img]
+        pt = [point_at(m.im_point[r]) for r in img]
+        e, je, jp, jg = image_rows(f.problem.block, f.problem,
+                                   np.array([m.photo_cam[m.im_photo[r]] for r in img]),
+                                   np.array([p[0] for p in ph]), np.array([p[0] for p in pt]),
+                                   np.array([m.im_xy[r] for r in img]), g)
+        k = 2 * len(img)
+        frame = np.repeat([f.frame_of[m.im_photo[r]] if c < 0 else -1
+                           for r, (_, c) in zip(img, ph, strict=True)], 2)
+        point = np.repeat([f.elim_of[m.im_point[r]] if c < 0 else -1
+                           for r, (_, c) in zip(img, pt, strict=True)], 2)
+        pc = np.repeat([c for _, c in ph], 2)
+        qc = np.repeat([c for _, c in pt], 2)
+        je, jp = je.reshape(k, 6), jp.reshape(k, 3)
+        held = f.problem.held
+        if held is not None:  # a free network's datum: its columns are not unknowns
+            je = np.where(held[np.maximum(frame, 0)] & (frame >= 0)[:, None], 0.0, je)
+        ycol = np.full((k, KY), -1, np.int64)
+        jy = np.zeros((k, KY))
+        on = pc >= 0
+        ycol[on, :6] = pc[on, None] + np.arange(6)
+        jy[on, :6] = je[on]
+        on = qc >= 0
+        ycol[on, 6:] = qc[on, None] + np.arange(3)
+        jy[on, 6:] = jp[on]
+        sig = np.array([m.im_sigma[r] for r in img]).reshape(k)
+        parts.append(Rows(frame, np.where((frame >= 0)[:, None], je, 0.0), point,
+                          np.where((point >= 0)[:, None], jp, 0.0), jg.reshape(k, ng),
+                          ycol, jy, sig, e.reshape(k)))
+        keys += [("image", r, c) for r in img for c in range(2)]
+    for j in group["control"]:
+        sig = m.point_sigma[j]
+        obs = np.flatnonzero(np.isfinite(sig))
+        x, c = point_at(j)
+        k = len(obs)
+        jp = np.eye(3)[obs]
+        ycol = np.full((k, KY), -1, np.int64)
+        jy = np.zeros((k, KY))
+        if c >= 0:
+            ycol[:, 6:] = c + np.arange(3)
+            jy[:, 6:] = jp
+        parts.append(Rows(np.full(k, -1), np.zeros((k, 6)),
+                          np.full(k, f.elim_of[j] if c < 0 else -1),
+                          jp if c < 0 else np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
+                          sig[obs], (m.point_xyz[j] - x)[obs]))
+        keys += [("control", j, int(a)) for a in obs]
+    ext = [("gnss", r, m.g_photo[r]) for r in group["gnss"]] + \
+        [("imu", r, m.i_photo[r]) for r in group["imu"]]
+    if ext:
+        ph = [photo_at(i) for _, _, i in ext]
+        gsel = [r for kind, r, _ in ext if kind == "gnss"]
+        isel = [r for kind, r, _ in ext if kind == "imu"]
+        e, jf = extra_rows(f.problem.block, f.problem,
+                           np.repeat(np.array([p[0] for p in ph]), 1, axis=0),
+                           np.array([m.g_xyz[r] for r in gsel]).reshape(-1, 3),
+                           np.array([m.g_sigma[r] for r in gsel]).reshape(-1, 3),
+                           np.array([m.i_angles[r] for r in isel]).reshape(-1, 3),
+                           np.array([m.i_sigma[r] for r in isel]).reshape(-1, 3))
+        k = 3 * len(ext)
+        frame = np.repeat([f.frame_of[i] if c < 0 else -1
+                           for (_, _, i), (_, c) in zip(ext, ph, strict=True)], 3)
+        pc = np.repeat([c for _, c in ph], 3)
+        ycol = np.full((k, KY), -1, np.int64)
+        jy = np.zeros((k, KY))
+        on = pc >= 0
+        ycol[on, :6] = pc[on, None] + np.arange(6)
+        jy[on, :6] = jf[on]
+        sig = np.concatenate([np.array([m.g_sigma[r] for r in gsel]).reshape(-1),
+                              np.array([m.i_sigma[r] for r in isel]).reshape(-1)])
+        parts.append(Rows(frame, np.where((frame >= 0)[:, None], jf, 0.0),
+                          np.full(k, -1), np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
+                          sig, e))
+        keys += [(kind, r, c) for kind, r, _ in ext for c in range(3)]
+    return keys, concat(parts, ng)
