@@ -14,13 +14,13 @@ from baarda.adjustment.schur_problem import read_only
 from baarda.adjustment.schur_system import Linearization
 from baarda.block.photo_block import Block
 from baarda.block.rotation import similarity
-from baarda.sections import Section, render, section
+from baarda.bundle import result_text
+from baarda.bundle.result_text import HIGH_CORRELATION
+from baarda.sections import Section, render
 
 if TYPE_CHECKING:
     from baarda.bundle.bundle_problem import BundleProblem
 
-HIGH_CORRELATION = 0.95  # camera parameters correlated beyond this are reported
-EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
 
 
 @dataclass(frozen=True)
@@ -276,159 +276,19 @@ class BundleResult(AdjustmentCounts):
         }
 
     def sections(self) -> list[Section]:
-        d = self.to_dict()
-        im = np.where(self.lin.w > 0, self.image_residuals * 1e3, np.nan)
-        rows = self.problem.extra_rows[0]  # image rows of points tied by distances
-        mb = (rows.stop - rows.start) // 2
-        if mb:
-            wb = self.lin.wx[rows, 0].reshape(mb, 2)
-            im = np.vstack([im, np.where(wb > 0, -self.lin.ex[rows, 0].reshape(mb, 2) * 1e3,
-                                         np.nan)])
-        lines = [] if self.converged else [
-            f"NOT CONVERGED after {self.iterations} iterations: the results are not a "
-            "least-squares solution (see the notes)"]
-        lines += [
-            self.block.summary(),
-            self.problem.datum_text(),
-            self.problem.apriori_text(),
-            self.observations_text(),
-            f"iterations {d['iterations']} ({'converged' if d['converged'] else 'NOT converged'}"
-            f")" + (f", then {self.refits[0]} re-adjustment(s) by data snooping (the last: "
-                    f"{self.refits[1]} iteration(s))" if self.refits[0] else "")
-            + f", {d['seconds']:.2f} s",
-            f"sigma0 a posteriori {d['sigma0']:.4f}",
-            f"RMS image residuals x {np.sqrt(np.nanmean(im[:, 0]**2)):.2f} µm, "
-            f"y {np.sqrt(np.nanmean(im[:, 1]**2)):.2f} µm (rejected ones left out)",
-        ]
-        if d["n_check_points"]:
-            after = (" after a 7-parameter similarity onto them (free network)"
-                     if self.check_similarity() is not None else "")
-            lines.append(f"check points {d['n_check_points']}{after}: RMS X "
-                         f"{d['check_rms_X']:.3f} m, Y {d['check_rms_Y']:.3f} m, Z "
-                         f"{d['check_rms_Z']:.3f} m")
-        lines += [f"note: {n}" for n in list(self.block.notes) + list(self.notes)]
-        out = [section("Bundle block adjustment", lines)]
-        if self.problem.calibration.n:
-            out.append(section("Camera calibration", self.calibration_lines()))
-        return out
+        return result_text.sections(self)
 
-    # --------------------------------------------------------- self-calibration
     def camera_table(self) -> list[dict]:
-        """Every parameter of every camera: its initial (given) value, the adjusted value, the
-        standard deviation (None when held), estimated or not (units: mm for c, x0, y0; the
-        model's units else)."""
-        cal = self.problem.calibration
-        params = cal.current(self._g, self.state[0][:, 6:])
-        out = []
-        for i, cid in enumerate(self.block.cameras.ids):
-            std = np.sqrt(np.maximum(np.diag(self.camera_cofactors(i)), 0)) * self.sigma0 \
-                if len(cal.free_index[i]) else np.zeros(0)
-            free = dict(zip(cal.free_index[i].tolist(), std.tolist(), strict=True))
-            for j, name in enumerate(cal.names[i]):
-                out.append({"camera": cid, "model": cal.models[i].name, "parameter": name,
-                            "initial": float(cal.nominal[i][j]),
-                            "value": float(params[i][j]),
-                            "sigma": float(free[j]) if j in free else None,
-                            "estimated": j in free})
-        return out
+        return result_text.camera_table(self)
 
     def camera_correlations(self) -> list[dict]:
-        """Per camera with estimated parameters: their names and correlation matrix
-        (summary.json 'camera_correlations'; the report's heat map)."""
-        cal = self.problem.calibration
-        q = self.camera_covariance()
-        s = np.sqrt(np.maximum(np.diag(q), 1e-300))
-        r = q / np.outer(s, s) if len(q) else q
-        out = []
-        for i, cid in enumerate(self.block.cameras.ids):
-            if not len(cal.free_index[i]):
-                continue
-            if cal.owner[i] < 0:
-                cols = cal.columns[i]
-                ri = r[np.ix_(cols, cols)]
-            else:
-                qi = self.camera_cofactors(i)
-                si = np.sqrt(np.maximum(np.diag(qi), 1e-300))
-                ri = qi / np.outer(si, si)
-            out.append({"camera": cid,
-                        "parameters": [cal.names[i][j] for j in cal.free_index[i]],
-                        "matrix": np.round(ri, 6).tolist()})
-        return out
+        return result_text.camera_correlations(self)
 
     def high_correlations(self, limit: float = HIGH_CORRELATION) -> list[str]:
-        """Pairs of estimated camera parameters, and camera parameters with orientation
-        unknowns of a photo, correlated beyond `limit` (by the largest |r|).  A camera in its
-        photo's block: with its own parameters and its photo's orientation (the other
-        photos' unknowns are not in the selected inverse's blocks of that photo)."""
-        cal = self.problem.calibration
-        out = []
-        q = self.camera_covariance()
-        if len(q):
-            s = np.sqrt(np.maximum(np.diag(q), 1e-300))
-            r = q / np.outer(s, s)
-            labels = cal.global_labels
-            for a, b in zip(*np.triu_indices(len(q), 1), strict=True):
-                if abs(r[a, b]) > limit:
-                    out.append((abs(r[a, b]), f"{labels[a]} with {labels[b]} "
-                                              f"{r[a, b]:+.3f}"))
-            # with the photos' unknowns (orientation, and a camera in the photo's block)
-            qf = self._frame_cofactors
-            sf = np.sqrt(np.maximum(np.diagonal(qf, axis1=1, axis2=2), 1e-300))
-            qfg = self.factor.frame_global_covariance()[:, :, :len(q)]
-            rfg = qfg / (sf[:, :, None] * s[None, None, :])
-            for g in range(len(q)):
-                f, b = np.unravel_index(int(np.argmax(np.abs(rfg[:, :, g]))), rfg.shape[:2])
-                if abs(rfg[f, b, g]) > limit:
-                    out.append((abs(rfg[f, b, g]), f"{labels[g]} with "
-                                f"{self._photo_unknown(f, b)} {rfg[f, b, g]:+.3f}"))
-        owned = np.flatnonzero(cal.owner >= 0)
-        if len(owned):
-            qb = self._frame_cofactors
-            sb = np.sqrt(np.maximum(np.diagonal(qb, axis1=1, axis2=2), 1e-300))
-            rb = qb / (sb[:, :, None] * sb[:, None, :])
-            for i in owned:
-                f = cal.owner[i]
-                names = [cal.names[i][j] for j in cal.free_index[i]]
-                cid = self.block.cameras.ids[i]
-                for a in range(len(names)):
-                    for b in range(a + 1, len(names)):
-                        x = rb[f, 6 + a, 6 + b]
-                        if abs(x) > limit:
-                            out.append((abs(x), f"{names[a]} of camera {cid} with {names[b]} "
-                                                f"of camera {cid} {x:+.3f}"))
-                    b = int(np.argmax(np.abs(rb[f, 6 + a, :6])))
-                    x = rb[f, 6 + a, b]
-                    if abs(x) > limit:
-                        out.append((abs(x), f"{names[a]} of camera {cid} with "
-                                            f"{self._photo_unknown(f, b)} {x:+.3f}"))
-        return [text for _, text in sorted(out, reverse=True)]
-
-    def _photo_unknown(self, photo: int, k: int) -> str:
-        """The name of unknown k of a photo's block: 'X0 of photo P', 'c of camera C'."""
-        if k < 6:
-            return f"{EO_NAMES[k]} of photo {self.block.photos.ids[photo]}"
-        cal = self.problem.calibration
-        i = int(np.flatnonzero(cal.owner == photo)[0])
-        return f"{cal.names[i][cal.free_index[i][k - 6]]} of camera {self.block.cameras.ids[i]}"
+        return result_text.high_correlations(self, limit)
 
     def calibration_lines(self) -> list[str]:
-        """The estimated camera parameters with standard deviations, and the high
-        correlations (the significance tests are in the quality section)."""
-        lines = []
-        table = self.camera_table()
-        for cid in self.block.cameras.ids:
-            rows = [r for r in table if r["camera"] == cid]
-            est = [f"{r['parameter']} {r['value']:.6g} +- {r['sigma']:.2g}" for r in rows
-                   if r["estimated"]]
-            held = [f"{r['parameter']} {r['value']:.6g}" for r in rows
-                    if not r["estimated"] and r["value"] != 0]
-            lines.append(f"camera {cid} ({rows[0]['model']}): " + (", ".join(est) or "held")
-                         + (f"; held: {', '.join(held)}" if held else ""))
-        high = self.high_correlations()
-        if high:
-            lines.append(f"high correlations (|r| > {HIGH_CORRELATION}): " + "; ".join(high[:8])
-                         + (f"; and {len(high) - 8} more" if len(high) > 8 else ""))
-        return lines
+        return result_text.calibration_lines(self)
 
     def summary(self) -> str:
         return render(self.sections())
