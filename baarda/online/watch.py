@@ -217,10 +217,11 @@ class Watch:
         fresh = [p for p in block.photos.ids if p in by_photo and p not in ob.m.photo_at]
         eo = self._approximations(block, fresh)
         cams = block.cameras.ids
+        at = {pid: i for i, pid in enumerate(block.photos.ids)}
         for photo in known + fresh:
             kw = {}
             if photo in eo:
-                i = block.photos.ids.index(photo)
+                i = at[photo]
                 cam = cams[int(block.photos.camera[i])]
                 if cam not in ob.m.cameras.ids:
                     try:
