@@ -13,8 +13,10 @@ from __future__ import annotations
 import base64
 import html
 import re
+from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -43,9 +45,16 @@ def page(name: str, user_dir: str | Path | None = None, **context) -> str:
     return env.get_template(f"{name}.html.j2").render(**context) + "\n"
 
 
-def macro(name: str):
-    """A macro of macros.html.j2 (table, figure, check, meta, signoff)."""
-    return getattr(environment().get_template("macros.html.j2").module, name)
+def macro(name: str) -> Callable[..., str]:
+    """A macro of macros.html.j2 (table, figure, check, meta, signoff), returning plain
+    `str`: the page is assembled from `str` pieces and marked safe once, where a section's
+    body is handed to the template (a `Markup` joined to a `str` escapes the `str`)."""
+    m = getattr(environment().get_template("macros.html.j2").module, name)
+
+    def call(*args: Any, **kwargs: Any) -> str:
+        return str(m(*args, **kwargs))
+
+    return call
 
 
 def esc(x) -> str:
@@ -98,7 +107,7 @@ def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
     view = {"id": m.group(1) if m else "", "columns": cols, "text_cols": set(text_cols),
             "rows": rows, "note": note, "csv": csv, "csv_text": csv_text or "whole table (CSV)",
             "download": download}
-    return str(macro("table")(view))
+    return macro("table")(view)
 
 
 def worst_table(df: pd.DataFrame, order: np.ndarray | pd.Series, n: int, name: str,
@@ -117,6 +126,6 @@ def worst_table(df: pd.DataFrame, order: np.ndarray | pd.Series, n: int, name: s
 def figure(p: Plot | None, width: int | None = None) -> str:
     if p is None:
         return ""
-    return str(macro("figure")({"name": p.name, "title": p.title, "caption": p.caption,
+    return macro("figure")({"name": p.name, "title": p.title, "caption": p.caption,
                                    "b64": base64.b64encode(p.png).decode("ascii"),
-                                   "width": width}))
+                                   "width": width})
