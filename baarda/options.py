@@ -3,6 +3,12 @@
 `TestOptions` holds the B-method's alpha0 and beta0 of every test; `SolveOptions` the
 iteration control of the one solver (baarda/adjustment/solve.py).  Both are frozen: a
 function that needs other values gets another instance (`dataclasses.replace`).
+
+`Requested` is what a command line or an API call asks for (None: not given); `Config` the
+configuration of one run, merged once from it, the input's settings (project.toml, or what
+the source program states) and the defaults by io/configuration.resolve_config (the rule
+of each setting is stated there), as COLMAP keeps BundleAdjustmentConfig apart from the
+data.
 """
 
 from __future__ import annotations
@@ -89,6 +95,69 @@ class SolveOptions:
 
 
 DEFAULT_TESTS = TestOptions()
+
+DATUMS = ("control", "free", "inner")  # inner: a free network in its inner datum
+SOLVERS = ("gn", "lm")  # Gauss-Newton with step halving, Levenberg-Marquardt
+CALIBRATION_GROUPS = ("camera", "strip")  # the photos that share a camera's parameters
+
+
+@dataclass(frozen=True)
+class ImageOptions:
+    """What a reader is given (pixel size [mm], sigma [px] in its pixels) and the sigma
+    [µm] set on every observation after reading (None: the reader's own); resolved for the
+    input's format by io/image_sigma.resolve_image_options."""
+
+    pixel_mm: float | None = None
+    sigma_px: float | None = None
+    sigma_um: float | None = None
+
+
+@dataclass(frozen=True)
+class Requested:
+    """The settings a command line or an API call gives; None: not given (the input's,
+    else the default).  `calibrate`: "all", "none" or the parameter names estimated for
+    every camera; `solver`: one of SOLVERS."""
+
+    alpha0: float | None = None
+    beta0: float | None = None
+    alpha_global: float | None = None
+    solver: str | None = None
+    datum: str | None = None
+    crs: str | None = None
+    camera_model: str | None = None
+    calibrate: str | tuple[str, ...] | None = None
+    calibration_group: str | None = None
+    sigma_image_um: float | None = None
+    sigma_px: float | None = None
+    pixel_mm: float | None = None
+
+
+@dataclass(frozen=True)
+class CalibrationConfig:
+    """What a self-calibration estimates: `model` every camera is put on (None: each keeps
+    the input's), `free` the parameters estimated per camera of the input (names of
+    block/camera.parameter_names; () for none), `group` "camera" (shared by a camera's
+    photos) or "strip" (per camera and strip), `source` where `free` comes from."""
+
+    model: str | None = None
+    free: tuple[tuple[str, ...], ...] = ()
+    group: str = "camera"
+    source: str = "default"
+
+
+@dataclass(frozen=True)
+class Config:
+    """The resolved configuration of one run (io/configuration.resolve_config): the tests,
+    the solver (None: the bundle's default), the datum, the CRS, the calibration, the image
+    options, and `notes`: how settings given twice were resolved."""
+
+    tests: TestOptions = DEFAULT_TESTS
+    solver: str | None = None
+    datum: str = "control"
+    crs: str | None = None
+    calibration: CalibrationConfig = CalibrationConfig()
+    image: ImageOptions = ImageOptions()
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -22,15 +22,22 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.block.camera import CALIBRATION_GROUPS, cameras_per_strip, with_calibration
 from baarda.block.model_block import ModelBlock
 from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
 from baarda.block.photo_block import Block, Photos
 from baarda.errors import GeometryError, ProjectError
 from baarda.io.formats import read_any
-from baarda.io.project import DATUMS
 from baarda.io.records import ENCODING
-from baarda.options import Progress, ScreeningOptions, SolveOptions, TestOptions
+from baarda.options import (
+    CALIBRATION_GROUPS,
+    DATUMS,
+    Config,
+    Progress,
+    Requested,
+    ScreeningOptions,
+    SolveOptions,
+    TestOptions,
+)
 
 # The computation (numba kernels, SciPy's distributions, pyproj) is imported by the step
 # that needs it: reading a file, and failing on a bad one, costs only the reader's imports.
@@ -50,7 +57,7 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          calibrate=None, camera: str | Path | None = None,
          calibration_group: str | None = None, check_gcp=None,
          control: str | Path | None = None) -> Block:
-    """Read any supported input (io/formats.py) into a Block, as the files give it.
+    """Read any supported input (io/formats.py) into a Block, configured as asked.
 
     crs: the CRS of the ground coordinates (overrides project.toml); sigma_image_um or
     sigma_px: the image sigma [µm] or [px] of every observation of any input (default: the
@@ -69,10 +76,40 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     control points to use as check points (with_check_points), e.g. an OpenSfM dataset's
     GCPs; control: a control file (DBAT's text format or a native ground_points.csv,
     io/control_file.py) whose points replace the input's control, matched by id
-    (block/control.py).
+    (block/control.py).  The settings are resolved once (io/configuration.py: the rule of
+    each); `read_configured` returns the configuration too.
     """
-    block = read_any(path, fmt, pixel_mm=pixel_mm, sigma_px=sigma_px,
-                     sigma_image_um=sigma_image_um, encoding=encoding, camera=camera, crs=crs)
+    requested = Requested(crs=crs, pixel_mm=pixel_mm, sigma_px=sigma_px,
+                          sigma_image_um=sigma_image_um, datum=datum,
+                          camera_model=camera_model,
+                          calibrate=tuple(calibrate) if isinstance(calibrate, list)
+                          else calibrate, calibration_group=calibration_group)
+    return read_configured(path, fmt, requested, encoding=encoding, camera=camera,
+                           check_gcp=check_gcp, control=control)[0]
+
+
+def read_configured(path: str | Path, fmt: str | None = None,
+                    requested: Requested | None = None, *, encoding: str = ENCODING,
+                    camera: str | Path | None = None, check_gcp=None,
+                    control: str | Path | None = None) -> tuple[Block, Config]:
+    """(the block, the run's configuration): the input read (io/formats.py), its control
+    replaced (`control`) or turned into check points (`check_gcp`: see `read`), and what
+    the command line or the API asks for (`requested`) merged once with the input's
+    settings (io/configuration.resolve_config) and applied to the block (`configure`).
+    Every command reads its input here; `prepare` and the tests take the configuration."""
+    from baarda.io.configuration import configure, resolve_config
+    from baarda.io.formats import detect
+
+    r = requested or Requested()
+    if r.datum not in (None, *DATUMS):  # before reading: a bad value costs nothing
+        raise ValueError(f"datum '{r.datum}' is not one of {', '.join(DATUMS)}")
+    if r.calibration_group not in (None, *CALIBRATION_GROUPS):
+        raise ValueError(f"calibration group '{r.calibration_group}' is not one of "
+                         f"{', '.join(CALIBRATION_GROUPS)}")
+    fmt = fmt or detect(path)
+    block = read_any(path, fmt, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px,
+                     sigma_image_um=r.sigma_image_um, encoding=encoding, camera=camera,
+                     crs=r.crs)
     if control is not None:
         from baarda.block.control import with_control
         from baarda.io.control_file import read_control_file
@@ -81,22 +118,8 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
         block = with_control(block, cf.ids, cf.xyz, cf.sigma, cf.role, cf.path)
     if check_gcp is not None:
         block = with_check_points(block, check_gcp)
-    if datum not in (None, *DATUMS):
-        raise ValueError(f"datum '{datum}' is not one of {', '.join(DATUMS)}")
-    if crs or datum:
-        block = replace(block, settings=replace(block.settings, crs=crs or block.settings.crs,
-                                                datum=datum or block.settings.datum))
-    if camera_model is not None or calibrate is not None:
-        try:
-            block = with_calibration(block, camera_model, calibrate)
-        except ValueError as e:
-            raise ProjectError("command line", str(e)) from None
-    if calibration_group not in (None, *CALIBRATION_GROUPS):
-        raise ValueError(f"calibration group '{calibration_group}' is not one of "
-                         f"{', '.join(CALIBRATION_GROUPS)}")
-    group = calibration_group or block.settings.calibration_group
-    block = replace(block, settings=replace(block.settings, calibration_group=group))
-    return cameras_per_strip(block) if group == "strip" else block
+    config = resolve_config(r, block, fmt)
+    return configure(block, config), config
 
 
 CHECK_ALTERNATE = ("alternate", "every-other")
@@ -188,7 +211,8 @@ def localized(block: Block) -> Block:
 
 
 def prepare(block: Block, free: bool | None = None, *,
-            solve: SolveOptions | str | None = None) -> BundleProblem:
+            solve: SolveOptions | str | None = None,
+            config: Config | None = None) -> BundleProblem:
     """The bundle problem of a block as read: local frame, approximations, datum.
 
     The datum is the control unless the block is a free network (`free`, default: the
@@ -199,9 +223,14 @@ def prepare(block: Block, free: bool | None = None, *,
     In a free network, control points become check points (their differences refer to the
     free datum).  `solve`: the solver's options for every fit of the problem, or their
     name (bundle_problem.DAMPING: "gn" Gauss-Newton with step halving, the default; "lm"
-    Levenberg-Marquardt)."""
+    Levenberg-Marquardt).  `config`: the run's configuration (read_configured): its datum
+    and solver unless `free` and `solve` say otherwise."""
     from baarda.bundle.bundle_problem import DAMPING
 
+    if config is not None:
+        solve = config.solver if solve is None else solve
+        if free is None and config.datum != block.settings.datum:
+            block = replace(block, settings=replace(block.settings, datum=config.datum))
     if isinstance(solve, str):
         if solve not in DAMPING:
             raise ValueError(f"unknown solver {solve!r}: one of {', '.join(DAMPING)}")

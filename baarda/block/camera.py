@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from baarda.block.camera_models import MODELS, CameraModel, get_model, invert
+from baarda.options import CALIBRATION_GROUPS  # noqa: F401 (re-exported)
 
 ALIASES = {"brown_backward": "brown"}
 KINDS = tuple(MODELS) + tuple(ALIASES)
@@ -164,9 +165,6 @@ def ideal_image_coordinates(block) -> np.ndarray:
     return out
 
 
-CALIBRATION_GROUPS = ("camera", "strip")
-
-
 def cameras_per_strip(block):
     """The block with one camera for every (camera, strip) pair that its photos use, so that
     a self-calibration estimates each strip's parameters of its own (calibration group
@@ -196,54 +194,78 @@ def cameras_per_strip(block):
                        "(one per camera and strip)"])
 
 
-def with_calibration(block, model: str | None = None, free=None):
+def with_camera_model(block, model: str):
     """The block with every camera on camera model `model` (coefficients 0 unless it keeps
-    its model; Ebner's and Gruen's grid spacing from the extent of the image points) and
-    with `free` estimated: a list of parameter names for every camera, "none" (nothing
-    estimated) or "all" (c, x0, y0 and every coefficient of the model); None keeps the
-    block's (readers and project.toml set it)."""
+    its model; Ebner's and Gruen's grid spacing from the extent of the image points; the
+    free parameters cleared: io/configuration.py decides them); ValueError for an unknown
+    model or one that needs constants the block lacks."""
     cams = block.cameras
     n = len(cams)
-    if model is not None:
-        if model not in KINDS:
-            raise ValueError(f"unknown camera model '{model}' (known: {', '.join(KINDS)})")
-        new = model_of(model)
-        old = kinds(cams)
-        coef = np.zeros((n, new.n_params))
+    if model not in KINDS:
+        raise ValueError(f"unknown camera model '{model}' (known: {', '.join(KINDS)})")
+    new = model_of(model)
+    old = kinds(cams)
+    coef = np.zeros((n, new.n_params))
+    for i in range(n):
+        if model_of(old[i]).name == new.name:
+            coef[i] = coefficients(cams, i)
+    const = np.full((n, len(new.constants)), np.nan)
+    if new.name in ("ebner", "gruen"):
+        cam = block.photos.camera[block.image.photo]
         for i in range(n):
-            if model_of(old[i]).name == new.name:
-                coef[i] = coefficients(cams, i)
-        const = np.full((n, len(new.constants)), np.nan)
-        if new.name in ("ebner", "gruen"):
-            cam = block.photos.camera[block.image.photo]
-            for i in range(n):
-                xy = block.image.xy_mm[cam == i] - cams.principal_point_mm[i]
-                extent = float(np.max(np.abs(xy), initial=1.0))
-                const[i, 0] = extent if new.name == "ebner" else extent / 2
-        elif new.constants:
-            raise ValueError(f"camera model '{model}' needs {', '.join(new.constants)}: give "
-                             "it in cameras.csv")
-        cams = replace(cams, model=np.full(n, model, dtype=object),
-                       coefficients=coef if new.n_params else None,
-                       constants=const if new.constants else None, free=None)
-    if free is not None:
-        if free == "none":
-            chosen = ((),) * n
-        elif free == "all":
-            chosen = tuple(INTERIOR + model_of(k).params for k in kinds(cams))
-        else:
-            names = tuple(free)
-            for i in range(n):
-                bad = [p for p in names if p not in parameter_names(cams, i)]
-                if bad:
-                    raise ValueError(f"camera {cams.ids[i]}: '{bad[0]}' is not a parameter of "
-                                     f"its model '{kinds(cams)[i]}' "
-                                     f"({', '.join(parameter_names(cams, i))})")
-            chosen = (names,) * n
-        cams = replace(cams, free=chosen)
-        what = ("none (every camera's parameters held at the input's values)"
-                if free == "none" else "all" if free == "all" else ", ".join(free))
-        notes = [*block.notes, f"calibrate {what}: chosen for this run, over what the input "
-                 "sets"]
-        return replace(block, cameras=cams, notes=notes)
+            xy = block.image.xy_mm[cam == i] - cams.principal_point_mm[i]
+            extent = float(np.max(np.abs(xy), initial=1.0))
+            const[i, 0] = extent if new.name == "ebner" else extent / 2
+    elif new.constants:
+        raise ValueError(f"camera model '{model}' needs {', '.join(new.constants)}: give "
+                         "it in cameras.csv")
+    cams = replace(cams, model=np.full(n, model, dtype=object),
+                   coefficients=coef if new.n_params else None,
+                   constants=const if new.constants else None, free=None)
     return replace(block, cameras=cams)
+
+
+def chosen_parameters(cameras, free) -> tuple[tuple[str, ...], ...]:
+    """The parameters estimated per camera by `free`: "none", "all" (c, x0, y0 and every
+    coefficient of each camera's model) or parameter names for every camera; ValueError
+    naming a name that is not a parameter of a camera's model."""
+    n = len(cameras)
+    if free == "none":
+        return ((),) * n
+    if free == "all":
+        return tuple(INTERIOR + model_of(k).params for k in kinds(cameras))
+    names = tuple(free)
+    for i in range(n):
+        bad = [p for p in names if p not in parameter_names(cameras, i)]
+        if bad:
+            raise ValueError(f"camera {cameras.ids[i]}: '{bad[0]}' is not a parameter of "
+                             f"its model '{kinds(cameras)[i]}' "
+                             f"({', '.join(parameter_names(cameras, i))})")
+    return (names,) * n
+
+
+def calibrate_note(free) -> str:
+    """The note of a calibration chosen for the run over the input's."""
+    what = ("none (every camera's parameters held at the input's values)"
+            if free == "none" else "all" if free == "all" else ", ".join(free))
+    return f"calibrate {what}: chosen for this run, over what the input sets"
+
+
+def with_calibration(block, model: str | None = None, free=None):
+    """The block with every camera on camera model `model` (with_camera_model; the
+    parameters estimated before stay estimated where the new model has them) and with
+    `free` estimated (chosen_parameters): a list of parameter names for every camera,
+    "none" or "all"; None keeps the block's (readers and project.toml set it).  The API of
+    one step; a run resolves its calibration once in io/configuration.py."""
+    before = block.cameras
+    if model is not None:
+        block = with_camera_model(block, model)
+        if free is None and before.free is not None:
+            names = [set(parameter_names(block.cameras, i)) for i in range(len(before))]
+            kept = tuple(tuple(p for p in f if p in names[i])
+                         for i, f in enumerate(before.free))
+            block = replace(block, cameras=replace(block.cameras, free=kept))
+    if free is None:
+        return block
+    cams = replace(block.cameras, free=chosen_parameters(block.cameras, free))
+    return replace(block, cameras=cams, notes=[*block.notes, calibrate_note(free)])

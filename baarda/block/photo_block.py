@@ -45,6 +45,9 @@ class Settings:
     gnss_offsets: str = "none"  # none | block | strip
     gnss_drift: bool = False
     imu_boresight: str = "fixed"  # fixed | estimated
+    # the keys project.toml sets ("tests.alpha0", "datum", ...): a command line's value
+    # over one of them is noted (io/configuration.py)
+    given: frozenset[str] = frozenset()
 
 
 @dataclass

@@ -14,16 +14,19 @@ from baarda.cli.common import (
     announce_compile,
     open_run,
     progress,
-    tests_option,
 )
 from baarda.cli.console import console
-from baarda.cli.inputs import add_input_options, input_paths, read_input
+from baarda.cli.inputs import (
+    add_input_options,
+    formats_help,
+    input_paths,
+    read_configured_input,
+)
 from baarda.cli.verdicts import adjustment_verdict
 
 
 def _common(p) -> None:
-    p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
-                   "supported input (COLMAP, BAL, DBAT, PhotoModeler, AICON; see docs/formats.md)")
+    p.add_argument("input", type=Path, help=formats_help() + " (docs/formats.md)")
     add_out_argument(p, "output folder")
     add_test_options(p, alpha_global=True)
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau (sigma0 a "
@@ -110,8 +113,8 @@ def _adjust(args, run):
     )
 
     say = progress(args)
-    block = read_input(args)
-    tests = tests_option(block.settings, args)
+    block, config = read_configured_input(args)  # the settings resolved once
+    tests = config.tests
     if say:
         say(f"read {block.summary()}")
     # the computation is imported (and compiled, on a first run) once the input is read
@@ -129,7 +132,7 @@ def _adjust(args, run):
         write_screening_log(run, res.log)
         _gpkg(args, run, qc)
         return qc, res.summary() + "\n" + qc.summary()
-    problem = prepare(block, solve=args.damping)
+    problem = prepare(block, config=config)
     est = None
     if getattr(args, "vce", False) and not args.snoop:
         problem, est = with_variance_components(problem, progress=say)

@@ -20,7 +20,7 @@ from baarda.cli.argtypes import (
 )
 from baarda.cli.console import console
 from baarda.errors import GeometryError, ProjectError
-from baarda.options import TestOptions
+from baarda.options import Requested, TestOptions
 from baarda.output.run_folder import RunFolder
 
 FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (replaced whole at the end "
@@ -103,14 +103,34 @@ def add_test_options(p, *, what: str = "the w-test", alpha_global: bool = False,
 
 
 def tests_option(settings, args) -> TestOptions:
-    """TestOptions from --alpha0/--beta0 over the project's settings; bad values are input
-    errors."""
-    try:
-        return TestOptions.resolve(settings, getattr(args, "alpha0", None),
-                                   getattr(args, "beta0", None),
-                                   getattr(args, "alpha_global", None))
-    except ValueError as e:
-        raise ProjectError("command line", str(e)) from None
+    """TestOptions from --alpha0/--beta0/--alpha-global over the project's settings (the
+    rule of io/configuration.resolve_tests); bad values are input errors."""
+    from baarda.io.configuration import resolve_tests
+
+    return resolve_tests(settings, getattr(args, "alpha0", None), getattr(args, "beta0", None),
+                         getattr(args, "alpha_global", None))
+
+
+def requested_settings(args) -> Requested:
+    """What a command's options ask for (options.Requested; an option the command does not
+    have is not given), resolved over the input's settings by io/configuration.py."""
+    def given(name):
+        return getattr(args, name, None)
+
+    datum = given("datum")
+    if given("free"):
+        if datum not in (None, "free"):
+            raise ProjectError("command line", f"--free and --datum {datum} contradict")
+        datum = "free"
+    calibrate = given("calibrate")
+    if calibrate is not None and calibrate not in ("all", "none"):
+        calibrate = tuple(p.strip() for p in calibrate.split(",") if p.strip())
+    return Requested(alpha0=given("alpha0"), beta0=given("beta0"),
+                     alpha_global=given("alpha_global"), solver=given("damping"),
+                     datum=datum, crs=given("crs"), camera_model=given("camera_model"),
+                     calibrate=calibrate, calibration_group=given("calibration_group"),
+                     sigma_image_um=given("sigma_image_um"), sigma_px=given("sigma_px"),
+                     pixel_mm=given("pixel_mm"))
 
 
 @contextmanager

@@ -7,14 +7,14 @@ from pathlib import Path
 from baarda.cli.common import add_out_argument, add_quiet_option, open_run
 from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, input_paths, read_input
-from baarda.io.formats import detect
+from baarda.io.formats import detect, titles
 from baarda.output.project_files import write_project
 from baarda.pipeline import with_approximations
 
 
 def register(sub) -> None:
-    p = sub.add_parser("convert", help="convert a COLMAP, BAL, DBAT, PhotoModeler, AICON, "
-                       "MicMac or OpenSfM input (or a project) into a native project folder")
+    p = sub.add_parser("convert", help=f"convert {titles()} input (or a project) into a "
+                       "native project folder")
     p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
     add_out_argument(p, "project folder to write")
     add_quiet_option(p, "list of what was read and written")

@@ -7,29 +7,36 @@ from pathlib import Path
 from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
 from baarda.cli.argtypes import positive
-from baarda.cli.common import add_encoding_option
-from baarda.errors import ProjectError
-from baarda.io.formats import FORMATS
-from baarda.io.project import DATUMS
-from baarda.pipeline import read
+from baarda.cli.common import add_encoding_option, requested_settings
+from baarda.io.formats import format_names, spec, titles
+from baarda.options import DATUMS, Config
+from baarda.pipeline import read_configured
+
+
+def formats_help() -> str:
+    """The formats baarda reads, for a command's input help (from the format registry)."""
+    return "a native project folder (project.toml + CSV files) or " + titles() + " input"
 
 
 def add_input_options(p) -> None:
-    p.add_argument("--format", choices=FORMATS, help="input format (default: recognised from "
-                   "the path)")
+    """The input options of a command that reads a block; the formats' lists are generated
+    from the format registry (io/formats.py)."""
+    p.add_argument("--format", choices=format_names(), help="input format (default: "
+                   "recognised from the path): " + "; ".join(
+                       f"{s.name}: {s.input}" for s in map(spec, format_names())))
     p.add_argument("--crs", help="CRS of the ground coordinates (e.g. EPSG:32632); overrides "
                    "project.toml")
     p.add_argument("--sigma-image-um", type=positive("µm"), metavar="UM", help="a-priori sigma of "
                    "every image coordinate [µm], any input. Default: the input's own (its "
                    "files, project.toml)")
-    p.add_argument("--sigma-px", type=positive("px"), metavar="PX", help="the same in pixels: with "
-                   "the camera's pixel size (DBAT, PhotoModeler, MicMac) or --pixel-mm "
-                   "(default 1 px for COLMAP, BAL, OpenSfM)")
-    p.add_argument("--pixel-mm", type=positive("mm"), metavar="MM", help="pixel size [mm] of input "
-                   "without one: COLMAP, BAL, OpenSfM (default 0.001: residuals in µm read "
-                   "as pixels), a PhotoModeler export without image size; for a native "
-                   "project or AICON it converts --sigma-px. Refused where the input has "
-                   "its own")
+    p.add_argument("--sigma-px", type=positive("px"), metavar="PX", help="the same in pixels: "
+                   f"with the camera's pixel size ({titles(('camera', 'header'))}) or "
+                   f"--pixel-mm (default 1 px for {titles(('nominal',))})")
+    p.add_argument("--pixel-mm", type=positive("mm"), metavar="MM", help="pixel size [mm] of "
+                   f"input without one: {titles(('nominal',))} (default 0.001: residuals in µm "
+                   f"read as pixels), {titles(('header',))} without image size; for "
+                   f"{titles(('mm',))} input it converts --sigma-px. Refused where the input "
+                   "has its own")
     add_encoding_option(p)
     p.add_argument("--camera-model", choices=[k for k in KINDS if k != "brown_backward"],
                    help="put every camera on this model (docs/camera_models.md; coefficients "
@@ -62,30 +69,19 @@ def add_input_options(p) -> None:
 
 
 def read_input(args) -> Block:
-    """baarda.pipeline.read with the command's input options."""
-    return read(args.input, args.format, crs=args.crs, pixel_mm=args.pixel_mm,
-                sigma_px=args.sigma_px, sigma_image_um=args.sigma_image_um,
-                datum=datum_option(args), encoding=args.encoding,
-                camera_model=args.camera_model, calibrate=calibrate_option(args.calibrate),
-                camera=args.camera, calibration_group=args.calibration_group,
-                check_gcp=args.check_gcp, control=args.control)
+    """The command's input, configured by its options (read_configured_input)."""
+    return read_configured_input(args)[0]
+
+
+def read_configured_input(args) -> tuple[Block, Config]:
+    """(block, configuration): baarda.pipeline.read_configured with the command's input
+    options, resolved once over the input's settings (io/configuration.py)."""
+    return read_configured(args.input, args.format, requested_settings(args),
+                           encoding=args.encoding, camera=args.camera,
+                           check_gcp=args.check_gcp, control=args.control)
 
 
 def input_paths(args) -> list[Path]:
     """The files a command reads (its input, --camera, --control): checked against the
     output folder, never written over."""
     return [Path(p) for p in (args.input, args.camera, args.control) if p is not None]
-
-
-def datum_option(args) -> str | None:
-    """--datum or --free (None: the input's datum)."""
-    if args.free and args.datum not in (None, "free"):
-        raise ProjectError("command line", f"--free and --datum {args.datum} contradict")
-    return "free" if args.free else args.datum
-
-
-def calibrate_option(text: str | None):
-    """--calibrate: None, 'all', 'none' or a tuple of parameter names."""
-    if text is None or text in ("all", "none"):
-        return text
-    return tuple(p.strip() for p in text.split(",") if p.strip())

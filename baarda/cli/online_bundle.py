@@ -16,7 +16,12 @@ from baarda.cli.common import (
     prompt_lines,
     tests_option,
 )
-from baarda.cli.inputs import add_input_options, input_paths, read_input
+from baarda.cli.inputs import (
+    add_input_options,
+    input_paths,
+    read_configured_input,
+    read_input,
+)
 from baarda.errors import ProjectError
 
 MAX_ROWS = 120  # online/bundle.py MAX_ROWS (not imported: the parser stays light)
@@ -119,8 +124,8 @@ def run_bundle(args) -> int:
 def _session(args, run) -> int:
     if args.watch is not None:
         return _watch(args, run)
-    block = read_input(args)
-    tests = tests_option(block.settings, args)
+    block, config = read_configured_input(args)
+    tests = config.tests
     announce_compile(args, len(block.photos))
     from baarda.online.replay import tests_table
 

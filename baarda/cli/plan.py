@@ -18,7 +18,7 @@ from baarda.cli.common import (
     announce_compile,
     open_run,
     progress,
-    tests_option,
+    requested_settings,
 )
 from baarda.cli.console import console
 from baarda.errors import ProjectError
@@ -114,11 +114,16 @@ def _plan(args, run) -> list:
     flight = None
     wi = None
     if args.project:
-        from baarda.pipeline import as_design, read
+        from baarda.pipeline import as_design, read_configured
 
-        subject, layout = as_design(read(args.project, encoding=args.encoding)), None
+        block, config = read_configured(args.project, None, requested_settings(args),
+                                        encoding=args.encoding)
+        subject, layout = as_design(block), None
         title = f"design of project {args.project}"
     else:
+        from baarda.io.configuration import resolve_config
+
+        config = resolve_config(requested_settings(args))  # no project: the defaults
         flight = _flight(args)
         by = args.bridging_y
         if by is None:
@@ -136,7 +141,7 @@ def _plan(args, run) -> list:
     if flight is not None and args.what_if:
         say("computing the remedies")
         wi = what_if(flight, layout)
-    plan = plan_design(subject, layout, tests_option(None, args), adjusted=args.adjusted)
+    plan = plan_design(subject, layout, config.tests, adjusted=args.adjusted)
     say(f"design block: {plan.block.summary()}")
     advice = advise(plan, flight)
     files = write_plan(run, plan, advice, wi, title, plots=not args.no_plots)
@@ -167,18 +172,18 @@ def run_modified(args) -> int:
 
 def _modified(args, run) -> str:
     from baarda.output.plan_files import write_modified_snooping
-    from baarda.pipeline import adjust, read
+    from baarda.pipeline import adjust, prepare, read_configured
     from baarda.planning.modified_snoop import modified_snoop
     from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 
     say = progress(args)
     table = {"baarda": baarda_table, "gruen": gruen_table}.get(args.table)
     table = table() if table else read_table(args.table)
-    block = read(args.project, encoding=args.encoding)
+    block, config = read_configured(args.project, None, requested_settings(args),
+                                    encoding=args.encoding)
     announce_compile(args, len(block.photos))
-    res = adjust(block, progress=say)
-    ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0,
-                        tests=tests_option(block.settings, args),
+    res = adjust(prepare(block, config=config), progress=say)
+    ms = modified_snoop(res, table=table, k_q=args.k_q / 100.0, tests=config.tests,
                         statistic="tau" if args.tau else "w")
     df = ms.table()
     text = res.summary() + "\n\n" + ms.summary() + "\n"

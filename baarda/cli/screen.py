@@ -12,10 +12,14 @@ from baarda.cli.common import (
     announce_compile,
     open_run,
     progress,
-    tests_option,
 )
 from baarda.cli.console import console
-from baarda.cli.inputs import add_input_options, input_paths, read_input
+from baarda.cli.inputs import (
+    add_input_options,
+    formats_help,
+    input_paths,
+    read_configured_input,
+)
 from baarda.options import ScreeningOptions, TestOptions
 
 
@@ -44,7 +48,7 @@ def add_options(p) -> None:
 
 def options(args, tests: TestOptions | None = None) -> ScreeningOptions:
     """The screening options of the command line; `tests`: alpha0, beta0 and alpha_global
-    resolved over the project's (cli/common.tests_option)."""
+    resolved over the project's (io/configuration.py)."""
     stages = tuple(sorted(int(s) for s in args.stages.split(",")))  # checked by the parser
     return ScreeningOptions(stages=stages, tests=tests, pair_alpha0=args.pair_alpha0,
                             pair_transform=args.pair_transform,
@@ -55,9 +59,8 @@ def options(args, tests: TestOptions | None = None) -> ScreeningOptions:
 def register(sub) -> None:
     p = sub.add_parser("screen", help="pre-adjustment screening: photo pairs, strip formation, "
                        "control; writes a cleaned project and the screening log")
-    p.add_argument("input", type=Path, help="project folder (project.toml + CSV files) or any "
-                   "supported input (see docs/formats.md); the cleaned block is written as a "
-                   "project")
+    p.add_argument("input", type=Path, help=formats_help() + " (docs/formats.md); the "
+                   "cleaned block is written as a project")
     add_out_argument(p, "folder of the cleaned project (and "
                                            "screening_log.csv, screening.txt)")
     add_test_options(p, what="the w-tests of stages 2 and 3 and of the bundle after them",
@@ -76,13 +79,13 @@ def run(args) -> int:
     con = console(args)
     with open_run(args, input_paths(args)) as run:
         say = progress(args)
-        block = read_input(args)
+        block, config = read_configured_input(args)
         if say:
             say(f"read {block.summary()}")
         for note in block.notes:
             con.note(note)
         announce_compile(args, len(block.photos))
-        res = screen_block(block, options(args, tests_option(block.settings, args)),
+        res = screen_block(block, options(args, config.tests),
                            progress=say)
         write_project(res.block, run)
         write_screening_log(run, res.log)

@@ -1,72 +1,180 @@
-"""Recognise an input by what the path is and read it into a Block (`read_any`).
+"""The format registry: one `FormatSpec` per reader; `detect` recognises an input by what
+its path is, `read_any` reads it into a Block.  The `--format` choices, the help texts that
+list the formats and the errors that name them are generated from the registry.
 
 | what the path is | format | reader |
 |---|---|---|
 | folder with project.toml | native project | io/project.py |
 | folder with cameras, images, points3D (.txt/.bin), or sparse/, sparse/0/ | COLMAP | colmap |
 | folder or file of an AICON project (.ior .eor .obc .phc [.scale]) | AICON | io/aicon.py |
+| folder of MicMac tie points .mes, orientations .opk, IGN camera .xml | MicMac | micmac |
+| OpenSfM dataset (reconstruction.json, tracks.csv) or ODM project (opensfm/) | OpenSfM | opensfm |
 | .xml with ``dbat_script_version`` | DBAT script | io/dbat.py |
 | .txt starting with "Bundle Soln" | PhotoModeler export | io/photomodeler.py |
 | .bz2 / text whose first line is three counts | BAL | io/bal.py |
-| folder of MicMac tie points .mes, orientations .opk, IGN camera .xml | MicMac | micmac |
-| OpenSfM dataset (reconstruction.json, tracks.csv) or ODM project (opensfm/) | OpenSfM | opensfm |
+
+A new reader is one module with `detect(path) -> bool` and `read(path, request) -> Block`
+(`request`: a `ReadRequest`) and one `FormatSpec` line in REGISTRY (or `register`); the
+functions are named "module:function" and imported when the format is asked about, so that
+`baarda --help` and a command that meets a bad file early have not paid for the imports of
+every reader (numba for COLMAP, pandas for native projects; issue 19).  Detection tries the
+formats in the registry's order.
 """
 
 from __future__ import annotations
 
+import importlib
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
 from baarda.io.records import ENCODING
 
-# Each reader is imported when its format is asked about, so that a command that meets a
-# bad file early has not paid for the imports of every reader (numba for COLMAP, pandas for
-# native projects): issue 19, a hostile file costs what the interpreter costs.
+PATH_KINDS = ("file", "folder", "either")
+# how a format's image coordinates relate to pixels (io/image_sigma.py):
+#   nominal: pixels without a physical size (a nominal one, --pixel-mm, default 1 µm)
+#   camera:  the pixel size of the file's camera (--pixel-mm refused)
+#   header:  the pixel size from the file's header where it has one (else --pixel-mm)
+#   mm:      image coordinates in mm, no pixels (--pixel-mm only converts --sigma-px)
+PIXEL_POLICIES = ("nominal", "camera", "header", "mm")
 
-FORMATS = ("project", "colmap", "aicon", "dbat", "photomodeler", "bal", "micmac", "opensfm")
+
+@dataclass(frozen=True)
+class ReadRequest:
+    """What every reader may be given: the pixel size [mm] and the image sigma [px]
+    resolved for its format (io/image_sigma.py; None: the format's own), the text encoding,
+    a camera file replacing the input's camera (DBAT), the project CRS (OpenSfM)."""
+
+    pixel_mm: float | None = None
+    sigma_px: float | None = None
+    encoding: str = ENCODING
+    camera: Path | None = None
+    crs: str | None = None
 
 
-def _colmap_folder(p: Path) -> Path | None:
-    from baarda.io.colmap import is_colmap_model
+Detect = Callable[[Path], bool]
+Read = Callable[[Path, ReadRequest], Block]
 
-    for cand in (p, p / "sparse", p / "sparse" / "0"):
-        if is_colmap_model(cand):
-            return cand
-    return None
+
+@dataclass(frozen=True)
+class FormatSpec:
+    """One input format: its `--format` name, its title in messages ("COLMAP"), what its
+    path is (`input`, e.g. "a COLMAP model folder"; `path` one of PATH_KINDS), its pixel
+    policy (PIXEL_POLICIES), `detect` and `read` ("module:function" imported on demand, or
+    the functions themselves), `writer` ("module:function" of the writer in baarda/output,
+    None: baarda does not write it) and `camera_file`: it takes --camera."""
+
+    name: str
+    title: str
+    input: str
+    path: str
+    pixels: str
+    detect: str | Detect
+    read: str | Read
+    writer: str | None = None
+    camera_file: bool = False
+
+    def __post_init__(self) -> None:
+        if self.path not in PATH_KINDS or self.pixels not in PIXEL_POLICIES:
+            raise ValueError(f"format {self.name}: path one of {PATH_KINDS}, pixels one of "
+                             f"{PIXEL_POLICIES}")
+
+    def detects(self, p: Path) -> bool:
+        """Whether `p` is input of this format (False for a path of the wrong kind)."""
+        if (self.path == "file" and not p.is_file()) or \
+                (self.path == "folder" and not p.is_dir()):
+            return False
+        return bool(_function(self.detect)(p))
+
+    def reads(self, p: Path, request: ReadRequest) -> Block:
+        return _function(self.read)(p, request)
+
+
+def _function(ref):
+    """The function of a "module:function" reference (imported now), or `ref` itself."""
+    if callable(ref):
+        return ref
+    module, name = ref.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+_E = "baarda.io.format_entries"
+REGISTRY: list[FormatSpec] = [
+    FormatSpec("project", "a native project",
+               "a native project folder (project.toml and its CSV files)", "folder", "mm",
+               f"{_E}:detect_project", f"{_E}:read_project",
+               "baarda.output.project_files:write_project"),
+    FormatSpec("colmap", "COLMAP", "a COLMAP model folder", "folder", "nominal",
+               f"{_E}:detect_colmap", f"{_E}:read_colmap",
+               "baarda.output.format_files:write_colmap"),
+    FormatSpec("aicon", "AICON", "an AICON project (.ior .eor .obc .phc) or one of its files",
+               "either", "mm", f"{_E}:detect_aicon", f"{_E}:read_aicon",
+               "baarda.output.format_files:write_aicon"),
+    FormatSpec("micmac", "MicMac", "a MicMac/IGN folder", "folder", "camera",
+               f"{_E}:detect_micmac", f"{_E}:read_micmac"),
+    FormatSpec("opensfm", "OpenSfM", "an OpenSfM dataset or ODM project folder", "folder",
+               "nominal", f"{_E}:detect_opensfm", f"{_E}:read_opensfm",
+               "baarda.output.format_files:write_opensfm"),
+    FormatSpec("dbat", "DBAT script", "a DBAT script .xml", "file", "camera",
+               f"{_E}:detect_dbat", f"{_E}:read_dbat", camera_file=True),
+    FormatSpec("photomodeler", "PhotoModeler", "a PhotoModeler export .txt", "file", "header",
+               f"{_E}:detect_photomodeler", f"{_E}:read_photomodeler"),
+    FormatSpec("bal", "BAL", "a BAL file (.txt or .bz2)", "file", "nominal",
+               f"{_E}:detect_bal", f"{_E}:read_bal", "baarda.output.format_files:write_bal"),
+]
+
+FORMATS = tuple(s.name for s in REGISTRY)  # the built-in formats (format_names: all)
+
+
+def register(spec: FormatSpec) -> None:
+    """Add a format to the registry (detected after the earlier ones); ValueError when its
+    name is taken."""
+    if spec.name in format_names():
+        raise ValueError(f"format '{spec.name}' is registered already")
+    REGISTRY.append(spec)
+
+
+def unregister(name: str) -> None:
+    """Remove a format added by `register`."""
+    REGISTRY[:] = [s for s in REGISTRY if s.name != name]
+
+
+def format_names() -> tuple[str, ...]:
+    return tuple(s.name for s in REGISTRY)
+
+
+def spec(name: str) -> FormatSpec:
+    """The FormatSpec of `name`; ValueError naming the formats when there is none."""
+    for s in REGISTRY:
+        if s.name == name:
+            return s
+    raise ValueError(f"unknown format '{name}' (one of {', '.join(format_names())})")
+
+
+def _listing(specs: list[FormatSpec]) -> str:
+    """'A, B or C' of the formats' inputs."""
+    words = [s.input for s in specs]
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " or " + words[-1]
+
+
+def titles(pixels: tuple[str, ...] | None = None) -> str:
+    """'A, B and C': the titles of the formats (with one of the pixel policies `pixels`),
+    for the help texts."""
+    words = [s.title for s in REGISTRY if pixels is None or s.pixels in pixels]
+    words = [w for w in words if w != "a native project"] if pixels is None else words
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
 def detect(path: str | Path) -> str:
-    """The format of `path` (one of FORMATS); ProjectError if none fits."""
+    """The format of `path` (one of format_names()); ProjectError if none fits."""
     p = Path(path)
     if not p.exists():
         raise ProjectError(str(p), "not found")
-    if p.is_dir() and (p / "project.toml").is_file():
-        return "project"
-    if p.is_dir() and _colmap_folder(p) is not None:
-        return "colmap"
-    from baarda.io.aicon import is_aicon
-    from baarda.io.micmac import is_micmac
-
-    if is_aicon(p):
-        return "aicon"
-    if is_micmac(p):
-        return "micmac"
-    from baarda.io.opensfm import is_opensfm
-
-    if is_opensfm(p):
-        return "opensfm"
-    if p.is_file():
-        from baarda.io.bal import is_bal
-        from baarda.io.dbat import is_dbat_script
-        from baarda.io.photomodeler import is_photomodeler_export
-
-        if is_dbat_script(p):
-            return "dbat"
-        if is_photomodeler_export(p):
-            return "photomodeler"
-        if is_bal(p):
-            return "bal"
+    for s in REGISTRY:
+        if s.detects(p):
+            return s.name
     if p.is_dir():
         from baarda.io.project import FILES
 
@@ -75,45 +183,33 @@ def detect(path: str | Path) -> str:
             raise ProjectError(str(p / "project.toml"), "not found: the folder has "
                                f"{', '.join(has)} but a native project needs project.toml "
                                "beside them (docs/format.md)")
+        others = [s for s in REGISTRY if s.path != "file" and s.name != "project"]
         raise ProjectError(str(p), "format not recognised: no project.toml (a native project "
-                           "folder), and not a COLMAP model, AICON project, MicMac/IGN folder, "
-                           "OpenSfM dataset or ODM project folder")
-    raise ProjectError(str(p), "format not recognised (native project folder, COLMAP model, "
-                       "AICON project, DBAT script .xml, PhotoModeler export .txt, BAL file, "
-                       "MicMac/IGN folder, OpenSfM dataset or ODM project)")
+                           f"folder), and not {_listing(others)}")
+    raise ProjectError(str(p), f"format not recognised: not {_listing(REGISTRY)}")
 
 
-# what each format's path is: a file, a folder, or either (AICON: the folder or one of its
-# files; OpenSfM: the dataset folder or an ODM project)
-FILE_FORMATS = {"dbat": "a DBAT script .xml", "photomodeler": "a PhotoModeler export .txt",
-                "bal": "a BAL file (.txt or .bz2)"}
-FOLDER_FORMATS = {"project": "a native project folder (project.toml and its CSV files)",
-                  "colmap": "a COLMAP model folder", "micmac": "a MicMac/IGN folder",
-                  "opensfm": "an OpenSfM dataset or ODM project folder"}
-
-
-def _check_kind(p: Path, fmt: str) -> None:
+def _check_kind(p: Path, s: FormatSpec) -> None:
     """ProjectError when --format names a format whose input is a file and the path is a
     folder, or the other way round (the reader would say 'file not found')."""
     if not p.exists():
         raise ProjectError(str(p), "not found")
-    wrong = (fmt in FILE_FORMATS and p.is_dir()) or (fmt in FOLDER_FORMATS and p.is_file())
+    wrong = (s.path == "file" and p.is_dir()) or (s.path == "folder" and p.is_file())
     if not wrong:
         return
     try:
         found = f"; it looks like {detect(p)} input (leave out --format)"
     except ProjectError:
         found = ""
-    want = FILE_FORMATS.get(fmt) or FOLDER_FORMATS[fmt]
     kind = "a folder" if p.is_dir() else "a file"
-    raise ProjectError(str(p), f"--format {fmt} reads {want}, but this is {kind}{found}")
+    raise ProjectError(str(p), f"--format {s.name} reads {s.input}, but this is {kind}{found}")
 
 
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None = None,
              sigma_px: float | None = None, sigma_image_um: float | None = None,
              encoding: str = ENCODING, camera: str | Path | None = None,
              crs: str | None = None) -> Block:
-    """Read any supported input into a Block.
+    """Read any registered input into a Block.
 
     pixel_mm, sigma_px, sigma_image_um: pixel size [mm] and image sigma [px] or [µm],
     resolved for the format by io/image_sigma.py (an option that does not apply to it is
@@ -127,54 +223,20 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
     from baarda.io.image_sigma import check_image_sigmas, resolve_image_options, with_image_sigma
 
     p = Path(path)
-    if fmt is not None and fmt not in FORMATS:
-        raise ProjectError(str(p), f"unknown format '{fmt}' (one of {', '.join(FORMATS)})")
     if fmt is not None:
-        _check_kind(p, fmt)
-    fmt = fmt or detect(p)
-    if camera is not None and fmt != "dbat":
-        raise ProjectError(str(camera), f"a camera file replaces the camera of a DBAT script; "
-                           f"{p.name} is {fmt} input (give its cameras in its own files)")
-    opts = resolve_image_options(fmt, pixel_mm, sigma_px, sigma_image_um)
-    if fmt == "project":
-        from baarda.io.project import read_project
-
-        block = read_project(p, encoding)
+        try:
+            s = spec(fmt)
+        except ValueError as e:
+            raise ProjectError(str(p), str(e)) from None
+        _check_kind(p, s)
     else:
-        block = _read(p, fmt, opts.pixel_mm, opts.sigma_px, encoding, camera, crs)
+        s = spec(detect(p))
+    if camera is not None and not s.camera_file:
+        takes = " or ".join(r.title for r in REGISTRY if r.camera_file)
+        raise ProjectError(str(camera), f"a camera file replaces the camera of a {takes}; "
+                           f"{p.name} is {s.name} input (give its cameras in its own files)")
+    opts = resolve_image_options(s.name, pixel_mm, sigma_px, sigma_image_um)
+    block = s.reads(p, ReadRequest(opts.pixel_mm, opts.sigma_px, encoding,
+                                   None if camera is None else Path(camera), crs))
     check_image_sigmas(block)
     return block if opts.sigma_um is None else with_image_sigma(block, opts.sigma_um)
-
-
-def _read(p: Path, fmt: str, pixel_mm: float | None, sigma_px: float | None, encoding: str,
-          camera: str | Path | None, crs: str | None) -> Block:
-    """The reader of `fmt` (the image options resolved: read_any)."""
-    if fmt == "colmap":
-        from baarda.io.colmap_block import read_colmap_block
-
-        folder = _colmap_folder(p) or p
-        return read_colmap_block(folder, pixel_mm=pixel_mm, sigma_px=sigma_px,
-                                 name=p.name)
-    if fmt == "aicon":
-        from baarda.io.aicon import read_aicon
-
-        return read_aicon(p, encoding).to_block()
-    if fmt == "dbat":
-        from baarda.io.dbat import read_dbat
-
-        return read_dbat(p, camera=camera, sigma_px=sigma_px)
-    if fmt == "photomodeler":
-        from baarda.io.photomodeler import read_photomodeler
-
-        return read_photomodeler(p, encoding, pixel_mm=pixel_mm, sigma_px=sigma_px)
-    if fmt == "micmac":
-        from baarda.io.micmac import IMAGE_SIGMA_PX, read_micmac
-
-        return read_micmac(p, image_sigma_px=IMAGE_SIGMA_PX if sigma_px is None else sigma_px)
-    if fmt == "opensfm":
-        from baarda.io.opensfm import read_opensfm
-
-        return read_opensfm(p, pixel_mm=pixel_mm, sigma_px=sigma_px, crs=crs)
-    from baarda.io.bal import read_bal_block
-
-    return read_bal_block(p, pixel_mm=pixel_mm, sigma_px=sigma_px)

@@ -2,12 +2,12 @@
 (`--sigma-image-um`, `--sigma-px`, `--pixel-mm`; baarda.read's `sigma_image_um`,
 `sigma_px`, `pixel_mm`):
 
-| format | pixel size | --pixel-mm | --sigma-px | --sigma-image-um |
+| FormatSpec.pixels | pixel size | --pixel-mm | --sigma-px | --sigma-image-um |
 |---|---|---|---|---|
-| COLMAP, BAL, OpenSfM | none: a nominal one | yes (default 0.001 mm) | yes (default 1) | yes |
-| DBAT, MicMac | the camera's | refused | in the camera's pixels | yes |
-| PhotoModeler | line 2's image size | only when line 2 lacks it | in its pixels | yes |
-| native project, AICON | none: mm | only to convert --sigma-px | needs --pixel-mm | yes |
+| nominal (COLMAP, BAL, OpenSfM) | none: nominal | yes (default 0.001 mm) | yes (default 1) | yes |
+| camera (DBAT, MicMac) | the camera's | refused | in the camera's pixels | yes |
+| header (PhotoModeler) | line 2's image size | only when line 2 lacks it | in its pixels | yes |
+| mm (native project, AICON) | none: mm | only to convert --sigma-px | needs --pixel-mm | yes |
 
 The image sigma replaces the input's for every image observation (x and y); without one
 each input keeps its own (the files' sigmas, project.toml's image_um).  An option that does
@@ -17,30 +17,17 @@ and the format.  Every image sigma, given or read, lies within SIGMA_IMAGE_UM.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
+from baarda.io.formats import spec
+from baarda.options import ImageOptions
 
-NOMINAL = ("colmap", "bal", "opensfm")  # no physical pixel size: a nominal one
-OWN_PIXEL = ("dbat", "micmac", "photomodeler")  # the pixel size of the file's camera
-MM_ONLY = ("project", "aicon")  # image coordinates in mm
-NAMES = {"project": "a native project", "colmap": "COLMAP", "bal": "BAL",
-         "opensfm": "OpenSfM", "dbat": "DBAT script", "micmac": "MicMac",
-         "photomodeler": "PhotoModeler", "aicon": "AICON"}
-PIXEL_MM, SIGMA_PX = 0.001, 1.0  # the nominal pixel (1 px = 1 µm) and sigma of NOMINAL
+PIXEL_MM, SIGMA_PX = 0.001, 1.0  # the nominal pixel (1 px = 1 µm) and sigma of "nominal"
 SIGMA_IMAGE_UM = (1e-3, 1e5)  # the image sigmas baarda takes [µm]: 1 nm .. 100 mm
-
-
-@dataclass(frozen=True)
-class ImageOptions:
-    """What a reader is given (pixel size [mm], sigma [px] in its pixels) and the sigma
-    [µm] set on every observation after reading (None: the reader's own)."""
-    pixel_mm: float | None
-    sigma_px: float | None
-    sigma_um: float | None
 
 
 def _positive(name: str, value: float | None) -> None:
@@ -71,13 +58,14 @@ def resolve_image_options(fmt: str, pixel_mm: float | None = None,
                            "image sigma: give one")
     if sigma_image_um is not None:
         check_sigma_um(sigma_image_um, "command line", column="--sigma-image-um")
-    what = NAMES.get(fmt, fmt)
-    if fmt in NOMINAL:
+    policy = spec(fmt).pixels  # io/formats.py: PIXEL_POLICIES
+    what = spec(fmt).title
+    if policy == "nominal":
         pixel = PIXEL_MM if pixel_mm is None else pixel_mm
         if sigma_image_um is not None:
             return ImageOptions(pixel, sigma_image_um * 1e-3 / pixel, None)
         return ImageOptions(pixel, SIGMA_PX if sigma_px is None else sigma_px, None)
-    if fmt in MM_ONLY:
+    if policy == "mm":
         if sigma_px is not None and pixel_mm is None:
             raise ProjectError("command line", f"--sigma-px needs --pixel-mm for {what} "
                                "input (its image coordinates are in mm, it has no pixel "
@@ -90,7 +78,7 @@ def resolve_image_options(fmt: str, pixel_mm: float | None = None,
         if um is not None:
             check_sigma_um(um, "command line", column="--sigma-px")
         return ImageOptions(None, None, um)
-    if pixel_mm is not None and fmt != "photomodeler":
+    if pixel_mm is not None and policy == "camera":
         raise ProjectError("command line", f"--pixel-mm does not apply to {what} input: its "
                            "pixel size is the camera's (sensor size / image size)")
     return ImageOptions(pixel_mm, sigma_px, sigma_image_um)

@@ -14,10 +14,12 @@ import numpy as np
 
 from baarda.block.camera import (
     CALIBRATION_GROUPS,
+    INTERIOR,
     KINDS,
     model_of,
     parameter_names,
 )
+from baarda.block.camera_models import MODELS
 from baarda.block.photo_block import (
     Block,
     Cameras,
@@ -34,6 +36,7 @@ from baarda.io.gnss_imu_files import gnss_imu_settings, read_gnss, read_imu
 from baarda.io.image_sigma import SIGMA_IMAGE_UM, check_sigma_um
 from baarda.io.records import ENCODING, decode_text, file_bytes
 from baarda.io.table import Table
+from baarda.options import DATUMS
 
 SIGMA_GROUND_MAX_M = 1e6  # a ground standard deviation beyond 1000 km means nothing (and
 # squared beyond 1e154 m it overflows the statistics): leave the coordinate unobserved
@@ -55,7 +58,6 @@ def load_toml(path: Path, default_unit: str = "gon",
     return doc, unit
 
 
-DATUMS = ("control", "free", "inner")  # inner: a free network in its inner datum
 
 
 def toml_table(doc: dict, key: str, path: Path) -> dict:
@@ -80,10 +82,48 @@ def positive_settings(path: Path, values: dict[str, float],
             raise ProjectError(str(path), f"{name} = {v!r}: at most {most:g}", column=name)
 
 
+# the keys project.toml accepts, by table ("": its top); [calibration] also takes a table
+# per camera id (docs/format.md)
+KEYS = {"": ("name", "angle_unit", "image_unit", "crs", "datum", "sigma", "tests",
+             "calibration", "gnss", "imu"),
+        "sigma": ("image_um", "control_m", "distance_m", "gnss_m", "imu"),
+        "tests": ("alpha0", "beta0", "alpha_global"),
+        "gnss": ("lever_arm", "offsets", "drift"),
+        "imu": ("boresight",),
+        "calibration": ("free", "group")}
+HINTS = {"calibration.calibrate": " (the command line's --calibrate is `free` here)",
+         "calibration.fixed": " (list the parameters to estimate in `free`; the others are "
+                              "held)"}
+
+
+def check_keys(table: dict, path: Path, name: str = "", more: tuple[str, ...] = (),
+               also: str = "") -> None:
+    """ProjectError naming the first key of `table` (project.toml's [name], "": its top)
+    that is not one of KEYS[name] + `more`, the file and the keys it accepts (`also`: words
+    for `more` in the message)."""
+    for key in table:
+        if key in KEYS[name] or key in more:
+            continue
+        dotted = f"{name}.{key}" if name else key
+        where = f"[{name}]" if name else "project.toml's top level"
+        raise ProjectError(str(path), f"unknown key '{dotted}'{HINTS.get(dotted, '')}: "
+                           f"{where} accepts {', '.join(KEYS[name])}{also}", column=dotted)
+
+
+def _given(doc: dict) -> frozenset[str]:
+    """The dotted keys of the settings a project.toml gives ("tests.alpha0", "datum")."""
+    return frozenset([k for k, v in doc.items() if not isinstance(v, dict)] +
+                     [f"{k}.{kk}" for k, v in doc.items() if isinstance(v, dict) for kk in v])
+
+
 def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     """The settings of project.toml and the document (to tell given from default values)."""
     s = Settings()
     doc, s.angle_unit = load_toml(path, s.angle_unit, encoding)
+    check_keys(doc, path)
+    for table in ("sigma", "tests", "gnss", "imu"):
+        check_keys(toml_table(doc, table, path), path, table)
+    s.given = _given(doc)
     s.name = str(doc.get("name", path.parent.name))
     unit = str(doc.get("image_unit", "mm"))
     if unit != "mm":
@@ -206,26 +246,40 @@ def _camera_models(t: Table, cameras: Cameras) -> Cameras:
 
 def _calibration(doc: dict, cameras: Cameras, path: Path) -> tuple[tuple[str, ...], ...] | None:
     """The parameters to estimate per camera from project.toml's [calibration]: `free = [..]`
-    for every camera, or a table per camera id with its own `free`."""
+    for every camera, or a table per camera id with its own `free`.  Each name must be a
+    parameter of some camera model here; that it is one of its camera's model is checked
+    once the run's camera model is known (io/configuration.py: --camera-model may change
+    it)."""
     cal = doc.get("calibration")
     if cal is None:
         return None
     if not isinstance(cal, dict):
         raise ProjectError(str(path), "[calibration] must be a table", column="calibration")
+    ids = tuple(str(c) for c in cameras.ids)
+    check_keys(cal, path, "calibration", ids, " and a table per camera id ("
+               + ", ".join(ids[:5]) + (", ..." if len(ids) > 5 else "") + ")")
+    known = set(INTERIOR).union(*(m.params for m in MODELS.values()))
     every = cal.get("free", [])
     out = []
-    for i, cid in enumerate(cameras.ids):
-        own = cal.get(cid, {}) if cid != "group" else {}
+    for cid in cameras.ids:
+        own = cal.get(cid, {}) if cid not in KEYS["calibration"] else {}
+        if isinstance(own, dict):
+            for key in own:
+                if key != "free":
+                    raise ProjectError(str(path), f"unknown key 'calibration.{cid}.{key}': "
+                                       f"[calibration.\"{cid}\"] accepts free",
+                                       column=f"calibration.{cid}.{key}")
         free = own.get("free", every) if isinstance(own, dict) else every
         if not isinstance(free, list) or not all(isinstance(p, str) for p in free):
             raise ProjectError(str(path), "calibration 'free' must be a list of parameter "
                                "names, e.g. [\"c\", \"x0\", \"y0\", \"k1\"]",
                                column="calibration")
-        names = parameter_names(cameras, i)
-        bad = [p for p in free if p not in names]
+        bad = [p for p in free if p not in known]
         if bad:
+            names = parameter_names(cameras, cameras.ids.index(cid))
             raise ProjectError(str(path), f"camera {cid}: '{bad[0]}' is not a parameter of its "
-                               f"model ({', '.join(names)})", column="calibration")
+                               f"model ({', '.join(names)}) nor of any other "
+                               "(docs/camera_models.md)", column="calibration")
         out.append(tuple(free))
     return tuple(out)
 
