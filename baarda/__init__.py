@@ -25,6 +25,7 @@ _WHERE = {
     "read": "baarda.pipeline", "prepare": "baarda.pipeline", "adjust": "baarda.pipeline",
     "assess": "baarda.pipeline", "snoop": "baarda.pipeline", "screen": "baarda.pipeline",
     "read_models": "baarda.pipeline", "adjust_models": "baarda.pipeline",
+    "read_configured": "baarda.pipeline",
     # planning, simulation, on-line relative orientation
     "plan": "baarda.planning.design_reliability",
     "ControlLayout": "baarda.planning.design",
@@ -38,6 +39,7 @@ _WHERE = {
     "BundleResult": "baarda.bundle.bundle_result", "Assessment": "baarda.quality.assessment",
     "BlockQuality": "baarda.independent.workflow",
     "TestOptions": "baarda.options", "SolveOptions": "baarda.options",
+    "Requested": "baarda.options", "Config": "baarda.options",
     "GeometryError": "baarda.errors", "ProjectError": "baarda.errors",
     # project files
     "read_project": "baarda.io.project", "write_project": "baarda.output.project_files",

@@ -60,7 +60,11 @@ class Cameras:
     model: np.ndarray | None = None  # (n,) model kind (block/camera.py), None = none
     coefficients: np.ndarray | None = None  # (n, k) the model's params in order, 0-padded
     constants: np.ndarray | None = None  # (n, kc) the model's constants (R0, grid spacing)
-    free: tuple[tuple[str, ...], ...] | None = None  # per camera: the parameters estimated
+    # per camera: the parameters the input estimates (project.toml's [calibration] free, or
+    # the source program's choice).  Not yet moved out of the data (issue 37): the run's
+    # choice is options.Config.calibration, resolved once by io/configuration.py, and
+    # `configure` writes it here for the bundle (bundle/calibration.py reads it).
+    free: tuple[tuple[str, ...], ...] | None = None
     pixel_mm: np.ndarray | None = None  # (n,) pixel size where the source states it (mm)
 
     def __len__(self) -> int:

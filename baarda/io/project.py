@@ -120,9 +120,9 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     """The settings of project.toml and the document (to tell given from default values)."""
     s = Settings()
     doc, s.angle_unit = load_toml(path, s.angle_unit, encoding)
-    check_keys(doc, path)
     for table in ("sigma", "tests", "gnss", "imu"):
         check_keys(toml_table(doc, table, path), path, table)
+    check_keys(doc, path)
     s.given = _given(doc)
     s.name = str(doc.get("name", path.parent.name))
     unit = str(doc.get("image_unit", "mm"))

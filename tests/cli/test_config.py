@@ -132,3 +132,39 @@ def test_unknown_project_key_is_an_error(tmp_path, capsys, extra, key, accepted)
     assert "project.toml" in err and f"'{key}'" in err and accepted in err, err
     assert "Traceback" not in err
     assert not (tmp_path / "o").exists()
+
+
+def test_one_configuration_from_three_sources(tmp_path, capsys):
+    """read_configured: project.toml over the defaults, the API's (the command line's)
+    values over project.toml, noted; the Config is frozen and prepare takes it."""
+    from dataclasses import FrozenInstanceError
+
+    from baarda.bundle.bundle_problem import SOLVE_LM
+    from baarda.options import Requested, TestOptions
+    from baarda.pipeline import prepare, read_configured
+
+    proj = _demo(tmp_path, CAL, tests="alpha0 = 0.01\nbeta0 = 0.8")
+    block, config = read_configured(proj)
+    assert config.tests == TestOptions(0.01, 0.8, 0.05)
+    assert config.calibration.free == (("c", "x0", "y0"),)
+    assert config.calibration.source == "project.toml [calibration] free"
+    assert (config.datum, config.solver, config.crs, config.notes) == ("control", None, None, ())
+    assert block.cameras.free == (("c", "x0", "y0"),)
+    with pytest.raises(FrozenInstanceError):
+        config.datum = "free"
+    block, config = read_configured(proj, requested=Requested(
+        alpha0=0.001, datum="free", solver="lm", calibrate="none", calibration_group="strip"))
+    assert config.tests.alpha0 == 0.001 and config.calibration.free == ((),)
+    assert config.calibration.group == "strip" and config.datum == "free"
+    assert "--alpha0 0.001 (given) over project.toml's tests.alpha0 = 0.01" in config.notes
+    assert config.notes[-1].startswith("calibrate none (every camera")
+    assert all(n in block.notes for n in config.notes)
+    problem = prepare(block, config=config)
+    assert type(problem).__name__ == "FreeBundleProblem"
+    assert problem.solve_options == SOLVE_LM
+    # the command line says it too
+    assert main(["adjust", str(proj), "-o", str(tmp_path / "o"), "--alpha0", "0.001"]) == 0
+    assert "note: --alpha0 0.001 (given) over project.toml's tests.alpha0 = 0.01" in \
+        capsys.readouterr().err
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["alpha0"] == 0.001
