@@ -21,6 +21,7 @@ from baarda.cli.common import (
 )
 from baarda.cli.console import console
 from baarda.errors import GeometryError, OutputError, ProjectError
+from baarda.io.formats import titles  # the format registry (no reader imported)
 from baarda.output.run_folder import package_version
 
 #: errors of writing, never of reading: a full disk or quota, a file over the size limit
@@ -45,8 +46,8 @@ COMMANDS = {
     "report": ("baarda.cli.report", "adjustment report: HTML (plots embedded) or text"),
     "residuals": ("baarda.cli.residuals", "post-processor: group statistics and histograms of "
                   "residuals listed by another program (see docs/report.md)"),
-    "convert": ("baarda.cli.convert", "convert a COLMAP, BAL, DBAT, PhotoModeler, AICON, "
-                "MicMac or OpenSfM input (or a project) into a native project folder"),
+    "convert": ("baarda.cli.convert", f"convert {titles()} input (or a project) into a "
+                "native project folder"),
     "models": ("baarda.cli.models", "independent-model block adjustment with data snooping "
                "and tests of model deformations (FOTEF)"),
     "simulate-models": ("baarda.cli.models", "simulate an independent-model block with "

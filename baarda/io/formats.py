@@ -27,10 +27,14 @@ import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING
+
+if TYPE_CHECKING:  # the registry is read by `baarda --help`: no numpy, no reader
+    from baarda.block.photo_block import Block
+
+ENCODING = "utf-8"  # io/records.ENCODING (not imported here: it imports numpy)
 
 PATH_KINDS = ("file", "folder", "either")
 # how a format's image coordinates relate to pixels (io/image_sigma.py):
@@ -55,7 +59,7 @@ class ReadRequest:
 
 
 Detect = Callable[[Path], bool]
-Read = Callable[[Path, ReadRequest], Block]
+Read = Callable[[Path, ReadRequest], "Block"]
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ import numpy as np
 
 from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.errors import ProjectError
-from baarda.io.project import load_toml, read_ground_points, toml_table
+from baarda.io.project import check_keys, load_toml, read_ground_points, toml_table
 from baarda.io.records import ENCODING
 from baarda.io.table import Table
 
@@ -33,6 +33,13 @@ def _positive(values, name: str) -> tuple[float, ...]:
     return vals
 
 
+# the keys a model project's project.toml accepts, by table ("": its top)
+MODEL_KEYS = {"": ("name", "angle_unit", "sigma", "tests", "models"),
+              "sigma": ("model_xy_um", "model_z_um", "control_m"),
+              "tests": ("alpha0", "beta0"),
+              "models": ("pre_xy_um", "pre_z_um")}
+
+
 def read_settings(path: Path, encoding: str = ENCODING) -> ModelSettings:
     """Read project.toml of a model project (missing keys take FOTEF's defaults)."""
     s = ModelSettings()
@@ -41,6 +48,9 @@ def read_settings(path: Path, encoding: str = ENCODING) -> ModelSettings:
     sig = toml_table(doc, "sigma", path)
     tests = toml_table(doc, "tests", path)
     pre = toml_table(doc, "models", path)
+    for name, table in (("sigma", sig), ("tests", tests), ("models", pre)):
+        check_keys(table, path, name, keys=MODEL_KEYS)
+    check_keys(doc, path, keys=MODEL_KEYS)
     try:
         s.sigma_model_um = _positive((sig.get("model_xy_um", s.sigma_model_um[0]),
                                       sig.get("model_z_um", s.sigma_model_um[1])),

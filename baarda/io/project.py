@@ -97,17 +97,17 @@ HINTS = {"calibration.calibrate": " (the command line's --calibrate is `free` he
 
 
 def check_keys(table: dict, path: Path, name: str = "", more: tuple[str, ...] = (),
-               also: str = "") -> None:
+               also: str = "", keys: dict[str, tuple[str, ...]] = KEYS) -> None:
     """ProjectError naming the first key of `table` (project.toml's [name], "": its top)
-    that is not one of KEYS[name] + `more`, the file and the keys it accepts (`also`: words
-    for `more` in the message)."""
+    that is not one of keys[name] + `more`, the file and the keys it accepts (`also`: words
+    for `more` in the message; `keys`: a model project's MODEL_KEYS)."""
     for key in table:
-        if key in KEYS[name] or key in more:
+        if key in keys[name] or key in more:
             continue
         dotted = f"{name}.{key}" if name else key
         where = f"[{name}]" if name else "project.toml's top level"
         raise ProjectError(str(path), f"unknown key '{dotted}'{HINTS.get(dotted, '')}: "
-                           f"{where} accepts {', '.join(KEYS[name])}{also}", column=dotted)
+                           f"{where} accepts {', '.join(keys[name])}{also}", column=dotted)
 
 
 def _given(doc: dict) -> frozenset[str]:

@@ -168,3 +168,18 @@ def test_one_configuration_from_three_sources(tmp_path, capsys):
         capsys.readouterr().err
     summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))
     assert summary["alpha0"] == 0.001
+
+
+def test_unknown_key_of_a_model_project(tmp_path, capsys):
+    """A model project's project.toml names its keys too (io/model_project.MODEL_KEYS)."""
+    from baarda.errors import ProjectError
+    from baarda.io.model_project import read_settings
+
+    f = tmp_path / "project.toml"
+    f.write_text("[models]\npre_xy_um = 250\npre_z = 500\n", encoding="utf-8")
+    with pytest.raises(ProjectError, match="unknown key 'models.pre_z': \\[models\\] accepts "
+                       "pre_xy_um, pre_z_um") as e:
+        read_settings(f)
+    assert e.value.path == str(f) and e.value.column == "models.pre_z"
+    f.write_text("[tests]\nalpha0 = 0.01\n", encoding="utf-8")
+    assert read_settings(f).alpha0 == 0.01

@@ -105,6 +105,12 @@ def test_pixel_policy_comes_from_the_spec():
             assert callable(getattr(importlib.import_module(module), name)), ref
 
 
+def test_read_request_encoding_is_the_readers():
+    from baarda.io.records import ENCODING
+
+    assert ReadRequest().encoding == formats.ENCODING == ENCODING
+
+
 def test_reading_stays_lazy():
     """`baarda --help` imports no reader; recognising a native project imports no other
     reader (docs/architecture.md, "What is imported when")."""
@@ -114,10 +120,12 @@ def test_reading_stays_lazy():
             "before = {m for m in sys.modules if m.startswith('baarda.io.')}\n"
             f"detect({str(DEMO)!r})\n"
             "after = {m for m in sys.modules if m.startswith('baarda.io.')}\n"
-            "print(sorted(before)); print(sorted(after - before))")
+            "print(sorted(before)); print(sorted(after - before))\n"
+            "print('numpy' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=ROOT).stdout.splitlines()
     readers = ("colmap", "aicon", "micmac", "opensfm", "dbat", "photomodeler", "bal",
                "project")
+    assert not [m for m in eval(out[-3]) if m.split(".")[-1] in readers], out[-3]
     assert not [m for m in eval(out[-2]) if m.split(".")[-1] in readers], out[-2]
-    assert not [m for m in eval(out[-1]) if m.split(".")[-1] in readers], out[-1]
+    assert out[-1] == "False"  # the registry (help texts, detection) costs no numpy
