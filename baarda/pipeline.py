@@ -29,8 +29,6 @@ from baarda.errors import GeometryError, ProjectError
 from baarda.io.formats import read_any
 from baarda.io.records import ENCODING
 from baarda.options import (
-    CALIBRATION_GROUPS,
-    DATUMS,
     Config,
     Progress,
     Requested,
@@ -97,15 +95,11 @@ def read_configured(path: str | Path, fmt: str | None = None,
     the command line or the API asks for (`requested`) merged once with the input's
     settings (io/configuration.resolve_config) and applied to the block (`configure`).
     Every command reads its input here; `prepare` and the tests take the configuration."""
-    from baarda.io.configuration import configure, resolve_config
+    from baarda.io.configuration import check_requested, configure, resolve_config
     from baarda.io.formats import detect
 
     r = requested or Requested()
-    if r.datum not in (None, *DATUMS):  # before reading: a bad value costs nothing
-        raise ValueError(f"datum '{r.datum}' is not one of {', '.join(DATUMS)}")
-    if r.calibration_group not in (None, *CALIBRATION_GROUPS):
-        raise ValueError(f"calibration group '{r.calibration_group}' is not one of "
-                         f"{', '.join(CALIBRATION_GROUPS)}")
+    check_requested(r)  # before reading: a bad value costs nothing
     fmt = fmt or detect(path)
     block = read_any(path, fmt, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px,
                      sigma_image_um=r.sigma_image_um, encoding=encoding, camera=camera,

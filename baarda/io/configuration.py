@@ -66,6 +66,18 @@ def resolve_tests(settings=None, alpha0: float | None = None, beta0: float | Non
         raise ProjectError("command line", str(e)) from None
 
 
+def check_requested(r: Requested) -> None:
+    """ValueError for a solver, datum or calibration group that is none (the API's words;
+    the command line's choices allow only these)."""
+    if r.solver not in (None, *SOLVERS):
+        raise ValueError(f"unknown solver {r.solver!r}: one of {', '.join(SOLVERS)}")
+    if r.datum not in (None, *DATUMS):
+        raise ValueError(f"datum '{r.datum}' is not one of {', '.join(DATUMS)}")
+    if r.calibration_group not in (None, *CALIBRATION_GROUPS):
+        raise ValueError(f"calibration group '{r.calibration_group}' is not one of "
+                         f"{', '.join(CALIBRATION_GROUPS)}")
+
+
 def resolve_config(requested: Requested | None = None, block: Block | None = None,
                    fmt: str | None = None) -> Config:
     """The configuration of a run (module docstring): `requested` over the input's
@@ -74,13 +86,7 @@ def resolve_config(requested: Requested | None = None, block: Block | None = Non
     setting that does not apply (naming the command line or project.toml)."""
     r = requested or Requested()
     s = block.settings if block is not None else Settings()
-    if r.solver not in (None, *SOLVERS):
-        raise ValueError(f"unknown solver {r.solver!r}: one of {', '.join(SOLVERS)}")
-    if r.datum not in (None, *DATUMS):
-        raise ValueError(f"datum '{r.datum}' is not one of {', '.join(DATUMS)}")
-    if r.calibration_group not in (None, *CALIBRATION_GROUPS):
-        raise ValueError(f"calibration group '{r.calibration_group}' is not one of "
-                         f"{', '.join(CALIBRATION_GROUPS)}")
+    check_requested(r)
     tests = resolve_tests(s if block is not None else None, r.alpha0, r.beta0, r.alpha_global)
     notes = [f"{option} {getattr(r, field)} (given) over project.toml's {key} = "
              f"{getattr(s, own)!r}" for option, field, own, key in _OVER_PROJECT
@@ -107,7 +113,8 @@ def _calibration(r: Requested, block: Block, fmt: str | None,
     cams = block.cameras
     source = ("project.toml [calibration] free" if fmt == "project" else
               "as the input estimates them")
-    where = f"{block.source}/project.toml" if fmt == "project" else "input"
+    where = (f"{block.source}/project.toml" if fmt == "project" else
+             block.source or "input")
     model = r.camera_model
     target = cams
     if model is not None:

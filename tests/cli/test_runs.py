@@ -121,7 +121,7 @@ def test_output_place_is_checked_before_any_work(project, tmp_path, capsys, case
     def no_work(*a, **k):  # the check comes before reading or adjusting
         raise AssertionError("computed before checking the output place")
 
-    monkeypatch.setattr("baarda.cli.adjust.read_input", no_work)
+    monkeypatch.setattr("baarda.cli.adjust.read_configured_input", no_work)
     assert main(["adjust", str(project), "-o", str(out), "-q"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and err.startswith("baarda: error: ")
