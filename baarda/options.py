@@ -136,11 +136,11 @@ class Requested:
 class CalibrationConfig:
     """What a self-calibration estimates: `model` every camera is put on (None: each keeps
     the input's), `free` the parameters estimated per camera of the input (names of
-    block/camera.parameter_names; () for none), `group` "camera" (shared by a camera's
+    block/camera.parameter_names; None: none), `group` "camera" (shared by a camera's
     photos) or "strip" (per camera and strip), `source` where `free` comes from."""
 
     model: str | None = None
-    free: tuple[tuple[str, ...], ...] = ()
+    free: tuple[tuple[str, ...], ...] | None = None  # None: nothing estimated
     group: str = "camera"
     source: str = "default"
 

@@ -80,9 +80,11 @@ def detect_opensfm(p: Path) -> bool:
 
 
 def read_opensfm(p: Path, r: ReadRequest) -> Block:
+    from baarda.io.image_sigma import PIXEL_MM, SIGMA_PX
     from baarda.io.opensfm import read_opensfm as read
 
-    return read(p, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px, crs=r.crs)
+    return read(p, pixel_mm=PIXEL_MM if r.pixel_mm is None else r.pixel_mm,
+                sigma_px=SIGMA_PX if r.sigma_px is None else r.sigma_px, crs=r.crs)
 
 
 def detect_dbat(p: Path) -> bool:
