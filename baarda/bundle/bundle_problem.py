@@ -41,9 +41,12 @@ from baarda.errors import GeometryError
 from baarda.options import Progress, SolveOptions
 
 # converged when the correction is below 1e-7 of the flying height (positions and points)
-# and 1e-10 rad (angles): correction_size weighs angles by 1000 / rad
-SOLVE = SolveOptions(max_iterations=50, tolerance=1e-7, min_step=1e-3)
-SOLVE_LM = SolveOptions(max_iterations=100, tolerance=1e-7, min_step=1e-3, damping=1e-3)
+# and 1e-10 rad (angles): correction_size weighs angles by 1000 / rad; or, when no step
+# along a correction below 1e-6 lowers v'Pv any more, at the rounding floor of v'Pv (a
+# block of 1 µm image sigmas: a 5e-7 correction changes v'Pv by less than its rounding)
+SOLVE = SolveOptions(max_iterations=50, tolerance=1e-7, min_step=1e-3, stall_tolerance=1e-6)
+SOLVE_LM = SolveOptions(max_iterations=100, tolerance=1e-7, min_step=1e-3, damping=1e-3,
+                        stall_tolerance=1e-6)
 DAMPING = {"gn": SOLVE, "lm": SOLVE_LM}  # --damping: Gauss-Newton or Levenberg-Marquardt
 XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
