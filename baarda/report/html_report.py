@@ -15,6 +15,7 @@ import pandas as pd
 from markupsafe import Markup
 
 from baarda.io.result_folder import Results
+from baarda.output.accuracy import TABLE_FORMATS
 from baarda.output.verdict import failures
 from baarda.report import maps
 from baarda.report.anaplot import format_log, log_rows, snooping_table
@@ -204,13 +205,13 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
         i for s in rest for i in re.findall(r'id="([^"]+)"', str(s["body"]))}
     acc = accuracy(res)
     body = "".join(f'<p class="bad">{esc(w)}</p>' if "No check points" in w or
-                   "Only" in w else f"<p>{esc(w)}</p>" for w in acc.warnings)
+                   "Only" in w or "no similarity" in w or "none was applied" in w
+                   else f"<p>{esc(w)}</p>" for w in acc.warnings)
+    if acc.stated:
+        body = (table(acc.table, TABLE_FORMATS, text_cols=("axis",),
+                      attrs='id="accuracy-table"') + macro("meta")(acc.statements) + body)
     if acc.n:
-        body = (table(acc.table, {"mean m": ".3f", "std m": ".3f", "RMSE m": ".3f",
-                                  "largest |d| m": ".3f"}, text_cols=("axis",),
-                      attrs='id="accuracy-table"')
-                + macro("meta")(acc.statements) + body
-                + "<h3>Check points (adjusted - given), largest miss first</h3>"
+        body = (body + "<h3>Check points (adjusted - given), largest miss first</h3>"
                 + worst_table(acc.misses, acc.misses["d"], HTML_ROWS, "check_points",
                               "check points", {c: ".3f" for c in ("dX", "dY", "dZ", "d")}
                               | {"sigma": ".3f", "ratio": ".1f"}, text_cols=("point",),
