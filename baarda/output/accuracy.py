@@ -301,7 +301,8 @@ def statement(misses: pd.DataFrame, datum: str = CONTROL, survey: Survey | None 
                     f"; against its standard deviation from the adjustment "
                     f"({sd_mean[k]:.3f} m) it is {abs(z[k]):.1f} sigma, "
                     + ("significant at 5 %: a systematic shift" if signif else
-                       "not significant at 5 %: the adjustment's own precision (the control's errors carried into the block) explains it"))
+                       "not significant at 5 %: the adjustment's own precision (the "
+                       "control's errors carried into the block) explains it"))
             warn.append(f"The mean miss in {a} ({mean[k]:+.3f} m) exceeds 25 % of RMSE_{a} "
                         f"({MEAN_SHARE * rmse[k]:.3f} m): Edition 2 asks for its cause to be "
                         f"investigated{test}.")
