@@ -103,6 +103,7 @@ def test_a_true_block_with_unbiased_control_is_not_called_shifted():
     assert n == 40
     mean, std = t["mean m"], t["std m"]
     old = mean / (std / np.sqrt(n))
+    assert mean["X"] == pytest.approx(-0.0368, abs=1e-4)
     assert old["X"] == pytest.approx(-3.82, abs=0.01)  # the old rule: "significant"
     assert t.loc["X", "sd of mean m"] == pytest.approx(0.0261, abs=2e-4)
     assert std["X"] / np.sqrt(n) == pytest.approx(0.0096, abs=2e-4)

@@ -61,6 +61,7 @@ def test_demo_with_check_point_sigmas_gives_the_edition2_figures(demo):
     assert round(f["rmse_h_m"], 3) == 0.080 and round(f["rmse_v_m"], 3) == 0.121
     assert f["rmse_h_m"] == pytest.approx(np.hypot(f["rmse_h1_m"], np.hypot(0.02, 0.02)))
     assert f["rmse_3d_m"] == pytest.approx(np.hypot(f["rmse_h_m"], f["rmse_v_m"]))
+    assert round(f["rmse_3d_m"], 3) == 0.145
     assert (f["class_h_cm"], f["class_v_cm"], f["class_3d_cm"]) == (8.0, 13.0, 15.0)
     # the check points' misses themselves, from points.csv
     pts = np.genfromtxt(demo / "cli" / "points.csv", delimiter=",", names=True, dtype=None,
