@@ -140,3 +140,20 @@ def test_false_alarms_of_the_mean_test_over_40_blocks():
                                atol=5e-4)
     assert (np.abs(spread / predicted - 1) < 0.25).all()  # 40 samples: within their spread
     assert np.abs(means.mean(axis=0)).max() < 2.5 * spread.max() / np.sqrt(40)  # unbiased
+
+
+@pytest.mark.slow
+def test_the_3000_photo_block_of_the_issue():
+    """50 x 60 photos, 40 true check points (issue 42): the old rule calls the mean in X a
+    systematic shift, the adjustment's covariance (about twice std / sqrt(n)) does not."""
+    block, _ = simulate_block(FlightPlan(strips=50, photos_per_strip=60, check_points=40,
+                                         seed=2))
+    res = adjust(block)
+    acc = accuracy_of(res, points_table(res))
+    t = acc.table.set_index("axis")
+    old = t["mean m"] / (t["std m"] / np.sqrt(acc.n))
+    assert len(block.photos) == 3000 and acc.n == 40
+    assert old["X"] == pytest.approx(-2.94, abs=0.01)
+    assert t.loc["X", "sd of mean m"] == pytest.approx(0.0167, abs=2e-4)
+    assert t.loc["X", "mean / sd"] == pytest.approx(-1.65, abs=0.01)
+    assert not any("a systematic shift" in w for w in acc.warnings)
