@@ -127,7 +127,7 @@ class Statement:
     table: pd.DataFrame
     figures: dict
     sentences: list[str]
-    legacy: list[tuple[str, str]]
+    legacy: dict  # NSSDA / ASPRS 2014 (m): horizontal_95_m, vertical_95_m, ce90_m, le90_m
     warnings: list[str] = field(default_factory=list)
     misses: pd.DataFrame | None = None
     survey: Survey | None = None
@@ -144,26 +144,38 @@ class Statement:
         return self.lines()
 
     def lines(self) -> list[tuple[str, str]]:
-        """(what, value) rows: the standard, the figures, the sentences and the legacy."""
+        """(what, value) rows: the standard, the check points, the figures, the legacy."""
         if not self.stated:
             return [("standard", STANDARD)]
         f = self.figures
+        many = (f"; more than the {MAX_CHECK} needed on the largest projects, all used"
+                if self.n > MAX_CHECK else f" (at most {MAX_CHECK} on large projects)")
         out = [("standard", STANDARD),
-               ("check points", f"{self.n} (Edition 2 asks for at least {MIN_CHECK}; at most "
-                f"{MAX_CHECK} are needed on large projects)")]
-        out.append(("RMSE_H1 (fit to the check points)", f"{f['rmse_h1_m']:.4f} m"))
-        if f["rmse_h2_m"] is not None:
-            out.append(("RMSE_H2 (check points' survey)", f"{f['rmse_h2_m']:.4f} m"))
-        out.append(("RMSE_H (horizontal)", f"{f['rmse_h_m']:.3f} m"))
-        out.append(("RMSE_V1 (fit to the check points)", f"{f['rmse_v1_m']:.4f} m"))
-        if f["rmse_v2_m"] is not None:
-            out.append(("RMSE_V2 (check points' survey)", f"{f['rmse_v2_m']:.4f} m"))
-        out.append(("RMSE_V (vertical)", f"{f['rmse_v_m']:.3f} m"))
+               ("check points", f"{self.n}: Edition 2 asks for at least {MIN_CHECK}{many}")]
+        for k, name in (("h", "RMSE_H (horizontal)"), ("v", "RMSE_V (vertical)")):
+            fit, survey = f[f"rmse_{k}1_m"], f[f"rmse_{k}2_m"]
+            u = k.upper()
+            parts = (f"fit RMSE_{u}1 {fit:.4f} m, survey RMSE_{u}2 {survey:.4f} m"
+                     if survey is not None else f"the fit (RMSE_{u}1) alone, no survey "
+                     "accuracy")
+            out.append((name, f"{f[f'rmse_{k}_m']:.3f} m: {parts}"))
         out.append(("RMSE_3D (three-dimensional)", f"{f['rmse_3d_m']:.3f} m"))
-        out += [(w, s) for w, s in zip(("horizontal class", "vertical class", "3D class"),
-                                      self.sentences, strict=True)]
-        out += self.legacy
+        lg = self.legacy
+        out.append(("legacy (NSSDA 1998, ASPRS 2014)",
+                    f"at 95 %: horizontal {lg['horizontal_95_m']:.3f} m, vertical "
+                    f"{lg['vertical_95_m']:.3f} m; CE90 {lg['ce90_m']:.3f} m, LE90 "
+                    f"{lg['le90_m']:.3f} m"))
         return out
+
+    def statement_text(self) -> str:
+        """The standard's sentences as one paragraph (the reduced-checkpoint statement's
+        opening once)."""
+        if not self.sentences:
+            return ""
+        if self.n >= MIN_CHECK:
+            return " ".join(self.sentences)
+        cut = self.sentences[0].index("This data set was produced to meet")
+        return " ".join([self.sentences[0]] + [x[cut:] for x in self.sentences[1:]])
 
     def to_dict(self) -> dict:
         """summary.json's `accuracy`."""
@@ -177,8 +189,7 @@ class Statement:
                                 "sd_of_mean_m": _num(r["sd of mean m"]),
                                 "mean_over_sd": _num(r["mean / sd"])}
                                for r in self.table.to_dict("records")],
-                "legacy": {"standard": LEGACY, **{k: v for k, v in self.legacy}}
-                if self.stated else None,
+                "legacy": {"standard": LEGACY, **self.legacy} if self.stated else None,
                 "warnings": list(self.warnings),
                 "survey": self.survey.to_dict() if self.survey else None,
                 "mean_covariance_m2": None if self.mean_covariance is None
@@ -222,7 +233,7 @@ def statement(misses: pd.DataFrame, datum: str = CONTROL, survey: Survey | None 
     warn: list[str] = []
 
     def bare(reason: list[str]) -> Statement:
-        return Statement(n, datum, pd.DataFrame(), {}, [], [], warn + reason, misses, survey,
+        return Statement(n, datum, pd.DataFrame(), {}, [], {}, warn + reason, misses, survey,
                          mean_covariance)
 
     if datum == FREE_NONE:
@@ -274,53 +285,40 @@ def statement(misses: pd.DataFrame, datum: str = CONTROL, survey: Survey | None 
                "class_h_cm": accuracy_class_cm(h), "class_v_cm": accuracy_class_cm(v),
                "class_3d_cm": accuracy_class_cm(d3)}
     missing = [] if survey is None else [
-        f"{k} of the {n} check points have no {w}" for k, w in (
-            (survey.missing_h, "sigma_X, sigma_Y"), (survey.missing_v, "sigma_Z")) if k]
+        f"{k} of the {n} check points lack {w}" for k, w in (
+            (survey.missing_h, "sigma_X, sigma_Y"), (survey.missing_v, "sigma_Z")) if k
+        and k < n]
     if h2 is None or v2 is None:
         which = " and ".join(x for x, s in (("horizontal", h2), ("vertical", v2)) if s is None)
-        warn.append(f"The check points carry no {which} survey accuracy"
-                    + (f" ({'; '.join(missing)})" if missing else "")
-                    + ": Edition 2 includes the check points' own survey accuracy in the "
-                    "product's accuracy (RMSE_H = sqrt(RMSE_H1^2 + RMSE_H2^2), RMSE_V "
-                    "likewise; give sigma_X, sigma_Y, sigma_Z of the check points in "
-                    f"ground_points.csv); without it the {which} accuracy stated is the fit "
-                    "to the check points alone.")
-    if n < MIN_CHECK:
-        warn.append(f"{n} check points: Edition 2 asks for at least {MIN_CHECK} (at most "
-                    f"{MAX_CHECK} are needed on large projects); the statement is the "
-                    "standard's reduced-checkpoint statement.")
-    elif n > MAX_CHECK:
-        warn.append(f"{n} check points: more than the {MAX_CHECK} Edition 2 needs on the "
-                    "largest projects; all are used.")
+        warn.append("No survey accuracy of the check points (sigma_X, sigma_Y, sigma_Z in "
+                    "ground_points.csv" + (f"; {', '.join(missing)}" if missing else "")
+                    + f"): Edition 2 includes it in the product's accuracy; the {which} "
+                    "accuracy stated is the fit to the check points alone.")
     crit = float(norm.ppf(1 - MEAN_ALPHA / 2))
-    for k, a in enumerate("XYZ"):
-        big = abs(mean[k]) > MEAN_SHARE * rmse[k]
-        signif = bool(np.isfinite(z[k]) and abs(z[k]) > crit)
-        if big and datum == CONTROL:
-            test = ("" if not np.isfinite(z[k]) else
-                    f"; against its standard deviation from the adjustment "
-                    f"({sd_mean[k]:.3f} m) it is {abs(z[k]):.1f} sigma, "
-                    + ("significant at 5 %: a systematic shift" if signif else
-                       "not significant at 5 %: the adjustment's own precision (the "
-                       "control's errors carried into the block) explains it"))
-            warn.append(f"The mean miss in {a} ({mean[k]:+.3f} m) exceeds 25 % of RMSE_{a} "
-                        f"({MEAN_SHARE * rmse[k]:.3f} m): Edition 2 asks for its cause to be "
-                        f"investigated{test}.")
-        elif signif:
-            warn.append(f"The mean miss in {a} ({mean[k]:+.3f} m) is significant at 5 % "
-                        f"against its standard deviation from the adjustment "
-                        f"({sd_mean[k]:.3f} m): a systematic shift, which the figures "
-                        "include.")
+    big = [k for k in range(3) if abs(mean[k]) > MEAN_SHARE * rmse[k]]
+    signif = [k for k in range(3) if np.isfinite(z[k]) and abs(z[k]) > crit]
+    if datum == CONTROL and (big or signif):
+        text = ""
+        if big:
+            text = ("Mean error larger than 25 % of the RMSE of its axis (Edition 2 asks for "
+                    "its cause to be investigated): " + ", ".join(
+                        f"{'XYZ'[k]} {mean[k]:+.3f} m > {MEAN_SHARE * rmse[k]:.3f} m"
+                        for k in big) + ". ")
+        if np.isfinite(z).all():
+            text += ("Against its standard deviation from the adjustment (the control's "
+                     "errors carried into the block): " + ", ".join(
+                         f"{'XYZ'[k]} {abs(z[k]):.1f} sigma" for k in range(3)) + "; "
+                     + (", ".join("XYZ"[k] for k in signif) + " significant at 5 %: a "
+                        "systematic shift, which the figures include." if signif else
+                        "none significant at 5 %: the adjustment's own precision explains "
+                        "the mean."))
+        warn.append(text.strip())
     lo, hi = sorted(rmse[:2])
     if hi > 0 and lo / hi < 0.6:
         warn.append(f"RMSE X and Y differ (ratio {lo / hi:.2f} < 0.6): NSSDA's 95 % "
                     "horizontal factor (legacy) assumes them about equal; that figure is "
                     "approximate.")
-    legacy = [("legacy (NSSDA 1998, ASPRS 2014): horizontal accuracy at 95 %",
-               f"{NSSDA_H95 * h1:.3f} m"),
-              ("legacy (NSSDA 1998, ASPRS 2014): vertical accuracy at 95 %",
-               f"{NSSDA_V95 * v1:.3f} m"),
-              ("legacy: CE90 (horizontal, 90 %)", f"{CE90 * h1:.3f} m"),
-              ("legacy: LE90 (vertical, 90 %)", f"{LE90 * v1:.3f} m")]
+    legacy = {"horizontal_95_m": NSSDA_H95 * h1, "vertical_95_m": NSSDA_V95 * v1,
+              "ce90_m": CE90 * h1, "le90_m": LE90 * v1}
     return Statement(n, datum, table, figures, _sentences(n, h, v, d3), legacy, warn, misses,
                      survey, mean_covariance)

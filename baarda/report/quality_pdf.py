@@ -161,6 +161,7 @@ def _front(res: Results, st: dict) -> list:
     if acc.stated:
         out += _table(acc.table.drop(columns="n"), TABLE_FORMATS, st)
         out += [_p(f"{k}: {val}", st["body"]) for k, val in acc.statements]
+        out.append(_p(acc.statement_text(), st["body"]))
     out += [_p(w, st["body"]) for w in acc.warnings]
     _, advice = patterns(res)
     if advice:

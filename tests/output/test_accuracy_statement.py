@@ -64,8 +64,15 @@ def test_edition2_figures_point_by_point_with_the_survey_accuracy():
     assert d["minimum_check_points"] == 30 and d["maximum_check_points_needed"] == 120
     assert d["legacy"]["standard"].startswith("NSSDA (FGDC-STD-007.3-1998)")
     # the legacy figures come from the fit alone: 1.7308 RMSE_r, 1.96 RMSE_Z
-    assert d["legacy"]["legacy (NSSDA 1998, ASPRS 2014): horizontal accuracy at 95 %"] == \
-        f"{1.7308 * h1:.3f} m"
+    assert d["legacy"]["horizontal_95_m"] == pytest.approx(1.7308 * h1, rel=1e-12)
+    assert d["legacy"]["vertical_95_m"] == pytest.approx(1.96 * v1, rel=1e-12)
+    assert d["legacy"]["ce90_m"] == pytest.approx(1.5175 * h1, rel=1e-12)
+    assert d["legacy"]["le90_m"] == pytest.approx(1.6449 * v1, rel=1e-12)
+    rows = dict(acc.lines())
+    assert rows["RMSE_H (horizontal)"] == (f"{f['rmse_h_m']:.3f} m: fit RMSE_H1 {h1:.4f} m, "
+                                           f"survey RMSE_H2 {h2:.4f} m")
+    assert rows["legacy (NSSDA 1998, ASPRS 2014)"].startswith(
+        f"at 95 %: horizontal {1.7308 * h1:.3f} m, vertical {1.96 * v1:.3f} m; CE90")
 
 
 def test_the_class_met_is_the_smallest_whole_centimetre():
@@ -84,10 +91,16 @@ def test_below_30_check_points_the_reduced_checkpoint_statement():
                             "this test was performed using ONLY 29 checkpoints. This data set "
                             "was produced to meet a ") for s in acc.sentences)
     assert all(s.endswith("using the reduced number of checkpoints.") for s in acc.sentences)
-    assert any("29 check points: Edition 2 asks for at least 30 (at most 120 are needed on "
-               "large projects)" in w for w in acc.warnings)
+    assert dict(acc.lines())["check points"] == ("29: Edition 2 asks for at least 30 (at most "
+                                                 "120 on large projects)")
+    # the report's paragraph: the opening once, then the three classes
+    text = acc.statement_text()
+    assert text.count("Although the Standards call for") == 1
+    assert text.count("This data set was produced to meet a") == 3
     acc = statement(random_misses(121), CONTROL, None)
-    assert any("more than the 120 Edition 2 needs" in w for w in acc.warnings)
+    assert "more than the 120 needed on the largest projects" in dict(acc.lines())[
+        "check points"]
+    assert acc.statement_text() == " ".join(acc.sentences)
 
 
 def test_without_survey_sigmas_the_figure_is_the_fit_and_says_so():
@@ -96,8 +109,9 @@ def test_without_survey_sigmas_the_figure_is_the_fit_and_says_so():
     assert acc.figures["rmse_h_m"] == acc.figures["rmse_h1_m"]
     assert acc.figures["rmse_v_m"] == acc.figures["rmse_v1_m"]
     text = " ".join(acc.warnings)
-    assert "Edition 2 includes the check points' own survey accuracy" in text
-    assert "the fit to the check points alone" in text
+    assert "No survey accuracy of the check points (sigma_X, sigma_Y, sigma_Z in " \
+        "ground_points.csv): Edition 2 includes it in the product's accuracy; the horizontal " \
+        "and vertical accuracy stated is the fit to the check points alone." in text
     # one check point without sigma_Z: the vertical survey accuracy is not stated
     sig = np.tile([0.02, 0.02, 0.03], (5, 1))
     sig[2, 2] = np.nan
@@ -106,7 +120,9 @@ def test_without_survey_sigmas_the_figure_is_the_fit_and_says_so():
     acc = statement(m, CONTROL, s)
     assert acc.figures["rmse_v_m"] == acc.figures["rmse_v1_m"]
     assert acc.figures["rmse_h_m"] > acc.figures["rmse_h1_m"]
-    assert "1 of the 5 check points have no sigma_Z" in " ".join(acc.warnings)
+    assert "ground_points.csv; 1 of the 5 check points lack sigma_Z): Edition 2 includes it " \
+        "in the product's accuracy; the vertical accuracy stated is the fit" in \
+        " ".join(acc.warnings)
     assert Survey.from_dict(s.to_dict()) == s
 
 
@@ -145,14 +161,17 @@ def test_mean_error_against_a_quarter_of_the_rmse_and_the_adjustments_covariance
     # a mean as large as the datum's own uncertainty: flagged by the 25 % rule, not significant
     wide = statement(m, CONTROL, None, np.diag([0.03, 0.03, 0.05]) ** 2)
     text = " ".join(wide.warnings)
-    assert f"The mean miss in X ({mean[0]:+.3f} m) exceeds 25 % of RMSE_X" in text
-    assert "Edition 2 asks for its cause to be investigated" in text
-    assert "not significant at 5 %" in text and "The mean miss in Y" not in text
+    assert ("Mean error larger than 25 % of the RMSE of its axis (Edition 2 asks for its cause "
+            f"to be investigated): X {mean[0]:+.3f} m > {0.25 * rmse[0]:.3f} m.") in text
+    assert "none significant at 5 %" in text and " Y " not in text.split(".")[0]
     z = wide.table["mean / sd"].to_numpy()
     np.testing.assert_allclose(z, mean / np.array([0.03, 0.03, 0.05]), rtol=1e-12)
     # a precise datum: the same mean is a systematic shift
     tight = statement(m, CONTROL, None, np.diag([0.003, 0.003, 0.005]) ** 2)
-    assert "significant at 5 %: a systematic shift" in " ".join(tight.warnings)
+    sd = np.array([0.003, 0.003, 0.005])
+    assert ", ".join(f"{a} {abs(mean[k] / sd[k]):.1f} sigma" for k, a in enumerate("XYZ")) \
+        + "; X, Z significant at 5 %: a systematic shift" in " ".join(tight.warnings)
+    assert abs(mean[1] / sd[1]) < 1.96 < abs(mean[2] / sd[2])
     # the survey's independent errors add sigma^2 / n to the mean's variance
     s = survey_accuracy(np.tile([0.02, 0.04, 0.06], (40, 1)))
     with_survey = statement(m, CONTROL, s, np.diag([0.03, 0.03, 0.05]) ** 2)
