@@ -13,6 +13,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -187,3 +188,39 @@ def test_berlin_one_check_point_in_a_free_datum_gives_no_figure(tmp_path):
     assert acc["figures"] == {} and acc["statements"] == [] and acc["legacy"] is None
     assert "so none was applied" in acc["warnings"][0]
     assert "36.034" not in json.dumps(acc)
+
+
+def test_independent_models_write_the_statement_too(tmp_path):
+    """A model block's summary.json carries the same statement (its mean is not tested:
+    the model adjustment gives no covariance of the check points' mean)."""
+    from baarda.output.project_files import write_model_project
+    from baarda.simulate.model_blocks import ModelPlan, simulate_models
+
+    blk, _ = simulate_models(ModelPlan(strips=2, models_per_strip=3, layout="fotef", seed=4))
+    project = tmp_path / "p"
+    write_model_project(blk, project)
+    first = tmp_path / "first"
+    assert main(["models", str(project), "-o", str(first), "-q"]) == 0
+    assert accuracy(first)["n_check_points"] == 0
+    pts = pd.read_csv(first / "points.csv", dtype={"point": str})
+    tie = pts[(pts["role"] == "tie") & (pts["kind"] == "point")].head(3)
+    shift = np.array([[0.03, -0.02, 0.05], [-0.01, 0.04, -0.02], [0.02, 0.0, 0.06]])
+    with open(project / "ground_points.csv", "a", encoding="utf-8") as f:
+        for (_, row), d in zip(tie.iterrows(), shift, strict=True):
+            xyz = [float(v) for v in row[["X", "Y", "Z"]].to_numpy(float) - d]  # adjusted - miss
+            f.write(f"{row['point']},{xyz[0]!r},{xyz[1]!r},{xyz[2]!r},0.01,0.01,0.02,check\n")
+    out = tmp_path / "out"
+    assert main(["models", str(project), "-o", str(out), "-q"]) == 0
+    acc = accuracy(out)
+    assert acc["standard"] == STANDARD and acc["n_check_points"] == 3
+    got = pd.read_csv(out / "points.csv", dtype={"point": str})
+    chk = got[got["role"] == "check"]
+    h1 = np.sqrt(np.mean(chk["dX"] ** 2 + chk["dY"] ** 2))
+    f = acc["figures"]
+    assert f["rmse_h1_m"] == pytest.approx(h1, rel=1e-12)
+    assert f["rmse_h2_m"] == pytest.approx(np.hypot(0.01, 0.01), rel=1e-12)
+    assert f["rmse_v2_m"] == pytest.approx(0.02, rel=1e-12)
+    assert f["rmse_h_m"] == pytest.approx(np.hypot(h1, np.hypot(0.01, 0.01)), rel=1e-12)
+    assert "ONLY 3 checkpoints" in acc["statements"][0]
+    assert acc["mean_covariance_m2"] is None
+    assert all(r["sd_of_mean_m"] is None for r in acc["mean_error"])
