@@ -224,3 +224,15 @@ def test_independent_models_write_the_statement_too(tmp_path):
     assert "ONLY 3 checkpoints" in acc["statements"][0]
     assert acc["mean_covariance_m2"] is None
     assert all(r["sd_of_mean_m"] is None for r in acc["mean_error"])
+
+
+def test_the_pdf_states_the_edition2_figures(demo):
+    import pypdfium2
+
+    doc = pypdfium2.PdfDocument(str(demo / "quality.pdf"))
+    text = re.sub(r"\s+", " ", " ".join(doc[i].get_textpage().get_text_range()
+                                        for i in range(len(doc))))
+    assert f"standard: {STANDARD}" in text
+    assert "RMSE_H (horizontal): 0.080 m: fit RMSE_H1 0.0748 m, survey RMSE_H2 0.0283 m" in text
+    assert "RMSE_V (vertical): 0.121 m" in text
+    assert "this test was performed using ONLY 4 checkpoints" in text
