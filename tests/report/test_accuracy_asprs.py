@@ -236,3 +236,17 @@ def test_the_pdf_states_the_edition2_figures(demo):
     assert "RMSE_H (horizontal): 0.080 m: fit RMSE_H1 0.0748 m, survey RMSE_H2 0.0283 m" in text
     assert "RMSE_V (vertical): 0.121 m" in text
     assert "this test was performed using ONLY 4 checkpoints" in text
+
+
+def test_free_network_keeps_the_control_sigmas_as_the_check_points_survey(demo, tmp_path):
+    """--free turns the GCPs into check points: their sigmas become the survey accuracy
+    (the demo's 16 height-only GCPs have no sigma_X, sigma_Y: no horizontal survey term)."""
+    out = tmp_path / "free"
+    assert main(["adjust", str(demo / "demo"), "-o", str(out), "--free", "-q"]) == 0
+    acc = accuracy(out)
+    assert acc["datum"] == "free, similarity" and acc["n_check_points"] == 30
+    sig = np.array([0.1] * 26 + [0.03] * 4)  # sigma_Z of the 26 GCPs and the 4 check points
+    assert acc["figures"]["rmse_v2_m"] == pytest.approx(np.sqrt(np.mean(sig ** 2)), rel=1e-12)
+    assert acc["figures"]["rmse_h2_m"] is None
+    assert "16 of the 30 check points lack sigma_X, sigma_Y" in " ".join(acc["warnings"])
+    assert acc["mean_covariance_m2"] is None  # the similarity takes the mean out
