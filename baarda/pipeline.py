@@ -262,8 +262,8 @@ def as_check_points(block: Block) -> Block:
     full = np.isfinite(pts.xyz).all(axis=1)
     role = np.where(ctrl, np.where(full, "check", "tie"), pts.role).astype(object)
     xyz = np.where((ctrl & ~full)[:, None], np.nan, pts.xyz)  # tie points: intersected
-    points = replace(pts, xyz=xyz, role=role,
-                     sigma=np.where(ctrl[:, None], np.nan, pts.sigma))
+    points = replace(pts, xyz=xyz, role=role,  # a check point's sigma: its survey's accuracy
+                     sigma=np.where((ctrl & ~full)[:, None], np.nan, pts.sigma))
     return replace(block, points=points, notes=list(block.notes) + [
         f"free network: {int(ctrl.sum())} control point(s) used as check points only (their "
         "differences refer to the free datum, not to the control's frame)"])

@@ -168,8 +168,9 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
 def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
                        ) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray, Table]:
     """ground_points.csv of a project or a model project: ids, xyz (k, 3), sigma (k, 3) [m]
-    (NaN = not observed; the default sigma_control_m where the columns are missing), role
-    (k,) and the table (for line numbers)."""
+    (NaN = not observed; the default sigma_control_m where the columns are missing; a check
+    point's: the accuracy of its survey, not an observation, NaN unless the file gives it),
+    role (k,) and the table (for line numbers)."""
     g = Table(path, ["point", "X", "Y", "Z", "role"], encoding)
     ids = [str(p) for p in g.unique_ids("point")]
     role = g.text("role")
@@ -179,7 +180,8 @@ def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
                                int(g.lines[i]), "role")
     xyz = np.column_stack([g.numbers(c, allow_empty=True) for c in "XYZ"])
     names = [f"sigma_{c}" for c in "XYZ"]
-    if all(g.has(n) for n in names):
+    given = all(g.has(n) for n in names)
+    if given:
         sig = np.column_stack([g.numbers(n, allow_empty=True) for n in names])
     elif any(g.has(n) for n in names):
         raise ProjectError(g.path, "give all three columns sigma_X, sigma_Y, sigma_Z or none")
@@ -208,7 +210,7 @@ def read_ground_points(path: Path, sigma_control_m, encoding: str = ENCODING
     if len(bad):
         raise ProjectError(g.path, "control point without any standard deviation: nothing "
                            "is controlled", int(g.lines[bad[0]]), "sigma_X")
-    sig[~ctrl] = np.nan
+    sig[~ctrl & ((role != "check") | (not given))] = np.nan
     return ids, xyz, sig, role.astype(object), g
 
 

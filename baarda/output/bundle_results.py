@@ -11,6 +11,14 @@ import pandas as pd
 from baarda.block.rotation import rad_to_angle
 from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_result import BundleResult
+from baarda.output.accuracy import (
+    CONTROL,
+    FREE_NONE,
+    FREE_SIMILARITY,
+    Statement,
+    statement,
+    survey_accuracy,
+)
 from baarda.output.results import input_fingerprint, summary_document, write_folder
 from baarda.output.run_folder import RunFolder
 from baarda.quality.assessment import Assessment, observation_table
@@ -89,6 +97,32 @@ def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
     return ph, pt
 
 
+def accuracy_of(result: BundleResult, points: pd.DataFrame) -> Statement:
+    """The accuracy statement (output/accuracy.py) on the check points of `points` (points.csv
+    as written): their survey accuracy from the block's sigmas of the check points, the
+    covariance of their mean from the adjustment (in the CRS when adjusted in a local
+    frame)."""
+    from baarda.bundle.check_mean import check_mean_cofactor
+    from baarda.output.verdict import check_point_misses
+
+    miss = check_point_misses(points)
+    blk = result.block
+    index = blk.point_index
+    rows = np.array([index[str(p)] for p in miss["point"]], np.int64)
+    survey = survey_accuracy(blk.points.sigma[rows]) if len(rows) else None
+    if not result.free_network:
+        datum = CONTROL
+    else:
+        datum = FREE_SIMILARITY if result.check_similarity() is not None else FREE_NONE
+    cov = check_mean_cofactor(result, rows) if len(rows) else None
+    if cov is not None:
+        cov = cov * result.sigma0 ** 2
+        if blk.frame is not None:
+            centre = result.xyz[result.problem.remap[rows]].mean(axis=0)
+            cov = blk.frame.covariance_from_local(centre[None], cov[None])[0]
+    return statement(miss, datum, survey, cov)
+
+
 def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult,
                   parquet: bool = False) -> list[Path]:
     """Write the result folder of a bundle adjustment (output/results.py) with photos.csv
@@ -129,6 +163,7 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
         ph, pt = tables_in_crs(res)
         tables = {"photos.csv": ph, "points.csv": pt, "photos_local.csv": tables["photos.csv"],
                   "points_local.csv": tables["points.csv"]}
+    summary["accuracy"] = accuracy_of(res, tables["points.csv"]).to_dict()
     if res.problem.calibration.n:  # self-calibration: every camera parameter
         tables["cameras.csv"] = pd.DataFrame(res.camera_table())
     obs_name = "observations.parquet" if parquet else "observations.csv"

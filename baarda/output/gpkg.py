@@ -13,6 +13,10 @@ Layers:
   component was rejected.
 Without a CRS the coordinates are the local ones and the layers carry none.  Written with
 pyogrio (GDAL's GeoPackage driver) and shapely for the geometries.
+
+The accuracy statement on the check points (ASPRS Edition 2, as in summary.json and the
+reports) goes into the GeoPackage's metadata tables as ISO 19157 data quality
+(output/gpkg_metadata.py).
 """
 
 from __future__ import annotations
@@ -23,14 +27,16 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.rotation import rotation_matrix
-from baarda.output.bundle_results import photos_table, points_table, tables_in_crs
+from baarda.output.bundle_results import accuracy_of, photos_table, points_table, tables_in_crs
+from baarda.output.gpkg_metadata import write_quality_metadata
 from baarda.quality.assessment import Assessment
 
 EXAGGERATION = 1000.0  # residual vectors on the ground, times this
 
 
 def write_gpkg(path: str | Path, qc: Assessment, exaggeration: float = EXAGGERATION) -> Path:
-    """Write the three layers (module docstring) into the GeoPackage `path`."""
+    """Write the three layers and the accuracy metadata (module docstring) into the
+    GeoPackage `path`."""
     import pyogrio.raw as ogr
     import shapely
 
@@ -55,6 +61,7 @@ def write_gpkg(path: str | Path, qc: Assessment, exaggeration: float = EXAGGERAT
           "Point Z", True)
     lines, table = _residual_vectors(qc, pt, exaggeration)
     write("image_residuals", lines, table, "LineString", True)
+    write_quality_metadata(path, accuracy_of(res, pt))
     return path
 
 

@@ -10,6 +10,7 @@ import pandas as pd
 
 from baarda.block.rotation import rad_to_angle
 from baarda.independent.workflow import BlockQuality
+from baarda.output.accuracy import CONTROL, Statement, statement, survey_accuracy
 from baarda.output.results import summary_document, write_folder
 from baarda.output.run_folder import RunFolder
 
@@ -65,6 +66,19 @@ def points_table(bq: BlockQuality) -> pd.DataFrame:
     return df
 
 
+def accuracy_of(bq: BlockQuality, points: pd.DataFrame) -> Statement:
+    """The accuracy statement (output/accuracy.py) on the check points of `points`, their
+    survey accuracy from the block's sigmas of the check points (the mean is not tested:
+    the model block does not give the covariance of the check points' mean)."""
+    from baarda.output.verdict import check_point_misses
+
+    miss = check_point_misses(points)
+    index = {str(p): i for i, p in enumerate(bq.block.points)}
+    rows = np.array([index[str(p)] for p in miss["point"]], np.int64)
+    survey = survey_accuracy(bq.block.sigma[rows]) if len(rows) else None
+    return statement(miss, CONTROL, survey)
+
+
 def write_results(out: str | Path | RunFolder, bq: BlockQuality) -> list[Path]:
     """Write the result folder of a model block (output/results.py) with models.csv,
     points.csv, hypotheses.csv, preadjustment.csv and report.txt; returns the paths."""
@@ -80,7 +94,9 @@ def write_results(out: str | Path | RunFolder, bq: BlockQuality) -> list[Path]:
         sections=bq.sections(), parts=[p.to_dict() for p in bq.parts],
         notes=own.pop("notes"), angle_unit=bl.settings.angle_unit, **own)
     hyp = pd.concat([p.hypotheses_table() for p in bq.parts], ignore_index=True)
-    tables = {"models.csv": models_table(bq), "points.csv": points_table(bq),
+    points = points_table(bq)
+    summary["accuracy"] = accuracy_of(bq, points).to_dict()
+    tables = {"models.csv": models_table(bq), "points.csv": points,
               "observations.csv": pd.concat([p.table() for p in bq.parts], ignore_index=True),
               "hypotheses.csv": hyp, "preadjustment.csv": pre}
     return write_folder(out, summary, tables, {"report.txt": bq.summary() + "\n"})

@@ -2,30 +2,23 @@
 (output/verdict.py), the accuracy statement on the check points, the metadata a client
 signs off, and the patterns in the rejections with advice.
 
-Accuracy statement (FGDC-STD-007.3-1998, NSSDA; ASPRS Positional Accuracy Standards): per
-axis n, mean, standard deviation and RMSE of the check points' misses (adjusted - given);
-RMSE_r = sqrt(RMSE_X^2 + RMSE_Y^2); horizontal accuracy at 95 % = 1.7308 RMSE_r (NSSDA's
-factor for RMSE_X = RMSE_Y; stated with a warning when min/max RMSE < 0.6), vertical at 95 %
-= 1.9600 RMSE_Z; CE90 = 1.5175 RMSE_r (2.1460 sigma of a circular normal distribution),
-LE90 = 1.6449 RMSE_Z.
+Accuracy statement: the ASPRS Positional Accuracy Standards, Edition 2 (2023), with the
+NSSDA figures as a legacy block (output/accuracy.py); from points.csv and what summary.json's
+`accuracy` records beside it (the check points' survey accuracy, the covariance of their
+mean from the adjustment, the datum of the comparison).
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
 from baarda.io.result_folder import Results
+from baarda.output.accuracy import CONTROL, FREE_NONE, FREE_SIMILARITY, Statement, Survey, statement
 from baarda.output.verdict import WORDS, Verdict, check_point_misses, verdict
-
-NSSDA_H95 = 1.7308
-NSSDA_V95 = 1.9600
-CE90 = 1.5175
-LE90 = 1.6449
-ASPRS_MIN = 20  # check points the standards ask for
 
 
 def pixel_um(res: Results) -> float | None:
@@ -108,58 +101,21 @@ def section_line(res: Results, start: str) -> str | None:
                 None)
 
 
-@dataclass
-class Accuracy:
-    n: int
-    table: pd.DataFrame  # per axis: n, mean, std, RMSE (m)
-    statements: list[tuple[str, str]]  # (what, value in words)
-    warnings: list[str] = field(default_factory=list)
-    misses: pd.DataFrame | None = None  # the check points, worst first
-
-
-def accuracy(res: Results) -> Accuracy:
-    """The accuracy statement on the check points (module docstring)."""
+def accuracy(res: Results) -> Statement:
+    """The accuracy statement on the check points (output/accuracy.py): the misses of
+    points.csv, the survey accuracy, the mean's covariance and the datum summary.json
+    records (a result folder without them: no survey accuracy and no test of the mean; the
+    datum from the summary's datum line)."""
     miss = check_point_misses(res.points)
-    n = len(miss)
-    warn = []
-    datum = section_line(res, "datum:") or ""
-    if "FREE NETWORK" in datum.upper():
-        warn.append("The datum is free (no control): the check points are compared after "
-                    "a similarity transformation onto them, so these figures describe the "
-                    "block's shape, not its georeference.")
-    if n == 0:
-        warn.append("No check points were measured: the accuracy of the result is not "
-                    "verified by independent points; the standard deviations of the "
-                    "adjusted points are the only statement of accuracy.")
-        return Accuracy(0, pd.DataFrame(), [], warn, miss)
-    rows, rmse = [], {}
-    for a in "XYZ":
-        d = miss[f"d{a}"].to_numpy(float)
-        rmse[a] = float(np.sqrt(np.mean(d * d)))
-        rows.append({"axis": a, "n": n, "mean m": float(np.mean(d)),
-                     "std m": float(np.std(d, ddof=1)) if n > 1 else np.nan,
-                     "RMSE m": rmse[a], "largest |d| m": float(np.max(np.abs(d)))})
-    r = float(np.hypot(rmse["X"], rmse["Y"]))
-    lo, hi = sorted((rmse["X"], rmse["Y"]))
-    st = [("RMSE_r (horizontal)", f"{r:.3f} m"),
-          ("horizontal accuracy at 95 % (NSSDA, ASPRS)", f"{NSSDA_H95 * r:.3f} m"),
-          ("vertical accuracy at 95 % (NSSDA, ASPRS)", f"{NSSDA_V95 * rmse['Z']:.3f} m"),
-          ("CE90 (horizontal, 90 %)", f"{CE90 * r:.3f} m"),
-          ("LE90 (vertical, 90 %)", f"{LE90 * rmse['Z']:.3f} m")]
-    if hi > 0 and lo / hi < 0.6:
-        warn.append(f"RMSE X and Y differ (ratio {lo / hi:.2f} < 0.6): NSSDA's 95 % "
-                    "horizontal factor assumes them about equal; the figure is approximate.")
-    if n < 3:
-        warn.append(f"Only {n} check point(s): fewer than 3, no accuracy statement can be "
-                    "made from them; the figures above are the misses themselves.")
-    elif n < ASPRS_MIN:
-        warn.append(f"{n} check points: NSSDA and ASPRS ask for at least {ASPRS_MIN}; the "
-                    "statement is indicative.")
-    for a, row in zip("XYZ", rows, strict=True):
-        if n > 2 and abs(row["mean m"]) > 2 * row["std m"] / np.sqrt(n):
-            warn.append(f"The mean miss in {a} ({row['mean m']:+.3f} m) is significant: a "
-                        "systematic shift, which the accuracy figures include.")
-    return Accuracy(n, pd.DataFrame(rows), st, warn, miss)
+    rec = res.summary.get("accuracy") or {}
+    datum = rec.get("datum")
+    if datum not in (CONTROL, FREE_SIMILARITY, FREE_NONE):
+        free = "FREE NETWORK" in (section_line(res, "datum:") or "").upper()
+        compared = int(res.summary.get("n_check_points") or 0)
+        datum = CONTROL if not free else FREE_SIMILARITY if compared >= 3 else FREE_NONE
+    cov = rec.get("mean_covariance_m2")
+    return statement(miss, datum, Survey.from_dict(rec.get("survey")),
+                     None if cov is None else np.asarray(cov, float))
 
 
 def metadata(res: Results) -> list[tuple[str, str]]:

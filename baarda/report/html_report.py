@@ -15,6 +15,7 @@ import pandas as pd
 from markupsafe import Markup
 
 from baarda.io.result_folder import Results
+from baarda.output.accuracy import TABLE_FORMATS
 from baarda.output.verdict import failures
 from baarda.report import maps
 from baarda.report.anaplot import format_log, log_rows, snooping_table
@@ -203,18 +204,23 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     ids = {"check", "accuracy", "patterns", "metadata"} | {s["id"] for s in rest} | {
         i for s in rest for i in re.findall(r'id="([^"]+)"', str(s["body"]))}
     acc = accuracy(res)
-    body = "".join(f'<p class="bad">{esc(w)}</p>' if "No check points" in w or
-                   "Only" in w else f"<p>{esc(w)}</p>" for w in acc.warnings)
-    if acc.n:
-        body = (table(acc.table, {"mean m": ".3f", "std m": ".3f", "RMSE m": ".3f",
-                                  "largest |d| m": ".3f"}, text_cols=("axis",),
+    notes = "".join(f'<p class="bad">{esc(w)}</p>' if "No check points" in w or
+                    "Only" in w or "none was applied" in w else f"<p>{esc(w)}</p>"
+                    for w in acc.warnings)
+    pts = ("<h3>Check points (adjusted - given), largest miss first</h3>"
+           + worst_table(acc.misses, acc.misses["d"], HTML_ROWS, "check_points",
+                         "check points", {c: ".3f" for c in ("dX", "dY", "dZ", "d")}
+                         | {"sigma": ".3f", "ratio": ".1f"}, text_cols=("point",),
+                         attrs='id="check-points"')) if acc.n else ""
+    if acc.stated:  # the figures beside the check points, the standard's sentences below
+        figs = (table(acc.table.drop(columns="n"), TABLE_FORMATS, text_cols=("axis",),
                       attrs='id="accuracy-table"')
-                + macro("meta")(acc.statements) + body
-                + "<h3>Check points (adjusted - given), largest miss first</h3>"
-                + worst_table(acc.misses, acc.misses["d"], HTML_ROWS, "check_points",
-                              "check points", {c: ".3f" for c in ("dX", "dY", "dZ", "d")}
-                              | {"sigma": ".3f", "ratio": ".1f"}, text_cols=("point",),
-                              attrs='id="check-points"'))
+                + table(pd.DataFrame(acc.statements, columns=["", "Edition 2 (2023)"]),
+                        text_cols=("", "Edition 2 (2023)"), attrs='id="accuracy-figures"'))
+        body = (f'<div class="grid2"><div>{figs}</div><div>{pts}</div></div>'
+                f'<p id="accuracy-statement">{esc(acc.statement_text())}</p>' + notes)
+    else:
+        body = notes + pts
     groups, advice = patterns(res)
     pat = ""
     if advice:

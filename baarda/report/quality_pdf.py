@@ -29,6 +29,7 @@ from reportlab.platypus import (
 )
 
 from baarda.io.result_folder import Results
+from baarda.output.accuracy import TABLE_FORMATS
 from baarda.output.verdict import failures
 from baarda.report.front import accuracy, metadata, patterns, quality_check
 from baarda.report.html_base import cell
@@ -157,10 +158,10 @@ def _front(res: Results, st: dict) -> list:
     out += [_p("Quality check", st["h2"]), t]
     acc = accuracy(res)
     out.append(_p("Accuracy on check points", st["h2"]))
-    if acc.n:
-        out += _table(acc.table, {"mean m": ".3f", "std m": ".3f", "RMSE m": ".3f",
-                                  "largest |d| m": ".3f"}, st)
+    if acc.stated:
+        out += _table(acc.table.drop(columns="n"), TABLE_FORMATS, st)
         out += [_p(f"{k}: {val}", st["body"]) for k, val in acc.statements]
+        out.append(_p(acc.statement_text(), st["body"]))
     out += [_p(w, st["body"]) for w in acc.warnings]
     _, advice = patterns(res)
     if advice:

@@ -120,12 +120,15 @@ def test_accuracy_statement_of_the_demo_against_the_check_points(pages):
     h95 = np.sqrt(-2 * np.log(0.05)) / np.sqrt(2)
     ce90 = np.sqrt(-2 * np.log(0.10)) / np.sqrt(2)
     acc = section((d / "report.html").read_text(encoding="utf-8"), "accuracy")
-    assert f"RMSE_r (horizontal) {r:.3f} m" in acc
-    assert f"horizontal accuracy at 95 % (NSSDA, ASPRS) {h95 * r:.3f} m" in acc
-    assert f"vertical accuracy at 95 % (NSSDA, ASPRS) {1.959964 * rmse['Z']:.3f} m" in acc
-    assert f"CE90 (horizontal, 90 %) {ce90 * r:.3f} m" in acc
-    assert f"LE90 (vertical, 90 %) {1.644854 * rmse['Z']:.3f} m" in acc
-    assert "NSSDA and ASPRS ask for at least 20" in acc  # 4 check points
+    assert "standard ASPRS Positional Accuracy Standards for Digital Geospatial Data, " \
+        "Edition 2 (2023)" in acc
+    # no survey sigmas: the fit alone; the NSSDA figures as the legacy block
+    assert f"RMSE_H (horizontal) {r:.3f} m: the fit (RMSE_H1) alone" in acc
+    assert (f"legacy (NSSDA 1998, ASPRS 2014) at 95 %: horizontal {h95 * r:.3f} m, vertical "
+            f"{1.959964 * rmse['Z']:.3f} m; CE90 {ce90 * r:.3f} m, LE90 "
+            f"{1.644854 * rmse['Z']:.3f} m") in acc
+    assert "4: Edition 2 asks for at least 30" in acc  # 4 check points
+    assert "this test was performed using ONLY 4 checkpoints" in acc
 
 
 def test_berlin_first_page_says_the_check_point_misses_by_31_m(pages):
@@ -140,7 +143,9 @@ def test_berlin_first_page_says_the_check_point_misses_by_31_m(pages):
     assert want in check and "the block's georeference disagrees with it by that much" in check
     assert "FAIL: Global test, Check points" in check
     acc = section(page, "accuracy")
-    assert "The datum is free (no control)" in acc and "Only 1 check point(s)" in acc
+    assert "The datum is free (no control) and only 1 check point(s) were compared" in acc
+    assert "so none was applied" in acc and "accuracy at 95 %" not in acc
+    assert "RMSE_H" not in acc  # no accuracy figure from one check point
     first = pdf_pages(d / "quality.pdf")[0]
     assert want in re.sub(r"\s+", " ", first)
 
