@@ -79,6 +79,19 @@ def test_the_documented_answer(demo_replay):
             assert line in lines
 
 
+def test_the_ray_to_remeasure_is_the_one_the_test_names(demo_replay):
+    """Step 5 (photo 01005): the new ray of 002005 is rejected (x, w 4.09) and the verdict
+    of its ray on 01004 - the planted blunder - changes to reject (w -4.23): the line names
+    01004, and at every step the largest |w| among the rejected and the changed."""
+    a = next(a for a in demo_replay.answers if a.step == 5)
+    assert "REMEASURE POINT 002005 ON PHOTO 01004 (x: SIGF 4.23 > 3.29)" in a.text()
+    for a in demo_replay.answers:
+        ws = [abs(t.w) for t in a.tested if t.verdict == "reject"] + [
+            abs(c.w) for c in a.changed if c.after == "reject"]
+        rem = a.remeasure()
+        assert (abs(rem[0].w) == max(ws)) if ws else rem == []
+
+
 def test_the_planted_blunders_when_their_rays_arrive(demo_replay):
     """Each planted blunder at the step its observation is taken in (the second ray for a
     point's first two): 001008 y and 007008 x rejected there; 002005 x and 007002 y below
