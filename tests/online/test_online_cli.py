@@ -47,6 +47,18 @@ def test_replay_writes_the_result_folder_of_adjust(replayed):
         [p.name for p in ref.iterdir()] + ["replay.csv"])
 
 
+def test_msb_of_a_pair_that_is_one_test_is_the_same_in_both(replayed):
+    """Issue 44: the 16 components with |rho| = 1 +- 1e-14 (two-ray points) have no MSB
+    (inf, "-" in the report) in the replay and in `adjust` alike; every other MSB agrees
+    (it printed 7.1e7, 3.7e8 or inf by rounding, 12 rows differing)."""
+    out, ref = replayed
+    a, b = _csv(out / "observations.csv"), _csv(ref / "observations.csv")
+    one = (np.abs(a["rho_max"] - 1) < 1e-9) | (np.abs(b["rho_max"] - 1) < 1e-9)
+    assert one.sum() == 16
+    assert np.all(np.isinf(a.loc[one, "msb"])) and np.all(np.isinf(b.loc[one, "msb"]))
+    assert np.allclose(a["msb"], b["msb"], rtol=1e-6, equal_nan=True)
+
+
 def test_replay_has_one_row_per_tested_component(replayed):
     out, _ = replayed
     t = _csv(out / "replay.csv")
