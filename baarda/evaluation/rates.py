@@ -59,11 +59,15 @@ def study_rates(study) -> dict:
         sep = tb["separable"].to_numpy(bool)
         ident, first = tb["identified"].to_numpy(bool), tb["first"].to_numpy(bool)
         loc = tb["located"].to_numpy(bool)
+        strict = tb["strict"].to_numpy(bool)
         out["strategies"][name] = {
             "planted": n, "located": k, "located_rate": k / n if n else float("nan"),
             "located_ci": clopper_pearson(k, n),
+            "strict": _rate(int(strict.sum()), n),
             "identified": _rate(int(ident.sum()), n), "first": _rate(int(first.sum()), n),
             "separable_located": _rate(int(loc[sep].sum()), int(sep.sum())),
+            "separable_strict": _rate(int(strict[sep].sum()), int(sep.sum())),
+            "inseparable_strict": _rate(int(strict[~sep].sum()), int((~sep).sum())),
             "inseparable_located": _rate(int(loc[~sep].sum()), int((~sep).sum())),
             "inseparable_identified": _rate(int(ident[~sep].sum()), int((~sep).sum())),
             "false": nf, "false_per_trial": nf / max(len(tt), 1),

@@ -38,13 +38,21 @@ def component_keys(model) -> list[Key]:
 
 @dataclass(frozen=True)
 class Outcome:
-    """What a strategy did: the keys it rejected in the end, in order; those of its first
-    rejection (a group's together); sigma0 at the end."""
+    """What a strategy did: the keys it rejected in the end (alone or with a group rejected
+    or set aside as a whole), in order; those of its first rejection (a group's together);
+    sigma0 at the end; `strict`: those rejected by their own test (not only as a member of
+    a group: `grouped`'s partners, the on-line points set aside, the rays measured again
+    with a rejected one), None: every one."""
 
     rejected: list[Key]
     first: set[Key]
     sigma0: float
     entry: dict | None = None  # the on-line strategy: each component's verdict when taken in
+    strict: set[Key] | None = None
+
+    @property
+    def located_strictly(self) -> set[Key]:
+        return set(self.rejected) if self.strict is None else self.strict & set(self.rejected)
 
 
 def _snooping_order(a) -> Outcome:
@@ -55,15 +63,18 @@ def _snooping_order(a) -> Outcome:
     order: dict[int, int] = {}
     steps = a.run.log if a.run is not None else []
     first: set[Key] = set()
+    own: set[int] = set()  # rejected by their own test (a group's partners are not)
     for n, step in enumerate(steps):
         if step.action == "reject":
             rows = list(step.rows) + (list(step.partners) if step.grouped else [])
+            own.update(step.rows)
             for r in rows:
                 order[r] = n
             if not first:
                 first = {keys[r] for r in rows}
     ranked = sorted(rejected, key=lambda r: (order.get(r, -1), r))
-    return Outcome([keys[r] for r in ranked], first, float(a.adjustment.sigma0))
+    return Outcome([keys[r] for r in ranked], first, float(a.adjustment.sigma0),
+                   strict={keys[r] for r in rejected & own})
 
 
 def _outcome(keys: list[Key], sigma0: float) -> Outcome:
@@ -144,6 +155,7 @@ def _online(block: Block, tests: TestOptions, clean: Block | None = None) -> Out
     rp = replay(block, tests, remove="worst", remeasure=again)
     keys = [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.remeasured]
     keys += [(kind, photo, point, comp) for _, kind, photo, point, comp, _ in rp.removed]
+    strict = set(keys) - set(rp.remeasured_along)  # not the rays measured again with one
     # the first action: one image point (its rejected components) or one control point
     acts = list(rp.remeasured) + list(rp.removed)
     first = {k for k, r in zip(keys, acts, strict=True) if r[:4] == acts[0][:4]}
@@ -154,7 +166,7 @@ def _online(block: Block, tests: TestOptions, clean: Block | None = None) -> Out
         for t in a.tested:
             entry.setdefault((t.kind, t.photo, t.point, t.component), t.verdict)
     sigma0 = float(rp.online.result().adjustment.sigma0) if rp.online.started else np.nan
-    return Outcome(keys, first, sigma0, entry)
+    return Outcome(keys, first, sigma0, entry, strict)
 
 
 def run_strategy(name: str, block: Block, tests: TestOptions,

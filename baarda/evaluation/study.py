@@ -18,10 +18,14 @@ Each trial:
    order (a strategy whose rejections make the block singular, e.g. a point left with one
    ray, is recorded as failed with the message, nothing located).
 
-A planted blunder is *located* when that very component is rejected, *identified* (up to
-its inseparable group) when it or a component it cannot be told from (|rho| >= 0.99 in the
-blunder-free block, every component: one column of Qvv) is rejected, and *first* when the
-first rejection takes it.
+A planted blunder is *located strictly* (`strict`) when that very component is rejected by
+its own test; *located* when it is rejected in the end, alone or as a member of a group
+rejected or set aside as a whole (`grouped`'s partners, the on-line strategy's points set
+aside and never taken in again, the rays measured again with a rejected one); *identified*
+(up to its inseparable group) when it is located or a component it cannot be told from
+(|rho| >= 0.99 in the blunder-free block, every component: one column of Qvv) is rejected;
+and *first* when the first rejection takes it.  Every other component rejected (or set
+aside) is a good one lost (`n_false`): the strict and the group counts are told with it.
 
 Strategies: `snoop` (iterative w-test), `tau` (Pope's tau), `by-point` (snooping that
 rejects an image point's x and y together), `grouped` (snooping that rejects a component
@@ -199,6 +203,8 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
         seconds = time.perf_counter() - t0
         rank = {key: n + 1 for n, key in enumerate(rejected)}
         located = [key in rank for key in planted]
+        own = out.located_strictly
+        strict = [key in own for key in planted]
         identified = [loc or bool(pk & set(rank)) for loc, pk in
                       zip(located, partner_keys, strict=True)]
         for j, i in enumerate(rows.tolist()):
@@ -209,12 +215,12 @@ def _trial(options: StudyOptions, trial: int) -> TrialRows:
                 "unit": "um" if kind == "image" else "m", "size_mdb": float(size_mdb[j]),
                 "w_first": float(fq.w[i]), "significant_first": bool(significant[i]),
                 "rho_max": rho_max[j], "separable": not groups[j],
-                "located": located[j], "identified": identified[j],
+                "located": located[j], "strict": strict[j], "identified": identified[j],
                 "first": planted[j] in out.first, "rank": rank.get(planted[j]),
                 "at_entry": None if out.entry is None else out.entry.get(planted[j], "held")})
         trial_rows.append({
             "trial": trial, "strategy": name, "n_observations": int(model.n),
-            "n_planted": k, "n_located": int(sum(located)),
+            "n_planted": k, "n_located": int(sum(located)), "n_strict": int(sum(strict)),
             "n_identified": int(sum(identified)),
             "n_false": len(set(rejected) - set(planted)),
             "n_tested_first": int(tested.sum()), "n_significant_first": n_sig,
@@ -271,17 +277,21 @@ class Study:
                              f"{s['false_per_trial']:.2f} per trial ({s['false_rate']:.5f}), "
                              f"{s['seconds_per_trial']:.3f} s per trial")
                 continue
-            lines.append(f"{name:<10} located {s['located']}/{s['planted']} = "
+            lines.append(f"{name:<10} located strictly {_fmt(s['strict'])}, identified up to "
+                         f"its group {_fmt(s['identified'])}; good components lost "
+                         f"{s['false_per_trial']:.2f} per trial ({s['false_rate']:.5f})")
+            lines.append(f"{'':<10} located {s['located']}/{s['planted']} = "
                          f"{s['located_rate']:.3f} [{s['located_ci'][0]:.3f}, "
-                         f"{s['located_ci'][1]:.3f}], identified up to its group "
-                         f"{_fmt(s['identified'])}, rejected first {_fmt(s['first'])}; "
-                         f"good observations rejected {s['false_per_trial']:.2f} per trial "
-                         f"({s['false_rate']:.5f}), {s['seconds_per_trial']:.3f} s per trial")
+                         f"{s['located_ci'][1]:.3f}] (alone or with a group rejected or set "
+                         f"aside as a whole), rejected first {_fmt(s['first'])}; "
+                         f"{s['seconds_per_trial']:.3f} s per trial")
             if s["inseparable_located"]["n"]:
-                lines.append(f"{'':<10} separable blunders located "
+                lines.append(f"{'':<10} separable blunders: strictly "
+                             f"{_fmt(s['separable_strict'])}, located "
                              f"{_fmt(s['separable_located'])}; not separable (|rho| >= "
-                             f"{RHO_INSEPARABLE}): located {_fmt(s['inseparable_located'])}, "
-                             f"identified up to the group {_fmt(s['inseparable_identified'])}")
+                             f"{RHO_INSEPARABLE}): strictly {_fmt(s['inseparable_strict'])}, "
+                             f"located {_fmt(s['inseparable_located'])}, identified up to the "
+                             f"group {_fmt(s['inseparable_identified'])}")
             if "rejected_at_entry" in s:
                 lines.append(f"{'':<10} rejected when taken in {s['rejected_at_entry']}/"
                              f"{s['planted']} = {s['at_entry_rate']:.3f} "
@@ -320,8 +330,8 @@ def run_study(options: StudyOptions, *, workers: int = 1, scheduler: str | None 
 
 BLUNDER_COLUMNS = ["trial", "strategy", "kind", "photo", "point", "component", "size", "unit",
                    "size_mdb", "w_first", "significant_first", "rho_max", "separable",
-                   "located", "identified", "first", "rank", "at_entry"]
-TRIAL_COLUMNS = ["trial", "strategy", "n_observations", "n_planted", "n_located",
+                   "located", "strict", "identified", "first", "rank", "at_entry"]
+TRIAL_COLUMNS = ["trial", "strategy", "n_observations", "n_planted", "n_located", "n_strict",
                  "n_identified", "n_false", "n_tested_first", "n_significant_first",
                  "sigma0_final", "failed", "seconds"]
 

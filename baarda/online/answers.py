@@ -43,6 +43,16 @@ def verdicts(w: np.ndarray, r: np.ndarray, k_w: float) -> np.ndarray:
                                              "accept")).astype(object)
 
 
+def rejected(tested, changed=()) -> list[ComponentTest | Change]:
+    """The rejected among `tested` and the changes to reject in `changed`, one per
+    component (kind, photo, point, component), largest |w| first (Answer.remeasure)."""
+    out: dict[tuple, ComponentTest | Change] = {
+        (c.kind, c.photo, c.point, c.component): c for c in changed if c.after == "reject"}
+    out.update({(t.kind, t.photo, t.point, t.component): t for t in tested
+                if t.verdict == "reject"})
+    return sorted(out.values(), key=lambda t: -abs(t.w))
+
+
 def worst(values) -> str:
     vs = list(values)
     for v in ("reject", "suspect", "accept"):
@@ -118,10 +128,12 @@ class Answer:
     def verdict(self) -> str:
         return worst(t.verdict for t in self.tested)
 
-    def remeasure(self) -> list[ComponentTest]:
-        """The rejected components, largest |w| first."""
-        rej = [t for t in self.tested if t.verdict == "reject"]
-        return sorted(rej, key=lambda t: -abs(t.w))
+    def remeasure(self) -> list[ComponentTest | Change]:
+        """What the step says is most likely wrong, largest |w| first: its rejected
+        components and the observations whose verdict it changed to reject (an observation
+        taken in before may be the one the new ray shows wrong); one entry per component
+        (its test, where the step tested it)."""
+        return rejected(self.tested, self.changed)
 
     def to_dict(self) -> dict:
         d = asdict(self)

@@ -40,7 +40,7 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
 from baarda.linalg.threads import single_threaded_blas
-from baarda.online.answers import Answer, Change, ComponentTest, verdicts
+from baarda.online.answers import Answer, Change, ComponentTest, rejected, verdicts
 from baarda.online.approximations import intersect, prepared, prune, refine
 from baarda.online.entering import entering, held_words, leaving, mark, mark_in
 from baarda.online.lowrank import LowRank, Rows, quad_diag, times
@@ -438,7 +438,7 @@ class OnlineBundle:
             refac = True
         return self._answer(action="add", what=what, tested=tuple(tested),
                             held=tuple(held_words(self.m)), changed=tuple(changed),
-                            refactorised=refac, twins=self._twins(tested),
+                            refactorised=refac, twins=self._twins(tested, changed),
                             seconds=time.perf_counter() - t0)
 
     @single_threaded_blas
@@ -695,13 +695,14 @@ class OnlineBundle:
                                        float(r[n]), float(v[n]), float(sv[n]), float(mdb[n])))
         return out
 
-    def _twins(self, tested: list[ComponentTest]) -> tuple[tuple, ...]:
-        """What the test cannot tell from the rejected component with the largest |w|
+    def _twins(self, tested: list[ComponentTest], changed=()) -> tuple[tuple, ...]:
+        """What the test cannot tell from the step's most likely error (Answer.remeasure:
+        the largest |w| among the rejected and the verdicts changed to reject)
         (`inseparable`): ((kind, photo, point, component), ...)."""
-        rej = [t for t in tested if t.verdict == "reject"]
+        rej = rejected(tested, changed)
         if not rej:
             return ()
-        t = max(rej, key=lambda t: abs(t.w))
+        t = rej[0]
         return tuple(k for k, _ in self.inseparable(t.kind, t.photo, t.point, t.component))
 
     def _sigma_of(self, key: Key) -> float:

@@ -75,6 +75,9 @@ class Replay:
     seconds: float
     aside: tuple[tuple[str, tuple], ...] = ()
     remeasured: tuple[tuple, ...] = ()  # (step, kind, photo, point, component, w)
+    # of those, the components measured again only with a rejected ray the test cannot
+    # tell them from (not rejected themselves): (kind, photo, point, component)
+    remeasured_along: tuple[tuple, ...] = ()
 
     def table(self) -> pd.DataFrame:
         """replay.csv (tests_table)."""
@@ -144,7 +147,8 @@ def replay(block: Block, tests: TestOptions | None = None, *, remove: str = "non
                     progress(b)
     still = tuple((p, keys) for p, keys in aside.items() if ob.waiting(p))
     return Replay(tuple(answers), ob, tuple(removed), time.perf_counter() - t0, still,
-                  tuple(again.done) if again else ())
+                  tuple(again.done) if again else (),
+                  tuple(sorted(again.along)) if again else ())
 
 
 @dataclass
@@ -156,6 +160,7 @@ class _Again:
     sigma_um: dict
     done: list = field(default_factory=list)
     points: set = field(default_factory=set)  # (photo, point) of `done`
+    along: set = field(default_factory=set)  # keys measured again only as a twin
 
     def measured(self, photo: str, point: str) -> bool:
         return (photo, point) in self.points
@@ -186,8 +191,12 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict,
             if again is not None and kind == "image":
                 if again.measured(photo, point):
                     continue  # measured twice, the same: the operator keeps it (confirmed)
+                along = {t for t in twins if t not in bad}  # not rejected themselves
                 for k, wk in [(key, w)] + [(t, bad.pop(t, w)) for t in twins]:
-                    out += _measure_again(ob, a.step, k, wk, again, bad)
+                    done = _measure_again(ob, a.step, k, wk, again, bad)
+                    if done and k in along:
+                        again.along.add(k)
+                    out += done
                 continue
             if twins:
                 b = ob.set_aside(point)

@@ -133,7 +133,8 @@ def _sigma0(summary: dict, pixel_um: float | None, image_sigma_um: float | None)
         text += f" (95 % interval {lo:.3f} .. {hi:.3f})"
     if image_sigma_um:
         um = s0 * image_sigma_um
-        text += (f"; the image sigma a posteriori {um:.2f} µm"
+        # the global sigma0 scales every group: not the image group's own estimate
+        text += (f"; sigma0 x the a-priori image sigma {um:.2f} µm"
                  + (f" = {um / pixel_um:.2f} px" if pixel_um else "")
                  + f" against {image_sigma_um:g} µm"
                  + (f" = {image_sigma_um / pixel_um:.2f} px" if pixel_um else "")

@@ -11,7 +11,11 @@ RHO_INSEPARABLE (0.99) cannot be told from it, and the step is logged "identifie
 Baarda's rule does and flags the others as not separable; "group" rejects the whole group
 when the adjustment without it is still determined (the adapted solution is then free of
 the error whichever of them holds it; its members are not restored one by one: their
-predicted residuals cannot tell them apart either), else falls back to "flag".  A rejection
+predicted residuals cannot tell them apart either), else falls back to "flag".  A component
+rejected before a group that the group's rejection leaves unchecked (restored, its
+redundancy number would be below R_MIN: the group held what tested it) is never restored:
+its small |w| then says nothing, and the error it was rejected for would come back
+unchecked (issue 44).  A rejection
 that leaves another active component uncontrolled (its r drops below R_MIN) names it in its
 step.
 
@@ -33,7 +37,13 @@ from baarda.errors import GeometryError
 from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.separability import RHO_INSEPARABLE
-from baarda.quality.statistics import QualityResult, analyse, qvv_columns, with_separability
+from baarda.quality.statistics import (
+    R_MIN,
+    QualityResult,
+    analyse,
+    qvv_columns,
+    with_separability,
+)
 
 
 @dataclass(frozen=True)
@@ -209,6 +219,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     kept_why: dict[int, str] = {}
     log: list[SnoopingStep] = []
     before: np.ndarray | None = None  # what was controlled before the last rejection
+    out_before_group: np.ndarray | None = None  # rejected before the last group rejection
     for it in range(1, max_iterations + 1):
         q = analyse(model, tests, separability=False)
         if before is not None and log and log[-1].action == "reject":
@@ -217,6 +228,15 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                 log[-1] = replace(log[-1], uncontrolled=tuple(int(x) for x in lost),
                                   uncontrolled_words=tuple(no_longer_checked(model, lost)))
         before = q.controlled.copy()
+        if out_before_group is not None:  # what the group took the control of stays out
+            held = np.flatnonzero(out_before_group & ~active & (q.redundancy_number < R_MIN))
+            restored.update(int(r) for r in held)
+            if len(held):
+                last = next(n for n in range(len(log) - 1, -1, -1) if log[n].grouped)
+                log[last] = replace(log[last], uncontrolled_words=log[last].uncontrolled_words
+                                    + tuple(f"{label(model, int(r))} stays rejected: nothing "
+                                            "checks it without the group" for r in held))
+            out_before_group = None
         stat = q.w if statistic == "w" else q.tau
         crit = q.k_w if statistic == "w" else q.k_tau
         mag = np.abs(np.nan_to_num(stat))
@@ -266,6 +286,8 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                 say(f"snooping {it}: {step.labels[0]} kept: {why}")
                 cand = cand[~np.isin(cand, rows)]
                 continue
+            if grouped:
+                out_before_group = ~active
             say(f"snooping {it}: sigma0 {q.sigma0_hat:.3f}, reject {step.labels[0]}"
                 f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}"
                 + (f"; {step.identification()}" if part else ""))

@@ -42,6 +42,7 @@ from scipy import special
 from baarda.linalg._jit import kernel
 
 RHO_INSEPARABLE = 0.99  # |rho| from which two w-tests are called not separable
+RHO_ONE = 1e-9  # |rho| within this of 1 is one test (1 +- rounding): MSB infinite
 _NODES = 96  # Gauss-Legendre nodes of P_j over delta +- 9
 _U = np.linspace(0.0, 1.0, 129)  # the table of delta_s: u = sqrt(1 - rho)
 
@@ -112,13 +113,14 @@ def _table(k: float, beta0: float, others: int) -> np.ndarray:
 def separable_delta(rho, k: float, beta0: float, others: int = 0) -> np.ndarray:
     """delta_s(|rho|): E(w) at which one step of data snooping picks the component with
     probability beta0, its most correlated partner at `rho` and `others` further tests
-    taken as independent (critical value k); inf for |rho| = 1.  Interpolated in a table
-    of its own (relative error below 1e-4)."""
+    taken as independent (critical value k); inf for |rho| = 1 (within RHO_ONE: the
+    cofactors' rounding makes a pair that is one test 1 +- 1e-14, whose finite MSB would be
+    noise).  Interpolated in a table of its own (relative error below 1e-4)."""
     rho = np.abs(np.asarray(rho, float))
     u = np.sqrt(np.clip(1.0 - rho, 0.0, 1.0))
     g = _table(float(k), float(beta0), max(int(others), 0))
     with np.errstate(divide="ignore"):
-        return np.where(u > 0, _cubic(u, g) / u, np.inf)
+        return np.where(rho < 1.0 - RHO_ONE, _cubic(u, g) / np.maximum(u, 1e-300), np.inf)
 
 
 def _cubic(x: np.ndarray, g: np.ndarray) -> np.ndarray:

@@ -46,8 +46,15 @@ def format_least_separable(t: pd.DataFrame) -> str:
              f"{'MDB':>11}{'MSB':>11}  partner"]
     for r in t.itertuples(index=False):
         lines.append(f"{r.kind:<8}{r.frame:<12}{r.point:<10}{r.c:<3}{r.rho_max:9.4f}"
-                     f"{r.ratio:9.2f}{r.MDB:11.4g}{r.MSB:11.4g}  {r.partner}")
+                     f"{_num(r.ratio, '9.2f')}{_num(r.MDB, '11.4g')}{_num(r.MSB, '11.4g')}"
+                     f"  {r.partner}")
     return "\n".join(lines)
+
+
+def _num(x: float, spec: str) -> str:
+    """x formatted, "-" where it is not finite (an MSB of a pair that is one test)."""
+    width = int(spec.split(".")[0])
+    return f"{x:{spec}}" if np.isfinite(x) else f"{'-':>{width}}"
 
 
 def msb_histogram(obs: pd.DataFrame) -> Plot | None:

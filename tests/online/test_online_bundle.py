@@ -108,3 +108,25 @@ def test_add_camera_refusals(block):
     a = ob.add_camera(replace(block.cameras, ids=["second"]), 0)
     assert a.what == "camera second" and a.refactorised and not a.changed
     assert ob.m.cameras.ids[-1] == "second" and len(ob.m.cameras) == n + 1
+
+
+def test_remeasure_names_the_largest_w_among_the_rejected_and_the_changed():
+    """Answer.remeasure(): a verdict the step changed to reject counts as a tested one does
+    (the demo's step 5: the new ray on 01005 rejected at 4.09, the ray on 01004 changed to
+    reject at -4.23: 01004 is the one to re-measure); a component both tested and changed
+    once, with its test; nothing rejected, nothing to re-measure."""
+    from baarda.online.answers import Answer, Change, ComponentTest
+
+    def t(photo, w, v):
+        return ComponentTest("image", photo, "002005", "x", 0.0, 0.0, 0.0, 0.0, 0.2, w, 0.05, v)
+
+    a = Answer(step=5, action="add", what="photo 01005", k_w=3.29,
+               tested=(t("01005", 4.09, "reject"), t("01006", 1.0, "accept")),
+               changed=(Change("image", "01004", "002005", "x", "accept", "reject", -4.23),
+                        Change("image", "01003", "002005", "x", "reject", "accept", -9.0),
+                        Change("image", "01005", "002005", "x", "held", "reject", 4.09)))
+    assert [(r.photo, r.w) for r in a.remeasure()] == [("01004", -4.23), ("01005", 4.09)]
+    assert isinstance(a.remeasure()[1], ComponentTest)
+    assert "REMEASURE POINT 002005 ON PHOTO 01004 (x: SIGF 4.23 > 3.29)" in a.text()
+    assert replace(a, changed=a.changed[1:2]).remeasure()[0].photo == "01005"
+    assert replace(a, tested=a.tested[1:], changed=a.changed[1:2]).remeasure() == []

@@ -47,6 +47,18 @@ def test_replay_writes_the_result_folder_of_adjust(replayed):
         [p.name for p in ref.iterdir()] + ["replay.csv"])
 
 
+def test_msb_of_a_pair_that_is_one_test_is_the_same_in_both(replayed):
+    """Issue 44: the 16 components with |rho| = 1 +- 1e-14 (two-ray points) have no MSB
+    (inf, "-" in the report) in the replay and in `adjust` alike; every other MSB agrees
+    (it printed 7.1e7, 3.7e8 or inf by rounding, 12 rows differing)."""
+    out, ref = replayed
+    a, b = _csv(out / "observations.csv"), _csv(ref / "observations.csv")
+    one = (np.abs(a["rho_max"] - 1) < 1e-9) | (np.abs(b["rho_max"] - 1) < 1e-9)
+    assert one.sum() == 16
+    assert np.all(np.isinf(a.loc[one, "msb"])) and np.all(np.isinf(b.loc[one, "msb"]))
+    assert np.allclose(a["msb"], b["msb"], rtol=1e-6, equal_nan=True)
+
+
 def test_replay_has_one_row_per_tested_component(replayed):
     out, _ = replayed
     t = _csv(out / "replay.csv")
@@ -77,6 +89,19 @@ def test_the_documented_answer(demo_replay):
     for line in shown.splitlines():
         if line.strip() != "...":
             assert line in lines
+
+
+def test_the_ray_to_remeasure_is_the_one_the_test_names(demo_replay):
+    """Step 5 (photo 01005): the new ray of 002005 is rejected (x, w 4.09) and the verdict
+    of its ray on 01004 - the planted blunder - changes to reject (w -4.23): the line names
+    01004, and at every step the largest |w| among the rejected and the changed."""
+    a = next(a for a in demo_replay.answers if a.step == 5)
+    assert "REMEASURE POINT 002005 ON PHOTO 01004 (x: SIGF 4.23 > 3.29)" in a.text()
+    for a in demo_replay.answers:
+        ws = [abs(t.w) for t in a.tested if t.verdict == "reject"] + [
+            abs(c.w) for c in a.changed if c.after == "reject"]
+        rem = a.remeasure()
+        assert (abs(rem[0].w) == max(ws)) if ws else rem == []
 
 
 def test_the_planted_blunders_when_their_rays_arrive(demo_replay):

@@ -96,6 +96,18 @@ def test_separable_delta_reaches_beta0_and_exceeds_delta0():
     assert separable_delta(1.0, bm.k_w, 0.8) == np.inf
 
 
+def test_rho_one_within_rounding_is_one_test():
+    """Issue 44: |rho| within 1e-9 of 1 (rounding makes a pair that is one test 1 +- 1e-14)
+    has no MSB (inf), whichever side of 1 it falls; from 1 - 1e-8 on it is finite and
+    follows sqrt(2) Phi^-1(beta0) / sqrt(1 - rho)."""
+    bm = b_method(0.001, 0.8)
+    d = separable_delta(np.array([1 - 1e-14, 1.0, 1 + 1e-14, -1 + 1e-14, 1 - 1e-10]),
+                        bm.k_w, 0.8)
+    assert np.all(d == np.inf)
+    d8 = float(separable_delta(1 - 1e-8, bm.k_w, 0.8))
+    assert d8 * 1e-4 == pytest.approx(np.sqrt(2) * stats.norm.ppf(0.8), rel=1e-2)
+
+
 @pytest.mark.slow
 def test_farther_pairs_rarely_change_rho_max():
     """docs/quality.md, "Farther pairs are left out": the share of tested components whose
