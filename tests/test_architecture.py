@@ -14,6 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1] / "baarda"
 
 FLOORS = [
+    {"kinds"},
     {"errors", "options", "schema", "sections", "linalg"},
     {"block"},
     {"io", "quality"},

@@ -25,7 +25,6 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
-from baarda.bundle.gnss_imu import ANGLE_UNITS
 from baarda.bundle.image_rows import ImageRows
 from baarda.bundle.observation_kinds import (
     BorderControl,
@@ -38,6 +37,7 @@ from baarda.bundle.observation_kinds import (
     State,
 )
 from baarda.errors import GeometryError
+from baarda.kinds import CONTROL, IMAGE, KINDS
 from baarda.options import Progress, SolveOptions
 
 # converged when the correction is below 1e-7 of the flying height (positions and points)
@@ -216,7 +216,7 @@ class BundleProblem(SchurProblem):
     @property
     def units(self) -> dict[str, tuple[float, str]]:
         """How each kind is shown: kind -> (factor to the shown unit, unit)."""
-        out = {"image": (1e3, "µm"), "control": (1.0, "m")}
+        out = {IMAGE.name: IMAGE.shown(), CONTROL.name: CONTROL.shown()}
         for r in self.extra:
             out.update(r.units)
         return out
@@ -265,24 +265,14 @@ class BundleProblem(SchurProblem):
 
     def apriori_text(self) -> str:
         """The a-priori standard deviations in use (image µm, control m), in words."""
-        sig = self.sigma_apriori
-        img = sig[self.kind == "image"] * 1e3
-        parts = [f"image {_spread(img)} µm"] if len(img) else []
-        for c in "XYZ":
-            s = sig[(self.kind == "control") & (self.component == c)]
-            if len(s):
-                parts.append(f"control {c} {_spread(s)} m")
-        d = sig[self.kind == "distance"]
-        if len(d):
-            parts.append(f"distances {_spread(d)} m")
-        for c in "XYZ":
-            s = sig[(self.kind == "gnss") & (self.component == c)]
-            if len(s):
-                parts.append(f"GNSS {c} {_spread(s)} m")
-        s = sig[self.kind == "imu"]
-        if len(s):
-            f, unit = ANGLE_UNITS.get(self.block.settings.angle_unit, ANGLE_UNITS["rad"])
-            parts.append(f"IMU {_spread(s * f)} {unit}")
+        sig, parts = self.sigma_apriori, []
+        for k in KINDS.values():  # by axis where its axes are groups of their own
+            f, unit = k.shown(self.block.settings.angle_unit)
+            of_kind = self.kind == k.name
+            for c in k.components if k.by_axis else ("",):
+                s = sig[of_kind & (self.component == c)] if c else sig[of_kind]
+                if len(s):
+                    parts.append(f"{k.words}{' ' + c if c else ''} {_spread(s * f)} {unit}")
         return "a-priori sigmas: " + ", ".join(parts)
 
     # ------------------------------------------------- the solver's protocol

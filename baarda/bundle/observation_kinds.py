@@ -30,8 +30,9 @@ import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.bundle.calibration import Calibration
-from baarda.bundle.gnss_imu import ANGLE_UNITS, GnssImu
+from baarda.bundle.gnss_imu import GnssImu
 from baarda.bundle.image_rows import ImageRows
+from baarda.kinds import CONTROL, DISTANCE, EXTERIOR, IMAGE
 
 XY = np.array(["x", "y"], dtype=object)
 XYZ = np.array(["X", "Y", "Z"], dtype=object)
@@ -154,7 +155,7 @@ class BorderImageRows(Rows):
     """The image points of the border points: x and y of each, with the camera parameters
     and the point's three global columns."""
 
-    units = {"image": (1e3, "µm")}
+    units = {IMAGE.name: IMAGE.shown()}
 
     def __init__(self, ctx: Context, rows: np.ndarray):
         b = ctx.block
@@ -191,7 +192,7 @@ class BorderImageRows(Rows):
 class BorderControlRows(Rows):
     """The observed control coordinates of the border points (sigma > 0)."""
 
-    units = {"control": (1.0, "m")}
+    units = {CONTROL.name: CONTROL.shown()}
 
     def __init__(self, ctx: Context, control: np.ndarray):
         pts = ctx.block.points
@@ -220,7 +221,7 @@ class BorderControlRows(Rows):
 class DistanceRows(Rows):
     """Distances between two border points (scale bars, taped distances), m."""
 
-    units = {"distance": (1.0, "m")}
+    units = {DISTANCE.name: DISTANCE.shown()}
 
     def __init__(self, ctx: Context, which: np.ndarray):
         d = ctx.block.distances
@@ -252,9 +253,7 @@ class GnssImuRows(Rows):
     def __init__(self, ctx: Context):
         b = ctx.block
         self.gnss_imu = gi = GnssImu(b, ctx.layout.start("gnss_imu"))
-        unit = b.settings.angle_unit
-        self.units = {"gnss": (1.0, "m"),
-                      "imu": ANGLE_UNITS.get(unit, ANGLE_UNITS["rad"])}
+        self.units = {k.name: k.shown(b.settings.angle_unit) for k in EXTERIOR}
         self.sigma = gi.sigma
         self._labels(gi.kind, gi.component, _empty(gi.m), gi.photos, block=b)
 
