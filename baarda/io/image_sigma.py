@@ -25,7 +25,6 @@ from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
 
 NOMINAL = ("colmap", "bal", "opensfm")  # no physical pixel size: a nominal one
-OWN_PIXEL = ("dbat", "micmac", "photomodeler")  # the pixel size of the file's camera
 MM_ONLY = ("project", "aicon")  # image coordinates in mm
 NAMES = {"project": "a native project", "colmap": "COLMAP", "bal": "BAL",
          "opensfm": "OpenSfM", "dbat": "DBAT script", "micmac": "MicMac",

@@ -24,7 +24,6 @@ import numpy as np
 from baarda.kinds import CONTROL, GNSS, IMAGE, IMU, kind_of
 from baarda.quality.statistics import R_MIN
 
-VERDICTS = ("accept", "suspect", "reject")
 MAX_LINES = 60  # an answer's text lists at most this many components (else the rejected)
 # the answers' units (baarda/kinds.py; IMU always in mrad)
 UNITS = {k.name: k.shown() for k in (IMAGE, CONTROL, GNSS, IMU)}

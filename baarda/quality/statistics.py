@@ -27,7 +27,6 @@ from baarda.quality.distributions import (
     b_method,
     global_test,
     tau_critical,
-    tau_pvalue,
     w_test_pvalue,
 )
 from baarda.quality.separability import separable_delta, w_correlations
@@ -48,7 +47,6 @@ class QualityResult:
     w: np.ndarray
     tau: np.ndarray
     p_value: np.ndarray
-    tau_p_value: np.ndarray
     mdb: np.ndarray
     lambda_bar: np.ndarray
     external: np.ndarray  # (n, 3) effect of the MDB on a point's coordinates
@@ -169,8 +167,6 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     out = QualityResult(
         residual=v, sigma=s, active=act, qvv=qvv, redundancy_number=r, sigma_residual=sv,
         w=w, tau=tau, p_value=w_test_pvalue(np.nan_to_num(w)) * np.where(controlled, 1, np.nan),
-        tau_p_value=(tau_pvalue(np.nan_to_num(tau), red) if red >= 2 else np.full(len(v), np.nan))
-        * np.where(controlled, 1, np.nan),
         mdb=mdb, lambda_bar=lam, external=external, external_max=ext_max,
         external_point=labels, controlled=controlled,
         flagged=act & controlled & (np.abs(np.nan_to_num(w)) > bm.k_w), redundancy=red,
