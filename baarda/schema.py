@@ -4,6 +4,8 @@ summary.json states the units of its run ("units"); docs/format.md describes bot
 
 from __future__ import annotations
 
+from baarda.kinds import unit_names
+
 # observations.csv: one row per observation component, in this order
 OBSERVATION_COLUMNS = (
     "adjustment", "kind", "photo", "model", "point", "component", "x_mm", "y_mm",
@@ -18,7 +20,6 @@ NUMBER_COLUMNS = ("x_mm", "y_mm", "residual", "sigma", "sigma_residual", "redund
 FLAG_COLUMNS = ("rejected", "flagged")
 LABEL_COLUMNS = ("external_point", "rho_partner")  # text naming another point / observation
 
-# the unit of the residual, sigma and MDB columns by kind (a run's summary.json "units"
-# says what it wrote: IMU residuals in the project's angle unit / 1000)
-UNITS = {"image": "µm", "model": "µm", "control": "m", "gnss": "m", "imu": "mrad",
-         "distance": "m"}
+# the unit of the residual, sigma and MDB columns by kind (baarda/kinds.py; a run's
+# summary.json "units" says what it wrote: IMU residuals in the project's angle unit / 1000)
+UNITS = unit_names()

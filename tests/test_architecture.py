@@ -14,6 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1] / "baarda"
 
 FLOORS = [
+    {"kinds"},
     {"errors", "options", "schema", "sections", "linalg"},
     {"block"},
     {"io", "quality"},
@@ -39,16 +40,30 @@ def package_of(path: Path) -> str:
     return rel.parts[0] if len(rel.parts) > 1 else rel.stem
 
 
+def absolute(path: Path, level: int, module: str | None) -> str:
+    """The absolute name of a relative import (`from ..x import y` in `path`): path is a
+    module of baarda/ or a file taken for one (the test of the rule)."""
+    try:
+        parts = ["baarda", *path.relative_to(ROOT).parts[:-1]]
+    except ValueError:  # a file outside the package: taken for a module of baarda/io
+        parts = ["baarda", "io"]
+    base = parts[:len(parts) - (level - 1)] if level > 1 else parts
+    return ".".join(base + ([module] if module else []))
+
+
 def baarda_imports(path: Path) -> list[tuple[int, str]]:
-    """(line, package) of every import of a baarda package in the file."""
+    """(line, package) of every import of a baarda package in the file, relative imports
+    (`from .kernels import`, `from ..bundle import`) included."""
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         names = []
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names = [node.module]
-            if node.module == "baarda":
+        elif isinstance(node, ast.ImportFrom) and (node.module or node.level):
+            module = (absolute(path, node.level, node.module) if node.level
+                      else node.module)
+            names = [module]
+            if module == "baarda":
                 names = [f"baarda.{a.name}" for a in node.names]
         for name in names:
             parts = name.split(".")
@@ -132,6 +147,16 @@ def test_the_rule_catches_an_upward_import(tmp_path):
     assert FLOOR["bundle"] > FLOOR["io"]
 
 
+def test_the_rule_follows_relative_imports(tmp_path):
+    """A relative import is resolved against its module: `from ..bundle import x` in io/ is
+    the bundle, `from .kernels import` in linalg/ is linalg itself."""
+    f = tmp_path / "bad.py"
+    f.write_text("from ..bundle.bundle_problem import BundleProblem\nfrom . import table\n")
+    assert baarda_imports(f) == [(1, "bundle"), (2, "io")]
+    assert (19, "linalg") in baarda_imports(ROOT / "linalg" / "blocksparse.py")
+    assert all(pkg == "linalg" for _, pkg in baarda_imports(ROOT / "linalg" / "kernels.py"))
+
+
 LOOP_SIGNS = re.compile(r"\b(step|t)\s*\*=\s*0\.5|for _ in range\(iterations\)|"
                         r"while step >")
 
@@ -154,3 +179,23 @@ def test_one_iteration_loop():
              for m in LOOP_SIGNS.finditer(p.read_text(encoding="utf-8"))]
     assert not found, found
     assert LOOP_SIGNS.search((ROOT / "adjustment" / "solve.py").read_text())
+
+
+def test_the_package_table_lists_every_module():
+    """docs/architecture.md's table of packages names every module in its package's row
+    (a top-level module has a row of its own)."""
+    doc = (ROOT.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    rows = {m.group(1).rstrip("/"): m.group(2)
+            for m in re.finditer(r"^\| `([^`]+)` \|(.*)\|$", doc, re.MULTILINE)}
+    missing = []
+    for p in MODULES:
+        rel = p.relative_to(ROOT)
+        if p.name in ("__init__.py", "__main__.py"):
+            continue
+        if len(rel.parts) == 1:
+            ok = p.name in rows or p.stem in rows
+        else:
+            ok = f"`{p.name}`" in rows.get(rel.parts[0], "")
+        if not ok:
+            missing.append(rel.as_posix())
+    assert not missing, missing

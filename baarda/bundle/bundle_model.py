@@ -64,7 +64,7 @@ class BundleModel(SchurModel):
             return []
         lay = self.layout
         first = lay.m * lay.k + len(lay.ctrl_sel)  # the first extra row in the flat vector
-        start = pb.extra_rows[3].start  # GNSS rows: the extra rows of the GNSS/IMU kind
+        start = pb.extra_range["gnss_imu"].start  # GNSS rows: the extra rows of that kind
         rows = start + np.arange(3 * n).reshape(n, 3)
         return [(first + rows, self.factor.extra_cofactor_blocks(rows))]
 
@@ -77,7 +77,7 @@ class BundleModel(SchurModel):
         if not gi.m:
             return effect, labels
         lay = self.layout
-        rows = pb.extra_rows[3].start + np.arange(gi.m)  # their extra rows
+        rows = pb.extra_range["gnss_imu"].start + np.arange(gi.m)  # their extra rows
         flat = lay.m * lay.k + len(lay.ctrl_sel) + rows
         f = gi.photos
         jxf = lin.jxf[rows, 0, :]

@@ -25,19 +25,11 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
-from baarda.bundle.gnss_imu import ANGLE_UNITS
 from baarda.bundle.image_rows import ImageRows
-from baarda.bundle.observation_kinds import (
-    BorderControl,
-    BorderImages,
-    Context,
-    Distances,
-    GlobalLayout,
-    GnssImuKind,
-    ObservationKind,
-    State,
-)
+from baarda.bundle.observation_kinds import Context, GlobalLayout, ObservationKind, State
+from baarda.bundle.registered_kinds import registered_kinds
 from baarda.errors import GeometryError
+from baarda.kinds import CONTROL, IMAGE, KINDS
 from baarda.options import Progress, SolveOptions
 
 # converged when the correction is below 1e-7 of the flying height (positions and points)
@@ -75,7 +67,8 @@ class BundleProblem(SchurProblem):
     an eliminated point (m), then the extra rows of every observation kind in turn
     (bundle/observation_kinds.py: the x and y of the image points of border points, their
     observed control coordinates, the distances (m), GNSS positions and IMU attitudes, then
-    the `kinds` given); `extra_rows` their ranges among the extra rows.
+    the `kinds` given); `extra_rows` their ranges among the extra rows (`extra_range` and
+    `rows_of` by the kind's name).
     Control with sigma 0 is fixed: held exactly, not an unknown, not an observation.
     held: (n_photos, 6) bool of orientation unknowns held by datum constraints (a free
     network, bundle/free_network.py); None: the control fixes the datum (checked here).
@@ -99,10 +92,12 @@ class BundleProblem(SchurProblem):
         remap = np.full(len(pts), -1)
         remap[self.point_ids] = np.arange(len(self.point_ids))
         self.remap = remap
-        # the observation kinds of the extra rows (bundle/observation_kinds.py): the image
-        # points and control of the border points, distances, GNSS/IMU, and `kinds`
-        self.kinds = (BorderImages(), BorderControl(), Distances(ok), GnssImuKind(),
-                      *kinds)
+        # the observation kinds of the extra rows (bundle/registered_kinds.py: the image
+        # points and control of the border points, distances, GNSS/IMU), and `kinds`
+        self.kinds = (*registered_kinds(ok), *kinds)
+        names = [kind.name for kind in self.kinds]
+        if len(set(names)) < len(names) or {"camera", "points"} & set(names):
+            raise ValueError(f"observation kinds need names of their own: {names}")
         # points that a kind ties together (distances) are border (global) unknowns
         border = np.zeros(len(pts), bool)
         for kind in self.kinds:
@@ -142,11 +137,14 @@ class BundleProblem(SchurProblem):
         context = Context(block, self.calibration, self.global_layout, self.border_ids,
                           self.bremap)
         self.extra = tuple(kind.bind(context) for kind in self.kinds)
-        self.border_images = self.extra[0]
-        self.gnss_imu = self.extra[3].gnss_imu
         ends = np.cumsum([0] + [r.m for r in self.extra])
         self.extra_rows = tuple(slice(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:],
                                                                       strict=True))
+        # each kind's rows and their range among the extra rows, by the kind's name
+        self.rows_of = dict(zip(names, self.extra, strict=True))
+        self.extra_range = dict(zip(names, self.extra_rows, strict=True))
+        self.border_images = self.rows_of["border_images"]
+        self.gnss_imu = self.rows_of["gnss_imu"].gnss_imu
         m, nc = len(self.obs), len(self.control)
         self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(observed_c.ravel()),
                                  int(ends[-1]), 1)
@@ -219,7 +217,7 @@ class BundleProblem(SchurProblem):
     @property
     def units(self) -> dict[str, tuple[float, str]]:
         """How each kind is shown: kind -> (factor to the shown unit, unit)."""
-        out = {"image": (1e3, "µm"), "control": (1.0, "m")}
+        out = {IMAGE.name: IMAGE.shown(), CONTROL.name: CONTROL.shown()}
         for r in self.extra:
             out.update(r.units)
         return out
@@ -244,7 +242,7 @@ class BundleProblem(SchurProblem):
         # components measured together: x and y of an image point
         group = np.full(mx, -1)
         bi = self.border_images
-        group[self.extra_rows[0]] = np.repeat(m + np.arange(bi.m // 2), 2)
+        group[self.extra_range["border_images"]] = np.repeat(m + np.arange(bi.m // 2), 2)
         self.group = read_only(np.concatenate([np.repeat(np.arange(m), 2), np.full(nc, -1),
                                                group]))
         # index of each component back into block tables
@@ -268,24 +266,14 @@ class BundleProblem(SchurProblem):
 
     def apriori_text(self) -> str:
         """The a-priori standard deviations in use (image µm, control m), in words."""
-        sig = self.sigma_apriori
-        img = sig[self.kind == "image"] * 1e3
-        parts = [f"image {_spread(img)} µm"] if len(img) else []
-        for c in "XYZ":
-            s = sig[(self.kind == "control") & (self.component == c)]
-            if len(s):
-                parts.append(f"control {c} {_spread(s)} m")
-        d = sig[self.kind == "distance"]
-        if len(d):
-            parts.append(f"distances {_spread(d)} m")
-        for c in "XYZ":
-            s = sig[(self.kind == "gnss") & (self.component == c)]
-            if len(s):
-                parts.append(f"GNSS {c} {_spread(s)} m")
-        s = sig[self.kind == "imu"]
-        if len(s):
-            f, unit = ANGLE_UNITS.get(self.block.settings.angle_unit, ANGLE_UNITS["rad"])
-            parts.append(f"IMU {_spread(s * f)} {unit}")
+        sig, parts = self.sigma_apriori, []
+        for k in KINDS.values():  # by axis where its axes are groups of their own
+            f, unit = k.shown(self.block.settings.angle_unit)
+            of_kind = self.kind == k.name
+            for c in k.components if k.by_axis else ("",):
+                s = sig[of_kind & (self.component == c)] if c else sig[of_kind]
+                if len(s):
+                    parts.append(f"{k.words}{' ' + c if c else ''} {_spread(s * f)} {unit}")
         return "a-priori sigmas: " + ", ".join(parts)
 
     # ------------------------------------------------- the solver's protocol

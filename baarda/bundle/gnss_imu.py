@@ -27,12 +27,10 @@ from baarda.block.photo_block import GNSS_OFFSETS as OFFSETS  # noqa: F401
 from baarda.block.photo_block import IMU_BORESIGHT as BORESIGHT  # noqa: F401
 from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_and_derivatives
+from baarda.kinds import GNSS, IMU
 
-# IMU residuals, sigmas and MDBs in thousandths of the project's angle unit
-ANGLE_UNITS = {"gon": (200e3 / np.pi, "mgon"), "deg": (180e3 / np.pi, "mdeg"),
-               "rad": (1e3, "mrad")}
-COMPONENTS_GNSS = ("X", "Y", "Z")
-COMPONENTS_IMU = ("omega", "phi", "kappa")
+COMPONENTS_GNSS = GNSS.components
+COMPONENTS_IMU = IMU.components
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
@@ -131,7 +129,7 @@ class GnssImu:
             col += 3
         self.n = col - first
         self.photos = np.concatenate([np.repeat(gnss.photo, 3), np.repeat(imu.photo, 3)])
-        self.kind = np.array(["gnss"] * (3 * self.n_gnss) + ["imu"] * (3 * self.n_imu),
+        self.kind = np.array([GNSS.name] * (3 * self.n_gnss) + [IMU.name] * (3 * self.n_imu),
                              dtype=object)
         self.component = np.concatenate([np.tile(np.array(COMPONENTS_GNSS, dtype=object),
                                                  self.n_gnss),

@@ -20,7 +20,7 @@ EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
 def sections(res: BundleResult) -> list[Section]:
     d = res.to_dict()
     im = np.where(res.lin.w > 0, res.image_residuals * 1e3, np.nan)
-    rows = res.problem.extra_rows[0]  # image rows of points tied by distances
+    rows = res.problem.extra_range["border_images"]  # image rows of points tied by distances
     mb = (rows.stop - rows.start) // 2
     if mb:
         wb = res.lin.wx[rows, 0].reshape(mb, 2)

@@ -21,12 +21,12 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from baarda.kinds import CONTROL, GNSS, IMAGE, IMU, kind_of
 from baarda.quality.statistics import R_MIN
 
-VERDICTS = ("accept", "suspect", "reject")
 MAX_LINES = 60  # an answer's text lists at most this many components (else the rejected)
-UNITS = {"image": (1e3, "µm"), "control": (1.0, "m"), "gnss": (1.0, "m"),
-         "imu": (1e3, "mrad")}
+# the answers' units (baarda/kinds.py; IMU always in mrad)
+UNITS = {k.name: k.shown() for k in (IMAGE, CONTROL, GNSS, IMU)}
 
 
 def verdict(w: float, r: float, k_w: float) -> str:
@@ -87,8 +87,7 @@ class ComponentTest:
             return f"image {self.component} of point {self.point} on photo {self.photo}"
         if self.kind == "control":
             return f"control {self.component} of point {self.point}"
-        return f"{self.kind.upper() if self.kind == 'gnss' else 'IMU'} {self.component} of " \
-            f"photo {self.photo}"
+        return f"{kind_of(self.kind).words} {self.component} of photo {self.photo}"
 
 
 @dataclass(frozen=True)
@@ -181,8 +180,8 @@ class Answer:
             t = rem[0]
             what = {"image": f"POINT {t.point} ON PHOTO {t.photo}",
                     "control": f"CONTROL POINT {t.point}",
-                    "gnss": f"THE GNSS POSITION OF PHOTO {t.photo}",
-                    "imu": f"THE IMU ATTITUDE OF PHOTO {t.photo}"}[t.kind]
+                    GNSS.name: f"THE GNSS POSITION OF PHOTO {t.photo}",
+                    IMU.name: f"THE IMU ATTITUDE OF PHOTO {t.photo}"}[t.kind]
             lines.append(f"  REMEASURE {what} ({t.component}: SIGF {abs(t.w):.2f} > "
                          f"{self.k_w:.2f})" + (
                              "; the test cannot tell it from " + ", ".join(

@@ -39,6 +39,7 @@ from baarda.bundle.bundle_problem import SOLVE, BundleProblem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
+from baarda.kinds import CONTROL, GNSS, IMAGE, IMU
 from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, rejected, verdicts
 from baarda.online.approximations import intersect, prepared, prune, refine
@@ -49,12 +50,12 @@ from baarda.online.rows import factor_rows, group_rows, take
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.separability import RHO_INSEPARABLE
+from baarda.quality.statistics import R_MIN, residual_cofactors, w_tests
 
 MAX_ROWS = 120  # rows added before the block is factored again
 CHUNK = 256  # rows solved together for a large group's predictions
 LINEAR_LIMIT = 3e-4  # corrections (angles rad, positions / flying height) that refactor
-COMPONENTS = {"image": ("x", "y"), "control": ("X", "Y", "Z"), "gnss": ("X", "Y", "Z"),
-              "imu": ("omega", "phi", "kappa")}
+COMPONENTS = {k.name: k.components for k in (IMAGE, CONTROL, GNSS, IMU)}
 Key = tuple[str, int, int]  # (kind, universe index, component number)
 
 
@@ -284,8 +285,8 @@ class OnlineBundle:
             cand = [("image", r, c) for r in m.rows_of_point[j] for c in range(2)]
             cand += [("control", j, c) for c in range(3)]
         else:
-            i = (m.g_photo if kind == "gnss" else m.i_photo)[key[1]]
-            cand = [(k, r, c) for k, rows in (("gnss", m.gnss_of(i)), ("imu", m.imu_of(i)))
+            i = (m.g_photo if kind == GNSS.name else m.i_photo)[key[1]]
+            cand = [(k, r, c) for k, rows in ((GNSS.name, m.gnss_of(i)), (IMU.name, m.imu_of(i)))
                     for r in rows for c in range(3)]
         pend = set(self._pending)
         cand = [k for k in cand if k != key and self._in(k)
@@ -295,7 +296,7 @@ class OnlineBundle:
         out = []
         for n, k in enumerate(cand, start=1):
             s2 = self._sigma_of(k) ** 2
-            if d[n] < 1e-3 * s2 or d[0] <= 0:
+            if d[n] < R_MIN * s2 or d[0] <= 0:
                 continue  # not tested (r below 0.001)
             rho = float(q[0, n] / np.sqrt(d[0] * d[n]))
             if abs(rho) >= threshold:
@@ -378,8 +379,8 @@ class OnlineBundle:
     def _in(self, key: Key) -> bool:
         kind, u, _ = key
         m = self.m
-        st = {"image": m.im_status, "control": m.ctrl_status, "gnss": m.g_status,
-              "imu": m.i_status}[kind]
+        st = {"image": m.im_status, "control": m.ctrl_status, GNSS.name: m.g_status,
+              IMU.name: m.i_status}[kind]
         return st[u] == IN
 
     def is_in(self, kind: str, photo: str, point: str) -> bool:
@@ -392,7 +393,7 @@ class OnlineBundle:
         i = m.photo_at.get(photo)
         if i is None:
             return False
-        if kind == "gnss":
+        if kind == GNSS.name:
             return any(m.g_status[r] == IN for r in m.gnss_of(i))
         j = m.point_at.get(point)
         return any(m.im_point[r] == j and m.im_status[r] == IN for r in m.rows_of_photo[i])
@@ -627,7 +628,7 @@ class OnlineBundle:
             elif kind == "control":
                 by_point.setdefault(u, []).append(n)
             else:
-                by_photo.setdefault((m.g_photo if kind == "gnss" else m.i_photo)[u],
+                by_photo.setdefault((m.g_photo if kind == GNSS.name else m.i_photo)[u],
                                     []).append(n)
         q0 = np.maximum(model.adjusted_cofactor_diag(), 0.0)
         self._f = _Factored(
@@ -712,7 +713,7 @@ class OnlineBundle:
             return float(np.broadcast_to(m.im_sigma[u], (2,))[c])
         if kind == "control":
             return float(m.point_sigma[u][c])
-        return float((m.g_sigma if kind == "gnss" else m.i_sigma)[u][c])
+        return float((m.g_sigma if kind == GNSS.name else m.i_sigma)[u][c])
 
     def _qvv(self, keys: list[Key]) -> np.ndarray:
         """The cofactors of the residuals of components in the block (in the factorisation
@@ -749,15 +750,10 @@ class OnlineBundle:
         return self._keys_told[(t.kind, t.photo, t.point, t.component)]
 
     def _stats(self, f: _Factored):
-        """w, r, v, sigma_v, mdb of every component at the factorisation."""
-        s2 = f.sigma ** 2
-        qvv = s2 - f.q0
-        qvv = np.where(qvv < 1e-12 * s2, 0.0, qvv)
-        r = qvv / s2
-        with np.errstate(divide="ignore", invalid="ignore"):
-            sv = np.sqrt(qvv)
-            w = np.where(r >= 1e-3, -f.v0 / sv, np.nan)
-            mdb = np.where(r >= 1e-3, self._bm.delta0 * f.sigma / np.sqrt(r), np.inf)
+        """w, r, v, sigma_v, mdb of every component at the factorisation (the quality
+        layer's w_tests)."""
+        qvv, r = residual_cofactors(f.q0, f.sigma)
+        sv, w, mdb, _ = w_tests(f.v0, f.sigma, qvv, r, self._bm.delta0)
         return w, r, f.v0, sv, mdb
 
     def _changes(self, keys, w, r) -> list[Change]:
@@ -805,19 +801,17 @@ class OnlineBundle:
         k = len(rows)
         sl = slice(r0, r0 + k)
         s2 = rows.sigma ** 2
-        qvv = np.diag(sol.qvv)[sl]
+        qvv = np.maximum(np.diag(sol.qvv)[sl], 0.0)
+        r = qvv / s2
+        sv, w, mdb, _ = w_tests(sol.v[sl], rows.sigma, qvv, r, self._bm.delta0)
         mdiag = np.diag(lr.m)[sl]
         sig_pred = np.where(plain, np.sqrt(s2 + mdiag - var_old), np.nan)
         pred = np.where(plain, pred, np.nan)
         tested = []
         for n, key in enumerate(keys):
-            r = max(qvv[n], 0.0) / s2[n]
-            sv = np.sqrt(max(qvv[n], 0.0))
-            w = -sol.v[r0 + n] / sv if r >= 1e-3 else float("nan")
-            mdb = self._bm.delta0 * rows.sigma[n] / np.sqrt(r) if r >= 1e-3 else float("inf")
             tested.append(self._component(key, float(pred[n]), float(sig_pred[n]),
-                                          float(w), float(r), float(sol.v[r0 + n]), float(sv),
-                                          float(mdb)))
+                                          float(w[n]), float(r[n]), float(sol.v[r0 + n]),
+                                          float(sv[n]), float(mdb[n])))
             self._verdict[key] = tested[-1].verdict
         # a step that brings more rows than a factorisation takes since the last one is
         # factored at once (_added), every verdict checked there: no neighbourhood first
@@ -867,7 +861,7 @@ class OnlineBundle:
         of the group and the rows added since the factorisation."""
         f, m = self._f, self.m
         photos = {m.im_photo[r] for r in group["image"]} | \
-            {m.g_photo[r] for r in group["gnss"]} | {m.i_photo[r] for r in group["imu"]}
+            {m.g_photo[r] for r in group[GNSS.name]} | {m.i_photo[r] for r in group[IMU.name]}
         points = {m.im_point[r] for r in group["image"]} | set(group["control"])
         flat = set()
         for i in photos:
@@ -879,18 +873,14 @@ class OnlineBundle:
             flat = np.array(sorted(flat))
             rows = factor_rows(f.problem, f.result.factor, flat)
             q, v = f.lowrank.old_rows(rows, f.q0[flat], f.v0[flat])
-            s2 = f.sigma[flat] ** 2
-            qvv = np.where(s2 - q < 1e-12 * s2, 0.0, s2 - q)
-            r = qvv / s2
-            with np.errstate(divide="ignore", invalid="ignore"):
-                w = np.where(r >= 1e-3, -v / np.sqrt(qvv), np.nan)
+            qvv, r = residual_cofactors(q, f.sigma[flat])
+            _, w, _, _ = w_tests(v, f.sigma[flat], qvv, r, self._bm.delta0)
             out += self._changes([f.keys[n] for n in flat], w, r)
         if r0:
-            s2 = f.lowrank.sigma[:r0] ** 2
+            sigma = f.lowrank.sigma[:r0]
             qvv = np.maximum(np.diag(sol.qvv)[:r0], 0.0)
-            r = qvv / s2
-            with np.errstate(divide="ignore", invalid="ignore"):
-                w = np.where(r >= 1e-3, -sol.v[:r0] / np.sqrt(qvv), np.nan)
+            r = qvv / sigma ** 2
+            _, w, _, _ = w_tests(sol.v[:r0], sigma, qvv, r, self._bm.delta0)
             out += self._changes(self._pending[:r0], w, r)
         return out
 
@@ -937,7 +927,7 @@ class OnlineBundle:
             return kind, m.photo_ids[m.im_photo[u]], m.point_ids[m.im_point[u]], comp
         if kind == "control":
             return kind, "", m.point_ids[u], comp
-        ph = (m.g_photo if kind == "gnss" else m.i_photo)[u]
+        ph = (m.g_photo if kind == GNSS.name else m.i_photo)[u]
         return kind, m.photo_ids[ph], "", comp
 
     def _component(self, key: Key, pred: float, sig_pred: float, w: float, r: float,
@@ -976,7 +966,7 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
         keys.append(("control", int(maps.points[problem.control[i]]), int(c)))
     gi = problem.gnss_imu
     for r in range(gi.n_gnss):
-        keys += [("gnss", int(maps.gnss[r]), c) for c in range(3)]
+        keys += [(GNSS.name, int(maps.gnss[r]), c) for c in range(3)]
     for r in range(gi.n_imu):
-        keys += [("imu", int(maps.imu[r]), c) for c in range(3)]
+        keys += [(IMU.name, int(maps.imu[r]), c) for c in range(3)]
     return keys

@@ -7,6 +7,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from baarda.kinds import GNSS, IMU
 from baarda.online.approximations import prune
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
 
@@ -18,7 +19,7 @@ def entering(m: Measurements, has_orientation: Callable[[int], bool]) -> dict:
     held photos connected to them through held points, with the points they see, pruned
     to those that determine each other (`prune`), with every held row between them and
     the block, the control of entering points and the GNSS/IMU of entering photos.
-    Returns {"image": rows, "control": points, "gnss": rows, "imu": rows, "photos": new
+    Returns {kind name: rows (image, GNSS, IMU) or points (control), "photos": new
     photos, "points": new points} or {} when nothing enters."""
     held = m.fresh()
     cand = {i for i in m.fresh_photos if not m.photo_in[i]} | \
@@ -61,14 +62,14 @@ def entering(m: Measurements, has_orientation: Callable[[int], bool]) -> dict:
            if m.i_status[r] == HELD and photo_ok(i)]
     if not (rows or ctrl or gnss or imu):
         return {}
-    return {"image": rows, "control": ctrl, "gnss": gnss, "imu": imu,
+    return {"image": rows, "control": ctrl, GNSS.name: gnss, IMU.name: imu,
             "photos": sorted(photos), "points": sorted(points)}
 
 
 def mark(m: Measurements, group: dict) -> None:
     """The group (`entering`) is in the block."""
     for kind, status in (("image", m.im_status), ("control", m.ctrl_status),
-                         ("gnss", m.g_status), ("imu", m.i_status)):
+                         (GNSS.name, m.g_status), (IMU.name, m.i_status)):
         for r in group[kind]:
             status[r] = IN
     for i in group["photos"]:

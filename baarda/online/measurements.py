@@ -9,7 +9,7 @@ adjustment of the same observations adjusts.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -294,6 +294,3 @@ class Measurements:
         block = Block(self.settings, self.cameras, ph, image, gpts, source=self.source,
                       notes=list(self.notes), frame=self.frame, gnss=gnss, imu=imu)
         return block, StateMaps(photos, points, rows, g, u)
-
-    def with_settings(self, **changes) -> None:
-        self.settings = replace(self.settings, **changes)

@@ -23,6 +23,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.block.photo_block import Block
+from baarda.kinds import GNSS
 from baarda.online.answers import UNITS, Answer
 from baarda.online.bundle import MAX_ROWS, OnlineBundle
 from baarda.options import TestOptions
@@ -208,7 +209,7 @@ def _remeasure(ob: OnlineBundle, a: Answer, removed: list, aside: dict,
                     b = ob.remove_image_point(photo, point)
                 elif kind == "control":
                     b = ob.remove_control(point)
-                elif kind == "gnss":
+                elif kind == GNSS.name:
                     b = ob.remove_gnss(photo)
                 else:
                     continue

@@ -26,6 +26,7 @@ from baarda.block.rotation import rotation_and_derivatives
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.gnss_imu import GnssImu
 from baarda.bundle.image_rows import ImageRows
+from baarda.kinds import GNSS, IMU
 from baarda.online.lowrank import Rows
 from baarda.online.measurements import Measurements
 
@@ -214,12 +215,12 @@ def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
                           jp if c < 0 else np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
                           sig[obs], (m.point_xyz[j] - x)[obs]))
         keys += [("control", j, int(a)) for a in obs]
-    ext = [("gnss", r, m.g_photo[r]) for r in group["gnss"]] + \
-        [("imu", r, m.i_photo[r]) for r in group["imu"]]
+    ext = [(GNSS.name, r, m.g_photo[r]) for r in group[GNSS.name]] + \
+        [(IMU.name, r, m.i_photo[r]) for r in group[IMU.name]]
     if ext:
         ph = [photo_at(i) for _, _, i in ext]
-        gsel = [r for kind, r, _ in ext if kind == "gnss"]
-        isel = [r for kind, r, _ in ext if kind == "imu"]
+        gsel = [r for kind, r, _ in ext if kind == GNSS.name]
+        isel = [r for kind, r, _ in ext if kind == IMU.name]
         e, jf = extra_rows(f.problem.block, f.problem,
                            np.repeat(np.array([p[0] for p in ph]), 1, axis=0),
                            np.array([m.g_xyz[r] for r in gsel]).reshape(-1, 3),

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from baarda.kinds import GNSS
+
 PASS, WARN, FAIL, INFO = "pass", "warn", "fail", "info"
 WORDS = {PASS: "PASS", WARN: "REVIEW", FAIL: "FAIL", INFO: "NOTE"}
 NOT_CONVERGED = ("NOT CONVERGED: the adjustment stopped before its corrections became "
@@ -254,6 +256,6 @@ def verdict(summary: dict, points: pd.DataFrame | None = None, *,
             _sigma0(summary, pixel_um, image_sigma_um), _check_points(summary, points),
             _rejections(summary), _uncontrolled(summary)]
     rows += [r for r in (_suspicious(summary, "control", "Suspicious GCPs", "control"),
-                         _suspicious(summary, "gnss", "Suspicious GNSS positions", "gnss"))
+                         _suspicious(summary, GNSS.name, "Suspicious GNSS positions", GNSS.name))
              if r is not None]
     return Verdict(tuple(rows))

@@ -16,7 +16,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-BY_AXIS = ("control", "gnss")  # kinds whose axes are variance groups of their own
+from baarda.kinds import BY_AXIS  # kinds whose axes are variance groups of their own
 
 
 def kind_groups(kind, component) -> np.ndarray:

@@ -236,9 +236,16 @@ class Assessment:
             "hypotheses": [{"name": t.name, "q": t.q, "statistic": t.statistic,
                             "critical": t.critical, "rejected": t.rejected,
                             "nabla": np.atleast_1d(t.nabla).tolist()} for t in self.hypotheses],
-            **({"variance_components": [c.to_dict() for c in self.variance_components]}
+            **({"variance_components": [c.to_dict(*self.group_unit(c.group))
+                                        for c in self.variance_components]}
                if self.variance_components else {}),
         }
+
+    def group_unit(self, group: str) -> tuple[float, str]:
+        """(scale, unit) of a variance-component group's sigmas: those of its kind (the
+        group's first word) in observations.csv, the same in summary.json, the text and the
+        HTML report."""
+        return self.model.units.get(group.split()[0], (1.0, ""))
 
     def _log_entry(self, step) -> dict:
         """A snooping step for summary.json, its MDB in the units of observations.csv
@@ -276,8 +283,7 @@ class Assessment:
             lines.append("variance components per group (Foerstner; the tests and snooping "
                          "use the estimated sigmas):")
             for c in self.variance_components:
-                u, unit = self.model.units.get(c.group.split()[0], (1.0, ""))
-                lines.append("  " + c.summary(u, unit))
+                lines.append("  " + c.summary(*self.group_unit(c.group)))
         lines += [f"note: {n}" for n in q.notes]
         title = "Quality control" + ("" if self.name == "bundle" else f" ({self.name})")
         return [section(title, lines)]

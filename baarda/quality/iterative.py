@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from baarda.errors import GeometryError
+from baarda.kinds import kind_of
 from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.separability import RHO_INSEPARABLE
@@ -166,11 +167,10 @@ class SnoopingRun:
 
 
 def label(model: AdjustedModel, i: int) -> str:
-    parts = [str(model.kind[i])]
+    parts, kind = [str(model.kind[i])], kind_of(model.kind[i])
     if model.frame[i]:
-        parts.append(f"photo {model.frame[i]}" if model.kind[i] in ("image", "gnss", "imu")
-                     else str(model.frame[i]))
-    if model.point[i] or model.kind[i] not in ("gnss", "imu"):
+        parts.append(f"photo {model.frame[i]}" if kind.on_photo else str(model.frame[i]))
+    if model.point[i] or kind.named_point:
         parts.append(f"point {model.point[i]}")
     parts.append(str(model.component[i]))
     return " ".join(parts)
@@ -186,8 +186,9 @@ def labels(model: AdjustedModel, rows: np.ndarray) -> list[str]:
                                 for a in ("kind", "frame", "point", "component"))
     out = []
     for k, f, p, c in zip(kind, frame, point, comp, strict=True):
-        fw = (f" photo {f}" if k in ("image", "gnss", "imu") else f" {f}") if f else ""
-        pw = f" point {p}" if p or k not in ("gnss", "imu") else ""
+        kind = kind_of(k)
+        fw = (f" photo {f}" if kind.on_photo else f" {f}") if f else ""
+        pw = f" point {p}" if p or kind.named_point else ""
         out.append(f"{k}{fw}{pw} {c}")
     return out
 

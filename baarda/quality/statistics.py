@@ -27,7 +27,6 @@ from baarda.quality.distributions import (
     b_method,
     global_test,
     tau_critical,
-    tau_pvalue,
     w_test_pvalue,
 )
 from baarda.quality.separability import separable_delta, w_correlations
@@ -48,7 +47,6 @@ class QualityResult:
     w: np.ndarray
     tau: np.ndarray
     p_value: np.ndarray
-    tau_p_value: np.ndarray
     mdb: np.ndarray
     lambda_bar: np.ndarray
     external: np.ndarray  # (n, 3) effect of the MDB on a point's coordinates
@@ -90,13 +88,37 @@ def cofactors(model: AdjustedModel) -> tuple[np.ndarray, np.ndarray]:
     sigma^2 + q_ll^, and r the redundancy number it would have if it were put back,
     sigma^2 / (sigma^2 + q_ll^) (a rank-one update of N).
     """
-    qhat = np.maximum(model.adjusted_cofactor_diag(), 0.0)
-    s2 = model.sigma**2
-    qvv = np.where(model.active, s2 - qhat, s2 + qhat)
+    return residual_cofactors(model.adjusted_cofactor_diag(), model.sigma, model.active)
+
+
+def residual_cofactors(qhat: np.ndarray, sigma: np.ndarray, active: np.ndarray | bool = True
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """(q_vv, r) of components from q_ll^ = diag(A N^-1 A^T) and their sigmas (`cofactors`;
+    the on-line bundle's from its factorisation)."""
+    qhat = np.maximum(qhat, 0.0)
+    s2 = sigma**2
+    qvv = np.where(active, s2 - qhat, s2 + qhat)
     # cancellation: q_ll^ cannot exceed sigma^2 for an active component
-    qvv = np.where(model.active & (qvv < 1e-12 * s2), 0.0, qvv)
-    r = np.where(model.active, qvv / s2, s2 / (s2 + qhat))
+    qvv = np.where(active & (qvv < 1e-12 * s2), 0.0, qvv)
+    r = np.where(active, qvv / s2, s2 / (s2 + qhat))
     return qvv, r
+
+
+def w_tests(v: np.ndarray, sigma: np.ndarray, qvv: np.ndarray, r: np.ndarray, delta0: float,
+            controlled: np.ndarray | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(sigma_v, w, MDB, controlled) of components from their residuals v, sigmas, residual
+    cofactors q_vv and redundancy numbers r (module docstring): every consumer's w-test
+    and internal reliability (`analyse`; the on-line bundle, online/bundle.py).
+    `controlled`: the components tested (default r >= R_MIN); the others have w NaN and an
+    infinite MDB."""
+    if controlled is None:
+        controlled = r >= R_MIN
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sv = np.sqrt(qvv)
+        w = np.where(controlled, -v / sv, np.nan)
+        mdb = np.where(controlled, delta0 * sigma / np.sqrt(r), np.inf)
+    return sv, w, mdb, controlled
 
 
 def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
@@ -117,12 +139,10 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     # a rejected component is testable whenever it can be predicted: its predicted residual
     # has cofactor sigma^2 + q_ll^ (restored when it fits, even if nothing else would control
     # it); one whose unknowns are undetermined without it (infinite q_ll^) is not
-    controlled = (r >= r_min) | (~act & np.isfinite(qvv))
+    sv, w, mdb, controlled = w_tests(v, s, qvv, r, bm.delta0,
+                                     (r >= r_min) | (~act & np.isfinite(qvv)))
     with np.errstate(divide="ignore", invalid="ignore"):
-        sv = np.sqrt(qvv)
-        w = np.where(controlled, -v / sv, np.nan)
         tau = w / s0
-        mdb = np.where(controlled, bm.delta0 * s / np.sqrt(r), np.inf)
         lam = np.where(controlled & act, bm.delta0 * np.sqrt(np.clip(1 - r, 0, None) / r),
                        np.inf)
     effect_unit, labels = model.point_effect()
@@ -147,8 +167,6 @@ def analyse(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
     out = QualityResult(
         residual=v, sigma=s, active=act, qvv=qvv, redundancy_number=r, sigma_residual=sv,
         w=w, tau=tau, p_value=w_test_pvalue(np.nan_to_num(w)) * np.where(controlled, 1, np.nan),
-        tau_p_value=(tau_pvalue(np.nan_to_num(tau), red) if red >= 2 else np.full(len(v), np.nan))
-        * np.where(controlled, 1, np.nan),
         mdb=mdb, lambda_bar=lam, external=external, external_max=ext_max,
         external_point=labels, controlled=controlled,
         flagged=act & controlled & (np.abs(np.nan_to_num(w)) > bm.k_w), redundancy=red,

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from baarda.errors import GeometryError
+from baarda.kinds import BY_AXIS
 from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.special_distributions import chi2_cdf
 from baarda.quality.statistics import analyse, cofactors
@@ -59,7 +60,7 @@ ALPHA = 0.05
 TOLERANCE = 1e-5
 MIN_REDUNDANCY = 5.0  # a group with less is reported, not re-weighted (it could collapse)
 MAX_ITERATIONS = 200
-POOLED = ("control", "gnss")  # families whose X, Y, Z groups are pooled when too weak
+POOLED = BY_AXIS  # families whose X, Y, Z groups are pooled when too weak (baarda/kinds.py)
 AXES = ("X", "Y", "Z")
 
 
@@ -89,15 +90,18 @@ class VarianceComponent:
         f = self.estimated if np.isfinite(self.estimated) else self.factor
         return self.sigma_apriori * float(np.sqrt(f))
 
-    def to_dict(self) -> dict:
-        return {"group": self.group, "n": self.n, "sigma_apriori": self.sigma_apriori,
-                "redundancy": self.redundancy, "vtpv": self.vtpv, "factor": _num(self.factor),
+    def to_dict(self, scale: float = 1.0, unit: str = "") -> dict:
+        """summary.json's entry; the sigmas times `scale`, in `unit` (the units of the
+        group's kind in observations.csv)."""
+        return {"group": self.group, "n": self.n, "sigma_apriori": self.sigma_apriori * scale,
+                "unit": unit, "redundancy": self.redundancy, "vtpv": self.vtpv,
+                "factor": _num(self.factor),
                 "factor_std": _num(self.factor_std), "p_value": _num(self.p_value),
                 "rejected": bool(self.rejected),
                 "estimated_variance_factor": _num(self.estimated),
                 "estimated_sigma_factor": _num(float(np.sqrt(self.estimated))
                                                if self.estimated >= 0 else float("nan")),
-                "sigma_estimated": _num(self.sigma_estimated),
+                "sigma_estimated": _num(self.sigma_estimated * scale),
                 **({"frozen_at_iteration": self.frozen_at,
                     "frozen_redundancy": self.frozen_redundancy} if self.frozen_at else {}),
                 **({"members": list(self.members)} if self.members else {}),

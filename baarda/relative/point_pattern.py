@@ -16,12 +16,12 @@ the 6-point pattern); twins follow their original as "3'".
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 import numpy as np
 
-from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, PATTERNS
+from baarda.block.point_patterns import NAMED, PatternPoint, standard_pattern  # noqa: F401
+from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.quality.matrices import Transfer, critical_transfers, qvv_p_matrix
 from baarda.quality.statistics import analyse
 from baarda.relative.orientation import (
@@ -30,53 +30,6 @@ from baarda.relative.orientation import (
     PhotoPose,
     orient,
 )
-
-NAMED = PATTERNS
-
-
-@dataclass
-class PatternPoint:
-    name: str
-    x: float  # left image, mm
-    y: float
-    tie: bool = False
-    twin_of: str | None = None
-
-
-def standard_pattern(spec: str, ties: int = 0, base: float = 92.0, width: float = 92.0,
-                     twin_offset: float = 1.0) -> list[PatternPoint]:
-    """Points of a named or "CxR[+corners|+edges]" pattern; rows span y in [-width, width].
-
-    ties: 0, or the number of tie points = the number of points in the left column.
-    Twins lie twin_offset mm from their original, towards the model's x axis.
-    """
-    s = NAMED.get(spec, spec)
-    m = re.fullmatch(r"(\d+)x(\d+)(\+corners|\+edges)?", s)
-    if not m:
-        raise ValueError(f"unknown pattern {spec!r}: use one of {', '.join(NAMED)} or CxR, "
-                         "CxR+corners, CxR+edges")
-    ncol, nrow, extra = int(m.group(1)), int(m.group(2)), m.group(3)
-    if ncol < 2 or nrow < 2:
-        raise ValueError(f"pattern {spec!r}: at least 2 columns and 2 rows")
-    pts: list[PatternPoint] = []
-    k = 0
-    for ci, x in enumerate(np.linspace(0.0, base, ncol)):
-        for ri, y in enumerate(np.linspace(width, -width, nrow)):
-            k += 1
-            pts.append(PatternPoint(str(k), float(x), float(y)))
-            edge = ri in (0, nrow - 1)
-            if (extra == "+corners" and edge and ci in (0, ncol - 1)) or (
-                    extra == "+edges" and edge):
-                pts.append(PatternPoint(f"{k}'", float(x), float(y - np.sign(y) * twin_offset),
-                                        twin_of=str(k)))
-    if ties:
-        left = [p for p in pts if p.x == 0.0]
-        if ties != len(left):
-            raise ValueError(f"pattern {spec!r} has {len(left)} points in the left column, not "
-                             f"{ties} tie points")
-        for p in left:
-            p.tie = True
-    return pts
 
 
 @dataclass

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.io.result_folder import Results
+from baarda.kinds import GNSS
 
 RTOL = 1e-6  # relative agreement of recomputed sums (the files hold every digit)
 
@@ -150,7 +151,7 @@ def _report_rms(res: Results) -> list[Finding]:
     out = []
     obs = res.obs
     used = obs[~obs["rejected"].to_numpy(bool)]
-    for kind, parts in (("control", control_parts(res)), ("gnss", gnss_parts(res))):
+    for kind, parts in (("control", control_parts(res)), (GNSS.name, gnss_parts(res))):
         texts = [p.text for p in parts if p.kind == "text" and "RMS:" in p.text
                  and not p.text.startswith("Check points")]
         for text in texts[:1]:

@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.io.result_folder import Results
+from baarda.kinds import EXTERIOR, GNSS
 from baarda.output.accuracy import CONTROL, FREE_NONE, FREE_SIMILARITY, Statement, Survey, statement
 from baarda.output.verdict import WORDS, Verdict, check_point_misses, verdict
 
@@ -75,7 +76,7 @@ def folder_quality_check(folder, image_sigma_um: float | None) -> Verdict:
                    image_sigma_um=image_sigma_um)
 
 
-FALLBACK = {"control": "calibration", "gnss": "calibration", "global": "summary",
+FALLBACK = {"control": "calibration", GNSS.name: "calibration", "global": "summary",
             "log": "summary", "patterns": "log", "reliability": "observations",
             "observations": "summary", "accuracy": "check"}
 
@@ -215,7 +216,7 @@ def patterns(res: Results) -> tuple[pd.DataFrame, list[Advice]]:
                 "check this photo's measurements and interior orientation (fiducials, film "
                 "or scan deformation, the camera assigned to it); re-measure its points",
                 f"photo {ph.index[0]}"))
-    for kind, name in (("gnss", "GNSS"), ("imu", "IMU")):
+    for kind, name in ((k.name, k.words) for k in EXTERIOR):
         g = t[t["kind"] == kind]
         if len(g) < 3:
             continue
@@ -226,7 +227,7 @@ def patterns(res: Results) -> tuple[pd.DataFrame, list[Advice]]:
         if s and top >= 3 and top >= 0.5 * n_strip:
             remedy = ('a shift per strip: [gnss] offsets = "strip" in the project settings '
                       "(an along-track GNSS error of the strip is then estimated, not "
-                      "rejected)" if kind == "gnss" else
+                      "rejected)" if kind == GNSS.name else
                       "boresight or drift parameters per strip for the IMU attitudes")
             advice.append(Advice(f"{name} {c} of {top} of the {n_strip} photos of strip {s} "
                                  "rejected: a systematic error of the strip, not blunders",

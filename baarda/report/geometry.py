@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.io.result_folder import Results
+from baarda.kinds import GNSS
 from baarda.report.maps import _nice
 from baarda.report.plots import COLORS, Plot, plt, to_png
 
@@ -75,7 +76,7 @@ def centres(res: Results) -> Plot | None:
                                         edgecolors=COLORS["active"], linewidths=0.8))
     cap = (f"{len(ph)} camera centres with their 1-sigma error ellipses (X0, Y0) enlarged "
            f"{ex:g} times; median sigma {med:.3g} m")
-    g = _xy_residuals(res.obs, "gnss", "photo")
+    g = _xy_residuals(res.obs, GNSS.name, "photo")
     if len(g):
         at = ph.set_index(ph["photo"].astype(str)).reindex(g.index.astype(str))
         v = np.hypot(g["X"], g["Y"]).to_numpy(float)

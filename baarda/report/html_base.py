@@ -25,7 +25,6 @@ from jinja2 import ChoiceLoader, Environment, FileSystemLoader, StrictUndefined
 from baarda.report.plots import Plot
 
 TEMPLATES = Path(__file__).parent / "templates"
-CSS = (TEMPLATES / "style.css").read_text(encoding="utf-8")
 
 
 @lru_cache(maxsize=4)

@@ -15,6 +15,7 @@ import pandas as pd
 from markupsafe import Markup
 
 from baarda.io.result_folder import Results
+from baarda.kinds import EXTERIOR_NAMES
 from baarda.output.accuracy import TABLE_FORMATS
 from baarda.output.verdict import failures
 from baarda.report import maps
@@ -37,7 +38,6 @@ from baarda.report.stats import (
     weakest,
 )
 from baarda.report.text_report import ReportOptions, image_histograms, w_hists
-from baarda.schema import UNITS
 
 
 def _snoop_table(res: Results, opt: ReportOptions) -> str:
@@ -138,7 +138,7 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
     for title, t in weakest(res.obs, opt.worst, res.units).items():
         show = pd.DataFrame({"kind": t["kind"], "photo/model": t["frame"], "point": t["point"],
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
-                             "MDB": t["mdb"], "unit": [UNITS.get(k, "") for k in t["kind"]],
+                             "MDB": t["mdb"], "unit": t["unit"],  # the folder's own units
                              "external": t["external_max"]})
         out += f'<div class="wrap"><h3>{esc(title)}</h3>' + table(
             show, {"r": ".3f", "w": ".2f", "MDB": ".4g", "external": ".4g"},
@@ -176,10 +176,12 @@ def _variance_components(summary: dict) -> pd.DataFrame | None:
         rows = [dict(c, adjustment="") for c in summary.get("variance_components", [])]
     if not rows:
         return None
-    cols = ["adjustment", "group", "n", "redundancy", "sigma_apriori", "factor", "factor_std",
-            "p_value", "rejected", "estimated_variance_factor", "sigma_estimated", "pooled_into"]
+    cols = ["adjustment", "group", "n", "redundancy", "sigma_apriori", "unit", "factor",
+            "factor_std", "p_value", "rejected", "estimated_variance_factor", "sigma_estimated",
+            "pooled_into"]
     t = pd.DataFrame(rows).reindex(columns=cols)
     t["pooled_into"] = t["pooled_into"].fillna("")
+    t["unit"] = t["unit"].fillna("")
     return t if len(parts) > 1 else t.drop(columns="adjustment")
 
 
@@ -277,14 +279,15 @@ def html_report(res: Results, opt: ReportOptions | None = None,
         sec.append(("vce", "Variance components per group", table(
             vc, {"redundancy": ".2f", "sigma_apriori": ".4g", "factor": ".4f",
                  "factor_std": ".4f", "p_value": ".3g", "estimated_variance_factor": ".4f",
-                 "sigma_estimated": ".4g"}, text_cols=("adjustment", "group", "pooled_into"))
+                 "sigma_estimated": ".4g"},
+            text_cols=("adjustment", "group", "unit", "pooled_into"),
+            attrs='id="variance-components"')
             + "<p>Foerstner's estimate sigma_k^2 = v'Pv / r_k per group (factor: a ratio of "
               "variances; the sigmas scale by its square root), its test against one "
               "(5 %); a group with r_k &lt; 5 in the first estimate is not estimated by itself "
               "(control axes are then estimated together, pooled_into) and keeps its a-priori "
-              "sigma throughout; sigmas in mm (image, model coordinates), m "
-              "(control, GNSS), rad (IMU); the tests and snooping used the estimated "
-              "sigmas.</p>"))
+              "sigma throughout; sigmas in the units of observations.csv (unit); the tests "
+              "and snooping used the estimated sigmas.</p>"))
     sec.append(("log", "Data snooping log", _log_table(res.summary)))
     body = _group_table(res)
     if res.photos is not None and (res.obs["kind"] == "image").any():
@@ -296,7 +299,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
         body += (f"<h3>Per photo{esc(note)}</h3><p class=more>largest RMS x+y first{link}</p>"
                  + _image_table(t.iloc[np.argsort(-t["rms_xy"].fillna(-1.0).to_numpy(),
                                                   kind="stable")], "photo"))
-    if res.photos is not None and res.obs["kind"].isin(["gnss", "imu"]).any():
+    if res.photos is not None and res.obs["kind"].isin(EXTERIOR_NAMES).any():
         t = gnss_imu_per_strip(res.obs, res.strip_of())
         body += "<h3>GNSS and IMU per strip</h3>" + table(
             t, {c: ".4f" for c in t.columns if c.startswith(("mean", "RMS"))} | {

@@ -13,6 +13,7 @@ import pandas as pd
 from markupsafe import Markup
 
 from baarda.io.result_folder import Results
+from baarda.kinds import GNSS, IMU
 from baarda.output.verdict import failures
 from baarda.report.html_base import csv_link, esc, figure, page, table, worst_table
 from baarda.report.plots import Plot, to_png
@@ -96,8 +97,7 @@ def quality_sections(parts: list[Part]) -> list[dict]:
 
 SECTION_IDS = {"Summary": "summary", "Camera calibration": "camera",
                "Ground control and check points": "control",
-               "GNSS positions of the projection centres": "gnss",
-               "IMU attitudes of the photos": "imu",
+               GNSS.title: GNSS.name, IMU.title: IMU.name,
                "Reprojection errors per image": "reprojection",
                "Every observation: redundancy number, w-test, MDB": "observations",
                "Data snooping log": "log",

@@ -23,6 +23,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from baarda.io.result_folder import Results
+from baarda.kinds import GNSS, IMU
 from baarda.output.verdict import failures  # noqa: E402
 from baarda.report.anaplot import log_rows  # noqa: E402
 from baarda.report.front import pixel_um  # noqa: E402,F401  (re-exported)
@@ -240,11 +241,11 @@ def _per_photo(g: pd.DataFrame) -> pd.DataFrame:
 
 
 def gnss_parts(res: Results) -> list[Part]:
-    g = res.obs[res.obs["kind"] == "gnss"]
+    g = res.obs[res.obs["kind"] == GNSS.name]
     if not len(g):
         return []
     t = _per_photo(g)
-    return [Part("heading", "GNSS positions of the projection centres"),
+    return [Part("heading", GNSS.title),
             Part("text", text="Residual v = adjusted - observed (m), w-test and redundancy "
                  "number per axis. RMS: " + _rms_per_axis(g)),
             Part("table", "GNSS residuals", table=t,
@@ -255,15 +256,15 @@ def gnss_parts(res: Results) -> list[Part]:
 
 
 def imu_parts(res: Results) -> list[Part]:
-    g = res.obs[res.obs["kind"] == "imu"]
+    g = res.obs[res.obs["kind"] == IMU.name]
     if not len(g):
         return []
-    unit = res.units.get("imu", "")
+    unit = res.units.get(IMU.name, "")
     t = _per_photo(g)
     used = g[~g["rejected"].to_numpy(bool)]
     rms = ", ".join(f"{c} {_rms(used.loc[used['component'] == c, 'residual']):.3f} {unit}"
                     for c in ("omega", "phi", "kappa") if (used["component"] == c).any())
-    return [Part("heading", "IMU attitudes of the photos"),
+    return [Part("heading", IMU.title),
             Part("text", text=f"Residual v = adjusted - observed ({unit}), w-test and "
                  f"redundancy number per angle. RMS: {rms or '-'}"),
             Part("table", "IMU residuals", table=t,

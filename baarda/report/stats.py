@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from baarda.kinds import EXTERIOR, EXTERIOR_NAMES
 from baarda.schema import UNITS
 
 
@@ -47,7 +48,7 @@ def obs_label(df: pd.DataFrame) -> np.ndarray:
                     np.where(model != "", "model " + model + " ", ""))
     point = df["point"].fillna("").astype(str).to_numpy()
     kind = df["kind"].astype(str).to_numpy() if "kind" in df else np.full(len(df), "")
-    mid = np.where((point == "") & np.isin(kind, ["gnss", "imu"]), "", "point " + point + " ")
+    mid = np.where((point == "") & np.isin(kind, EXTERIOR_NAMES), "", "point " + point + " ")
     return (head + mid + df["component"].astype(str).to_numpy()).astype(object)
 
 
@@ -272,7 +273,7 @@ def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFra
     comp = df["component"].astype(str).to_numpy()
     v = df["residual"].to_numpy(float)
     w = df["w"].to_numpy(float) if "w" in df else np.full(len(df), np.nan)
-    for k, names in (("gnss", ("X", "Y", "Z")), ("imu", ("omega", "phi", "kappa"))):
+    for k, names in ((e.name, e.components) for e in EXTERIOR):
         sel_k = kind == k
         for s in sorted(set(strip[sel_k]), key=lambda x: (len(x), x)):
             sel = sel_k & (strip == s)
@@ -291,7 +292,7 @@ def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFra
 def format_gnss_imu(t: pd.DataFrame) -> str:
     """gnss_imu_per_strip as text (GNSS m, IMU in the output's unit)."""
     lines = []
-    for k, names in (("gnss", ("X", "Y", "Z")), ("imu", ("omega", "phi", "kappa"))):
+    for k, names in ((e.name, e.components) for e in EXTERIOR):
         part = t[t["kind"] == k] if len(t) else t
         if not len(part):
             continue

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.io.result_folder import Results
+from baarda.kinds import EXTERIOR_NAMES
 from baarda.output.verdict import failures
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
 from baarda.report.histogram import Histogram, format_histogram, histogram
@@ -136,7 +137,7 @@ def text_report(res: Results, opt: ReportOptions | None = None) -> str:
     if res.photos is not None and (obs["kind"] == "image").any():
         out += ["", "PER STRIP", "-" * 78, format_image_groups(per_strip(obs, res.strip_of()),
                                                                "strip")]
-    if res.photos is not None and obs["kind"].isin(["gnss", "imu"]).any():
+    if res.photos is not None and obs["kind"].isin(EXTERIOR_NAMES).any():
         out += ["", "GNSS AND IMU PER STRIP (GNSS m, IMU residuals as in observations.csv)",
                 "-" * 78, format_gnss_imu(gnss_imu_per_strip(obs, res.strip_of()))]
     if (obs["kind"] == "image").any():

@@ -4,7 +4,7 @@ Units: everything at photo scale in mm (ground coordinates too, so the true mode
 coordinates of the strip are the ground coordinates).  Photo k has its projection centre
 near (k b, 0, 0) and a small random attitude; photo 0 is exactly at the origin without
 rotation (the strip frame of OnlineSession).  Every model uses the same point pattern
-(baarda.relative.point_pattern); a point in the right column of model k is the point in the
+(baarda.block.point_patterns); a point in the right column of model k is the point in the
 left column of model k+1 (same id).  Ids: 10 (j + 1) + row for column j of the strip, a twin
 gets a "'".  Noise is put on the right image coordinates only, as the model assumes (the
 left ones are fixed in parallax mode): sigma_x on x'', sqrt(qyy) sigma_x on y''.
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from baarda.block.point_patterns import standard_pattern
 from baarda.block.rotation import rotation_matrix
-from baarda.relative.point_pattern import standard_pattern
 
 
 @dataclass
