@@ -155,7 +155,7 @@ class SnoopingRun:
         return lines
 
 
-def label(model: AdjustedModel, i: int) -> str:
+def label(model: AdjustedModel, i: int | np.integer) -> str:
     parts = [str(model.kind[i])]
     if model.frame[i]:
         parts.append(f"photo {model.frame[i]}" if model.kind[i] in ("image", "gnss", "imu")
@@ -269,6 +269,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             say(f"snooping {it}: sigma0 {q.sigma0_hat:.3f}, reject {step.labels[0]}"
                 f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}"
                 + (f"; {step.identification()}" if part else ""))
+            assert new is not None  # refitted (no `why`)
             active, model = trial, new
             break
         else:
@@ -280,7 +281,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             i = int(back[np.argmin(mag[back])])
             rows = [i]
             if by_group and model.group[i] >= 0:
-                rows = [r for r in np.flatnonzero(model.group == model.group[i])
+                rows = [int(r) for r in np.flatnonzero(model.group == model.group[i])
                         if not active[r]]
                 if np.any(mag[rows] >= crit):
                     rows = [i]
@@ -296,6 +297,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                 say(f"snooping {it}: {label(model, i)} not restored: {why}")
                 continue
             say(f"snooping {it}: restore {label(model, i)}: {statistic} = {stat[i]:.2f}")
+            assert new is not None  # refitted (no `why`)
             active, model = trial, new
     q = analyse(model, tests)
     stat = q.w if statistic == "w" else q.tau
