@@ -228,7 +228,7 @@ def with_calibration(block, model: str | None = None, free=None):
                        constants=const if new.constants else None, free=None)
     if free is not None:
         if free == "none":
-            chosen = ((),) * n
+            chosen: tuple[tuple[str, ...], ...] = ((),) * n
         elif free == "all":
             chosen = tuple(INTERIOR + model_of(k).params for k in kinds(cams))
         else:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import time
+from typing import cast
 
 import numpy as np
 
@@ -29,11 +30,13 @@ from baarda.bundle.gnss_imu import ANGLE_UNITS
 from baarda.bundle.image_rows import ImageRows
 from baarda.bundle.observation_kinds import (
     BorderControl,
+    BorderImageRows,
     BorderImages,
     Context,
     Distances,
     GlobalLayout,
     GnssImuKind,
+    GnssImuRows,
     ObservationKind,
     State,
 )
@@ -139,8 +142,8 @@ class BundleProblem(SchurProblem):
         context = Context(block, self.calibration, self.global_layout, self.border_ids,
                           self.bremap)
         self.extra = tuple(kind.bind(context) for kind in self.kinds)
-        self.border_images = self.extra[0]
-        self.gnss_imu = self.extra[3].gnss_imu
+        self.border_images = cast(BorderImageRows, self.extra[0])
+        self.gnss_imu = cast(GnssImuRows, self.extra[3]).gnss_imu
         ends = np.cumsum([0] + [r.m for r in self.extra])
         self.extra_rows = tuple(slice(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:],
                                                                       strict=True))
@@ -152,7 +155,7 @@ class BundleProblem(SchurProblem):
             im.sigma_xy[self.obs].ravel(), sig_c.ravel()[sel],
             *(r.sigma for r in self.extra)]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
-        held_frame = None
+        held_frame: np.ndarray | None = None
         if self.held is not None or cal.held_photo_columns.any():
             held_frame = np.zeros((len(block.photos), self.b), bool)
             if self.held is not None:
@@ -164,7 +167,7 @@ class BundleProblem(SchurProblem):
         self.obs_point = read_only(self.eremap[im.point[self.obs]])
         self.obs_xy = read_only(im.xy_mm[self.obs])
         self.held_rows = read_only(np.zeros(0, np.int64) if held_frame is None else
-                                   np.flatnonzero(held_frame.any(axis=1)[self.obs_photo]))
+                                   np.flatnonzero(np.any(held_frame, axis=1)[self.obs_photo]))
         # GNSS positions carry the datum (with shifts as unknowns: scale and orientation,
         # the position then from a control point)
         full_control = bool(pts.controlled[np.concatenate(
@@ -200,7 +203,7 @@ class BundleProblem(SchurProblem):
         keep = np.isin(np.arange(len(pts)), self.point_ids)
         xyz = approximate_points(block, keep, intersected)
         frames = np.hstack([eo, cal.photo_start()]) if cal.photo_width else eo.copy()
-        start = (read_only(frames), read_only(xyz[self.elim_ids]))
+        start: tuple[np.ndarray, ...] = (read_only(frames), read_only(xyz[self.elim_ids]))
         if ng:
             g0 = np.zeros(ng)
             g0[self.global_layout.columns("camera")] = self.calibration.start()
@@ -471,7 +474,7 @@ class BundleProblem(SchurProblem):
         if len(start) == len(self.approximations) and len(start[1]) == len(self.elim_ids):
             return (eo, *start[1:])
         xyz = np.asarray(start[1])
-        out = (eo, xyz[self.remap[self.elim_ids]])
+        out: tuple[np.ndarray, ...] = (eo, xyz[self.remap[self.elim_ids]])
         if self.system.ng:
             g0 = np.zeros(self.system.ng)
             g0[self.global_layout.columns("camera")] = self.calibration.start()

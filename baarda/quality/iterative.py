@@ -232,7 +232,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             i = int(cand[np.argmax(mag[cand])])
             rows = [i]
             if by_group and model.group[i] >= 0:
-                rows = list(np.flatnonzero(model.group == model.group[i]))
+                rows = [int(r) for r in np.flatnonzero(model.group == model.group[i])]
             found, corr = inseparable_partners(model, q, i, active & ~needed)
             keep = ~np.isin(found, rows)
             part = [int(j) for j in found[keep]]
