@@ -108,3 +108,16 @@ def test_add_camera_refusals(block):
     a = ob.add_camera(replace(block.cameras, ids=["second"]), 0)
     assert a.what == "camera second" and a.refactorised and not a.changed
     assert ob.m.cameras.ids[-1] == "second" and len(ob.m.cameras) == n + 1
+
+
+def test_a_control_point_before_any_image_point_is_answered(block):
+    """add_control on a block with no image point yet: an Answer that says why nothing is
+    adjusted (it returned None: `_start` has nothing to adjust)."""
+    empty = block.select_image(np.zeros(len(block.image), bool))
+    ob = OnlineBundle(empty)
+    assert ob.steps == 0 and not ob.started
+    tie = int(np.flatnonzero(~block.points.controlled.any(axis=1))[0])
+    ans = ob.add_control(block.points.ids[tie], [0.0, 0.0, 0.0], [0.1, 0.1, 0.1])
+    assert ans is not None and ans.step == 1 and ans.action == "add"
+    assert ans.note == "the block cannot be adjusted yet: nothing measured"
+    assert not ob.started
