@@ -174,6 +174,7 @@ def _read(p: Path, fmt: str, pixel_mm: float | None, sigma_px: float | None, enc
     if fmt == "opensfm":
         from baarda.io.opensfm import read_opensfm
 
+        assert pixel_mm is not None and sigma_px is not None  # image_options: a pixel format
         return read_opensfm(p, pixel_mm=pixel_mm, sigma_px=sigma_px, crs=crs)
     from baarda.io.bal import read_bal_block
 
