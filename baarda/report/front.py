@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -132,7 +133,8 @@ def accuracy(res: Results) -> Accuracy:
                     "verified by independent points; the standard deviations of the "
                     "adjusted points are the only statement of accuracy.")
         return Accuracy(0, pd.DataFrame(), [], warn, miss)
-    rows, rmse = [], {}
+    rows: list[dict[str, Any]] = []
+    rmse = {}
     for a in "XYZ":
         d = miss[f"d{a}"].to_numpy(float)
         rmse[a] = float(np.sqrt(np.mean(d * d)))

@@ -206,6 +206,7 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     body = "".join(f'<p class="bad">{esc(w)}</p>' if "No check points" in w or
                    "Only" in w else f"<p>{esc(w)}</p>" for w in acc.warnings)
     if acc.n:
+        assert acc.misses is not None  # there are check points
         body = (table(acc.table, {"mean m": ".3f", "std m": ".3f", "RMSE m": ".3f",
                                   "largest |d| m": ".3f"}, text_cols=("axis",),
                       attrs='id="accuracy-table"')
