@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import os
+
 
 class ProjectError(ValueError):
     """Bad input: the message names the file, the line (1-based) and the column."""
 
-    def __init__(self, path: str, message: str, line: int | None = None,
+    def __init__(self, path: str | os.PathLike, message: str, line: int | None = None,
                  column: str | None = None):
         self.path, self.line, self.column, self.detail = str(path), line, column, message
         where = self.path

@@ -30,7 +30,7 @@ def section(title: str, lines: Iterable[str]) -> Section:
 
 def render(sections: Iterable[Section], width: int = 60) -> str:
     """Text of sections: each title underlined, sections separated by a blank line."""
-    out = []
+    out: list[str] = []
     for s in sections:
         if out:
             out.append("")

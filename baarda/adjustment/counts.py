@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from baarda.adjustment.schur_problem import SchurProblem
+    from baarda.adjustment.schur_system import Linearization
 
 
 class AdjustmentCounts:
@@ -10,6 +16,9 @@ class AdjustmentCounts:
 
     Components with zero weight (not observed, or rejected) are not observations.
     """
+
+    problem: SchurProblem
+    lin: Linearization
 
     @property
     def n_observations(self) -> int:
@@ -46,7 +55,7 @@ class AdjustmentCounts:
         hold the datum or fixed coordinates are not observations and are left out."""
         lin = self.lin
         total = float(np.sum(lin.w * lin.e**2) + np.sum(lin.wc * lin.ec**2))
-        if lin.wx is not None:
+        if lin.wx is not None and lin.ex is not None:
             total += float(np.sum(lin.wx * lin.ex**2))
         return total
 

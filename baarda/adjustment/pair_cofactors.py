@@ -377,6 +377,7 @@ def columns(factor: SchurFactor, layout: FlatLayout, rows: np.ndarray) -> np.nda
             gp[s.control_point[cc], :, c] += lin.jc[cc, r]
         else:
             x, r = divmod(i - nm - ncs, layout.kx)
+            assert lin.jxf is not None and lin.jxg is not None
             if s.x_frame[x] >= 0:
                 gf[s.x_frame[x], :, c] += lin.jxf[x, r]
             gg[:, c] += lin.jxg[x, r]

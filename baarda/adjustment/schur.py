@@ -68,6 +68,7 @@ class SchurFactor:
         np.add.at(gp, s.control_point, np.einsum("mkd,mk->md", jcw, lin.ec))
         if s.mx:  # extra observations: their frame part
             xf = s.x_frame >= 0
+            assert lin.jxf is not None and lin.wx is not None and lin.ex is not None
             jxw = lin.jxf[xf] * lin.wx[xf][:, :, None]
             np.add.at(hff, s.x_frame[xf], np.einsum("xkb,xkc->xbc", jxw, lin.jxf[xf]))
             np.add.at(gf, s.x_frame[xf], np.einsum("xkb,xk->xb", jxw, lin.ex[xf]))
@@ -136,11 +137,14 @@ class SchurFactor:
             np.add.at(hgg, (r, c), blk[both])
             np.add.at(gg, col[ok], np.einsum("mka,mk->ma", jgw, lin.e)[ok])
             mi, ai = np.nonzero(ok)
-            np.add.at(hfg, (s.frame[mi], slice(None), col[mi, ai]),
+            # (numpy's stubs reject a slice in ufunc.at's index tuple: type: ignore)
+            np.add.at(hfg, (s.frame[mi], slice(None), col[mi, ai]),  # type: ignore[arg-type]
                       np.einsum("mkb,mk->mb", lin.jf[mi], jgw[mi, :, ai]))
-            np.add.at(hpg, (s.point[mi], slice(None), col[mi, ai]),
+            np.add.at(hpg, (s.point[mi], slice(None), col[mi, ai]),  # type: ignore[arg-type]
                       np.einsum("mkd,mk->md", lin.jp[mi], jgw[mi, :, ai]))
         if s.mx:
+            assert lin.jxg is not None and lin.jxf is not None
+            assert lin.wx is not None and lin.ex is not None
             jxw = lin.jxg * lin.wx[:, :, None]
             hgg += np.einsum("xka,xkc->ac", jxw, lin.jxg)
             gg += np.einsum("xka,xk->a", jxw, lin.ex)
@@ -283,10 +287,11 @@ class SchurFactor:
         qc = lin.jc @ spp[system.control_point] @ np.swapaxes(lin.jc, 1, 2)
         if not self.has_border:
             return q, qc
-        kx = lin.jxg.shape[1] if system.mx else 0
+        kx = lin.jxg.shape[1] if system.mx and lin.jxg is not None else 0
         qx = np.zeros((system.mx, kx, kx))
         if system.mx:
             xf = system.x_frame >= 0
+            assert lin.jxf is not None
             jx = lin.jxf[xf]
             qx[xf] = jx @ sff[system.x_frame[xf]] @ np.swapaxes(jx, 1, 2)
         if system.ng:
@@ -307,6 +312,7 @@ class SchurFactor:
             return out
         _, sff, _, _ = self.covariances()
         f = s.x_frame[groups[:, 0]]
+        assert lin.jxf is not None
         j = lin.jxf[groups][:, :, 0, :]  # (G, k, b)
         on = f >= 0
         out[on] = j[on] @ sff[f[on]] @ np.swapaxes(j[on], 1, 2)
@@ -339,7 +345,7 @@ class SchurFactor:
                 lin.w[:, :, None]
             gc += np.einsum("mdg,gh,mkh->mkd", self.yp[system.control_point], cinv, ac) * \
                 lin.wc[:, :, None]
-        kx = lin.jxg.shape[1] if system.mx else 0
+        kx = lin.jxg.shape[1] if system.mx and lin.jxg is not None else 0
         return g, gc, np.zeros((system.mx, kx, system.d))
 
     # ---------------------------------------------------- general columns (H)
@@ -362,6 +368,8 @@ class SchurFactor:
             mi, ai = np.nonzero(s.gcol >= 0)
             np.add.at(gg, s.gcol[mi, ai], np.einsum("mk,mkq->mq", lin.jg[mi, :, ai], hw[mi]))
         if s.mx:
+            assert hx is not None and lin.wx is not None
+            assert lin.jxg is not None and lin.jxf is not None
             hxw = hx * lin.wx[:, :, None]
             gg += np.einsum("xkg,xkq->gq", lin.jxg, hxw)
             xf = s.x_frame >= 0
@@ -384,6 +392,7 @@ class SchurFactor:
             return xf, xp
         if not self.system.ng:
             return xf, xp, np.zeros((0, gf.shape[2]))
+        assert gg is not None  # a border with global unknowns
         return self._global_part(gg, xf, xp)
 
     @single_threaded_blas
@@ -415,10 +424,12 @@ class SchurFactor:
         q = xf.shape[2]
         if lin.jg is not None and s.gcol.shape[1] and s.ng:
             mi, ai = np.nonzero(s.gcol >= 0)
+            assert xg is not None
             np.add.at(rows, mi, np.einsum("mk,mq->mkq", lin.jg[mi, :, ai], xg[s.gcol[mi, ai]]))
-        kx = lin.jxg.shape[1] if s.mx else 0
+        kx = lin.jxg.shape[1] if s.mx and lin.jxg is not None else 0
         rows_x = np.zeros((s.mx, kx, q))
         if s.mx:
+            assert xg is not None and lin.jxg is not None and lin.jxf is not None
             rows_x += np.einsum("xkg,gq->xkq", lin.jxg, xg)
             xfm = s.x_frame >= 0
             rows_x[xfm] += np.einsum("xkb,xbq->xkq", lin.jxf[xfm], xf[s.x_frame[xfm]])

@@ -58,6 +58,7 @@ class FlatLayout:
         tail = rm.shape[2:]
         parts = [rm.reshape(self.m * self.k, *tail), rc.reshape(-1, *tail)[self.ctrl_sel]]
         if self.mx:
+            assert rx is not None
             parts.append(rx.reshape(self.mx * self.kx, *tail))
         return np.concatenate(parts)
 

@@ -74,7 +74,7 @@ class Linearization:
         c = float(np.sum(self.w * self.e**2) + np.sum(self.wc * self.ec**2))
         for w, e in ((self.wf, self.ef), (self.wx, self.ex), (self.wp, self.ep),
                      (self.wg, self.eg)):
-            if w is not None:
+            if w is not None and e is not None:
                 c += float(np.sum(w * e**2))
         return c
 

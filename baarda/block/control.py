@@ -32,7 +32,7 @@ def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarra
     (module docstring)."""
     pts = block.points
     index = block.point_index
-    rows = [k for k, p in enumerate(ids) if p in index]
+    rows: list[int] | np.ndarray = [k for k, p in enumerate(ids) if p in index]
     unmatched = [p for p in ids if p not in index]
     if not rows:
         sample = ", ".join(pts.ids[:5]) + (", ..." if len(pts) > 5 else "")
@@ -77,7 +77,7 @@ def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarra
     weighted = sigma[rows][role[rows] == "control"]
     weighted = weighted[(weighted > 0).all(axis=1)]
     settings = replace(block.settings, datum="control", free_datum=None,
-                       sigma_control_m=(tuple(float(v) for v in np.median(weighted, axis=0))
+                       sigma_control_m=(tuple(float(v) for v in np.median(weighted, axis=0))  # type: ignore[arg-type]  # 3 axes
                                         if len(weighted) else block.settings.sigma_control_m))
     points = replace(pts, xyz=new_xyz, sigma=new_sig, role=new_role)
     photos = replace(block.photos, eo=eo)

@@ -51,6 +51,7 @@ class LocalFrame:
         if not (self.crs.is_geographic or self.crs.is_projected):
             raise ProjectError(str(crs), "the CRS must be geographic or projected")
         self.crs3 = self.crs.to_3d()
+        assert self.crs.geodetic_crs is not None and self.crs.ellipsoid is not None
         geod = self.crs.geodetic_crs.to_3d()
         info = geod.axis_info
         self.angle = info[0].unit_conversion_factor  # radians per angle unit

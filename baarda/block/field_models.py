@@ -124,7 +124,8 @@ def gruen_coefficients() -> np.ndarray:
     def values(a):
         return np.einsum("pij,cij->pc", mon, a).ravel()
 
-    basis_v, basis_a = [], []
+    basis_v: list[np.ndarray] = []
+    basis_a: list[np.ndarray] = []
     for a in seeds:
         v = values(a)
         norm0 = np.linalg.norm(v)

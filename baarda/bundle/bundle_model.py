@@ -80,9 +80,11 @@ class BundleModel(SchurModel):
         rows = pb.extra_range["gnss_imu"].start + np.arange(gi.m)  # their extra rows
         flat = lay.m * lay.k + len(lay.ctrl_sel) + rows
         f = gi.photos
+        assert lin.jxf is not None and lin.wx is not None
         jxf = lin.jxf[rows, 0, :]
         e = np.einsum("mab,mb->ma", self.factor.frame_covariance()[f], jxf)
         if pb.system.ng:
+            assert lin.jxg is not None
             e += np.einsum("mag,mg->ma", self.factor.frame_global_covariance()[f],
                            lin.jxg[rows, 0, :])
         effect = effect.copy()

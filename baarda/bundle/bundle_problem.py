@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import time
+from typing import cast
 
 import numpy as np
 
@@ -26,6 +27,8 @@ from baarda.bundle.calibration import Calibration
 from baarda.bundle.collinearity import camera_depth
 from baarda.bundle.geometry import approximate_points, check_datum, usable_points
 from baarda.bundle.image_rows import ImageRows
+from baarda.bundle.kind_gnss_imu import GnssImuRows
+from baarda.bundle.kind_image import BorderImageRows
 from baarda.bundle.observation_kinds import Context, GlobalLayout, ObservationKind, State
 from baarda.bundle.registered_kinds import registered_kinds
 from baarda.errors import GeometryError
@@ -143,8 +146,8 @@ class BundleProblem(SchurProblem):
         # each kind's rows and their range among the extra rows, by the kind's name
         self.rows_of = dict(zip(names, self.extra, strict=True))
         self.extra_range = dict(zip(names, self.extra_rows, strict=True))
-        self.border_images = self.rows_of["border_images"]
-        self.gnss_imu = self.rows_of["gnss_imu"].gnss_imu
+        self.border_images = cast(BorderImageRows, self.rows_of["border_images"])
+        self.gnss_imu = cast(GnssImuRows, self.rows_of["gnss_imu"]).gnss_imu
         m, nc = len(self.obs), len(self.control)
         self.layout = FlatLayout(m, 2, nc, 3, np.flatnonzero(observed_c.ravel()),
                                  int(ends[-1]), 1)
@@ -153,7 +156,7 @@ class BundleProblem(SchurProblem):
             im.sigma_xy[self.obs].ravel(), sig_c.ravel()[sel],
             *(r.sigma for r in self.extra)]))
         self.held = None if held is None else read_only(np.asarray(held, bool))
-        held_frame = None
+        held_frame: np.ndarray | None = None
         if self.held is not None or cal.held_photo_columns.any():
             held_frame = np.zeros((len(block.photos), self.b), bool)
             if self.held is not None:
@@ -165,7 +168,7 @@ class BundleProblem(SchurProblem):
         self.obs_point = read_only(self.eremap[im.point[self.obs]])
         self.obs_xy = read_only(im.xy_mm[self.obs])
         self.held_rows = read_only(np.zeros(0, np.int64) if held_frame is None else
-                                   np.flatnonzero(held_frame.any(axis=1)[self.obs_photo]))
+                                   np.flatnonzero(np.any(held_frame, axis=1)[self.obs_photo]))
         # GNSS positions carry the datum (with shifts as unknowns: scale and orientation,
         # the position then from a control point)
         full_control = bool(pts.controlled[np.concatenate(
@@ -201,7 +204,7 @@ class BundleProblem(SchurProblem):
         keep = np.isin(np.arange(len(pts)), self.point_ids)
         xyz = approximate_points(block, keep, intersected)
         frames = np.hstack([eo, cal.photo_start()]) if cal.photo_width else eo.copy()
-        start = (read_only(frames), read_only(xyz[self.elim_ids]))
+        start: tuple[np.ndarray, ...] = (read_only(frames), read_only(xyz[self.elim_ids]))
         if ng:
             g0 = np.zeros(ng)
             g0[self.global_layout.columns("camera")] = self.calibration.start()
@@ -462,7 +465,7 @@ class BundleProblem(SchurProblem):
         if len(start) == len(self.approximations) and len(start[1]) == len(self.elim_ids):
             return (eo, *start[1:])
         xyz = np.asarray(start[1])
-        out = (eo, xyz[self.remap[self.elim_ids]])
+        out: tuple[np.ndarray, ...] = (eo, xyz[self.remap[self.elim_ids]])
         if self.system.ng:
             g0 = np.zeros(self.system.ng)
             g0[self.global_layout.columns("camera")] = self.calibration.start()

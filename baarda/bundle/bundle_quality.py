@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from typing import cast
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from baarda.quality.robust import danish_method
 from baarda.quality.statistics import analyse
 
 
-def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
+def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment[BundleResult]:
     """Statistics of every observation of an adjusted block, without rejecting any.
 
     tests: alpha0 and beta0 (default: the project's settings)."""
@@ -66,7 +67,7 @@ def calibration_tests(result: BundleResult, tests: TestOptions) -> tuple[Hypothe
 def snoop(problem: BundleProblem, tests: TestOptions | None = None, *,
           statistic: str = "w", by_point: bool = False, max_iterations: int = 200,
           robust: bool = False, inseparable: str = "flag",
-          progress: Progress | None = None) -> Assessment:
+          progress: Progress | None = None) -> Assessment[BundleResult]:
     """Iterative data snooping of a bundle block (re-adjusting after each rejection).
 
     `problem`: the BundleProblem of a prepared block (pipeline.prepare: local frame,
@@ -96,7 +97,7 @@ def snoop(problem: BundleProblem, tests: TestOptions | None = None, *,
                              by_group=by_point, max_iterations=max_iterations,
                              started_by="Danish method" if robust else "",
                              inseparable=inseparable, progress=progress)
-    last = run.model.result
+    last = cast(BundleModel, run.model).result
     # re-adjustments taken: one per rejection and restoration, one after the Danish method
     refits = sum(s.iteration > 0 and s.action in ("reject", "restore") for s in run.log) + \
         int(not np.array_equal(active, first.active))

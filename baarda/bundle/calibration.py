@@ -119,7 +119,7 @@ class Calibration:
         for i, nominal in enumerate(self.nominal):
             p = nominal.copy()
             f = self.free_index[i]
-            p[f] = g[self.columns[i]] if self.owner[i] < 0 else fp[self.owner[i], :len(f)]
+            p[f] = g[self.columns[i]] if self.owner[i] < 0 else fp[self.owner[i], :len(f)]  # type: ignore[index]  # fp: owned cameras
             out.append(p)
         return out
 

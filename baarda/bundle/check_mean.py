@@ -43,6 +43,7 @@ def check_mean_cofactor(result: BundleResult, points: np.ndarray | None = None
     border = pb.bremap[points]
     b = border[border >= 0]
     if len(b):
+        assert gg is not None  # border points are global unknowns
         cols = pb.global_layout.start("points") + 3 * b[:, None] + axes[None, :]
         np.add.at(gg, (cols, axes[None, :]), 1.0 / n)
     w = result.factor.forward(gf, gp, gg)

@@ -107,5 +107,5 @@ def camera_projection(eo: np.ndarray, xyz: np.ndarray, photo: np.ndarray,
     jpar[:, :, 0] = ideal / cr + delta if model.normalized else np.einsum(
         "mab,mb->ma", dd, ideal / cr)
     jpar[:, :, 1:3] = np.eye(2)
-    jpar[:, :, 3:] = (s[:, :, None] if model.normalized else s) * ddc
+    jpar[:, :, 3:] = (cr[:, :, None] if model.normalized else 1.0) * ddc
     return f, je, jp, jpar

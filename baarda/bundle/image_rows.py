@@ -78,7 +78,7 @@ class ImageRows:
                  for i in cams}
         for i in np.flatnonzero(owner >= 0):
             if i not in fused:
-                by_free.setdefault(tuple(calibration.free_index[i]), []).append(i)
+                by_free.setdefault(tuple(calibration.free_index[i]), []).append(int(i))
         self.owned = []
         for idx, cams in by_free.items():
             sel = np.flatnonzero(np.isin(cam, cams))

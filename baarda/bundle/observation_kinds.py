@@ -122,7 +122,7 @@ class Rows(ABC):
         self.point = np.asarray(point, dtype=object)
         self.photo = np.full(m, -1) if photo is None else np.asarray(photo, np.int64)
         ids = np.asarray(block.photos.ids, dtype=object) if block is not None else None
-        self.frame = _empty(m) if photo is None else ids[self.photo]
+        self.frame = _empty(m) if photo is None else ids[self.photo]  # type: ignore[index]  # photos: a block
         self.image_row = np.full(m, -1) if image_row is None else np.asarray(image_row)
         self.control_index = (np.full(m, -1) if control_index is None
                               else np.asarray(control_index))

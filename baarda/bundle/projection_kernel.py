@@ -136,7 +136,7 @@ def _brown_forward_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo
         for k in range(3):  # d/dX, then d/dX0 = -d/dX, through I + d delta / dn
             e0 = a * rot[p, k, 0] + b0 * rot[p, k, 2]
             e1 = a * rot[p, k, 1] + b1 * rot[p, k, 2]
-            jp[m, 0, k] = _fma(dd01, e1, dd00 * e0)
+            jp[m, 0, k] = _fma(dd01, e1, dd00 * e0)  # type: ignore[call-arg]  # numba @intrinsic
             jp[m, 1, k] = _fma(dd11, e1, dd10 * e0)
             je[m, 0, k] = _fma(dd01, -e1, dd00 * -e0)
             je[m, 1, k] = _fma(dd11, -e1, dd10 * -e0)
@@ -146,7 +146,7 @@ def _brown_forward_rows(rot: np.ndarray, drot: np.ndarray, x0: np.ndarray, photo
             v2 = drot[p, k, 0, 2] * d0 + drot[p, k, 1, 2] * d1 + drot[p, k, 2, 2] * d2
             e0 = a * v0 + b0 * v2
             e1 = a * v1 + b1 * v2
-            je[m, 0, 3 + k] = _fma(dd01, e1, dd00 * e0)
+            je[m, 0, 3 + k] = _fma(dd01, e1, dd00 * e0)  # type: ignore[call-arg]
             je[m, 1, 3 + k] = _fma(dd11, e1, dd10 * e0)
         # d f / d(c, x0, y0, k1, k2, k3, p1, p2, a)
         r4 = r2 * r2

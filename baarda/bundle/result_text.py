@@ -23,6 +23,7 @@ def sections(res: BundleResult) -> list[Section]:
     rows = res.problem.extra_range["border_images"]  # image rows of points tied by distances
     mb = (rows.stop - rows.start) // 2
     if mb:
+        assert res.lin.wx is not None and res.lin.ex is not None
         wb = res.lin.wx[rows, 0].reshape(mb, 2)
         im = np.vstack([im, np.where(wb > 0, -res.lin.ex[rows, 0].reshape(mb, 2) * 1e3,
                                      np.nan)])
@@ -103,6 +104,8 @@ def high_correlations(res: BundleResult, limit: float = HIGH_CORRELATION) -> lis
     photo's block: with its own parameters and its photo's orientation (the other
     photos' unknowns are not in the selected inverse's blocks of that photo)."""
     cal = res.problem.calibration
+    a: int | np.integer  # numpy indices, then range()
+    b: int | np.integer
     out = []
     q = res.camera_covariance()
     if len(q):
@@ -145,7 +148,7 @@ def high_correlations(res: BundleResult, limit: float = HIGH_CORRELATION) -> lis
                                         f"{_photo_unknown(res, f, b)} {x:+.3f}"))
     return [text for _, text in sorted(out, reverse=True)]
 
-def _photo_unknown(res: BundleResult, photo: int, k: int) -> str:
+def _photo_unknown(res: BundleResult, photo: int | np.integer, k: int | np.integer) -> str:
     """The name of unknown k of a photo's block: 'X0 of photo P', 'c of camera C'."""
     if k < 6:
         return f"{EO_NAMES[k]} of photo {res.block.photos.ids[photo]}"

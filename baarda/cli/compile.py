@@ -37,7 +37,7 @@ def run_compile(args) -> int:
     todo = pending_kernels()
     if not todo:
         con.print(f"every kernel is compiled already (numba's cache: "
-                  f"{config.CACHE_DIR or 'beside the package'})")
+                  f"{config.CACHE_DIR or 'beside the package'})")  # type: ignore[attr-defined]
         return 0
     t0 = time.perf_counter()
     failed = compile_kernels(jobs=args.jobs, entries=todo)
@@ -46,7 +46,7 @@ def run_compile(args) -> int:
               "will compile them when they need them")
         return 1
     con.print(f"compiled {len(todo)} kernels in {time.perf_counter() - t0:.1f} s (numba's "
-              f"cache: {config.CACHE_DIR or 'beside the package'})")
+              f"cache: {config.CACHE_DIR or 'beside the package'})")  # type: ignore[attr-defined]
     return 0
 
 

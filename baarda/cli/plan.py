@@ -99,7 +99,7 @@ def run_plan(args) -> int:
     return 0
 
 
-def _plan(args, run) -> list:
+def _plan(args, run) -> tuple[list[Path], str]:
     from baarda.output.plan_files import write_plan, write_reliability_table
     from baarda.planning.advice import advise, what_if
     from baarda.planning.design import ControlLayout
@@ -140,6 +140,7 @@ def _plan(args, run) -> list:
     announce_compile(args)
     if flight is not None and args.what_if:
         say("computing the remedies")
+        assert layout is not None  # set with the flight
         wi = what_if(flight, layout)
     plan = plan_design(subject, layout, config.tests, adjusted=args.adjusted)
     say(f"design block: {plan.block.summary()}")
@@ -170,7 +171,7 @@ def run_modified(args) -> int:
     return 0
 
 
-def _modified(args, run) -> str:
+def _modified(args, run) -> tuple[str, str]:
     from baarda.output.plan_files import write_modified_snooping
     from baarda.pipeline import adjust, prepare, read_configured
     from baarda.planning.modified_snoop import modified_snoop

@@ -12,6 +12,7 @@ rejected image point again and gets its value without the blunder: nothing good 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -146,7 +147,7 @@ def _online(block: Block, tests: TestOptions, clean: Block | None = None) -> Out
     component at the step it was taken in."""
     from baarda.online.replay import image_values, replay
 
-    again = None
+    again: Callable[[str, str], tuple[float, float]] | None = None
     if clean is not None:  # the operator measures again and gets the value without blunder
         value = image_values(clean)
 

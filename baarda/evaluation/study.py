@@ -47,6 +47,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -67,6 +68,9 @@ from baarda.quality.iterative import inseparable_partners
 from baarda.quality.separability import RHO_INSEPARABLE
 from baarda.quality.statistics import QualityResult, analyse
 from baarda.simulate.aerial import FlightPlan, simulate_block
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 KINDS = ("x", "y", "X", "Y", "Z")
 R_MIN = 0.01  # a blunder is planted only where the observation's redundancy number is this
@@ -234,8 +238,8 @@ class Study:
     """The rows of every trial (pandas DataFrames) and the options that made them."""
 
     options: StudyOptions
-    blunders: object  # pandas.DataFrame
-    trials: object  # pandas.DataFrame
+    blunders: pd.DataFrame
+    trials: pd.DataFrame
     seconds: float
 
     def rates(self) -> dict:

@@ -75,6 +75,7 @@ def robust_start(src: np.ndarray, dst: np.ndarray, need: int, dim: int, thr: np.
         pick = np.random.default_rng(0).choice(len(sets), max_sets, replace=False)
         sets = [sets[i] for i in pick]
     best, best_key = np.ones(n, bool), (-1, np.inf)
+    c: list[int] | tuple[int, ...]
     for c in sets:
         c = list(c)
         if dim == 3 and collinear(dst[c]) and not collinear(dst):

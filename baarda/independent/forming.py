@@ -44,7 +44,7 @@ def model_pairs(block: Block) -> list[tuple[str, int, int]]:
     pairs = []
     if im.model is not None:
         for label in dict.fromkeys(im.model.tolist()):
-            ph = sorted(set(im.photo[im.model == label].tolist()))
+            ph: list[int] | np.ndarray = sorted(set(im.photo[im.model == label].tolist()))
             if len(ph) != 2:
                 raise GeometryError(f"model '{label}' has {len(ph)} photos, not 2")
             pairs.append((str(label), ph[0], ph[1]))
@@ -159,7 +159,7 @@ def datum_free(q: np.ndarray, xyz: np.ndarray) -> np.ndarray:
     """
     n = len(xyz)
     c = xyz - xyz.mean(axis=0)
-    g = np.zeros((n, 3, 7))
+    g: np.ndarray = np.zeros((n, 3, 7))
     g[:, [0, 1, 2], [0, 1, 2]] = 1.0
     g[:, 1, 3], g[:, 2, 3] = -c[:, 2], c[:, 1]  # rotation about x
     g[:, 0, 4], g[:, 2, 4] = c[:, 2], -c[:, 0]  # about y
@@ -183,6 +183,8 @@ def form_models(block: Block, covariance: bool = False) -> ModelBlock:
     pairs = model_pairs(block)
     n_pts = len(block.points)
     pc_names = [f"PC{p}" for p in block.photos.ids]
+    om: list[int] | np.ndarray
+    op: list[int] | np.ndarray
     om, op, ox, osig, ocov, strips, notes = [], [], [], [], [], [], []
     sx = s.sigma_image_um * 1e-3
     for m, (name, a, b) in enumerate(pairs):

@@ -18,6 +18,7 @@ nabla, one forward substitution on the Cholesky factor) are quality.hypotheses.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -196,7 +197,7 @@ class UserHypotheses:
         return out
 
 
-def decision(tests: list[HypothesisTest]) -> str:
+def decision(tests: Sequence[HypothesisTest]) -> str:
     """Whether a systematic-error model is needed, from the deformation tests."""
     rej = [t for t in tests if t.rejected and ("invariant" in t.name)]
     if not rej:

@@ -8,6 +8,7 @@ this module adds the FOTEF columns and lines to the common Assessment.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import cast
 
 import numpy as np
 
@@ -24,9 +25,11 @@ from baarda.quality.statistics import analyse
 
 
 @dataclass(frozen=True)
-class ModelQuality(Assessment):
+class ModelQuality(Assessment[ModelResult]):
     """One adjustment (3d, 2d or height) with every observation's statistics, the FOTEF
     external reliability on detail points and distances, and the tested hypotheses."""
+
+    model: IndependentModel  # the Assessment's model, of an independent-model block
 
     external: ExternalReliability | None = None
 
@@ -108,8 +111,9 @@ def snoop(block: ModelBlock | ModelResult, mode: str = "3d", tests: TestOptions 
     run = iterative_snooping(IndependentModel(result), tests, statistic=statistic,
                              by_group=by_point, max_iterations=max_iterations,
                              progress=progress)
-    ext = external_reliability(run.model, run.quality) if external else None
-    return ModelQuality(run.model.result, run.model, run.quality, run, name=result.mode,
+    model = cast(IndependentModel, run.model)  # snooping refits the model it is given
+    ext = external_reliability(model, run.quality) if external else None
+    return ModelQuality(model.result, model, run.quality, run, name=result.mode,
                         external=ext)
 
 
@@ -135,5 +139,5 @@ def with_variance_components(result: ModelResult, tests: TestOptions | None = No
             qc = replace(qc, external=external_reliability(qc.model, qc.quality))
     else:
         est = iterate(IndependentModel(result), progress=progress)
-        qc = assess(est.model.result, tests, external=external)
+        qc = assess(cast(IndependentModel, est.model).result, tests, external=external)
     return replace(qc, variance_components=est.components())

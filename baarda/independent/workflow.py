@@ -64,7 +64,7 @@ class BlockQuality:
 
     def to_dict(self) -> dict:
         """The outcome as a dict: the pre-adjustment, each adjustment's to_dict()."""
-        d = {"mode": self.mode, "block": self.block.summary(),
+        d: dict[str, object] = {"mode": self.mode, "block": self.block.summary(),
              "preadjustment": self.preadjustment_dict(),
              "adjustments": {p.name: p.to_dict() for p in self.parts},
              "notes": self.notes + list(self.block.notes)}

@@ -255,7 +255,7 @@ def _read_ior(path: Path, encoding: str = ENCODING) -> dict:
 
 
 def _read_scale(path: Path, encoding: str = ENCODING) -> dict:
-    out = {k: [] for k in ("id", "name", "a", "b", "length", "sigma", "status")}
+    out: dict[str, list] = {k: [] for k in ("id", "name", "a", "b", "length", "sigma", "status")}
     if not path.is_file():
         return {k: np.array(v) for k, v in out.items()}
     for no, s in enumerate(read_lines(path, encoding), start=1):

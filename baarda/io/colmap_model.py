@@ -47,7 +47,7 @@ def first_repeated(ids: np.ndarray) -> int:
     return int(rep.min()) if len(rep) else -1
 
 
-def _offsets(counts: np.ndarray) -> np.ndarray:
+def _offsets(counts: list[int] | np.ndarray) -> np.ndarray:
     out = np.zeros(len(counts) + 1, np.int64)
     np.cumsum(counts, out=out[1:])
     return out

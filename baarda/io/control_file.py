@@ -58,8 +58,8 @@ def read_control_file(path: str | Path, encoding: str = ENCODING,
     if _is_native(lines):
         from baarda.io.project import read_ground_points
 
-        ids, xyz, sig, role, _ = read_ground_points(Path(path), sigma_control_m, encoding)
-        return ControlFile(spath, list(ids), xyz, sig, np.asarray(role, dtype=object))
+        g_ids, g_xyz, g_sig, role, _ = read_ground_points(Path(path), sigma_control_m, encoding)
+        return ControlFile(spath, list(g_ids), g_xyz, g_sig, np.asarray(role, dtype=object))
     rows = []
     header = None
     for no, line in enumerate(lines, start=1):

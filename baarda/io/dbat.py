@@ -365,7 +365,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
                            f"'{img_ids[photo[dup]]}'")
 
     settings = Settings(name=name, angle_unit="deg", sigma_image_um=float(np.median(sig)) * 1e3,
-                        sigma_control_m=tuple(float(v) for v in (np.nanmedian(psig, axis=0)
+                        sigma_control_m=tuple(float(v) for v in (np.nanmedian(psig, axis=0)  # type: ignore[arg-type]
                                               if np.isfinite(psig).any() else (0.05,) * 3)))
     if ops.datum is not None:
         ref, rule = ops.datum

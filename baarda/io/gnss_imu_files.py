@@ -35,7 +35,7 @@ def gnss_imu_settings(doc: dict, path: Path, s: Settings) -> dict:
     try:
         lever = [float(v) for v in g.get("lever_arm", [0.0, 0.0, 0.0])]
         gs = sig.get("gnss_m", list(DEFAULT_GNSS_SIGMA_M))
-        gs = [float(gs)] * 3 if np.isscalar(gs) else [float(v) for v in gs]
+        gs = [float(gs)] * 3 if np.isscalar(gs) else [float(v) for v in gs]  # type: ignore[arg-type]
         imu_default = float(angle_to_rad(np.array(DEFAULT_IMU_SIGMA_DEG), "deg"))
         isig = (float(angle_to_rad(np.array(float(sig["imu"])), s.angle_unit))
                 if "imu" in sig else imu_default)

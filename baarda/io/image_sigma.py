@@ -74,7 +74,7 @@ def resolve_image_options(fmt: str, pixel_mm: float | None = None,
             raise ProjectError("command line", f"--pixel-mm does not apply to {what} input "
                                "(its image coordinates are in mm) unless it converts "
                                "--sigma-px")
-        um = sigma_image_um if sigma_px is None else sigma_px * pixel_mm * 1e3
+        um = sigma_image_um if sigma_px is None or pixel_mm is None else sigma_px * pixel_mm * 1e3
         if um is not None:
             check_sigma_um(um, "command line", column="--sigma-px")
         return ImageOptions(None, None, um)

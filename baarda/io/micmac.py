@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -96,8 +97,9 @@ def read_sensor(path: Path) -> dict:
             node = nxt
         return parse_number((node.text or "").strip(), str(path), node.line, tags[-1])
 
-    out = {"name": (root.find("name").text or "").strip() if root.find("name") is not None
-           else path.stem,
+    name = root.find("name")
+    out: dict[str, Any] = {"name": (name.text or "").strip() if name is not None
+                           else path.stem,
            "width": value("usefull-frame", "rect", "w"),
            "height": value("usefull-frame", "rect", "h"),
            "ppx": value("focal", "pt3d", "x"), "ppy": value("focal", "pt3d", "y"),
@@ -111,7 +113,7 @@ def read_sensor(path: Path) -> dict:
 def read_orientations(path: Path) -> dict[str, tuple[np.ndarray, int]]:
     """Image name -> ((X, Y, Z, omega, phi, kappa) in m and degrees, line) of an .opk file;
     header lines (text in the coordinate fields) are skipped."""
-    out = {}
+    out: dict[str, tuple[np.ndarray, int]] = {}
     for n, f in _lines(path):
         try:
             values = np.array([float(v) for v in f[1:7]]) if len(f) >= 7 else None

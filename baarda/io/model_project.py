@@ -52,17 +52,17 @@ def read_settings(path: Path, encoding: str = ENCODING) -> ModelSettings:
         check_keys(table, path, name, keys=MODEL_KEYS)
     check_keys(doc, path, keys=MODEL_KEYS)
     try:
-        s.sigma_model_um = _positive((sig.get("model_xy_um", s.sigma_model_um[0]),
+        s.sigma_model_um = _positive((sig.get("model_xy_um", s.sigma_model_um[0]),  # type: ignore[assignment]
                                       sig.get("model_z_um", s.sigma_model_um[1])),
                                      "sigma.model_xy_um / model_z_um")
         ctrl = sig.get("control_m", s.sigma_control_m)
         ctrl = [ctrl] * 3 if np.isscalar(ctrl) else list(ctrl)
         if len(ctrl) != 3:
             raise ValueError("sigma.control_m must be one number or [X, Y, Z]")
-        s.sigma_control_m = _positive(ctrl, "sigma.control_m")
+        s.sigma_control_m = _positive(ctrl, "sigma.control_m")  # type: ignore[assignment]
         s.alpha0 = float(tests.get("alpha0", s.alpha0))
         s.beta0 = float(tests.get("beta0", s.beta0))
-        s.pre_um = _positive((pre.get("pre_xy_um", s.pre_um[0]),
+        s.pre_um = _positive((pre.get("pre_xy_um", s.pre_um[0]),  # type: ignore[assignment]
                               pre.get("pre_z_um", s.pre_um[1])), "models.pre_xy_um / pre_z_um")
     except (TypeError, ValueError, OverflowError) as e:
         raise ProjectError(str(path), f"bad setting: {e}") from None
@@ -106,7 +106,8 @@ def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[
     if len(t) == 0:
         raise ProjectError(t.path, "no model coordinates")
     model_names = t.text("model")
-    models, mindex = [], {}
+    models: list[str] = []
+    mindex: dict[str, int] = {}
     obs_model = np.empty(len(t), np.int64)
     for i, m in enumerate(model_names):
         j = mindex.get(m)
@@ -136,7 +137,7 @@ def read_model_coordinates(path: Path, settings: ModelSettings, point_ids: list[
     strip = np.array(["1"] * len(models), dtype=object)
     if t.has("strip"):
         s = t.text("strip", allow_empty=True)
-        seen: dict[int, tuple[str, int]] = {}
+        seen: dict[int | np.integer, tuple[str, int]] = {}
         for i, (m, lab) in enumerate(zip(obs_model, s, strict=True)):
             if m in seen and seen[m][0] != lab:
                 raise ProjectError(t.path, f"model '{models[m]}' has strip '{seen[m][0]}' on "

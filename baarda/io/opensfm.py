@@ -139,6 +139,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
     check_pixel_options(pixel_mm, sigma_px)
     rpath = _first(folder, RECONSTRUCTIONS)
     tpath = _first(folder, TRACKS)
+    assert rpath is not None and tpath is not None  # dataset_folder found both
     rec, text, notes = _reconstruction(rpath)
     shots = read_shots(rec, rpath, text, camera_docs(folder, rec, rpath, text), pixel_mm)
     ground = ground_frame(rec, folder, rpath, text, crs, shots)
@@ -161,7 +162,7 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
                       free=tuple(c.free for c in cams))
     datum, why = datum_of(pts.xyz, pts.role, pts.rays, shots.gnss_xyz, shots.gnss_sigma)
     settings = Settings(name=root.name, angle_unit="deg", sigma_image_um=sig_mm * 1e3,
-                        sigma_control_m=tuple(control.sigma),
+                        sigma_control_m=tuple(control.sigma),  # type: ignore[arg-type]  # X, Y, Z
                         crs=ground.crs if ground.frame else None, datum=datum)
     notes = _notes(notes, folder, tpath, pixel_mm, sigma_px, shots, ground, tracks, control,
                    pts, [why] + ([stored] if stored is not None else []))
@@ -289,6 +290,7 @@ def _notes(notes: list[str], folder: Path, tpath: Path, pixel_mm: float, sigma_p
            f"parameters are estimated ({'; '.join(', '.join(c.free) for c in cams)})", *notes]
     if ground.frame is not None:
         lla = ground.lla
+        assert lla is not None  # the frame is made from it
         out.append(f"topocentric frame of reference_lla (lat {lla[1]:.8f}, lon {lla[0]:.8f}, "
                    f"h {lla[2]:g} m) = the local east-north-up frame of {ground.crs}; "
                    "results in that CRS (heights ellipsoidal)")

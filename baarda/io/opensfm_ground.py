@@ -70,9 +70,11 @@ def ground_frame(rec: dict, folder: Path, rpath: Path, text: str, crs: str | Non
     # where the CRS comes from, for an error: --crs, gcp_list.txt's first line, or the
     # UTM zone of reference_lla
     crs_where = ("command line", None, None) if crs else \
-        (str(gcp_file), _first_line(gcp_file), "crs") if gcp_crs else (str(ref_where), None, None)
+        (str(gcp_file), _first_line(gcp_file), "crs") if gcp_crs and gcp_file else \
+        (str(ref_where), None, None)
     frame = None
     if lla is not None:
+        assert project_crs is not None  # the UTM zone of lla at least
         frame = topocentric_frame(project_crs, lla, *crs_where)
     elif gcp_entries or shots.gnss_rows:
         raise ProjectError(str(rpath), "no reference_lla (in the reconstruction or "
@@ -104,7 +106,7 @@ def topocentric_frame(crs: str, lla: list[float], where: Path | str, line: int |
     try:
         target = CRS.from_user_input(crs)
         origin = Transformer.from_crs("EPSG:4979", target.to_3d(), always_xy=True).transform(
-            *lla, errcheck=True)
+            *lla, errcheck=True)  # type: ignore[call-overload]  # pyproj stubs
     except (CRSError, ProjError) as e:
         raise ProjectError(str(where), f"CRS {crs!r}: {e}", line, column) from None
     return LocalFrame(crs, np.array(origin, float))
@@ -134,6 +136,7 @@ def control_points(folder: Path, ground: Ground, shots: Shots,
     frame = ground.frame
     taken = set(point_ids)
     lon_lat = None
+    assert ground.gcp_file is not None and frame is not None  # control read from it
     if ground.gcp_file.name == GCP_JSON:
         from pyproj import Transformer
         lon_lat = Transformer.from_crs("EPSG:4979", frame.crs3, always_xy=True)

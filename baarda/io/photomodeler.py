@@ -143,7 +143,8 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
                            "('0.0005 20 WIDTH HEIGHT'), or give the pixel size with "
                            "--pixel-mm", 2)
 
-    photos, i, differ = [], 5, []
+    photos: list[tuple[str, np.ndarray]] = []
+    i, differ = 5, []
     while i < len(lines) and lines[i].strip():
         parts = lines[i].split(maxsplit=1)
         try:

@@ -134,7 +134,7 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     try:
         s.sigma_image_um = float(sigma.get("image_um", s.sigma_image_um))
         ctrl = sigma.get("control_m", s.sigma_control_m)
-        ctrl = [float(ctrl)] * 3 if np.isscalar(ctrl) else [float(c) for c in ctrl]
+        ctrl = [float(ctrl)] * 3 if np.isscalar(ctrl) else [float(c) for c in ctrl]  # type: ignore[arg-type]
         s.alpha0 = float(tests.get("alpha0", s.alpha0))
         s.beta0 = float(tests.get("beta0", s.beta0))
         s.alpha_global = float(tests.get("alpha_global", s.alpha_global))
@@ -147,7 +147,7 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     positive_settings(path, {f"sigma.control_m[{k}]": c for k, c in enumerate(ctrl)},
                       SIGMA_GROUND_MAX_M)
     check_sigma_um(s.sigma_image_um, str(path), column="sigma.image_um")
-    s.sigma_control_m = tuple(ctrl)
+    s.sigma_control_m = tuple(ctrl)  # type: ignore[assignment]  # X, Y, Z
     if not 0 < s.alpha_global < 0.5:
         raise ProjectError(str(path), "tests.alpha_global must be in (0, 0.5)",
                            column="tests.alpha_global")

@@ -103,18 +103,19 @@ class Table(Columns):
 
     # ------------------------------------------------------------ the columns
     @property
-    def lines(self) -> np.ndarray:
+    def lines(self) -> np.ndarray:  # type: ignore[override]  # worked out on first use
         """1-based line number of every row (worked out on first use for the fast path)."""
         if self._lines is None:  # the fast path has no blank or comment lines
             self._lines = np.arange(2, len(self) + 2, dtype=np.int64)
         return self._lines
 
     @property
-    def columns(self) -> dict[str, np.ndarray]:
+    def columns(self) -> dict[str, np.ndarray]:  # type: ignore[override]
         return {h: self.column(h) for h in self.header}
 
     def column(self, name: str) -> np.ndarray:
         if name not in self._columns:  # the fast path: turned into strings on first use
+            assert self._arrow is not None  # the fast path
             col = self._arrow.column(name).to_numpy(zero_copy_only=False)
             self._columns[name] = col.astype(str)
         return self._columns[name]
@@ -123,7 +124,7 @@ class Table(Columns):
         return name in self.header
 
     def __len__(self) -> int:
-        return self._arrow.num_rows if self._arrow is not None else len(self._lines)
+        return self._arrow.num_rows if self._arrow is not None else len(self._lines)  # type: ignore[arg-type]  # the slow path sets _lines
 
     def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
         out = self.floats(name)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import overload
 from xml.parsers import expat
 
 from baarda.errors import ProjectError
@@ -31,6 +32,12 @@ class Node:
 
     def findall(self, tag: str) -> list[Node]:
         return [c for c in self.children if c.tag == tag]
+
+    @overload
+    def value(self, tag: str, default: str) -> str: ...
+
+    @overload
+    def value(self, tag: str, default: None = None) -> str | None: ...
 
     def value(self, tag: str, default: str | None = None) -> str | None:
         c = self.find(tag)

@@ -43,9 +43,9 @@ def kernel(fn: Callable[..., Any], **options: Any) -> Callable[..., Any]:
         disp = njit(cache=True, **options)(fn)
     except RuntimeError as exc:  # "cannot cache function ...: no locator available"
         try:
-            if config.CACHE_DIR:
+            if config.CACHE_DIR:  # type: ignore[attr-defined]  # numba sets config at run time
                 raise
-            config.CACHE_DIR = str(fallback_cache_dir())
+            config.CACHE_DIR = str(fallback_cache_dir())  # type: ignore[attr-defined]
             disp = njit(cache=True, **options)(fn)
         except (RuntimeError, OSError):
             warnings.warn(f"numba cannot cache compiled kernels ({exc}); compiling in "

@@ -165,8 +165,8 @@ class BlockPattern:
             raise ValueError(f"block indices must lie in [0, {n})")
         flat_r = np.ascontiguousarray(rows.ravel())
         flat_c = np.ascontiguousarray(cols.ravel())
-        slot = np.empty(flat_r.size, dtype=np.int64)
-        transposed = np.empty(flat_r.size, dtype=np.bool_)
+        slot: np.ndarray = np.empty(flat_r.size, dtype=np.int64)
+        transposed: np.ndarray = np.empty(flat_r.size, dtype=np.bool_)
         sym = self.symbolic
         bad = find_slots(sym.colptr, sym.rowind, self.iperm, flat_r, flat_c, slot, transposed)
         if bad >= 0:

@@ -60,7 +60,7 @@ def spec_signature(spec: Iterable[str]) -> tuple[Any, ...]:
         if s.endswith("]"):
             name, rest = s[:-1].split("[")
             ndim, layout, readonly = int(rest[0]), rest[1], rest.endswith("r")
-            out.append(types.Array(getattr(types, name), ndim, layout, readonly=readonly))
+            out.append(types.Array(getattr(types, name), ndim, layout, readonly=readonly))  # type: ignore[call-overload]
         else:
             out.append(getattr(types, s))
     return tuple(out)
@@ -145,8 +145,9 @@ def compile_kernels(jobs: int | None = None, parallel: bool = True,
     env = dict(os.environ)
     from numba.core import config
 
-    if config.CACHE_DIR:  # the same cache (e.g. the fallback folder of _jit.kernel)
-        env["NUMBA_CACHE_DIR"] = str(config.CACHE_DIR)
+    # the same cache (e.g. the fallback folder of _jit.kernel)
+    if config.CACHE_DIR:  # type: ignore[attr-defined]
+        env["NUMBA_CACHE_DIR"] = str(config.CACHE_DIR)  # type: ignore[attr-defined]
     children = []
     failed: list[str] = []
     try:
@@ -156,10 +157,12 @@ def compile_kernels(jobs: int | None = None, parallel: bool = True,
                     [sys.executable, "-m", "baarda.linalg.precompile", "--compile"],
                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                     env=env, text=True)))
+                assert children[-1][1].stdin is not None  # stdin=PIPE
                 children[-1][1].stdin.write(json.dumps(part))
                 children[-1][1].stdin.close()
         failed += _compile(bins[0])
         for part, proc in children:
+            assert proc.stdout is not None  # stdout=PIPE
             out = proc.stdout.read()
             if proc.wait() != 0:
                 failed += [f"{e['module']}.{e['name']}" for e in part]

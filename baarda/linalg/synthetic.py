@@ -84,5 +84,5 @@ def assemble(pattern: BlockPattern, r: np.ndarray, c: np.ndarray, blocks: np.nda
 def to_dense(n: int, b: int, r: np.ndarray, c: np.ndarray, blocks: np.ndarray) -> np.ndarray:
     """Dense (n*b, n*b) matrix from blocks (for tests only)."""
     a = np.zeros((n, b, n, b))
-    np.add.at(a, (np.asarray(r), slice(None), np.asarray(c)), blocks)
+    np.add.at(a, (np.asarray(r), slice(None), np.asarray(c)), blocks)  # type: ignore[arg-type]  # numpy: slice in the index
     return a.reshape(n * b, n * b)

@@ -423,7 +423,12 @@ class OnlineBundle:
     @single_threaded_blas
     def _added(self, t0: float, what: str) -> Answer:
         if self._f is None:
-            return self._start(t0, what)
+            first = self._start(t0, what)
+            if first is not None:
+                return first
+            return self._answer(action="add", what=what, held=tuple(held_words(self.m)),
+                                note="the block cannot be adjusted yet: " + self._why_not,
+                                seconds=time.perf_counter() - t0)
         group = entering(self.m, self._has_orientation)
         if not group:
             return self._answer(action="add", what=what, held=tuple(held_words(self.m)),
@@ -589,6 +594,7 @@ class OnlineBundle:
 
     def _globals(self) -> np.ndarray:
         f = self._f
+        assert f is not None
         g = f.result.state[2] if len(f.result.state) == 3 else np.zeros(0)
         if f.lowrank.r and len(g):
             g = g + f.lowrank.solution().dxg
@@ -670,6 +676,7 @@ class OnlineBundle:
         LINEAR_LIMIT rad (the error of the linearisation, c * LINEAR_LIMIT^2, then stays
         below 0.015 µm for c = 153 mm)."""
         f = self._f
+        assert f is not None
         sol = f.lowrank.solution()
         h = f.problem.scale
         size = max(np.max(np.abs(sol.dxf[:, :3]), initial=0.0) / h,
@@ -685,6 +692,7 @@ class OnlineBundle:
         """The tests of components now in the factorisation, from its solution (the
         prediction before inclusion kept)."""
         f = self._f
+        assert f is not None
         w, r, v, sv, mdb = self._stats(f)
         out = []
         for t in tested:
@@ -722,6 +730,7 @@ class OnlineBundle:
             Q_SS = R_S - a_S N0^-1 a_S^T + (a_S H) W (a_S H)^T,
             Q_PP = R_P W R_P,   Q_SP = -(a_S H) W R_P."""
         f = self._f
+        assert f is not None
         lr = f.lowrank
         pend = {k: n for n, k in enumerate(self._pending)}
         s_at = [n for n, k in enumerate(keys) if k not in pend]
@@ -738,6 +747,7 @@ class OnlineBundle:
                 qs = qs + z @ sol.w @ z.T
             q[np.ix_(s_at, s_at)] = qs
         if p_at:
+            assert sol is not None  # pending rows: the low-rank part has rows
             pr = [pend[keys[n]] for n in p_at]
             q[np.ix_(p_at, p_at)] = sol.qvv[np.ix_(pr, pr)]
             if s_at:
@@ -772,13 +782,14 @@ class OnlineBundle:
         that changed, whether the block was factored again).  A group of more rows than a
         factorisation takes (a photo of hundreds of points) goes straight into a new
         factorisation (`_take_in_factored`); a smaller one is a low-rank update."""
+        assert self._f is not None
         lr = self._f.lowrank
         ny0, ycol0 = len(self._y0), dict(self._ycol)
         y0 = self._new_unknowns(group)
         keys, rows = group_rows(self._f, self.m, self._ycol, group, y0)
         # the prediction from the block before: e - a dx, variance sigma^2 + a Q_xx a^T
         prev = lr.solution() if lr.r else None
-        plain = (rows.ycol < 0).all(axis=1)
+        plain = np.all(rows.ycol < 0, axis=1)
         pred = rows.e.copy()
         var_old = np.zeros(len(rows))
         if prev is not None:
@@ -826,6 +837,7 @@ class OnlineBundle:
         the factorisation) for the rows between known photos and points (solves with the
         factor in chunks, nothing kept), then the block factored again with it, every
         component tested from that factorisation."""
+        assert self._f is not None
         lr = self._f.lowrank
         sel = np.flatnonzero(plain)
         mdiag = np.zeros(len(rows))
@@ -846,6 +858,7 @@ class OnlineBundle:
             raise GeometryError("held: these observations do not determine the new photo "
                                 "or point yet") from None
         f = self._f
+        assert f is not None
         w, r, v, sv, mdb = self._stats(f)
         tested = []
         for n, key in enumerate(keys):
@@ -860,6 +873,7 @@ class OnlineBundle:
         """Verdict changes among the factorisation's observations on the photos and points
         of the group and the rows added since the factorisation."""
         f, m = self._f, self.m
+        assert f is not None
         photos = {m.im_photo[r] for r in group["image"]} | \
             {m.g_photo[r] for r in group[GNSS.name]} | {m.i_photo[r] for r in group[IMU.name]}
         points = {m.im_point[r] for r in group["image"]} | set(group["control"])
@@ -906,6 +920,7 @@ class OnlineBundle:
             eo[i] = m.photo_eo[i]
         for j in group["points"]:
             xyz[j] = intersect(m, j, eo, group)
+        assert self._f is not None
         if not refine(m, self._f.problem, self._globals(), group, eo, xyz):
             raise GeometryError("held: these observations do not determine the new photo "
                                 "or point yet")
@@ -946,7 +961,7 @@ class OnlineBundle:
 
 def _merge(a: list[Change], b: list[Change]) -> list[Change]:
     """Changes of one step found twice (around the addition, then at the factorisation)."""
-    by = {}
+    by: dict[tuple, Change] = {}
     for c in a + b:
         key = (c.kind, c.photo, c.point, c.component)
         first = by.get(key)

@@ -22,7 +22,7 @@ or as one JSON object a line (`--json`, for a program that drives the measuring)
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -36,7 +36,7 @@ KEYWORDS = ("point", "photo", "end", "control", "gnss", "remeasure", "remove", "
 HELP = __doc__.split("\n\n")[1]
 
 
-def _numbers(fields: list[str], names: list[str], optional: list[str] = (),
+def _numbers(fields: list[str], names: list[str], optional: Sequence[str] = (),
              allow_missing: bool = False) -> list[float]:
     if not len(names) <= len(fields) <= len(names) + len(optional):
         want = " ".join(names) + "".join(f" [{o}]" for o in optional)

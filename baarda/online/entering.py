@@ -101,8 +101,8 @@ def leaving(m: Measurements) -> None:
     while changed:
         changed = False
         for j in np.flatnonzero(m.point_in):
-            rays = [r for r in m.live_rays(j) if m.photo_in[m.im_photo[r]]]
-            if not (len(rays) >= 2 or (rays and m.full_control(j))):
+            rays = [r for r in m.live_rays(int(j)) if m.photo_in[m.im_photo[r]]]
+            if not (len(rays) >= 2 or (rays and m.full_control(int(j)))):
                 m.point_in[j] = False
                 changed = True
         for i in np.flatnonzero(m.photo_in):

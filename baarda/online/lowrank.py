@@ -122,7 +122,7 @@ class LowRank:
         self.e = np.zeros(0)
         self.b = np.zeros((0, 0))
         self.rows: list[Rows] = []
-        self._sol = None
+        self._sol: Solution | None = None
 
     # ------------------------------------------------------------ storage
     def _grow(self, r: int, ny: int) -> None:

@@ -79,7 +79,8 @@ class Measurements:
         self.fresh_rows: set[int] = set()
         self.fresh_points: set[int] = set()
         self.fresh_photos: set[int] = set()
-        self._arrays = None  # (photo_eo, point_xyz, tie) as arrays, until something changes
+        # (photo_eo, point_xyz, tie) as arrays, until something changes
+        self._arrays: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         ph = block.photos
         for i, pid in enumerate(ph.ids):
             self.photo(pid, int(ph.camera[i]), ph.strip[i], ph.eo[i])

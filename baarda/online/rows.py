@@ -141,8 +141,10 @@ def factor_rows(problem: BundleProblem, factor: SchurFactor, flat: np.ndarray) -
     if len(x):
         xr, xc = np.divmod(x, lay.kx)
         frame[ext] = s.x_frame[xr]
+        assert lin.jxf is not None
         jf[ext] = lin.jxf[xr, xc]
         if ng:
+            assert lin.jxg is not None
             jg[ext] = lin.jxg[xr, xc]
     none = np.full((k, KY), -1, np.int64)
     return Rows(frame, jf, point, jp, jg, none, np.zeros((k, KY)), np.zeros(k), np.zeros(k))

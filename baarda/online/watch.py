@@ -161,6 +161,7 @@ class Watch:
             sleep(interval)
 
     def _read(self, snap: Snapshot) -> Block | None:
+        assert self.read is not None  # set by __post_init__
         try:
             block = self.read(snap.path)
         except (ProjectError, OSError, ValueError, UnicodeDecodeError) as e:
@@ -188,6 +189,7 @@ class Watch:
             if callable(self.tests):
                 self.tests = self.tests(block.settings)
             try:
+                assert not callable(self.tests)  # resolved above
                 ob = OnlineBundle(block, self.tests, max_rows=self.max_rows)
             except ValueError as e:
                 raise ProjectError(name, str(e)) from None
@@ -240,6 +242,7 @@ class Watch:
         resected, when fewer than three are common)."""
         if not fresh:
             return {}
+        assert self.online is not None  # a snapshot was taken in
         eo_now, xyz_now = self.online.estimates()
         m = self.online.m
         src, dst = [], []
@@ -254,7 +257,7 @@ class Watch:
                     np.isfinite(block.points.xyz[j]).all():
                 src.append(block.points.xyz[j])
                 dst.append(xyz_now[u])
-        out = {}
+        out: dict[str, np.ndarray | None] = {}
         given = {pid: block.photos.eo[i] for i, pid in enumerate(block.photos.ids)}
         if len(src) < 3:
             return {p: None for p in fresh}

@@ -96,7 +96,7 @@ def survey_accuracy(sigma: np.ndarray) -> Survey:
     s = np.asarray(sigma, float).reshape(-1, 3)
     rms = [float(np.sqrt(np.mean(s[:, k] ** 2))) if len(s) and np.isfinite(s[:, k]).all()
            else None for k in range(3)]
-    return Survey(*rms, int((~np.isfinite(s[:, :2]).all(axis=1)).sum()),
+    return Survey(rms[0], rms[1], rms[2], int((~np.isfinite(s[:, :2]).all(axis=1)).sum()),
                   int((~np.isfinite(s[:, 2])).sum()))
 
 

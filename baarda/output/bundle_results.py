@@ -69,6 +69,7 @@ def tables_in_crs(result: BundleResult) -> tuple[pd.DataFrame, pd.DataFrame]:
     frame = result.block.frame
     ph = photos_table(result)
     co = result.coordinates
+    assert frame is not None  # a block adjusted in a local frame
     eo = frame.eo_from_local(co.eo)
     unit = result.block.settings.angle_unit
     ang = rad_to_angle(eo[:, 3:], unit)
@@ -123,7 +124,7 @@ def accuracy_of(result: BundleResult, points: pd.DataFrame) -> Statement:
     return statement(miss, datum, survey, cov)
 
 
-def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult,
+def write_results(out: str | Path | RunFolder, result: Assessment[BundleResult] | BundleResult,
                   parquet: bool = False) -> list[Path]:
     """Write the result folder of a bundle adjustment (output/results.py) with photos.csv
     and points.csv, each file atomically; returns the paths.  A BundleResult without its
@@ -133,7 +134,7 @@ def write_results(out: str | Path | RunFolder, result: Assessment | BundleResult
     A block adjusted in a local frame of its CRS (block.frame) gets photos.csv and points.csv
     in the CRS, and the local tables as photos_local.csv and points_local.csv."""
     qc = result if isinstance(result, Assessment) else None
-    res: BundleResult = result.adjustment if qc is not None else result
+    res: BundleResult = result.adjustment if isinstance(result, Assessment) else result
     blk = res.block
     cam = res.cameras  # as adjusted (self-calibration) or as given
     if qc is not None:

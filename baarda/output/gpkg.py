@@ -23,10 +23,13 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
 from baarda.block.rotation import rotation_matrix
+from baarda.bundle.bundle_model import BundleModel
+from baarda.bundle.bundle_result import BundleResult
 from baarda.output.bundle_results import accuracy_of, photos_table, points_table, tables_in_crs
 from baarda.output.gpkg_metadata import write_quality_metadata
 from baarda.quality.assessment import Assessment
@@ -34,7 +37,8 @@ from baarda.quality.assessment import Assessment
 EXAGGERATION = 1000.0  # residual vectors on the ground, times this
 
 
-def write_gpkg(path: str | Path, qc: Assessment, exaggeration: float = EXAGGERATION) -> Path:
+def write_gpkg(path: str | Path, qc: Assessment[BundleResult],
+               exaggeration: float = EXAGGERATION) -> Path:
     """Write the three layers and the accuracy metadata (module docstring) into the
     GeoPackage `path`."""
     import pyogrio.raw as ogr
@@ -74,12 +78,12 @@ def _column(a: np.ndarray) -> np.ndarray:
     return a
 
 
-def _residual_vectors(qc: Assessment, pt, exaggeration: float):
+def _residual_vectors(qc: Assessment[BundleResult], pt, exaggeration: float):
     """Lines from each image point's ground point along its residual on the ground."""
     import pandas as pd
     import shapely
 
-    res, m, q = qc.adjustment, qc.model, qc.quality
+    res, m, q = qc.adjustment, cast(BundleModel, qc.model), qc.quality
     block = res.block
     img = np.flatnonzero(m.image_row >= 0)
     rows = m.image_row[img]

@@ -130,7 +130,8 @@ def write_quality_metadata(path: str | Path, acc: Statement, layer: str = "point
             cur = con.execute("INSERT INTO gpkg_metadata (md_scope, md_standard_uri, "
                               "mime_type, metadata) VALUES ('dataset', ?, 'text/xml', ?)",
                               (STANDARD_URI, quality_xml(acc)))
-            md = int(cur.lastrowid)
+            md = cur.lastrowid
+            assert md is not None  # the row just inserted
             con.execute("INSERT INTO gpkg_metadata_reference (reference_scope, table_name, "
                         "md_file_id) VALUES ('geopackage', NULL, ?)", (md,))
             con.execute("INSERT INTO gpkg_metadata_reference (reference_scope, table_name, "

@@ -101,12 +101,12 @@ def _write_project(block: Block, folder: Path) -> None:
     has_model = im.model is not None
     xy = im.xy_mm.tolist()
     per_axis = im.sigma_xy_mm is not None
-    sig = ([f"{sx * 1e3:.6g},{sy * 1e3:.6g}" for sx, sy in im.sigma_xy_mm.tolist()] if per_axis
-           else [f"{s * 1e3:.6g}" for s in im.sigma_mm.tolist()])
+    sig = ([f"{sx * 1e3:.6g},{sy * 1e3:.6g}" for sx, sy in im.sigma_xy_mm.tolist()]
+           if im.sigma_xy_mm is not None else [f"{s * 1e3:.6g}" for s in im.sigma_mm.tolist()])
     head = "photo,point,x_mm,y_mm," + ("sigma_x_um,sigma_y_um" if per_axis else "sigma_um")
     rows = [head + (",model" if has_model else "")] + [
         f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{xy[i][0]!r},{xy[i][1]!r},{sig[i]}"
-        + (f",{im.model[i]}" if has_model else "")
+        + (f",{im.model[i]}" if im.model is not None else "")
         for i in range(len(im))]
     write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
     write_ground_points(folder / "ground_points.csv", pts.ids, pts.xyz, pts.sigma, pts.role)
@@ -128,7 +128,8 @@ def _write_gnss_imu(block: Block, folder: Path) -> None:
         rows = ["photo,X,Y,Z,sigma_X,sigma_Y,sigma_Z" + (",time" if t else "")] + [
             ",".join([ids[g.photo[i]]] + [format_number(v) for v in g.xyz[i]]
                      + [repr(float(v)) for v in g.sigma[i]]
-                     + ([repr(float(g.time[i]))] if t else [])) for i in range(len(g))]
+                     + ([repr(float(g.time[i]))] if g.time is not None else []))
+            for i in range(len(g))]
         write_text(folder / "gnss.csv", "\n".join(rows) + "\n")
     m = block.imu
     if len(m):

@@ -59,7 +59,7 @@ def input_fingerprint(source: str | Path | None) -> dict | None:
     for f in files:
         h.update(f.relative_to(root).as_posix().encode() + b"\0")
         with open(f, "rb") as fh:
-            for chunk in iter(lambda fh=fh: fh.read(1 << 20), b""):
+            for chunk in iter(lambda fh=fh: fh.read(1 << 20), b""):  # type: ignore[misc]
                 h.update(chunk)
                 size += len(chunk)
     return {"path": str(source), "files": len(files), "bytes": size, "sha256": h.hexdigest()}

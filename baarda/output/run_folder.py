@@ -42,7 +42,7 @@ from baarda.io.run_manifest import MANIFEST, file_record
 try:
     import fcntl
 except ImportError:  # pragma: no cover - not POSIX: leftovers are left, never taken away
-    fcntl = None
+    fcntl = None  # type: ignore[assignment]
 
 MARKERS = (MANIFEST, "summary.json")  # a folder with one of them was written by baarda
 
@@ -157,7 +157,7 @@ def remove_leftovers(final: Path) -> list[str]:
     """Remove what runs into `final` that were killed left beside it (module docstring); a
     sentence for each.  When `final` is missing and an earlier run was moved aside
     (.old), the newest such run is moved back first."""
-    said = []
+    said: list[str] = []
     try:
         found = sorted((m.group("run"), m.group("kind"), p) for p in final.parent.iterdir()
                        if (m := _LEFTOVER.fullmatch(p.name)) and m.group("name") == final.name

@@ -11,11 +11,13 @@ sqrt(qvv) is given in Gruen's unit-weight sense: sqrt(qvv / sigma^2) = sqrt(r).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import pandas as pd
 
 from baarda.block.photo_block import Block
+from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_quality import assess
 from baarda.bundle.bundle_result import BundleResult
@@ -38,7 +40,7 @@ class PlanResult:
 
     block: Block
     adjustment: BundleResult
-    qc: Assessment
+    qc: Assessment[BundleResult]
     classes: RowClasses
     observations: pd.DataFrame  # one row per observation component
     points: pd.DataFrame  # expected precision per ground point
@@ -103,9 +105,9 @@ def plan(flight: FlightPlan | Block, layout: ControlLayout | None = None,
     return analyse_design(design_from_project(flight, start), tests)
 
 
-def observation_table(qc: Assessment, rc: RowClasses) -> pd.DataFrame:
+def observation_table(qc: Assessment[BundleResult], rc: RowClasses) -> pd.DataFrame:
     """Per component: class, rays, r, sqrt(qvv), MDB (µm / m), external reliability (m)."""
-    m, q = qc.model, qc.quality
+    m, q = cast(BundleModel, qc.model), qc.quality
     blk = qc.adjustment.block
     img = m.image_row >= 0
     rows = np.where(img, m.image_row, 0)
@@ -144,9 +146,9 @@ def point_table(result: BundleResult) -> pd.DataFrame:
         "sigma_X": std[:, 0], "sigma_Y": std[:, 1], "sigma_Z": std[:, 2]})
 
 
-def photo_table(block: Block, qc: Assessment, rc: RowClasses) -> pd.DataFrame:
+def photo_table(block: Block, qc: Assessment[BundleResult], rc: RowClasses) -> pd.DataFrame:
     """Per photo: measurements, distinct points, half coverage, weakest sqrt(qvv)."""
-    m, q = qc.model, qc.quality
+    m, q = cast(BundleModel, qc.model), qc.quality
     n = len(block.photos)
     im = block.image
     img = m.image_row >= 0

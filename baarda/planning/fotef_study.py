@@ -11,6 +11,8 @@ distances between points of adjacent models, absolute and as a fraction of nabla
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -31,7 +33,7 @@ FOTEF = {"control (1+T, 2+T)": 0.70, "tie points": 0.30, "distances": 0.50}
 def study_block(strips: int, models: int, mode: str = "2d", seed: int = 0,
                 **plan) -> pd.DataFrame:
     """One row per observation component with FOTEF's columns 3-12 (lengths in cm)."""
-    args = {"strips": strips, "models_per_strip": models, "image_scale": 5000.0,
+    args: dict[str, Any] = {"strips": strips, "models_per_strip": models, "image_scale": 5000.0,
             "sigma_model_um": (10.0, 10.0), "sigma_control_m": (0.05, 0.05, 0.05),
             "noise": False, "seed": seed, "kappa_rad": 0.0, "height_chains": 1,
             "layout": "fotef"}

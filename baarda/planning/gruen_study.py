@@ -13,6 +13,7 @@ with twin control.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -35,9 +36,10 @@ TOLERANCE = 0.05  # acceptance: class means within 0.05 of Table 2
 
 def study_plan(photos: int, pattern: int, **kw) -> FlightPlan:
     """Gruen's flight plan: photos x photos, 60/60 overlap, c = 150 mm, stereo mode."""
-    args = dict(strips=photos, photos_per_strip=photos, forward_overlap=0.6, side_overlap=0.6,
-                focal_mm=150.0, format_mm=230.0, image_scale=10_000.0, pattern=pattern,
-                stereo=True, sigma_image_um=5.0, name=f"gruen-{photos}{pattern}")
+    args: dict[str, Any] = dict(
+        strips=photos, photos_per_strip=photos, forward_overlap=0.6, side_overlap=0.6,
+        focal_mm=150.0, format_mm=230.0, image_scale=10_000.0, pattern=pattern,
+        stereo=True, sigma_image_um=5.0, name=f"gruen-{photos}{pattern}")
     args.update(kw)
     return FlightPlan(**args)
 
@@ -80,7 +82,7 @@ class Study:
         rows = []
         for ctl in ("single", "twin"):
             for cls, comp in GRUEN_ROWS:
-                r = {"class": cls, "component": comp, "control": ctl}
+                r: dict[str, Any] = {"class": cls, "component": comp, "control": ctl}
                 for b in STUDY_BLOCKS:
                     r[f"b{b}"] = bm.get((b, ctl, cls, comp), np.nan)
                 r["m3x3"] = np.nanmean([r["b43"], r["b73"]])

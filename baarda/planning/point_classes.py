@@ -68,7 +68,7 @@ def class_name(rays: int, inner: bool, control: bool) -> str:
 def control_points(block: Block, partial_as_control: bool = True) -> np.ndarray:
     """(k,) bool: points that count as control (full XYZ; or any coordinate)."""
     ctl = block.points.controlled
-    return ctl.any(axis=1) if partial_as_control else ctl.all(axis=1)
+    return np.any(ctl, axis=1) if partial_as_control else np.all(ctl, axis=1)
 
 
 def classify(block: Block, partial_as_control: bool = True) -> RowClasses:

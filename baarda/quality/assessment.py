@@ -14,11 +14,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Generic, Protocol, TypeVar
 
 import numpy as np
 import pandas as pd
 
 from baarda.quality.adjusted_model import AdjustedModel
+from baarda.quality.distributions import GlobalTest
 from baarda.quality.hypotheses import (
     HypothesisTest,
     block_tests,
@@ -32,11 +34,23 @@ from baarda.quality.statistics import QualityResult
 from baarda.schema import OBSERVATION_COLUMNS
 from baarda.sections import Section, render, section
 
+
+class AdjustmentResult(Protocol):
+    """What an Assessment needs of a method's result (BundleResult, ModelResult,
+    Orientation, ...): its summary.json fields and its text sections."""
+
+    def to_dict(self) -> dict: ...
+
+    def sections(self) -> list[Section]: ...
+
+
+A = TypeVar("A", bound=AdjustmentResult)
+
 # the columns of observations.csv, in this order, for every method (docs/format.md)
 COLUMNS = OBSERVATION_COLUMNS  # observations.csv (baarda/schema.py)
 
 
-def sigma0_interval(gt) -> tuple[float, float]:
+def sigma0_interval(gt: GlobalTest) -> tuple[float, float]:
     """The two-sided confidence interval (level 1 - alpha) of sigma0 (a posteriori, in
     units of the a-priori sigma0): sqrt(omega / chi2 quantiles)."""
     return math.sqrt(gt.statistic / gt.upper), math.sqrt(gt.statistic / gt.lower)
@@ -125,6 +139,7 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
             "lambda_bar": q.lambda_bar, "external_max": q.external_max,
             "external_point": q.external_point, "point_test": point_t, "flagged": q.flagged})
         if q.rho_max is not None:  # separability (quality/separability.py)
+            assert q.rho_partner is not None and q.msb is not None  # computed with rho_max
             cols.update({"rho_max": q.rho_max, "msb": q.msb * scale,
                          "rho_partner": partner_labels(m, q.rho_partner)})
     cols.setdefault("rho_partner", empty)
@@ -142,7 +157,7 @@ def partner_labels(model: AdjustedModel, partner: np.ndarray) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class Assessment:
+class Assessment(Generic[A]):
     """An adjustment with the statistics of every observation (and the snooping log).
 
     adjustment: the method's result (BundleResult, ModelResult): arrays, counts and its own
@@ -150,7 +165,7 @@ class Assessment:
     "height").
     """
 
-    adjustment: object
+    adjustment: A
     model: AdjustedModel
     quality: QualityResult
     run: SnoopingRun | None = None

@@ -166,7 +166,7 @@ class SnoopingRun:
         return lines
 
 
-def label(model: AdjustedModel, i: int) -> str:
+def label(model: AdjustedModel, i: int | np.integer) -> str:
     parts, kind = [str(model.kind[i])], kind_of(model.kind[i])
     if model.frame[i]:
         parts.append(f"photo {model.frame[i]}" if kind.on_photo else str(model.frame[i]))
@@ -253,7 +253,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             i = int(cand[np.argmax(mag[cand])])
             rows = [i]
             if by_group and model.group[i] >= 0:
-                rows = list(np.flatnonzero(model.group == model.group[i]))
+                rows = [int(r) for r in np.flatnonzero(model.group == model.group[i])]
             found, corr = inseparable_partners(model, q, i, active & ~needed)
             keep = ~np.isin(found, rows)
             part = [int(j) for j in found[keep]]
@@ -292,6 +292,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             say(f"snooping {it}: sigma0 {q.sigma0_hat:.3f}, reject {step.labels[0]}"
                 f"{' (+ group)' if len(rows) > 1 else ''}: {statistic} = {stat[i]:.2f}"
                 + (f"; {step.identification()}" if part else ""))
+            assert new is not None  # refitted (no `why`)
             active, model = trial, new
             break
         else:
@@ -303,7 +304,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
             i = int(back[np.argmin(mag[back])])
             rows = [i]
             if by_group and model.group[i] >= 0:
-                rows = [r for r in np.flatnonzero(model.group == model.group[i])
+                rows = [int(r) for r in np.flatnonzero(model.group == model.group[i])
                         if not active[r]]
                 if np.any(mag[rows] >= crit):
                     rows = [i]
@@ -319,6 +320,7 @@ def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS,
                 say(f"snooping {it}: {label(model, i)} not restored: {why}")
                 continue
             say(f"snooping {it}: restore {label(model, i)}: {statistic} = {stat[i]:.2f}")
+            assert new is not None  # refitted (no `why`)
             active, model = trial, new
     q = analyse(model, tests)
     stat = q.w if statistic == "w" else q.tau

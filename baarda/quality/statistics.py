@@ -24,6 +24,7 @@ import numpy as np
 from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.distributions import (
+    GlobalTest,
     b_method,
     global_test,
     tau_critical,
@@ -63,10 +64,10 @@ class QualityResult:
     beta0: float
     delta0: float
     b_method_alpha: float
-    global_test: object = None  # the B-method's (its alpha coupled to the w-test's power)
+    global_test: GlobalTest | None = None  # the B-method's (alpha coupled to the w-test's power)
     notes: list[str] = field(default_factory=list)
     alpha_global: float = TestOptions.alpha_global
-    headline_test: object = None  # the global test at the conventional level alpha_global
+    headline_test: GlobalTest | None = None  # the global test at the conventional alpha_global
     # separability (quality/separability.py); None when not computed (inside snooping)
     rho_max: np.ndarray | None = None  # (n,) largest |rho| with a tested neighbour, NaN
     rho_partner: np.ndarray | None = None  # (n,) that neighbour's index, -1: none

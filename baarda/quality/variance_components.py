@@ -42,14 +42,19 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from baarda.errors import GeometryError
 from baarda.kinds import BY_AXIS
 from baarda.options import DEFAULT_TESTS, TestOptions
+from baarda.quality.adjusted_model import AdjustedModel
 from baarda.quality.special_distributions import chi2_cdf
 from baarda.quality.statistics import analyse, cofactors
+
+if TYPE_CHECKING:
+    from baarda.quality.assessment import Assessment
 
 ALPHA = 0.05
 # an iteration's factor f is the relative change of its group's cumulative factor, and
@@ -224,7 +229,7 @@ class VarianceEstimation:
     estimated group, the log of the iterations and the (q_vv, r) of the model
     (quality.statistics.cofactors, from the last estimate)."""
 
-    model: object
+    model: AdjustedModel
     factors: np.ndarray
     first: list[VarianceComponent]
     last: list[VarianceComponent]
@@ -359,7 +364,7 @@ def challenge(model, plan: dict | None = None, tests: TestOptions = DEFAULT_TEST
     return None
 
 
-def alternate(model, snoop: Callable[[np.ndarray], object], *, alpha: float = ALPHA,
+def alternate(model, snoop: Callable[[np.ndarray], Assessment], *, alpha: float = ALPHA,
               tests: TestOptions = DEFAULT_TESTS, statistic: str = "w",
               max_rounds: int = 10,
               progress: Callable[[str], None] | None = None):
@@ -389,6 +394,7 @@ def alternate(model, snoop: Callable[[np.ndarray], object], *, alpha: float = AL
             now[i] = False
         active = now
     else:
+        assert qc is not None  # max_rounds >= 1
         qc.quality.notes.append(
             f"variance components and data snooping did not settle in {max_rounds} rounds: "
             "the last snooping and its estimate are reported")

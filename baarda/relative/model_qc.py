@@ -20,7 +20,7 @@ from baarda.relative.orientation import Orientation
 
 
 @dataclass(frozen=True)
-class ModelQC(Assessment):
+class ModelQC(Assessment[Orientation]):
     """QC of one model: the Assessment of its orientation (arrays aligned with
     Orientation.residuals: y of all points, x of ties) with the full Qvv P, the critical
     error transfers and the point to remeasure."""

@@ -154,6 +154,7 @@ class Interpreter:
         if self.collecting is None:
             raise LineError("'end' without 'model'", "end")
         c, self.collecting = self.collecting, None
+        assert self.session is not None  # created by model
         self._show(self.session.add_model(c["name"], c["points"], c["ties"]))
 
     def _do_remeasure(self, f: list[str]) -> None:
@@ -161,12 +162,14 @@ class Interpreter:
             raise LineError("usage: remeasure ID x' y' x'' y''")
         self._need()
         self.say(f"remeasured point {f[1]}")
+        assert self.session is not None  # _need
         self._show(self.session.remeasure(f[1], *_numbers(f[2:], MEAS)))
 
     def _do_drop(self, f: list[str]) -> None:
         if len(f) != 2:
             raise LineError("usage: drop ID")
         self._need()
+        assert self.session is not None  # _need
         try:
             qc = self.session.drop(f[1])
         except KeyError as e:
@@ -180,12 +183,14 @@ class Interpreter:
 
     def _do_discard(self, f: list[str]) -> None:
         self._need()
+        assert self.session is not None and self.session.current is not None  # _need
         name = self.session.current.orientation.name
         self.session.discard()
         self.say(f"model {name} discarded")
 
     def _do_matrix(self, f: list[str]) -> None:
         self._need()
+        assert self.session is not None  # _need
         self.say(matrix_text(self.session.current))
 
     def _do_coords(self, f: list[str]) -> None:
@@ -202,6 +207,7 @@ class Interpreter:
             raise LineError("no model is on the instrument", "command")
 
     def _accept(self) -> None:
+        assert self.session is not None  # _need
         acc = self.session.accept()
         self.say(f"model {acc.name} accepted: {len(self.session.coordinates)} points in the "
                  "strip")
@@ -230,7 +236,7 @@ def coordinates_text(session: OnlineSession | None) -> str:
 
 
 def coordinates_csv(session: OnlineSession) -> str:
-    model_of = {}
+    model_of: dict[str, str] = {}
     for m in session.accepted:
         for p in m.orientation.points:
             model_of.setdefault(p, m.name)

@@ -79,7 +79,7 @@ def parallax_sigma(component: np.ndarray, sigma_x: float, qyy: float,
                    qtie: float) -> np.ndarray:
     """The a-priori sigma (µm) of each observation: sqrt(q_yy / q_xx) sigma_x for a y''
     (component "y"), sqrt(q_tie) sigma_x for the x'' of a tie point ("x")."""
-    return np.where(np.asarray(component) == "y", np.sqrt(qyy), np.sqrt(qtie)) * sigma_x
+    return np.where(np.asarray(component) == "y", np.sqrt(qyy), np.sqrt(qtie)) * sigma_x  # type: ignore[operator]  # numpy stubs
 
 
 def residual_function(g: np.ndarray, setup: ModelSetup, left_xy: np.ndarray,

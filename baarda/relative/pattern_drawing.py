@@ -17,7 +17,8 @@ def _r(v: float) -> str:
 
 def _obs_r(d: PatternDesign) -> tuple[dict[str, float], dict[str, float]]:
     o = d.orientation
-    ry, rx = {}, {}
+    ry: dict[str, float] = {}
+    rx: dict[str, float] = {}
     for i, r in enumerate(d.redundancy_number):
         (ry if o.obs_component[i] == "y" else rx)[o.points[o.obs_point[i]]] = float(r)
     return ry, rx

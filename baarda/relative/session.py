@@ -143,6 +143,7 @@ class OnlineSession:
     def accept(self) -> AcceptedModel:
         """Accept the current model: its points join the strip coordinates."""
         p = self._need()
+        assert p.qc is not None  # oriented by add_model
         acc = AcceptedModel(p.name, p.qc)
         self.accepted.append(acc)
         for pid, xyz in acc.coordinates().items():
@@ -162,6 +163,7 @@ class OnlineSession:
 
     def _orient(self) -> ModelQC:
         p = self._pending
+        assert p is not None  # add_model or remeasure set it
         ids = list(p.points)
         arr = np.array([p.points[i] for i in ids], float).reshape(-1, 4)
         left_xy, right_xy = arr[:, :2], arr[:, 2:]

@@ -61,6 +61,7 @@ def histogram(values: np.ndarray, labels: np.ndarray | None = None, width: float
     lab = (labels if hasattr(labels, "rows") else np.asarray(labels, dtype=object)
            if labels is not None else np.array([str(i + 1) for i in range(len(v))],
                                                dtype=object))
+    assert lab is not None
     keep = np.isfinite(v)
     v, lab = v[keep], lab[keep]
     centers = classes(width, lo, hi)

@@ -209,8 +209,9 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     notes = "".join(f'<p class="bad">{esc(w)}</p>' if "No check points" in w or
                     "Only" in w or "none was applied" in w else f"<p>{esc(w)}</p>"
                     for w in acc.warnings)
+    misses = acc.misses if acc.misses is not None else pd.DataFrame()
     pts = ("<h3>Check points (adjusted - given), largest miss first</h3>"
-           + worst_table(acc.misses, acc.misses["d"], HTML_ROWS, "check_points",
+           + worst_table(misses, misses["d"], HTML_ROWS, "check_points",
                          "check points", {c: ".3f" for c in ("dX", "dY", "dZ", "d")}
                          | {"sigma": ".3f", "ratio": ".1f"}, text_cols=("point",),
                          attrs='id="check-points"')) if acc.n else ""

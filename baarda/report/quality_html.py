@@ -25,6 +25,7 @@ HTML_ROWS = 20  # rows of a long table shown (the worst; the whole table linked 
 def _table(p: Part, attrs: str = "") -> str:
     """A part's table: all rows, or the HTML_ROWS worst (p.order) with the whole as CSV."""
     t = p.full_in_html if p.full_in_html is not None else p.table
+    assert t is not None and p.table is not None  # a table part
     text = tuple(c for c in t.columns if t[c].dtype == object)
     name = re.sub(r"[^a-z0-9]+", "_", p.title.lower()).strip("_")
     if p.order is not None and len(t) > HTML_ROWS:
@@ -75,6 +76,7 @@ def parts_html(parts: list[Part], figures: bool = True) -> str:
             ident = re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
             out.append(title + _table(p, f'id="q-{ident}"' if figures else ""))
         elif p.kind == "figure" and figures:
+            assert p.figure is not None  # a figure part
             out.append(str(figure(Plot(re.sub(r"\W+", "-", p.title), p.title,
                                        to_png(p.figure()), p.text))))
     return "".join(out)

@@ -129,6 +129,7 @@ def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> l
 def _worst(p: Part) -> tuple[pd.DataFrame, str]:
     """The rows of a part's table the PDF shows, and the words that say which."""
     t = p.table
+    assert t is not None  # a table part
     if len(t) <= PDF_ROWS:
         return t, ""
     if p.order is not None:
@@ -186,6 +187,7 @@ def _front(res: Results, st: dict) -> list:
 def _figure(p: Part, st: dict) -> list:
     import io
 
+    assert p.figure is not None  # a figure part
     fig = p.figure()
     w, h = fig.get_size_inches()
     png = to_png(fig)

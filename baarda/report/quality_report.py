@@ -13,6 +13,7 @@ but RMS values and per-group summaries of the observations table.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import matplotlib
@@ -39,9 +40,10 @@ class Part:
     text: str = ""
     table: pd.DataFrame | None = None
     fmt: dict | None = None
-    figure: object = None  # a function () -> matplotlib Figure
+    figure: Callable[[], plt.Figure] | None = None  # () -> a matplotlib Figure
     full_in_html: pd.DataFrame | None = None  # the whole table where the PDF shows a part
-    order: object = None  # per row of the table: larger is worse (long tables: the worst)
+    # per row of the table: larger is worse (long tables: the worst)
+    order: np.ndarray | pd.Series | None = None
     rows_are: str = "rows"  # what a row is, e.g. "photos"
 
 

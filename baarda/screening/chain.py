@@ -41,7 +41,7 @@ def _one_ray(block: Block, keep: np.ndarray, log: ScreeningLog,
     """Remove the last ray of points that screening left with one (it cannot be used)."""
     im, pts = block.image, block.points
     rays = np.bincount(im.point[keep], minlength=len(pts))
-    full = pts.controlled.all(axis=1)
+    full = np.all(pts.controlled, axis=1)
     full[list(control_removed)] = False
     orphans = (rays == 1) & ~full & (np.bincount(im.point, minlength=len(pts)) > 1)
     for row in np.flatnonzero(keep & orphans[im.point]):

@@ -25,6 +25,7 @@ to the bundle adjustment.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -191,7 +192,7 @@ def check_strip(block: Block, strip: Strip, *,
             continue
         score = (int(np.sum(run.active)), bool(gt is None or gt.passed), -q.vtpv)
         if best is None or score > best[0]:
-            best = (score, run, run.model.x)
+            best = (score, run, cast(SmallModel, run.model).x)
     if best is None:
         return None
     _, run, params = best
@@ -201,7 +202,7 @@ def check_strip(block: Block, strip: Strip, *,
         act = run.active.copy()
         act[comps] = True
         try:
-            i, w, crit = largest_test(run.model.refit(act), comps, tests)
+            i, w, crit = largest_test(cast(SmallModel, run.model.refit(act)), comps, tests)
         except GeometryError:
             continue
         if not abs(w) > crit:  # rejected while other points were out: not an error of its own
@@ -211,12 +212,13 @@ def check_strip(block: Block, strip: Strip, *,
         # that the similarity cannot follow make it exceed 1: they are not errors of a point)
         others = [j for j in range(len(ctrl)) if j != g and sim.comp[j].all()
                   and run.active[sim.obs.group == j].all()]
-        base = _fit(run.model, run.active, tests)
+        small = cast(SmallModel, run.model)
+        base = _fit(small, run.active, tests)
         if base is None:
             continue
         factor = max(1.0, base.sigma0_hat) if base.redundancy > 0 else 1.0
         alt = [ctrl[j] for j in others
-               if _fits(_fit(run.model, act & (sim.obs.group != j), tests), factor)]
+               if _fits(_fit(small, act & (sim.obs.group != j), tests), factor)]
         if _fits(base, factor) and not alt:
             rejected.append(ctrl[g])
         else:
@@ -258,7 +260,7 @@ def screen_control(block: Block, strips: list[Strip], log: ScreeningLog, *,
                      "in the strip: control not checked")
             continue
         checks.append(chk)
-        model = chk.run.model
+        model = cast(SmallModel, chk.run.model)
         ctx = f"strip {strip.label} control ({len(chk.points)} points, sigma0 {chk.sigma0:.2f})"
         for p, w, crit, alt in chk.unlocated:
             why = (f"the control also fits without point(s) {', '.join(ids[a] for a in alt)}"

@@ -73,6 +73,9 @@ class SmallModel(DenseModel):
     solution; `refit(active, factors)` calls `problem.fit` from it.
     """
 
+    func: Callable[[np.ndarray], np.ndarray]  # set by Intersection.fit (tests)
+    unknowns: np.ndarray
+
     def __init__(self, *args, problem=None, x=None, undetermined: np.ndarray | None = None,
                  **kwargs):
         super().__init__(*args, **kwargs)

@@ -190,7 +190,7 @@ def fit_pair(block: Block, a: int, b: int, rows_a: np.ndarray, rows_b: np.ndarra
     q = analyse(first, tests)
     stat = q.w if statistic == "w" else q.tau
     crit = q.k_w if statistic == "w" else q.k_tau
-    tested = q.controlled.reshape(k, 2).any(axis=1)
+    tested = np.any(q.controlled.reshape(k, 2), axis=1)
     value = np.nanmax(np.abs(np.where(q.controlled, stat, np.nan)).reshape(k, 2), axis=1,
                       initial=0.0)
     try:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import replace
+from typing import cast
 
 import numpy as np
 
@@ -74,7 +75,7 @@ def snoop_separable(block: Block, log: ScreeningLog | None = None, *,
     current = block
     for npass in range(1, max_passes + 1):
         qc = snoop(BundleProblem(current), tests, statistic=statistic)
-        m, q = qc.model, qc.quality
+        m, q = cast(BundleModel, qc.model), qc.quality
         rejected = np.flatnonzero(~q.active)
         if not len(rejected) or npass == max_passes:
             if len(rejected):

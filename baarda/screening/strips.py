@@ -24,6 +24,7 @@ and their cofactors for stage 3 come from the strip adjustment.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -33,7 +34,7 @@ from baarda.options import DEFAULT_TESTS, TestOptions
 from baarda.quality.iterative import SnoopingRun, iterative_snooping
 from baarda.quality.iterative import label as obs_label
 from baarda.quality.statistics import w_correlation
-from baarda.screening.fit import largest_test, separable
+from baarda.screening.fit import SmallModel, largest_test, separable
 from baarda.screening.intersection import Intersection
 from baarda.screening.log import Entry, ScreeningLog
 
@@ -104,7 +105,7 @@ def _examine(prob: Intersection, run: SnoopingRun, tests: TestOptions,
         comps = np.flatnonzero(obs.group == g)
         act = run.active.copy()
         act[comps] = True
-        model = run.model.refit(act)
+        model = cast(SmallModel, run.model.refit(act))
         test = comps[model.active[comps]]
         point = int(prob.points[prob.comp_point[comps[0]]])
         if len(test) == 0:
@@ -175,7 +176,7 @@ def _step(block: Block, strip: Strip, k: int, keep: np.ndarray, log: ScreeningLo
                       ",".join(block.photos.ids[im.photo[r]] for r in rays), action="suspended",
                       statistic="w", value=d.w, critical=d.critical,
                       reason=f"rejected, but {what}: formed again with all its rays later"))
-    model = run.model
+    model = cast(SmallModel, run.model)
     eo_all, xyz = model.x
     strip.eo[pk] = eo_all[pk]
     qxx = np.diag(model.qxx)
@@ -249,7 +250,7 @@ def _strip_adjustment(block: Block, strip: Strip, keep: np.ndarray, log: Screeni
                           action="kept", statistic="w", value=d.w, critical=d.critical,
                           reason=f"rejected on photo {block.photos.ids[im.photo[row]]}, but "
                                  f"{why}: left to the bundle adjustment"))
-    model = run.model
+    model = cast(SmallModel, run.model)
     eo, xyz = model.x
     strip.eo[photos] = eo[photos]
     qxx = np.diag(model.qxx)

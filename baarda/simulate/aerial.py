@@ -206,7 +206,7 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
                          f"{sum(room.values())} observations of the kinds "
                          f"{', '.join(plan.blunder_kinds) or '(none)'} (at most one blunder "
                          "in each)")
-    used_obs = set()
+    used_obs: set[tuple[int | np.integer, str]] = set()
     for _ in range(plan.blunders):
         kind = rng.choice(kinds_img + kinds_ctl)
         if room[kind] == 0:  # every observation of this kind has one: the next kind
@@ -247,7 +247,7 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
     xyz_given = np.where((role == "tie")[:, None], np.nan, ctrl_given)
     photo_ids = [_photo_id(s_idx, p_idx, i) for i in range(n_ph)]
     settings = Settings(name=plan.name, angle_unit="gon", sigma_image_um=plan.sigma_image_um,
-                        sigma_control_m=tuple(plan.sigma_control_m))
+                        sigma_control_m=tuple(plan.sigma_control_m))  # type: ignore[arg-type]  # the plan's 3
     block = Block(
         settings,
         Cameras(["cam"], np.array([plan.focal_mm]), np.zeros((1, 2))),

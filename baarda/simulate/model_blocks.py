@@ -117,7 +117,7 @@ def _fotef_layout(plan: ModelPlan):
             else:
                 add(f"{i + 1}{c + 1:02d}2", x, y + dy, [i], c, (False, False))
                 add(f"{i + 1}{c + 1:02d}3", x, y - dy, [i - 1], c, (False, False))
-    members = [[] for _ in range(ns * nm)]
+    members: list[list[int]] = [[] for _ in range(ns * nm)]
     for p, mods in enumerate(models_of):
         for s, j in mods:
             members[s * nm + j].append(p)
@@ -141,7 +141,8 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
     k = 1000.0 / plan.image_scale  # mm per m
     n_pts = len(names)
     pc_ids = [f"PC{p}" for p in photo_ids]
-    models, strips, om, op, ox, params = [], [], [], [], [], []
+    models: list[str] = []
+    strips, om, op, ox, params = [], [], [], [], []
     for s in range(plan.strips):
         for j in range(plan.models_per_strip):
             a = s * (plan.models_per_strip + 1) + j
@@ -177,8 +178,8 @@ def simulate_models(plan: ModelPlan) -> tuple[ModelBlock, dict]:
     role = np.where(np.isfinite(sig_c).any(axis=1), "control", "tie").astype(object)
     sig_mm = np.array([plan.sigma_model_um[0]] * 2 + [plan.sigma_model_um[1]]) * 1e-3
     obs_sigma = np.tile(sig_mm, (len(om), 1))
-    settings = ModelSettings(name=plan.name, sigma_model_um=tuple(plan.sigma_model_um),
-                             sigma_control_m=tuple(plan.sigma_control_m))
+    settings = ModelSettings(name=plan.name, sigma_model_um=tuple(plan.sigma_model_um),  # type: ignore[arg-type]
+                             sigma_control_m=tuple(plan.sigma_control_m))  # type: ignore[arg-type]
     given = np.where((role != "tie")[:, None], xyz_all, np.nan)
     block = ModelBlock(settings, models, np.asarray(strips, dtype=object), ids, role, pc,
                        given.copy(), sig_c, om, op, ox.copy(), obs_sigma, source="simulate")

@@ -130,3 +130,16 @@ def test_remeasure_names_the_largest_w_among_the_rejected_and_the_changed():
     assert "REMEASURE POINT 002005 ON PHOTO 01004 (x: SIGF 4.23 > 3.29)" in a.text()
     assert replace(a, changed=a.changed[1:2]).remeasure()[0].photo == "01005"
     assert replace(a, tested=a.tested[1:], changed=a.changed[1:2]).remeasure() == []
+
+
+def test_a_control_point_before_any_image_point_is_answered(block):
+    """add_control on a block with no image point yet: an Answer that says why nothing is
+    adjusted (it returned None: `_start` has nothing to adjust)."""
+    empty = block.select_image(np.zeros(len(block.image), bool))
+    ob = OnlineBundle(empty)
+    assert ob.steps == 0 and not ob.started
+    tie = int(np.flatnonzero(~block.points.controlled.any(axis=1))[0])
+    ans = ob.add_control(block.points.ids[tie], [0.0, 0.0, 0.0], [0.1, 0.1, 0.1])
+    assert ans is not None and ans.step == 1 and ans.action == "add"
+    assert ans.note == "the block cannot be adjusted yet: nothing measured"
+    assert not ob.started
