@@ -12,7 +12,8 @@ Layout (whitespace separated, CRLF or LF):
             camera-position covariances (often blank) / N camera (as line 4) / N std devs
     blank line; control points "id X Y Z sX sY sZ"; blank line;
     object points "id X Y Z sX sY sZ"; blank line;
-    marked points "N id x y sx sy" [pixels]; blank line; features (ignored).
+    marked points "N id x y sx sy" [pixels]; blank line; features (ignored); blank line.
+    An export whose last line is not blank ends inside a section: refused as cut short.
 
 Read as DBAT's loadpm reads it (conversions stated in the notes of the block):
 
@@ -117,6 +118,9 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
     lines, notes = _lines(path, encoding)
     if len(lines) < 6 or not lines[0].strip().lower().startswith("bundle soln"):
         raise ProjectError(spath, "not a PhotoModeler export (first line 'Bundle Soln')", 1)
+    if lines[-1].strip():
+        raise ProjectError(spath, "the export ends inside a section (PhotoModeler ends each "
+                           "section with a blank line): the file is cut short", len(lines))
     head = _nums(lines[1], spath, 2, "tolerance line", at_least=2)
     def_std = _nums(lines[2], spath, 3, "default standard deviations", at_least=1)
     cam = np.array(_nums(lines[3], spath, 4, "default camera", 10))
