@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -643,8 +643,8 @@ class OnlineBundle:
                                 + "; ".join(result.notes[-1:]))
         if first:
             return []
-        w, r, *_ = self._stats(self._f)
-        return self._changes(keys, w, r)
+        w, r, *_, mdb = self._stats(self._f)
+        return self._changes(keys, w, r, mdb)
 
     def _problem(self, block: Block, maps) -> BundleProblem:
         """The bundle problem of the state block: with its control, or a free network held by
@@ -759,13 +759,17 @@ class OnlineBundle:
             mdb = np.where(r >= 1e-3, self._bm.delta0 * f.sigma / np.sqrt(r), np.inf)
         return w, r, f.v0, sv, mdb
 
-    def _changes(self, keys, w, r) -> list[Change]:
+    def _mdb(self, sigma, r) -> np.ndarray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(r >= 1e-3, self._bm.delta0 * sigma / np.sqrt(r), np.inf)
+
+    def _changes(self, keys, w, r, mdb) -> list[Change]:
         out = []
         new = verdicts(np.asarray(w, float), np.asarray(r, float), self._bm.k_w)
-        for k, v, wi in zip(keys, new, w, strict=True):
+        for k, v, wi, ri, mi in zip(keys, new, w, r, mdb, strict=True):
             before = self._verdict.get(k)
             if before is not None and before != v:
-                out.append(self._change(k, before, v, float(wi)))
+                out.append(self._change(k, before, v, float(wi), float(ri), float(mi)))
             self._verdict[k] = v
         return out
 
@@ -883,14 +887,16 @@ class OnlineBundle:
             r = qvv / s2
             with np.errstate(divide="ignore", invalid="ignore"):
                 w = np.where(r >= 1e-3, -v / np.sqrt(qvv), np.nan)
-            out += self._changes([f.keys[n] for n in flat], w, r)
+            out += self._changes([f.keys[n] for n in flat], w, r,
+                                 self._mdb(f.sigma[flat], r))
         if r0:
             s2 = f.lowrank.sigma[:r0] ** 2
             qvv = np.maximum(np.diag(sol.qvv)[:r0], 0.0)
             r = qvv / s2
             with np.errstate(divide="ignore", invalid="ignore"):
                 w = np.where(r >= 1e-3, -sol.v[:r0] / np.sqrt(qvv), np.nan)
-            out += self._changes(self._pending[:r0], w, r)
+            out += self._changes(self._pending[:r0], w, r,
+                                 self._mdb(f.lowrank.sigma[:r0], r))
         return out
 
     def _new_unknowns(self, group: dict) -> np.ndarray:
@@ -948,9 +954,10 @@ class OnlineBundle:
         return ComponentTest(kind, photo, point, comp, pred, sig_pred, v, sv, r, w, mdb,
                              verdict(w, r, self._bm.k_w))
 
-    def _change(self, key: Key, before: str, after: str, w: float) -> Change:
+    def _change(self, key: Key, before: str, after: str, w: float, r: float,
+                mdb: float) -> Change:
         kind, photo, point, comp = self._label(key)
-        return Change(kind, photo, point, comp, before, after, w)
+        return Change(kind, photo, point, comp, before, after, w, r, mdb)
 
 
 def _merge(a: list[Change], b: list[Change]) -> list[Change]:
@@ -959,7 +966,7 @@ def _merge(a: list[Change], b: list[Change]) -> list[Change]:
     for c in a + b:
         key = (c.kind, c.photo, c.point, c.component)
         first = by.get(key)
-        by[key] = c if first is None else Change(*key, first.before, c.after, c.w)
+        by[key] = c if first is None else replace(c, before=first.before)
     return [c for c in by.values() if c.before != c.after]
 
 
