@@ -290,3 +290,37 @@ def test_the_demo_replayed_by_an_operator_who_measures_again():
     assert res.adjustment.redundancy == ref.adjustment.redundancy == 172
     assert res.adjustment.sigma0 == pytest.approx(ref.adjustment.sigma0, rel=1e-10)
     assert round(res.adjustment.sigma0, 4) == 1.0444
+
+
+class _Terminal(io.StringIO):
+    """Lines typed at a terminal (stdin.isatty())."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("json_mode", [False, True])
+def test_a_mistyped_line_at_the_terminal_is_answered_and_the_session_goes_on(
+        partial_project, tmp_path, monkeypatch, capsys, json_mode):
+    """Issue 41: at the keyboard a mistyped command is answered and the interpreter goes
+    on (the lines after it are taken in); from a file the first bad line ends the run."""
+    folder, lines = partial_project
+    typed = ["statsu", "point 04006", "remove point 99 99", *lines, "quit"]
+    monkeypatch.setattr(sys, "stdin", _Terminal("\n".join(typed) + "\n"))
+    out = tmp_path / "out"
+    args = ["online", "--bundle", str(folder), "-o", str(out)] + (["--json"] if json_mode
+                                                                  else [])
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    if json_mode:
+        answers = [json.loads(s) for s in said.splitlines() if s.startswith("{")]
+        errors = [a for a in answers if "error" in a]
+        assert len(errors) == 3 and "unknown command 'statsu'" in errors[0]["error"]
+    else:
+        assert said.count("error: ") == 3 and "error: unknown command 'statsu'" in said
+    t = _csv(out / "online.csv")
+    assert set(t.loc[t["row"] == "test", "photo"]) >= {"04008", "04006"}  # taken in after
+    # the same lines from a file: exit 2 at the first
+    monkeypatch.setattr(sys, "stdin", io.StringIO("\n".join(typed) + "\n"))
+    assert main(["online", "--bundle", str(folder)]) == 2
+    assert "<stdin>, line 1" in capsys.readouterr().err
