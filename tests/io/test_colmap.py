@@ -454,8 +454,8 @@ def _pinhole_fx_fy(folder, fx=1000.0, fy=1300.0, seed=3):
                               for j, (u, v) in enumerate(uv[k])))
     (folder / "images.txt").write_text("\n".join(lines) + "\n")
     (folder / "points3D.txt").write_text("".join(
-        f"{j + 1} {float(x)!r} {float(y)!r} {float(z)!r} 0 0 0 1.0 " + " ".join(f"{k + 1} {j}" for k in range(5))
-        + "\n" for j, (x, y, z) in enumerate(xyz)))
+        f"{j + 1} {float(x)!r} {float(y)!r} {float(z)!r} 0 0 0 1.0 "
+        + " ".join(f"{k + 1} {j}" for k in range(5)) + "\n" for j, (x, y, z) in enumerate(xyz)))
     return (fx, fy, cx, cy), rot.as_rotvec(), t, xyz, np.array(uv)
 
 
