@@ -26,6 +26,8 @@ from baarda.block.camera_models import MODELS, CameraModel, get_model, invert
 ALIASES = {"brown_backward": "brown"}
 KINDS = tuple(MODELS) + tuple(ALIASES)
 INTERIOR = ("c", "x0", "y0")
+# a reader's note about what the input estimates starts with this: --calibrate replaces it
+INPUT_CALIBRATION = "the input's calibration: "
 
 
 def model_of(kind: str) -> CameraModel:
@@ -243,7 +245,7 @@ def with_calibration(block, model: str | None = None, free=None):
         cams = replace(cams, free=chosen)
         what = ("none (every camera's parameters held at the input's values)"
                 if free == "none" else "all" if free == "all" else ", ".join(free))
-        notes = [*block.notes, f"calibrate {what}: chosen for this run, over what the input "
-                 "sets"]
+        notes = [*(n for n in block.notes if not n.startswith(INPUT_CALIBRATION)),
+                 f"calibrate {what}: chosen for this run, over what the input sets"]
         return replace(block, cameras=cams, notes=notes)
     return replace(block, cameras=cams)

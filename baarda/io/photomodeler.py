@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.control import INPUT_CONTROL
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
 from baarda.io.records import (
@@ -255,9 +256,10 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
              "image origin moved to the image centre, y up; K and P as given (backward "
              "model); the default camera (line 4)", *notes]
     if len(ctrl):
-        notes.append("control: the coordinates and precisions that PhotoModeler lists for its "
-                     "control points, its adjusted values and posterior precisions (not the "
-                     "surveyed control: --control FILE replaces them, as in DBAT's runs)")
+        notes.append(INPUT_CONTROL + "the coordinates and precisions that PhotoModeler lists "
+                     "for its control points, its adjusted values and posterior precisions "
+                     "(not the surveyed control: --control FILE replaces them, as in DBAT's "
+                     "runs)")
     settings = Settings(name=lines[0].strip()[len("Bundle Soln"):].strip() or Path(path).stem,
                         angle_unit="deg", sigma_image_um=float(
                             (def_std[0] if sigma_px is None else sigma_px) * py * 1e3))
