@@ -106,6 +106,12 @@ def drop_points_behind(block: Block) -> tuple[Block, int]:
     if ok.all():
         return block, 0
     out = block.select_image(ok)
+    before, after = block.rays(), out.rays()
+    lost = [block.points.ids[j] for j in np.flatnonzero((after < 2) & (after < before))]
     out.notes.append(f"{int((~ok).sum())} observation(s) of points behind the camera at the "
-                     "approximations left out")
+                     "approximations left out" + (
+                         f"; {len(lost)} point(s) left with fewer than two rays by it: "
+                         + ", ".join(lost[:10]) + (f" and {len(lost) - 10} more"
+                                                   if len(lost) > 10 else "")
+                         if lost else ""))
     return out, int((~ok).sum())
