@@ -148,7 +148,9 @@ class AiconProject:
         notes = [f"AICON project {self.name}: object coordinates mm -> m; c = -ck; camera "
                  "model 'aicon' (A1..A3 with R0, B1, B2, C1, C2), estimating "
                  + ", ".join(free),
-                 f"{len(distances)} scale bar(s) as distance observations (mm -> m)"]
+                 f"{len(distances)} scale bar(s) as distance observations (mm -> m)",
+                 "datum: AICON's own, a free network in the inner datum of its points (as "
+                 "AICON 3D Studio adjusts it; --datum free holds photo 1 instead)"]
         if protocol is not None:
             notes.append(f"AICON protocol {protocol.path.name}: the estimated camera parameters "
                          "and the a-priori sigmas of the image coordinates taken from it")
@@ -156,7 +158,7 @@ class AiconProject:
             notes.append("no AICON protocol (.htm) beside the project: the camera parameters "
                          "AICON estimates by default are estimated (" + ", ".join(free) + ")")
         settings = Settings(name=self.name, angle_unit="rad",
-                            sigma_image_um=float(np.median(sig)) * 1e3, datum="free")
+                            sigma_image_um=float(np.median(sig)) * 1e3, datum="inner")
         return Block(settings, cameras, photos, image, points,
                      source=str(self.folder / self.name), notes=notes, distances=distances)
 
