@@ -369,3 +369,30 @@ def test_gauss_newton_divergence_names_levenberg_marquardt(tmp_path, capsys):
     assert any(n.startswith("Gauss-Newton diverged from these approximations: "
                             "Levenberg-Marquardt (--damping lm") for n in notes)
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_check_of_a_result_that_did_not_converge_says_so(tmp_path):
+    """Issue 41: `baarda check` on an adjustment that did not converge (BAL Ladybug-49 with
+    free intrinsics: the sum of r 39892.45 for a redundancy 39892) failed with exit 5 as if
+    the file were wrong.  It now says the adjustment did not converge and checks what still
+    holds (the counts, vTPv, sigma0); the same rows of a converged result still fail."""
+    from dataclasses import replace
+
+    from baarda.io.result_folder import read_results
+    from baarda.report.check import check_results
+
+    res = read_results(adjust(tmp_path, "examples/demo"))
+    obs = res.obs.copy()
+    obs.loc[obs.index[0], "redundancy"] += 0.45  # as the last iterate of a diverged block
+    bad = [f for f in check_results(replace(res, obs=obs)) if not f.ok]
+    assert [f.name for f in bad] == ["sum of the redundancy numbers = redundancy"]
+    summary = {**res.summary, "converged": False,
+               "adjustments": {k: {**v, "converged": False}
+                               for k, v in res.summary["adjustments"].items()}}
+    findings = check_results(replace(res, obs=obs, summary=summary))
+    said = [f for f in findings if f.verdict == "not converged"]
+    assert len(said) == 1 and said[0].recomputed == pytest.approx(summary["redundancy"] + 0.45)
+    assert said[0].line().strip().startswith("not converged  the adjustment did not converge")
+    assert all(f.ok for f in findings)
+    assert {"sigma0 = sqrt(vTPv / redundancy)", "global test statistic = sigma0^2",
+            "redundancy = observations - unknowns"} <= {f.name for f in findings}

@@ -27,6 +27,8 @@ from baarda.options import CALIBRATION_GROUPS  # noqa: F401 (re-exported)
 ALIASES = {"brown_backward": "brown"}
 KINDS = tuple(MODELS) + tuple(ALIASES)
 INTERIOR = ("c", "x0", "y0")
+# a reader's note about what the input estimates starts with this: --calibrate replaces it
+INPUT_CALIBRATION = "the input's calibration: "
 
 
 def model_of(kind: str) -> CameraModel:

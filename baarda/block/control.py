@@ -24,6 +24,9 @@ from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_matrix, similarity
 from baarda.errors import ProjectError
 
+# a reader's note about the input's own control starts with this: --control replaces it
+INPUT_CONTROL = "the input's control: "
+
 
 def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarray,
                  role: np.ndarray, source: str) -> Block:
@@ -42,7 +45,7 @@ def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarra
                            "control points are matched by id")
     j = np.array([index[ids[k]] for k in rows], dtype=np.int64)
     rows = np.array(rows, dtype=np.int64)
-    notes = list(block.notes)
+    notes = [n for n in block.notes if not n.startswith(INPUT_CONTROL)]  # replaced
     old_ctrl = pts.role == "control"
     new_xyz, new_sig = pts.xyz.copy(), np.full_like(pts.sigma, np.nan)
     new_role = np.where(old_ctrl, "tie", pts.role).astype(object)

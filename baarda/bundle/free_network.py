@@ -68,6 +68,17 @@ class FreeBundleProblem(BundleProblem):
         super().__init__(block, held=held, diagnosis=diagnosis, intersected=intersected)
 
 
+    def _invariance(self) -> str:
+        """What the statistics depend on: nothing, unless GNSS or IMU observations carry part
+        of the datum that the minimal constraints hold too (then they over-constrain it)."""
+        g, i = len(self.block.gnss), len(self.block.imu)
+        if not (g or i):
+            return "the observations' statistics do not depend on the datum"
+        what = " and ".join(w for w, n in (("GNSS positions", g), ("IMU attitudes", i)) if n)
+        return (f"the {what} also carry part of the datum, so the constraints are more than "
+                "minimal: the statistics depend on the photo held (up to the weight of those "
+                "observations); --datum control lets them carry the datum")
+
     def datum_text(self) -> str:
         a, b, k = self.datum
         ids = self.block.photos.ids
@@ -79,12 +90,11 @@ class FreeBundleProblem(BundleProblem):
                     f"{ids[a]} held and {scale}), coordinates and standard deviations then "
                     "S-transformed to the datum in which the points move least from their "
                     "approximations (" + ("6 parameters, the distances fix the scale"
-                                          if self.scaled else "7 parameters") + "); the "
-                    "observations' statistics do not depend on the datum")
+                                          if self.scaled else "7 parameters") + "); "
+                    + self._invariance())
         return (f"datum: FREE NETWORK (no control): minimal constraints, photo {ids[a]} held "
                 f"(its six orientation unknowns) and {scale}; coordinates and their standard "
-                "deviations refer to this datum, the observations' statistics do not depend "
-                "on it")
+                "deviations refer to this datum; " + self._invariance())
 
 
 def adjust_free(block: Block, datum: tuple[int, int, int] | None = None,
@@ -106,6 +116,12 @@ def drop_points_behind(block: Block) -> tuple[Block, int]:
     if ok.all():
         return block, 0
     out = block.select_image(ok)
+    before, after = block.rays(), out.rays()
+    lost = [block.points.ids[j] for j in np.flatnonzero((after < 2) & (after < before))]
     out.notes.append(f"{int((~ok).sum())} observation(s) of points behind the camera at the "
-                     "approximations left out")
+                     "approximations left out" + (
+                         f"; {len(lost)} point(s) left with fewer than two rays by it: "
+                         + ", ".join(lost[:10]) + (f" and {len(lost) - 10} more"
+                                                   if len(lost) > 10 else "")
+                         if lost else ""))
     return out, int((~ok).sum())

@@ -23,7 +23,8 @@ def usable_points(block: Block) -> tuple[np.ndarray, list[str]]:
     for j in np.flatnonzero(~ok):
         pid, role = block.points.ids[j], block.points.role[j]
         if rays[j] == 0:
-            notes.append(f"{role} point {pid} is not measured on any photo: left out")
+            notes.append(f"{role} point {pid} has no ray (measured on no photo, or its rays "
+                         "left out: see the notes above): left out")
         else:
             notes.append(f"{role} point {pid} is measured on one photo only (one ray "
                          "cannot be intersected): left out")

@@ -224,11 +224,12 @@ def feed_lines(interp, lines, name: str, empty: str | None = None) -> None:
         raise ProjectError(name, str(e), n, getattr(e, "column", None)) from None
 
 
-def prompt_lines(interp, banner: str, prompt: str) -> None:
+def prompt_lines(interp, banner: str | None, prompt: str, error=None) -> None:
     """Lines typed at a terminal into an on-line interpreter until 'quit' or end of input:
-    a bad line is said and the session goes on ('point> ' while a photo's points are
-    being collected)."""
-    print(banner)
+    a bad line is answered (`error(e)`, default 'error: ...') and the session goes on
+    ('point> ' while a photo's points are being collected)."""
+    if banner is not None:
+        print(banner)
     while not interp.done:
         try:
             line = input("point> " if interp.collecting is not None else prompt)
@@ -237,4 +238,7 @@ def prompt_lines(interp, banner: str, prompt: str) -> None:
         try:
             interp.feed(line)
         except (GeometryError, ValueError) as e:
-            print(f"error: {e}")
+            if error is not None:
+                error(e)
+            else:
+                print(f"error: {e}")

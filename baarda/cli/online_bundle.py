@@ -147,8 +147,8 @@ def _session(args, run) -> int:
         except ValueError as e:
             raise ProjectError(str(args.input), str(e)) from None
         interp = BundleInterpreter(ob, print, json=args.json)
-        if sys.stdin.isatty():
-            _prompt(interp)
+        if sys.stdin.isatty():  # a person at the keyboard: a bad line is answered
+            _prompt(interp, args.json)
         else:
             feed_lines(interp, sys.stdin, "<stdin>")
         answers, name = interp.answers, "online.csv"
@@ -216,10 +216,19 @@ def _brief(a) -> None:
               + (f", {len(a.changed)} verdict(s) changed" if a.changed else ""))
 
 
-def _prompt(interp) -> None:
-    """Lines typed at the prompt: a bad line is said and the session goes on."""
-    prompt_lines(interp, "baarda online --bundle: type 'help' for the commands, 'quit' to "
-                 "stop", "bundle> ")
+def _prompt(interp, json_mode: bool = False) -> None:
+    """Lines typed at the prompt: a bad line is answered (with --json as {"error": ...,
+    "field": ...}) and the session goes on."""
+    import json
+
+    def error(e) -> None:
+        print(json.dumps({"error": str(e), "field": getattr(e, "column", None)}), flush=True)
+
+    if json_mode:
+        prompt_lines(interp, None, "", error)
+    else:
+        prompt_lines(interp, "baarda online --bundle: type 'help' for the commands, 'quit' "
+                     "to stop", "bundle> ")
     if interp.collecting is not None:
         print(f"photo {interp.collecting[0]} was not closed with 'end': its points are "
               "left out")

@@ -43,7 +43,7 @@ from baarda.block.photo_block import (
 from baarda.errors import ProjectError
 from baarda.io.aicon_protocol import AiconProtocol, read_protocol
 from baarda.io.image_sigma import SIGMA_IMAGE_UM
-from baarda.io.records import ENCODING, read_lines, to_numbers
+from baarda.io.records import ENCODING, to_numbers, whole_lines
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
 # the camera parameters AICON 3D Studio estimates by default (A3, C1, C2 held)
@@ -148,7 +148,9 @@ class AiconProject:
         notes = [f"AICON project {self.name}: object coordinates mm -> m; c = -ck; camera "
                  "model 'aicon' (A1..A3 with R0, B1, B2, C1, C2), estimating "
                  + ", ".join(free),
-                 f"{len(distances)} scale bar(s) as distance observations (mm -> m)"]
+                 f"{len(distances)} scale bar(s) as distance observations (mm -> m)",
+                 "datum: AICON's own, a free network in the inner datum of its points (as "
+                 "AICON 3D Studio adjusts it; --datum free holds photo 1 instead)"]
         if protocol is not None:
             notes.append(f"AICON protocol {protocol.path.name}: the estimated camera parameters "
                          "and the a-priori sigmas of the image coordinates taken from it")
@@ -156,7 +158,7 @@ class AiconProject:
             notes.append("no AICON protocol (.htm) beside the project: the camera parameters "
                          "AICON estimates by default are estimated (" + ", ".join(free) + ")")
         settings = Settings(name=self.name, angle_unit="rad",
-                            sigma_image_um=float(np.median(sig)) * 1e3, datum="free")
+                            sigma_image_um=float(np.median(sig)) * 1e3, datum="inner")
         return Block(settings, cameras, photos, image, points,
                      source=str(self.folder / self.name), notes=notes, distances=distances)
 
@@ -208,7 +210,7 @@ def is_aicon(path: str | Path) -> bool:
 def _table(path: Path, names: list[str], ints: tuple[str, ...] = (),
            encoding: str = ENCODING) -> dict:
     rows, lines = [], []
-    for no, s in enumerate(read_lines(path, encoding), start=1):
+    for no, s in enumerate(whole_lines(path, encoding), start=1):
         t = s.strip()
         if not t or t.startswith("#"):
             continue
@@ -231,7 +233,7 @@ def _table(path: Path, names: list[str], ints: tuple[str, ...] = (),
 
 
 def _read_ior(path: Path, encoding: str = ENCODING) -> dict:
-    lines = [(no, s.split()) for no, s in enumerate(read_lines(path, encoding), start=1)
+    lines = [(no, s.split()) for no, s in enumerate(whole_lines(path, encoding), start=1)
              if s.strip() and not s.lstrip().startswith("#")]
     if not lines or len(lines) % 5:
         raise ProjectError(str(path), f"expected 5 lines per camera, found {len(lines)} lines",
@@ -258,7 +260,7 @@ def _read_scale(path: Path, encoding: str = ENCODING) -> dict:
     out: dict[str, list] = {k: [] for k in ("id", "name", "a", "b", "length", "sigma", "status")}
     if not path.is_file():
         return {k: np.array(v) for k, v in out.items()}
-    for no, s in enumerate(read_lines(path, encoding), start=1):
+    for no, s in enumerate(whole_lines(path, encoding, allow_empty=True), start=1):
         t = s.strip()
         if not t or t.startswith("#"):
             continue
@@ -298,10 +300,13 @@ def read_aicon(path: str | Path, encoding: str = ENCODING) -> AiconProject:
             raise ProjectError(str(f["eor" if what == "image" else "obc"]),
                                f"duplicate {what} id {point_id(t[key][dup])}",
                                int(t["_lines"][dup]), "id")
+    # (an observation of a point that .obc does not hold is legitimate: AICON lists the
+    # measurements of points it did not compute; so a .obc cut at a line end cannot show)
     bad = np.flatnonzero((obs["status"] > 0) & ~np.isin(obs["image"], images["id"]))
     if len(bad):
-        raise ProjectError(str(f["phc"]), f"unknown image {point_id(obs['image'][bad[0]])}",
-                           int(obs["_lines"][bad[0]]), "image")
+        raise ProjectError(str(f["phc"]), f"unknown image {point_id(obs['image'][bad[0]])} "
+                           f"({f['eor'].name} holds {len(images['id'])} images: is it cut "
+                           "short?)", int(obs["_lines"][bad[0]]), "image")
     low, high = (v * 1e-3 for v in SIGMA_IMAGE_UM)  # µm -> mm
     for name in ("sx", "sy"):
         bad = np.flatnonzero(~((obs[name] >= low) & (obs[name] <= high)))

@@ -55,6 +55,9 @@ def _text(path: Path) -> str:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         text = data.decode("latin-1")
+    if not re.search(r"</html>\s*$", text[-4096:], re.IGNORECASE):
+        raise ProjectError(str(path), "the protocol does not end with </html>: the file is cut "
+                           "short", text.count("\n") + 1)
     return html.unescape(re.sub(r"<[^>]*>", " ", text))
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import INPUT_CALIBRATION
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import (
     MAX_ANGLE,
@@ -237,9 +238,10 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
     key = problem.obs_camera * len(problem.points) + problem.obs_point
     _, first = np.unique(key, return_index=True)
     keep = np.sort(first)
-    notes = [f"BAL problem: nominal pixel size {pixel_mm:g} mm (1 px = {pixel_mm * 1e3:g} µm); "
-             "the focal length and the radial distortion (k1, k2) of every camera "
-             + ("estimated, as the BAL problems intend" if calibrate else "held fixed")]
+    notes = [f"BAL problem: nominal pixel size {pixel_mm:g} mm (1 px = {pixel_mm * 1e3:g} µm)",
+             INPUT_CALIBRATION + "the focal length and the radial distortion (k1, k2) of "
+             "every camera " + ("estimated, as the BAL problems intend" if calibrate
+                                else "held fixed")]
     if len(keep) < len(key):
         notes.append(f"{len(key) - len(keep)} repeated observation(s) of a point in one image "
                      "left out (first kept)")

@@ -116,11 +116,18 @@ def read_colmap(folder: str | Path) -> ColmapModel:
                             read_images_bin(files["images"]),
                             read_points_bin(files["points3D"]))
     else:
-        model = ColmapModel(read_cameras_txt(files["cameras"]),
-                            read_images_txt(files["images"]),
-                            read_points_txt(files["points3D"]))
-        check_header_count(files["images"], len(model.images))
-        check_header_count(files["points3D"], len(model.points))
+        # each file's header count checked as it is read: a file cut short is named before
+        # the other files' references to what it lost
+        cameras = read_cameras_txt(files["cameras"])
+        if not cameras:
+            raise ProjectError(str(files["cameras"]), "holds no camera: the file is cut short "
+                               "(or the model is empty)")
+        check_header_count(files["cameras"], len(cameras))
+        images = read_images_txt(files["images"])
+        check_header_count(files["images"], len(images.ids))
+        points = read_points_txt(files["points3D"])
+        check_header_count(files["points3D"], len(points.ids))
+        model = ColmapModel(cameras, images, points)
     _check(model, files["images"], files["points3D"])
     return model
 

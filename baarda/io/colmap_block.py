@@ -126,7 +126,13 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
                       np.array([c[3] for c in cams], dtype=object),
                       np.array([c[4] for c in cams]))
     photos = Photos(photo_ids, cam_of_image, np.full(len(im), "", dtype=object), eo)
-    image = ImagePoints(photo, point, xy, np.full(len(photo), sigma_px * pixel_mm))
+    # y is scaled by fx/fy (square pixels of size pixel_mm in x): its sigma is sigma_px in
+    # y's own unit, sigma_px * pixel_mm * fx/fy, so that v'P v is that of the pixels
+    sxy = None
+    if np.any(pmy != pixel_mm):
+        sxy = np.column_stack([np.full(len(photo), sigma_px * pixel_mm), sigma_px * pmy])
+    image = ImagePoints(photo, point, xy, np.full(len(photo), sigma_px * pixel_mm) if sxy is
+                        None else np.sqrt(0.5 * (sxy ** 2).sum(axis=1)), None, sxy)
     points = GroundPoints([str(p) for p in pt.ids.tolist()], pt.xyz.copy(),
                           np.full((len(pt), 3), np.nan),
                           np.full(len(pt), "tie", dtype=object))

@@ -22,14 +22,14 @@ from baarda.io.colmap_model import (
     ColmapPoints,
     first_repeated,
 )
-from baarda.io.records import file_bytes, parse_number, read_lines
+from baarda.io.records import file_bytes, parse_number, read_lines, whole_lines
 
 INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
 BOM = b"\xef\xbb\xbf"
 
 
 def _data_lines(path: Path) -> list[tuple[int, str]]:
-    return [(i, s) for i, s in enumerate(read_lines(path), start=1)
+    return [(i, s) for i, s in enumerate(whole_lines(path), start=1)
             if s.strip() and not s.lstrip().startswith("#")]
 
 
@@ -179,9 +179,24 @@ def _points_fast(data: bytes) -> ColmapPoints | None:
 
 # ----------------------------------------------------------------- images.txt
 def read_images_txt(path: Path) -> ColmapImages:
-    raw = read_lines(path)
+    raw = whole_lines(path)
+    _check_last_image(raw, path)
     fast = _images_fast(raw)
     return fast if fast is not None else _images_lines(raw, path)
+
+
+def _check_last_image(raw: list[str], path: Path) -> None:
+    """ProjectError when the last image has no POINTS2D line (COLMAP writes one, empty for
+    an image without keypoints): images.txt cut at the line end before it."""
+    i = 0
+    while i < len(raw):
+        if not raw[i].strip() or raw[i].lstrip().startswith("#"):
+            i += 1
+            continue
+        if i + 1 >= len(raw):
+            raise ProjectError(str(path), "the last image has no POINTS2D line: the file is "
+                               "cut short (COLMAP writes two lines per image)", i + 1)
+        i += 2
 
 
 def _images_lines(raw: list[str], path: Path) -> ColmapImages:
@@ -236,6 +251,7 @@ def _images_lines(raw: list[str], path: Path) -> ColmapImages:
 
 # ---------------------------------------------------------------- points3D.txt
 def read_points_txt(path: Path) -> ColmapPoints:
+    whole_lines(path)  # a last line without its line end: cut short
     fast = _points_fast(_file_bytes(path))
     return fast if fast is not None else _points_lines(path)
 
@@ -269,12 +285,12 @@ def _points_lines(path: Path) -> ColmapPoints:
 
 
 # ---------------------------------------------------------------- truncated files
-HEADER_COUNT = re.compile(r"#\s*Number of (images|points)\s*:\s*(\d+)")
+HEADER_COUNT = re.compile(r"#\s*Number of (cameras|images|points)\s*:\s*(\d+)")
 
 
 def check_header_count(path: Path, found: int) -> None:
-    """ProjectError when the count COLMAP wrote into the header of images.txt or
-    points3D.txt ('# Number of images: N') differs from the records read: the file was
+    """ProjectError when the count COLMAP wrote into the header of cameras.txt, images.txt
+    or points3D.txt ('# Number of images: N') differs from the records read: the file was
     cut short (or edited), which would otherwise surface in the other file."""
     for no, s in enumerate(read_lines(path)[:20], start=1):
         m = HEADER_COUNT.match(s.strip())

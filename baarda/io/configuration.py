@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from baarda.block.camera import (
+    INPUT_CALIBRATION,
     calibrate_note,
     cameras_per_strip,
     chosen_parameters,
@@ -166,8 +167,11 @@ def configure(block: Block, config: Config) -> Block:
         block = with_camera_model(block, cal.model)
     if cal.free is not None:
         block = replace(block, cameras=replace(block.cameras, free=cal.free))
-    if config.notes:
-        block = replace(block, notes=[*block.notes, *config.notes])
+    notes = block.notes
+    if cal.source == "command line":  # the input's own calibration note no longer holds
+        notes = [n for n in notes if not n.startswith(INPUT_CALIBRATION)]
+    if config.notes or notes != block.notes:
+        block = replace(block, notes=[*notes, *config.notes])
     block = replace(block, settings=replace(block.settings, calibration_group=cal.group))
     return cameras_per_strip(block) if cal.group == "strip" else block
 

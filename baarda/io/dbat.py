@@ -117,7 +117,7 @@ def _points(section: Node, base: Path, xml_dir: Path, path: str):
         for need in ("id", "x", "y", "z"):
             if need not in fields:
                 raise ProjectError(path, f"point file format lacks '{need}'", f.line, "format")
-        r = Records(_resolve(base, f.text, xml_dir), fields)
+        r = Records(_resolve(base, f.text, xml_dir), fields, whole=True)
         pid = r.text("id")
         c = np.column_stack([r.numbers(k) for k in "xyz"])
         if "sxyz" in fields:
@@ -174,7 +174,7 @@ def _prior_eo(node: Node, base: Path, xml_dir: Path, path: str,
         raise ProjectError(path, f"prior_eo format '{fmt}': " + (
             f"unknown field '{bad[0]}'" if bad else "no 'id'"), f.line, "format")
     names = [x if x != "ignored" else f"ignored{i}" for i, x in enumerate(fields)]
-    r = Records(_resolve(base, f.text, xml_dir), names)
+    r = Records(_resolve(base, f.text, xml_dir), names, whole=True)
     eo = np.full((len(r), 6), np.nan)
     for k, name in enumerate(("x", "y", "z", "omega", "phi", "kappa")):
         if name in fields:
@@ -260,10 +260,11 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     im_node = inp.find("images")
     if im_node is None or im_node.find("file") is None:
         raise ProjectError(spath, "no <images><file> in <input>", inp.line)
-    img_ids, img_names = [], []
+    img_ids, img_names, img_files = [], [], []
     for f in im_node.findall("file"):
         fields = _fields(f, spath)
-        r = Records(_resolve(base, f.text, xml_dir), fields)
+        r = Records(_resolve(base, f.text, xml_dir), fields, whole=True)
+        img_files.append(Path(r.path).name)
         img_ids += list(r.text("id"))
         img_names += [Path(s.replace("\\", "/")).stem for s in
                       (r.text("path") if "path" in fields else r.text("id"))]
@@ -311,7 +312,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
             if need not in fields:
                 raise ProjectError(spath, f"image point format lacks '{need}'", f.line,
                                    "format")
-        r = Records(_resolve(base, f.text, xml_dir), fields)
+        r = Records(_resolve(base, f.text, xml_dir), fields, whole=True)
         if sigma_px is not None:
             s = np.full(len(r), float(sigma_px))
         elif "sxy" in f.attrib:
@@ -327,7 +328,9 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
         ims = r.text("im")
         for i, s_im in enumerate(ims):
             if s_im not in photo_of:
-                raise ProjectError(r.path, f"unknown image id '{s_im}'", int(r.lines[i]), "im")
+                raise ProjectError(r.path, f"unknown image id '{s_im}' (the image list "
+                                   f"{', '.join(img_files)} holds {len(img_ids)}: is it cut "
+                                   "short?)", int(r.lines[i]), "im")
         rows_photo.append(np.array([photo_of[s] for s in ims], dtype=np.int64))
         rows_point += list(r.text("id"))
         x, y = r.numbers("x"), r.numbers("y")

@@ -41,7 +41,7 @@ from baarda.block.photo_block import (
     Settings,
 )
 from baarda.errors import ProjectError
-from baarda.io.records import decode_text, file_bytes, parse_number, read_lines
+from baarda.io.records import parse_number, whole_lines
 from baarda.io.xmltree import parse_xml
 
 CRS = "EPSG:2154"  # Lambert-93, the IGN's and MicMac's SysCo of this data
@@ -57,14 +57,28 @@ def _tie_files(folder: Path) -> list[Path]:
 
 
 def _sensor(folder: Path) -> Path | None:
+    """The first IGN camera description of the folder (a .xml whose head has <sensor>)."""
+    found = _sensors(folder)
+    return found[0] if found else None
+
+
+def _sensors(folder: Path) -> list[Path]:
+    out = []
     for p in sorted(folder.glob("*.xml")):
         try:
             head = p.read_bytes()[:200].lower()
         except OSError:
             continue
         if b"<sensor>" in head:
-            return p
-    return None
+            out.append(p)
+    return out
+
+
+def _camera_files(folder: Path) -> list[Path]:
+    """Every .xml of the folder other than ImAerien.xml: each must parse (a camera
+    description cut short is no longer recognisable by its head, and would silently hand
+    the block to its sister camera)."""
+    return [p for p in sorted(folder.glob("*.xml")) if p.name != "ImAerien.xml"]
 
 
 def is_micmac(path: str | Path) -> bool:
@@ -75,8 +89,9 @@ def is_micmac(path: str | Path) -> bool:
 
 
 def _lines(path: Path):
-    """(line number, fields) of the non-empty lines of a text file."""
-    for n, line in enumerate(read_lines(path), start=1):
+    """(line number, fields) of the non-empty lines of a text file written whole (empty, or
+    a last line without its line end: refused as cut short)."""
+    for n, line in enumerate(whole_lines(path), start=1):
         fields = line.split()
         if fields:
             yield n, fields
@@ -145,11 +160,54 @@ def _measurements(path: Path, images: dict[str, int]) -> list[tuple[str, int, fl
 
 
 def _image_list(folder: Path) -> list[str] | None:
+    """The images of ImAerien.xml (MMVII's SetOfName: <el>"name.tif"</el> under
+    <SetOfName>), read with the XML parser: a file cut short is refused, naming its line."""
     p = folder / "ImAerien.xml"
     if not p.is_file():
         return None
-    text = decode_text(file_bytes(p), str(p))
-    return [Path(m).stem for m in re.findall(r"<el>\s*\"?([^<\"]+?)\"?\s*</el>", text)]
+    root = parse_xml(p)
+    sets = [n for n in _walk(root) if n.tag == "SetOfName"]
+    if len(sets) != 1:
+        raise ProjectError(str(p), f"expected one <SetOfName> list of images, found "
+                           f"{len(sets)}", root.line)
+    names = []
+    for el in sets[0].children:
+        if el.tag != "el":
+            raise ProjectError(str(p), f"<{el.tag}> in <SetOfName>: expected <el>", el.line)
+        name = el.text.strip().strip('"').strip()
+        if not name:
+            raise ProjectError(str(p), "an empty image name", el.line, "el")
+        names.append(Path(name).stem)
+    if not names:
+        raise ProjectError(str(p), "<SetOfName> lists no image", sets[0].line)
+    return names
+
+
+def _walk(node):
+    yield node
+    for c in node.children:
+        yield from _walk(c)
+
+
+def _camera(folder: Path, opk: Path, names: list[str]) -> tuple[Path, dict]:
+    """The IGN camera description of the block's images: the one whose <name> the
+    orientations' CAMERA column names, else the only (or first) one of the folder."""
+    sensors = {}
+    for p in _camera_files(folder):
+        root = parse_xml(p)
+        if root.tag == "sensor":
+            sensors[p] = read_sensor(p)
+    if not sensors:
+        raise ProjectError(str(folder), "no IGN camera description (.xml with <sensor>)")
+    column = {f[0]: f[7] for _, f in _lines(opk) if len(f) >= 8}
+    wanted = {column[n] for n in names if n in column}
+    if len(wanted) == 1:
+        name = wanted.pop()
+        for p, cam in sensors.items():
+            if cam["name"] == name:
+                return p, cam
+    p = next(iter(sensors))
+    return p, sensors[p]
 
 
 def _strip(name: str) -> str:
@@ -164,10 +222,8 @@ def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
     """A MicMac/IGN aerial block (module docstring).  orientations: the .opk file (default
     trajectograhie.opk, else the only .opk of the folder)."""
     folder = Path(folder)
-    sensor_path = _sensor(folder)
-    if sensor_path is None:
+    if _sensor(folder) is None:
         raise ProjectError(str(folder), "no IGN camera description (.xml with <sensor>)")
-    cam = read_sensor(sensor_path)
     opks = sorted(q for q in folder.iterdir() if q.suffix.lower() == ".opk")
     if orientations is not None:
         opk = Path(orientations)
@@ -191,6 +247,7 @@ def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
         raise ProjectError(str(opk), f"no orientation of image {missing[0]}")
     if not names:
         raise ProjectError(str(folder), "no image with both measurements and an orientation")
+    _, cam = _camera(folder, opk, names)
     index = {n: i for i, n in enumerate(names)}
     p = cam["pixel_mm"]
     # measurements: tie points, then control

@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import INPUT_CALIBRATION
 from baarda.block.photo_block import (
     Block,
     Cameras,
@@ -286,8 +287,9 @@ def _notes(notes: list[str], folder: Path, tpath: Path, pixel_mm: float, sigma_p
     cams = shots.cameras
     out = [f"OpenSfM dataset {folder}: {len(shots.names)} shots, {len(cams)} "
            f"camera(s) ({', '.join(sorted({c.kind for c in cams}))}), nominal pixel "
-           f"size {pixel_mm:g} mm, image sigma {sigma_px:g} px; the cameras' OpenSfM "
-           f"parameters are estimated ({'; '.join(', '.join(c.free) for c in cams)})", *notes]
+           f"size {pixel_mm:g} mm, image sigma {sigma_px:g} px",
+           INPUT_CALIBRATION + "the cameras' OpenSfM parameters are estimated "
+           f"({'; '.join(', '.join(c.free) for c in cams)})", *notes]
     if ground.frame is not None:
         lla = ground.lla
         assert lla is not None  # the frame is made from it

@@ -15,7 +15,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import decode_text, file_bytes, parse_number, split_lines, to_numbers
+from baarda.io.records import (
+    decode_text,
+    file_bytes,
+    parse_number,
+    split_lines,
+    to_numbers,
+    whole_lines,
+)
 
 if TYPE_CHECKING:
     from baarda.io.opensfm_camera import OpenSfmCamera
@@ -103,8 +110,9 @@ def parse_crs_line(text: str) -> str:
 
 # ------------------------------------------------------------------ tracks
 def read_tracks(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
-    """(image per row, track per row, xy (n, 2) normalised, line number per row)."""
-    lines = split_lines(decode_text(file_bytes(path), str(path)))
+    """(image per row, track per row, xy (n, 2) normalised, line number per row); a file
+    that is empty or whose last line has no line end is refused as cut short."""
+    lines = whole_lines(path)
     start = 1 if lines and lines[0].startswith("OPENSFM_TRACKS_VERSION") else 0
     images, tracks, xs, ys, nos = [], [], [], [], []
     for n, line in enumerate(lines[start:], start=start + 1):

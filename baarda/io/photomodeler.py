@@ -12,7 +12,8 @@ Layout (whitespace separated, CRLF or LF):
             camera-position covariances (often blank) / N camera (as line 4) / N std devs
     blank line; control points "id X Y Z sX sY sZ"; blank line;
     object points "id X Y Z sX sY sZ"; blank line;
-    marked points "N id x y sx sy" [pixels]; blank line; features (ignored).
+    marked points "N id x y sx sy" [pixels]; blank line; features (ignored); blank line.
+    An export whose last line is not blank ends inside a section: refused as cut short.
 
 Read as DBAT's loadpm reads it (conversions stated in the notes of the block):
 
@@ -47,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.control import INPUT_CONTROL
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
 from baarda.io.records import (
@@ -117,6 +119,9 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
     lines, notes = _lines(path, encoding)
     if len(lines) < 6 or not lines[0].strip().lower().startswith("bundle soln"):
         raise ProjectError(spath, "not a PhotoModeler export (first line 'Bundle Soln')", 1)
+    if lines[-1].strip():
+        raise ProjectError(spath, "the export ends inside a section (PhotoModeler ends each "
+                           "section with a blank line): the file is cut short", len(lines))
     head = _nums(lines[1], spath, 2, "tolerance line", at_least=2)
     def_std = _nums(lines[2], spath, 3, "default standard deviations", at_least=1)
     cam = np.array(_nums(lines[3], spath, 4, "default camera", 10))
@@ -252,9 +257,10 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
              "image origin moved to the image centre, y up; K and P as given (backward "
              "model); the default camera (line 4)", *notes]
     if len(ctrl):
-        notes.append("control: the coordinates and precisions that PhotoModeler lists for its "
-                     "control points, its adjusted values and posterior precisions (not the "
-                     "surveyed control: --control FILE replaces them, as in DBAT's runs)")
+        notes.append(INPUT_CONTROL + "the coordinates and precisions that PhotoModeler lists "
+                     "for its control points, its adjusted values and posterior precisions "
+                     "(not the surveyed control: --control FILE replaces them, as in DBAT's "
+                     "runs)")
     settings = Settings(name=lines[0].strip()[len("Bundle Soln"):].strip() or Path(path).stem,
                         angle_unit="deg", sigma_image_um=float(
                             (def_std[0] if sigma_px is None else sigma_px) * py * 1e3))

@@ -101,6 +101,22 @@ def read_lines(path: str | Path, encoding: str = ENCODING) -> list[str]:
     return split_lines(decode_text(file_bytes(path), str(path), encoding))
 
 
+def whole_lines(path: str | Path, encoding: str = ENCODING, *,
+                allow_empty: bool = False) -> list[str]:
+    """read_lines of a data file that a program writes whole: ProjectError when it is empty
+    (unless `allow_empty`) or its last line has no line end, the marks of a file cut short
+    (a cut exactly at a line end cannot be seen: docs/formats.md)."""
+    data = file_bytes(path)
+    if not data.strip() and not allow_empty:
+        raise ProjectError(str(path), "the file is empty: cut short, or not written "
+                           "(it must hold at least one record)")
+    if data and data[-1:] not in (b"\n", b"\r"):
+        line = data.count(b"\n") + 1
+        raise ProjectError(str(path), "the last line has no line end: the file is cut short "
+                           "(a program writes every line whole)", line)
+    return split_lines(decode_text(data, str(path), encoding))
+
+
 class Columns:
     """Columns of a text file as string arrays (`columns`), with the 1-based line number of
     every row (`lines`), so that each later check names file, line and column."""
@@ -148,17 +164,18 @@ class Records(Columns):
 
     sep: ',' (commas, surrounding blanks ignored) or None (any whitespace).  Lines that are
     blank or start with `comment` are skipped.  `min_fields`..len(fields) fields per line
-    are accepted; missing trailing fields are empty strings.
+    are accepted; missing trailing fields are empty strings.  whole: the file is one a
+    program writes whole (whole_lines: empty, or a last line without its line end, refused).
     """
 
     def __init__(self, path: str | Path, fields: list[str], sep: str | None = ",",
                  comment: str = "#", min_fields: int | None = None,
-                 lines: Iterable[tuple[int, str]] | None = None):
+                 lines: Iterable[tuple[int, str]] | None = None, whole: bool = False):
         self.path = str(path)
         self.fields = list(fields)
         need = len(fields) if min_fields is None else min_fields
         if lines is None:
-            lines = enumerate(read_lines(path), start=1)
+            lines = enumerate(whole_lines(path) if whole else read_lines(path), start=1)
         rows, numbers = [], []
         for no, line in lines:
             text = line.strip()

@@ -92,7 +92,7 @@ class ComponentTest:
 
 @dataclass(frozen=True)
 class Change:
-    """An observation whose verdict the step changed (w after it)."""
+    """An observation whose verdict the step changed (w, r and MDB after it)."""
 
     kind: str
     photo: str
@@ -101,6 +101,8 @@ class Change:
     before: str
     after: str
     w: float
+    redundancy: float = float("nan")  # r after the step
+    mdb: float = float("nan")  # MDB after the step (the kind's unit: mm, m, rad)
 
 
 @dataclass(frozen=True)

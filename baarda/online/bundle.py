@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -650,8 +650,8 @@ class OnlineBundle:
                                 + "; ".join(result.notes[-1:]))
         if first:
             return []
-        w, r, *_ = self._stats(self._f)
-        return self._changes(keys, w, r)
+        w, r, *_, mdb = self._stats(self._f)
+        return self._changes(keys, w, r, mdb)
 
     def _problem(self, block: Block, maps) -> BundleProblem:
         """The bundle problem of the state block: with its control, or a free network held by
@@ -766,13 +766,17 @@ class OnlineBundle:
         sv, w, mdb, _ = w_tests(f.v0, f.sigma, qvv, r, self._bm.delta0)
         return w, r, f.v0, sv, mdb
 
-    def _changes(self, keys, w, r) -> list[Change]:
+    def _mdb(self, sigma, r) -> np.ndarray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(r >= 1e-3, self._bm.delta0 * sigma / np.sqrt(r), np.inf)
+
+    def _changes(self, keys, w, r, mdb) -> list[Change]:
         out = []
         new = verdicts(np.asarray(w, float), np.asarray(r, float), self._bm.k_w)
-        for k, v, wi in zip(keys, new, w, strict=True):
+        for k, v, wi, ri, mi in zip(keys, new, w, r, mdb, strict=True):
             before = self._verdict.get(k)
             if before is not None and before != v:
-                out.append(self._change(k, before, v, float(wi)))
+                out.append(self._change(k, before, v, float(wi), float(ri), float(mi)))
             self._verdict[k] = v
         return out
 
@@ -888,14 +892,14 @@ class OnlineBundle:
             rows = factor_rows(f.problem, f.result.factor, flat)
             q, v = f.lowrank.old_rows(rows, f.q0[flat], f.v0[flat])
             qvv, r = residual_cofactors(q, f.sigma[flat])
-            _, w, _, _ = w_tests(v, f.sigma[flat], qvv, r, self._bm.delta0)
-            out += self._changes([f.keys[n] for n in flat], w, r)
+            _, w, mdb, _ = w_tests(v, f.sigma[flat], qvv, r, self._bm.delta0)
+            out += self._changes([f.keys[n] for n in flat], w, r, mdb)
         if r0:
             sigma = f.lowrank.sigma[:r0]
             qvv = np.maximum(np.diag(sol.qvv)[:r0], 0.0)
             r = qvv / sigma ** 2
-            _, w, _, _ = w_tests(sol.v[:r0], sigma, qvv, r, self._bm.delta0)
-            out += self._changes(self._pending[:r0], w, r)
+            _, w, mdb, _ = w_tests(sol.v[:r0], sigma, qvv, r, self._bm.delta0)
+            out += self._changes(self._pending[:r0], w, r, mdb)
         return out
 
     def _new_unknowns(self, group: dict) -> np.ndarray:
@@ -954,9 +958,10 @@ class OnlineBundle:
         return ComponentTest(kind, photo, point, comp, pred, sig_pred, v, sv, r, w, mdb,
                              verdict(w, r, self._bm.k_w))
 
-    def _change(self, key: Key, before: str, after: str, w: float) -> Change:
+    def _change(self, key: Key, before: str, after: str, w: float, r: float,
+                mdb: float) -> Change:
         kind, photo, point, comp = self._label(key)
-        return Change(kind, photo, point, comp, before, after, w)
+        return Change(kind, photo, point, comp, before, after, w, r, mdb)
 
 
 def _merge(a: list[Change], b: list[Change]) -> list[Change]:
@@ -965,7 +970,7 @@ def _merge(a: list[Change], b: list[Change]) -> list[Change]:
     for c in a + b:
         key = (c.kind, c.photo, c.point, c.component)
         first = by.get(key)
-        by[key] = c if first is None else Change(*key, first.before, c.after, c.w)
+        by[key] = c if first is None else replace(c, before=first.before)
     return [c for c in by.values() if c.before != c.after]
 
 

@@ -29,20 +29,28 @@ from baarda.online.bundle import MAX_ROWS, OnlineBundle
 from baarda.options import TestOptions
 
 COLUMNS = ("step", "kind", "photo", "point", "component", "w", "mdb", "unit", "redundancy",
-           "verdict", "ms")
+           "verdict", "ms", "row", "before", "cause")
 MAX_REMOVALS = 10  # re-measurements after one step, at most
 
 
 def tests_table(answers) -> pd.DataFrame:
-    """One row per tested component of each answer: the step, what it is, w, MDB (in the
-    kind's unit: µm for image coordinates, m for control and GNSS), r, the verdict and the
-    step's time in ms (COLUMNS)."""
+    """replay.csv (COLUMNS): one row per tested component of each answer (row "test": the
+    step, what it is, w, MDB (in the kind's unit: µm for image coordinates, m for control
+    and GNSS), r, the verdict and the step's time in ms), then one per verdict the step
+    changed (row "change": the verdict before it, the new one with w, MDB and r after the
+    step); cause: the step (its action and what it took in or out)."""
     rows = []
     for a in answers:
+        cause = f"{a.action}: {a.what}"
         for t in a.tested:
             f, unit = UNITS.get(t.kind, (1.0, ""))
             rows.append((a.step, t.kind, t.photo, t.point, t.component, t.w, t.mdb * f,
-                         unit, t.redundancy, t.verdict, 1e3 * a.seconds))
+                         unit, t.redundancy, t.verdict, 1e3 * a.seconds, "test", "", cause))
+        for c in a.changed:
+            f, unit = UNITS.get(c.kind, (1.0, ""))
+            rows.append((a.step, c.kind, c.photo, c.point, c.component, c.w, c.mdb * f,
+                         unit, c.redundancy, c.after, 1e3 * a.seconds, "change", c.before,
+                         cause))
     return pd.DataFrame(rows, columns=list(COLUMNS))
 
 

@@ -75,15 +75,19 @@ def separability_lines(model: AdjustedModel, q: QualityResult) -> list[str]:
              f"{d['msb_over_mdb_median']:.2f}"]
     if d["uncontrolled"]:
         named = []
-        for u in d["uncontrolled_components"]:
+        shown = d["uncontrolled_components"][:MAX_NAMED]
+        for u in shown:
             where = (f" on {fk}{'s' if len(u['frames']) > 1 else ''} {', '.join(u['frames'])}"
                      if u["frames"][0] else "")
             named.append(f"point {u['point']}: {u['component']}{where}")
-        more = len(named) - MAX_NAMED
+        # the rest counted in components, as the total is (a group is a point's component on
+        # one or more frames)
+        more = d["uncontrolled"] - sum(len(u["frames"]) for u in shown)
         lines.append(f"uncontrolled: {d['uncontrolled']} active components "
                      f"({100 * d['share_uncontrolled']:.1f} %) cannot be checked (r < {R_MIN}): "
                      "an error there goes into the point unseen: "
-                     + "; ".join(named[:MAX_NAMED]) + (f"; and {more} more" if more > 0 else ""))
+                     + "; ".join(named) + (f"; and {more} more component(s)" if more > 0
+                                           else ""))
     if d["two_ray_points"]:
         n = len(d["two_ray_points"])
         lines.append(f"advice: {n} point(s) seen on two {fk}s only carry these: measure them on "

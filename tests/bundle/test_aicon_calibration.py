@@ -74,3 +74,21 @@ def test_calibrated_camera_within_two_sigma_of_the_protocol(qc, protocol):
         assert row["estimated"]
         assert abs(row["value"] - value) <= 2 * std, (name, row["value"], value, std)
         assert np.isclose(row["sigma"], std, rtol=0.05), (name, row["sigma"], std)
+
+
+def test_point_standard_deviations_are_the_protocols_by_default(qc):
+    """Issue 41: an AICON project is adjusted in AICON's own datum (inner constraints on
+    the points) by default: every point's standard deviations equal AICON's (.obc sX, sY,
+    sZ, printed to 1e-4 mm) to 5e-5 mm (with photo 1 held they differed by up to 0.021
+    mm)."""
+    from baarda.output.bundle_results import points_table
+
+    assert qc.adjustment.block.settings.datum == "inner"
+    t = points_table(qc.adjustment)
+    obc = np.loadtxt(SHARED / "example.obc")
+    ids = [str(int(v)) if float(v).is_integer() else repr(float(v)) for v in obc[:, 0]]
+    aicon = dict(zip(ids, obc[:, 4:7], strict=True))  # mm
+    ours = np.array([t.loc[t.point == p, ["sigma_X", "sigma_Y", "sigma_Z"]].to_numpy()[0]
+                     for p in t.point]) * 1e3
+    theirs = np.array([aicon[p] for p in t.point])
+    assert len(t) == 150 and np.abs(ours - theirs).max() < 5e-5

@@ -250,3 +250,24 @@ def test_inner_datum_from_the_command_line(tmp_path):
     assert np.allclose(pt[["X", "Y", "Z"]], pi[["X", "Y", "Z"]], atol=1e-9)
     assert main(["adjust", str(proj), "-o", str(tmp_path / "x"), "--free", "--datum",
                  "control"]) == 2
+
+
+def test_a_point_whose_rays_are_behind_the_camera_is_named_as_such():
+    """Issue 41: a point whose every ray was left out as behind the camera was said to be
+    'not measured on any photo'; the notes now say which points lost their rays and why."""
+    from baarda.bundle.free_network import drop_points_behind
+    from baarda.bundle.geometry import usable_points
+
+    block, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=4, seed=5))
+    pts = block.points
+    j = int(np.flatnonzero((pts.role == "tie") & (block.rays() >= 2))[0])
+    n_rays = int(block.rays()[j])
+    xyz = pts.xyz.copy()  # above every camera: behind each of them
+    xyz[j] = [*block.photos.eo[:, :2].mean(axis=0), 3 * block.photos.eo[:, 2].max()]
+    out, dropped = drop_points_behind(replace(block, points=replace(pts, xyz=xyz)))
+    assert dropped == n_rays and out.rays()[j] == 0
+    assert out.notes[-1].endswith(f"1 point(s) left with fewer than two rays by it: "
+                                  f"{pts.ids[j]}")
+    _, notes = usable_points(out)
+    assert notes == [f"tie point {pts.ids[j]} has no ray (measured on no photo, or its rays "
+                     "left out: see the notes above): left out"]

@@ -130,5 +130,10 @@ def test_sxb_photomodeler_export_with_dbat_control(source, tmp_path):
                  control=ROOT / root / SXB / "dbat_script" / "reference" / "sxb-control.txt")
     ctrl = block.points.role == "control"
     assert ctrl.sum() == 16 and np.allclose(block.points.sigma[ctrl], [0.02, 0.02, 0.04])
+    # issue 41: the reader's note on PhotoModeler's own control is replaced, not printed
+    assert not any("PhotoModeler lists" in n for n in block.notes)
+    assert "PhotoModeler lists" not in run.stdout
+    assert any("PhotoModeler lists" in n for n in read(
+        ROOT / root / SXB / "photomodeler_export" / "wsmart-no-orient-pmexport.txt").notes)
     assert got["redundancy"] == ref["redundancy"] == 1267
     assert "another frame" in run.stdout  # PhotoModeler's shifted frame: resected

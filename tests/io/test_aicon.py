@@ -120,9 +120,14 @@ def test_huge_sigmas_do_not_overflow(tmp_path):
 def test_no_active_observations(tmp_path):
     """Fuzz find (issue 15): a project without active observations gave a block with a NaN
     image sigma (the median of nothing, with numpy's RuntimeWarning)."""
+    inactive = OBC.replace("2 1 1 0\n", "2 0 1 0\n")  # the point's status 0
     with pytest.raises(ProjectError, match="no active observations") as e:
-        read_aicon(_project(tmp_path, obc="")).to_block()
+        read_aicon(_project(tmp_path, obc=inactive)).to_block()
     assert e.value.path.endswith("t.phc")
+    # an empty .obc is a file cut short (issue 41), refused naming it
+    with pytest.raises(ProjectError, match="the file is empty") as e:
+        read_aicon(_project(tmp_path, obc="")).to_block()
+    assert e.value.path.endswith("t.obc")
 
 
 @pytest.mark.parametrize("over, ext, line, column", [

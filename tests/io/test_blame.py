@@ -34,9 +34,14 @@ def test_truncated_colmap_images_txt_is_blamed(tmp_path):
     d = tmp_path / "sparse"
     shutil.copytree(COLMAP, d)
     lines = (COLMAP / "images.txt").read_text().splitlines()
-    (d / "images.txt").write_text("\n".join(lines[:7]) + "\n")
+    (d / "images.txt").write_text("\n".join(lines[:8]) + "\n")
     with pytest.raises(ProjectError, match="holds 2 of the 4 images that its header names "
                        r"\(line 4\): the file is cut short") as e:
+        read(d)
+    assert (e.value.path, e.value.line) == (str(d / "images.txt"), 8)
+    # cut before the POINTS2D line of its last image (issue 41)
+    (d / "images.txt").write_text("\n".join(lines[:7]) + "\n")
+    with pytest.raises(ProjectError, match="the last image has no POINTS2D line") as e:
         read(d)
     assert (e.value.path, e.value.line) == (str(d / "images.txt"), 7)
     # without COLMAP's header comment: the track names the file that lacks the image

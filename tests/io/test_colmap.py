@@ -422,3 +422,70 @@ def test_fast_text_readers_agree_with_the_line_reader(tmp_path, monkeypatch):
         assert bool(calls) == slow, (name, text[:200])
         (tmp_path / "points3D.txt").write_text(pts)
         (tmp_path / "images.txt").write_text(img)
+
+
+def _pinhole_fx_fy(folder, fx=1000.0, fy=1300.0, seed=3):
+    """A COLMAP text model written by hand: one PINHOLE camera with fx != fy, 5 images
+    looking down at 40 points, keypoints = projection + 1 px noise; the truth returned for
+    an independent adjustment (rotation vectors, translations, points)."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(seed)
+    w, h, cx, cy = 1600, 1200, 790.0, 610.0
+    xyz = np.column_stack([rng.uniform(-4, 4, 40), rng.uniform(-3, 3, 40),
+                           rng.uniform(0, 2, 40)])
+    centres = np.column_stack([np.linspace(-2, 2, 5), rng.uniform(-0.5, 0.5, 5),
+                               np.full(5, -10.0)])
+    rot = Rotation.from_rotvec(rng.normal(0, 0.03, (5, 3)))
+    t = -np.einsum("kij,kj->ki", rot.as_matrix(), centres)
+    uv = []
+    for k in range(5):
+        xc = rot[k].apply(xyz) + t[k]
+        uv.append(np.column_stack([fx * xc[:, 0] / xc[:, 2] + cx,
+                                   fy * xc[:, 1] / xc[:, 2] + cy]) + rng.normal(0, 1, (40, 2)))
+    folder.mkdir(parents=True)
+    (folder / "cameras.txt").write_text(f"1 PINHOLE {w} {h} {fx!r} {fy!r} {cx!r} {cy!r}\n")
+    lines = []
+    for k in range(5):
+        qx, qy, qz, qw = (float(q) for q in rot[k].as_quat())
+        tx, ty, tz = (float(v) for v in t[k])
+        lines.append(f"{k + 1} {qw!r} {qx!r} {qy!r} {qz!r} {tx!r} {ty!r} {tz!r} 1 im{k}.jpg")
+        lines.append(" ".join(f"{float(u)!r} {float(v)!r} {j + 1}"
+                              for j, (u, v) in enumerate(uv[k])))
+    (folder / "images.txt").write_text("\n".join(lines) + "\n")
+    (folder / "points3D.txt").write_text("".join(
+        f"{j + 1} {float(x)!r} {float(y)!r} {float(z)!r} 0 0 0 1.0 "
+        + " ".join(f"{k + 1} {j}" for k in range(5)) + "\n" for j, (x, y, z) in enumerate(xyz)))
+    return (fx, fy, cx, cy), rot.as_rotvec(), t, xyz, np.array(uv)
+
+
+def test_pinhole_with_fx_ne_fy_minimises_the_pixels(tmp_path):
+    """Issue 41: y scaled by fx/fy keeps 1 px as its sigma in its own unit, so v'Pv is the
+    sum of squared pixel residuals that an independent bundle adjustment (scipy
+    least_squares over poses and points, COLMAP's PINHOLE projection in pixels) minimises
+    (with x's sigma for y it was vx^2 + (fx/fy)^2 vy^2)."""
+    from scipy.optimize import least_squares
+    from scipy.spatial.transform import Rotation
+
+    from baarda.pipeline import adjust
+
+    (fx, fy, cx, cy), rv, t, xyz, uv = _pinhole_fx_fy(tmp_path / "m")
+
+    def residuals(p):
+        r = []
+        pts = p[30:].reshape(-1, 3)
+        for k in range(5):
+            xc = Rotation.from_rotvec(p[6 * k:6 * k + 3]).apply(pts) + p[6 * k + 3:6 * k + 6]
+            r.append(np.column_stack([fx * xc[:, 0] / xc[:, 2] + cx,
+                                      fy * xc[:, 1] / xc[:, 2] + cy]) - uv[k])
+        return np.concatenate(r).ravel()
+
+    p0 = np.concatenate([np.column_stack([rv, t]).ravel(), xyz.ravel()])
+    sol = least_squares(residuals, p0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    independent = float(np.sum(sol.fun ** 2))
+    block = read(tmp_path / "m")
+    sxy = block.image.sigma_xy
+    assert np.allclose(sxy[:, 0], 0.001) and np.allclose(sxy[:, 1], 0.001 * fx / fy)
+    res = adjust(block)
+    assert res.converged and res.redundancy == 2 * 5 * 40 - (6 * 5 + 3 * 40 - 7)
+    assert res.vtpv == pytest.approx(independent, rel=1e-6)

@@ -371,3 +371,45 @@ def test_reference_lla_json_and_camera_models_json(tmp_path, block):
     assert b.cameras.focal_mm[0] == pytest.approx(0.85 * SIZE * 1e-3)
     (d / "camera_models_overrides.json").write_text(json.dumps({cid: cams[cid]}))
     assert read_opensfm(d).cameras.focal_mm[0] == block.cameras.focal_mm[0]
+
+
+def test_calibrate_none_replaces_the_readers_note():
+    """Issue 41: with --calibrate none the notes no longer say the cameras' OpenSfM
+    parameters are estimated."""
+    said = [n for n in baarda.read(DATA).notes if "parameters are estimated (c, k1, k2)" in n]
+    assert len(said) == 1
+    b = baarda.read(DATA, calibrate="none")
+    assert all(f == () for f in b.cameras.free)
+    assert not any("are estimated" in n for n in b.notes)
+
+
+def test_the_datum_line_says_the_gps_rows_make_the_statistics_depend_on_it(block):
+    """Issue 41 (what is done of it): berlin's 3 GPS positions are observations in OpenSfM's
+    own free datum, so the 7 constraints are more than minimal and v'Pv depends on the photo
+    held (12,628.0373 with photo 0, 12,628.0386 with photo 2; the issue saw 12,627.944 with
+    another choice).  The datum line said the statistics do not depend on the datum; it now
+    says they do, and why.  Without the GPS rows they agree to 1e-9."""
+    from baarda.bundle.free_network import FreeBundleProblem, choose_datum
+    from baarda.pipeline import prepare
+
+    p = prepare(block)
+    other = FreeBundleProblem(p.block, datum=choose_datum(p.block, 2), inner=True)
+    a, b = p.fit(), other.fit()
+    assert a.converged and b.converged and a.redundancy == b.redundancy
+    assert abs(a.vtpv - b.vtpv) > 1e-3
+    text = p.datum_text()
+    assert "do not depend" not in text
+    assert "the GNSS positions also carry part of the datum" in text
+    assert "the statistics depend on the photo held" in text
+    # without the GPS rows the constraints are minimal: v'Pv the same to 1e-9
+    from dataclasses import replace
+
+    from baarda.block.photo_block import no_gnss
+
+    free = replace(p.block, gnss=no_gnss())
+    c = FreeBundleProblem(free, datum=p.datum, inner=True).fit()
+    d = FreeBundleProblem(free, datum=other.datum, inner=True).fit()
+    assert c.converged and d.converged
+    assert d.vtpv == pytest.approx(c.vtpv, rel=1e-9)
+    assert "statistics do not depend on the datum" in \
+        FreeBundleProblem(free, datum=p.datum, inner=True).datum_text()

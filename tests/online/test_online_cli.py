@@ -63,7 +63,10 @@ def test_replay_has_one_row_per_tested_component(replayed):
     out, _ = replayed
     t = _csv(out / "replay.csv")
     assert list(t.columns) == ["step", "kind", "photo", "point", "component", "w", "mdb",
-                               "unit", "redundancy", "verdict", "ms"]
+                               "unit", "redundancy", "verdict", "ms", "row", "before",
+                               "cause"]
+    assert set(t["row"]) == {"test", "change"}
+    t = t[t["row"] == "test"]
     obs = _csv(out / "observations.csv")
     assert len(t) == len(obs) == 598
     keys = t[["kind", "photo", "point", "component"]].fillna("").astype(str)
@@ -73,6 +76,31 @@ def test_replay_has_one_row_per_tested_component(replayed):
     assert (t.loc[t["verdict"] == "suspect", "redundancy"] < 1e-3).all()
     assert (t.loc[t["verdict"] != "suspect", "redundancy"] >= 1e-3).all()
     assert (np.abs(t.loc[t["verdict"] == "reject", "w"]) > 3.29).all()
+
+
+def test_replay_records_every_verdict_change(replayed):
+    """Issue 41: a verdict that changes after a component was taken in is a row of
+    replay.csv (the step that changed it, the old and new verdict, w, MDB and r then)."""
+    out, _ = replayed
+    t = _csv(out / "replay.csv").fillna({"photo": "", "point": ""})
+    for photo, point, comp, test_step in (("01004", "002005", "x", 4),
+                                          ("03002", "007002", "y", 18)):
+        rows = t[(t.photo == photo) & (t.point == point) & (t.component == comp)]
+        assert list(rows.row) == ["test", "change"]
+        test, change = rows.iloc[0], rows.iloc[1]
+        assert (test.step, test.verdict) == (test_step, "accept")
+        assert (change.step, change.before, change.verdict) == (test_step + 1, "accept",
+                                                                "reject")
+        assert abs(change.w) > 3.29 and change.cause.startswith("add: photo")
+    # the changes of the last step carry the statistics of the whole block: those of the
+    # final adjustment (observations.csv), up to the on-line bundle's linearisation
+    last = t[(t.row == "change") & (t.step == t.step.max())]
+    obs = _csv(out / "observations.csv").fillna({"photo": "", "point": ""})
+    both = last.merge(obs, on=["kind", "photo", "point", "component"], suffixes=("", "_a"))
+    assert len(both) == len(last) == 6
+    assert np.allclose(both.w, both.w_a, atol=2e-3)
+    assert np.allclose(both.redundancy, both.redundancy_a, atol=1e-3)
+    assert np.allclose(both.mdb, both.mdb_a, rtol=1e-3)  # µm in both
 
 
 @pytest.fixture(scope="module")
@@ -178,7 +206,12 @@ def test_bundle_reads_measurements_on_stdin(partial_project, tmp_path, monkeypat
     assert s["sigma0"] == pytest.approx(ref.adjustment.sigma0, rel=1e-8)
     # the first adjustment, photo 04008 (its 18 coordinates and the height of the control
     # point 008009 that it brings in), 008007 on 04006, removed (step 4) and measured again
-    assert t.groupby("step").size().to_dict() == {1: 577, 2: 19, 3: 2, 5: 2}
+    tested = t[t["row"] == "test"]
+    assert tested.groupby("step").size().to_dict() == {1: 577, 2: 19, 3: 2, 5: 2}
+    # and each verdict a step changed (issue 41): the removal of step 4 changes some
+    changes = t[t["row"] == "change"]
+    assert set(changes["step"]) <= {2, 3, 4, 5} and 4 in set(changes["step"])
+    assert (changes["before"] != changes["verdict"]).all()
 
 
 def test_bundle_json_answers(partial_project, monkeypatch, capsys):
@@ -282,3 +315,37 @@ def test_the_demo_replayed_by_an_operator_who_measures_again():
     assert res.adjustment.redundancy == ref.adjustment.redundancy == 172
     assert res.adjustment.sigma0 == pytest.approx(ref.adjustment.sigma0, rel=1e-10)
     assert round(res.adjustment.sigma0, 4) == 1.0444
+
+
+class _Terminal(io.StringIO):
+    """Lines typed at a terminal (stdin.isatty())."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.mark.parametrize("json_mode", [False, True])
+def test_a_mistyped_line_at_the_terminal_is_answered_and_the_session_goes_on(
+        partial_project, tmp_path, monkeypatch, capsys, json_mode):
+    """Issue 41: at the keyboard a mistyped command is answered and the interpreter goes
+    on (the lines after it are taken in); from a file the first bad line ends the run."""
+    folder, lines = partial_project
+    typed = ["statsu", "point 04006", "remove point 99 99", *lines, "quit"]
+    monkeypatch.setattr(sys, "stdin", _Terminal("\n".join(typed) + "\n"))
+    out = tmp_path / "out"
+    args = ["online", "--bundle", str(folder), "-o", str(out)] + (["--json"] if json_mode
+                                                                  else [])
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    if json_mode:
+        answers = [json.loads(s) for s in said.splitlines() if s.startswith("{")]
+        errors = [a for a in answers if "error" in a]
+        assert len(errors) == 3 and "unknown command 'statsu'" in errors[0]["error"]
+    else:
+        assert said.count("error: ") == 3 and "error: unknown command 'statsu'" in said
+    t = _csv(out / "online.csv")
+    assert set(t.loc[t["row"] == "test", "photo"]) >= {"04008", "04006"}  # taken in after
+    # the same lines from a file: exit 2 at the first
+    monkeypatch.setattr(sys, "stdin", io.StringIO("\n".join(typed) + "\n"))
+    assert main(["online", "--bundle", str(folder)]) == 2
+    assert "<stdin>, line 1" in capsys.readouterr().err

@@ -161,7 +161,11 @@ def test_watch_once_flags_the_blunder_and_ends_as_adjust(grown, tmp_path, frame)
     # the snapshot's other new image points: a few accepted at least
     s3 = t[(t.snapshot == 3)]
     assert (s3.verdict == "accept").sum() > 50
-    assert set(t.snapshot) == {1, 2, 3}  # snapshot 4 only took observations out
+    tested = t[t.row == "test"]
+    assert set(tested.snapshot) == {1, 2, 3}  # snapshot 4 only took observations out
+    # the verdicts its removals changed are rows too (issue 41)
+    changed = t[t.row == "change"]
+    assert 4 in set(changed.snapshot) and (changed.before != changed.verdict).all()
 
 
 def test_watch_api_retries_a_half_written_snapshot(grown, tmp_path):
