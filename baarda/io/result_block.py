@@ -1,0 +1,92 @@
+"""The adjusted block of a result folder of `baarda adjust`, for `baarda convert RESULT --to
+FMT`: the run's input read again (summary.json's input path), with the adjusted
+orientations (photos.csv), point coordinates (points.csv) and camera constants and
+principal points (summary.json's cameras) put in, and the rejected image observations
+(observations.csv's `rejected`) left out; these are returned with their w and MDB, for a
+side file.  A self-calibration's distortion terms (cameras.csv) are not taken over: the
+cameras keep the input's, with a note.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from baarda.block.photo_block import Block
+from baarda.block.rotation import angle_to_rad
+from baarda.errors import ProjectError
+
+
+def is_result_folder(path: str | Path) -> bool:
+    p = Path(path)
+    return p.is_dir() and (p / "summary.json").is_file() and (p / "run.json").is_file()
+
+
+def _by_id(ids: list[str], table: pd.DataFrame, column: str, where: Path) -> np.ndarray:
+    """The rows of `table` in the order of `ids` (ProjectError naming an id it lacks)."""
+    index = {str(v): k for k, v in enumerate(table[column].astype(str))}
+    missing = [i for i in ids if i not in index]
+    if missing:
+        raise ProjectError(str(where), f"{column} {missing[0]} of the input is not in the "
+                           "result (was the input changed after the run?)")
+    return np.array([index[i] for i in ids], np.int64)
+
+
+def read_result_block(folder: str | Path, **read_options) -> tuple[Block, pd.DataFrame]:
+    """(adjusted block, rejected observations: photo, point, component, w, mdb)."""
+    from baarda.io.formats import read_any
+    from baarda.io.result_folder import read_results
+
+    folder = Path(folder)
+    res = read_results(folder)
+    source = res.summary.get("source") or (res.summary.get("input") or {}).get("path")
+    if not source or not Path(source).exists():
+        raise ProjectError(str(folder / "summary.json"), f"the run's input {source!r} is not "
+                           "there: the adjusted block is written over its input's "
+                           "observations", field="source")
+    block = read_any(source, **read_options)
+    notes = [f"adjusted orientations, points and cameras of the result folder {folder}"]
+    if res.photos is not None and len(block.photos):
+        ph = res.photos.iloc[_by_id(block.photos.ids, res.photos, "photo",
+                                    folder / "photos.csv")]
+        unit = res.angle_unit or block.settings.angle_unit
+        ang = angle_to_rad(ph[["omega", "phi", "kappa"]].to_numpy(float), unit)
+        eo = np.column_stack([ph[["X0", "Y0", "Z0"]].to_numpy(float), ang])
+        block = replace(block, photos=replace(block.photos, eo=eo))
+    if res.points is not None:
+        used = np.unique(block.image.point)
+        ids = [block.points.ids[j] for j in used]
+        pt = res.points.iloc[_by_id(ids, res.points, "point", folder / "points.csv")]
+        xyz = block.points.xyz.copy()
+        xyz[used] = pt[["X", "Y", "Z"]].to_numpy(float)
+        block = replace(block, points=replace(block.points, xyz=xyz))
+    cams = res.cameras
+    if cams:
+        c = block.cameras
+        focal, pp = c.focal_mm.astype(float).copy(), c.principal_point_mm.astype(float).copy()
+        for i, cid in enumerate(c.ids):
+            if cid in cams:
+                focal[i] = cams[cid]["focal_mm"]
+                pp[i] = cams[cid]["x0_mm"], cams[cid]["y0_mm"]
+        block = replace(block, cameras=replace(c, focal_mm=focal, principal_point_mm=pp))
+    if (folder / "cameras.csv").is_file():
+        notes.append("cameras.csv (a self-calibration's terms) not taken over: the cameras "
+                     "keep the input's distortion")
+    obs = res.obs
+    rej = obs[(obs["kind"] == "image") & obs["rejected"].astype(str).isin(["True", "true",
+                                                                            "1"])]
+    rejected = rej[["photo", "point", "component", "w", "mdb"]].reset_index(drop=True)
+    if len(rejected):
+        pi, qi = block.photo_index, block.point_index
+        pairs = {(pi.get(str(a), -1), qi.get(str(b), -1))
+                 for a, b in zip(rejected["photo"], rejected["point"], strict=True)}
+        drop = np.array([(p, q) in pairs for p, q in zip(block.image.photo.tolist(),
+                                                         block.image.point.tolist(),
+                                                         strict=True)], bool)
+        block = block.select_image(~drop)
+        notes.append(f"{int(drop.sum())} rejected image observation(s) left out (listed with "
+                     "their w and MDB in rejected.csv)")
+    return replace(block, notes=block.notes + notes), rejected
