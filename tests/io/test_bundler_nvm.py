@@ -1,0 +1,193 @@
+"""Bundler v0.3 and VisualSFM NVM_V3: read (io/bundler.py, io/nvm.py), written
+(output/sfm_files.py, `baarda convert --to`), checked against COLMAP's Maupertuis model
+written in both formats by another writer (tests/io/sfm_exports.py: pycolmap and the
+formats' published conventions)."""
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import baarda
+from baarda.block.camera_models import MODELS
+from baarda.cli import main
+from baarda.errors import ProjectError
+from baarda.io.formats import detect
+from baarda.io.nvm import read_nvm
+from baarda.output.sfm_files import write_bundler, write_nvm
+
+sys.path.insert(0, str(Path(__file__).parent))
+from sfm_exports import export_bundler, export_nvm  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+if not DATA.is_dir():
+    DATA = Path("/work/shared/data")
+COLMAP = DATA / "colmap_maupertuis" / "sparse"
+
+
+@pytest.fixture(scope="module")
+def exports(tmp_path_factory):
+    d = tmp_path_factory.mktemp("sfm")
+    return export_bundler(COLMAP, d / "bundler"), export_nvm(COLMAP, d / "model.nvm")
+
+
+def _observations(b):
+    """The image observations as a set: (photo id, point coordinates, x, y); the points are
+    named by their coordinates (the formats renumber them)."""
+    xyz = np.round(b.points.xyz, 9)
+    return sorted((b.photos.ids[p], *xyz[q], *b.image.xy_mm[k])
+                  for k, (p, q) in enumerate(zip(b.image.photo, b.image.point, strict=True)))
+
+
+def test_detected_and_read_as_colmap_has_it(exports):
+    bundle, nvm = exports
+    assert detect(bundle) == "bundler" and detect(bundle.parent) == "bundler"
+    assert detect(nvm) == "nvm"
+    ref = baarda.read(COLMAP)
+    for path in exports:
+        b = baarda.read(path)
+        assert b.summary().split(":")[1] == ref.summary().split(":")[1]  # 4 photos, 3350 ...
+        assert [len(x) for x in (b.photos, b.image, b.points)] == [4, 3350, 1039]
+        order = [ref.photo_index[p] for p in b.photos.ids]
+        # COLMAP's text file has the quaternions to 6 digits, pycolmap normalises them,
+        # baarda's COLMAP reader too but by another route: the EO agree to 1e-5
+        assert np.abs(b.photos.eo - ref.photos.eo[order]).max() < 1e-5
+        # the same observations (x - cx, cy - y with cx, cy at the image centre): to 1e-12 mm
+        a, r = np.array([o[1:] for o in _observations(b)]), \
+            np.array([o[1:] for o in _observations(ref)])
+        assert np.abs(a - r).max() < 1e-12
+    notes = " ".join(baarda.read(bundle).notes)
+    assert "no principal point" in notes and "5 repeated view(s)" in notes
+
+
+@pytest.mark.parametrize("writer", [write_bundler, write_nvm])
+def test_round_trip(exports, tmp_path, writer):
+    """Each writer's file read back: orientations to 1e-9 relative (here 1e-15),
+    observations exactly, the points' coordinates exactly."""
+    for path in (*exports, COLMAP):
+        a = baarda.read(path)
+        notes = writer(a, tmp_path / "out")
+        assert any("no principal point" in n for n in notes)
+        b = baarda.read(tmp_path / "out" / ("model.nvm" if writer is write_nvm else ""))
+        assert b.photos.ids == a.photos.ids
+        assert np.abs(b.photos.eo - a.photos.eo).max() <= 1e-9 * np.abs(a.photos.eo).max()
+        assert _observations(b) == _observations(a)
+        assert np.array_equal(b.cameras.focal_mm, a.cameras.focal_mm)
+
+
+def test_nvm_distortion_is_on_the_measured_point(tmp_path):
+    """VisualSFM's r: undistorted = m (1 + r |m|^2 / f^2) on the measured m (pixels); baarda's
+    backward ``brown`` with k1 = r / c^2 gives the same ideal point."""
+    f, r, px = 1500.0, -0.12, 0.001
+    nvm = tmp_path / "d.nvm"
+    nvm.write_text(f"NVM_V3\n\n1\na.jpg {f} 1 0 0 0 0 0 0 {r} 0\n1\n0 0 10 1 2 3 1 0 5 "
+                   "400.0 -300.0\n\n0\n")
+    b = read_nvm(nvm, pixel_mm=px)
+    assert b.cameras.model[0] == "brown"
+    m = np.array([400.0, -300.0])
+    u = b.image.xy_mm  # (x, -y) px
+    coef = b.cameras.coefficients[:1]
+    delta = MODELS["brown"].terms(u, coef, np.zeros((1, 0)))[0]
+    ideal = (u + delta)[0] / px
+    expected = m * (1 + r * (m @ m) / f ** 2) * [1, -1]
+    assert np.allclose(ideal, expected, rtol=1e-13)
+    # and back: the writer gives r again
+    write_nvm(b, tmp_path / "w")
+    assert float((tmp_path / "w" / "model.nvm").read_text().split("\n")[3].split()[9]) == \
+        pytest.approx(r, rel=1e-14)
+
+
+def test_nvm_several_models(exports, tmp_path):
+    _, nvm = exports
+    text = nvm.read_text().rstrip().rsplit("\n", 1)[0]  # without the closing 0
+    body = text.split("\n", 2)[2]  # without the header and its blank line
+    two = tmp_path / "two.nvm"
+    two.write_text(text + "\n" + body + "\n0\n")
+    b = baarda.read(two)
+    assert any("the file has 2 models; model 0 read" in n for n in b.notes)
+    assert len(read_nvm(two, model=1).image) == 3350
+    with pytest.raises(ProjectError, match="model 2 asked for, the file has 2"):
+        read_nvm(two, model=2)
+
+
+def _fails(capsys, path, *expected):
+    """`baarda convert` exits 2 naming the file, the line and what was expected."""
+    assert main(["convert", str(path), "-o", str(path.parent / "o"), "-q"]) == 2
+    err = capsys.readouterr().err
+    for e in expected:
+        assert e in err, err
+    return err
+
+
+def _bundler(tmp_path, exports, edit) -> Path:
+    lines = exports[0].read_text().split("\n")
+    d = tmp_path / "bad"
+    d.mkdir(parents=True)
+    (d / "bundle.out").write_text("\n".join(edit(lines)))
+    (d / "list.txt").write_text(exports[0].with_name("list.txt").read_text())
+    return d / "bundle.out"
+
+
+def test_bundler_bad_input(exports, tmp_path, capsys):
+    p = _bundler(tmp_path, exports, lambda s: s[:1000])
+    _fails(capsys, p, "bundle.out", "line 1000", "the file ends early", "4 cameras and 1039 "
+           "points need 3139 lines")
+    # a view list naming camera 7 (there are 4): line of the point's view list
+    def camera7(s):
+        t = s[24].split()
+        t[1] = "7"
+        return s[:24] + [" ".join(t)] + s[25:]
+    p = _bundler(tmp_path / "b", exports, camera7)
+    _fails(capsys, p, "line 25", "view on camera 7, which does not exist (cameras 0..3)")
+    # a view list whose count promises more views than follow
+    p = _bundler(tmp_path / "c", exports, lambda s: s[:24] + [s[24] + " 1"] + s[25:])
+    _fails(capsys, p, "line 25", "values follow")
+    # a rotation that is not one: its first row doubled
+    def scaled(s):
+        s[3] = " ".join(str(2 * float(v)) for v in s[3].split())
+        return s
+    p = _bundler(tmp_path / "d", exports, scaled)
+    _fails(capsys, p, "line 4", "camera 0: R is not a rotation")
+
+
+def test_nvm_bad_input(exports, tmp_path, capsys):
+    lines = exports[1].read_text().split("\n")
+    cases = [(lines[:20], ["line 21", "the file ends early: point"]),
+             (lines[:3] + [lines[3].replace(" 0.99", " 1.99", 1)] + lines[4:],
+              ["line 4", "not a rotation (a unit quaternion expected)"])]
+    t = lines[10].split()
+    t[7] = "9"  # the first measurement on image 9 (there are 4)
+    cases.append((lines[:10] + [" ".join(t)] + lines[11:],
+                  ["line 11", "measurement on image 9, which does not exist (images 0..3)"]))
+    for k, (text, expected) in enumerate(cases):
+        p = tmp_path / f"bad{k}" / "m.nvm"
+        p.parent.mkdir()
+        p.write_text("\n".join(text))
+        _fails(capsys, p, "m.nvm", *expected)
+
+
+@pytest.mark.slow
+def test_adjusted_as_colmap_and_converted_back(exports, tmp_path):
+    """Acceptance (issue 38): the Bundler and NVM files of the COLMAP model adjust with
+    --sigma-px 1 --calibrate none to COLMAP's redundancy and sigma0 (1e-6); `baarda convert
+    RESULT --to bundler|nvm` re-read and re-adjusted gives the same sigma0 (1e-6)."""
+    def adjust(path, out):
+        assert main(["adjust", str(path), "--sigma-px", "1", "--calibrate", "none", "-o",
+                     str(out), "-q"]) in (0, 5)
+        s = json.loads((out / "summary.json").read_text())
+        return s["redundancy"], s["sigma0"], s["n_rejected"]
+
+    red, s0, rej = adjust(COLMAP, tmp_path / "colmap")
+    assert red == 3566 and s0 == pytest.approx(0.4754116, rel=1e-6) and rej == 0
+    for path in exports:
+        r, s, _ = adjust(path, tmp_path / path.stem)
+        assert r == red and s == pytest.approx(s0, rel=1e-6)
+    for to, name in (("bundler", "bundle.out"), ("nvm", "model.nvm")):
+        assert main(["convert", str(tmp_path / "colmap"), "--to", to, "-o",
+                     str(tmp_path / to), "-q"]) == 0
+        assert (tmp_path / to / "rejected.csv").read_text().startswith("photo,point,"
+                                                                      "component,w,mdb")
+        r, s, _ = adjust(tmp_path / to / name, tmp_path / f"{to}_again")
+        assert r == red and s == pytest.approx(s0, rel=1e-6)
