@@ -97,7 +97,7 @@ def write_bundler(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM) 
     pixel = _pixel(block, pixel_mm)
     out = ["# Bundle file v0.3", ""]
     approx = []
-    for i, pid in enumerate(block.photos.ids):
+    for i in range(len(block.photos)):
         ci = int(block.photos.camera[i])
         kind, coef = _coefficients(block, ci)
         c = float(block.cameras.focal_mm[ci])
@@ -164,8 +164,8 @@ def write_nvm(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM,
         rot, _ = pose_of_eo(block.photos.eo[i])
         q = matrix_to_qvec(rot)
         x0 = block.photos.eo[i, :3]
-        out.append(f"{pid} {float(c / pixel[ci])!r} " + " ".join(repr(float(v)) for v in q) + " " +
-                   " ".join(repr(float(v)) for v in x0) + f" {r!r} 0")
+        out.append(f"{pid} {float(c / pixel[ci])!r} " + " ".join(repr(float(v)) for v in q)
+                   + " " + " ".join(repr(float(v)) for v in x0) + f" {r!r} 0")
     if approx:
         notes.append(f"camera(s) {', '.join(sorted(set(approx)))}: a forward k1 written as "
                      "NVM's r = -k1 on the measured point (first order)")
