@@ -72,7 +72,8 @@ class FormatSpec:
     path is (`input`, e.g. "a COLMAP model folder"; `path` one of PATH_KINDS), its pixel
     policy (PIXEL_POLICIES), `detect` and `read` ("module:function" imported on demand, or
     the functions themselves), `writer` ("module:function" of the writer in baarda/output,
-    None: baarda does not write it) and `camera_file`: it takes --camera."""
+    None: baarda does not write it), `camera_file`: it takes --camera, `models`: a file may
+    hold several models (--model K picks one)."""
 
     name: str
     title: str
@@ -83,6 +84,7 @@ class FormatSpec:
     read: str | Read
     writer: str | None = None
     camera_file: bool = False
+    models: bool = False
 
     def __post_init__(self) -> None:
         if self.path not in PATH_KINDS or self.pixels not in PIXEL_POLICIES:
@@ -135,7 +137,8 @@ REGISTRY: list[FormatSpec] = [
                "folder", "either", "nominal", "baarda.io.bundler:detect",
                "baarda.io.bundler:read", "baarda.output.sfm_files:write_bundler"),
     FormatSpec("nvm", "VisualSFM NVM", "a VisualSFM NVM_V3 .nvm file", "file", "nominal",
-               "baarda.io.nvm:detect", "baarda.io.nvm:read", "baarda.output.sfm_files:write_nvm"),
+               "baarda.io.nvm:detect", "baarda.io.nvm:read", "baarda.output.sfm_files:write_nvm",
+               models=True),
 ]
 
 FORMATS = tuple(s.name for s in REGISTRY)  # the built-in formats (format_names: all)
@@ -249,6 +252,10 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
         takes = " or ".join(r.title for r in REGISTRY if r.camera_file)
         raise ProjectError(str(camera), f"a camera file replaces the camera of a {takes}; "
                            f"{p.name} is {s.name} input (give its cameras in its own files)")
+    if model is not None and not s.models:
+        takes = " or ".join(r.title for r in REGISTRY if r.models)
+        raise ProjectError(str(p), f"--model picks a model of a {takes} file; this is "
+                           f"{s.name} input (one model)")
     opts = resolve_image_options(s.name, pixel_mm, sigma_px, sigma_image_um)
     block = s.reads(p, ReadRequest(opts.pixel_mm, opts.sigma_px, encoding,
                                    None if camera is None else Path(camera), crs, model))

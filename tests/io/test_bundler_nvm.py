@@ -110,6 +110,9 @@ def test_nvm_several_models(exports, tmp_path):
     assert len(read_nvm(two, model=1).image) == 3350
     with pytest.raises(ProjectError, match="model 2 asked for, the file has 2"):
         read_nvm(two, model=2)
+    assert main(["convert", str(two), "--model", "1", "-o", str(tmp_path / "o1"), "-q"]) == 0
+    assert main(["convert", str(COLMAP), "--model", "1", "-o", str(tmp_path / "o2"),
+                 "-q"]) == 2
 
 
 def _fails(capsys, path, *expected):
