@@ -5,6 +5,7 @@ formats' published conventions)."""
 
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -194,3 +195,57 @@ def test_adjusted_as_colmap_and_converted_back(exports, tmp_path):
                                                                       "component,w,mdb")
         r, s, _ = adjust(tmp_path / to / name, tmp_path / f"{to}_again")
         assert r == red and s == pytest.approx(s0, rel=1e-6)
+
+
+@pytest.mark.slow
+def test_result_folder_goes_out_adjusted_without_its_rejections(tmp_path):
+    """`baarda convert RESULT --to bundler|nvm`: the adjusted orientations (photos.csv, in
+    gon here) and points (points.csv) go out, the rejected observations stay out and are
+    listed with their w and MDB in rejected.csv."""
+    import pandas as pd
+
+    demo = Path(__file__).resolve().parents[2] / "examples" / "demo"
+    res = tmp_path / "res"
+    assert main(["adjust", str(demo), "--snoop", "-o", str(res), "-q"]) == 0
+    obs = pd.read_csv(res / "observations.csv", dtype={"photo": str, "point": str})
+    rejected = obs[(obs["kind"] == "image") & obs["rejected"]]
+    assert len(rejected) == 4
+    photos = pd.read_csv(res / "photos.csv", dtype={"photo": str})
+    points = pd.read_csv(res / "points.csv", dtype={"point": str})
+    for to, name in (("bundler", "bundle.out"), ("nvm", "model.nvm")):
+        out = tmp_path / to
+        assert main(["convert", str(res), "--to", to, "-o", str(out), "-q"]) == 0
+        listed = pd.read_csv(out / "rejected.csv", dtype={"photo": str, "point": str})
+        assert listed[["photo", "point", "component"]].values.tolist() == \
+            rejected[["photo", "point", "component"]].values.tolist()
+        assert np.allclose(listed["w"], rejected["w"], rtol=1e-15)
+        b = baarda.read(out / name)
+        assert len(b.image) == 276 - 4
+        ph = photos.set_index("photo").loc[b.photos.ids]
+        eo = np.column_stack([ph[["X0", "Y0", "Z0"]],
+                              np.deg2rad(ph[["omega", "phi", "kappa"]].to_numpy() * 0.9)])
+        d = np.abs(b.photos.eo - eo)
+        d[:, 3:] = np.abs((d[:, 3:] + np.pi) % (2 * np.pi) - np.pi)  # angles mod 2 pi
+        assert d.max() <= 1e-9 * np.abs(eo).max()
+        got = {tuple(np.round(x, 6)) for x in b.points.xyz}
+        assert got == {tuple(np.round(x, 6)) for x in points[["X", "Y", "Z"]].to_numpy()}
+
+
+def test_list_and_camera_models(exports, tmp_path, capsys):
+    """list.txt must name every camera; without it the images are numbered (noted); a lens
+    model the format cannot hold is an error naming the camera (exit 2), not a file that
+    means something else."""
+    p = _bundler(tmp_path, exports, lambda s: s)
+    p.with_name("list.txt").write_text("00.jpg\n01.jpg\n")
+    _fails(capsys, p, "list.txt", "2 image names, but the bundle file has 4 cameras")
+    p.with_name("list.txt").unlink()
+    b = baarda.read(p)
+    assert b.photos.ids == ["0", "1", "2", "3"] and "the images are numbered" in b.notes[-2]
+    block = baarda.read(COLMAP, camera_model="brown")
+    coef = block.cameras.coefficients.copy()
+    coef[0, 3] = 1e-6  # a decentring term
+    block = replace(block, cameras=replace(block.cameras, coefficients=coef))
+    with pytest.raises(ValueError, match="camera 1: model brown .* has no Bundler equivalent"):
+        write_bundler(block, tmp_path / "w")
+    with pytest.raises(ValueError, match="has no NVM equivalent"):
+        write_nvm(block, tmp_path / "w")
