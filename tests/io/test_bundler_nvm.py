@@ -249,3 +249,33 @@ def test_list_and_camera_models(exports, tmp_path, capsys):
         write_bundler(block, tmp_path / "w")
     with pytest.raises(ValueError, match="has no NVM equivalent"):
         write_nvm(block, tmp_path / "w")
+
+
+@pytest.mark.slow
+def test_bundler_radial_terms_are_colmaps(tmp_path):
+    """Like with like for the lens: the Maupertuis model given a RADIAL camera (k1 -0.02,
+    k2 0.005) adjusts (--calibrate none) as COLMAP and as its Bundler file to the same
+    sigma0 (1e-6): Bundler's r(p) = 1 + k1 |p|^2 + k2 |p|^4 is COLMAP's RADIAL.  (NVM's one
+    term is on the measured point, COLMAP's on the ideal one: r = -k is only a first-order
+    match, so NVM is compared on the pinhole model above.)"""
+    import pycolmap
+
+    r = pycolmap.Reconstruction(str(COLMAP))
+    cam = r.cameras[1]
+    cam.model = pycolmap.CameraModelId.RADIAL
+    cam.params = [1847.53, 959.5, 539.5, -0.02, 0.005]
+    r.cameras[1] = cam
+    (tmp_path / "radial").mkdir()
+    r.write_text(str(tmp_path / "radial"))
+    bundle = export_bundler(tmp_path / "radial", tmp_path / "bundler")
+    assert baarda.read(bundle).cameras.coefficients[0, :2].tolist() == [-0.02, 0.005]
+    sigma0 = []
+    for path in (tmp_path / "radial", bundle):
+        out = tmp_path / f"out{len(sigma0)}"
+        assert main(["adjust", str(path), "--sigma-px", "1", "--calibrate", "none", "-o",
+                     str(out), "-q"]) in (0, 5)
+        s = json.loads((out / "summary.json").read_text())
+        sigma0.append((s["redundancy"], s["sigma0"]))
+    assert sigma0[0][0] == sigma0[1][0] == 3566
+    assert sigma0[1][1] == pytest.approx(sigma0[0][1], rel=1e-6)
+    assert sigma0[0][1] > 1.02 * 0.4754116  # 0.4909: the lens changes it, the terms are used
