@@ -80,6 +80,14 @@ class _Tokens:
         self.k += 1
         return row
 
+    def enough(self, n: int, what: str) -> None:
+        """ProjectError unless n more lines follow (before anything of size n is made)."""
+        left = len(self.rows) - self.k
+        if n > left:
+            line = self.rows[self.k - 1][0] if self.k else 1
+            raise ProjectError(self.path, f"{n} {what} announced, {left} lines follow (a "
+                               "truncated file)", line)
+
     def count(self, what: str) -> tuple[int, int]:
         line, t = self.next(what)
         if len(t) < 1 or not t[0].isdigit():
@@ -101,6 +109,7 @@ def _floats(path: str, line: int, tokens: list[str], what: str) -> np.ndarray:
 def _model(tk: _Tokens, nc: int):
     """One model's cameras and points (after its camera count)."""
     sp = tk.path
+    tk.enough(nc, "cameras")
     names, cams = [], np.empty((nc, 9))
     for i in range(nc):
         line, t = tk.next(f"camera {i}")
@@ -118,6 +127,7 @@ def _model(tk: _Tokens, nc: int):
             raise ProjectError(sp, f"camera {i} ({t[0]}): focal length must be positive",
                                line, "f")
     line, npt = tk.count("num_points")
+    tk.enough(npt, "points")
     xyz = np.empty((npt, 3))
     views, where = [], np.empty(npt, np.int64)
     for j in range(npt):

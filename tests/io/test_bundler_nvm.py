@@ -279,3 +279,18 @@ def test_bundler_radial_terms_are_colmaps(tmp_path):
     assert sigma0[0][0] == sigma0[1][0] == 3566
     assert sigma0[1][1] == pytest.approx(sigma0[0][1], rel=1e-6)
     assert sigma0[0][1] > 1.02 * 0.4754116  # 0.4909: the lens changes it, the terms are used
+
+
+def test_counts_are_checked_before_anything_is_made(tmp_path):
+    """A header announcing 10^15 cameras or points is a truncated file, not a MemoryError."""
+    nvm = tmp_path / "big.nvm"
+    nvm.write_text("NVM_V3\n\n1000000000000000\na.jpg 1 1 0 0 0 0 0 0 0 0\n")
+    with pytest.raises(ProjectError, match="1000000000000000 cameras announced, 1 lines follow"):
+        read_nvm(nvm)
+    nvm.write_text("NVM_V3\n\n1\na.jpg 1 1 0 0 0 0 0 0 0 0\n1000000000000000\n")
+    with pytest.raises(ProjectError, match="points announced, 0 lines follow"):
+        read_nvm(nvm)
+    out = tmp_path / "bundle.out"
+    out.write_text("# Bundle file v0.3\n1000000000000000 1000000000000000\n")
+    with pytest.raises(ProjectError, match="the file ends early"):
+        baarda.read(out)
