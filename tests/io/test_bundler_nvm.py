@@ -294,3 +294,53 @@ def test_counts_are_checked_before_anything_is_made(tmp_path):
     out.write_text("# Bundle file v0.3\n1000000000000000 1000000000000000\n")
     with pytest.raises(ProjectError, match="the file ends early"):
         baarda.read(out)
+
+
+PIXELSTRUCT = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / \
+    "bundler_pixelstruct" / "bundle.out"
+
+
+def _bundler_sse(path: Path) -> tuple[float, int]:
+    """Sum of squared reprojection errors [px^2] at the file's values by Bundler's formula
+    (P = R X + t, p = -P.xy / P.z, x = f (1 + k1 |p|^2 + k2 |p|^4) p), written here from
+    Bundler's documentation, and the number of views."""
+    rows = path.read_text().split("\n")
+    nc, npt = map(int, rows[1].split())
+    cams = [np.array(" ".join(rows[2 + 5 * i:7 + 5 * i]).split(), float) for i in range(nc)]
+    sse, n = 0.0, 0
+    for j in range(npt):
+        base = 2 + 5 * nc + 3 * j
+        x = np.array(rows[base].split(), float)
+        v = np.array(rows[base + 2].split()[1:], float).reshape(-1, 4)
+        for c, _, u, w in v:
+            f, k1, k2, *rt = cams[int(c)]
+            r, t = np.array(rt[:9]).reshape(3, 3), np.array(rt[9:])
+            pc = r @ x + t
+            p = -pc[:2] / pc[2]
+            q = p @ p
+            sse += float(np.sum((f * (1 + k1 * q + k2 * q * q) * p - [u, w]) ** 2))
+            n += 1
+    return sse, n
+
+
+@pytest.mark.skipif(not PIXELSTRUCT.is_file(), reason="PixelStruct's Bundler sample (GPL-2.0, "
+                    f"not in the repository) not found at {PIXELSTRUCT}")
+def test_real_bundler_output(tmp_path):
+    """A file written by Bundler itself (pixelstruct's sample, 11 images of which 2 not
+    reconstructed, no list.txt): read with its notes, and adjusted (f, k1, k2 held, 1 px)
+    to the sum of squared reprojection errors of Bundler's own solution by Bundler's formula
+    (430.8852 px^2) within 1e-7: Bundler's solution is already the minimum of the same sum,
+    so baarda's projection of the file is Bundler's."""
+    b = baarda.read(PIXELSTRUCT)
+    assert (len(b.photos), len(b.points), len(b.image)) == (9, 631, 2033)
+    assert any("2 camera(s) of all zeros" in n for n in b.notes)
+    assert any("no list.txt" in n for n in b.notes)
+    sse, n = _bundler_sse(PIXELSTRUCT)
+    assert n == 2033
+    out = tmp_path / "r"
+    assert main(["adjust", str(PIXELSTRUCT), "--calibrate", "none", "-o", str(out),
+                 "-q"]) in (0, 5)
+    s = json.loads((out / "summary.json").read_text())
+    assert s["redundancy"] == 2 * 2033 - (9 * 6 + 631 * 3 - 7)
+    assert sse == pytest.approx(430.8852464, rel=1e-9)
+    assert (1 - 1e-7) * sse <= s["vtpv"] <= sse
