@@ -26,7 +26,7 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
-from baarda.io.records import check_pixel_options, split_lines
+from baarda.io.records import check_pixel_options, finite_numbers, split_lines
 
 HEADER = "# Bundle file v0.3"
 ROTATION_TOLERANCE = 1e-4  # |R R^T - I| of a rotation written with 6 digits or more
@@ -39,18 +39,24 @@ def bundle_file(path: Path) -> Path:
 
 def is_bundler(path: str | Path) -> bool:
     """A file (or a folder's bundle.out) whose first line is '# Bundle file v0.x'."""
-    p = bundle_file(Path(path))
+    return first_line_starts(bundle_file(Path(path)), b"# Bundle file v")
+
+
+def first_line_starts(p: Path, prefix: bytes) -> bool:
+    """Whether `p` is a file whose first line (after a byte-order mark) starts with
+    `prefix`."""
     if not p.is_file():
         return False
     try:
         with open(p, "rb") as f:
-            head = f.readline(64)
+            head = f.readline(256)
     except OSError:
         return False
-    return head.lstrip(b"\xef\xbb\xbf").startswith(b"# Bundle file v")
+    return head.lstrip(b"\xef\xbb\xbf").startswith(prefix)
 
 
-def _text(p: Path) -> list[str]:
+def read_lines(p: Path) -> list[str]:
+    """The lines of a UTF-8 text file; ProjectError naming a byte that does not decode."""
     try:
         text = p.read_bytes().decode("utf-8-sig")
     except UnicodeDecodeError as e:
@@ -78,22 +84,7 @@ class _Lines:
         self.k += 1
         if n is not None and len(tokens) != n:
             raise self.error(f"{n} numbers expected ({what}), found {len(tokens)}", what)
-        try:
-            out = np.array(tokens, dtype=float)
-        except ValueError:
-            bad = next(t for t in tokens if not _is_float(t))
-            raise self.error(f"'{bad}' is not a number", what) from None
-        if not np.isfinite(out).all():
-            raise self.error("not a finite number", what)
-        return out
-
-
-def _is_float(t: str) -> bool:
-    try:
-        float(t)
-    except ValueError:
-        return False
-    return True
+        return finite_numbers(tokens, self.path, self.k, what)
 
 
 def check_rotation(r: np.ndarray, where: _Lines, line: int, what: str) -> None:
@@ -105,13 +96,28 @@ def check_rotation(r: np.ndarray, where: _Lines, line: int, what: str) -> None:
                           "determinant +1)", "R", line)
 
 
+def once_per_image(photo: np.ndarray, point: np.ndarray, key: np.ndarray, n_points: int,
+                   notes: list[str], what: str, keys: str) -> np.ndarray:
+    """The observations to keep (indices, in file order): a point seen twice in one image
+    keeps its lowest key, as COLMAP's reader keeps its first keypoint (a note says how many
+    were left out)."""
+    pair = photo * n_points + point
+    order = np.lexsort((key, pair))
+    _, first = np.unique(pair[order], return_index=True)
+    sel = np.sort(order[first])
+    if len(sel) < len(pair):
+        notes.append(f"{len(pair) - len(sel)} repeated {what}(s) of a point in one image left "
+                     f"out (the lowest {keys} index kept, as COLMAP's reader does)")
+    return sel
+
+
 def read_list(path: Path, n: int) -> tuple[list[str] | None, str | None]:
     """The image names of list.txt beside the bundle file (None: no list.txt) and a note."""
     lst = path.parent / "list.txt"
     if not lst.is_file():
         return None, "Bundler: no list.txt beside the bundle file: the images are numbered " \
             "0.. in the bundle file's order"
-    lines = [s for s in _text(lst)]
+    lines = [s for s in read_lines(lst)]
     names = [s.split()[0] for s in lines if s.strip()]
     if len(names) != n:
         raise ProjectError(str(lst), f"{len(names)} image names, but the bundle file has "
@@ -125,7 +131,7 @@ def read_bundler(path: str | Path, pixel_mm: float = 0.001, sigma_px: float = 1.
     p = bundle_file(Path(path))
     if not p.is_file():
         raise ProjectError(str(p), "file not found")
-    lines = _text(p)
+    lines = read_lines(p)
     if not lines or not lines[0].startswith("# Bundle file v"):
         raise ProjectError(str(p), f"first line must be '{HEADER}'", 1)
     if not lines[0].startswith(HEADER):
@@ -212,13 +218,7 @@ def _block(p: Path, names, fk, rot, t, made, xyz, obs_point, obs, pixel_mm, sigm
     index = np.full(nc, -1)
     index[keep] = np.arange(len(keep))
     photo = index[obs[:, 0].astype(np.int64)]
-    key = photo * len(xyz) + obs_point
-    order = np.lexsort((obs[:, 1], key))  # a point seen twice in an image: lowest key kept
-    _, first = np.unique(key[order], return_index=True)
-    sel = np.sort(order[first])
-    if len(sel) < len(key):
-        notes.append(f"{len(key) - len(sel)} repeated view(s) of a point in one image left "
-                     "out (the lowest key index kept, as COLMAP's reader does)")
+    sel = once_per_image(photo, obs_point, obs[:, 1], len(xyz), notes, "view", "key")
     image = ImagePoints(photo[sel], obs_point[sel], obs[sel, 2:4] * pixel_mm,
                         np.full(len(sel), sigma_px * pixel_mm))
     npt = len(xyz)

@@ -33,8 +33,8 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
-from baarda.io.bundler import _is_float, _text
-from baarda.io.records import check_pixel_options
+from baarda.io.bundler import first_line_starts, once_per_image, read_lines
+from baarda.io.records import check_pixel_options, finite_numbers
 
 QUATERNION_TOLERANCE = 1e-4  # | |q| - 1 | of a quaternion written with 6 digits or more
 FLIP = np.diag([1.0, -1.0, -1.0])  # VisualSFM's camera frame (y down, +z) <-> baarda's
@@ -42,15 +42,7 @@ FLIP = np.diag([1.0, -1.0, -1.0])  # VisualSFM's camera frame (y down, +z) <-> b
 
 def is_nvm(path: str | Path) -> bool:
     """A file whose first line starts with NVM_V3."""
-    p = Path(path)
-    if not p.is_file():
-        return False
-    try:
-        with open(p, "rb") as f:
-            head = f.readline(256)
-    except OSError:
-        return False
-    return head.lstrip(b"\xef\xbb\xbf").startswith(b"NVM_V3")
+    return first_line_starts(Path(path), b"NVM_V3")
 
 
 def quaternion_matrix(q: np.ndarray) -> np.ndarray:
@@ -95,17 +87,6 @@ class _Tokens:
         return line, int(t[0])
 
 
-def _floats(path: str, line: int, tokens: list[str], what: str) -> np.ndarray:
-    try:
-        out = np.array(tokens, dtype=float)
-    except ValueError:
-        bad = next(t for t in tokens if not _is_float(t))
-        raise ProjectError(path, f"'{bad}' is not a number", line, what) from None
-    if not np.isfinite(out).all():
-        raise ProjectError(path, "not a finite number", line, what)
-    return out
-
-
 def _model(tk: _Tokens, nc: int):
     """One model's cameras and points (after its camera count)."""
     sp = tk.path
@@ -117,7 +98,7 @@ def _model(tk: _Tokens, nc: int):
             raise ProjectError(sp, f"camera {i}: 11 fields expected (name f qw qx qy qz Cx Cy "
                                f"Cz r 0), found {len(t)}", line, "camera")
         names.append(t[0])
-        cams[i] = _floats(sp, line, t[1:10], "camera")
+        cams[i] = finite_numbers(t[1:10], sp, line, "camera")
         norm = float(np.linalg.norm(cams[i, 1:5]))
         if not abs(norm - 1) <= QUATERNION_TOLERANCE:
             raise ProjectError(sp, f"camera {i} ({t[0]}): the quaternion qw qx qy qz has norm "
@@ -132,7 +113,7 @@ def _model(tk: _Tokens, nc: int):
     views, where = [], np.empty(npt, np.int64)
     for j in range(npt):
         line, t = tk.next(f"point {j}")
-        v = _floats(sp, line, t, "point")
+        v = finite_numbers(t, sp, line, "point")
         n = int(v[6]) if len(v) >= 7 else -1
         if len(v) < 7 or v[6] != n or n < 0 or len(v) != 7 + 4 * n:
             raise ProjectError(sp, f"point {j}: 'X Y Z R G B n (image feature x y) * n' "
@@ -152,7 +133,7 @@ def read_nvm(path: str | Path, pixel_mm: float = 0.001, sigma_px: float = 1.0,
     p = Path(path)
     if not p.is_file():
         raise ProjectError(str(p), "file not found")
-    lines = _text(p)
+    lines = read_lines(p)
     if not lines or not lines[0].startswith("NVM_V3"):
         raise ProjectError(str(p), "first line must start with NVM_V3", 1)
     head = lines[0].split()
@@ -212,13 +193,7 @@ def _block(p, names, cams, xyz, obs_point, obs, pixel_mm, sigma_px, notes) -> Bl
     photos = Photos(ids, cam_of, np.full(len(ids), "", dtype=object),
                     np.column_stack([cams[:, 5:8], angles_from_matrix(rb)]))
     photo = obs[:, 0].astype(np.int64)
-    key = photo * len(xyz) + obs_point
-    order = np.lexsort((obs[:, 1], key))  # a point seen twice in an image: lowest key kept
-    _, first = np.unique(key[order], return_index=True)
-    sel = np.sort(order[first])
-    if len(sel) < len(key):
-        notes.append(f"{len(key) - len(sel)} repeated measurement(s) of a point in one image "
-                     "left out (the lowest feature index kept, as COLMAP's reader does)")
+    sel = once_per_image(photo, obs_point, obs[:, 1], len(xyz), notes, "measurement", "feature")
     xy = np.column_stack([obs[sel, 2], -obs[sel, 3]]) * pixel_mm
     image = ImagePoints(photo[sel], obs_point[sel], xy, np.full(len(sel), sigma_px * pixel_mm))
     npt = len(xyz)

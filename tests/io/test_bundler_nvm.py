@@ -158,7 +158,8 @@ def test_bundler_bad_input(exports, tmp_path, capsys):
 
 def test_nvm_bad_input(exports, tmp_path, capsys):
     lines = exports[1].read_text().split("\n")
-    cases = [(lines[:20], ["line 21", "the file ends early: point"]),
+    cases = [(lines[:20], ["line 9", "1039 points announced, 11 lines follow (a truncated "
+                                          "file)"]),
              (lines[:3] + [lines[3].replace(" 0.99", " 1.99", 1)] + lines[4:],
               ["line 4", "not a rotation (a unit quaternion expected)"])]
     t = lines[10].split()
