@@ -3,8 +3,8 @@ FMT`: the run's input read again (summary.json's input path), with the adjusted
 orientations (photos.csv), point coordinates (points.csv) and camera constants and
 principal points (summary.json's cameras) put in, and the rejected image observations
 (observations.csv's `rejected`) left out; these are returned with their w and MDB, for a
-side file.  A self-calibration's distortion terms (cameras.csv) are not taken over: the
-cameras keep the input's, with a note.
+side file.  A self-calibration's cameras.csv gives every camera parameter as adjusted (c,
+x0, y0 and the lens model's terms), and the model.
 """
 
 from __future__ import annotations
@@ -33,6 +33,41 @@ def _by_id(ids: list[str], table: pd.DataFrame, column: str, where: Path) -> np.
         raise ProjectError(str(where), f"{column} {missing[0]} of the input is not in the "
                            "result (was the input changed after the run?)")
     return np.array([index[i] for i in ids], np.int64)
+
+
+def _calibrated(cams, path: Path):
+    """`cams` with every parameter of cameras.csv (camera, model, parameter, value)."""
+    from baarda.block.camera_models import MODELS
+
+    t = pd.read_csv(path, dtype={"camera": str})
+    missing = {"camera", "model", "parameter", "value"} - set(t.columns)
+    if missing:
+        raise ProjectError(str(path), f"columns {sorted(missing)} missing")
+    focal, pp = cams.focal_mm.astype(float).copy(), cams.principal_point_mm.astype(float).copy()
+    kinds = (np.full(len(cams), "none", dtype=object) if cams.model is None
+             else np.asarray(cams.model, dtype=object).copy())
+    width = max([len(MODELS[m].params) for m in set(t["model"])] +
+                [0 if cams.coefficients is None else cams.coefficients.shape[1]])
+    coef = np.zeros((len(cams), width))
+    if cams.coefficients is not None:
+        coef[:, :cams.coefficients.shape[1]] = cams.coefficients
+    index = {c: i for i, c in enumerate(cams.ids)}
+    for row in t.itertuples(index=False):
+        i = index.get(str(row.camera))
+        if i is None:
+            raise ProjectError(str(path), f"camera {row.camera} is not one of the input's")
+        if row.model not in MODELS:
+            raise ProjectError(str(path), f"camera {row.camera}: unknown model {row.model}")
+        if kinds[i] != row.model:
+            kinds[i], coef[i] = row.model, 0.0
+        if row.parameter == "c":
+            focal[i] = row.value
+        elif row.parameter in ("x0", "y0"):
+            pp[i, row.parameter == "y0"] = row.value
+        elif row.parameter in MODELS[row.model].params:
+            coef[i, MODELS[row.model].params.index(row.parameter)] = row.value
+    return replace(cams, focal_mm=focal, principal_point_mm=pp, model=kinds,
+                   coefficients=coef)
 
 
 def read_result_block(folder: str | Path, **read_options) -> tuple[Block, pd.DataFrame]:
@@ -73,8 +108,8 @@ def read_result_block(folder: str | Path, **read_options) -> tuple[Block, pd.Dat
                 pp[i] = cams[cid]["x0_mm"], cams[cid]["y0_mm"]
         block = replace(block, cameras=replace(c, focal_mm=focal, principal_point_mm=pp))
     if (folder / "cameras.csv").is_file():
-        notes.append("cameras.csv (a self-calibration's terms) not taken over: the cameras "
-                     "keep the input's distortion")
+        block = replace(block, cameras=_calibrated(block.cameras, folder / "cameras.csv"))
+        notes.append("the cameras as self-calibrated (cameras.csv)")
     obs = res.obs
     rej = obs[(obs["kind"] == "image") & obs["rejected"].astype(str).isin(["True", "true",
                                                                             "1"])]

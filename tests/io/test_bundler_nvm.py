@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import baarda
@@ -203,7 +204,7 @@ def test_result_folder_goes_out_adjusted_without_its_rejections(tmp_path):
     """`baarda convert RESULT --to bundler|nvm`: the adjusted orientations (photos.csv, in
     gon here) and points (points.csv) go out, the rejected observations stay out and are
     listed with their w and MDB in rejected.csv."""
-    import pandas as pd
+
 
     demo = Path(__file__).resolve().parents[2] / "examples" / "demo"
     res = tmp_path / "res"
@@ -345,3 +346,25 @@ def test_real_bundler_output(tmp_path):
     assert s["redundancy"] == 2 * 2033 - (9 * 6 + 631 * 3 - 7)
     assert sse == pytest.approx(430.8852464, rel=1e-9)
     assert (1 - 1e-7) * sse <= s["vtpv"] <= sse
+
+
+@pytest.mark.slow
+def test_self_calibrated_result_goes_out_calibrated(exports, tmp_path):
+    """A self-calibration (Bundler's f, k1, k2 estimated) converted to Bundler carries the
+    adjusted f, k1, k2 (cameras.csv): re-adjusted with them held it has the same sum of
+    squared residuals (1e-6), the redundancy 3 higher."""
+    def adjust(path, out, *extra):
+        assert main(["adjust", str(path), "-o", str(out), "-q", *extra]) in (0, 5)
+        return json.loads((out / "summary.json").read_text())
+
+    first = adjust(exports[0], tmp_path / "sc")
+    assert main(["convert", str(tmp_path / "sc"), "--to", "bundler", "-o",
+                 str(tmp_path / "b"), "-q"]) == 0
+    cams = pd.read_csv(tmp_path / "sc" / "cameras.csv").set_index(
+        "parameter")["value"]
+    f, k1, k2 = (tmp_path / "b" / "bundle.out").read_text().split("\n")[2].split()
+    assert float(f) == pytest.approx(cams["c"] / 0.001, rel=1e-15)
+    assert (float(k1), float(k2)) == (cams["k1"], cams["k2"])
+    again = adjust(tmp_path / "b" / "bundle.out", tmp_path / "again", "--calibrate", "none")
+    assert again["redundancy"] == first["redundancy"] + 3
+    assert again["vtpv"] == pytest.approx(first["vtpv"], rel=1e-6)
