@@ -70,6 +70,42 @@ def _calibrated(cams, path: Path):
                    coefficients=coef)
 
 
+def _observed_as_run(block: Block, obs: pd.DataFrame, notes: list[str]) -> Block:
+    """The image coordinates as the run had them (observations.csv's x_mm, y_mm: the run
+    may have read its input with other options, e.g. --pixel-mm); image observations of the
+    input that are not in the result are left out, with a note."""
+    img = obs[(obs["kind"] == "image") & (obs["component"] == "x")]
+    pairs = pd.DataFrame({"photo": [block.photos.ids[i] for i in block.image.photo],
+                          "point": [block.points.ids[j] for j in block.image.point]})
+    got = pairs.merge(img[["photo", "point", "x_mm", "y_mm"]].astype(
+        {"photo": str, "point": str}).drop_duplicates(["photo", "point"]),
+        on=["photo", "point"], how="left")
+    xy = got[["x_mm", "y_mm"]].to_numpy(float)
+    found = np.isfinite(xy).all(axis=1)
+    image = block.image
+    given = image.xy_mm[found]
+    use = np.abs(given) > 1e-9
+    ratio = xy[found][use] / given[use]
+    if len(ratio) and np.allclose(ratio, ratio[0], rtol=1e-9, atol=0) and \
+            not np.isclose(ratio[0], 1.0, rtol=1e-12, atol=0):
+        # the run read its input with another pixel size (--pixel-mm): the writers' pixels
+        # are the run's, so that the file has the input's pixel coordinates
+        from baarda.io.image_sigma import PIXEL_MM
+
+        c = block.cameras
+        px = (np.full(len(c), PIXEL_MM) if c.pixel_mm is None else
+              np.where(np.isfinite(c.pixel_mm), c.pixel_mm, PIXEL_MM)) * float(ratio[0])
+        block = replace(block, cameras=replace(c, pixel_mm=px))
+        notes.append(f"the run's pixel size: {px[0]:g} mm (its input read with --pixel-mm)")
+    block = replace(block, image=replace(image, xy_mm=np.where(found[:, None], xy,
+                                                               image.xy_mm)))
+    if not found.all():
+        notes.append(f"{int((~found).sum())} image observation(s) of the input not in the "
+                     "result: left out")
+        block = block.select_image(found)
+    return block
+
+
 def read_result_block(folder: str | Path, **read_options) -> tuple[Block, pd.DataFrame]:
     """(adjusted block, rejected observations: photo, point, component, w, mdb)."""
     from baarda.io.formats import read_any
@@ -111,6 +147,7 @@ def read_result_block(folder: str | Path, **read_options) -> tuple[Block, pd.Dat
         block = replace(block, cameras=_calibrated(block.cameras, folder / "cameras.csv"))
         notes.append("the cameras as self-calibrated (cameras.csv)")
     obs = res.obs
+    block = _observed_as_run(block, obs, notes)
     rej = obs[(obs["kind"] == "image") & obs["rejected"].astype(str).isin(["True", "true",
                                                                             "1"])]
     rejected = rej[["photo", "point", "component", "w", "mdb"]].reset_index(drop=True)

@@ -368,3 +368,22 @@ def test_self_calibrated_result_goes_out_calibrated(exports, tmp_path):
     again = adjust(tmp_path / "b" / "bundle.out", tmp_path / "again", "--calibrate", "none")
     assert again["redundancy"] == first["redundancy"] + 3
     assert again["vtpv"] == pytest.approx(first["vtpv"], rel=1e-6)
+
+
+@pytest.mark.slow
+def test_result_of_a_run_with_another_pixel_size(exports, tmp_path):
+    """A run that read its input with --pixel-mm 0.004 goes out in the input's pixels (the
+    run's observations.csv is in its mm): re-read with the default pixel and re-adjusted it
+    gives the same sigma0 (1e-6)."""
+    def adjust(path, out, *extra):
+        assert main(["adjust", str(path), "--calibrate", "none", "-o", str(out), "-q",
+                     *extra]) in (0, 5)
+        return json.loads((out / "summary.json").read_text())
+
+    first = adjust(exports[1], tmp_path / "r", "--pixel-mm", "0.004")
+    assert main(["convert", str(tmp_path / "r"), "--to", "nvm", "-o", str(tmp_path / "n"),
+                 "-q"]) == 0
+    assert (tmp_path / "n" / "model.nvm").read_text().split("\n")[3].split()[1] == "1847.53"
+    again = adjust(tmp_path / "n" / "model.nvm", tmp_path / "again")
+    assert again["redundancy"] == first["redundancy"] == 3566
+    assert again["sigma0"] == pytest.approx(first["sigma0"], rel=1e-6)
