@@ -1,4 +1,6 @@
-"""`baarda convert IN -o PROJECT`: any supported input -> native project folder."""
+"""`baarda convert IN -o OUT [--to FMT]`: any supported input, or a result folder of `baarda
+adjust` (its adjusted block), -> a native project folder, or a Bundler or NVM file
+(output/sfm_files.py; a result folder's rejected observations go to rejected.csv)."""
 
 from __future__ import annotations
 
@@ -7,8 +9,10 @@ from pathlib import Path
 from baarda.cli.common import add_out_argument, add_quiet_option, open_run
 from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, input_paths, read_input
+from baarda.errors import ProjectError
 from baarda.io.formats import detect, titles
 from baarda.output.project_files import write_project
+from baarda.output.run_folder import RunFolder
 from baarda.pipeline import with_approximations
 
 
@@ -18,19 +22,50 @@ def register(sub) -> None:
     p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
     add_out_argument(p, "project folder to write")
     add_quiet_option(p, "list of what was read and written")
+    p.add_argument("--to", choices=TARGETS, default="project",
+                   help="what to write: a native project (default), bundler (bundle.out, "
+                   "list.txt) or nvm (model.nvm); a result folder of baarda adjust as INPUT "
+                   "gives its adjusted block, without the rejected observations (listed in "
+                   "rejected.csv)")
     add_input_options(p)
     p.set_defaults(func=run_convert)
 
 
+TARGETS = ("project", "bundler", "nvm")
+
+
+def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
+    """Write `block` as `to` into `folder` (the run itself for a project); the writer's
+    notes."""
+    if to == "project":
+        write_project(block, folder)
+        return []
+    from baarda.output import sfm_files
+
+    try:
+        return getattr(sfm_files, f"write_{to}")(block, folder)
+    except ValueError as e:
+        raise ProjectError(str(block.source or to), f"cannot be written as {to}: {e}") from None
+
+
 def run_convert(args) -> int:
+    from baarda.io.result_block import is_result_folder, read_result_block
+
+    rejected = None
     with open_run(args, input_paths(args)) as run:
-        fmt = args.format or detect(args.input)
-        block = with_approximations(read_input(args))
-        write_project(block, run)
+        if is_result_folder(args.input):
+            fmt = "result folder"
+            block, rejected = read_result_block(args.input)
+        else:
+            fmt = args.format or detect(args.input)
+            block = with_approximations(read_input(args))
+        written = _write(block, args.to, run if args.to == "project" else run.path)
+        if rejected is not None and args.to != "project":
+            rejected.to_csv(run.file("rejected.csv"), index=False)
     con = console(args)
     con.print(f"read {fmt}: {block.summary()}")
-    for note in block.notes:
+    for note in block.notes + written:
         con.note(note)
-    con.print(f"project written to {run.describe()}")
+    con.print(f"{args.to} written to {run.describe()}")
     con.verdict("convert", f"{fmt}: {block.summary()} -> {run.describe()}")
     return 0

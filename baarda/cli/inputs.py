@@ -24,6 +24,8 @@ def add_input_options(p) -> None:
     p.add_argument("--format", choices=format_names(), help="input format (default: "
                    "recognised from the path): " + "; ".join(
                        f"{s.name}: {s.input}" for s in map(spec, format_names())))
+    p.add_argument("--model", type=int, metavar="K", help="the model to read of a file with "
+                   "several (NVM; 0-based; default the first, with a note naming how many)")
     p.add_argument("--crs", help="CRS of the ground coordinates (e.g. EPSG:32632); overrides "
                    "project.toml")
     p.add_argument("--sigma-image-um", type=positive("µm"), metavar="UM", help="a-priori sigma of "
@@ -78,7 +80,8 @@ def read_configured_input(args) -> tuple[Block, Config]:
     options, resolved once over the input's settings (io/configuration.py)."""
     return read_configured(args.input, args.format, requested_settings(args),
                            encoding=args.encoding, camera=args.camera,
-                           check_gcp=args.check_gcp, control=args.control)
+                           check_gcp=args.check_gcp, control=args.control,
+                           model=getattr(args, "model", None))
 
 
 def input_paths(args) -> list[Path]:

@@ -34,7 +34,7 @@ from baarda.block.rotation import (
     rotation_vector,
 )
 from baarda.errors import ProjectError
-from baarda.io.records import check_pixel_options, is_number, split_lines
+from baarda.io.records import check_pixel_options, finite_numbers, is_number, split_lines
 
 
 @dataclass
@@ -120,17 +120,6 @@ def _read_lines(path: Path) -> tuple[tuple[int, int, int], list[str]]:
     return (nc, npt, nobs), split_lines(text)
 
 
-def _numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:
-    try:
-        out = np.array(tokens, dtype=float)
-    except ValueError:
-        bad = next(t for t in tokens if not is_number(t))
-        raise ProjectError(path, f"'{bad}' is not a number", line, what) from None
-    if not np.isfinite(out).all():
-        raise ProjectError(path, "not a finite number", line, what)
-    return out
-
-
 def is_bal(path: str | Path) -> bool:
     """A .bz2, .bal or .txt file whose first line is three counts."""
     p = Path(path)
@@ -164,7 +153,7 @@ def read_bal(path: str | Path) -> BalProblem:
         tab = np.array(flat, dtype=float).reshape(nobs, 4)
     except ValueError:
         for i, p in enumerate(parts):
-            _numbers(p, sp, i + 2, "observation")
+            finite_numbers(p, sp, i + 2, "observation")
         raise
     if not np.isfinite(tab).all():
         i = int(np.flatnonzero(~np.isfinite(tab).all(axis=1))[0])

@@ -12,6 +12,8 @@ list the formats and the errors that name them are generated from the registry.
 | .xml with ``dbat_script_version`` | DBAT script | io/dbat.py |
 | .txt starting with "Bundle Soln" | PhotoModeler export | io/photomodeler.py |
 | .bz2 / text whose first line is three counts | BAL | io/bal.py |
+| file (or folder's bundle.out) starting "# Bundle file v" | Bundler | io/bundler.py |
+| file starting NVM_V3 | VisualSFM NVM | io/nvm.py |
 
 A new reader is one module with `detect(path) -> bool` and `read(path, request) -> Block`
 (`request`: a `ReadRequest`) and one `FormatSpec` line in REGISTRY (or `register`); the
@@ -49,13 +51,15 @@ PIXEL_POLICIES = ("nominal", "camera", "header", "mm")
 class ReadRequest:
     """What every reader may be given: the pixel size [mm] and the image sigma [px]
     resolved for its format (io/image_sigma.py; None: the format's own), the text encoding,
-    a camera file replacing the input's camera (DBAT), the project CRS (OpenSfM)."""
+    a camera file replacing the input's camera (DBAT), the project CRS (OpenSfM), the model
+    of a file with several (NVM)."""
 
     pixel_mm: float | None = None
     sigma_px: float | None = None
     encoding: str = ENCODING
     camera: Path | None = None
     crs: str | None = None
+    model: int | None = None  # the model of a file with several (NVM; None: the first)
 
 
 Detect = Callable[[Path], bool]
@@ -68,7 +72,8 @@ class FormatSpec:
     path is (`input`, e.g. "a COLMAP model folder"; `path` one of PATH_KINDS), its pixel
     policy (PIXEL_POLICIES), `detect` and `read` ("module:function" imported on demand, or
     the functions themselves), `writer` ("module:function" of the writer in baarda/output,
-    None: baarda does not write it) and `camera_file`: it takes --camera."""
+    None: baarda does not write it), `camera_file`: it takes --camera, `models`: a file may
+    hold several models (--model K picks one)."""
 
     name: str
     title: str
@@ -79,6 +84,7 @@ class FormatSpec:
     read: str | Read
     writer: str | None = None
     camera_file: bool = False
+    models: bool = False
 
     def __post_init__(self) -> None:
         if self.path not in PATH_KINDS or self.pixels not in PIXEL_POLICIES:
@@ -127,6 +133,12 @@ REGISTRY: list[FormatSpec] = [
                f"{_E}:detect_photomodeler", f"{_E}:read_photomodeler"),
     FormatSpec("bal", "BAL", "a BAL file (.txt or .bz2)", "file", "nominal",
                f"{_E}:detect_bal", f"{_E}:read_bal", "baarda.output.format_files:write_bal"),
+    FormatSpec("bundler", "Bundler", "a Bundler v0.3 bundle.out (list.txt beside it) or its "
+               "folder", "either", "nominal", "baarda.io.bundler:detect",
+               "baarda.io.bundler:read", "baarda.output.sfm_files:write_bundler"),
+    FormatSpec("nvm", "VisualSFM NVM", "a VisualSFM NVM_V3 .nvm file", "file", "nominal",
+               "baarda.io.nvm:detect", "baarda.io.nvm:read", "baarda.output.sfm_files:write_nvm",
+               models=True),
 ]
 
 FORMATS = tuple(s.name for s in REGISTRY)  # the built-in formats (format_names: all)
@@ -212,7 +224,7 @@ def _check_kind(p: Path, s: FormatSpec) -> None:
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None = None,
              sigma_px: float | None = None, sigma_image_um: float | None = None,
              encoding: str = ENCODING, camera: str | Path | None = None,
-             crs: str | None = None) -> Block:
+             crs: str | None = None, model: int | None = None) -> Block:
     """Read any registered input into a Block.
 
     pixel_mm, sigma_px, sigma_image_um: pixel size [mm] and image sigma [px] or [µm],
@@ -221,7 +233,8 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
     PhotoModeler input (COLMAP and BAL are UTF-8 / ASCII by definition, DBAT's XML names
     its own); camera: a DBAT camera file (a calibration result) replacing a DBAT script's
     camera; crs: the project CRS of an OpenSfM dataset (its topocentric frame is placed in
-    it; other formats take the CRS in pipeline.read).  The cameras are as the files give
+    it; other formats take the CRS in pipeline.read); model: of a file with several (NVM,
+    0-based; None: the first).  The cameras are as the files give
     them: pipeline.read applies the calibration group (settings.calibration_group).
     """
     from baarda.io.image_sigma import check_image_sigmas, resolve_image_options, with_image_sigma
@@ -239,8 +252,12 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
         takes = " or ".join(r.title for r in REGISTRY if r.camera_file)
         raise ProjectError(str(camera), f"a camera file replaces the camera of a {takes}; "
                            f"{p.name} is {s.name} input (give its cameras in its own files)")
+    if model is not None and not s.models:
+        takes = " or ".join(r.title for r in REGISTRY if r.models)
+        raise ProjectError(str(p), f"--model picks a model of a {takes} file; this is "
+                           f"{s.name} input (one model)")
     opts = resolve_image_options(s.name, pixel_mm, sigma_px, sigma_image_um)
     block = s.reads(p, ReadRequest(opts.pixel_mm, opts.sigma_px, encoding,
-                                   None if camera is None else Path(camera), crs))
+                                   None if camera is None else Path(camera), crs, model))
     check_image_sigmas(block)
     return block if opts.sigma_um is None else with_image_sigma(block, opts.sigma_um)

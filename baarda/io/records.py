@@ -238,6 +238,19 @@ def is_number(text: str) -> bool:
         return False
 
 
+def finite_numbers(tokens: list[str], path: str, line: int, what: str) -> np.ndarray:
+    """The tokens of one line as finite floats; ProjectError naming the file, the line, the
+    field `what` and the first token that is no number."""
+    try:
+        out = np.array(tokens, dtype=float)
+    except ValueError:
+        bad = next(t for t in tokens if not is_number(t))
+        raise ProjectError(path, f"'{bad}' is not a number", line, what) from None
+    if not np.isfinite(out).all():
+        raise ProjectError(path, "not a finite number", line, what)
+    return out
+
+
 def parse_number(text: str, path: str, line: int | None, name: str) -> float:
     """One finite number from a string, or ProjectError."""
     try:
