@@ -103,11 +103,15 @@ def test_the_quality_check_comes_first_and_is_the_console_verdict(pages):
     assert [(s, lab) for s, _, _, lab in rows] == [(r.status, r.label) for r in v.rows]
     for *_, anchor, _ in rows:  # every row links to a section of the page
         assert f'id="{anchor}"' in page, anchor
-    # demo: 4 rejections against 0.001 x 598 = 0.6 false alarms, 16 uncontrolled components
-    assert "REVIEW: Rejections, Uncontrolled observations" in page
+    # demo: 4 rejections against 0.001 x 598 = 0.6 false alarms (P = 0.0033); 16
+    # uncontrolled components on two-ray tie points: a note with its remedy, no REVIEW
+    assert "REVIEW: Rejections</p>" in page
     check = section(page, "check")
-    assert "alpha0 x n = 0.001 x 598 = 0.6 false alarms expected" in check
-    assert "16 observation component(s) with redundancy number below 0.001" in check
+    assert "alpha0 x n = 0.001 x 598 = 0.6 false alarms expected, P(at least 4 false " \
+           "alarms) = 0.0033" in check
+    assert "NOTE Uncontrolled observations 16 observation component(s) (2.7 % of the " \
+           "active ones) with redundancy number below 0.001" in check
+    assert "measure them on a third photo" in check
 
 
 def test_accuracy_statement_of_the_demo_against_the_check_points(pages):
