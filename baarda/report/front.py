@@ -82,8 +82,8 @@ def folder_quality_check(folder, image_sigma_um: float | None) -> Verdict:
                    image_sigma_um=image_sigma_um)
 
 
-FALLBACK = {"control": "calibration", "gnss": "calibration", "camera": "calibration", "global": "summary",
-            "log": "summary", "patterns": "log", "reliability": "observations",
+FALLBACK = {"control": "calibration", "gnss": "calibration", "camera": "calibration",
+            "global": "summary", "log": "summary", "patterns": "log", "reliability": "observations",
             "observations": "summary", "accuracy": "check"}
 
 
