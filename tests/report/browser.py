@@ -69,7 +69,17 @@ window.addEventListener('load', function () {
             link: a ? a.getAttribute('href') : null}; });
   var imgs = [].filter.call(document.images, function (im) {
     return !(im.complete && im.naturalWidth > 0); }).map(function (im) { return im.alt; });
+  // what a person sees: the rendered text, searched for markup shown as text
+  var seen = document.body.innerText, markup = [];
+  ['<table', '<div', '<td', '<tr', '<p ', '<p>', '</', '&lt;', '&gt;', '&amp;', '&quot;'
+  ].forEach(function (m) {
+    var i = seen.indexOf(m);
+    if (i >= 0) markup.push(m + ' in "' + seen.slice(Math.max(0, i - 40), i + 60) + '"');
+  });
   var facts = {height: document.documentElement.scrollHeight, width: W,
+    visible_markup: markup, text_length: seen.length,
+    text_sample: seen.slice(0, 4000),
+    tables: [].map.call(document.querySelectorAll('table'), function (t) { return t.id; }),
     scroll_width: document.documentElement.scrollWidth, wide: wide.slice(0, 20),
     small: small.slice(0, 20), min_font: minFont, banners: banners, check_rows: rows,
     sections: [].map.call(document.querySelectorAll('section[id]'), function (s) {
@@ -93,7 +103,9 @@ def run(args: list[str], profile: Path, timeout: float = 180) -> subprocess.Comp
 
 def layout_facts(page: Path, width: int, work: Path) -> dict:
     """The facts of `page` laid out `width` px wide: height, elements beyond the page,
-    text below 9 px, banner and verdict-row contrast, sections, images that failed."""
+    text below 9 px, banner and verdict-row contrast, sections, images that failed, markup
+    visible as text (`visible_markup`, from `document.body.innerText`: what a person
+    reads), the ids of the table elements."""
     work.mkdir(parents=True, exist_ok=True)
     probe = work / f"probe-{page.stem}.html"
     text = page.read_text(encoding="utf-8")
@@ -105,6 +117,16 @@ def layout_facts(page: Path, width: int, work: Path) -> dict:
         raise AssertionError(f"the measuring script did not run (rc {r.returncode}): "
                              + r.stderr[-1500:])
     return json.loads(html.unescape(m.group(1)))
+
+
+def screenshot(page: Path, png: Path, work: Path, width: int = 1400,
+               height: int = 2000) -> bytes:
+    """The page captured as a person's screen shows it (`width` x `height` px)."""
+    png.unlink(missing_ok=True)
+    r = run([f"--window-size={width},{height}", f"--screenshot={png}", page.as_uri()],
+            work / "profile-shot")
+    assert r.returncode == 0 and png.is_file(), r.stderr[-1500:]
+    return png.read_bytes()
 
 
 def print_pdf(page: Path, pdf: Path, work: Path) -> None:

@@ -18,7 +18,7 @@ import pytest
 from result_files import resign
 
 sys.path.insert(0, str(Path(__file__).parent))
-from browser import CHROMIUM, NO_BROWSER, layout_facts  # noqa: E402
+from browser import CHROMIUM, NO_BROWSER, layout_facts, screenshot  # noqa: E402
 
 from baarda.cli import main  # noqa: E402
 from baarda.io.result_folder import read_results  # noqa: E402
@@ -221,6 +221,12 @@ def test_layout_in_chromium(pages, name, file, tmp_path):
     assert f["min_font"] >= 9 and not f["small"], f["small"]
     assert not f["broken_images"]
     assert set(FRONT) <= set(f["sections"])
+    # what a person reads: no markup shown as text; the tables are table elements
+    assert not f["visible_markup"], f["visible_markup"]
+    assert "check-table" in f["tables"]
+    if name in ("demo", "big"):  # blocks with check points
+        assert {"accuracy-table", "check-points"} <= set(f["tables"])
+        assert "RMSE_r (horizontal)" in f["text_sample"] or name == "big"
     if file == "report.html":
         assert set(ADJUSTMENT) <= set(f["sections"])
     assert f["check_rows"] and all(r["contrast"] >= 4.5 and r["link"].startswith("#")
@@ -250,3 +256,35 @@ def test_banner_contrast_in_chromium(pages, tmp_path):
     assert f["banners"][0]["contrast"] >= 4.5
     fail = [r for r in f["check_rows"] if r["status"] == "fail"]
     assert fail and fail[0]["link"] == "#log"
+
+
+@browser
+def test_markup_shown_as_text_is_seen(pages, tmp_path):
+    """The check can fail: a table escaped into text (the defect of issue 42) is read."""
+    d = pages("demo")
+    page = (d / "report.html").read_text(encoding="utf-8")
+    m = re.search(r'<div class="wrap"><table id="accuracy-table">.*?</table></div>', page,
+                  re.S)
+    bad = tmp_path / "escaped.html"
+    bad.write_text(page.replace(m.group(0), html.escape(m.group(0))), encoding="utf-8")
+    f = layout_facts(bad, WIDTH, tmp_path)
+    assert any(x.startswith('<div in "') for x in f["visible_markup"])
+    assert "accuracy-table" not in f["tables"]
+
+
+@browser
+def test_forty_check_points_fit_the_screen_and_capture(tmp_path):
+    block, _ = simulate_block(FlightPlan(strips=5, photos_per_strip=10, check_points=40,
+                                         seed=5))
+    write_results(tmp_path / "out", snoop(block))
+    assert main(["report", str(tmp_path / "out"), "-o", str(tmp_path / "report.html"),
+                 "--quality", str(tmp_path / "quality.html"), "-q"]) == 0
+    for name in ("report.html", "quality.html"):
+        page = tmp_path / name
+        f = layout_facts(page, WIDTH, tmp_path)
+        assert f["scroll_width"] <= WIDTH and not f["wide"], f["wide"]
+        assert not f["visible_markup"], f["visible_markup"]
+        assert {"accuracy-table", "check-points"} <= set(f["tables"])
+        assert "40 check point(s)" in f["text_sample"]
+        png = screenshot(page, tmp_path / f"{page.stem}.png", tmp_path)
+        assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
