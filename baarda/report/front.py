@@ -51,6 +51,35 @@ def summary_pixel_um(summary: dict) -> float | None:
     return None
 
 
+def length_unit(res: Results) -> tuple[str, float]:
+    """The unit in which the report states lengths of the object (effects on coordinates,
+    point standard deviations) and its factor from metres: the project's own, "mm" where
+    the reader converted the object coordinates from mm (AICON: "object coordinates mm ->
+    m") or the points span less than 10 m (a close-range network), else "m"."""
+    said = [str(n) for n in res.summary.get("notes", [])] + [
+        line for s in res.sections for line in s.lines]
+    if any("coordinates mm -> m" in n for n in said):
+        return "mm", 1e3
+    pts = res.points
+    if pts is not None and len(pts) > 1 and {"X", "Y", "Z"} <= set(pts.columns):
+        xyz = pts[["X", "Y", "Z"]].to_numpy(float)
+        span = np.nanmax(xyz, axis=0) - np.nanmin(xyz, axis=0)
+        if np.isfinite(span).all() and 0 < float(np.max(span)) < 10.0:
+            return "mm", 1e3
+    return "m", 1.0
+
+
+def row_units(res: Results, kinds) -> tuple[np.ndarray, np.ndarray]:
+    """Per observation row of `kinds`: the unit its residual, sigma and MDB are shown in
+    (the kind's own, lengths in metres in the project's length unit) and the factor from
+    observations.csv's values to it."""
+    name, f = length_unit(res)
+    units = res.units
+    u = np.array([units.get(str(k), "") for k in kinds], dtype=object)
+    factor = np.where(u == "m", f, 1.0)
+    return np.where(u == "m", name, u), factor
+
+
 def image_sigma_um(res: Results) -> float | None:
     """The a-priori image sigma (µm): the median of the image rows' sigma."""
     s = res.obs.loc[res.obs["kind"] == "image", "sigma"].to_numpy(float)
@@ -100,6 +129,16 @@ def check_view(v: Verdict, ids: set[str] | None = None) -> dict:
     return {"status": v.status, "headline": v.headline,
             "rows": [{"status": r.status, "word": WORDS[r.status], "label": r.label,
                       "text": r.text, "section": target(r.section)} for r in v.rows]}
+
+
+def run_notes(res: Results) -> list[str]:
+    """The run's notes, each once: the readers' and the adjustment's (summary.json 'notes'
+    and the summary's 'note:' lines: rows and points left out, defaults used) and the
+    report's own about missing files."""
+    lines = [line[len("note: "):] for s in res.sections for line in s.lines
+             if line.startswith("note: ")]
+    return list(dict.fromkeys(str(n) for n in [*lines, *res.summary.get("notes", []),
+                                               *res.notes]))
 
 
 def section_line(res: Results, start: str) -> str | None:

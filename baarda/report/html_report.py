@@ -19,7 +19,15 @@ from baarda.output.verdict import failures
 from baarda.report import maps
 from baarda.report.anaplot import format_log, log_rows, snooping_table
 from baarda.report.footprint import footprints, image_extent
-from baarda.report.front import accuracy, check_view, metadata, patterns, quality_check
+from baarda.report.front import (
+    accuracy,
+    check_view,
+    length_unit,
+    metadata,
+    patterns,
+    quality_check,
+    row_units,
+)
 from baarda.report.geometry import geometry_plots
 from baarda.report.histogram import format_histogram
 from baarda.report.html_base import csv_link, esc, figure, macro, num, page, table, worst_table
@@ -36,7 +44,6 @@ from baarda.report.stats import (
     weakest,
 )
 from baarda.report.text_report import ReportOptions, image_histograms, w_hists
-from baarda.schema import UNITS
 
 
 def _snoop_table(res: Results, opt: ReportOptions) -> str:
@@ -135,12 +142,14 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
         return ""
     out = ""
     for title, t in weakest(res.obs, opt.worst, res.units).items():
+        unit, f = row_units(res, t["kind"])
+        lname, lf = length_unit(res)
         show = pd.DataFrame({"kind": t["kind"], "photo/model": t["frame"], "point": t["point"],
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
-                             "MDB": t["mdb"], "unit": [UNITS.get(k, "") for k in t["kind"]],
-                             "external": t["external_max"]})
+                             "unit": unit, "MDB": t["mdb"].to_numpy(float) * f,
+                             f"external {lname}": t["external_max"].to_numpy(float) * lf})
         out += f'<div class="wrap"><h3>{esc(title)}</h3>' + table(
-            show, {"r": ".3f", "w": ".2f", "MDB": ".4g", "external": ".4g"},
+            show, {"r": ".3f", "w": ".2f", "MDB": ".4g", f"external {lname}": ".4g"},
             text_cols=("kind", "photo/model", "point", "c", "unit")) + "</div>"
     return f'<div class="grid2">{out}</div>'  # side by side where the page is wide
 

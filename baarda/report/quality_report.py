@@ -25,10 +25,15 @@ import pandas as pd  # noqa: E402
 from baarda.io.result_folder import Results
 from baarda.output.verdict import failures  # noqa: E402
 from baarda.report.anaplot import log_rows  # noqa: E402
-from baarda.report.front import pixel_um  # noqa: E402,F401  (re-exported)
+from baarda.report.front import (  # noqa: E402,F401  (pixel_um re-exported)
+    length_unit,
+    pixel_um,
+    row_units,
+    run_notes,
+)
 from baarda.report.stats import pair_xy  # noqa: E402
 
-WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
+WORST = 25  # observations with the largest |w| shown (the whole table: observations.csv)
 
 
 @dataclass
@@ -42,6 +47,7 @@ class Part:
     full_in_html: pd.DataFrame | None = None  # the whole table where the PDF shows a part
     order: object = None  # per row of the table: larger is worse (long tables: the worst)
     rows_are: str = "rows"  # what a row is, e.g. "photos"
+    ident: str = ""  # the table's id stem in the HTML (default: from the title)
 
 
 def _rms(x) -> float:
@@ -308,20 +314,35 @@ def image_parts(res: Results) -> list[Part]:
 
 def observation_parts(res: Results) -> list[Part]:
     o = res.obs
-    cols = ["kind", "photo", "point", "component", "residual", "sigma", "redundancy", "w",
-            "mdb", "external_max", "rejected", "flagged"]
-    t = o[[c for c in cols if c in o]].copy()
+    unit, f = row_units(res, o["kind"])
+    lname, lf = length_unit(res)
+    t = pd.DataFrame({c: o[c] for c in ("kind", "photo", "point", "component") if c in o})
+    t["unit"] = unit  # one unit per row: residual, sigma and MDB are in it
+    for c, name in (("residual", "residual"), ("sigma", "sigma"), ("mdb", "MDB")):
+        if c in o:
+            t[name] = o[c].to_numpy(float) * f
+    for c in ("redundancy", "w"):
+        if c in o:
+            t[c] = o[c]
+    if "external_max" in o:
+        t[f"external {lname}"] = o["external_max"].to_numpy(float) * lf
+    for c in ("rejected", "flagged"):
+        if c in o:
+            t[c] = o[c]
     worst = t.reindex(t["w"].abs().sort_values(ascending=False).index).head(WORST)
-    fmt = {"residual": ".4g", "sigma": ".3g", "redundancy": ".3f", "w": ".2f", "mdb": ".3g",
-           "external_max": ".3g"}
+    fmt = {"residual": ".4g", "sigma": ".3g", "redundancy": ".3f", "w": ".2f", "MDB": ".3g",
+           f"external {lname}": ".3g"}
+    n = min(WORST, len(t))
     parts = [Part("heading", "Every observation: redundancy number, w-test, MDB"),
              Part("text", text=f"{len(t)} observation components (observations.csv holds "
                   "them all, with tau, p-values and the external reliability). redundancy: "
                   "the share of an error that shows in its own residual; w: the standardised "
                   f"residual (critical |w| {res.k_w:.2f}); MDB: the smallest error the test "
-                  "finds with 80 % power (units of the observation: image µm, ground m). "
-                  f"The {min(WORST, len(t))} largest |w|:"),
-             Part("table", "observations", table=worst, fmt=fmt, full_in_html=t)]
+                  "finds with 80 % power; residual, sigma and MDB in the row's unit, the "
+                  f"external reliability (the largest effect of an MDB on a point) in "
+                  f"{lname}. The {n} largest |w|:"),
+             Part("table", f"the {n} largest |w|", table=worst, fmt=fmt,
+                  ident="observations")]
 
     def draw():
         fig, ax = plt.subplots(1, 2, figsize=(8, 2.8))
@@ -358,14 +379,17 @@ def reliability_parts(res: Results) -> list[Part]:
     e = o[(o["kind"] == "image") & np.isfinite(o["external_max"].to_numpy(float))]
     if not len(e):
         return []
-    per = e.groupby("point")["external_max"].max().sort_values(ascending=False)
-    t = pd.DataFrame({"point": per.index, "largest effect m": per.to_numpy()}).head(20)
+    lname, lf = length_unit(res)
+    per = e.groupby("point")["external_max"].max().sort_values(ascending=False) * lf
+    col = f"largest effect {lname}"
+    t = pd.DataFrame({"point": per.index, col: per.to_numpy()}).head(20)
     return [Part("heading", "External reliability of the ground points"),
             Part("text", text="The largest effect an undetected error of the size of its MDB "
                  "in one of a point's image observations has on the adjusted coordinates "
-                 f"(m). Median over {len(per)} points {float(per.median()):.3g} m, 95 % "
-                 f"below {float(per.quantile(0.95)):.3g} m; the 20 weakest:"),
-            Part("table", "external reliability", table=t, fmt={"largest effect m": ".3g"})]
+                 f"({lname}). Median over {len(per)} points {float(per.median()):.3g} "
+                 f"{lname}, 95 % below {float(per.quantile(0.95)):.3g} {lname}; the "
+                 f"{len(t)} weakest:"),
+            Part("table", "external reliability", table=t, fmt={col: ".3g"})]
 
 
 def summary_parts(res: Results) -> list[Part]:
@@ -376,10 +400,13 @@ def summary_parts(res: Results) -> list[Part]:
              f"{s.get('n_unknowns')} unknowns, "
              + ("converged" if s.get("converged") else "NOT CONVERGED")]
     lines += res.global_test_lines()
-    crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
-    lines += crs[:1]
-    return ([Part("alert", text=f) for f in failures(res.summary)]
-            + [Part("heading", "Summary"), Part("text", text="\n".join(lines))])
+    notes = run_notes(res)
+    out = ([Part("alert", text=f) for f in failures(res.summary)]
+           + [Part("heading", "Summary"), Part("text", text="\n".join(lines))])
+    if notes:
+        out.append(Part("text", title="notes", text="Notes of the run:\n"
+                        + "\n".join(f"- {n}" for n in notes)))
+    return out
 
 
 def calibration_parts(res: Results) -> list[Part]:

@@ -147,6 +147,13 @@ def test_berlin_first_page_says_the_check_point_misses_by_31_m(pages):
     assert "The datum is free (no control)" in acc and "Only 1 check point(s)" in acc
     first = pdf_pages(d / "quality.pdf")[0]
     assert want in re.sub(r"\s+", " ", first)
+    # the run's notes in the quality report and its PDF, not only in the adjustment report
+    note = "check point gcp 3 is measured on one photo only (one ray cannot be intersected)"
+    assert note in section((d / "quality.html").read_text(encoding="utf-8"), "summary")
+    pdf = re.sub(r"\s+", " ", " ".join(pdf_pages(d / "quality.pdf")))
+    assert note in pdf
+    # the heading says how many rows its table has
+    assert "The 25 largest |w|" in pdf and "The first 25 of" not in pdf
 
 
 def test_micmac_quality_report_states_crs_version_and_sections(pages):
