@@ -111,15 +111,18 @@ def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
 
 
 def worst_table(df: pd.DataFrame, order: np.ndarray | pd.Series, n: int, name: str,
-                what: str, fmt: dict[str, str] | None = None, **kw) -> str:
+                what: str, fmt: dict[str, str] | None = None, which: str = "worst",
+                **kw) -> str:
     """The n worst rows of `df` (`order`: larger is worse), in that order, with the whole
-    table linked as CSV when it has more; what: the rows' noun, e.g. 'photos'."""
+    table linked as CSV when it has more; what: the rows' noun, e.g. 'photos'; which: the
+    words for the rows kept ("worst"; "first" for a log kept in its order)."""
     if len(df) <= n:
         return table(df, fmt, **kw)
     key = np.nan_to_num(np.asarray(order, float), nan=-np.inf)
     keep = np.argsort(-key, kind="stable")[:n]
+    say = ("worst first;" if which == "worst" else "in their order;")
     return table(df.iloc[keep].reset_index(drop=True), fmt, note=(
-        f"The {n} worst of {len(df)} {what} shown, worst first;"), csv=csv_link(df, name),
+        f"The {n} {which} of {len(df)} {what} shown, {say}"), csv=csv_link(df, name),
         csv_text=f"all {len(df)} {what} (CSV)", download=f"{name}.csv", **kw)
 
 

@@ -51,12 +51,14 @@ def _snoop_table(res: Results, opt: ReportOptions) -> str:
                            units=res.units)
     limit = min(opt.max_rows, SNOOP_ROWS)
     t, note = every, ""
-    if len(every) > limit:  # every rejected row, then the first others in this order
+    if len(every) > limit:  # the rejected rows, then the first others, in this order
         rej = (every["flag"] == "REJECTED").to_numpy()
-        keep = rej | (np.cumsum(~rej) <= max(limit - int(rej.sum()), 0)) & ~rej
+        n_rej = min(int(rej.sum()), limit)
+        keep = (rej & (np.cumsum(rej) <= n_rej)) | (~rej & (np.cumsum(~rej) <= limit - n_rej))
         t = every[keep]
-        note = (f"; {len(t)} of {len(every)} such rows shown: every rejected one and the "
-                "first others in this order")
+        note = (f"; {len(t)} of {len(every)} such rows shown: the rejected ones first"
+                + ("" if n_rej == int(rej.sum()) else f" ({n_rej} of {int(rej.sum())})")
+                + " and the first others in this order")
     show = pd.DataFrame({
         "kind": t["kind"], "photo/model": t["frame"], "point": t["point"], "c": t["component"],
         "RED-N": t["redundancy"], "PARX": t["residual"], "EXPD": t["sigma_residual"],
@@ -83,8 +85,11 @@ def _log_table(summary: dict) -> str:
     incomplete = summary.get("snooping_incomplete") or (
         "snooping did not converge" if summary.get("snooping_converged") is False else "")
     tail = f'<p class="bad">{esc(incomplete)}</p>' if incomplete else ""
-    return table(pd.DataFrame(rows), {"value": ".2f", "sigma0 before": ".3f"},
-                 text_cols=("action", "test", "observation"), attrs='id="snooping-log"') + tail
+    df = pd.DataFrame(rows)
+    return worst_table(df, -np.arange(len(df)), LOG_ROWS, "snooping_log", "steps",
+                       {"value": ".2f", "sigma0 before": ".3f"}, which="first",
+                       text_cols=("action", "test", "observation"),
+                       attrs='id="snooping-log"') + tail
 
 
 def _group_table(res: Results) -> str:
@@ -191,7 +196,8 @@ def _variance_components(summary: dict) -> pd.DataFrame | None:
     return t if len(parts) > 1 else t.drop(columns="adjustment")
 
 
-SNOOP_ROWS = 60  # rows of the snooping table in the HTML (every rejected one among them)
+SNOOP_ROWS = 40  # rows of the snooping table in the HTML (the rejected first, the whole as CSV)
+LOG_ROWS = 20  # steps of the snooping log in the HTML (the first; the whole log as CSV)
 HTML_ROWS = 20  # rows of a long table shown in the HTML (the worst; the whole as CSV)
 
 

@@ -27,7 +27,7 @@ def _table(p: Part, attrs: str = "") -> str:
     text = tuple(c for c in t.columns if t[c].dtype == object)
     name = re.sub(r"[^a-z0-9]+", "_", p.title.lower()).strip("_")
     if p.order is not None and len(t) > HTML_ROWS:
-        return str(worst_table(t, p.order, HTML_ROWS, name, p.rows_are, p.fmt,
+        return str(worst_table(t, p.order, HTML_ROWS, name, p.rows_are, p.fmt, p.which,
                                text_cols=text, attrs=attrs))
     if p.full_in_html is not None and len(t) > len(p.table):
         return str(table(p.table, p.fmt, text_cols=text, attrs=attrs, note=(

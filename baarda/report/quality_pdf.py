@@ -133,8 +133,8 @@ def _worst(p: Part) -> tuple[pd.DataFrame, str]:
     if p.order is not None:
         key = np.nan_to_num(np.asarray(p.order, float), nan=-np.inf)
         keep = np.argsort(-key, kind="stable")[:PDF_ROWS]
-        return (t.iloc[keep], f"The {PDF_ROWS} worst of {len(t)} {p.rows_are} (the HTML "
-                f"report links the whole table as CSV).")
+        return (t.iloc[keep], f"The {PDF_ROWS} {p.which} of {len(t)} {p.rows_are} (the "
+                "HTML report links the whole table as CSV).")
     return t.head(PDF_ROWS), f"The first {PDF_ROWS} of {len(t)} rows."
 
 

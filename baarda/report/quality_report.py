@@ -48,6 +48,7 @@ class Part:
     order: object = None  # per row of the table: larger is worse (long tables: the worst)
     rows_are: str = "rows"  # what a row is, e.g. "photos"
     ident: str = ""  # the table's id stem in the HTML (default: from the title)
+    which: str = "worst"  # the rows a long table keeps: "worst" by `order`, or "first"
 
 
 def _rms(x) -> float:
@@ -369,7 +370,8 @@ def snooping_parts(res: Results) -> list[Part]:
                              "--snoop), or nothing rejected.")]
     rows = [{k: v for k, v in r.items() if k != "sigma0 before"} for r in log_rows(res.summary)]
     return parts + [Part("table", "snooping log", table=pd.DataFrame(rows),
-                         fmt={"value": ".2f"})]
+                         fmt={"value": ".2f"}, order=-np.arange(len(rows)), rows_are="steps",
+                         which="first")]
 
 
 def reliability_parts(res: Results) -> list[Part]:

@@ -49,6 +49,9 @@ def pages(tmp_path_factory):
             argv = ["adjust", str(ROOT / "examples" / "demo"), "-o", str(out), "--snoop"]
         elif name == "berlin":
             argv = ["adjust", str(ROOT / "tests" / "data" / "opensfm_berlin"), "-o", str(out)]
+        elif name == "berlin-snoop":  # 191 rejections: a long log, a long console text
+            argv = ["adjust", str(ROOT / "tests" / "data" / "opensfm_berlin"), "-o", str(out),
+                    "--snoop"]
         elif name == "micmac":
             if not (SHARED / "micmac_ign_ultracam_aerial").is_dir():
                 pytest.skip("../shared/data is not beside this checkout")
@@ -215,6 +218,7 @@ def test_templates_ship_with_the_package():
 
 # ----------------------------------------------------------------- in a real browser
 CASES = [("demo", "report.html"), ("demo", "quality.html"), ("berlin", "report.html"),
+         ("berlin-snoop", "report.html"), ("berlin-snoop", "quality.html"),
          ("micmac", "quality.html"), ("micmac", "report.html"), ("big", "report.html"),
          ("big", "quality.html")]
 
@@ -238,10 +242,30 @@ def test_layout_in_chromium(pages, name, file, tmp_path):
         assert set(ADJUSTMENT) <= set(f["sections"])
     assert f["check_rows"] and all(r["contrast"] >= 4.5 and r["link"].startswith("#")
                                    for r in f["check_rows"])
-    if name == "big" and file == "report.html":
-        print(f"600-photo adjustment report: {f['height']} px at {WIDTH} px",
-              f["section_heights"])
-        assert f["height"] <= 12_000
+    assert not f["scrolled"], f["scrolled"]  # at 1400 px no table needs a scroll bar
+    print(f"{name} {file}: {f['height']} px at {WIDTH} px", f["section_heights"])
+    # bounded by what the block is, not by how much went wrong (issue 42)
+    assert f["height"] <= (12_000 if name == "big" else 15_000)
+    assert (d / file).stat().st_size <= 3_000_000
+
+
+PHONE = 390
+
+
+@browser
+@pytest.mark.parametrize("name, file", [("demo", "report.html"), ("demo", "quality.html"),
+                                        ("berlin-snoop", "quality.html")])
+def test_a_phone_shows_no_page_wider_than_its_screen(pages, name, file, tmp_path):
+    """At 390 px: nothing but a wide table's own scroll box is wider than the screen, the
+    verdict's text spans the screen, the figures are full width."""
+    d = pages(name)
+    f = layout_facts(d / file, PHONE, tmp_path)
+    assert f["width"] == PHONE and f["scroll_width"] <= PHONE and not f["wide"], f["wide"]
+    assert not f["visible_markup"]
+    assert min(f["verdict_text_widths"]) >= 0.85 * PHONE, f["verdict_text_widths"]
+    assert f["figure_widths"] and min(f["figure_widths"]) >= 0.85 * PHONE, f["figure_widths"]
+    print(f"{name} {file}: {f['height']} px at {PHONE} px", f["section_heights"][:6])
+    assert f["height"] <= 30_000  # berlin's snooping quality page was 121,208 px
 
 
 @browser
