@@ -120,9 +120,9 @@ def worst_table(df: pd.DataFrame, order: np.ndarray | pd.Series, n: int, name: s
         return table(df, fmt, **kw)
     key = np.nan_to_num(np.asarray(order, float), nan=-np.inf)
     keep = np.argsort(-key, kind="stable")[:n]
-    say = ("worst first;" if which == "worst" else "in their order;")
-    return table(df.iloc[keep].reset_index(drop=True), fmt, note=(
-        f"The {n} {which} of {len(df)} {what} shown, {say}"), csv=csv_link(df, name),
+    say = (f"The {n} worst of {len(df)} {what} shown, worst first;" if which == "worst" else
+           f"The {which} {n} of {len(df)} {what} shown, in their order;")
+    return table(df.iloc[keep].reset_index(drop=True), fmt, note=say, csv=csv_link(df, name),
         csv_text=f"all {len(df)} {what} (CSV)", download=f"{name}.csv", **kw)
 
 

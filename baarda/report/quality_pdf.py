@@ -92,16 +92,34 @@ class _NumberedCanvas(canvas.Canvas):
         super().save()
 
 
+PAD = 3.0  # pt of padding on each side of a cell
+GAP = 6.0  # pt left free between neighbouring cells' text: a PDF reader's text layer
+#            separates them (0 pt ran "002007" and "4600.046" together)
+WRAP_AT = 0.45  # a text column wider than this share of the page wraps in its cells
+
+
 def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> list:
     """One or more ReportLab tables of df (wide ones split by columns, the first column
-    repeated)."""
+    repeated; a long text column wraps within the page)."""
     fmt = fmt or {}
     cols = [str(c) for c in df.columns]
     body = [[cell(v, fmt.get(c)) for c, v in zip(cols, r, strict=True)]
             for r in df.itertuples(index=False)]
     size = 7.0
     width = [max([stringWidth(c, "Helvetica-Bold", size)] + [
-        stringWidth(r[k], "Helvetica", size) for r in body]) + 6 for k, c in enumerate(cols)]
+        stringWidth(r[k], "Helvetica", size) for r in body]) + 2 * PAD + GAP
+        for k, c in enumerate(cols)]
+    wrap = set()
+    if sum(width) > WIDTH:  # the widest text columns wrap, in Paragraphs of a capped width
+        for k in sorted(range(len(cols)), key=lambda k: -width[k]):
+            if sum(width) <= WIDTH or width[k] <= WRAP_AT * WIDTH:
+                break
+            if not pd.api.types.is_numeric_dtype(df.dtypes.iloc[k]):
+                width[k] = max(WRAP_AT * WIDTH, width[k] - (sum(width) - WIDTH))
+                wrap.add(k)
+    if wrap:
+        cst = ParagraphStyle("wrapcell", parent=st["cell"], fontSize=size, leading=size + 1.5)
+        body = [[_p(v, cst) if k in wrap else v for k, v in enumerate(r)] for r in body]
     chunks, cur, used = [], [0], width[0]
     for k in range(1, len(cols)):
         if used + width[k] > WIDTH and len(cur) > 1:
@@ -120,6 +138,8 @@ def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> l
             ("BACKGROUND", (0, 0), (-1, 0), colors.HexColor(head_bg)),
             ("GRID", (0, 0), (-1, -1), 0.3, colors.HexColor("#c8cfda")),
             ("ALIGN", (0, 0), (-1, -1), "RIGHT"), ("ALIGN", (0, 0), (0, -1), "LEFT"),
+            ("VALIGN", (0, 0), (-1, -1), "TOP"),
+            ("LEFTPADDING", (0, 0), (-1, -1), PAD), ("RIGHTPADDING", (0, 0), (-1, -1), PAD),
             ("TOPPADDING", (0, 0), (-1, -1), 1), ("BOTTOMPADDING", (0, 0), (-1, -1), 1)]))
         out += [t, Spacer(1, 4)]
     return out
@@ -133,8 +153,9 @@ def _worst(p: Part) -> tuple[pd.DataFrame, str]:
     if p.order is not None:
         key = np.nan_to_num(np.asarray(p.order, float), nan=-np.inf)
         keep = np.argsort(-key, kind="stable")[:PDF_ROWS]
-        return (t.iloc[keep], f"The {PDF_ROWS} {p.which} of {len(t)} {p.rows_are} (the "
-                "HTML report links the whole table as CSV).")
+        say = f"first {PDF_ROWS}" if p.which == "first" else f"{PDF_ROWS} {p.which}"
+        return (t.iloc[keep], f"The {say} of {len(t)} {p.rows_are} (the HTML report links "
+                "the whole table as CSV).")
     return t.head(PDF_ROWS), f"The first {PDF_ROWS} of {len(t)} rows."
 
 
@@ -167,18 +188,18 @@ def _front(res: Results, st: dict) -> list:
         out.append(_p("Rejection patterns", st["h2"]))
         out += [_p(f"{a.what}. Remedy: {a.remedy}. Where: {a.where}.", st["body"])
                 for a in advice]
-    out.append(_p("Run, input and settings", st["h2"]))
     meta = [[_p(k, st["cell"]), _p(val, st["cell"])] for k, val in metadata(res)]
     mt = Table(meta, colWidths=[45 * mm, WIDTH - 45 * mm])
     mt.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"),
                             ("LINEBELOW", (0, 0), (-1, -1), 0.2, colors.HexColor("#dddddd"))]))
-    out.append(mt)
     sign = Table([["Processed by (name, date)", "Checked by (name, date)",
                    "Accepted for delivery (signature)"], ["", "", ""]],
                  colWidths=[WIDTH / 3] * 3, rowHeights=[12, 28])
     sign.setStyle(TableStyle([("FONT", (0, 0), (-1, -1), "Helvetica", 8),
                               ("LINEABOVE", (0, 0), (-1, 0), 0.6, colors.black)]))
-    out += [Spacer(1, 8), KeepTogether([_p("Sign-off", st["h3"]), sign]), PageBreak()]
+    # the metadata and the sign-off on one page: a sign-off never stands alone
+    out += [KeepTogether([_p("Run, input and settings", st["h2"]), mt, Spacer(1, 8),
+                          _p("Sign-off", st["h3"]), sign]), PageBreak()]
     return out
 
 

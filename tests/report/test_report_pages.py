@@ -319,3 +319,34 @@ def test_forty_check_points_fit_the_screen_and_capture(tmp_path):
         assert "40 check point(s)" in f["text_sample"]
         png = screenshot(page, tmp_path / f"{page.stem}.png", tmp_path)
         assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 20_000
+
+
+def test_pdf_cells_copy_apart_and_the_signoff_keeps_its_metadata(pages):
+    d = pages("demo")
+    text = pdf_pages(d / "quality.pdf")
+    row = next(line for p in text for line in p.splitlines() if line.startswith("002007"))
+    assert row.split()[:2] == ["002007", "4600.046"], row  # was "0020074600.046"
+    sign = [i for i, p in enumerate(text) if "Sign-off" in p]
+    assert len(sign) == 1 and "Run, input and settings" in text[sign[0]]
+    assert "input checksum (SHA-256)" in text[sign[0]]
+
+
+def test_berlin_snooping_log_stays_within_its_pdf_page(pages):
+    import pypdfium2
+
+    d = pages("berlin-snoop")
+    doc = pypdfium2.PdfDocument(str(d / "quality.pdf"))
+    pages_with_log = 0
+    for i in range(len(doc)):
+        page = doc[i]
+        tp = page.get_textpage()
+        if "Data snooping log" not in tp.get_text_range():
+            continue
+        pages_with_log += 1
+        w = page.get_width()
+        boxes = [tp.get_charbox(k) for k in range(tp.count_chars())]
+        left = min(b[0] for b in boxes)
+        right = max(b[2] for b in boxes)
+        assert left >= 0 and right <= w, (left, right, w)
+        assert "The first 25 of" in tp.get_text_range()
+    assert pages_with_log == 1
