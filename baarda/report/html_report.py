@@ -251,8 +251,13 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     if pat:
         out.append({"id": "patterns", "nav": "Patterns", "title": "Rejection patterns",
                     "body": Markup(pat)})
+    from baarda.report.facts import project_facts
+
+    facts = project_facts(res)
+    block = ("<h3>The block</h3>" + macro("meta")(facts) + "<h3>Run, input and settings</h3>"
+             if facts else "")
     out.append({"id": "metadata", "nav": "Metadata", "title": "Run, input and settings",
-                "body": Markup(macro("meta")(metadata(res)) + macro("signoff")())})
+                "body": Markup(block + macro("meta")(metadata(res)) + macro("signoff")())})
     return out
 
 

@@ -188,7 +188,10 @@ def _front(res: Results, st: dict) -> list:
         out.append(_p("Rejection patterns", st["h2"]))
         out += [_p(f"{a.what}. Remedy: {a.remedy}. Where: {a.where}.", st["body"])
                 for a in advice]
-    meta = [[_p(k, st["cell"]), _p(val, st["cell"])] for k, val in metadata(res)]
+    from baarda.report.facts import project_facts
+
+    meta = [[_p(k, st["cell"]), _p(val, st["cell"])] for k, val in
+            project_facts(res) + metadata(res)]
     mt = Table(meta, colWidths=[45 * mm, WIDTH - 45 * mm])
     mt.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"),
                             ("LINEBELOW", (0, 0), (-1, -1), 0.2, colors.HexColor("#dddddd"))]))

@@ -199,6 +199,11 @@ def control_parts(res: Results) -> list[Part]:
                 row[f"MDB {c} m"] = o["mdb"]
             rows.append(row)
         t = pd.DataFrame(rows)
+        from baarda.report.facts import gcp_images
+
+        g = gcp_images(res)
+        if len(g):  # the images each GCP is measured on and its reprojection error
+            t = t.merge(g, on="point", how="left")
         parts.append(Part("text", text="Control points (GCPs used as observations): residual "
                           "v = adjusted - given per axis, w-test, redundancy number r (0: the "
                           "point is not checked by the rest of the block) and the minimal "
@@ -206,7 +211,8 @@ def control_parts(res: Results) -> list[Part]:
         wcols = [c for c in t.columns if c.startswith("w ")]
         parts.append(Part("table", "control points", table=t,
                           fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
-                               for c in t.columns if c not in ("point", "role", "rejected")},
+                               for c in t.columns if c not in ("point", "role", "rejected",
+                                                               "images")},
                           order=t[wcols].abs().max(axis=1).to_numpy(float) + 1e3 * (
                               t["rejected"] != ""), rows_are="control points"))
     pts = res.points
