@@ -116,7 +116,7 @@ def _image_table(t: pd.DataFrame, by: str) -> str:
 
 def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     """Every figure of the report (None where the data for one are missing)."""
-    hists = image_histograms(res.obs, opt)
+    hists = image_histograms(res.obs, opt, fit=True)
     out: dict[str, Plot | None] = {}
     out["hist_image"] = (residual_histograms(hists, "µm") if hists[2][1].n else None)
     wh = w_hists(res.obs, opt, res.summary.get("observation_groups"))
@@ -330,7 +330,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     texts = "".join(
         f"<details><summary>text histogram: image {esc(n)}</summary><pre>"
         f"{esc(format_histogram(h, f'IMAGE {n.upper()} RESIDUALS', 'µm', opt.line_width))}"
-        "</pre></details>" for n, h in image_histograms(res.obs, opt))
+        "</pre></details>" for n, h in image_histograms(res.obs, opt, fit=True))
     sec.append(("histograms", "Histograms", figure(figs["hist_image"]) + texts
                 + figure(figs["hist_w"])))
     sec.append(("maps", "Block map", figure(figs["block_map"])))
