@@ -132,3 +132,23 @@ def figure(p: Plot | None, width: int | None = None) -> str:
     return macro("figure")({"name": p.name, "title": p.title, "caption": p.caption,
                                    "b64": base64.b64encode(p.png).decode("ascii"),
                                    "width": width})
+
+
+def run_metadata(run) -> list[tuple[str, str]]:
+    """What every report states about its run (the adjustment reports from run.json):
+    baarda's version, the date, the run id and the command; `run`: the run being written
+    (output/run_folder.py: run_id, started, command)."""
+    from baarda.output.run_folder import package_version
+
+    started = getattr(run, "started", None)
+    return [("baarda version", str(package_version() or "not recorded")),
+            ("processed", started.isoformat(timespec="seconds") if started else "not recorded"),
+            ("run", str(getattr(run, "run_id", None) or "not recorded")),
+            ("command", str(getattr(run, "command", None) or "not recorded"))]
+
+
+def metadata_section(meta: list[tuple[str, str]]) -> dict:
+    """The page section of `meta` (run_metadata)."""
+    from markupsafe import Markup
+
+    return {"id": "metadata", "nav": "Run", "title": "Run", "body": Markup(macro("meta")(meta))}
