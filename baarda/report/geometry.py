@@ -19,11 +19,16 @@ LABELS = 8  # labels for the largest vectors only
 NADIR_SHARE = 0.25  # footprints overlapping on less of their area: not nadir photos
 
 
-def _plain(ax) -> None:
+def _plain(ax, unit: str = "m") -> None:
+    """Plain coordinates (no offset) with their unit on the axes, at most 4 ticks along X
+    (long coordinates do not collide)."""
     ax.ticklabel_format(useOffset=False, style="plain")
     ax.tick_params(labelsize=8)
     ax.set_aspect("equal")
     ax.grid(alpha=0.2)
+    ax.xaxis.set_major_locator(plt.MaxNLocator(4))
+    ax.set_xlabel(f"X {unit}", fontsize=8)
+    ax.set_ylabel(f"Y {unit}", fontsize=8)
 
 
 def _spacing(x: np.ndarray, y: np.ndarray) -> float:
@@ -173,9 +178,6 @@ def overlap(res: Results) -> Plot | None:
     cb = fig.colorbar(im, ax=ax, shrink=0.85, label="photos per ground cell")
     cb.set_ticks(np.unique(np.linspace(1, top, min(top, 8)).round().astype(int)))
     _plain(ax)
-    ax.xaxis.set_major_locator(plt.MaxNLocator(4))
-    ax.set_xlabel("X m", fontsize=8)
-    ax.set_ylabel("Y m", fontsize=8)
     ax.set_title("Image overlap: photos per ground cell", fontsize=10)
     cap = (f"the photos whose footprint (the measured image area at the points' median "
            f"height) covers each ground cell of {cov.cell:.3g} m; covered "
@@ -255,9 +257,9 @@ def image_grid(res: Results, cells: int = 8) -> Plot | None:
     ax.set_ylim(-1.1 * ext, 1.1 * ext)
     ref = _nice(float(v.max()))
     _arrow(ax, ref * 1e-3, ex, f"{ref:g} µm")
-    _plain(ax)
-    ax.set_xlabel("x [mm]", fontsize=8)
-    ax.set_ylabel("y [mm]", fontsize=8)
+    _plain(ax, "mm")
+    ax.set_xlabel("x mm", fontsize=8)
+    ax.set_ylabel("y mm", fontsize=8)
     ax.set_title("Image residuals averaged on a grid", fontsize=10)
     cap = (f"mean image residual of the cells with 3 or more points ({cells} x {cells} "
            f"grid over every photo), enlarged {ex:g} times; largest mean {v.max():.2f} µm: "

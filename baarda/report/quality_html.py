@@ -74,8 +74,8 @@ def parts_html(parts: list[Part], figures: bool = True) -> str:
             ident = p.ident or re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
             out.append(title + _table(p, f'id="q-{ident}"' if figures else ""))
         elif p.kind == "figure" and figures:
-            out.append(str(figure(Plot(re.sub(r"\W+", "-", p.title), p.title,
-                                       to_png(p.figure()), p.text))))
+            png = p.png if p.png is not None else to_png(p.figure())
+            out.append(str(figure(Plot(re.sub(r"\W+", "-", p.title), p.title, png, p.text))))
     return "".join(out)
 
 
@@ -95,7 +95,7 @@ def quality_sections(parts: list[Part]) -> list[dict]:
 
 
 SECTION_IDS = {"Summary": "summary", "Camera calibration": "camera",
-               "Ground control and check points": "control",
+               "Ground control and check points": "control", "Geometry": "geometry",
                "GNSS positions of the projection centres": "gnss",
                "IMU attitudes of the photos": "imu",
                "Reprojection errors per image": "reprojection",

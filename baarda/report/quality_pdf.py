@@ -32,7 +32,7 @@ from baarda.io.result_folder import Results
 from baarda.output.verdict import failures
 from baarda.report.front import accuracy, metadata, patterns, quality_check
 from baarda.report.html_base import cell
-from baarda.report.plots import to_png
+from baarda.report.plots import DPI, to_png
 from baarda.report.quality_report import Part, quality_content
 
 PDF_ROWS = 25  # rows of a long table in the PDF (the worst)
@@ -209,18 +209,49 @@ def _front(res: Results, st: dict) -> list:
 def _figure(p: Part, st: dict) -> list:
     import io
 
-    fig = p.figure()
-    w, h = fig.get_size_inches()
-    png = to_png(fig)
+    if p.png is not None:  # drawn already: its size from the PNG
+        from reportlab.lib.utils import ImageReader
+
+        png = p.png
+        w, h = (x / DPI for x in ImageReader(io.BytesIO(png)).getSize())
+    else:
+        fig = p.figure()
+        w, h = fig.get_size_inches()
+        png = to_png(fig)
     width = min(WIDTH, w * 72)
     img = Image(io.BytesIO(png), width=width, height=width * h / w)
     return [KeepTogether([img, _p(p.text, st["small"])])]
 
 
+def _side_by_side(figs: list[Part], st: dict) -> list:
+    """Drawn figures two to a row, each with its caption (the geometry figures)."""
+    import io
+
+    from reportlab.lib.utils import ImageReader
+
+    half = WIDTH / 2 - 6
+    cells = []
+    for p in figs:
+        w, h = ImageReader(io.BytesIO(p.png)).getSize()
+        cells.append([Image(io.BytesIO(p.png), width=half, height=half * h / w),
+                      _p(p.text, st["small"])])
+    rows = [cells[i:i + 2] + [[]] * (2 - len(cells[i:i + 2])) for i in range(0, len(cells), 2)]
+    t = Table(rows, colWidths=[WIDTH / 2] * 2)
+    t.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP")]))
+    return [t]
+
+
 def story(res: Results, parts: list[Part]) -> list:
     st = _styles()
     out = _front(res, st)
+    drawn: list[Part] = []
     for p in parts:
+        if p.kind == "figure" and p.png is not None:
+            drawn.append(p)
+            continue
+        if drawn:
+            out += _side_by_side(drawn, st)
+            drawn = []
         if p.kind == "alert":
             continue  # on the first page already
         if p.kind == "heading":
@@ -235,7 +266,7 @@ def story(res: Results, parts: list[Part]) -> list:
             out += _table(t, p.fmt, st)
         elif p.kind == "figure":
             out += _figure(p, st)
-    return out
+    return out + (_side_by_side(drawn, st) if drawn else [])
 
 
 def write_quality_pdf(res: Results, path: str | Path, parts: list[Part] | None = None) -> int:

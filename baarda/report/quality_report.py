@@ -49,6 +49,7 @@ class Part:
     rows_are: str = "rows"  # what a row is, e.g. "photos"
     ident: str = ""  # the table's id stem in the HTML (default: from the title)
     which: str = "worst"  # the rows a long table keeps: "worst" by `order`, or "first"
+    png: bytes | None = None  # a figure drawn already (the geometry figures), not `figure`
 
 
 def _rms(x) -> float:
@@ -417,6 +418,18 @@ def summary_parts(res: Results) -> list[Part]:
     return out
 
 
+def geometry_parts(res: Results) -> list[Part]:
+    """The geometry figures of the adjustment report (camera centres with their ellipses,
+    the GCP and check-point vectors, the overlap per ground cell), drawn once."""
+    from baarda.report.geometry import centres, ground_vectors, overlap
+
+    figs = [f for f in (centres(res), ground_vectors(res), overlap(res)) if f is not None]
+    if not figs:
+        return []
+    return [Part("heading", "Geometry")] + [Part("figure", f.title, text=f.caption, png=f.png)
+                                            for f in figs]
+
+
 def calibration_parts(res: Results) -> list[Part]:
     """The camera, control, GNSS and IMU parts (the main HTML report shows them too)."""
     return camera_parts(res) + control_parts(res) + gnss_parts(res) + imu_parts(res)
@@ -426,5 +439,5 @@ def quality_content(res: Results, calibration: list[Part] | None = None) -> list
     """Every part of the quality report; `calibration`: calibration_parts(res) when they
     are at hand."""
     cal = calibration_parts(res) if calibration is None else calibration
-    return (summary_parts(res) + cal + image_parts(res) + observation_parts(res)
-            + snooping_parts(res) + reliability_parts(res))
+    return (summary_parts(res) + cal + geometry_parts(res) + image_parts(res)
+            + observation_parts(res) + snooping_parts(res) + reliability_parts(res))
