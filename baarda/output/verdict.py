@@ -257,7 +257,9 @@ def _uncontrolled(summary: dict, points: pd.DataFrame | None) -> Row:
     sep = summary.get("separability") or {}
     comps = sep.get("uncontrolled_components") or []
     share = sep.get("share_uncontrolled")
-    of = f" ({100 * share:.1f} % of the active ones)" if share is not None else ""
+    pct = (f"{100 * share:.1f}" if share is None or 100 * share >= 0.1 else
+           f"{100 * share:.2g}")
+    of = f" ({pct} % of the active ones)" if share is not None else ""
     text = (f"{n} observation component(s){of} with redundancy number below 0.001: an error "
             "in them cannot be detected and goes wholly into the result")
     roles = {}
@@ -271,11 +273,16 @@ def _uncontrolled(summary: dict, points: pd.DataFrame | None) -> Row:
     pts = sorted({str(c["point"]) for c in tie})
     remedy = ("; remedy: measure them on a third photo (in the triple overlap of a strip or "
               "its neighbour), or plan 60 % side overlap or cross strips (baarda plan)")
-    effect = _uncontrolled_effect(pts, points, summary.get("delta0"))
+    effect = _uncontrolled_effect(pts, points, summary.get("delta0"),
+                                  length_unit(summary, points))
     if elsewhere:
-        return Row("uncontrolled", WARN, label, text + f"; {elsewhere} of them on control, "
-                   "check points, GNSS, IMU or other unknowns, where an undetected error "
-                   "moves the georeference" + remedy, "reliability")
+        other = [c for c in comps if c not in tie]
+        named = "; ".join(f"{c.get('point') or ''} {c.get('component')}".strip()
+                          for c in other[:3]) + ("; ..." if len(other) > 3 else "")
+        return Row("uncontrolled", WARN, label, text + f"; {elsewhere} of them not on tie "
+                   "points' image coordinates" + (f" ({named})" if named else "") + ": "
+                   "control, check points, GNSS, IMU or distances, where an undetected error "
+                   "moves the georeference or the scale" + remedy, "reliability")
     where = (f"; all on {len(pts)} tie point(s)"
              + (f", {len(two & set(pts))} of them seen on two photos only" if two else "")
              + ": an error there moves only its own point" + effect)
@@ -287,7 +294,25 @@ def _uncontrolled(summary: dict, points: pd.DataFrame | None) -> Row:
                "not an error found)" + remedy, "reliability")
 
 
-def _uncontrolled_effect(pts: list[str], points: pd.DataFrame | None, delta0) -> str:
+def length_unit(summary: dict, points: pd.DataFrame | None) -> tuple[str, float]:
+    """The unit in which the reports state lengths of the object and its factor from
+    metres: the project's own, "mm" where the reader converted the object coordinates from
+    mm (AICON: "object coordinates mm -> m") or the points span less than 10 m (a
+    close-range network), else "m"."""
+    said = [str(n) for n in summary.get("notes", [])] + [
+        str(line) for s in summary.get("sections", []) for line in s.get("lines", [])]
+    if any("coordinates mm -> m" in n for n in said):
+        return "mm", 1e3
+    if points is not None and len(points) > 1 and {"X", "Y", "Z"} <= set(points.columns):
+        xyz = points[["X", "Y", "Z"]].to_numpy(float)
+        span = np.nanmax(xyz, axis=0) - np.nanmin(xyz, axis=0)
+        if np.isfinite(span).all() and 0 < float(np.max(span)) < 10.0:
+            return "mm", 1e3
+    return "m", 1.0
+
+
+def _uncontrolled_effect(pts: list[str], points: pd.DataFrame | None, delta0,
+                         unit: tuple[str, float] = ("m", 1.0)) -> str:
     """', by at most .. m (point ..) for an error of delta0 standard deviations': the bound
     delta0 x sigma_P (module docstring) over the uncontrolled tie points."""
     need = {"point", "sigma_X", "sigma_Y", "sigma_Z"}
@@ -298,7 +323,8 @@ def _uncontrolled_effect(pts: list[str], points: pd.DataFrame | None, delta0) ->
     if not np.isfinite(s).any():
         return ""
     i = int(np.nanargmax(s))
-    return (f", by at most {float(delta0) * s[i]:.3g} m (point {p['point'].iloc[i]}) for an "
+    return (f", by at most {float(delta0) * s[i] * unit[1]:.3g} {unit[0]} (point "
+            f"{p['point'].iloc[i]}) for an "
             f"error of {float(delta0):.2f} standard deviations, the size the w-test finds "
             "in a checked observation")
 

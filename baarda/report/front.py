@@ -20,6 +20,7 @@ import pandas as pd
 
 from baarda.io.result_folder import Results
 from baarda.output.verdict import WORDS, Verdict, check_point_misses, verdict
+from baarda.output.verdict import length_unit as verdict_length_unit
 
 NSSDA_H95 = 1.7308
 NSSDA_V95 = 1.9600
@@ -52,21 +53,9 @@ def summary_pixel_um(summary: dict) -> float | None:
 
 
 def length_unit(res: Results) -> tuple[str, float]:
-    """The unit in which the report states lengths of the object (effects on coordinates,
-    point standard deviations) and its factor from metres: the project's own, "mm" where
-    the reader converted the object coordinates from mm (AICON: "object coordinates mm ->
-    m") or the points span less than 10 m (a close-range network), else "m"."""
-    said = [str(n) for n in res.summary.get("notes", [])] + [
-        line for s in res.sections for line in s.lines]
-    if any("coordinates mm -> m" in n for n in said):
-        return "mm", 1e3
-    pts = res.points
-    if pts is not None and len(pts) > 1 and {"X", "Y", "Z"} <= set(pts.columns):
-        xyz = pts[["X", "Y", "Z"]].to_numpy(float)
-        span = np.nanmax(xyz, axis=0) - np.nanmin(xyz, axis=0)
-        if np.isfinite(span).all() and 0 < float(np.max(span)) < 10.0:
-            return "mm", 1e3
-    return "m", 1.0
+    """The unit of the object's lengths in the report and its factor from metres
+    (output/verdict.length_unit: the project's own, mm for a close-range network)."""
+    return verdict_length_unit(res.summary, res.points)
 
 
 def row_units(res: Results, kinds) -> tuple[np.ndarray, np.ndarray]:

@@ -148,7 +148,7 @@ def test_uncontrolled_tie_points_are_a_design_fact_with_its_remedy():
                                                "frames": [""]}])
     r = row(verdict(summary(n_uncontrolled=1, separability=sep2, delta0=4.13), pts),
             "uncontrolled")
-    assert r.status == WARN and "1 of them on control" in r.text
+    assert r.status == WARN and "1 of them not on tie points' image coordinates (g Z)" in r.text
 
 
 def test_a_camera_that_moved_beyond_its_standard_deviations_is_flagged():
