@@ -56,9 +56,9 @@ def _snoop_table(res: Results, opt: ReportOptions) -> str:
         n_rej = min(int(rej.sum()), limit)
         keep = (rej & (np.cumsum(rej) <= n_rej)) | (~rej & (np.cumsum(~rej) <= limit - n_rej))
         t = every[keep]
-        note = (f"; {len(t)} of {len(every)} such rows shown: the rejected ones first"
-                + ("" if n_rej == int(rej.sum()) else f" ({n_rej} of {int(rej.sum())})")
-                + " and the first others in this order")
+        note = (f"; {len(t)} of {len(every)} such rows shown: every rejected one"
+                + ("" if n_rej == int(rej.sum()) else f" (the first {n_rej} of "
+                   f"{int(rej.sum())})") + " and the first others in this order")
     show = pd.DataFrame({
         "kind": t["kind"], "photo/model": t["frame"], "point": t["point"], "c": t["component"],
         "RED-N": t["redundancy"], "PARX": t["residual"], "EXPD": t["sigma_residual"],
