@@ -104,7 +104,7 @@ def run(args) -> int:
         png = power_curves(summary, power, curve)
         if png is not None:
             write_bytes(run.file("power.png"), png)
-        write_text(run.file("report.html"), study_html(summary, power, png))
+        write_text(run.file("report.html"), study_html(summary, power, png, run=run))
     con.print(study.summary())
     fewest = int(study.trials["n_planted"].min()) if len(study.trials) else 0
     if fewest < options.blunders:

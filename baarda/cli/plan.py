@@ -149,7 +149,7 @@ def _plan(args, run) -> tuple[list[Path], str]:
     from baarda.output.atomic import write_text
     from baarda.report.plan_page import plan_html
 
-    write_text(run.file("plan_report.html"), plan_html(run.file, title))  # from the files
+    write_text(run.file("plan_report.html"), plan_html(run.file, title, run=run))
     if args.derive_table:
         if flight is not None:
             length = flight.photos_per_strip - 1

@@ -129,7 +129,8 @@ def run(args) -> int:
 
         parts = quality_content(res, cal)  # once for the page and the PDF
         if args.quality is not None:
-            write_html(args.quality, quality_page(res, parts, args.templates))
+            write_html(args.quality, quality_page(res, parts, args.templates,
+                                                    args.quality))
             con.print(f"quality report written to {args.quality}")
             written.append(str(args.quality))
         if args.pdf is not None:

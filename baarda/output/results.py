@@ -42,8 +42,11 @@ def summary_document(*, project: str, source: str, method: str, sections: Iterab
 def input_fingerprint(source: str | Path | None) -> dict | None:
     """The input as the reports state it: its path, the number of files and bytes and one
     SHA-256 over them (a folder: every file under it in sorted order, each as its relative
-    path and its bytes); None when the source is not a file or folder here."""
+    path and its bytes; a project named by its files' common stem, as AICON's
+    `example.phc`, `example.ior`, ...: those files); None when the source is none of
+    these here."""
     import hashlib
+    from glob import escape as glob_escape
 
     if not source:
         return None
@@ -52,6 +55,9 @@ def input_fingerprint(source: str | Path | None) -> dict | None:
         files, root = [path], path.parent
     elif path.is_dir():
         files, root = sorted(p for p in path.rglob("*") if p.is_file()), path
+    elif path.parent.is_dir() and (stem := sorted(
+            p for p in path.parent.glob(f"{glob_escape(path.name)}.*") if p.is_file())):
+        files, root = stem, path.parent
     else:
         return None
     h = hashlib.sha256()

@@ -1,7 +1,18 @@
 """The verdict of a run, from its result files: one row per question a client asks first
 (did it converge, did snooping finish, does the model fit, how large is sigma0, what do
 the check points say, how many rejections against the false alarms to expect, what is
-not controlled, which GCPs and GNSS positions are suspicious), each green, amber or red.
+not controlled, did the camera calibration move, which GCPs and GNSS positions are
+suspicious), each green, amber or red (or a note: a design fact with its remedy).
+
+Rejections: each of the n tested components is a false alarm with probability alpha0, so
+the count of false alarms is binomial(n, alpha0); the row warns when at least that many
+rejections are improbable as false alarms alone (P < REJECTIONS_P).  Uncontrolled
+components (r < 0.001): an error there goes wholly into the result; when they lie on tie
+points seen on two photos only, such an error moves only its own point, by at most
+delta0 x sigma_P for an error of delta0 standard deviations (|dX_k| = |g_ki| grad <=
+grad sigma_Xk / sigma_i, since sigma_Xk^2 = sum_j g_kj^2 sigma_j^2): a note with the
+remedy, a warning when they are many (> UNCONTROLLED_SHARE) or lie elsewhere (control,
+check points, GNSS, IMU).
 
 `verdict(summary, points)` reads summary.json (and points.csv for the check points); the
 reports show it as their first page and the console prints `Verdict.lines()` as its last
@@ -15,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from scipy.stats import binom
 
 from baarda.kinds import GNSS
 
@@ -25,6 +37,9 @@ NOT_CONVERGED = ("NOT CONVERGED: the adjustment stopped before its corrections b
                  "least-squares solution")
 MATERIAL = 0.2  # sigma0 off 1 by more than this (and significantly): the sigmas are off
 CHECK_MISS = 3.0  # a check point misses when |d| exceeds this many standard deviations
+REJECTIONS_P = 0.05  # at least this many false alarms less probable: the data held errors
+UNCONTROLLED_SHARE = 0.05  # more uncontrolled components than this share: a weak design
+CAMERA_MOVED = 3.0  # a camera parameter moved by more than this many standard deviations
 
 
 @dataclass(frozen=True)
@@ -111,11 +126,18 @@ def _global_test(summary: dict) -> Row:
     if not gt:
         return Row("global", INFO, "Global test", "not available in the results", "global")
     sigma0 = summary.get("sigma0", float("nan"))
+    lo, hi = (gt.get("sigma0_interval") or [np.nan, np.nan])[:2]
+    if not gt["passed"]:
+        said = (f"REJECTED, the residuals are {sigma0:.2f} times as large as the a-priori "
+                "sigmas predict: an error is left in the data or the sigmas are too small")
+    elif np.isfinite(hi) and hi < 1.0:
+        said = ("accepted (the test is one-sided: the residuals are not larger than the "
+                f"a-priori sigmas predict); sigma0 {sigma0:.3f} is significantly below 1 "
+                f"(95 % interval {lo:.3f} .. {hi:.3f}): the a-priori sigmas are pessimistic")
+    else:
+        said = "accepted, the residuals agree with the a-priori sigmas"
     text = (f"sigma0^2 = {gt['statistic']:.4f} against the critical {gt['critical']:.4f} "
-            f"(alpha {gt['alpha']:g}, p = {gt['p_value']:.3g}): "
-            + ("accepted, the residuals agree with the a-priori sigmas" if gt["passed"] else
-               f"REJECTED, the residuals are {sigma0:.2f} times as large as the a-priori "
-               "sigmas predict: an error is left in the data or the sigmas are too small"))
+            f"(alpha {gt['alpha']:g}, p = {gt['p_value']:.3g}): " + said)
     b = summary.get("global_test_b_method")
     if b and bool(b.get("passed")) != bool(gt["passed"]):
         text += (f"; the B-method's test (alpha {b['alpha']:.3g}, coupled to the w-tests) "
@@ -216,27 +238,104 @@ def _rejections(summary: dict) -> Row:
     m = summary.get("n_observations")
     if alpha0 is None or not m:
         return Row("rejections", INFO, "Rejections", f"{n} rejected", "log")
-    expect = float(alpha0) * (int(m) + n)
-    text = (f"{n} observation component(s) rejected; alpha0 x n = {alpha0:g} x {int(m) + n}"
-            f" = {expect:.2g} false alarms expected")
-    if n <= max(1.0, 2.0 * expect):
-        return Row("rejections", PASS, "Rejections", text, "log")
-    return Row("rejections", WARN, "Rejections", text + ": the data held errors (they were "
-               "removed; see the patterns)", "patterns")
+    tested = int(m) + n
+    expect = float(alpha0) * tested
+    p = float(binom.sf(n - 1, tested, float(alpha0))) if n else 1.0
+    text = (f"{n} observation component(s) rejected; alpha0 x n = {alpha0:g} x {tested}"
+            f" = {expect:.2g} false alarms expected" + (
+                f", P(at least {n} false alarms) = {p:.2g}" if n else ""))
+    if p >= REJECTIONS_P:
+        return Row("rejections", PASS, "Rejections", text + (
+            ": as many as chance alone gives" if n else ""), "log")
+    return Row("rejections", WARN, "Rejections", text + ": more than false alarms explain, "
+               "the data held errors (they were removed; see the patterns)", "patterns")
 
 
-def _uncontrolled(summary: dict) -> Row:
+def _uncontrolled(summary: dict, points: pd.DataFrame | None) -> Row:
     n = int(summary.get("n_uncontrolled") or 0)
+    label = "Uncontrolled observations"
     if not n:
-        return Row("uncontrolled", PASS, "Uncontrolled observations", "none: every "
-                   "observation is checked by the others", "reliability")
-    return Row("uncontrolled", WARN, "Uncontrolled observations", f"{n} observation "
-               "component(s) with redundancy number below 0.001: an error in them cannot be "
-               "detected and goes wholly into the result (points seen by too few photos, "
-               "control without redundancy)", "reliability")
+        return Row("uncontrolled", PASS, label, "none: every observation is checked by the "
+                   "others", "reliability")
+    sep = summary.get("separability") or {}
+    comps = sep.get("uncontrolled_components") or []
+    share = sep.get("share_uncontrolled")
+    pct = ("" if share is None else f"{100 * share:.1f}" if 100 * share >= 0.1 else
+           f"{100 * share:.2g}")
+    of = f" ({pct} % of the active ones)" if share is not None else ""
+    text = (f"{n} observation component(s){of} with redundancy number below 0.001: an error "
+            "in them cannot be detected and goes wholly into the result")
+    roles = {}
+    if points is not None and "role" in points:
+        roles = dict(zip(points["point"].astype(str), points["role"].astype(str),
+                         strict=True))
+    tie = [c for c in comps if c.get("component") in ("x", "y")
+           and roles.get(str(c.get("point")), "tie") == "tie"]
+    elsewhere = len(comps) - len(tie) if comps else n
+    two = set(sep.get("two_ray_points") or [])
+    pts = sorted({str(c["point"]) for c in tie})
+    remedy = ("; remedy: measure them on a third photo (in the triple overlap of a strip or "
+              "its neighbour), or plan 60 % side overlap or cross strips (baarda plan)")
+    effect = _uncontrolled_effect(pts, points, summary.get("delta0"),
+                                  length_unit(summary, points))
+    if elsewhere:
+        other = [c for c in comps if c not in tie]
+        named = "; ".join(f"{c.get('point') or ''} {c.get('component')}".strip()
+                          for c in other[:3]) + ("; ..." if len(other) > 3 else "")
+        return Row("uncontrolled", WARN, label, text + f"; {elsewhere} of them not on tie "
+                   "points' image coordinates" + (f" ({named})" if named else "") + ": "
+                   "control, check points, GNSS, IMU or distances, where an undetected error "
+                   "moves the georeference or the scale" + remedy, "reliability")
+    where = (f"; all on {len(pts)} tie point(s)"
+             + (f", {len(two & set(pts))} of them seen on two photos only" if two else "")
+             + ": an error there moves only its own point" + effect)
+    if share is not None and share > UNCONTROLLED_SHARE:
+        return Row("uncontrolled", WARN, label, text + where + f"; more than "
+                   f"{100 * UNCONTROLLED_SHARE:g} % of the block is not checked" + remedy,
+                   "reliability")
+    return Row("uncontrolled", INFO, label, text + where + " (a design fact of the block, "
+               "not an error found)" + remedy, "reliability")
 
 
-def _suspicious(summary: dict, kind: str, label: str, section: str) -> Row | None:
+def length_unit(summary: dict, points: pd.DataFrame | None) -> tuple[str, float]:
+    """The unit in which the reports state lengths of the object and its factor from
+    metres: the project's own, "mm" where the reader converted the object coordinates from
+    mm (AICON: "object coordinates mm -> m") or the points span less than 10 m (a
+    close-range network), else "m"."""
+    said = [str(n) for n in summary.get("notes", [])] + [
+        str(line) for s in summary.get("sections", []) for line in s.get("lines", [])]
+    if any("coordinates mm -> m" in n for n in said):
+        return "mm", 1e3
+    if points is not None and len(points) > 1 and {"X", "Y", "Z"} <= set(points.columns):
+        xyz = points[["X", "Y", "Z"]].to_numpy(float)
+        span = np.nanmax(xyz, axis=0) - np.nanmin(xyz, axis=0)
+        if np.isfinite(span).all() and 0 < float(np.max(span)) < 10.0:
+            return "mm", 1e3
+    return "m", 1.0
+
+
+def _uncontrolled_effect(pts: list[str], points: pd.DataFrame | None, delta0,
+                         unit: tuple[str, float] = ("m", 1.0)) -> str:
+    """', by at most .. m (point ..) for an error of delta0 standard deviations': the bound
+    delta0 x sigma_P (module docstring) over the uncontrolled tie points."""
+    need = {"point", "sigma_X", "sigma_Y", "sigma_Z"}
+    if not pts or points is None or not need <= set(points.columns) or not delta0:
+        return ""
+    p = points[points["point"].astype(str).isin(pts)]
+    s = np.sqrt(np.sum(p[["sigma_X", "sigma_Y", "sigma_Z"]].to_numpy(float) ** 2, axis=1))
+    if not np.isfinite(s).any():
+        return ""
+    i = int(np.nanargmax(s))
+    return (f", by at most {float(delta0) * s[i] * unit[1]:.3g} {unit[0]} (point "
+            f"{p['point'].iloc[i]}) for an "
+            f"error of {float(delta0):.2f} standard deviations, the size the w-test finds "
+            "in a checked observation")
+
+
+def _suspicious(summary: dict, kind: str, label: str, section: str,
+                n_tested: int | None = None) -> Row | None:
+    """The rejected components of `kind`; with `n_tested` (the kind's tested components)
+    a count that false alarms explain (P >= REJECTIONS_P) passes, named."""
     if kind not in (summary.get("observation_groups") or {}) and not _rejected_of(summary,
                                                                                   kind):
         return None
@@ -244,7 +343,54 @@ def _suspicious(summary: dict, kind: str, label: str, section: str) -> Row | Non
     if not rej:
         return Row(kind, PASS, label, "none rejected", section)
     shown = "; ".join(r[len(kind) + 1:] for r in rej[:6]) + ("; ..." if len(rej) > 6 else "")
-    return Row(kind, WARN, label, f"{len(rej)} component(s) rejected: {shown}", section)
+    text = f"{len(rej)} component(s) rejected: {shown}"
+    alpha0 = summary.get("alpha0")
+    if n_tested and alpha0 is not None:
+        n = max(n_tested, len(rej))
+        p = float(binom.sf(len(rej) - 1, n, float(alpha0)))
+        text += f"; P(at least {len(rej)} false alarms among {n} components) = {p:.2g}"
+        if p >= REJECTIONS_P:
+            return Row(kind, PASS, label, text + ": as many as chance alone gives (the "
+                       "rejected component is left out; check it in the field if in doubt)",
+                       section)
+    return Row(kind, WARN, label, text, section)
+
+
+def _control_components(summary: dict, points: pd.DataFrame | None) -> int | None:
+    """The control components tested: the control points times the control axes."""
+    axes = (summary.get("observation_groups") or {}).get("control") or {}
+    if points is None or "role" not in points or not axes:
+        return None
+    return int((points["role"] == "control").sum()) * len(axes)
+
+
+def _camera(summary: dict) -> Row | None:
+    """The estimated camera parameters against their given values: a change of more than
+    CAMERA_MOVED standard deviations means the given calibration does not hold for this
+    block (the largest such change named)."""
+    cal = [c for c in summary.get("calibration") or [] if c.get("estimated")
+           and c.get("sigma") and c.get("initial") is not None]
+    if not cal:
+        return None
+    moved = []
+    for c in cal:
+        d = float(c["value"]) - float(c["initial"])
+        z = abs(d) / float(c["sigma"])
+        rel = f", {100 * d / abs(float(c['initial'])):+.1f} %" if c["initial"] else ""
+        moved.append((z, f"{c['parameter']} of camera {c['camera']} by {d:+.4g}{rel} "
+                         f"({z:.1f} standard deviations)"))
+    moved.sort(key=lambda m: -m[0])
+    far = [t for z, t in moved if z > CAMERA_MOVED]
+    n = len({c["camera"] for c in cal})
+    if far:
+        return Row("camera", WARN, "Camera calibration", f"moved from its given values by "
+                   f"more than {CAMERA_MOVED:g} standard deviations: " + "; ".join(far[:3])
+                   + ("; ..." if len(far) > 3 else "") + ": the given calibration does not "
+                   "hold for this block (check the camera assigned to the photos; use the "
+                   "adjusted calibration)", "camera")
+    return Row("camera", PASS, "Camera calibration", f"{len(cal)} parameter(s) of {n} "
+               f"camera(s) estimated, each within {CAMERA_MOVED:g} standard deviations of its "
+               f"given value (largest: {moved[0][1]})", "camera")
 
 
 def verdict(summary: dict, points: pd.DataFrame | None = None, *,
@@ -254,8 +400,10 @@ def verdict(summary: dict, points: pd.DataFrame | None = None, *,
     `image_sigma_um` put sigma0 in pixels."""
     rows = [_convergence(summary), _snooping(summary), _global_test(summary),
             _sigma0(summary, pixel_um, image_sigma_um), _check_points(summary, points),
-            _rejections(summary), _uncontrolled(summary)]
-    rows += [r for r in (_suspicious(summary, "control", "Suspicious GCPs", "control"),
+            _rejections(summary), _uncontrolled(summary, points)]
+    rows += [r for r in (_camera(summary),
+                         _suspicious(summary, "control", "Suspicious GCPs", "control",
+                                     _control_components(summary, points)),
                          _suspicious(summary, GNSS.name, "Suspicious GNSS positions", GNSS.name))
              if r is not None]
     return Verdict(tuple(rows))

@@ -52,10 +52,18 @@ def read_study(file: Callable[[str], Path]) -> tuple[dict, pd.DataFrame, pd.Data
 
 
 def study_html(summary: dict, power: pd.DataFrame, png: bytes | None,
-               templates: str | Path | None = None) -> str:
+               templates: str | Path | None = None, run=None) -> str:
     """A self-contained HTML page in the reports' look: the summary lines, the power
-    curves (legend beside them) and the counts per size class, strategies side by side."""
-    from baarda.report.html_base import esc, figure, page, table
+    curves (legend beside them) and the counts per size class, strategies side by side;
+    `run`: the run being written (version, date, id and command, as every report)."""
+    from baarda.report.html_base import (
+        esc,
+        figure,
+        metadata_section,
+        page,
+        run_metadata,
+        table,
+    )
     from baarda.report.plots import Plot
 
     lines = "".join(f"<li>{esc(s)}</li>" for s in summary.get("summary", []))
@@ -86,5 +94,10 @@ def study_html(summary: dict, power: pd.DataFrame, png: bytes | None,
     sub = (f"{summary.get('trials')} trials of {o.get('strips', '?')} x "
            f"{o.get('photos_per_strip', '?')} photos, alpha0 {summary.get('alpha0')}, beta0 "
            f"{summary.get('beta0')}")
+    meta = run_metadata(run)
+    if run is None and summary.get("run"):
+        meta[2] = ("run", str(summary["run"]))
+    sections.append(metadata_section(meta))
     return page("evaluation", templates, title="simulated blocks", subtitle=sub,
-                sections=sections, footer=f"baarda evaluate · run {summary.get('run', '')}")
+                sections=sections,
+                footer=f"baarda {meta[0][1]} · evaluate · run {meta[2][1]} · {meta[1][1]}")

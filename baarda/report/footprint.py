@@ -57,3 +57,14 @@ def footprints(photos: pd.DataFrame, cameras: dict[str, dict], angle_unit: str |
             continue
         out[str(pid)] = x0[i, :2] + t[:, None] * d[:, :2]
     return out
+
+
+def photo_outlines(res) -> tuple[dict[str, np.ndarray], float]:
+    """The ground outlines of a result folder's photos (`footprints` on the measured image
+    area, at the median height of the points) and that height (m); ({}, nan) without
+    photos, points or cameras."""
+    if res.photos is None or res.points is None or not res.cameras or not len(res.points):
+        return {}, float("nan")
+    ext = image_extent(res.obs, res.photos, res.cameras)
+    zg = float(np.nanmedian(res.points["Z"]))
+    return footprints(res.photos, res.cameras, res.angle_unit, ext, zg), zg

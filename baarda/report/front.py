@@ -20,6 +20,7 @@ from baarda.io.result_folder import Results
 from baarda.kinds import EXTERIOR, GNSS
 from baarda.output.accuracy import CONTROL, FREE_NONE, FREE_SIMILARITY, Statement, Survey, statement
 from baarda.output.verdict import WORDS, Verdict, check_point_misses, verdict
+from baarda.output.verdict import length_unit as verdict_length_unit
 
 
 def pixel_um(res: Results) -> float | None:
@@ -43,6 +44,23 @@ def summary_pixel_um(summary: dict) -> float | None:
             except ValueError:
                 return None
     return None
+
+
+def length_unit(res: Results) -> tuple[str, float]:
+    """The unit of the object's lengths in the report and its factor from metres
+    (output/verdict.length_unit: the project's own, mm for a close-range network)."""
+    return verdict_length_unit(res.summary, res.points)
+
+
+def row_units(res: Results, kinds) -> tuple[np.ndarray, np.ndarray]:
+    """Per observation row of `kinds`: the unit its residual, sigma and MDB are shown in
+    (the kind's own, lengths in metres in the project's length unit) and the factor from
+    observations.csv's values to it."""
+    name, f = length_unit(res)
+    units = res.units
+    u = np.array([units.get(str(k), "") for k in kinds], dtype=object)
+    factor = np.where(u == "m", f, 1.0)
+    return np.where(u == "m", name, u), factor
 
 
 def image_sigma_um(res: Results) -> float | None:
@@ -76,8 +94,8 @@ def folder_quality_check(folder, image_sigma_um: float | None) -> Verdict:
                    image_sigma_um=image_sigma_um)
 
 
-FALLBACK = {"control": "calibration", GNSS.name: "calibration", "global": "summary",
-            "log": "summary", "patterns": "log", "reliability": "observations",
+FALLBACK = {"control": "calibration", GNSS.name: "calibration", "camera": "calibration",
+            "global": "summary", "log": "summary", "patterns": "log", "reliability": "observations",
             "observations": "summary", "accuracy": "check"}
 
 
@@ -94,6 +112,16 @@ def check_view(v: Verdict, ids: set[str] | None = None) -> dict:
     return {"status": v.status, "headline": v.headline,
             "rows": [{"status": r.status, "word": WORDS[r.status], "label": r.label,
                       "text": r.text, "section": target(r.section)} for r in v.rows]}
+
+
+def run_notes(res: Results) -> list[str]:
+    """The run's notes, each once: the readers' and the adjustment's (summary.json 'notes'
+    and the summary's 'note:' lines: rows and points left out, defaults used) and the
+    report's own about missing files."""
+    lines = [line[len("note: "):] for s in res.sections for line in s.lines
+             if line.startswith("note: ")]
+    return list(dict.fromkeys(str(n) for n in [*lines, *res.summary.get("notes", []),
+                                               *res.notes]))
 
 
 def section_line(res: Results, start: str) -> str | None:

@@ -1,7 +1,7 @@
 """Geometry figures of the reports, from the result files: the camera centres with their
 error ellipses and the GNSS residual vectors, the residual vectors of the control and check
-points, the image overlap (photos per point, averaged on a hexagonal grid: it needs no
-footprint, so it works for oblique images too), the rays per point and the image residuals
+points, the image overlap (photos per ground cell from the footprints; photos per point on a
+hexagonal grid where there are none: oblique images), the rays per point and the image residuals
 averaged on a grid per camera.  Exaggerations are stated in the captions; tick labels are
 plain coordinates (no offsets)."""
 
@@ -17,13 +17,19 @@ from baarda.report.plots import COLORS, Plot, plt, to_png
 
 SIZE = (5.6, 4.3)  # inches at 96 dpi: three figures side by side on a 1400 px page
 LABELS = 8  # labels for the largest vectors only
+NADIR_SHARE = 0.25  # footprints overlapping on less of their area: not nadir photos
 
 
-def _plain(ax) -> None:
+def _plain(ax, unit: str = "m") -> None:
+    """Plain coordinates (no offset) with their unit on the axes, at most 4 ticks along X
+    (long coordinates do not collide)."""
     ax.ticklabel_format(useOffset=False, style="plain")
     ax.tick_params(labelsize=8)
     ax.set_aspect("equal")
     ax.grid(alpha=0.2)
+    ax.xaxis.set_major_locator(plt.MaxNLocator(4))
+    ax.set_xlabel(f"X {unit}", fontsize=8)
+    ax.set_ylabel(f"Y {unit}", fontsize=8)
 
 
 def _spacing(x: np.ndarray, y: np.ndarray) -> float:
@@ -144,7 +150,44 @@ def ground_vectors(res: Results) -> Plot | None:
     return Plot("ground_vectors", "Control and check point vectors", to_png(fig), cap)
 
 
+def area_words(m2: float) -> str:
+    """An area in words: km^2 from 1 km^2, ha from 1 ha, else m^2."""
+    if m2 >= 1e6:
+        return f"{m2 / 1e6:.3g} km²"
+    return f"{m2 / 1e4:.3g} ha" if m2 >= 1e4 else f"{m2:.3g} m²"
+
+
 def overlap(res: Results) -> Plot | None:
+    """Photos per ground cell from the footprints (report/coverage.py); without footprints
+    (no camera, oblique photos) photos per point (points.csv rays) on a hexagonal grid."""
+    from matplotlib.colors import BoundaryNorm
+
+    from baarda.report.coverage import coverage
+    from baarda.report.footprint import photo_outlines
+
+    cov = coverage(photo_outlines(res)[0])
+    if cov is None or not cov.share(2) >= NADIR_SHARE:  # not a block of overlapping nadirs
+        return _overlap_per_point(res)
+    n = cov.counts
+    top = max(int(n.max()), 1)
+    fig, ax = plt.subplots(figsize=SIZE)
+    cmap = plt.get_cmap("viridis", top).with_extremes(bad="white")
+    ny, nx = n.shape
+    im = ax.imshow(np.ma.masked_equal(n, 0), origin="lower", cmap=cmap,
+                   norm=BoundaryNorm(np.arange(0.5, top + 1.5), cmap.N), interpolation="nearest",
+                   extent=(cov.x0, cov.x0 + nx * cov.cell, cov.y0, cov.y0 + ny * cov.cell))
+    cb = fig.colorbar(im, ax=ax, shrink=0.85, label="photos per ground cell")
+    cb.set_ticks(np.unique(np.linspace(1, top, min(top, 8)).round().astype(int)).tolist())
+    _plain(ax)
+    ax.set_title("Image overlap: photos per ground cell", fontsize=10)
+    cap = (f"the photos whose footprint (the measured image area at the points' median "
+           f"height) covers each ground cell of {cov.cell:.3g} m; covered "
+           f"{area_words(cov.area_m2)}, of it {100 * cov.share(2):.0f} % seen by two or more "
+           f"photos and {100 * cov.share(3):.0f} % by three or more; white: no photo")
+    return Plot("overlap", "Image overlap", to_png(fig), cap)
+
+
+def _overlap_per_point(res: Results) -> Plot | None:
     """Photos per point (points.csv rays), averaged on a hexagonal grid."""
     pts = res.points
     if pts is None or "rays" not in pts or not len(pts):
@@ -158,7 +201,8 @@ def overlap(res: Results) -> Plot | None:
     _plain(ax)
     ax.set_title("Image overlap: photos per point", fontsize=10)
     cap = (f"the number of photos that see each of {int(ok.sum())} points, averaged on a "
-           f"hexagonal grid; median {np.median(r[ok]):.0f}, minimum {r[ok].min():.0f}")
+           f"hexagonal grid (no photo footprints: no camera or oblique photos); median "
+           f"{np.median(r[ok]):.0f}, minimum {r[ok].min():.0f}")
     return Plot("overlap", "Image overlap", to_png(fig), cap)
 
 
@@ -214,9 +258,9 @@ def image_grid(res: Results, cells: int = 8) -> Plot | None:
     ax.set_ylim(-1.1 * ext, 1.1 * ext)
     ref = _nice(float(v.max()))
     _arrow(ax, ref * 1e-3, ex, f"{ref:g} µm")
-    _plain(ax)
-    ax.set_xlabel("x [mm]", fontsize=8)
-    ax.set_ylabel("y [mm]", fontsize=8)
+    _plain(ax, "mm")
+    ax.set_xlabel("x mm", fontsize=8)
+    ax.set_ylabel("y mm", fontsize=8)
     ax.set_title("Image residuals averaged on a grid", fontsize=10)
     cap = (f"mean image residual of the cells with 3 or more points ({cells} x {cells} "
            f"grid over every photo), enlarged {ex:g} times; largest mean {v.max():.2f} µm: "

@@ -54,6 +54,22 @@ def classes(width: float, lo: float, hi: float) -> np.ndarray:
     return lo + width * np.arange(int(round(k)) + 1)
 
 
+def fitted_classes(values: np.ndarray, width: float, lo: float, hi: float
+                   ) -> tuple[float, float, float]:
+    """(width, lo, hi) of classes that fit the values' spread s (standard deviation): the
+    given ones while s >= 2 classes and +-4 s lies within lo .. hi, else classes of a
+    round width (1, 2 or 5 x 10^k) near s / 3 over +-4 s (about 24 classes)."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    s = float(np.std(v)) if len(v) > 1 else 0.0
+    if not s > 0 or (s >= 2 * width and -4 * s >= lo and 4 * s <= hi):
+        return width, lo, hi
+    e = 10.0 ** np.floor(np.log10(s / 3))
+    w = float(max(m * e for m in (1, 2, 5) if m * e <= s / 3))
+    k = int(np.ceil(4 * s / w))
+    return w, -k * w, k * w
+
+
 def histogram(values: np.ndarray, labels: np.ndarray | None = None, width: float = 1.0,
               lo: float = -25.0, hi: float = 25.0) -> Histogram:
     """Count `values` into classes of `width` centred on lo .. hi; NaN values are ignored."""

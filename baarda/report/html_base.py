@@ -110,15 +110,18 @@ def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
 
 
 def worst_table(df: pd.DataFrame, order: np.ndarray | pd.Series, n: int, name: str,
-                what: str, fmt: dict[str, str] | None = None, **kw) -> str:
+                what: str, fmt: dict[str, str] | None = None, which: str = "worst",
+                **kw) -> str:
     """The n worst rows of `df` (`order`: larger is worse), in that order, with the whole
-    table linked as CSV when it has more; what: the rows' noun, e.g. 'photos'."""
+    table linked as CSV when it has more; what: the rows' noun, e.g. 'photos'; which: the
+    words for the rows kept ("worst"; "first" for a log kept in its order)."""
     if len(df) <= n:
         return table(df, fmt, **kw)
     key = np.nan_to_num(np.asarray(order, float), nan=-np.inf)
     keep = np.argsort(-key, kind="stable")[:n]
-    return table(df.iloc[keep].reset_index(drop=True), fmt, note=(
-        f"The {n} worst of {len(df)} {what} shown, worst first;"), csv=csv_link(df, name),
+    say = (f"The {n} worst of {len(df)} {what} shown, worst first;" if which == "worst" else
+           f"The {which} {n} of {len(df)} {what} shown, in their order;")
+    return table(df.iloc[keep].reset_index(drop=True), fmt, note=say, csv=csv_link(df, name),
         csv_text=f"all {len(df)} {what} (CSV)", download=f"{name}.csv", **kw)
 
 
@@ -128,3 +131,23 @@ def figure(p: Plot | None, width: int | None = None) -> str:
     return macro("figure")({"name": p.name, "title": p.title, "caption": p.caption,
                                    "b64": base64.b64encode(p.png).decode("ascii"),
                                    "width": width})
+
+
+def run_metadata(run) -> list[tuple[str, str]]:
+    """What every report states about its run (the adjustment reports from run.json):
+    baarda's version, the date, the run id and the command; `run`: the run being written
+    (output/run_folder.py: run_id, started, command)."""
+    from baarda.output.run_folder import package_version
+
+    started = getattr(run, "started", None)
+    return [("baarda version", str(package_version() or "not recorded")),
+            ("processed", started.isoformat(timespec="seconds") if started else "not recorded"),
+            ("run", str(getattr(run, "run_id", None) or "not recorded")),
+            ("command", str(getattr(run, "command", None) or "not recorded"))]
+
+
+def metadata_section(meta: list[tuple[str, str]]) -> dict:
+    """The page section of `meta` (run_metadata)."""
+    from markupsafe import Markup
+
+    return {"id": "metadata", "nav": "Run", "title": "Run", "body": Markup(macro("meta")(meta))}

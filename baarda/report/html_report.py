@@ -21,7 +21,15 @@ from baarda.output.verdict import failures
 from baarda.report import maps
 from baarda.report.anaplot import format_log, log_rows, snooping_table
 from baarda.report.footprint import footprints, image_extent
-from baarda.report.front import accuracy, check_view, metadata, patterns, quality_check
+from baarda.report.front import (
+    accuracy,
+    check_view,
+    length_unit,
+    metadata,
+    patterns,
+    quality_check,
+    row_units,
+)
 from baarda.report.geometry import geometry_plots
 from baarda.report.histogram import format_histogram
 from baarda.report.html_base import csv_link, esc, figure, macro, num, page, table, worst_table
@@ -45,12 +53,14 @@ def _snoop_table(res: Results, opt: ReportOptions) -> str:
                            units=res.units)
     limit = min(opt.max_rows, SNOOP_ROWS)
     t, note = every, ""
-    if len(every) > limit:  # every rejected row, then the first others in this order
+    if len(every) > limit:  # the rejected rows, then the first others, in this order
         rej = (every["flag"] == "REJECTED").to_numpy()
-        keep = rej | (np.cumsum(~rej) <= max(limit - int(rej.sum()), 0)) & ~rej
+        n_rej = min(int(rej.sum()), limit)
+        keep = (rej & (np.cumsum(rej) <= n_rej)) | (~rej & (np.cumsum(~rej) <= limit - n_rej))
         t = every[keep]
-        note = (f"; {len(t)} of {len(every)} such rows shown: every rejected one and the "
-                "first others in this order")
+        note = (f"; {len(t)} of {len(every)} such rows shown: every rejected one"
+                + ("" if n_rej == int(rej.sum()) else f" (the first {n_rej} of "
+                   f"{int(rej.sum())})") + " and the first others in this order")
     show = pd.DataFrame({
         "kind": t["kind"], "photo/model": t["frame"], "point": t["point"], "c": t["component"],
         "RED-N": t["redundancy"], "PARX": t["residual"], "EXPD": t["sigma_residual"],
@@ -77,8 +87,11 @@ def _log_table(summary: dict) -> str:
     incomplete = summary.get("snooping_incomplete") or (
         "snooping did not converge" if summary.get("snooping_converged") is False else "")
     tail = f'<p class="bad">{esc(incomplete)}</p>' if incomplete else ""
-    return table(pd.DataFrame(rows), {"value": ".2f", "sigma0 before": ".3f"},
-                 text_cols=("action", "test", "observation"), attrs='id="snooping-log"') + tail
+    df = pd.DataFrame(rows)
+    return worst_table(df, -np.arange(len(df)), LOG_ROWS, "snooping_log", "steps",
+                       {"value": ".2f", "sigma0 before": ".3f"}, which="first",
+                       text_cols=("action", "test", "observation"),
+                       attrs='id="snooping-log"') + tail
 
 
 def _group_table(res: Results) -> str:
@@ -105,7 +118,7 @@ def _image_table(t: pd.DataFrame, by: str) -> str:
 
 def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
     """Every figure of the report (None where the data for one are missing)."""
-    hists = image_histograms(res.obs, opt)
+    hists = image_histograms(res.obs, opt, fit=True)
     out: dict[str, Plot | None] = {}
     out["hist_image"] = (residual_histograms(hists, "µm") if hists[2][1].n else None)
     wh = w_hists(res.obs, opt, res.summary.get("observation_groups"))
@@ -136,12 +149,14 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
         return ""
     out = ""
     for title, t in weakest(res.obs, opt.worst, res.units).items():
+        unit, f = row_units(res, t["kind"])
+        lname, lf = length_unit(res)
         show = pd.DataFrame({"kind": t["kind"], "photo/model": t["frame"], "point": t["point"],
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
-                             "MDB": t["mdb"], "unit": t["unit"],  # the folder's own units
-                             "external": t["external_max"]})
+                             "unit": unit, "MDB": t["mdb"].to_numpy(float) * f,
+                             f"external {lname}": t["external_max"].to_numpy(float) * lf})
         out += f'<div class="wrap"><h3>{esc(title)}</h3>' + table(
-            show, {"r": ".3f", "w": ".2f", "MDB": ".4g", "external": ".4g"},
+            show, {"r": ".3f", "w": ".2f", "MDB": ".4g", f"external {lname}": ".4g"},
             text_cols=("kind", "photo/model", "point", "c", "unit")) + "</div>"
     return f'<div class="grid2">{out}</div>'  # side by side where the page is wide
 
@@ -185,7 +200,8 @@ def _variance_components(summary: dict) -> pd.DataFrame | None:
     return t if len(parts) > 1 else t.drop(columns="adjustment")
 
 
-SNOOP_ROWS = 60  # rows of the snooping table in the HTML (every rejected one among them)
+SNOOP_ROWS = 40  # rows of the snooping table in the HTML (the rejected first, the whole as CSV)
+LOG_ROWS = 20  # steps of the snooping log in the HTML (the first; the whole log as CSV)
 HTML_ROWS = 20  # rows of a long table shown in the HTML (the worst; the whole as CSV)
 
 
@@ -245,8 +261,13 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     if pat:
         out.append({"id": "patterns", "nav": "Patterns", "title": "Rejection patterns",
                     "body": Markup(pat)})
+    from baarda.report.facts import project_facts
+
+    facts = project_facts(res)
+    block = ("<h3>The block</h3>" + macro("meta")(facts) + "<h3>Run, input and settings</h3>"
+             if facts else "")
     out.append({"id": "metadata", "nav": "Metadata", "title": "Run, input and settings",
-                "body": Markup(macro("meta")(metadata(res)) + macro("signoff")())})
+                "body": Markup(block + macro("meta")(metadata(res)) + macro("signoff")())})
     return out
 
 
@@ -320,7 +341,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
     texts = "".join(
         f"<details><summary>text histogram: image {esc(n)}</summary><pre>"
         f"{esc(format_histogram(h, f'IMAGE {n.upper()} RESIDUALS', 'µm', opt.line_width))}"
-        "</pre></details>" for n, h in image_histograms(res.obs, opt))
+        "</pre></details>" for n, h in image_histograms(res.obs, opt, fit=True))
     sec.append(("histograms", "Histograms", figure(figs["hist_image"]) + texts
                 + figure(figs["hist_w"])))
     sec.append(("maps", "Block map", figure(figs["block_map"])))

@@ -13,6 +13,7 @@ from matplotlib.collections import PolyCollection
 from matplotlib.ticker import MaxNLocator
 
 from baarda.io.result_folder import Results
+from baarda.report.front import length_unit
 from baarda.report.plots import COLORS, Plot, to_png
 from baarda.report.stats import obs_label, pair_xy
 
@@ -315,7 +316,8 @@ def reliability_map(res: Results, pts: pd.DataFrame | None = None,
     fig.tight_layout()
     mdb = pts["mdb_max"].to_numpy(float)
     ext = pts["ext_max"].to_numpy(float)
+    lname, lf = length_unit(res)
     cap = (f"largest MDB {np.nanmax(mdb):.1f} µm, largest external effect "
-           f"{np.nanmax(ext):.3f} m" if np.isfinite(mdb).any() and np.isfinite(ext).any()
-           else "no tested observations") + sampled
+           f"{np.nanmax(ext) * lf:.3g} {lname}" if np.isfinite(mdb).any()
+           and np.isfinite(ext).any() else "no tested observations") + sampled
     return Plot("reliability_map", "Maps of internal and external reliability", to_png(fig), cap)

@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 from markupsafe import Markup
 
-from baarda.report.html_base import esc, page, table
+from baarda.report.html_base import esc, metadata_section, page, run_metadata, table
 
 
 def _csv(path: Path) -> pd.DataFrame | None:
@@ -19,8 +19,9 @@ def _csv(path: Path) -> pd.DataFrame | None:
 
 
 def plan_html(file: Callable[[str], Path], title: str = "",
-              templates: str | Path | None = None) -> str:
-    """The page; `file(name)`: the path of a file plan wrote."""
+              templates: str | Path | None = None, run=None) -> str:
+    """The page; `file(name)`: the path of a file plan wrote; `run`: the run being written
+    (its version, date, id and command head the page as in the adjustment reports)."""
     sections = []
     advice = _csv(Path(file("plan_advice.csv")))
     if advice is not None and len(advice):
@@ -51,5 +52,8 @@ def plan_html(file: Callable[[str], Path], title: str = "",
     if rep.is_file():
         sections.append({"id": "text", "nav": "Text report", "title": "Text report",
                          "body": Markup(f"<pre>{esc(rep.read_text(encoding='utf-8'))}</pre>")})
-    return page("plan", templates, title=title or "design", subtitle="baarda plan",
-                sections=sections, footer="baarda plan")
+    meta = run_metadata(run)
+    sections.append(metadata_section(meta))
+    return page("plan", templates, title=title or "design", subtitle="baarda plan · run "
+                f"{meta[2][1]}", sections=sections,
+                footer=f"baarda {meta[0][1]} · run {meta[2][1]} · {meta[1][1]}")

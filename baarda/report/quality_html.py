@@ -29,7 +29,7 @@ def _table(p: Part, attrs: str = "") -> str:
     text = tuple(c for c in t.columns if t[c].dtype == object)
     name = re.sub(r"[^a-z0-9]+", "_", p.title.lower()).strip("_")
     if p.order is not None and len(t) > HTML_ROWS:
-        return str(worst_table(t, p.order, HTML_ROWS, name, p.rows_are, p.fmt,
+        return str(worst_table(t, p.order, HTML_ROWS, name, p.rows_are, p.fmt, p.which,
                                text_cols=text, attrs=attrs))
     if p.full_in_html is not None and len(t) > len(p.table):
         return str(table(p.table, p.fmt, text_cols=text, attrs=attrs, note=(
@@ -73,12 +73,15 @@ def parts_html(parts: list[Part], figures: bool = True) -> str:
             if not figures and p.title.startswith("correlations of camera"):
                 out.append(title + _corr_table(p.table))
                 continue
-            ident = re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
+            ident = p.ident or re.sub(r"[^a-z0-9]+", "-", p.title.lower()).strip("-")
             out.append(title + _table(p, f'id="q-{ident}"' if figures else ""))
         elif p.kind == "figure" and figures:
-            assert p.figure is not None  # a figure part
-            out.append(str(figure(Plot(re.sub(r"\W+", "-", p.title), p.title,
-                                       to_png(p.figure()), p.text))))
+            if p.png is not None:
+                png = p.png
+            else:
+                assert p.figure is not None  # a figure part
+                png = to_png(p.figure())
+            out.append(str(figure(Plot(re.sub(r"\W+", "-", p.title), p.title, png, p.text))))
     return "".join(out)
 
 
@@ -98,7 +101,7 @@ def quality_sections(parts: list[Part]) -> list[dict]:
 
 
 SECTION_IDS = {"Summary": "summary", "Camera calibration": "camera",
-               "Ground control and check points": "control",
+               "Ground control and check points": "control", "Geometry": "geometry",
                GNSS.title: GNSS.name, IMU.title: IMU.name,
                "Reprojection errors per image": "reprojection",
                "Every observation: redundancy number, w-test, MDB": "observations",
@@ -120,16 +123,23 @@ def tables_html(res: Results, calibration: list[Part] | None = None) -> str:
 
 
 def quality_page(res: Results, parts: list[Part] | None = None,
-                 templates: str | Path | None = None) -> str:
+                 templates: str | Path | None = None, out: Path | None = None) -> str:
     """The quality report as a self-contained HTML page (the PDF's content): the quality
     check, accuracy, patterns and metadata first, then the parts; `parts`:
-    quality_content(res) when it is at hand."""
-    from baarda.report.html_report import footer, front_sections
+    quality_content(res) when it is at hand; `out`: where it will be written (the link to
+    the result folder's observation table is relative to it)."""
+    from baarda.report.html_report import _observations_link, footer, front_sections
     from baarda.report.text_report import ReportOptions
 
     parts = quality_content(res) if parts is None else parts
     body = [p for p in parts if p.kind != "alert"]
     rest = quality_sections(body)
+    href, name = _observations_link(res, out)
+    for s in rest:  # every observation: a link, not the table inside the page
+        if s["id"] == "observations":
+            s["body"] = Markup(str(s["body"]) + f'<p class=more>Every observation with r, w, '
+                               f'MDB and the external reliability: <a href="{esc(href)}">'
+                               f"{esc(name)}</a> of the result folder.</p>")
     sections = front_sections(res, ReportOptions(), rest) + rest
     return page("quality", templates, title=res.title, subtitle=f"{res.folder.name} · run "
                 f"{res.run or 'not recorded'}", banners=failures(res.summary), sections=sections,

@@ -33,7 +33,7 @@ from baarda.output.accuracy import TABLE_FORMATS
 from baarda.output.verdict import failures
 from baarda.report.front import accuracy, metadata, patterns, quality_check
 from baarda.report.html_base import cell
-from baarda.report.plots import to_png
+from baarda.report.plots import DPI, to_png
 from baarda.report.quality_report import Part, quality_content
 
 PDF_ROWS = 25  # rows of a long table in the PDF (the worst)
@@ -93,16 +93,34 @@ class _NumberedCanvas(canvas.Canvas):
         super().save()
 
 
+PAD = 3.0  # pt of padding on each side of a cell
+GAP = 6.0  # pt left free between neighbouring cells' text: a PDF reader's text layer
+#            separates them (0 pt ran "002007" and "4600.046" together)
+WRAP_AT = 0.45  # a text column wider than this share of the page wraps in its cells
+
+
 def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> list:
     """One or more ReportLab tables of df (wide ones split by columns, the first column
-    repeated)."""
+    repeated; a long text column wraps within the page)."""
     fmt = fmt or {}
     cols = [str(c) for c in df.columns]
     body = [[cell(v, fmt.get(c)) for c, v in zip(cols, r, strict=True)]
             for r in df.itertuples(index=False)]
     size = 7.0
     width = [max([stringWidth(c, "Helvetica-Bold", size)] + [
-        stringWidth(r[k], "Helvetica", size) for r in body]) + 6 for k, c in enumerate(cols)]
+        stringWidth(r[k], "Helvetica", size) for r in body]) + 2 * PAD + GAP
+        for k, c in enumerate(cols)]
+    wrap = set()
+    if sum(width) > WIDTH:  # the widest text columns wrap, in Paragraphs of a capped width
+        for k in sorted(range(len(cols)), key=lambda k: -width[k]):
+            if sum(width) <= WIDTH or width[k] <= WRAP_AT * WIDTH:
+                break
+            if not pd.api.types.is_numeric_dtype(df.dtypes.iloc[k]):
+                width[k] = max(WRAP_AT * WIDTH, width[k] - (sum(width) - WIDTH))
+                wrap.add(k)
+    if wrap:
+        cst = ParagraphStyle("wrapcell", parent=st["cell"], fontSize=size, leading=size + 1.5)
+        body = [[_p(v, cst) if k in wrap else v for k, v in enumerate(r)] for r in body]
     chunks, cur, used = [], [0], width[0]
     for k in range(1, len(cols)):
         if used + width[k] > WIDTH and len(cur) > 1:
@@ -121,6 +139,8 @@ def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> l
             ("BACKGROUND", (0, 0), (-1, 0), colors.HexColor(head_bg)),
             ("GRID", (0, 0), (-1, -1), 0.3, colors.HexColor("#c8cfda")),
             ("ALIGN", (0, 0), (-1, -1), "RIGHT"), ("ALIGN", (0, 0), (0, -1), "LEFT"),
+            ("VALIGN", (0, 0), (-1, -1), "TOP"),
+            ("LEFTPADDING", (0, 0), (-1, -1), PAD), ("RIGHTPADDING", (0, 0), (-1, -1), PAD),
             ("TOPPADDING", (0, 0), (-1, -1), 1), ("BOTTOMPADDING", (0, 0), (-1, -1), 1)]))
         out += [t, Spacer(1, 4)]
     return out
@@ -135,8 +155,9 @@ def _worst(p: Part) -> tuple[pd.DataFrame, str]:
     if p.order is not None:
         key = np.nan_to_num(np.asarray(p.order, float), nan=-np.inf)
         keep = np.argsort(-key, kind="stable")[:PDF_ROWS]
-        return (t.iloc[keep], f"The {PDF_ROWS} worst of {len(t)} {p.rows_are} (the HTML "
-                f"report links the whole table as CSV).")
+        say = f"first {PDF_ROWS}" if p.which == "first" else f"{PDF_ROWS} {p.which}"
+        return (t.iloc[keep], f"The {say} of {len(t)} {p.rows_are} (the HTML report links "
+                "the whole table as CSV).")
     return t.head(PDF_ROWS), f"The first {PDF_ROWS} of {len(t)} rows."
 
 
@@ -169,37 +190,72 @@ def _front(res: Results, st: dict) -> list:
         out.append(_p("Rejection patterns", st["h2"]))
         out += [_p(f"{a.what}. Remedy: {a.remedy}. Where: {a.where}.", st["body"])
                 for a in advice]
-    out.append(_p("Run, input and settings", st["h2"]))
-    meta = [[_p(k, st["cell"]), _p(val, st["cell"])] for k, val in metadata(res)]
+    from baarda.report.facts import project_facts
+
+    meta = [[_p(k, st["cell"]), _p(val, st["cell"])] for k, val in
+            project_facts(res) + metadata(res)]
     mt = Table(meta, colWidths=[45 * mm, WIDTH - 45 * mm])
     mt.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP"),
                             ("LINEBELOW", (0, 0), (-1, -1), 0.2, colors.HexColor("#dddddd"))]))
-    out.append(mt)
     sign = Table([["Processed by (name, date)", "Checked by (name, date)",
                    "Accepted for delivery (signature)"], ["", "", ""]],
                  colWidths=[WIDTH / 3] * 3, rowHeights=[12, 28])
     sign.setStyle(TableStyle([("FONT", (0, 0), (-1, -1), "Helvetica", 8),
                               ("LINEABOVE", (0, 0), (-1, 0), 0.6, colors.black)]))
-    out += [Spacer(1, 8), KeepTogether([_p("Sign-off", st["h3"]), sign]), PageBreak()]
+    # the metadata and the sign-off on one page: a sign-off never stands alone
+    out += [KeepTogether([_p("Run, input and settings", st["h2"]), mt, Spacer(1, 8),
+                          _p("Sign-off", st["h3"]), sign]), PageBreak()]
     return out
 
 
 def _figure(p: Part, st: dict) -> list:
     import io
 
-    assert p.figure is not None  # a figure part
-    fig = p.figure()
-    w, h = fig.get_size_inches()
-    png = to_png(fig)
+    if p.png is not None:  # drawn already: its size from the PNG
+        from reportlab.lib.utils import ImageReader
+
+        png = p.png
+        w, h = (x / DPI for x in ImageReader(io.BytesIO(png)).getSize())
+    else:
+        assert p.figure is not None  # a figure part
+        fig = p.figure()
+        w, h = fig.get_size_inches()
+        png = to_png(fig)
     width = min(WIDTH, w * 72)
     img = Image(io.BytesIO(png), width=width, height=width * h / w)
     return [KeepTogether([img, _p(p.text, st["small"])])]
 
 
+def _side_by_side(figs: list[Part], st: dict) -> list:
+    """Drawn figures two to a row, each with its caption (the geometry figures)."""
+    import io
+
+    from reportlab.lib.utils import ImageReader
+
+    half = WIDTH / 2 - 6
+    cells = []
+    for p in figs:
+        assert p.png is not None  # drawn already
+        w, h = ImageReader(io.BytesIO(p.png)).getSize()
+        cells.append([Image(io.BytesIO(p.png), width=half, height=half * h / w),
+                      _p(p.text, st["small"])])
+    rows = [cells[i:i + 2] + [[]] * (2 - len(cells[i:i + 2])) for i in range(0, len(cells), 2)]
+    t = Table(rows, colWidths=[WIDTH / 2] * 2)
+    t.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP")]))
+    return [t]
+
+
 def story(res: Results, parts: list[Part]) -> list:
     st = _styles()
     out = _front(res, st)
+    drawn: list[Part] = []
     for p in parts:
+        if p.kind == "figure" and p.png is not None:
+            drawn.append(p)
+            continue
+        if drawn:
+            out += _side_by_side(drawn, st)
+            drawn = []
         if p.kind == "alert":
             continue  # on the first page already
         if p.kind == "heading":
@@ -214,7 +270,7 @@ def story(res: Results, parts: list[Part]) -> list:
             out += _table(t, p.fmt, st)
         elif p.kind == "figure":
             out += _figure(p, st)
-    return out
+    return out + (_side_by_side(drawn, st) if drawn else [])
 
 
 def write_quality_pdf(res: Results, path: str | Path, parts: list[Part] | None = None) -> int:

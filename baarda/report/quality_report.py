@@ -27,10 +27,15 @@ from baarda.io.result_folder import Results
 from baarda.kinds import GNSS, IMU
 from baarda.output.verdict import failures  # noqa: E402
 from baarda.report.anaplot import log_rows  # noqa: E402
-from baarda.report.front import pixel_um  # noqa: E402,F401  (re-exported)
+from baarda.report.front import (  # noqa: E402,F401  (pixel_um re-exported)
+    length_unit,
+    pixel_um,
+    row_units,
+    run_notes,
+)
 from baarda.report.stats import pair_xy  # noqa: E402
 
-WORST = 40  # observations with the largest |w| shown in the PDF (all in the HTML)
+WORST = 25  # observations with the largest |w| shown (the whole table: observations.csv)
 
 
 @dataclass
@@ -45,6 +50,9 @@ class Part:
     # per row of the table: larger is worse (long tables: the worst)
     order: np.ndarray | pd.Series | None = None
     rows_are: str = "rows"  # what a row is, e.g. "photos"
+    ident: str = ""  # the table's id stem in the HTML (default: from the title)
+    which: str = "worst"  # the rows a long table keeps: "worst" by `order`, or "first"
+    png: bytes | None = None  # a figure drawn already (the geometry figures), not `figure`
 
 
 def _rms(x) -> float:
@@ -195,6 +203,11 @@ def control_parts(res: Results) -> list[Part]:
                 row[f"MDB {c} m"] = o["mdb"]
             rows.append(row)
         t = pd.DataFrame(rows)
+        from baarda.report.facts import gcp_images
+
+        g = gcp_images(res)
+        if len(g):  # the images each GCP is measured on and its reprojection error
+            t = t.merge(g, on="point", how="left")
         parts.append(Part("text", text="Control points (GCPs used as observations): residual "
                           "v = adjusted - given per axis, w-test, redundancy number r (0: the "
                           "point is not checked by the rest of the block) and the minimal "
@@ -202,7 +215,8 @@ def control_parts(res: Results) -> list[Part]:
         wcols = [c for c in t.columns if c.startswith("w ")]
         parts.append(Part("table", "control points", table=t,
                           fmt={c: (".3f" if c.startswith(("v", "MDB")) else ".2f")
-                               for c in t.columns if c not in ("point", "role", "rejected")},
+                               for c in t.columns if c not in ("point", "role", "rejected",
+                                                               "images")},
                           order=t[wcols].abs().max(axis=1).to_numpy(float) + 1e3 * (
                               t["rejected"] != ""), rows_are="control points"))
     pts = res.points
@@ -311,20 +325,35 @@ def image_parts(res: Results) -> list[Part]:
 
 def observation_parts(res: Results) -> list[Part]:
     o = res.obs
-    cols = ["kind", "photo", "point", "component", "residual", "sigma", "redundancy", "w",
-            "mdb", "external_max", "rejected", "flagged"]
-    t = o[[c for c in cols if c in o]].copy()
+    unit, f = row_units(res, o["kind"])
+    lname, lf = length_unit(res)
+    t = pd.DataFrame({c: o[c] for c in ("kind", "photo", "point", "component") if c in o})
+    t["unit"] = unit  # one unit per row: residual, sigma and MDB are in it
+    for c, name in (("residual", "residual"), ("sigma", "sigma"), ("mdb", "MDB")):
+        if c in o:
+            t[name] = o[c].to_numpy(float) * f
+    for c in ("redundancy", "w"):
+        if c in o:
+            t[c] = o[c]
+    if "external_max" in o:
+        t[f"external {lname}"] = o["external_max"].to_numpy(float) * lf
+    for c in ("rejected", "flagged"):
+        if c in o:
+            t[c] = o[c]
     worst = t.reindex(t["w"].abs().sort_values(ascending=False).index).head(WORST)
-    fmt = {"residual": ".4g", "sigma": ".3g", "redundancy": ".3f", "w": ".2f", "mdb": ".3g",
-           "external_max": ".3g"}
+    fmt = {"residual": ".4g", "sigma": ".3g", "redundancy": ".3f", "w": ".2f", "MDB": ".3g",
+           f"external {lname}": ".3g"}
+    n = min(WORST, len(t))
     parts = [Part("heading", "Every observation: redundancy number, w-test, MDB"),
              Part("text", text=f"{len(t)} observation components (observations.csv holds "
                   "them all, with tau, p-values and the external reliability). redundancy: "
                   "the share of an error that shows in its own residual; w: the standardised "
                   f"residual (critical |w| {res.k_w:.2f}); MDB: the smallest error the test "
-                  "finds with 80 % power (units of the observation: image µm, ground m). "
-                  f"The {min(WORST, len(t))} largest |w|:"),
-             Part("table", "observations", table=worst, fmt=fmt, full_in_html=t)]
+                  "finds with 80 % power; residual, sigma and MDB in the row's unit, the "
+                  f"external reliability (the largest effect of an MDB on a point) in "
+                  f"{lname}. The {n} largest |w|:"),
+             Part("table", f"the {n} largest |w|", table=worst, fmt=fmt,
+                  ident="observations")]
 
     def draw():
         fig, ax = plt.subplots(1, 2, figsize=(8, 2.8))
@@ -351,7 +380,8 @@ def snooping_parts(res: Results) -> list[Part]:
                              "--snoop), or nothing rejected.")]
     rows = [{k: v for k, v in r.items() if k != "sigma0 before"} for r in log_rows(res.summary)]
     return parts + [Part("table", "snooping log", table=pd.DataFrame(rows),
-                         fmt={"value": ".2f"})]
+                         fmt={"value": ".2f"}, order=-np.arange(len(rows)), rows_are="steps",
+                         which="first")]
 
 
 def reliability_parts(res: Results) -> list[Part]:
@@ -361,14 +391,17 @@ def reliability_parts(res: Results) -> list[Part]:
     e = o[(o["kind"] == "image") & np.isfinite(o["external_max"].to_numpy(float))]
     if not len(e):
         return []
-    per = e.groupby("point")["external_max"].max().sort_values(ascending=False)
-    t = pd.DataFrame({"point": per.index, "largest effect m": per.to_numpy()}).head(20)
+    lname, lf = length_unit(res)
+    per = e.groupby("point")["external_max"].max().sort_values(ascending=False) * lf
+    col = f"largest effect {lname}"
+    t = pd.DataFrame({"point": per.index, col: per.to_numpy()}).head(20)
     return [Part("heading", "External reliability of the ground points"),
             Part("text", text="The largest effect an undetected error of the size of its MDB "
                  "in one of a point's image observations has on the adjusted coordinates "
-                 f"(m). Median over {len(per)} points {float(per.median()):.3g} m, 95 % "
-                 f"below {float(per.quantile(0.95)):.3g} m; the 20 weakest:"),
-            Part("table", "external reliability", table=t, fmt={"largest effect m": ".3g"})]
+                 f"({lname}). Median over {len(per)} points {float(per.median()):.3g} "
+                 f"{lname}, 95 % below {float(per.quantile(0.95)):.3g} {lname}; the "
+                 f"{len(t)} weakest:"),
+            Part("table", "external reliability", table=t, fmt={col: ".3g"})]
 
 
 def summary_parts(res: Results) -> list[Part]:
@@ -379,10 +412,25 @@ def summary_parts(res: Results) -> list[Part]:
              f"{s.get('n_unknowns')} unknowns, "
              + ("converged" if s.get("converged") else "NOT CONVERGED")]
     lines += res.global_test_lines()
-    crs = [n for n in s.get("notes", []) if "frame" in str(n) and "CRS" in str(n)]
-    lines += crs[:1]
-    return ([Part("alert", text=f) for f in failures(res.summary)]
-            + [Part("heading", "Summary"), Part("text", text="\n".join(lines))])
+    notes = run_notes(res)
+    out = ([Part("alert", text=f) for f in failures(res.summary)]
+           + [Part("heading", "Summary"), Part("text", text="\n".join(lines))])
+    if notes:
+        out.append(Part("text", title="notes", text="Notes of the run:\n"
+                        + "\n".join(f"- {n}" for n in notes)))
+    return out
+
+
+def geometry_parts(res: Results) -> list[Part]:
+    """The geometry figures of the adjustment report (camera centres with their ellipses,
+    the GCP and check-point vectors, the overlap per ground cell), drawn once."""
+    from baarda.report.geometry import centres, ground_vectors, overlap
+
+    figs = [f for f in (centres(res), ground_vectors(res), overlap(res)) if f is not None]
+    if not figs:
+        return []
+    return [Part("heading", "Geometry")] + [Part("figure", f.title, text=f.caption, png=f.png)
+                                            for f in figs]
 
 
 def calibration_parts(res: Results) -> list[Part]:
@@ -394,5 +442,5 @@ def quality_content(res: Results, calibration: list[Part] | None = None) -> list
     """Every part of the quality report; `calibration`: calibration_parts(res) when they
     are at hand."""
     cal = calibration_parts(res) if calibration is None else calibration
-    return (summary_parts(res) + cal + image_parts(res) + observation_parts(res)
-            + snooping_parts(res) + reliability_parts(res))
+    return (summary_parts(res) + cal + geometry_parts(res) + image_parts(res)
+            + observation_parts(res) + snooping_parts(res) + reliability_parts(res))

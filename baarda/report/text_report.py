@@ -13,7 +13,7 @@ from baarda.io.result_folder import Results
 from baarda.kinds import EXTERIOR_NAMES
 from baarda.output.verdict import failures
 from baarda.report.anaplot import format_log, format_snooping, snooping_table
-from baarda.report.histogram import Histogram, format_histogram, histogram
+from baarda.report.histogram import Histogram, fitted_classes, format_histogram, histogram
 from baarda.report.separability import counts_line, format_least_separable, least_separable
 from baarda.report.stats import (
     Labels,
@@ -64,17 +64,24 @@ class ReportOptions:
     max_rows: int = 1_000
 
 
-def image_histograms(obs: pd.DataFrame, opt: ReportOptions) -> list[tuple[str, Histogram]]:
-    """Histograms of the active image residuals: x, y and x+y together."""
+def image_histograms(obs: pd.DataFrame, opt: ReportOptions,
+                     fit: bool = False) -> list[tuple[str, Histogram]]:
+    """Histograms of the active image residuals: x, y and x+y together; `fit`: classes
+    that follow the residuals' spread where the given ones do not (fitted_classes, from x
+    and y together; the HTML report's figures)."""
     act = (obs["kind"] == "image") & ~obs["rejected"]
     d = obs.loc[act, label_columns(obs) + ["residual"]]  # a few columns of millions of rows
     lab = Labels(d)
+    v = d["residual"].to_numpy(float)
+    width, lo, hi = opt.width, opt.lo, opt.hi
+    if fit:
+        width, lo, hi = fitted_classes(v[d["component"].isin(["x", "y"]).to_numpy()],
+                                       width, lo, hi)
     out = []
     for name, sel in (("x", d["component"] == "x"), ("y", d["component"] == "y"),
                       ("x and y", d["component"].isin(["x", "y"]))):
         sel = sel.to_numpy()
-        out.append((name, histogram(d["residual"].to_numpy(float)[sel], lab[sel], opt.width,
-                                    opt.lo, opt.hi)))
+        out.append((name, histogram(v[sel], lab[sel], width, lo, hi)))
     return out
 
 

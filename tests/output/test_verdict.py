@@ -91,3 +91,88 @@ def test_console_lines():
     lines = verdict(summary()).lines()
     assert lines[0] == "quality check REVIEW: Check points"
     assert lines[1].startswith("  PASS   Convergence: converged in 4 iterations")
+
+
+def test_rejections_judged_by_the_probability_of_that_many_false_alarms():
+    from scipy.stats import poisson
+
+    # the 3,000-photo block of issue 42: 81 rejections against 0.001 x 55,600 = 55.6
+    log = [{"action": "reject", "observations": [f"image photo 1 point {i} x"]}
+           for i in range(81)]
+    r = row(verdict(summary(n_rejected=81, n_observations=55_519, rejection_log=log)),
+            "rejections")
+    p = poisson.sf(80, 55.6)  # the Poisson approximation of the binomial
+    assert r.status == WARN and "= 56 false alarms expected" in r.text
+    got = float(r.text.split("P(at least 81 false alarms) = ")[1].split(":")[0])
+    assert abs(got - p) < 0.1 * p and got < 0.001
+    # 60 against 55.6 is chance (the old rule, 2 x alpha0 x n, passed both)
+    r = row(verdict(summary(n_rejected=60, n_observations=55_540, rejection_log=log[:60])),
+            "rejections")
+    assert r.status == PASS and "as many as chance alone gives" in r.text
+    assert "P(at least" not in row(verdict(summary()), "rejections").text
+
+
+def test_global_test_accepted_with_sigma0_below_one_says_the_sigmas_are_pessimistic():
+    gt = {"statistic": 0.1854, "critical": 1.018, "alpha": 0.05, "p_value": 1.0,
+          "passed": True, "sigma0_interval": [0.426, 0.435]}  # MicMac
+    r = row(verdict(summary(sigma0=0.431, global_test=gt)), "global")
+    assert r.status == PASS
+    assert "agree with the a-priori sigmas" not in r.text
+    assert "significantly below 1 (95 % interval 0.426 .. 0.435): the a-priori sigmas are " \
+           "pessimistic" in r.text
+    assert "agree with the a-priori sigmas" in row(verdict(summary()), "global").text
+
+
+def _points(roles: dict[str, str], sigma: float = 0.1) -> pd.DataFrame:
+    return pd.DataFrame({"point": list(roles), "role": list(roles.values()),
+                         "sigma_X": sigma, "sigma_Y": sigma, "sigma_Z": 2 * sigma})
+
+
+def test_uncontrolled_tie_points_are_a_design_fact_with_its_remedy():
+    sep = {"share_uncontrolled": 0.027, "two_ray_points": ["a", "b"],
+           "uncontrolled_components": [{"point": "a", "component": "x", "frames": ["1", "2"]},
+                                       {"point": "b", "component": "y", "frames": ["2", "3"]}]}
+    pts = _points({"a": "tie", "b": "tie", "g": "control"})
+    v = verdict(summary(n_uncontrolled=2, separability=sep, delta0=4.13), pts)
+    r = row(v, "uncontrolled")
+    assert r.status == "info" and v.status == WARN  # only the missing check points warn
+    assert "measure them on a third photo" in r.text
+    # the bound delta0 x sigma_P: 4.13 x sqrt(0.1^2 + 0.1^2 + 0.2^2) = 1.01 m
+    assert f"by at most {4.13 * np.sqrt(0.06):.3g} m (point a)" in r.text
+    # many of them: a weak design
+    r = row(verdict(summary(n_uncontrolled=2, separability=dict(sep, share_uncontrolled=0.16),
+                            delta0=4.13), pts), "uncontrolled")
+    assert r.status == WARN and "more than 5 % of the block is not checked" in r.text
+    # on a control point: the georeference may hold an undetected error
+    sep2 = dict(sep, uncontrolled_components=[{"point": "g", "component": "Z",
+                                               "frames": [""]}])
+    r = row(verdict(summary(n_uncontrolled=1, separability=sep2, delta0=4.13), pts),
+            "uncontrolled")
+    assert r.status == WARN and "1 of them not on tie points' image coordinates (g Z)" in r.text
+
+
+def test_a_camera_that_moved_beyond_its_standard_deviations_is_flagged():
+    cal = [{"camera": "cam", "parameter": "c", "initial": 3.0, "value": 2.832, "sigma": 0.01,
+            "estimated": True},
+           {"camera": "cam", "parameter": "k1", "initial": 0.1, "value": 0.101, "sigma": 0.01,
+            "estimated": True},
+           {"camera": "cam", "parameter": "x0", "initial": 0.0, "value": 0.0, "sigma": None,
+            "estimated": False}]
+    r = row(verdict(summary(calibration=cal)), "camera")
+    assert r.status == WARN and "c of camera cam by -0.168, -5.6 % (16.8 standard " \
+        "deviations)" in r.text and "k1" not in r.text
+    cal[0]["value"] = 3.02
+    r = row(verdict(summary(calibration=cal)), "camera")
+    assert r.status == PASS and "2 parameter(s) of 1 camera(s) estimated" in r.text
+    assert all(r.key != "camera" for r in verdict(summary()).rows)
+
+
+def test_a_rejected_gcp_that_chance_explains_passes_named():
+    log = [{"action": "reject", "observations": ["control point 7 Y"]}]
+    groups = {"control": {"X": "control X", "Y": "control Y", "Z": "control Z"}}
+    pts = _points({str(i): "control" for i in range(22)})  # 66 components
+    r = row(verdict(summary(rejection_log=log, observation_groups=groups), pts), "control")
+    assert r.status == PASS and "point 7 Y" in r.text
+    assert "P(at least 1 false alarms among 66 components) = 0.064" in r.text
+    r = row(verdict(summary(rejection_log=log, observation_groups=groups), pts[:1]), "control")
+    assert r.status == WARN  # 1 of 3 components: P = 0.003

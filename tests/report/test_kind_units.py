@@ -47,11 +47,11 @@ def test_imu_mdb_in_the_weakest_tables_has_the_files_unit(gnss_run):
     assert imu, [cells[0] for _, cells in rows]
     for kind, unit in (("imu", "mgon"), ("image", "µm"), ("gnss", "m")):
         shown = [cells for _, cells in rows if cells[0] == kind]
-        assert shown and {cells[7] for cells in shown} == {unit}, (kind, shown)
+        assert shown and {cells[6] for cells in shown} == {unit}, (kind, shown)
     # the largest IMU MDB shown is observations.csv's largest (in mgon: about 4.1 sigma)
     tested = obs[(obs["kind"] == "imu") & ~obs["rejected"].astype(bool) & obs["w"].notna()]
-    assert float(imu[0][6]) == pytest.approx(tested["mdb"].max(), rel=1e-3)
-    assert 20 < float(imu[0][6]) < 60  # mgon (1e-4 rad = 6.37 mgon, MDB ~ 4-8 sigma)
+    assert float(imu[0][7]) == pytest.approx(tested["mdb"].max(), rel=1e-3)
+    assert 20 < float(imu[0][7]) < 60  # mgon (1e-4 rad = 6.37 mgon, MDB ~ 4-8 sigma)
 
 
 def _after(html: str, heading: str) -> str:

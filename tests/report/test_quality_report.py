@@ -60,7 +60,10 @@ def test_html(results):
                   "q-check-points", "q-gnss-residuals", "q-reprojection-errors",
                   "q-observations", "q-external-reliability"):
         assert f'id="{ident}"' in h
-    assert h.count('src="data:image/png;base64,') == 2  # the heat map, r and w
+    # the heat map, r and w, and the geometry: camera centres, GCP vectors, overlap
+    assert h.count('src="data:image/png;base64,') == 2 + 3
+    for fig in ("Camera-centres", "Control-and-check-point-vectors", "Image-overlap"):
+        assert f'id="fig-{fig}"' in h
 
 
 def test_pdf_pages_render(results, tmp_path):

@@ -114,3 +114,21 @@ def test_w_histogram_normal_curve_and_critical_value():
     assert lines[hi - 1].split()[2] == "3.5" and lines[hi + 1].split()[2] == "4.0"
     assert "9.00" in text.split("outside")[1]
     assert any("o" in s.split("|")[-1] for s in lines if "|" in s)
+
+
+def test_classes_follow_the_residuals_spread():
+    from baarda.report.histogram import fitted_classes, histogram
+
+    rng = np.random.default_rng(3)
+    small = rng.normal(0, 0.5, 36_000)  # MicMac: 36k image residuals of about 0.5 µm
+    assert histogram(small, width=1.0).counts.nonzero()[0].size <= 5  # 1 µm: a few bars
+    w, lo, hi = fitted_classes(small, 1.0, -25.0, 25.0)
+    s = np.std(small)
+    assert w == 0.1 and hi == -lo and 4 * s <= hi < 4 * s + w  # 0.1 <= s/3 < 0.2
+    h = histogram(small, width=w, lo=lo, hi=hi)
+    assert h.counts.nonzero()[0].size >= 30 and len(h.outside_values) < 0.001 * len(small)
+    # classes that fit are kept: 3 µm in classes of 1 µm over +-25 µm
+    assert fitted_classes(rng.normal(0, 3, 1000), 1.0, -25.0, 25.0) == (1.0, -25.0, 25.0)
+    # a spread beyond the range: wider classes over +-4 s
+    w, lo, hi = fitted_classes(rng.normal(0, 40, 1000), 1.0, -25.0, 25.0)
+    assert w == 10.0 and hi >= 4 * 38

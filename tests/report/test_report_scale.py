@@ -81,8 +81,15 @@ def test_sampled_maps_and_tables_of_the_worst(report_case):
     text = text_report(res, opt)
     assert f"PER PHOTO (4 of {n_photos} photos" in text
     assert "SMALLEST REDUNDANCY NUMBERS (10)" in text and "LARGEST MDB (PER KIND)" in text
-    # below the thresholds nothing is sampled or cut
-    assert "points drawn" not in report_case.html and "such rows shown" not in report_case.html
+    # below the thresholds nothing is sampled; the snooping table is bounded (issue 42):
+    # its default 50 largest |w| and the rejected ones cut to SNOOP_ROWS, the rejected first
+    from baarda.report.html_report import SNOOP_ROWS
+
+    assert "points drawn" not in report_case.html
+    rows = table_rows(report_case.html, "snooping-table")
+    assert len(rows) == SNOOP_ROWS == 40 and "40 of " in report_case.html
+    n_rej = int(report_case.obs["rejected"].astype(str).isin(["True", "true", "1"]).sum())
+    assert n_rej >= 3 and [c[9] for _, c in rows].count("REJECTED") == n_rej
 
 
 def test_tables_of_the_weakest_are_the_files_extremes(report_case):
