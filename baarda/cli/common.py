@@ -23,8 +23,9 @@ from baarda.errors import GeometryError, ProjectError
 from baarda.options import TestOptions
 from baarda.output.run_folder import RunFolder
 
-FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (replaced whole at the end "
-               "of the run; an interrupted run leaves it as it was)")
+FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (the earlier run's files "
+               "replaced at the end of the run, other files kept; an interrupted run leaves "
+               "it as it was)")
 
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from baarda.cli.argtypes import COFACTOR, number, pattern_spec, positive
+from baarda.cli.common import add_quiet_option
 from baarda.cli.console import console
 from baarda.errors import ProjectError
 from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, PATTERNS
@@ -37,6 +38,7 @@ def register(sub) -> None:
                    "(default 0.8)")
     p.add_argument("--matrix", action="store_true", help="print the full Qvv P matrix")
     p.add_argument("--svg", type=Path, help="write the drawing as SVG")
+    add_quiet_option(p, "printed pattern")
     p.set_defaults(func=run, prints_results=True)
 
 
