@@ -191,6 +191,8 @@ def feed_lines(interp, lines, name: str, empty: str | None = None) -> None:
     field; `empty`: the error when there was no line at all (None: none)."""
     n = 0
     for n, line in enumerate(lines, 1):  # noqa: B007
+        if n == 1:
+            line = line.removeprefix("\ufeff")  # a UTF-8 byte-order mark
         try:
             interp.feed(line)
         except (GeometryError, ValueError) as e:  # a bad line names its field (column)

@@ -3,6 +3,7 @@ without measurements (redundancy numbers, r0, trace(Qgg), critical transfers; te
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from baarda.cli.argtypes import COFACTOR, number, pattern_spec, positive
@@ -51,7 +52,7 @@ def run(args) -> int:
 
     say = console(args).print
     spec_path = Path(args.spec)
-    from_file = spec_path.suffix.lower() == ".csv" or spec_path.is_file()
+    from_file = spec_path.suffix.lower() == ".csv" or os.path.isfile(spec_path)
     if args.svg is not None:
         check_output_file(args.svg, [spec_path] if from_file else [])
     try:

@@ -57,6 +57,8 @@ def _tie_files(folder: Path) -> list[Path]:
 
 def _sensor(folder: Path) -> Path | None:
     for p in sorted(folder.glob("*.xml")):
+        if not p.is_file():  # a FIFO would block the reader
+            continue
         try:
             head = p.read_bytes()[:200].lower()
         except OSError:

@@ -7,7 +7,10 @@ ProjectError naming the file, the 1-based line and the field.
 
 from __future__ import annotations
 
+import errno
+import os
 import re
+import stat
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -83,14 +86,43 @@ def split_lines(text: str) -> list[str]:
     return lines
 
 
-def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
-    """The bytes of a file; ProjectError naming it when it is not a file (`what`) or cannot
-    be read (permissions, a name too long for the file system, ...)."""
-    p = Path(path)
+_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"),
+          (stat.S_ISDIR, "a folder"))
+
+
+def file_kind(mode: int) -> str:
+    """What a file of `mode` (os.stat) is, in words: 'a regular file', 'a folder', 'a FIFO
+    (named pipe)', ..."""
+    return next((name for test, name in _KINDS if test(mode)),
+                "a regular file" if stat.S_ISREG(mode) else "not a regular file")
+
+
+def not_a_file(path: str | Path, what: str = "file not found") -> str | None:
+    """Why `path` cannot be read as a file (`what` when it does not exist; a folder, a FIFO,
+    a device, a link loop, a name too long), None for a regular file (or a link to one).
+    Only regular files are opened: a FIFO would block the reader."""
     try:
-        if not p.is_file():
-            raise ProjectError(str(path), what)
-        return p.read_bytes()
+        st = os.stat(path)
+    except FileNotFoundError:
+        return what
+    except OSError as e:
+        if e.errno == errno.ELOOP:
+            return "is a symbolic link loop, not a file"
+        return f"cannot be read ({e.strerror or e})"
+    if stat.S_ISREG(st.st_mode):
+        return None
+    return f"is {file_kind(st.st_mode)}, not a regular file"
+
+
+def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
+    """The bytes of a regular file; ProjectError naming it when it does not exist (`what`),
+    is not a regular file (`not_a_file`) or cannot be read (permissions, ...)."""
+    problem = not_a_file(path, what)
+    if problem is not None:
+        raise ProjectError(str(path), problem)
+    try:
+        return Path(path).read_bytes()
     except OSError as e:
         raise ProjectError(str(path), f"cannot be read ({e.strerror or e})") from None
 

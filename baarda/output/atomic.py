@@ -16,20 +16,10 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from baarda.errors import OutputError, ProjectError
+from baarda.io.records import file_kind
 
 #: how many symbolic links a target may pass through (Linux's own limit)
 MAX_LINKS = 40
-
-_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
-          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"),
-          (stat.S_ISDIR, "a folder"))
-
-
-def file_kind(mode: int) -> str:
-    """What a file of `mode` is, in words ('a regular file', 'a FIFO (named pipe)', ...)."""
-    return next((name for test, name in _KINDS if test(mode)),
-                "a regular file" if stat.S_ISREG(mode) else "not a regular file")
-
 
 def output_target(path: str | os.PathLike) -> Path:
     """The file that writing `path` replaces: `path` itself, or the file its symbolic links

@@ -267,6 +267,8 @@ class RunFolder:
                  command: str | None = None):
         self.given = Path(out)
         self.final = check_output_folder(out, inputs)
+        self.path = None
+        self._refuse_if_busy(None)  # before anything is removed or made
         self.cleaned = remove_leftovers(self.final)
         if self.cleaned:
             check_output_folder(out, inputs)  # an earlier run moved back is checked too
@@ -286,16 +288,23 @@ class RunFolder:
         self._lock = _lock(self.path)
         self.done = False
         self.kept: list[str] = []
-        busy = self._rival()
+        self._refuse_if_busy(self.run_id)  # two that started at once: the later one
+
+    def _refuse_if_busy(self, before: str | None) -> None:
+        """A ProjectError when a live run (its staging folder locked) writes the same folder:
+        any (`before` None), or one whose id sorts before `before` (this run's staging
+        folder is then discarded)."""
+        busy = self._rival(before)
         if busy:
-            self.discard()
+            if self.path is not None:
+                self.discard()
             raise ProjectError(str(self.final), f"another run ({busy}) is writing this "
                                "output folder now; wait until it ends or choose another "
                                "folder with -o")
 
-    def _rival(self) -> str | None:
-        """The id of a live run into the same folder that started before this one (its
-        staging folder locked), None when there is none."""
+    def _rival(self, before: str | None) -> str | None:
+        """The id of a live run into the same folder (that started before `before`), None
+        when there is none."""
         try:
             entries = list(self.final.parent.iterdir())
         except OSError:
@@ -303,7 +312,7 @@ class RunFolder:
         for p in sorted(entries):
             m = _LEFTOVER.fullmatch(p.name)
             if not m or m.group("name") != self.final.name or m.group("kind") != "partial" \
-                    or p == self.path or m.group("run") > self.run_id:
+                    or p == self.path or (before is not None and m.group("run") > before):
                 continue
             fd = _lock(p)
             if fd is None and p.exists():
