@@ -39,8 +39,8 @@ def add_options(p) -> None:
                    "each new snapshot's new photos and image points are tested against the "
                    "block before it, observations it dropped taken out; writes watch.csv and "
                    "the result folder of the last state (needs -o OUT; Ctrl-C ends it)")
-    g.add_argument("--interval", type=positive("s", 86400.0), default=2.0, metavar="S", help="--watch: seconds "
-                   "between looks at DIR (default 2)")
+    g.add_argument("--interval", type=positive("s", 86400.0), default=2.0, metavar="S",
+                   help="--watch: seconds between looks at DIR (default 2)")
     g.add_argument("--once", action="store_true", help="--watch: take in every snapshot in "
                    "DIR now, then stop")
     g.add_argument("--json", action="store_true", help="--bundle: answer each line with one "

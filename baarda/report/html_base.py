@@ -24,7 +24,6 @@ from jinja2 import ChoiceLoader, Environment, FileSystemLoader, StrictUndefined
 from jinja2.sandbox import SandboxedEnvironment
 
 from baarda.errors import ProjectError
-
 from baarda.report.plots import Plot
 
 TEMPLATES = Path(__file__).parent / "templates"
