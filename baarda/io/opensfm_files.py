@@ -15,7 +15,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import decode_text, file_bytes, parse_number, split_lines, to_numbers
+from baarda.io.records import (
+    decode_text,
+    file_bytes,
+    parse_number,
+    refuse_cut_short,
+    split_lines,
+    to_numbers,
+)
 
 if TYPE_CHECKING:
     from baarda.io.opensfm_camera import OpenSfmCamera
@@ -104,9 +111,11 @@ def parse_crs_line(text: str) -> str:
 # ------------------------------------------------------------------ tracks
 def read_tracks(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarray]:
     """(image per row, track per row, xy (n, 2) normalised, line number per row)."""
-    lines = split_lines(decode_text(file_bytes(path), str(path)))
+    text = decode_text(file_bytes(path), str(path))
+    lines = split_lines(text)
     start = 1 if lines and lines[0].startswith("OPENSFM_TRACKS_VERSION") else 0
     images, tracks, xs, ys, nos = [], [], [], [], []
+    rows = []
     for n, line in enumerate(lines[start:], start=start + 1):
         if not line.strip():
             continue
@@ -114,11 +123,14 @@ def read_tracks(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarra
         if len(f) < 5:
             raise ProjectError(str(path), f"expected 'image track feature x y ...' (tab "
                                f"separated), found {len(f)} field(s)", n)
+        rows.append(f)
         images.append(f[0])
         tracks.append(f[1].strip())
         xs.append(f[3])
         ys.append(f[4])
         nos.append(n)
+    if nos:  # a file cut at a byte: its last line cut short (issue 43)
+        refuse_cut_short(text.endswith(("\n", "\r")), rows[-3:], nos[-1], str(path))
     lines_no = np.asarray(nos, dtype=np.int64)
     xy = np.column_stack([_column(xs, path, lines_no, "x"), _column(ys, path, lines_no, "y")])
     return images, tracks, xy.reshape(-1, 2), lines_no

@@ -11,7 +11,7 @@ import errno
 import os
 import re
 import stat
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
@@ -133,6 +133,39 @@ def read_lines(path: str | Path, encoding: str = ENCODING) -> list[str]:
     return split_lines(decode_text(file_bytes(path), str(path), encoding))
 
 
+def _decimals(text: str) -> int | None:
+    """Digits after the decimal point of a number as written (None: not a plain number)."""
+    t = text.strip().lower()
+    if not is_number(t) or "e" in t or "n" in t:
+        return None
+    return len(t.split(".", 1)[1]) if "." in t else 0
+
+
+def refuse_cut_short(ends_a_line: bool, rows: list[list[str]], last_line: int,
+                     path: str) -> None:
+    """A file cut short in the middle of its last line is refused naming that line: when the
+    text does not end with a line end and its last data row has fewer fields than the row
+    before, or its last value has fewer decimals than that column has in every other row
+    (a program's fixed format, at least 3 rows; '11' where the column reads '11933.7743')."""
+    if ends_a_line or len(rows) < 2:
+        return
+    last, before = rows[-1], rows[-2]
+    said = (f"the file ends in the middle of line {last_line} (no line end after it, and "
+            "{}): a file cut short?")
+    if len(last) < len(before):
+        raise ProjectError(path, said.format(f"{len(last)} fields where the line before "
+                                             f"has {len(before)}"), last_line)
+    k = len(last) - 1
+    if len(rows) < 3 or any(len(r) <= k for r in rows[:-1]):
+        return
+    column = {_decimals(r[k]) for r in rows[:-1]}
+    d = _decimals(last[k])
+    if len(column) == 1 and d is not None and None not in column and d < min(column):
+        raise ProjectError(path, said.format(f"its last value '{last[k].strip()}' has {d} "
+                                             f"decimals where every other line has "
+                                             f"{min(column)}"), last_line)
+
+
 class Columns:
     """Columns of a text file as string arrays (`columns`), with the 1-based line number of
     every row (`lines`), so that each later check names file, line and column."""
@@ -189,9 +222,12 @@ class Records(Columns):
         self.path = str(path)
         self.fields = list(fields)
         need = len(fields) if min_fields is None else min_fields
+        ends_a_line = True
         if lines is None:
-            lines = enumerate(read_lines(path), start=1)
-        rows, numbers = [], []
+            text = decode_text(file_bytes(path), str(path))
+            ends_a_line = not text or text.endswith(("\n", "\r"))
+            lines = enumerate(split_lines(text), start=1)
+        rows, numbers, sizes = [], [], []
         for no, line in lines:
             text = line.strip()
             if not text or (comment and text.startswith(comment)):
@@ -203,10 +239,28 @@ class Records(Columns):
                 raise ProjectError(self.path, f"expected {expect} fields "
                                    f"({', '.join(fields)}), found {len(parts)}", no)
             rows.append(parts + [""] * (len(fields) - len(parts)))
+            sizes.append(len(parts))  # the fields as given, before the padding
             numbers.append(no)
+        if rows and not ends_a_line:
+            refuse_cut_short(False, [r[:n] for r, n in zip(rows, sizes, strict=True)],
+                             numbers[-1], self.path)
         self.lines = np.asarray(numbers, dtype=np.int64)
         data = np.asarray(rows, dtype=object).reshape(len(rows), len(fields))
         self.columns = {f: data[:, i].astype(str) for i, f in enumerate(fields)}
+
+
+def refuse_repeats(keys: Iterable, where: list[tuple[str, int]], what: Callable[[int], str],
+                   column: str | None = None) -> None:
+    """One rule for a measurement given twice: a ProjectError at the second row whose key
+    repeats an earlier one, naming both lines.  keys: one hashable per row; where[i]: the
+    (file, line) of row i; what(i): the measurement in words ("point 12 on image 3")."""
+    seen: dict = {}
+    for i, k in enumerate(keys):
+        j = seen.setdefault(k, i)
+        if j != i:
+            (p0, l0), (p1, l1) = where[j], where[i]
+            first = f"line {l0}" if p0 == p1 else f"{p0}, line {l0}"
+            raise ProjectError(p1, f"{what(i)} given twice (first on {first})", l1, column)
 
 
 def first_appearance(values: Iterable[str]) -> tuple[list[str], dict[str, int]]:
