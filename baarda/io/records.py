@@ -61,19 +61,30 @@ def line_of(text: str, index: int) -> int:
     return len(LINE_END.findall(text, 0, index)) + 1
 
 
+#: characters no text input holds: NUL and the other C0 controls but tab, line ends, form
+#: feed, vertical tab and DOS's end-of-file mark (ESC, BEL ... act on a terminal that prints
+#: an id), DEL and the C1 controls
+CONTROL = re.compile("[\x00-\x08\x0e-\x19\x1b-\x1f\x7f-\x9f]")
+
+
 def no_nul(text: str, path: str, header: list[str] | None = None) -> str:
     """`text`, or ProjectError naming the line (and, for a CSV table with `header`, the
     column) of its first NUL character: text files hold none (a damaged file, or a binary
     one), and inside an id it would make the id differ from the same id elsewhere."""
-    k = text.find("\x00")
-    if k < 0:
+    m = CONTROL.search(text)
+    if m is None:
         return text
+    k = m.start()
     line = line_of(text, k)
     start = max(text.rfind("\n", 0, k), text.rfind("\r", 0, k)) + 1
     field = text.count(",", start, k)
     column = header[field] if header is not None and line > 1 and field < len(header) else None
-    raise ProjectError(path, "a NUL byte (\\x00) in the text: a damaged or binary file "
-                       "(ids and numbers are printable text)", line, column)
+    if text[k] == "\x00":
+        raise ProjectError(path, "a NUL byte (\\x00) in the text: a damaged or binary file "
+                           "(ids and numbers are printable text)", line, column)
+    raise ProjectError(path, f"a control character (\\x{ord(text[k]):02x}) in the text: ids "
+                       "and numbers are printable text (an ESC or BEL printed to a terminal "
+                       "acts on it)", line, column)
 
 
 def split_lines(text: str) -> list[str]:
