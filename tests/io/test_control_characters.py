@@ -44,3 +44,19 @@ def test_tabs_form_feeds_and_line_ends_stay_accepted(tmp_path):
     from baarda.io.records import no_nul
 
     assert no_nul("a\tb\r\nc\fd\ve\x1a", "f") == "a\tb\r\nc\fd\ve\x1a"
+
+
+@pytest.mark.parametrize("kind", ["photomodeler", "bal"])
+def test_a_byte_order_mark_before_a_photomodeler_or_bal_file(tmp_path, kind):
+    """docs/formats.md: a UTF-8 byte-order mark is always accepted; these two said 'format
+    not recognised'."""
+    from baarda.io.formats import detect
+
+    if kind == "bal":  # the header is what recognises a BAL file
+        data = b"2 2 4\n0 0 1 2\n1 0 1 2\n0 1 3 4\n1 1 3 4\n"
+    else:
+        data = (ROOT / "tests" / "data" / "dbat_sxb_aerial" / "photomodeler_export" /
+                "wsmart-no-orient-pmexport.txt").read_bytes()
+    p = tmp_path / "with_bom.txt"
+    p.write_bytes(b"\xef\xbb\xbf" + data)
+    assert detect(p) == kind
