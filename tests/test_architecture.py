@@ -14,7 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1] / "baarda"
 
 FLOORS = [
-    {"errors", "options", "schema", "sections", "linalg"},
+    {"errors", "options", "schema", "sections", "linalg", "process"},
     {"block"},
     {"io", "quality"},
     {"adjustment"},

@@ -201,7 +201,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
     converged (results written and marked), 4 the results could not be written (the file
     named), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); after 4, 130 and 143 the
     output folder holds the earlier run as it was and no staging folder is left."""
-    from baarda.__main__ import closed_streams
+    from baarda.process import closed_streams
 
     closed = [*(closed or []), *closed_streams()]
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -232,7 +232,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
         _error(f"baarda: error: {e}")
         return BAD_INPUT
     except (MemoryError, ImportError) as e:  # ulimit -v; pyarrow's ArrowMemoryError too
-        from baarda.__main__ import memory_limit_text, out_of_memory
+        from baarda.process import memory_limit_text, out_of_memory
 
         if not out_of_memory(e):
             raise
@@ -241,7 +241,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
                "run was written")
         return WRITE_FAILED
     except OSError as e:
-        from baarda.__main__ import memory_limit_text
+        from baarda.process import memory_limit_text
 
         if e.errno == errno.ENOMEM or (e.errno is None and not isinstance(e, OutputError)
                                        and memory_limit_text()):  # a library not loaded
@@ -262,7 +262,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
         _error("\nbaarda: interrupted (nothing of this run was written)")
         return INTERRUPTED
     except Exception as e:  # under ulimit -v, libraries fail in their own words
-        from baarda.__main__ import memory_limit_text
+        from baarda.process import memory_limit_text
 
         limit = memory_limit_text()
         if not limit:
