@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1] / "baarda"
 
 FLOORS = [
     {"kinds"},
-    {"errors", "options", "schema", "sections", "linalg"},
+    {"errors", "options", "schema", "sections", "linalg", "process"},
     {"block"},
     {"io", "quality"},
     {"adjustment"},

@@ -158,7 +158,7 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
         t, state, new = found
         drop = (lin.cost - new.cost) / max(lin.cost, 1e-300)
         lin = new
-        if damping > 0.0:
+        if damping > 0.0 and t == 1.0:  # a whole damped step: less damping next time
             damping = damping / 10.0 if damping > 1e-12 else damping
         history.append(Iteration(it, float(lin.cost), size * t, t, damping))
         say(f"{label}iteration {it}: vTPv = {lin.cost:.6g}, max correction "
@@ -217,10 +217,13 @@ def _search(problem: Problem, state: Any, step: Any, cost: float, options: Solve
             damped: bool):
     """(t, new state, its linearisation) of the longest step t = 1, 1/2, ... >= min_step
     that is admissible and does not raise the cost; None if there is none.  A damped step
-    is tried at t = 1 only (the damping shortens it)."""
+    is halved too: tried at t = 1 only, Levenberg-Marquardt's x10 / /10 schedule
+    oscillated (every other step refused) at a damping too large to converge in 100
+    iterations where Gauss-Newton converged in 26 (6 cameras of BAL Ladybug-49, issue 43);
+    the damping is lowered after a whole step only."""
     t = 1.0
     limit = cost * (1.0 + options.cost_rtol)
-    while t >= (1.0 if damped else options.min_step):
+    while t >= options.min_step:
         new_state = problem.update(state, step, t)
         if problem.admissible(new_state):
             new = problem.linearize(new_state)

@@ -77,10 +77,20 @@ class Formatter(argparse.HelpFormatter):
         return f"{text} (default: {shown.replace('%', '%%')})"
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, except that an option written `--opt=--` gives its type the text
+    '--' (argparse drops it and hands the option an empty list, which no type checks)."""
+
+    def _get_values(self, action, arg_strings):
+        if arg_strings == ["--"] and action.option_strings and action.nargs is None:
+            return self._get_value(action, "--")
+        return super()._get_values(action, arg_strings)
+
+
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The parser of every command; with `command`, only that command's module is imported
     and the others are named with their one-line help (a fast `baarda --help`)."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="baarda", description="Quality-controlled aerial triangulation: bundle adjustment, "
         "data snooping and reliability.", epilog=EXIT_CODES)
     parser.add_argument("--version", action="version", version=f"baarda {package_version()}")
@@ -186,12 +196,15 @@ def _tolerant_streams() -> None:
             stream.reconfigure(errors="backslashreplace")
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
     """Run one command; the exit code (cli/common.py EXIT_CODES): 0 success, 2 bad input
     (a message names the file, line and field, the option, or the geometry), 3 not
     converged (results written and marked), 4 the results could not be written (the file
     named), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM); after 4, 130 and 143 the
     output folder holds the earlier run as it was and no staging folder is left."""
+    from baarda.process import closed_streams
+
+    closed = [*(closed or []), *closed_streams()]
     argv = sys.argv[1:] if argv is None else list(argv)
     _tolerant_streams()
     parser = build_parser(_command(argv))
@@ -203,6 +216,11 @@ def main(argv: list[str] | None = None) -> int:
         raise  # --help, --version
     args.argv = argv
     con = console(args)
+    if "stdout" in closed:
+        con.stdout_failed = "standard output is closed"
+        if not getattr(args, "prints_results", False):
+            con.warn("standard output is closed: the printout is lost (the files are "
+                     "written)")
     try:
         with _safe_interrupts():
             code = int(args.func(args) or 0)
@@ -214,7 +232,23 @@ def main(argv: list[str] | None = None) -> int:
     except (ProjectError, GeometryError) as e:
         _error(f"baarda: error: {e}")
         return BAD_INPUT
+    except (MemoryError, ImportError) as e:  # ulimit -v; pyarrow's ArrowMemoryError too
+        from baarda.process import memory_limit_text, out_of_memory
+
+        if not out_of_memory(e):
+            raise
+        detail = "" if isinstance(e, MemoryError) else f": {e}"
+        _error(f"baarda: error: out of memory{memory_limit_text()}{detail}; nothing of this "
+               "run was written")
+        return WRITE_FAILED
     except OSError as e:
+        from baarda.process import memory_limit_text
+
+        if e.errno == errno.ENOMEM or (e.errno is None and not isinstance(e, OutputError)
+                                       and memory_limit_text()):  # a library not loaded
+            _error(f"baarda: error: out of memory{memory_limit_text()}: {e}; nothing of "
+                   "this run was written")
+            return WRITE_FAILED
         if isinstance(e, OutputError) or e.errno in WRITE_ERRNOS:
             where = f"{e.filename}: " if e.filename else ""
             _error(f"baarda: error: could not write the results: {where}{e.strerror or e}")
@@ -228,6 +262,15 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         _error("\nbaarda: interrupted (nothing of this run was written)")
         return INTERRUPTED
+    except Exception as e:  # under ulimit -v, libraries fail in their own words
+        from baarda.process import memory_limit_text
+
+        limit = memory_limit_text()
+        if not limit:
+            raise
+        _error(f"baarda: error: out of memory{limit}: {type(e).__name__}: {e}; nothing of "
+               "this run was written")
+        return WRITE_FAILED
     finally:
         con.close()
 

@@ -121,14 +121,14 @@ def choices_list(allowed: Iterable[str], *, what: str = "values",
 def pattern_spec(named: Iterable[str], max_side: int) -> Callable[[str], str]:
     """A point pattern: a name, CxR[+corners|+edges] with 2 <= C, R <= max_side, or a CSV
     file (a name ending in .csv, or an existing file)."""
-    from pathlib import Path
+    import os
 
     named = list(named)
     kind = (f"one of {', '.join(named)}, CxR, CxR+corners or CxR+edges (2 to {max_side} "
             "columns and rows), or a CSV file")
 
     def parse(text: str) -> str:
-        if text in named or text.lower().endswith(".csv") or Path(text).is_file():
+        if text in named or text.lower().endswith(".csv") or os.path.isfile(text):
             return text
         m = re.fullmatch(r"(\d+)x(\d+)(\+corners|\+edges)?", text)
         if not m or not all(2 <= int(g) <= max_side for g in m.groups()[:2]):

@@ -23,8 +23,9 @@ from baarda.errors import GeometryError, ProjectError
 from baarda.options import Requested, TestOptions
 from baarda.output.run_folder import RunFolder
 
-FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (replaced whole at the end "
-               "of the run; an interrupted run leaves it as it was)")
+FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (the earlier run's files "
+               "replaced at the end of the run, other files kept; an interrupted run leaves "
+               "it as it was)")
 
 
 
@@ -210,6 +211,8 @@ def feed_lines(interp, lines, name: str, empty: str | None = None) -> None:
     field; `empty`: the error when there was no line at all (None: none)."""
     n = 0
     for n, line in enumerate(lines, 1):  # noqa: B007
+        if n == 1:
+            line = line.removeprefix("\ufeff")  # a UTF-8 byte-order mark
         try:
             interp.feed(line)
         except (GeometryError, ValueError) as e:  # a bad line names its field (column)

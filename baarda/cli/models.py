@@ -98,6 +98,7 @@ def register(sub) -> None:
                    type=deformation, help="plant a block-invariant deformation "
                    f"({', '.join(ALL)}) of this size in µm")
     q.add_argument("--seed", type=seed, default=0, help="random seed")
+    add_quiet_option(q, "closing line on stdout")
     q.set_defaults(func=run_simulate)
 
 

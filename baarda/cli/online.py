@@ -11,7 +11,6 @@ from pathlib import Path
 from baarda.cli.argtypes import COFACTOR, SIGMA_UM, number
 from baarda.cli.common import add_test_options, feed_lines, prompt_lines, tests_option
 from baarda.cli.console import console
-from baarda.errors import ProjectError
 from baarda.options import DEFAULT_QTIE, DEFAULT_QYY
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import check_output_file
@@ -65,12 +64,11 @@ def run(args) -> int:
         else:
             _batch(interp, sys.stdin, "<stdin>")
     else:
-        try:
-            fh = open(args.file, encoding="utf-8")
-        except OSError as e:
-            raise ProjectError(args.file, f"cannot read: {e.strerror}") from None
-        with fh:
-            _batch(interp, fh, str(args.file))
+        from baarda.io.records import decode_text, file_bytes, split_lines
+
+        name = str(args.file)
+        text = decode_text(file_bytes(args.file), name, args.encoding)
+        _batch(interp, split_lines(text), name)
     coordinates = strip_coordinates_csv(interp)
     if args.out is not None and coordinates:
         write_text(args.out, coordinates)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from baarda.cli.argtypes import positive
 from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
@@ -43,8 +44,8 @@ def add_options(p) -> None:
                    "each new snapshot's new photos and image points are tested against the "
                    "block before it, observations it dropped taken out; writes watch.csv and "
                    "the result folder of the last state (needs -o OUT; Ctrl-C ends it)")
-    g.add_argument("--interval", type=float, default=2.0, metavar="S", help="--watch: seconds "
-                   "between looks at DIR (default 2)")
+    g.add_argument("--interval", type=positive("s", 86400.0), default=2.0, metavar="S",
+                   help="--watch: seconds between looks at DIR (default 2)")
     g.add_argument("--once", action="store_true", help="--watch: take in every snapshot in "
                    "DIR now, then stop")
     g.add_argument("--json", action="store_true", help="--bundle: answer each line with one "
@@ -78,9 +79,6 @@ def _checked(args) -> Path:
             raise ProjectError(str(args.out), "the output folder is inside the watched "
                                f"folder {args.watch} (it would be read as a snapshot): "
                                "give -o a place outside it")
-        if not args.interval > 0:
-            raise ProjectError("command line", "--interval must be positive", None,
-                               "--interval")
         if args.remove_rejected:
             raise ProjectError("command line", "--remove-rejected belongs to --replay")
         return args.watch

@@ -3,9 +3,11 @@ without measurements (redundancy numbers, r0, trace(Qgg), critical transfers; te
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from baarda.cli.argtypes import COFACTOR, number, pattern_spec, positive
+from baarda.cli.common import add_quiet_option
 from baarda.cli.console import console
 from baarda.errors import ProjectError
 from baarda.options import DEFAULT_QTIE, DEFAULT_QYY, PATTERNS
@@ -37,6 +39,7 @@ def register(sub) -> None:
                    "(default 0.8)")
     p.add_argument("--matrix", action="store_true", help="print the full Qvv P matrix")
     p.add_argument("--svg", type=Path, help="write the drawing as SVG")
+    add_quiet_option(p, "printed pattern")
     p.set_defaults(func=run, prints_results=True)
 
 
@@ -49,7 +52,7 @@ def run(args) -> int:
 
     say = console(args).print
     spec_path = Path(args.spec)
-    from_file = spec_path.suffix.lower() == ".csv" or spec_path.is_file()
+    from_file = spec_path.suffix.lower() == ".csv" or os.path.isfile(spec_path)
     if args.svg is not None:
         check_output_file(args.svg, [spec_path] if from_file else [])
     try:

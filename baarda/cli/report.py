@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -92,7 +93,7 @@ def run(args) -> int:
             classes(w, lo, hi)
         except ValueError as e:
             raise ProjectError("command line", str(e)) from None
-    if args.templates is not None and not args.templates.is_dir():
+    if args.templates is not None and not os.path.isdir(args.templates):
         raise ProjectError(str(args.templates), "not a folder of templates")
     for out in (args.out, args.quality, args.pdf):
         if out is not None:

@@ -9,6 +9,7 @@ from baarda.cli.common import (
     add_control_arguments,
     add_flight_plan_arguments,
     add_out_argument,
+    add_quiet_option,
     add_terrain_and_sigma_arguments,
     open_run,
 )
@@ -55,6 +56,7 @@ def register(sub) -> None:
     p.add_argument("--seed", type=seed, default=0,
                    help="random seed (the same seed gives the same project)")
     p.add_argument("--name", default="simulated", help="project name")
+    add_quiet_option(p, "closing line on stdout")
     p.set_defaults(func=run)
 
 

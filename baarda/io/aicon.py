@@ -43,7 +43,7 @@ from baarda.block.photo_block import (
 from baarda.errors import ProjectError
 from baarda.io.aicon_protocol import AiconProtocol, read_protocol
 from baarda.io.image_sigma import SIGMA_IMAGE_UM
-from baarda.io.records import ENCODING, to_numbers, whole_lines
+from baarda.io.records import ENCODING, refuse_repeats, to_numbers, whole_lines
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
 # the camera parameters AICON 3D Studio estimates by default (A3, C1, C2 held)
@@ -257,7 +257,8 @@ def _read_ior(path: Path, encoding: str = ENCODING) -> dict:
 
 
 def _read_scale(path: Path, encoding: str = ENCODING) -> dict:
-    out: dict[str, list] = {k: [] for k in ("id", "name", "a", "b", "length", "sigma", "status")}
+    out: dict[str, list] = {k: [] for k in ("id", "name", "a", "b", "length", "sigma", "status",
+                                          "_lines")}
     if not path.is_file():
         return {k: np.array(v) for k, v in out.items()}
     for no, s in enumerate(whole_lines(path, encoding, allow_empty=True), start=1):
@@ -279,6 +280,12 @@ def _read_scale(path: Path, encoding: str = ENCODING) -> dict:
         for k, v in zip(("id", "a", "b", "length", "sigma", "status"), vals, strict=True):
             out[k].append(v)
         out["name"].append(name)
+        out["_lines"].append(no)
+    where = [(str(path), n) for n in out["_lines"]]
+    refuse_repeats(out["id"], where, lambda i: f"scale bar {point_id(out['id'][i])}", "id")
+    refuse_repeats([frozenset((a, b)) for a, b in zip(out["a"], out["b"], strict=True)],
+                   where, lambda i: f"a scale bar between points {point_id(out['a'][i])} "
+                   f"and {point_id(out['b'][i])}")
     return {k: np.array(v) for k, v in out.items()}
 
 
@@ -314,5 +321,12 @@ def read_aicon(path: str | Path, encoding: str = ENCODING) -> AiconProject:
             raise ProjectError(str(f["phc"]), f"standard deviation {obs[name][bad[0]]:g} mm: "
                                f"expected {low:g} to {high:g} mm", int(obs["_lines"][bad[0]]),
                                name)
+    # a point measured again on an image: AICON keeps the earlier row with status 0 (the
+    # data set does so 6 times); two rows in use are the same measurement counted twice
+    used = np.flatnonzero(obs["status"] > 0)
+    refuse_repeats(zip(obs["image"][used].tolist(), obs["point"][used].tolist(), strict=True),
+                   [(str(f["phc"]), int(n)) for n in obs["_lines"][used]],
+                   lambda i: f"point {point_id(obs['point'][used[i]])} on image "
+                   f"{point_id(obs['image'][used[i]])} (in use: status > 0)", "point")
     scale = _read_scale(f["scale"], encoding)
     return AiconProject(stem, folder, cams, images, points, obs, scale)

@@ -47,6 +47,7 @@ class BalProblem:
 
 
 HEADER_LIMIT = 256  # bytes of the first line
+BOM = b"\xef\xbb\xbf"  # a UTF-8 byte-order mark (docs/formats.md: always accepted)
 BYTES_PER_VALUE = 64  # a value with its separator is never longer in a real file
 
 
@@ -98,7 +99,7 @@ def _read_lines(path: Path) -> tuple[tuple[int, int, int], list[str]]:
     opener = bz2.open if path.suffix == ".bz2" else open
     try:
         with opener(path, "rb") as f:
-            first = f.readline(HEADER_LIMIT)
+            first = f.readline(HEADER_LIMIT).removeprefix(BOM)  # a BOM is accepted
             if not first:
                 raise ProjectError(sp, "empty file", 1)
             nc, npt, nobs = _header(first, sp)
@@ -127,7 +128,7 @@ def is_bal(path: str | Path) -> bool:
         return False
     try:
         with bz2.open(p, "rb") if p.suffix == ".bz2" else open(p, "rb") as f:
-            head = f.readline(HEADER_LIMIT).split()
+            head = f.readline(HEADER_LIMIT).removeprefix(BOM).split()
     except (OSError, EOFError):
         return False
     return len(head) == 3 and all(h.isdigit() for h in head)

@@ -1,10 +1,12 @@
 """Control point files (`--control FILE`, `baarda.read(control=FILE)`), in two formats:
 
 * DBAT's text format (as DBAT's loadcpt reads it): comma separated lines
-  ``id[, name], X, Y, Z[, sigmas]`` [m], '#' comments.  The name column is there when a
-  line's second field is not a number or the header comment names it (``# Id, name, X,
-  ...``); after X, Y, Z come no sigma (fixed control, as DBAT holds it), one (sigma of X,
-  Y and Z), two (sigma XY, sigma Z) or three (sigma X, Y, Z).  A sigma of 0 is fixed.
+  ``id[, name], X, Y, Z[, sigmas]`` [m], '#' comments.  The name column is there when the
+  header comment names it (``# Id, name, X, ...``) or most lines' second field is not a
+  number (one line whose X is not a number is an error naming its line and column, not a
+  shift of every line's columns); after X, Y, Z come no sigma (fixed control, as DBAT holds
+  it), one (sigma of X, Y and Z), two (sigma XY, sigma Z) or three (sigma X, Y, Z).  A sigma
+  of 0 is fixed.
 * a native ``ground_points.csv`` (a header line with ``point``, ``X``, ``Y``, ``Z``;
   docs/format.md): roles control, fixed and check, sigmas from its columns or
   `sigma_control_m`.
@@ -73,7 +75,9 @@ def read_control_file(path: str | Path, encoding: str = ENCODING,
     if not rows:
         raise ProjectError(spath, "no control points (expected lines 'id, name, X, Y, Z"
                            "[, sigmas]' or a ground_points.csv with a header line)")
-    named = any(len(f) > 1 and not is_number(f[1]) for _, f in rows)
+    # a name column when most lines' second field is not a number (one mistyped number does
+    # not shift every line's columns: it is an error of its own line)
+    named = 2 * sum(len(f) > 1 and not is_number(f[1]) for _, f in rows) > len(rows)
     if header and not named and rows:
         fields = [h.strip().lower() for h in header.split(",")]
         named = len(fields) > 1 and fields[1] in ("name", "label")

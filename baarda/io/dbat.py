@@ -56,7 +56,7 @@ from baarda.io.dbat_camera import (
     read_dbat_cameras,
 )
 from baarda.io.dbat_operations import initial_camera, read_operations
-from baarda.io.records import Records, first_appearance, parse_number
+from baarda.io.records import Records, first_appearance, parse_number, refuse_repeats
 from baarda.io.xmltree import Node, parse_xml
 
 KNOWN_FIELDS = {"id", "label", "name", "x", "y", "z", "sx", "sy", "sz", "sxyz", "im", "sxy",
@@ -111,6 +111,7 @@ def _filter_ids(section: Node, path: str) -> tuple[set[str] | None, bool]:
 def _points(section: Node, base: Path, xml_dir: Path, path: str):
     """Rows (id, label, xyz, sigma) of the <file> elements of a ctrl_pts/check_pts section."""
     ids, xyz, sig = [], [], []
+    where: list[tuple[str, int]] = []
     flt, keep = _filter_ids(section, path)
     for f in section.findall("file"):
         fields = _fields(f, path)
@@ -131,8 +132,10 @@ def _points(section: Node, base: Path, xml_dir: Path, path: str):
             raise ProjectError(r.path, "negative standard deviation", int(r.lines[bad[0]]))
         sel = np.ones(len(pid), bool) if flt is None else np.isin(pid, list(flt)) == keep
         ids += list(pid[sel])
+        where += [(r.path, int(n)) for n in r.lines[sel]]
         xyz.append(c[sel])
         sig.append(s[sel])
+    refuse_repeats(ids, where, lambda i: f"point '{ids[i]}'", "id")  # as --control does
     if not ids:
         return [], np.zeros((0, 3)), np.zeros((0, 3))
     return ids, np.vstack(xyz), np.vstack(sig)
@@ -306,6 +309,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
         notes.append("the script estimates the interior orientation (" + ", ".join(free)
                      + "): self-calibration with DBAT's model 3 (camera model 'dbat3')")
     rows_photo, rows_point, rows_xy, rows_sig = [], [], [], []
+    rows_where: list[tuple[str, int]] = []  # (file, line) of each measurement
     for f in ip_node.findall("file"):
         fields = _fields(f, spath)
         for need in ("id", "im", "x", "y"):
@@ -333,6 +337,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
                                    "short?)", int(r.lines[i]), "im")
         rows_photo.append(np.array([photo_of[s] for s in ims], dtype=np.int64))
         rows_point += list(r.text("id"))
+        rows_where += [(r.path, int(n)) for n in r.lines]
         x, y = r.numbers("x"), r.numbers("y")
         rows_xy.append(np.column_stack([(x - cam["size_px"][0] / 2) * cam["px"],
                                         (cam["size_px"][1] / 2 - y) * cam["py"]]))
@@ -360,12 +365,8 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
         j = index[pid]
         pxyz[j], psig[j], role[j] = c, np.nan, "check"
     point = np.array([index[s] for s in rows_point], dtype=np.int64)
-    key = photo * k + point
-    uniq, first = np.unique(key, return_index=True)
-    if len(uniq) != len(key):
-        dup = np.setdiff1d(np.arange(len(key)), first)[0]
-        raise ProjectError(spath, f"point '{rows_point[dup]}' measured twice on image "
-                           f"'{img_ids[photo[dup]]}'")
+    refuse_repeats((photo * k + point).tolist(), rows_where,
+                   lambda i: f"point '{rows_point[i]}' on image '{img_ids[photo[i]]}'", "id")
 
     settings = Settings(name=name, angle_unit="deg", sigma_image_um=float(np.median(sig)) * 1e3,
                         sigma_control_m=tuple(float(v) for v in (np.nanmedian(psig, axis=0)  # type: ignore[arg-type]

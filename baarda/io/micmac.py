@@ -65,6 +65,8 @@ def _sensor(folder: Path) -> Path | None:
 def _sensors(folder: Path) -> list[Path]:
     out = []
     for p in sorted(folder.glob("*.xml")):
+        if not p.is_file():  # a FIFO would block the reader
+            continue
         try:
             head = p.read_bytes()[:200].lower()
         except OSError:

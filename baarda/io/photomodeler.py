@@ -67,7 +67,8 @@ def is_photomodeler_export(path: str | Path) -> bool:
     if not p.is_file() or p.suffix.lower() != ".txt":
         return False
     with open(p, "rb") as f:
-        return f.readline(256).strip().lower().startswith(b"bundle soln")
+        first = f.readline(256).removeprefix(b"\xef\xbb\xbf")  # a BOM is accepted
+        return first.strip().lower().startswith(b"bundle soln")
 
 
 def _nums(line: str, path: str, no: int, what: str, count: int | None = None,

@@ -7,8 +7,11 @@ ProjectError naming the file, the 1-based line and the field.
 
 from __future__ import annotations
 
+import errno
+import os
 import re
-from collections.abc import Iterable
+import stat
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
@@ -58,19 +61,30 @@ def line_of(text: str, index: int) -> int:
     return len(LINE_END.findall(text, 0, index)) + 1
 
 
+#: characters no text input holds: NUL and the other C0 controls but tab, line ends, form
+#: feed, vertical tab and DOS's end-of-file mark (ESC, BEL ... act on a terminal that prints
+#: an id), DEL and the C1 controls
+CONTROL = re.compile("[\x00-\x08\x0e-\x19\x1b-\x1f\x7f-\x9f]")
+
+
 def no_nul(text: str, path: str, header: list[str] | None = None) -> str:
     """`text`, or ProjectError naming the line (and, for a CSV table with `header`, the
     column) of its first NUL character: text files hold none (a damaged file, or a binary
     one), and inside an id it would make the id differ from the same id elsewhere."""
-    k = text.find("\x00")
-    if k < 0:
+    m = CONTROL.search(text)
+    if m is None:
         return text
+    k = m.start()
     line = line_of(text, k)
     start = max(text.rfind("\n", 0, k), text.rfind("\r", 0, k)) + 1
     field = text.count(",", start, k)
     column = header[field] if header is not None and line > 1 and field < len(header) else None
-    raise ProjectError(path, "a NUL byte (\\x00) in the text: a damaged or binary file "
-                       "(ids and numbers are printable text)", line, column)
+    if text[k] == "\x00":
+        raise ProjectError(path, "a NUL byte (\\x00) in the text: a damaged or binary file "
+                           "(ids and numbers are printable text)", line, column)
+    raise ProjectError(path, f"a control character (\\x{ord(text[k]):02x}) in the text: ids "
+                       "and numbers are printable text (an ESC or BEL printed to a terminal "
+                       "acts on it)", line, column)
 
 
 def split_lines(text: str) -> list[str]:
@@ -83,14 +97,43 @@ def split_lines(text: str) -> list[str]:
     return lines
 
 
-def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
-    """The bytes of a file; ProjectError naming it when it is not a file (`what`) or cannot
-    be read (permissions, a name too long for the file system, ...)."""
-    p = Path(path)
+_KINDS = ((stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"),
+          (stat.S_ISDIR, "a folder"))
+
+
+def file_kind(mode: int) -> str:
+    """What a file of `mode` (os.stat) is, in words: 'a regular file', 'a folder', 'a FIFO
+    (named pipe)', ..."""
+    return next((name for test, name in _KINDS if test(mode)),
+                "a regular file" if stat.S_ISREG(mode) else "not a regular file")
+
+
+def not_a_file(path: str | Path, what: str = "file not found") -> str | None:
+    """Why `path` cannot be read as a file (`what` when it does not exist; a folder, a FIFO,
+    a device, a link loop, a name too long), None for a regular file (or a link to one).
+    Only regular files are opened: a FIFO would block the reader."""
     try:
-        if not p.is_file():
-            raise ProjectError(str(path), what)
-        return p.read_bytes()
+        st = os.stat(path)
+    except FileNotFoundError:
+        return what
+    except OSError as e:
+        if e.errno == errno.ELOOP:
+            return "is a symbolic link loop, not a file"
+        return f"cannot be read ({e.strerror or e})"
+    if stat.S_ISREG(st.st_mode):
+        return None
+    return f"is {file_kind(st.st_mode)}, not a regular file"
+
+
+def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
+    """The bytes of a regular file; ProjectError naming it when it does not exist (`what`),
+    is not a regular file (`not_a_file`) or cannot be read (permissions, ...)."""
+    problem = not_a_file(path, what)
+    if problem is not None:
+        raise ProjectError(str(path), problem)
+    try:
+        return Path(path).read_bytes()
     except OSError as e:
         raise ProjectError(str(path), f"cannot be read ({e.strerror or e})") from None
 
@@ -115,6 +158,42 @@ def whole_lines(path: str | Path, encoding: str = ENCODING, *,
         raise ProjectError(str(path), "the last line has no line end: the file is cut short "
                            "(a program writes every line whole)", line)
     return split_lines(decode_text(data, str(path), encoding))
+
+
+def _decimals(text: str) -> int | None:
+    """Digits after the decimal point of a number as written (None: not a plain number)."""
+    t = text.strip().lower()
+    if not is_number(t) or "e" in t or "n" in t:
+        return None
+    return len(t.split(".", 1)[1]) if "." in t else 0
+
+
+def refuse_cut_short(ends_a_line: bool, rows: list[list[str]], last_line: int,
+                     path: str) -> None:
+    """A file cut short in the middle of its last line is refused naming that line: when the
+    text does not end with a line end and its last data row has fewer fields than the row
+    before, or its last value has fewer decimals than that column has in every other row
+    (a program's fixed format, at least 3 rows; '11' where the column reads '11933.7743')."""
+    if ends_a_line or len(rows) < 2:
+        return
+    last, before = rows[-1], rows[-2]
+    said = (f"the file ends in the middle of line {last_line} (no line end after it, and "
+            "{}): a file cut short?")
+    if len(last) < len(before):
+        raise ProjectError(path, said.format(f"{len(last)} fields where the line before "
+                                             f"has {len(before)}"), last_line)
+    k = len(last) - 1
+    if len(rows) < 3 or any(len(r) <= k for r in rows[:-1]):
+        return
+    column = {_decimals(r[k]) for r in rows[:-1]}
+    d = _decimals(last[k])
+    if len(column) != 1 or d is None:
+        return
+    (places,) = column
+    if places is not None and d < places:
+        raise ProjectError(path, said.format(f"its last value '{last[k].strip()}' has {d} "
+                                             f"decimals where every other line has "
+                                             f"{places}"), last_line)
 
 
 class Columns:
@@ -174,9 +253,15 @@ class Records(Columns):
         self.path = str(path)
         self.fields = list(fields)
         need = len(fields) if min_fields is None else min_fields
+        ends_a_line = True
         if lines is None:
-            lines = enumerate(whole_lines(path) if whole else read_lines(path), start=1)
-        rows, numbers = [], []
+            if whole:
+                lines = enumerate(whole_lines(path), start=1)
+            else:
+                text = decode_text(file_bytes(path), str(path))
+                ends_a_line = not text or text.endswith(("\n", "\r"))
+                lines = enumerate(split_lines(text), start=1)
+        rows, numbers, sizes = [], [], []
         for no, line in lines:
             text = line.strip()
             if not text or (comment and text.startswith(comment)):
@@ -188,10 +273,28 @@ class Records(Columns):
                 raise ProjectError(self.path, f"expected {expect} fields "
                                    f"({', '.join(fields)}), found {len(parts)}", no)
             rows.append(parts + [""] * (len(fields) - len(parts)))
+            sizes.append(len(parts))  # the fields as given, before the padding
             numbers.append(no)
+        if rows and not ends_a_line:
+            refuse_cut_short(False, [r[:n] for r, n in zip(rows, sizes, strict=True)],
+                             numbers[-1], self.path)
         self.lines = np.asarray(numbers, dtype=np.int64)
         data = np.asarray(rows, dtype=object).reshape(len(rows), len(fields))
         self.columns = {f: data[:, i].astype(str) for i, f in enumerate(fields)}
+
+
+def refuse_repeats(keys: Iterable, where: list[tuple[str, int]], what: Callable[[int], str],
+                   column: str | None = None) -> None:
+    """One rule for a measurement given twice: a ProjectError at the second row whose key
+    repeats an earlier one, naming both lines.  keys: one hashable per row; where[i]: the
+    (file, line) of row i; what(i): the measurement in words ("point 12 on image 3")."""
+    seen: dict = {}
+    for i, k in enumerate(keys):
+        j = seen.setdefault(k, i)
+        if j != i:
+            (p0, l0), (p1, l1) = where[j], where[i]
+            first = f"line {l0}" if p0 == p1 else f"{p0}, line {l0}"
+            raise ProjectError(p1, f"{what(i)} given twice (first on {first})", l1, column)
 
 
 def first_appearance(values: Iterable[str]) -> tuple[list[str], dict[str, int]]:

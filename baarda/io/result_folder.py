@@ -15,7 +15,7 @@ import pandas as pd
 
 from baarda.errors import ProjectError
 from baarda.io.observations_file import numbers, read_observations, read_observations_parquet
-from baarda.io.run_manifest import MANIFEST, verify_run
+from baarda.io.run_manifest import MANIFEST, read_json, read_manifest, verify_run
 from baarda.io.table import Table
 from baarda.schema import UNITS
 from baarda.sections import Section
@@ -91,6 +91,54 @@ class Results:
         return dict(zip(self.photos["photo"], self.photos["strip"], strict=True))
 
 
+#: the figures of summary.json (top level and each adjustment): numbers (or null)
+NUMBERS = ("sigma0", "redundancy", "n_observations", "n_unknowns", "iterations", "vtpv",
+           "n_check_points", "check_rms_X", "check_rms_Y", "check_rms_Z", "alpha0", "beta0",
+           "delta0", "k_w", "k_tau", "sum_redundancy_numbers", "n_rejected", "n_flagged",
+           "n_uncontrolled", "seconds")
+#: the entries of summary.json that are containers: the JSON type each must be
+CONTAINERS = {"adjustments": dict, "global_test": dict, "global_test_b_method": dict,
+              "cameras": list, "sections": list, "units": dict, "notes": list,
+              "rejection_log": list, "hypotheses": list, "separability": dict,
+              "observation_groups": dict, "input": dict}
+_JSON_TYPE = {dict: "an object", list: "an array", str: "text"}
+
+
+def _is_number(v) -> bool:
+    return v is None or (isinstance(v, (int, float)) and not isinstance(v, bool))
+
+
+def check_summary(summary, path: str, where: str = "") -> None:
+    """The types of summary.json's entries (module docstring of output/results.py): the
+    figures numbers, the containers of their kind, each adjustment, camera and section an
+    object; ProjectError naming the entry otherwise."""
+    if not isinstance(summary, dict):
+        raise ProjectError(path, f"expected a JSON object, not {type(summary).__name__}")
+    for key in NUMBERS:
+        if not _is_number(summary.get(key)):
+            raise ProjectError(path, f"'{where}{key}' must be a number, not "
+                               f"{json.dumps(summary[key])[:40]}")
+    for key, kind in CONTAINERS.items():
+        v = summary.get(key)
+        if v is not None and not isinstance(v, kind):
+            raise ProjectError(path, f"'{where}{key}' must be {_JSON_TYPE[kind]}, not "
+                               f"{type(v).__name__}")
+    for key in ("global_test", "global_test_b_method"):
+        for k, v in (summary.get(key) or {}).items():
+            if k in ("statistic", "critical", "alpha") and not _is_number(v):
+                raise ProjectError(path, f"'{where}{key}.{k}' must be a number")
+    for name, part in (summary.get("adjustments") or {}).items():
+        check_summary(part, path, f"adjustments.{name}.")
+    for key, what in (("cameras", "camera"), ("sections", "section")):
+        for i, item in enumerate(summary.get(key) or []):
+            if not isinstance(item, dict):
+                raise ProjectError(path, f"'{where}{key}[{i}]' must be an object (a {what})")
+            if key == "sections" and not isinstance(item.get("lines", []), list):
+                raise ProjectError(path, f"'{where}{key}[{i}].lines' must be an array")
+    if not isinstance(summary.get("angle_unit") or "", str):
+        raise ProjectError(path, f"'{where}angle_unit' must be text")
+
+
 def read_results(folder: str | Path) -> Results:
     """Read summary.json, observations.csv (or observations.parquet, written by adjust
     --parquet) and (when present) photos.csv, points.csv."""
@@ -102,12 +150,9 @@ def read_results(folder: str | Path) -> Results:
         raise ProjectError(str(sp), "file not found (not a baarda output folder?)")
     run = verify_run(folder, ["summary.json", "observations.csv", "observations.parquet",
                               "photos.csv", "points.csv"])
-    try:
-        summary = json.loads(sp.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as e:
-        raise ProjectError(str(sp), f"not valid JSON: {e.msg}", e.lineno) from None
-    if not isinstance(summary, dict):
-        raise ProjectError(str(sp), "expected a JSON object")
+    summary = read_json(sp)
+    check_summary(summary, str(sp))
+    assert isinstance(summary, dict)  # check_summary refuses anything else
     if run is None:
         raise ProjectError(str(folder / MANIFEST), "file not found: not a result folder "
                            "written by baarda (every run lists its files in it)")
@@ -139,6 +184,6 @@ def read_results(folder: str | Path) -> Results:
     if obs["x_mm"].isna().all() and (obs["kind"] == "image").any():
         notes.append("observations.csv has no image coordinates (x_mm, y_mm): image-space "
                      "residual plots not drawn (re-run baarda adjust)")
-    manifest = {k: v for k, v in json.loads((folder / MANIFEST).read_text(
-        encoding="utf-8")).items() if k != "files"}  # verified above: the run's own
+    manifest = {k: v for k, v in read_manifest(folder / MANIFEST).items()
+                if k != "files"}  # verified above: the run's own
     return Results(folder, summary, obs, photos, points, cams, unit, notes, run, manifest)

@@ -13,6 +13,7 @@ reference, which also gives the exact error).
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,10 @@ NOT_PLAIN = (b'"', b" ", b"\t", b"#", b"\r", b"\n\n", b"\n,")
 MAX_FIELDS_FACTOR = 4  # a line with more than this many times the header's fields is refused
 
 
+#: the control characters records.CONTROL refuses, as UTF-8 bytes (C1 as \xc2\x80-\x9f)
+CONTROL_BYTES = re.compile(b"[\x00-\x08\x0e-\x19\x1b-\x1f\x7f]|\xc2[\x80-\x9f]")
+
+
 class Table(Columns):
     """Columns of a CSV file as string arrays, with line numbers."""
 
@@ -44,7 +49,7 @@ class Table(Columns):
             data = data[3:]
         if not is_utf8(encoding):  # the readers below take UTF-8
             data = decode_text(data, self.path, encoding).encode("utf-8")
-        if b"\x00" in data:
+        if CONTROL_BYTES.search(data):  # NUL, ESC, BEL ...: named with line and column
             text = data.decode("utf-8", "replace")
             no_nul(text, self.path, [c.strip() for c in split_lines(text)[0].split(",")])
         self._arrow = None

@@ -23,6 +23,7 @@ or as one JSON object a line (`--json`, for a program that drives the measuring)
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import TypedDict
 
 import numpy as np
 
@@ -34,15 +35,41 @@ from baarda.relative.online_commands import LineError, parse_number
 KEYWORDS = ("point", "photo", "end", "control", "gnss", "remeasure", "remove", "aside",
             "status", "help", "quit")
 HELP = __doc__.split("\n\n")[1]
+#: the largest standard deviation of a ground coordinate (m; as in ground_points.csv) and of
+#: an image coordinate (µm), and the largest coordinate (m): beyond them the statistics
+#: overflow and nothing is meant
+SIGMA_GROUND_MAX_M, SIGMA_IMAGE_MAX_UM, COORDINATE_MAX_M = 1e6, 1e6, 1e9
 
 
 def _numbers(fields: list[str], names: list[str], optional: Sequence[str] = (),
-             allow_missing: bool = False) -> list[float]:
+             allow_missing: bool = False, largest: float | None = None,
+             sigma_max: float | None = None) -> list[float]:
+    """The numbers of a line's fields `names` (then `optional`): the coordinates at most
+    `largest` in size, the optional ones (standard deviations) positive and at most
+    `sigma_max`; a LineError naming the field otherwise."""
     if not len(names) <= len(fields) <= len(names) + len(optional):
         want = " ".join(names) + "".join(f" [{o}]" for o in optional)
         raise LineError(f"expected {want}, got {len(fields)} value(s)")
-    return [parse_number(f, n, allow_missing) for f, n in
-            zip(fields, list(names) + list(optional), strict=False)]
+    values = [parse_number(f, n, allow_missing) for f, n in
+              zip(fields, list(names) + list(optional), strict=False)]
+    for v, n in zip(values, names, strict=False):
+        if largest is not None and abs(v) > largest:
+            raise LineError(f"{n} is beyond {largest:g} in size: {v:.6g}", n)
+    for v, n in zip(values[len(names):], optional, strict=False):
+        if sigma_max is not None and not 0 < v <= sigma_max:
+            raise LineError(f"{n} must be positive and at most {sigma_max:g}: {v:.6g}", n)
+    return values
+
+
+class Limits(TypedDict):
+    """The bounds of a line's numbers (_numbers)."""
+
+    largest: float
+    sigma_max: float
+
+
+IMAGE: Limits = {"largest": COORDINATE_MAX_M, "sigma_max": SIGMA_IMAGE_MAX_UM}  # mm, µm
+GROUND: Limits = {"largest": COORDINATE_MAX_M, "sigma_max": SIGMA_GROUND_MAX_M}  # m
 
 
 class BundleInterpreter:
@@ -69,13 +96,13 @@ class BundleInterpreter:
         fields = text.split()
         word = fields[0].lower()
         if self.collecting is not None and word not in KEYWORDS:
-            x, y, *s = _numbers(fields[1:], ["x", "y"], ["sigma"])
+            x, y, *s = _numbers(fields[1:], ["x", "y"], ["sigma"], **IMAGE)
             self.collecting[1][fields[0]] = (x, y, *s)
             return
         if self.collecting is not None and word != "end":
             raise LineError(f"'{word}' inside photo {self.collecting[0]}: close its points "
                             "with 'end' first")
-        getattr(self, "_" + word, self._unknown)(fields[1:], word)
+        COMMANDS.get(word, BundleInterpreter._unknown)(self, fields[1:], word)
 
     def finish(self) -> None:
         if self.collecting is not None:
@@ -89,7 +116,7 @@ class BundleInterpreter:
     def _point(self, fields, word) -> None:
         if len(fields) < 4:
             raise LineError("point PHOTO POINT x y [sigma]")
-        x, y, *s = _numbers(fields[2:], ["x", "y"], ["sigma"])
+        x, y, *s = _numbers(fields[2:], ["x", "y"], ["sigma"], **IMAGE)
         self._tell(self.ob.add_image_point(fields[0], fields[1], x, y, *s))
 
     def _photo(self, fields, word) -> None:
@@ -102,7 +129,8 @@ class BundleInterpreter:
                 raise LineError(f"unknown option {f!r} (camera=, strip=, eo=)", key)
             opts[key] = value
         if "eo" in opts:
-            v = _numbers(opts["eo"].split(","), ["X0", "Y0", "Z0", "omega", "phi", "kappa"])
+            v = _numbers(opts["eo"].split(","), ["X0", "Y0", "Z0", "omega", "phi", "kappa"],
+                         largest=COORDINATE_MAX_M)
             unit = self.ob.m.settings.angle_unit
             opts["eo"] = np.concatenate([v[:3], angle_to_rad(np.array(v[3:]), unit)])
         self.collecting = (fields[0], {}, opts)
@@ -117,7 +145,8 @@ class BundleInterpreter:
     def _control(self, fields, word) -> None:
         if len(fields) not in (4, 7):
             raise LineError("control POINT X Y Z [sX sY sZ]")
-        v = _numbers(fields[1:], ["X", "Y", "Z"], ["sX", "sY", "sZ"], allow_missing=True)
+        v = _numbers(fields[1:], ["X", "Y", "Z"], ["sX", "sY", "sZ"], allow_missing=True,
+                     **GROUND)
         sig = np.array(v[3:] if len(v) == 6 else self.ob.m.settings.sigma_control_m, float)
         xyz = np.array(v[:3])
         self._tell(self.ob.add_control(fields[0], xyz, np.where(np.isfinite(xyz), sig,
@@ -126,7 +155,7 @@ class BundleInterpreter:
     def _gnss(self, fields, word) -> None:
         if len(fields) not in (4, 7):
             raise LineError("gnss PHOTO X Y Z [sX sY sZ]")
-        v = _numbers(fields[1:], ["X", "Y", "Z"], ["sX", "sY", "sZ"])
+        v = _numbers(fields[1:], ["X", "Y", "Z"], ["sX", "sY", "sZ"], **GROUND)
         sig = v[3:] if len(v) == 6 else [self._gnss_sigma()] * 3
         self._tell(self.ob.add_gnss(fields[0], v[:3], sig))
 
@@ -139,7 +168,7 @@ class BundleInterpreter:
     def _remeasure(self, fields, word) -> None:
         if len(fields) < 4:
             raise LineError("remeasure PHOTO POINT x y [sigma]")
-        x, y, *s = _numbers(fields[2:], ["x", "y"], ["sigma"])
+        x, y, *s = _numbers(fields[2:], ["x", "y"], ["sigma"], **IMAGE)
         self.ob.remove_image_point(fields[0], fields[1])
         self._tell(self.ob.add_image_point(fields[0], fields[1], x, y, *s))
 
@@ -172,3 +201,14 @@ class BundleInterpreter:
 
     def _quit(self, fields, word) -> None:
         self.done = True
+
+
+#: the commands of the language and their methods: the only words a line can dispatch to
+#: (no attribute is looked up by a word of the input)
+COMMANDS: dict[str, Callable[[BundleInterpreter, list[str], str], None]] = {
+    "point": BundleInterpreter._point, "photo": BundleInterpreter._photo,
+    "end": BundleInterpreter._end, "control": BundleInterpreter._control,
+    "gnss": BundleInterpreter._gnss, "remeasure": BundleInterpreter._remeasure,
+    "remove": BundleInterpreter._remove, "aside": BundleInterpreter._aside,
+    "status": BundleInterpreter._status, "help": BundleInterpreter._help,
+    "quit": BundleInterpreter._quit}

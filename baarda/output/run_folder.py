@@ -19,7 +19,10 @@ run.json names the run (id, time, baarda version) and every file with its size a
 so that `baarda report` can refuse a folder whose files do not belong to one run
 (`verify_run`).  An output folder may be new, empty, or a folder that baarda wrote (it has
 run.json or summary.json); anything else is refused before any work is done, and so is a
-place that would cover an input.
+place that would cover an input.  A new run replaces only the files of the earlier run
+(those its run.json lists): any other file in the folder (a report written into it, a file
+of the user's) is kept where it is, and said (`kept`).  Two runs into the same folder at
+once: the later one is refused while the first holds the lock of its staging folder.
 """
 
 from __future__ import annotations
@@ -62,6 +65,18 @@ def package_version() -> str:
         return "unknown"
 
 
+def resolved(path: str | Path) -> Path:
+    """`path` made absolute with its links followed; a ProjectError naming it for a link
+    loop or a name the system refuses (too long)."""
+    path = Path(path)
+    try:
+        return path.expanduser().resolve()
+    except RuntimeError:  # pathlib's "Symlink loop"
+        raise ProjectError(str(path), "is a symbolic link loop; give another name") from None
+    except OSError as e:
+        raise ProjectError(str(path), f"cannot be used ({e.strerror})") from None
+
+
 def _covers(out: Path, path: Path) -> bool:
     return out == path or out in path.parents
 
@@ -70,8 +85,8 @@ def check_output_folder(out: str | Path, inputs: Iterable[str | Path] = ()) -> P
     """The resolved output folder, or a ProjectError saying why it cannot be one: an
     existing file, an input or a folder holding an input, a folder that baarda did not
     write (it would be replaced as a whole)."""
-    out = Path(out).expanduser().resolve()
-    for p in (Path(q).expanduser().resolve() for q in inputs if q is not None):
+    out = resolved(out)
+    for p in (resolved(q) for q in inputs if q is not None):
         if _covers(out, p):
             what = "is" if out == p else "holds"
             raise ProjectError(str(out), f"the output folder {what} the input {p}; choose "
@@ -95,8 +110,10 @@ def check_output_file(out: str | Path, inputs: Iterable[str | Path] = ()) -> Pat
     """The resolved path of a single output file (a report, a drawing), checked before any
     work: not a folder, not one of the inputs, its folder writable (or creatable: missing
     folders are made when the file is written, so a failed run leaves none)."""
-    out = Path(out).expanduser().resolve()
-    for p in (Path(q).expanduser().resolve() for q in inputs if q is not None):
+    from baarda.output.atomic import output_target
+
+    out = resolved(output_target(Path(out).expanduser()))
+    for p in (resolved(q) for q in inputs if q is not None):
         if out == p:
             raise ProjectError(str(out), "is an input (inputs are never overwritten); choose "
                                "another file with -o")
@@ -125,6 +142,50 @@ def run_files(folder: str | Path) -> list[Path]:
         return [folder / MANIFEST] + [folder / name for name in listed]
     except (OSError, ValueError, KeyError, TypeError):
         return [p for p in folder.glob("*") if p.suffix in (".csv", ".json", ".txt")]
+
+
+def _listed(folder: Path) -> set[str] | None:
+    """The files the run.json of `folder` lists (with run.json itself), None without a
+    readable run.json."""
+    try:
+        files = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if not isinstance(files, dict):
+        return None
+    return {MANIFEST, *files}
+
+
+def foreign_files(folder: str | Path) -> list[str]:
+    """The files (and links) of a result folder that no run of baarda wrote there: those its
+    run.json does not list; for a folder written before run.json existed, all but its .csv,
+    .json and .txt files.  Paths relative to the folder, sorted."""
+    folder = Path(folder)
+    listed = _listed(folder)
+    found = []
+    for root, dirs, names in os.walk(folder):
+        here = Path(root)
+        for name in [*names, *(d for d in dirs if (here / d).is_symlink())]:
+            rel = (here / name).relative_to(folder).as_posix()
+            if listed is not None:
+                if rel not in listed:
+                    found.append(rel)
+            elif "/" in rel or Path(rel).suffix not in (".csv", ".json", ".txt"):
+                found.append(rel)
+    return sorted(found)
+
+
+def _carry(src: Path, dst: Path) -> None:
+    """Put the file (or link) `src` at `dst` too: a hard link (the file stays where it was
+    until the folder is swapped, so a killed run loses nothing), else a copy."""
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    if src.is_symlink():
+        os.symlink(os.readlink(src), dst)
+        return
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
 
 
 _LEFTOVER = re.compile(r"\.(?P<name>.+)\.(?P<run>\d{8}T\d{6}Z-[0-9a-f]{6})\."
@@ -206,6 +267,8 @@ class RunFolder:
                  command: str | None = None):
         self.given = Path(out)
         self.final = check_output_folder(out, inputs)
+        self._staging: Path | None = None  # made below, once no live run writes here
+        self._refuse_if_busy(None)  # before anything is removed or made
         self.cleaned = remove_leftovers(self.final)
         if self.cleaned:
             check_output_folder(out, inputs)  # an earlier run moved back is checked too
@@ -217,13 +280,51 @@ class RunFolder:
         parent = self.final.parent
         try:
             parent.mkdir(parents=True, exist_ok=True)
-            self.path = parent / f".{self.final.name}.{self.run_id}.partial"
-            self.path.mkdir()
+            self._staging = parent / f".{self.final.name}.{self.run_id}.partial"
+            self._staging.mkdir()
         except OSError as e:
             raise ProjectError(str(self.final), "cannot write the output folder here "
                                f"({e.strerror}); choose another place with -o") from None
         self._lock = _lock(self.path)
         self.done = False
+        self.kept: list[str] = []
+        self._refuse_if_busy(self.run_id)  # two that started at once: the later one
+
+    @property
+    def path(self) -> Path:
+        """The staging folder: where the run writes."""
+        assert self._staging is not None  # made in __init__
+        return self._staging
+
+    def _refuse_if_busy(self, before: str | None) -> None:
+        """A ProjectError when a live run (its staging folder locked) writes the same folder:
+        any (`before` None), or one whose id sorts before `before` (this run's staging
+        folder is then discarded)."""
+        busy = self._rival(before)
+        if busy:
+            if self._staging is not None:
+                self.discard()
+            raise ProjectError(str(self.final), f"another run ({busy}) is writing this "
+                               "output folder now; wait until it ends or choose another "
+                               "folder with -o")
+
+    def _rival(self, before: str | None) -> str | None:
+        """The id of a live run into the same folder (that started before `before`), None
+        when there is none."""
+        try:
+            entries = list(self.final.parent.iterdir())
+        except OSError:
+            return None
+        for p in sorted(entries):
+            m = _LEFTOVER.fullmatch(p.name)
+            if not m or m.group("name") != self.final.name or m.group("kind") != "partial" \
+                    or p == self._staging or (before is not None and m.group("run") > before):
+                continue
+            fd = _lock(p)
+            if fd is None and p.exists():
+                return m.group("run")
+            _unlock(fd)
+        return None
 
     def describe(self) -> str:
         """Where the run went, for people: 'OUT' or 'OUT (replacing run X)'."""
@@ -288,6 +389,7 @@ class RunFolder:
         try:
             if self.final.exists():
                 check_output_folder(self.final)  # still one of ours
+                self._carry_foreign()
                 held = _lock(self.final)  # moved aside under a lock: not a leftover
                 old = self.final.parent / f".{self.final.name}.{self.run_id}.old"
                 os.replace(self.final, old)
@@ -308,8 +410,24 @@ class RunFolder:
             if old.exists():
                 self.warnings.append(f"could not remove the earlier run, moved aside to "
                                      f"{old}: remove it by hand")
+        if self.kept:
+            shown = ", ".join(self.kept[:5]) + (", ..." if len(self.kept) > 5 else "")
+            self.warnings.append(f"kept {len(self.kept)} file(s) in {self.given} that no run "
+                                 f"of baarda wrote there ({shown}); they may describe "
+                                 f"{self.replaces or 'the earlier run'}")
         self.done = True
         return self.final
+
+    def _carry_foreign(self) -> None:
+        """Put the files of the output folder that no run wrote (`foreign_files`) into the
+        staging folder, so that the swap keeps them; one the new run wrote too keeps the
+        new run's file and the user's is put beside it as NAME.earlier."""
+        for rel in foreign_files(self.final):
+            dst = self.path / rel
+            if os.path.lexists(dst):
+                dst = dst.with_name(dst.name + ".earlier")
+            _carry(self.final / rel, dst)
+            self.kept.append(dst.relative_to(self.path).as_posix())
 
 
 def earlier_run(folder: Path) -> str | None:

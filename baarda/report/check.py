@@ -8,7 +8,14 @@ For every adjustment of the run, from observations.csv (or .parquet) and summary
 * v'Pv = sum (v / sigma)^2 over those rows, and sigma0 = sqrt(v'Pv / redundancy), which is
   also the global test's statistic sigma0^2;
 * every RMS line of the summary and of the quality report (image x and y, control, GNSS,
-  check points) recomputed from the rows it covers, to its printed digits.
+  check points) recomputed from the rows it covers, to its printed digits;
+* the top-level figures of summary.json (those the quality report prints) as those of the
+  adjustment they repeat;
+* every used row: its residual, sigma, redundancy number and sigma_residual present, sigma >
+  0, 0 <= r <= 1, sigma_residual = sigma sqrt(r), w = -v / sigma_residual, MDB = delta0
+  sigma / sqrt(r), its kind and component one of the observation groups;
+* every file run.json lists present, with its size and SHA-256 (a changed or missing file
+  does not hold: exit 5, as a broken invariant).
 
 A folder that passes was written by a run whose numbers agree with each other; one that
 fails names the number, what it should be and what it is.
@@ -37,13 +44,15 @@ class Finding:
     stated: float
     recomputed: float
     ok: bool
+    detail: str = ""  # said instead of the two numbers (a file, the first row that breaks)
     verdict: str = ""  # said instead of ok / DOES NOT HOLD (e.g. "not converged")
 
     def line(self) -> str:
         where = f"{self.adjustment}: " if self.adjustment else ""
         verdict = self.verdict or ("ok" if self.ok else "DOES NOT HOLD")
-        return (f"{verdict:>13}  {where}{self.name}: stated {self.stated:.10g}, recomputed "
-                f"{self.recomputed:.10g}")
+        said = self.detail or (f"stated {self.stated:.10g}, recomputed "
+                               f"{self.recomputed:.10g}")
+        return f"{verdict:>13}  {where}{self.name}: {said}"
 
 
 def _close(a: float, b: float, rtol: float = RTOL, atol: float = 0.0) -> bool:
@@ -62,6 +71,9 @@ def _rms(x: pd.Series) -> float:
 
 
 def _adjustments(res: Results) -> dict[str, tuple[dict, pd.DataFrame]]:
+    """Each adjustment's figures and rows; the top level of summary.json too (the figures
+    the quality report prints), with the rows of the adjustment it names (or the only
+    one)."""
     parts = res.summary.get("adjustments") or {"": res.summary}
     obs = res.obs
     out = {}
@@ -71,6 +83,102 @@ def _adjustments(res: Results) -> dict[str, tuple[dict, pd.DataFrame]]:
         rows = obs[obs["adjustment"] == name] if "adjustment" in obs and name and \
             (obs["adjustment"] == name).any() else obs
         out[name] = (p, rows)
+    main = res.summary.get("adjustment")
+    if "" not in out and (main in out or len(out) == 1):
+        top = {k: res.summary.get(k) for k in ("n_observations", "n_unknowns", "redundancy",
+                                               "vtpv", "sigma0", "global_test")}
+        if any(v is not None for v in top.values()):
+            out["summary.json (top level)"] = (top, out[main if main in out else
+                                                        next(iter(out))][1])
+    return out
+
+
+#: the adjustment's statistics of a row, from its residual v, sigma and redundancy number r
+#: (docs/quality.md): sigma_residual = sigma sqrt(r), w = -v / sigma_residual,
+#: MDB = delta0 sigma / sqrt(r)
+NEEDED = ("residual", "sigma", "redundancy", "sigma_residual")
+
+
+def _row_relations(label: str, p: dict, used: pd.DataFrame, delta0, rtol: float,
+                   groups: dict | None) -> list[Finding]:
+    """The relations that tie each used row's statistics to its residual and sigma, the
+    columns they need, and the kind and component of every row."""
+    out: list[Finding] = []
+    add = out.append
+
+    def col(c: str) -> np.ndarray:
+        return pd.to_numeric(used[c], errors="coerce").to_numpy(float) if c in used else \
+            np.full(len(used), np.nan)
+
+    def first_bad(mask: np.ndarray, what: str) -> str:
+        i = int(np.flatnonzero(mask)[0])
+        line = used["line"].iloc[i] if "line" in used else None
+        where = f"line {int(line)}" if line is not None and pd.notna(line) else f"row {i + 1}"
+        return f"{int(mask.sum())} row(s) do not, first at observations {where} ({what})"
+
+    def said(bad: np.ndarray, what: str) -> str:
+        return first_bad(bad, what) if bad.any() else f"all {len(used)} rows"
+
+    v, sigma, r, sv = (col(c) for c in NEEDED)
+    missing = [c for c, x in zip(NEEDED, (v, sigma, r, sv), strict=True)
+               if len(x) and not np.isfinite(x).all()]
+    add(Finding(label, f"every used row has {', '.join(NEEDED)}", 0, len(missing),
+                not missing, f"all {len(used)} rows" if not missing else
+                "missing or empty: " + ", ".join(missing)))
+    bad = ~((sigma > 0) & (r >= -1e-9) & (r <= 1 + 1e-9))
+    add(Finding(label, "sigma > 0 and 0 <= r <= 1 in every used row", 0, int(bad.sum()),
+                not bad.any(), said(bad, "sigma or r")))
+    ok = np.isfinite(sv) & np.isfinite(sigma) & np.isfinite(r) & (r >= 0)
+    bad = ok & ~np.isclose(sv, sigma * np.sqrt(np.clip(r, 0, None)), rtol=rtol, atol=0)
+    add(Finding(label, "sigma_residual = sigma sqrt(r) in every used row", 0, int(bad.sum()),
+                not bad.any(), said(bad, "sigma_residual")))
+    w = col("w")
+    has_w = np.isfinite(w) & np.isfinite(sv) & (sv > 0)
+    bad = has_w & ~np.isclose(w, -v / np.where(sv > 0, sv, 1), rtol=rtol, atol=rtol)
+    tested = (r > 1e-3) & np.isfinite(r)
+    lost = tested & ~np.isfinite(w) if "w" in used else tested
+    bad = bad | lost
+    add(Finding(label, "w = -v / sigma_residual in every used row", 0, int(bad.sum()),
+                not bad.any(), said(bad, "w")))
+    if delta0 is not None and "mdb" in used:
+        mdb = col("mdb")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            want = delta0 * sigma / np.sqrt(r)
+        has = np.isfinite(mdb) & np.isfinite(want)
+        bad = has & ~np.isclose(mdb, want, rtol=rtol, atol=0) | (tested & ~np.isfinite(mdb))
+        add(Finding(label, "MDB = delta0 sigma / sqrt(r) in every used row", 0,
+                    int(bad.sum()), not bad.any(), said(bad, "mdb")))
+    if groups:
+        pairs = list(zip(used["kind"].astype(str), used["component"].astype(str),
+                         strict=True))
+        bad = np.array([c not in (groups.get(k) or {}) for k, c in pairs], dtype=bool)
+        add(Finding(label, "every row's kind and component is one of summary.json's "
+                    "observation groups", 0, int(bad.sum()), not bad.any(),
+                    said(bad, "kind or component")))
+    return out
+
+
+def check_manifest(folder) -> list[Finding]:
+    """Every file run.json lists is there, with its size and checksum."""
+    from pathlib import Path
+
+    from baarda.io.run_manifest import MANIFEST, file_record, read_manifest
+
+    folder = Path(folder)
+    if not (folder / MANIFEST).is_file():
+        return []
+    files = read_manifest(folder / MANIFEST)["files"]
+    out = []
+    for name, record in sorted(files.items()):
+        p = folder / name
+        if not p.is_file():
+            out.append(Finding("", f"{name} (listed in run.json)", 0, 0, False,
+                               "missing"))
+            continue
+        same = file_record(p) == record
+        out.append(Finding("", f"{name} (listed in run.json)", 0, 0, same,
+                           "size and SHA-256 as listed" if same else
+                           "size or SHA-256 differ from run.json: changed since the run"))
     return out
 
 
@@ -101,7 +209,7 @@ def check_results(res: Results, rtol: float = RTOL) -> list[Finding]:
                 # redundancy only where the normal equations were solved well
                 add(Finding(label, "the adjustment did not converge: the sum of the "
                             "redundancy numbers is not checked (its statistics are those of "
-                            "the last iteration)", red, s, True, "not converged"))
+                            "the last iteration)", red, s, True, verdict="not converged"))
             else:
                 add(Finding(label, "sum of the redundancy numbers = redundancy", red, s,
                             _close(s, red, rtol, rtol)))
@@ -118,7 +226,11 @@ def check_results(res: Results, rtol: float = RTOL) -> list[Finding]:
         if gt.get("statistic") is not None:
             add(Finding(label, "global test statistic = sigma0^2", gt["statistic"], s0**2,
                         _close(gt["statistic"], s0**2, rtol)))
-        findings += _summary_rms(res, label, used, several)
+        if name != "summary.json (top level)":
+            delta0 = p.get("delta0", res.summary.get("delta0"))
+            findings += _row_relations(label, p, used, delta0, max(rtol, 1e-9),
+                                       res.summary.get("observation_groups"))
+            findings += _summary_rms(res, label, used, several)
     findings += _report_rms(res)
     return findings
 
@@ -174,7 +286,12 @@ def _report_rms(res: Results) -> list[Finding]:
 
 
 def check_folder(folder, rtol: float = RTOL) -> list[Finding]:
-    """check_results of a result folder (read with io.result_folder.read_results)."""
+    """The files run.json lists (`check_manifest`), then check_results of the folder (read
+    with io.result_folder.read_results); a folder whose files are not those of its run is
+    not read further (its findings say which)."""
     from baarda.io.result_folder import read_results
 
-    return check_results(read_results(folder), rtol)
+    files = check_manifest(folder)
+    if not all(f.ok for f in files):
+        return files
+    return files + check_results(read_results(folder), rtol)

@@ -21,7 +21,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from jinja2 import ChoiceLoader, Environment, FileSystemLoader, StrictUndefined
+from jinja2.sandbox import SandboxedEnvironment
 
+from baarda.errors import ProjectError
 from baarda.report.plots import Plot
 
 TEMPLATES = Path(__file__).parent / "templates"
@@ -29,19 +31,67 @@ TEMPLATES = Path(__file__).parent / "templates"
 
 @lru_cache(maxsize=4)
 def environment(user_dir: str | None = None) -> Environment:
-    """The templates: a user's folder first (restyling, branding), then baarda's own."""
+    """The templates: a user's folder first (restyling, branding), then baarda's own.  A
+    sandbox (jinja2.sandbox): a folder of templates is a document, often shared, not a
+    program, so a template reaches no Python internals (no `__globals__`, no `os`)."""
     loaders = [FileSystemLoader(user_dir)] if user_dir else []
-    return Environment(loader=ChoiceLoader([*loaders, FileSystemLoader(str(TEMPLATES))]),
-                       autoescape=True, undefined=StrictUndefined, trim_blocks=False)
+    return SandboxedEnvironment(
+        loader=ChoiceLoader([*loaders, FileSystemLoader(str(TEMPLATES))]), autoescape=True,
+        undefined=StrictUndefined, trim_blocks=False)
 
 
 def page(name: str, user_dir: str | Path | None = None, **context) -> str:
-    """A whole page from template `name` (adjustment, quality, evaluation, plan)."""
+    """A whole page from template `name` (adjustment, quality, evaluation, plan).  An error
+    of a template (syntax, an undefined name, a missing include, a failure while rendering,
+    a forbidden attribute) is a ProjectError "template FILE, line N: ..." (`template_error`)."""
     env = environment(str(user_dir) if user_dir else None)
     context.setdefault("banners", [])
     context.setdefault("sections", [])
     context.setdefault("footer", "")
-    return env.get_template(f"{name}.html.j2").render(**context) + "\n"
+    try:
+        return env.get_template(f"{name}.html.j2").render(**context) + "\n"
+    except Exception as e:
+        error = template_error(e, f"{name}.html.j2", user_dir)
+        if error is None:
+            raise
+        raise error from None
+
+
+def _template_frame(e: BaseException) -> tuple[str, int] | None:
+    """(file, line) of the innermost template frame of `e`'s traceback (jinja2 rewrites its
+    frames to the template's file and line), None when no template ran."""
+    found = None
+    tb = e.__traceback__
+    while tb is not None:
+        name = tb.tb_frame.f_code.co_filename
+        if name.endswith(".j2"):
+            found = (name, tb.tb_lineno)
+        tb = tb.tb_next
+    return found
+
+
+def template_error(e: Exception, name: str, user_dir) -> ProjectError | None:
+    """The ProjectError "template FILE, line N: message" of an error raised while loading or
+    rendering template `name`; None for an error of baarda's own code with no user template
+    involved (a bug, not bad input)."""
+    from jinja2 import TemplateError, TemplateNotFound, TemplateSyntaxError
+
+    if isinstance(e, TemplateSyntaxError):
+        where = e.filename or e.name or name
+        return ProjectError(f"template {where}", e.message or str(e), e.lineno)
+    frame = _template_frame(e)
+    user = bool(user_dir) and frame is not None and \
+        Path(frame[0]).resolve().is_relative_to(Path(user_dir).resolve())
+    if not isinstance(e, TemplateError) and not user:
+        return None
+    if isinstance(e, TemplateNotFound):
+        message = f"includes or extends '{e.name}', which is neither in the template " \
+                  "folder nor one of baarda's templates"
+    else:
+        message = f"{type(e).__name__}: {e}" if not isinstance(e, TemplateError) else str(e)
+    if frame is None:
+        return ProjectError(f"template {name}", message)
+    return ProjectError(f"template {frame[0]}", message, frame[1])
 
 
 def macro(name: str) -> Callable[..., str]:

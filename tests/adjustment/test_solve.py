@@ -2,6 +2,7 @@
 damping, convergence rules, and results that never change afterwards."""
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -236,3 +237,38 @@ def test_levenberg_marquardt_raises_the_damping_of_a_singular_system(problem):
     out = solve(flaky, start, SOLVE)
     assert flaky.refused == [0.0]
     assert not out.converged and out.reason == "diverged" and "photo 7" in out.message
+
+
+BAL49 = next((p for p in (Path(__file__).resolve().parents[3] / "shared" / "data" / "bal" /
+                          "problem-49-7776-pre.txt.bz2",
+                          Path("/work/shared/data/bal/problem-49-7776-pre.txt.bz2"))
+              if p.is_file()), None)
+
+
+@pytest.mark.skipif(BAL49 is None, reason="BAL Ladybug-49 is not on this machine")
+def test_levenberg_marquardt_converges_where_gauss_newton_does(tmp_path):
+    """Issue 43: 6 cameras of BAL Ladybug-49 and 400 points seen 3+ times: Gauss-Newton
+    converged in 26 iterations, Levenberg-Marquardt ended NOT CONVERGED after 100 (damped
+    steps tried whole only: the x10 / /10 schedule refused every other step at a damping
+    too large to converge).  Damped steps are now halved as Gauss-Newton's are."""
+    from baarda.io.bal import BalProblem, read_bal
+    from baarda.output.format_files import write_bal
+    from baarda.pipeline import adjust, read
+
+    p = read_bal(BAL49)
+    cams = np.arange(6)
+    sel = np.isin(p.obs_camera, cams)
+    pts = np.flatnonzero(np.bincount(p.obs_point[sel], minlength=len(p.points)) >= 3)[:400]
+    keep = sel & np.isin(p.obs_point, pts)
+    index = np.full(len(p.points), -1)
+    index[pts] = np.arange(len(pts))
+    write_bal(BalProblem(p.cameras[cams], p.points[pts], p.obs_camera[keep],
+                         index[p.obs_point[keep]], p.obs_xy[keep]), tmp_path / "sub.txt")
+    block = read(tmp_path / "sub.txt")
+    options = replace(SOLVE, max_iterations=100)
+    gn = adjust(block, options)
+    lm = adjust(block, replace(options, damping=1e-3))
+    assert gn.converged and gn.iterations == 26
+    assert lm.converged and lm.iterations == 42
+    assert lm.vtpv == pytest.approx(gn.vtpv, rel=1e-12)
+    assert np.allclose(lm.xyz, gn.xyz, atol=1e-6)

@@ -87,7 +87,7 @@ def project(tmp_path):
     return dst
 
 
-def test_a_run_lists_its_files_and_replaces_the_previous_run_whole(project, tmp_path):
+def test_a_run_lists_its_files_and_replaces_the_previous_runs_files(project, tmp_path):
     out = tmp_path / "out"
     assert main(["adjust", str(project), "-o", str(out), "-q"]) == 0
     manifest = json.loads((out / MANIFEST).read_text())
@@ -102,7 +102,8 @@ def test_a_run_lists_its_files_and_replaces_the_previous_run_whole(project, tmp_
     assert main(["adjust", str(project), "-o", str(out), "-q", "--snoop"]) == 0
     second = json.loads((out / MANIFEST).read_text())
     assert second["run"] != manifest["run"]
-    assert not (out / "report.html").exists()  # nothing of the earlier run is left
+    assert set(second["files"]) == names  # every file of the earlier run replaced
+    assert (out / "report.html").read_text() == "an old report"  # not baarda's: kept
     assert leftovers(tmp_path) == []
 
 

@@ -14,7 +14,13 @@ import pytest
 
 from baarda.cli import main
 from baarda.io.run_manifest import MANIFEST
-from baarda.output.run_folder import RunFolder, _lock, _unlock, new_run_id
+from baarda.output.run_folder import (
+    RunFolder,
+    _lock,
+    _unlock,
+    new_run_id,
+    remove_leftovers,
+)
 
 ROOT = Path(__file__).parents[2]
 DEMO = ROOT / "examples" / "demo"
@@ -121,17 +127,21 @@ def test_leftovers_are_removed_and_named_but_not_those_of_a_live_run(tmp_path, c
     old = fake_leftover(tmp_path, "out", "old")
     live = fake_leftover(tmp_path, "out", "partial")
     other = fake_leftover(tmp_path, "other", "partial")  # of another output folder
-    fd = _lock(live)  # a run still writing holds its lock
+    fd = _lock(live)  # a run still writing holds its lock: a second run is refused
     try:
-        assert main(["adjust", str(DEMO), "-o", str(out), "-q"]) == 0
+        assert main(["adjust", str(DEMO), "-o", str(out), "-q"]) == 2
+        assert "is writing this output folder now" in capsys.readouterr().err
+        assert dead.exists() and old.exists() and live.exists()  # nothing removed then
+        assert not remove_leftovers(out) == [] and live.exists()  # the live one stays
     finally:
         _unlock(fd)
+    live_gone = fake_leftover(tmp_path, "out", "partial")  # killed: no lock
+    assert main(["adjust", str(DEMO), "-o", str(out), "-q"]) == 0
     err = capsys.readouterr().err
-    assert f"baarda: warning: removed {dead.name}, the staging folder that a killed run " \
-        "left beside out" in err
-    assert f"removed {old.name}, the earlier run that a killed run left" in err
-    assert not dead.exists() and not old.exists()
-    assert live.exists() and other.exists() and live.name not in err
+    assert f"baarda: warning: removed {live_gone.name}, the staging folder that a killed " \
+        "run left beside out" in err
+    assert not dead.exists() and not old.exists() and not live_gone.exists()
+    assert other.exists()
 
 
 def test_an_earlier_run_moved_aside_by_a_killed_run_is_put_back(tmp_path, capsys):

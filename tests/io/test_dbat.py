@@ -232,7 +232,9 @@ def test_no_image_measurements(tmp_path):
     ({"pts.txt": "1, 1, 100.5, abc\n"}, ("pts.txt", 1, "y")),
     ({"pts.txt": "1, 1, 100.5\n"}, ("pts.txt", 1, None)),
     ({"pts.txt": "1, 1, 1, 2\n1, 9, 3, 4\n"}, ("pts.txt", 2, "im")),
-    ({"pts.txt": "1, 1, 1, 2\n1, 1, 3, 4\n"}, ("p.xml", None, None)),
+    ({"pts.txt": "1, 1, 1, 2\n1, 1, 3, 4\n"}, ("pts.txt", 2, "id")),  # both lines named
+    ({"ctrl.txt": "1, a, 0, 0, 0, 1, 1, 1\n2, b, 1, 1, 1, 1, 1, 1\n1, a, 0, 0, 0, 1, 1, 1\n"},
+     ("ctrl.txt", 3, "id")),
     ({"ctrl.txt": "1, a, 0, 0, 0, 0.02, -1, 0.04\n"}, ("ctrl.txt", 1, None)),
     ({"ctrl.txt": "1, a, 0, 0, nan, 0.02, 0.02, 0.04\n"}, ("ctrl.txt", 1, "z")),
 ])

@@ -1,0 +1,50 @@
+"""What a process of baarda needs before anything else is imported: the standard streams
+(closed ones replaced by the null device) and the memory limit (ulimit -v) it runs under
+(used by __main__ and the command line; no import of baarda's own)."""
+
+import os
+import sys
+
+#: below this address space (ulimit -v, bytes) the numerical libraries run one thread each:
+#: a thread's stack and arena reserve address space, and a thread that cannot get it aborts
+#: the process in C (no Python error to report)
+SMALL_ADDRESS_SPACE = 2 * 2**30
+
+
+def closed_streams() -> list[str]:
+    """Put the null device where a standard stream is closed (`baarda ... >&-`: Python makes
+    it None); the names of those that were."""
+    closed = []
+    for name, mode in (("stdin", "r"), ("stdout", "w"), ("stderr", "w")):
+        if getattr(sys, name) is None:
+            setattr(sys, name, open(os.devnull, mode, encoding="utf-8"))  # noqa: SIM115
+            closed.append(name)
+    return closed
+
+
+def address_space() -> float:
+    """The process's address-space limit in bytes (ulimit -v), inf when there is none."""
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, OSError, ValueError, AttributeError):
+        return float("inf")
+    return float("inf") if soft == resource.RLIM_INFINITY else float(soft)
+
+
+def memory_limit_text() -> str:
+    """' (limit N MB, ulimit -v)' when the address space is limited, else ''."""
+    soft = address_space()
+    return "" if soft == float("inf") else f" (limit {soft / 2**20:.0f} MB, ulimit -v)"
+
+
+def out_of_memory(e: BaseException) -> bool:
+    """Whether `e` says that memory ran out: a MemoryError (also pyarrow's), an OSError
+    ENOMEM, or an ImportError of a library that could not be mapped into memory."""
+    if isinstance(e, MemoryError):
+        return True
+    if isinstance(e, OSError) and e.errno == 12:  # ENOMEM
+        return True
+    text = str(e).lower()
+    return isinstance(e, ImportError) and ("memory" in text or "map segment" in text)
