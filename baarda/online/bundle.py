@@ -562,7 +562,8 @@ class OnlineBundle:
     # ------------------------------------------------------------ factorisation
     def _current(self) -> tuple[np.ndarray, np.ndarray]:
         """Current estimates of every photo and point (approximations where not in the
-        block; NaN where none)."""
+        block; NaN where none).  New unknowns whose rows are not in the low-rank update yet
+        (a large group on its way into a new factorisation) stand at their approximations."""
         eo, xyz, tie = self.m.arrays()
         eo = eo.copy()
         xyz = np.where(tie[:, None], np.nan, xyz)
@@ -581,10 +582,11 @@ class OnlineBundle:
         if sol is not None:
             x = x + sol.dxp[f.elim_of[pt]]
         xyz[pt] = x
+        y = self._y0.copy()
+        if sol is not None:
+            y[:len(sol.dy)] += sol.dy
         for (what, u), c in self._ycol.items():
-            n = 6 if what == "photo" else 3
-            val = self._y0[c:c + n] + (sol.dy[c:c + n] if sol is not None else 0.0)
-            (eo if what == "photo" else xyz)[u] = val
+            (eo if what == "photo" else xyz)[u] = y[c:c + (6 if what == "photo" else 3)]
         return eo, xyz
 
     def _globals(self) -> np.ndarray:
@@ -833,7 +835,8 @@ class OnlineBundle:
             part = take(rows, sel[a:a + CHUNK])
             mdiag[sel[a:a + CHUNK]] = np.diagonal(times(part, *lr.solve(part)))
         s2 = rows.sigma ** 2
-        sig_pred = np.where(plain, np.sqrt(s2 + mdiag - var_old), np.nan)
+        # a row with a new photo or point has no prediction (mdiag not solved for it)
+        sig_pred = np.sqrt(np.where(plain, s2 + mdiag - var_old, np.nan))
         pred = np.where(plain, pred, np.nan)
         before = self.m.snapshot()
         mark(self.m, group)
