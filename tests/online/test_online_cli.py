@@ -282,23 +282,3 @@ def test_the_demo_replayed_by_an_operator_who_measures_again():
     assert res.adjustment.redundancy == ref.adjustment.redundancy == 172
     assert res.adjustment.sigma0 == pytest.approx(ref.adjustment.sigma0, rel=1e-10)
     assert round(res.adjustment.sigma0, 4) == 1.0444
-
-
-@pytest.mark.parametrize("offsets", ["strip", "block"])
-def test_replay_refuses_gnss_shifts_at_the_start(offsets, tmp_path, capsys):
-    """GNSS shifts are unknowns of the whole block, which the on-line bundle does not
-    estimate (docs/online.md, "Not done"): exit 2 before the first step, the setting named
-    and `baarda adjust` offered (it was a ValueError traceback from the replay's start)."""
-    project = tmp_path / "gnss"
-    assert main(["simulate", "-o", str(project), "--strips", "2", "--photos", "4",
-                 "--gnss", "0.05", "--gnss-offset", "0.2", "--imu", "0.005"]) == 0
-    toml = project / "project.toml"
-    toml.write_text(toml.read_text().replace('offsets = "strip"', f'offsets = "{offsets}"'))
-    capsys.readouterr()
-    for args in (["--bundle", "--replay", str(project), "-o", str(tmp_path / "out")],
-                 ["--bundle", str(project)]):
-        assert main(["online", *args]) == 2
-        err = capsys.readouterr().err
-        assert f'[gnss] offsets = "{offsets}"' in err and "baarda adjust" in err, err
-        assert "Traceback" not in err
-    assert not (tmp_path / "out" / "replay.csv").exists()
