@@ -134,4 +134,3 @@ def test_remeasure_names_the_largest_w_among_the_rejected_and_the_changed():
     assert "REMEASURE POINT 002005 ON PHOTO 01004 (x: SIGF 4.23 > 3.29)" in a.text()
     assert replace(a, changed=a.changed[1:2]).remeasure()[0].photo == "01005"
     assert replace(a, tested=a.tested[1:], changed=a.changed[1:2]).remeasure() == []
-
