@@ -123,6 +123,11 @@ def _session(args, run) -> int:
     if args.watch is not None:
         return _watch(args, run)
     block, config = read_configured_input(args)
+    from baarda.online.bundle import refusal
+
+    why = refusal(block)  # before the replay's first step, not at it
+    if why:
+        raise ProjectError(str(args.input), why)
     tests = config.tests
     announce_compile(args, len(block.photos))
     from baarda.online.replay import tests_table

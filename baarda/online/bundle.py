@@ -79,6 +79,38 @@ class _Factored:
     lowrank: LowRank
 
 
+def refusal(block: Block) -> str:
+    """Why the on-line bundle does not take a block ("" where it does): unknowns of the
+    whole block (GNSS shifts and drifts, an estimated IMU boresight), distances, fixed
+    control, a free network with control or GNSS; each with what to do instead."""
+    s = block.settings
+    whole = [w for w, on in (
+        ("a GNSS shift of the block ([gnss] offsets = \"block\")", s.gnss_offsets == "block"),
+        ("GNSS shifts per strip ([gnss] offsets = \"strip\")", s.gnss_offsets == "strip"),
+        ("GNSS drifts per strip ([gnss] drift = true)", bool(s.gnss_drift)),
+        ("an estimated IMU boresight ([imu] boresight = \"estimated\")",
+         s.imu_boresight != "fixed")) if on]
+    if whole:
+        return (f"the on-line bundle does not estimate {' and '.join(whole)}: they are "
+                "unknowns of the whole block, not of a photo; adjust the block with baarda "
+                "adjust, or measure on-line with GNSS positions and IMU attitudes taken as "
+                "they are ([gnss] offsets = \"none\", drift = false, [imu] boresight = "
+                "\"fixed\")")
+    if len(block.distances):
+        return ("the on-line bundle does not take distances: adjust the block with baarda "
+                "adjust, or measure on-line without them")
+    if s.datum in ("free", "inner") and (block.points.controlled.any() or len(block.gnss)):
+        return ("a free network (datum free) has no control and no GNSS positions: give "
+                "them with datum = \"control\"")
+    fixed = np.flatnonzero((block.points.sigma == 0).any(axis=1))
+    if len(fixed):
+        return (f"fixed control (sigma 0) is not supported on-line (point "
+                f"{block.points.ids[fixed[0]]}" + (f" and {len(fixed) - 1} more" if
+                                                    len(fixed) > 1 else "")
+                + "): give it a small standard deviation, or adjust with baarda adjust")
+    return ""
+
+
 class OnlineBundle:
     """A bundle block that grows one measurement at a time (module docstring).
 
@@ -101,21 +133,12 @@ class OnlineBundle:
     def __init__(self, block: Block, tests: TestOptions | None = None, *,
                  max_rows: int = MAX_ROWS, solve: SolveOptions = SOLVE,
                  linear_limit: float = LINEAR_LIMIT):
+        why = refusal(block)
+        if why:
+            raise ValueError(why)
         block = prepared(block)
         s = block.settings
-        if s.gnss_offsets != "none" or s.gnss_drift or s.imu_boresight != "fixed":
-            raise ValueError("the on-line bundle takes GNSS positions and IMU attitudes "
-                             "without shifts, drifts or an estimated boresight (they are "
-                             "unknowns of the whole block): adjust with baarda adjust")
-        if len(block.distances):
-            raise ValueError("the on-line bundle does not take distances")
         self.free = s.datum in ("free", "inner")
-        if self.free and (block.points.controlled.any() or len(block.gnss)):
-            raise ValueError("a free network (datum free) has no control and no GNSS "
-                             "positions: give them with datum = \"control\"")
-        if (block.points.sigma == 0).any():
-            raise ValueError("fixed control (sigma 0) is not supported on-line: give it a "
-                             "small standard deviation")
         self.tests = tests or TestOptions.resolve(s)
         self._bm = b_method(self.tests.alpha0, self.tests.beta0)
         self.max_rows = int(max_rows)
@@ -567,7 +590,8 @@ class OnlineBundle:
     # ------------------------------------------------------------ factorisation
     def _current(self) -> tuple[np.ndarray, np.ndarray]:
         """Current estimates of every photo and point (approximations where not in the
-        block; NaN where none)."""
+        block; NaN where none).  New unknowns whose rows are not in the low-rank update yet
+        (a large group on its way into a new factorisation) stand at their approximations."""
         eo, xyz, tie = self.m.arrays()
         eo = eo.copy()
         xyz = np.where(tie[:, None], np.nan, xyz)
@@ -586,10 +610,11 @@ class OnlineBundle:
         if sol is not None:
             x = x + sol.dxp[f.elim_of[pt]]
         xyz[pt] = x
+        y = self._y0.copy()
+        if sol is not None:
+            y[:len(sol.dy)] += sol.dy
         for (what, u), c in self._ycol.items():
-            n = 6 if what == "photo" else 3
-            val = self._y0[c:c + n] + (sol.dy[c:c + n] if sol is not None else 0.0)
-            (eo if what == "photo" else xyz)[u] = val
+            (eo if what == "photo" else xyz)[u] = y[c:c + (6 if what == "photo" else 3)]
         return eo, xyz
 
     def _globals(self) -> np.ndarray:
@@ -849,7 +874,8 @@ class OnlineBundle:
             part = take(rows, sel[a:a + CHUNK])
             mdiag[sel[a:a + CHUNK]] = np.diagonal(times(part, *lr.solve(part)))
         s2 = rows.sigma ** 2
-        sig_pred = np.where(plain, np.sqrt(s2 + mdiag - var_old), np.nan)
+        # a row with a new photo or point has no prediction (mdiag not solved for it)
+        sig_pred = np.sqrt(np.where(plain, s2 + mdiag - var_old, np.nan))
         pred = np.where(plain, pred, np.nan)
         before = self.m.snapshot()
         mark(self.m, group)

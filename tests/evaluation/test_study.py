@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from baarda.evaluation.study import StudyOptions, run_study
+from baarda.evaluation.study import StudyOptions, run_study, run_trial
 from baarda.simulate.aerial import FlightPlan
 
 PLAN = FlightPlan(strips=2, photos_per_strip=4, pattern=5, relief_m=50.0)
@@ -96,3 +96,16 @@ def test_command_line(tmp_path):
                                                   "located", "rank"}
     assert (np.abs(b["size_mdb"]) >= 2).all() and (np.abs(b["size_mdb"]) <= 4).all()
     assert main(["evaluate", "-o", str(tmp_path / "x"), "--strategies", "guess"]) == 2
+
+
+def test_the_online_strategy_on_a_trial_that_brings_a_large_new_photo():
+    """Trial 1 of a 3 x 8 block, pattern 5, 5 blunders of 1-3 MDB: a photo of more rows
+    than a factorisation takes came with new unknowns while rows without any were in the
+    low-rank update (OnlineBundle._current read the new unknowns' corrections from it: a
+    ValueError; tests/online/test_online_bundle.py has the case alone)."""
+    o = StudyOptions(plan=FlightPlan(strips=3, photos_per_strip=8, pattern=5), trials=2,
+                     blunders=5, size_mdb=(1.0, 3.0), strategies=("online",), seed=0)
+    row, = run_trial(o, 1).trials
+    assert row["failed"] == "" and row["n_observations"] == 1160
+    assert row["n_planted"] == row["n_located"] == 5 and row["n_false"] == 4
+    assert row["sigma0_final"] == pytest.approx(0.97948, abs=1e-5)

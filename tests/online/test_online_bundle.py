@@ -37,13 +37,17 @@ def test_a_first_ray_is_held_until_the_second(block):
 
 
 def test_refused_blocks(block):
-    with pytest.raises(ValueError, match="shifts, drifts"):
+    with pytest.raises(ValueError, match=r"GNSS shifts per strip .*baarda adjust"):
         OnlineBundle(replace(block, settings=replace(block.settings, gnss_offsets="strip")))
+    with pytest.raises(ValueError, match=r"GNSS drifts per strip \(.*\) and an estimated IMU bore"):
+        OnlineBundle(replace(block, settings=replace(block.settings, gnss_drift=True,
+                                                     imu_boresight="estimated")))
     with pytest.raises(ValueError, match="free network"):
         OnlineBundle(replace(block, settings=replace(block.settings, datum="free")))
     sig = block.points.sigma.copy()
-    sig[np.flatnonzero(block.points.role == "control")[0]] = 0.0
-    with pytest.raises(ValueError, match="sigma 0"):
+    j = np.flatnonzero(block.points.role == "control")[0]
+    sig[j] = 0.0
+    with pytest.raises(ValueError, match=rf"sigma 0.*\(point {block.points.ids[j]}\)"):
         OnlineBundle(replace(block, points=replace(block.points, sigma=sig)))
 
 
