@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import time
+from dataclasses import replace
 from typing import cast
 
 import numpy as np
@@ -19,7 +20,7 @@ import numpy as np
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
-from baarda.adjustment.solve import solve
+from baarda.adjustment.solve import Solution, solve
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
 from baarda.bundle.bundle_result import BundleResult
@@ -436,6 +437,9 @@ class BundleProblem(SchurProblem):
         start = self.approximations if start is None else self._start(start)
         try:
             sol = solve(self, tuple(np.array(s, float) for s in start), options, progress)
+            gn = sol if sol.reason == "diverged" and not options.damping else None
+            if gn is not None:
+                sol = self._continue_damped(gn, options, progress)
             if sol.reason == "inadmissible":
                 raise GeometryError("the adjustment diverged: no step along the Gauss-Newton "
                                     "direction keeps the points in front of the cameras; check "
@@ -445,8 +449,13 @@ class BundleProblem(SchurProblem):
             if not self.diagnosis:
                 raise
             raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis)) from None
-        notes = list(self.notes) + ([] if sol.converged else [sol.message])
-        if sol.reason == "diverged" and not options.damping:
+        notes = list(self.notes)
+        if gn is not None and sol is not gn:
+            notes.append(f"Gauss-Newton {gn.message}; Levenberg-Marquardt continued from "
+                         f"the last sound estimate: {sol.message} after "
+                         f"{sol.iterations - gn.iterations} iteration(s)")
+        notes += [] if sol.converged else [sol.message]
+        if sol.reason == "diverged" and not options.damping and sol is gn:
             notes.append("Gauss-Newton diverged from these approximations: Levenberg-Marquardt "
                          "(--damping lm, or solve=\"lm\") may reach the minimum")
         if sol.reason == "diverged" and self.calibration.n:
@@ -456,6 +465,26 @@ class BundleProblem(SchurProblem):
                          "in project.toml) or give better approximations")
         return BundleResult(self, sol.state, sol.lin, sol.factor, sol.iterations,
                             sol.converged, tuple(notes), time.perf_counter() - t0)
+
+    def _continue_damped(self, gn: Solution, options: SolveOptions,
+                         progress: Progress | None) -> Solution:
+        """Gauss-Newton diverged (`gn`): Levenberg-Marquardt (SOLVE_LM's damping and
+        iteration limit) from its last sound estimate, with the iterations of both counted;
+        `gn` itself when the damped solver cannot start there or leaves the admissible
+        region."""
+        lm_options = replace(options, damping=SOLVE_LM.damping,
+                             max_iterations=SOLVE_LM.max_iterations)
+        if progress:
+            progress("Gauss-Newton diverged: Levenberg-Marquardt continues from the last "
+                     "sound estimate")
+        try:
+            lm = solve(self, gn.state, lm_options, progress)
+        except GeometryError:
+            return gn
+        if lm.reason == "inadmissible":
+            return gn
+        return replace(lm, iterations=gn.iterations + lm.iterations,
+                       history=gn.history + lm.history)
 
     def _start(self, start) -> tuple[np.ndarray, ...]:
         """A start given as (eo, xyz of every adjusted point) in this problem's state."""

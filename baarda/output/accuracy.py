@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
+
+from baarda.quality.special_distributions import norm_ppf
 
 STANDARD = ("ASPRS Positional Accuracy Standards for Digital Geospatial Data, Edition 2 "
             "(2023)")
@@ -294,7 +295,7 @@ def statement(misses: pd.DataFrame, datum: str = CONTROL, survey: Survey | None 
                     "ground_points.csv" + (f"; {', '.join(missing)}" if missing else "")
                     + f"): Edition 2 includes it in the product's accuracy; the {which} "
                     "accuracy stated is the fit to the check points alone.")
-    crit = float(norm.ppf(1 - MEAN_ALPHA / 2))
+    crit = norm_ppf(1 - MEAN_ALPHA / 2)
     big = [k for k in range(3) if abs(mean[k]) > MEAN_SHARE * rmse[k]]
     signif = [k for k in range(3) if np.isfinite(z[k]) and abs(z[k]) > crit]
     if datum == CONTROL and (big or signif):

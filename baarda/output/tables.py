@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-CHUNK_ROWS = 262_144  # rows joined at a time
+CHUNK_ROWS = 32_768  # rows formatted and joined at a time
 THREAD_ROWS = 100_000  # tables from this many rows on format their columns in threads
 
 
@@ -46,6 +46,10 @@ def write_csv(path: str | Path, df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS) 
     with atomic_open(path, "wb") as f:
         for chunk in chunks:
             f.write(chunk)
+    if len(df) >= THREAD_ROWS:  # the cells' memory back to the system, not kept by pyarrow
+        import pyarrow as pa
+
+        pa.default_memory_pool().release_unused()
 
 
 def write_parquet(path: str | Path, df: pd.DataFrame) -> None:
@@ -114,25 +118,39 @@ def cells(s: pd.Series):
 
 
 def csv_chunks(df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS) -> Iterator[bytes]:
-    """The CSV bytes of a result table: the header, then `chunk_rows` rows at a time."""
+    """The CSV bytes of a result table: the header, then `chunk_rows` rows at a time (each
+    chunk's cells formatted when it is written: the text of the whole table is never held;
+    a column of Python objects, whose type only the whole column decides, at once)."""
     yield _csv_row([str(c) for c in df.columns]).encode("utf-8")
     if df.shape[1] == 0 or len(df) == 0:
         return
     import pyarrow.compute as pc
 
     series = [df.iloc[:, j] for j in range(df.shape[1])]
-    if len(df) >= THREAD_ROWS and len(series) > 1:
-        with ThreadPoolExecutor(min(len(series), os.cpu_count() or 1)) as pool:
-            columns = list(pool.map(cells, series))
-    else:
-        columns = [cells(s) for s in series]
-    if len(columns) == 1:  # a row of one empty cell is written "" (not a blank line)
-        columns[0] = pc.if_else(pc.equal(columns[0], ""), '""', columns[0])
-    for r0 in range(0, len(df), chunk_rows):
-        parts = [c.slice(r0, chunk_rows) for c in columns]
-        rows = parts[0] if len(parts) == 1 else pc.binary_join_element_wise(*parts, ",")
-        lines = pc.binary_join_element_wise(rows, "", "\n")  # each row with its line end
-        yield _data(lines)
+    whole = {j: cells(s) for j, s in enumerate(series) if s.dtype == object}
+    pool = ThreadPoolExecutor(min(len(series), os.cpu_count() or 1)) \
+        if len(df) >= THREAD_ROWS and len(series) > 1 else None
+
+    def column(j: int, r0: int):
+        if j in whole:
+            return whole[j].slice(r0, chunk_rows)
+        return cells(series[j].iloc[r0: r0 + chunk_rows])
+
+    try:
+        for r0 in range(0, len(df), chunk_rows):
+            js = range(len(series))
+            parts = list(pool.map(column, js, [r0] * len(series))) if pool else \
+                [column(j, r0) for j in js]
+            if len(parts) == 1:  # a row of one empty cell is written "" (not a blank line)
+                parts[0] = pc.if_else(pc.equal(parts[0], ""), '""', parts[0])
+            rows = parts[0] if len(parts) == 1 else pc.binary_join_element_wise(*parts, ",")
+            del parts
+            lines = pc.binary_join_element_wise(rows, "", "\n")  # each row with its line end
+            del rows
+            yield _data(lines)
+    finally:
+        if pool:
+            pool.shutdown()
 
 
 def _data(arr) -> bytes:

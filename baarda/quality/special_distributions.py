@@ -1,5 +1,5 @@
-"""The distribution functions of the tests (chi-square, non-central chi-square, F, t) as
-scipy.stats computes them, taken from scipy.special directly.
+"""The distribution functions of the tests (chi-square, non-central chi-square, F, t,
+normal) as scipy.stats computes them, taken from scipy.special directly.
 
 These are the functions scipy.stats' chi2, ncx2, f and t call for one value inside their
 support, so the numbers are the same to the last bit (tests/quality/test_special_functions.py
@@ -18,7 +18,7 @@ except ImportError:  # pragma: no cover - a SciPy without them: scipy.stats.ncx2
     _ncx2_isf = _ncx2_sf = None
 
 __all__ = ["chi2_cdf", "chi2_isf", "chi2_ppf", "chi2_sf", "f_isf", "f_sf", "ncx2_isf",
-           "ncx2_sf", "t_isf"]
+           "ncx2_sf", "norm_ppf", "t_isf"]
 
 
 def chi2_isf(p: float, dof: float) -> float:
@@ -76,3 +76,8 @@ def f_sf(x: float, dof1: float, dof2: float) -> float:
 def t_isf(p: float, dof: float) -> float:
     """``t.isf``: the value t(dof) exceeds with probability p."""
     return float(-special.stdtrit(dof, p))
+
+
+def norm_ppf(p: float) -> float:
+    """The standard normal quantile (scipy.stats.norm.ppf: special.ndtri)."""
+    return float(special.ndtri(p))

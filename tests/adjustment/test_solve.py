@@ -1,6 +1,7 @@
 """The one solver (adjustment/solve.py): Gauss-Newton with step halving, Levenberg-Marquardt
 damping, convergence rules, and results that never change afterwards."""
 
+import copy
 from dataclasses import replace
 from pathlib import Path
 
@@ -10,7 +11,7 @@ import pytest
 from baarda.adjustment.dense import DenseLeastSquares
 from baarda.adjustment.solve import solve
 from baarda.bundle.bundle_model import BundleModel
-from baarda.bundle.bundle_problem import SOLVE, BundleProblem
+from baarda.bundle.bundle_problem import SOLVE, SOLVE_LM, BundleProblem
 from baarda.options import SolveOptions
 from baarda.quality.dense_model import DenseModel
 from baarda.quality.statistics import analyse
@@ -272,3 +273,46 @@ def test_levenberg_marquardt_converges_where_gauss_newton_does(tmp_path):
     assert lm.converged and lm.iterations == 42
     assert lm.vtpv == pytest.approx(gn.vtpv, rel=1e-12)
     assert np.allclose(lm.xyz, gn.xyz, atol=1e-6)
+
+
+class _RefusedOnce(BundleProblem):
+    """The bundle, but its undamped normal equations at the third factorisation are 'not
+    positive definite' (rounding in a nearly singular block: BAL-scale 5,000 cameras): the
+    Gauss-Newton iteration diverges there."""
+
+    def factorize(self, lin, damping=0.0):
+        from baarda.errors import GeometryError
+
+        self.calls = getattr(self, "calls", 0) + 1
+        if self.calls == 3 and not damping:
+            raise GeometryError("the exterior orientation of photo 7 is not determined")
+        return super().factorize(lin, damping)
+
+
+def test_gauss_newton_divergence_continues_with_levenberg_marquardt(problem):
+    """Issue 40: a Gauss-Newton adjustment that diverges continues with Levenberg-Marquardt
+    from the last sound estimate; it reaches the minimum `--damping lm` reaches from the
+    start (v'Pv to 1e-9), is converged, and the notes say what happened."""
+    eo, xyz = problem.approximations
+    rng = np.random.default_rng(1)
+    start = (eo + rng.normal(0, [5, 5, 5, 0.02, 0.02, 0.02], eo.shape), xyz.copy())
+    flaky = copy.copy(problem)
+    flaky.__class__ = _RefusedOnce
+    gn = solve(flaky, start, SOLVE)
+    assert gn.reason == "diverged" and gn.iterations == 3  # what Gauss-Newton alone does
+    flaky.calls = 0
+    lines = []
+    res = flaky.fit(start, progress=lines.append)
+    lm = problem.fit(start, options=SOLVE_LM)
+    assert res.converged and lm.converged and res.factor.damping == 0.0
+    assert res.vtpv == pytest.approx(lm.vtpv, rel=1e-9)
+    assert np.allclose(res.eo, lm.eo, atol=1e-6)
+    assert res.iterations > gn.iterations
+    note = [n for n in res.notes if n.startswith("Gauss-Newton diverged at iteration 3")]
+    assert len(note) == 1 and "photo 7" in note[0]
+    assert "Levenberg-Marquardt continued from the last sound estimate: converged" in note[0]
+    assert not any("--damping lm" in n for n in res.notes)
+    assert any("Levenberg-Marquardt continues" in s for s in lines)
+    # a run that converges by Gauss-Newton is untouched: the same numbers, no note
+    plain = problem.fit(start)
+    assert plain.converged and plain.notes == problem.notes

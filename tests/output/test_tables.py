@@ -170,3 +170,18 @@ def test_cli_adjust_parquet_and_report(tmp_path, capsys):
     capsys.readouterr()
     assert main(["report", str(tmp_path / "out"), "--text"]) == 0
     assert "SNOOPING TABLE" in capsys.readouterr().out
+
+
+def test_the_text_of_a_long_table_is_formatted_chunk_by_chunk():
+    """Issue 40 (memory): the cells are formatted per chunk of rows, so pyarrow holds about
+    one chunk's text while a long table is written, never the whole table's (which it held
+    before: the observation table's write phase peaked 170 MB above the statistics for
+    BAL-scale 100 cameras)."""
+    import pyarrow as pa
+
+    df = pd.DataFrame({c: values(120_000) for c in "abcd"})
+    size, held, base = 0, 0, pa.total_allocated_bytes()  # what other tests left
+    for chunk in csv_chunks(df, chunk_rows=10_000):
+        size += len(chunk)
+        held = max(held, pa.total_allocated_bytes() - base)
+    assert size > 8_000_000 and held < size / 4, (size, held)

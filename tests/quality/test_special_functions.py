@@ -45,6 +45,8 @@ def test_f_and_t_equal_scipy_stats():
     for dof in [1, 2, 9, 1000]:
         for p in PROBS:
             assert d.t_isf(p, dof) == float(stats.t.isf(p, dof))
+    for p in PROBS + [0.975, 0.5, 0.995]:
+        assert d.norm_ppf(p) == float(stats.norm.ppf(p))
 
 
 def test_lambda0_unchanged():
