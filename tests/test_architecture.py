@@ -25,6 +25,7 @@ FLOORS = [
     {"evaluation"},
     {"output"},
     {"report"},
+    {"review"},
     {"cli"},
     {"__init__", "__main__"},
 ]

@@ -31,6 +31,10 @@ COLUMNS = ("action", "photo", "point", "component", "x", "y", "time")
 Key = tuple[str, str, str]  # (photo, point, component) of an image coordinate
 
 
+class UnknownId(ValueError):
+    """An edit names a photo or point that is not in the block (or not measured there)."""
+
+
 @dataclass(frozen=True)
 class Edit:
     """One edit: action (ACTIONS), photo and point ids, component 'x' or 'y' (reject,
@@ -82,10 +86,10 @@ def image_row(block: Block, photo: str, point: str) -> int:
     i = block.photos.ids.index(photo) if photo in block.photos.ids else None
     j = block.point_index.get(point)
     if i is None or j is None:
-        raise ValueError(f"point {point} on photo {photo}: not in the block")
+        raise UnknownId(f"point {point} on photo {photo}: not in the block")
     rows = np.flatnonzero((block.image.photo == i) & (block.image.point == j))
     if not len(rows):
-        raise ValueError(f"point {point} is not measured on photo {photo}")
+        raise UnknownId(f"point {point} is not measured on photo {photo}")
     return int(rows[0])
 
 
@@ -97,7 +101,7 @@ def check(block: Block, e: Edit) -> None:
         return
     if e.action == "aside":
         if e.point not in block.point_index:
-            raise ValueError(f"point {e.point}: not in the block")
+            raise UnknownId(f"point {e.point}: not in the block")
         return
     image_row(block, e.photo, e.point)
     if e.action in ("reject", "restore") and e.component not in ("x", "y"):

@@ -15,14 +15,14 @@ import math
 import threading
 import time
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.options import Config
-from baarda.review.edits import Edit, active_of, check, edited
 from baarda.quality.separability import RHO_INSEPARABLE
+from baarda.review.edits import Edit, active_of, check, edited
 
 
 @dataclass(frozen=True)
@@ -66,7 +66,8 @@ class ReviewSession:
     def __init__(self, block: Block, config: Config):
         self.block, self.config = block, config
         self.edits: list[Edit] = []
-        self.lock = threading.Lock()
+        self.saved = 0  # edits written by the last save
+        self.lock = threading.RLock()
         self.state = adjusted(block, config, [])
         self._key = _geometry_key([])
 
@@ -74,7 +75,10 @@ class ReviewSession:
     def summary(self) -> dict:
         qc = self.state.qc
         res, q = qc.adjustment, qc.quality
-        g = q.global_test
+        g = q.headline_test if q.headline_test is not None else q.global_test
+        gt = None if g is None else {
+            "statistic": float(g.statistic), "critical": float(g.critical),
+            "alpha": float(g.alpha), "accepted": bool(g.passed)}
         act = np.asarray(q.active, bool)
         rows = self.rows()
         return {
@@ -82,8 +86,7 @@ class ReviewSession:
             "photos": len(self.block.photos.ids), "points": len(self.block.points.ids),
             "observations": int(len(act)), "sigma0": float(res.sigma0),
             "redundancy": int(res.redundancy), "converged": bool(res.converged),
-            "global_test": {"statistic": float(g.statistic), "critical": float(g.critical),
-                            "accepted": bool(g.passed)} if g is not None else None,
+            "global_test": gt,
             "k_w": float(q.k_w), "rejected": int((~act).sum()),
             "significant": sum(r["verdict"] == "reject" for r in rows),
             "suspect": sum(r["verdict"] == "suspect" for r in rows),
@@ -219,7 +222,7 @@ def _edit_of(body) -> Edit:
             xy.append(float(v))
         else:
             raise ValueError(f"'{f}' must be a number (mm)")
-    now = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    now = datetime.now(UTC).isoformat(timespec="seconds")
     return Edit(action, texts["photo"], texts["point"], texts["component"], *xy, now)
 
 
