@@ -44,7 +44,8 @@ def make_app(session: ReviewSession, token: str, *, folders: list[Path] = (),
              ) -> web.Application:
     """The aiohttp application.  folders: where images are looked for (chips.image_folders);
     save: a callable writing OUT (returns a dict for the answer) or None (no -o: 409);
-    hosts: the Host header values accepted ('' entries: any; DNS rebinding)."""
+    hosts: the Host header values accepted, or a callable giving them (empty: any; a page of
+    another site that resolves to this address is refused: DNS rebinding)."""
 
     def authorised(request: web.Request) -> bool:
         given = request.query.get("token") or request.headers.get("X-Baarda-Token") or \
@@ -56,7 +57,8 @@ def make_app(session: ReviewSession, token: str, *, folders: list[Path] = (),
 
     @web.middleware
     async def guard(request: web.Request, handler):
-        if hosts and request.host not in hosts:
+        allowed = hosts() if callable(hosts) else hosts
+        if allowed and request.host not in allowed:
             return _error(403, "unexpected Host header")
         if not authorised(request):
             return _error(403, "a valid token is required (the address review printed)")
