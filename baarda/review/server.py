@@ -18,7 +18,7 @@ from pathlib import Path
 
 from aiohttp import web
 
-from baarda.review.chips import NoImage, chip_png
+from baarda.review.chips import NoImage, chip_png, find_image
 from baarda.review.edits import UnknownId
 from baarda.review.session import ReviewSession
 
@@ -100,8 +100,14 @@ def make_app(session: ReviewSession, token: str, *, folders: list[Path] = (),
         point = request.query.get("point", "")
         if point not in session.block.point_index:
             return _error(404, "unknown point")
-        return web.json_response({"point": point,
-                                  "rays": _locked(session, session.rays, point)})
+        rays = _locked(session, session.rays, point)
+        for r in rays:  # whether a chip can be asked for (the page asks only then)
+            if r["photo"] not in has_image:
+                has_image[r["photo"]] = find_image(list(folders), r["photo"]) is not None
+            r["image"] = has_image[r["photo"]]
+        return web.json_response({"point": point, "rays": rays})
+
+    has_image: dict[str, bool] = {}
 
     async def edits(request):
         try:

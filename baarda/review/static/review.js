@@ -3,7 +3,7 @@
 "use strict";
 const TOKEN = new URLSearchParams(location.search).get("token") || "";
 const SVGNS = "http://www.w3.org/2000/svg";
-const state = { rows: [], sel: null, chipUrls: [] };
+const state = { rows: [], sel: null, chipUrls: [], chipRound: 0 };
 const $ = (id) => document.getElementById(id);
 
 async function api(path, body) {
@@ -115,6 +115,7 @@ async function select(r) {
 
 async function showChips(r) {
   const box = $("chips");
+  const round = ++state.chipRound;  // a later selection replaces this one's chips
   for (const u of state.chipUrls) URL.revokeObjectURL(u);
   state.chipUrls = [];
   box.replaceChildren();
@@ -123,12 +124,20 @@ async function showChips(r) {
   try {
     rays = (await (await api("/api/rays?point=" + encodeURIComponent(r.point))).json()).rays;
   } catch (e) { say(e.message); return; }
+  if (round !== state.chipRound) return;
   for (const ray of rays) {
+    if (round !== state.chipRound) return;
     const fig = el("figure", undefined, ray.photo === r.photo ? "this" : "");
     fig.dataset.photo = ray.photo;
     const cap = el("figcaption", "photo " + ray.photo + ": w x " + fmt(ray.wx, 2) +
       ", y " + fmt(ray.wy, 2) + (ray.active_x && ray.active_y ? "" : " (rejected)"));
     box.append(fig);
+    if (!ray.image) {
+      fig.append(frame(ray));
+      cap.textContent += " – no image: residual vector in the image frame (x1000)";
+      fig.append(cap);
+      continue;
+    }
     try {
       const resp = await api("/api/chip?photo=" + encodeURIComponent(ray.photo) +
         "&point=" + encodeURIComponent(r.point));
