@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import hmac
 import json
+import logging
 import secrets
 from importlib import resources
 from pathlib import Path
@@ -22,6 +23,7 @@ from baarda.review.chips import NoImage, chip_png, find_image
 from baarda.review.edits import UnknownId
 from baarda.review.session import ReviewSession
 
+log = logging.getLogger("baarda.review")
 COOKIE = "baarda_review"
 STATIC = ("review.js", "review.css")
 TYPES = {".js": "text/javascript", ".css": "text/css", ".html": "text/html"}
@@ -66,6 +68,9 @@ def make_app(session: ReviewSession, token: str, *, folders: list[Path] = (),
             response = await handler(request)
         except web.HTTPException as e:
             return _error(e.status, e.reason or "error")
+        except Exception as e:  # a defect: said, and the server goes on
+            log.exception("review: %s %s", request.method, request.path)
+            return _error(500, f"internal error: {type(e).__name__}: {e}")
         response.headers.setdefault("Cache-Control", "no-store")
         response.headers["X-Content-Type-Options"] = "nosniff"
         response.headers["Content-Security-Policy"] = (
@@ -108,6 +113,9 @@ def make_app(session: ReviewSession, token: str, *, folders: list[Path] = (),
         return web.json_response({"point": point, "rays": rays})
 
     has_image: dict[str, bool] = {}
+
+    async def block_map(request):
+        return web.json_response(_locked(session, session.block_map))
 
     async def edits(request):
         try:
@@ -153,6 +161,7 @@ def make_app(session: ReviewSession, token: str, *, folders: list[Path] = (),
     app.router.add_get("/api/summary", summary)
     app.router.add_get("/api/observations", observations)
     app.router.add_get("/api/rays", rays)
+    app.router.add_get("/api/map", block_map)
     app.router.add_post("/api/edits", edits)
     app.router.add_get("/api/chip", chip)
     app.router.add_post("/api/save", do_save)

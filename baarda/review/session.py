@@ -69,6 +69,7 @@ class ReviewSession:
         self.saved = 0  # edits written by the last save
         self.lock = threading.RLock()
         self.state = adjusted(block, config, [])
+        self._rows: tuple = (None, [])
         self._key = _geometry_key([])
 
     # ------------------------------------------------------------ what the page shows
@@ -90,50 +91,52 @@ class ReviewSession:
             "k_w": float(q.k_w), "rejected": int((~act).sum()),
             "significant": sum(r["verdict"] == "reject" for r in rows),
             "suspect": sum(r["verdict"] == "suspect" for r in rows),
-            "inseparable": sum(r["partner"] is not None for r in rows),
+            "inseparable": sum(r["rho_partner"] is not None for r in rows),
             "edits": len(self.edits), "seconds": round(self.state.seconds, 3),
         }
 
     def rows(self) -> list[dict]:
         """Every observation component: kind, photo, point, component, w, mdb (µm for image,
         m for control), redundancy, rho_max, rho_partner, verdict (rejected: taken out by
-        the operator; reject: |w| above critical; suspect: r < 0.001; accept)."""
+        the operator; reject: |w| above critical; suspect: r < 0.001; accept); computed once
+        per state (do not change the dicts)."""
+        if self._rows[0] is self.state:
+            return self._rows[1]
         qc = self.state.qc
         m, q = qc.model, qc.quality
-        kind, comp = np.asarray(m.kind), np.asarray(m.component)
-        photo, point = np.asarray(m.frame), np.asarray(m.point)
-        scale = np.where(kind == "image", 1e3, 1.0)
-        w, r, mdb = np.asarray(q.w, float), np.asarray(q.redundancy_number, float), \
-            np.asarray(q.mdb, float) * scale
-        rho = np.full(len(w), np.nan) if q.rho_max is None else np.asarray(q.rho_max, float)
-        partner = np.full(len(w), -1) if q.rho_partner is None else np.asarray(q.rho_partner)
+        kind, comp = np.asarray(m.kind).astype(str), np.asarray(m.component).astype(str)
+        photo = [_s(v) for v in np.asarray(m.frame).tolist()]
+        point = [_s(v) for v in np.asarray(m.point).tolist()]
+        image = kind == "image"
+        w, r = np.asarray(q.w, float), np.asarray(q.redundancy_number, float)
+        mdb = np.asarray(q.mdb, float) * np.where(image, 1e3, 1.0)
+        n = len(w)
+        rho = np.full(n, np.nan) if q.rho_max is None else np.asarray(q.rho_max, float)
+        partner = np.full(n, -1) if q.rho_partner is None else np.asarray(q.rho_partner, int)
         act = np.asarray(q.active, bool)
-        out = []
-        for n in range(len(w)):
-            if not act[n]:
-                v = "rejected"
-            elif not r[n] >= 1e-3 or not math.isfinite(w[n]):
-                v = "suspect"
-            else:
-                v = "reject" if abs(w[n]) > q.k_w else "accept"
-            p = int(partner[n])
-            twin = None
-            if p >= 0 and math.isfinite(rho[n]) and rho[n] >= RHO_INSEPARABLE:
-                twin = {"kind": str(kind[p]), "photo": _s(photo[p]), "point": _s(point[p]),
-                        "component": str(comp[p])}
-            out.append({"kind": str(kind[n]), "photo": _s(photo[n]), "point": _s(point[n]),
-                        "component": str(comp[n]), "w": _f(w[n]), "mdb": _f(mdb[n]),
-                        "redundancy": _f(r[n]), "rho_max": _f(rho[n]),
-                        "rho_partner": twin, "partner": twin, "verdict": v,
-                        "unit": "µm" if kind[n] == "image" else "m"})
-        return out
+        tested = (r >= 1e-3) & np.isfinite(w)
+        verdict = np.where(~act, "rejected", np.where(~tested, "suspect", np.where(
+            np.abs(np.nan_to_num(w)) > q.k_w, "reject", "accept"))).tolist()
+        twin = [None] * n
+        for k in np.flatnonzero((partner >= 0) & (np.nan_to_num(rho) >= RHO_INSEPARABLE)):
+            p = int(partner[k])
+            twin[k] = {"kind": str(kind[p]), "photo": photo[p], "point": point[p],
+                       "component": str(comp[p])}
+        unit = np.where(image, "µm", "m").tolist()
+        rows = [{"kind": k, "photo": ph, "point": pt, "component": c, "w": wi, "mdb": mi,
+                 "redundancy": ri, "rho_max": rh, "rho_partner": tw, "verdict": v, "unit": u}
+                for k, ph, pt, c, wi, mi, ri, rh, tw, v, u in zip(
+                    kind.tolist(), photo, point, comp.tolist(), _list(w), _list(mdb),
+                    _list(r), _list(rho), twin, verdict, unit, strict=True)]
+        self._rows = (self.state, rows)
+        return rows
 
     def observations(self, status: str = "flagged") -> list[dict]:
         """The rows to look at, worst first (rejected by the operator, significant,
         suspect, inseparable; by |w|), or every row ('all')."""
         rows = self.rows()
         if status == "flagged":
-            rows = [r for r in rows if r["verdict"] != "accept" or r["partner"] is not None]
+            rows = [r for r in rows if r["verdict"] != "accept" or r["rho_partner"] is not None]
         order = {"rejected": 0, "reject": 1, "suspect": 3, "accept": 2}
         return sorted(rows, key=lambda r: (r["verdict"] == "suspect",
                                            -abs(r["w"]) if r["w"] is not None else 0.0,
@@ -161,6 +164,19 @@ class ReviewSession:
                 else None
             d["active_" + c] = bool(q.active[n])
         return list(by.values())
+
+    def block_map(self) -> dict:
+        """The block in plan (the adjusted frame, m): {photos: [[id, X0, Y0]], points:
+        [[id, X, Y]]} (points left out of the adjustment omitted)."""
+        res = self.state.qc.adjustment
+        blk = res.block
+        eo, xyz = np.asarray(res.eo), np.asarray(res.points_xyz())
+        photos = [[pid, float(e[0]), float(e[1])] for pid, e in zip(blk.photos.ids, eo,
+                                                                     strict=True)]
+        points = [[pid, float(p[0]), float(p[1])] for pid, p in zip(blk.points.ids, xyz,
+                                                                     strict=True)
+                  if np.isfinite(p[:2]).all()]
+        return {"photos": photos, "points": points}
 
     # ------------------------------------------------------------ edits
     def edit(self, body: dict) -> dict:
@@ -232,6 +248,11 @@ def _key(r: dict) -> tuple:
 
 def _s(v) -> str:
     return "" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v)
+
+
+def _list(a: np.ndarray) -> list:
+    """The values of a float array, None where not finite (JSON has no NaN)."""
+    return np.where(np.isfinite(a), a, None).tolist()
 
 
 def _f(v) -> float | None:

@@ -68,6 +68,10 @@ def test_the_operators_loop(browser, served):
     figs = page.locator("#chips figure")
     expect(page.locator("#chips figure svg")).to_have_count(6)
     assert figs.count() == 6  # the point's six rays; the demo has no images: frames
+    # the map: 32 projection centres, the six that see the point in blue, the point in red
+    assert page.locator("#map circle").count() == 33
+    assert page.locator('#map circle[fill="#2a5bd7"]').count() == 6
+    assert page.locator("#map circle.point").count() == 1
     assert page.locator("#chips figure.this figcaption").text_content().startswith(
         "photo 03008")
     assert page.locator("#selected").text_content().endswith("w -8.53, reject")

@@ -125,6 +125,7 @@ async function showChips(r) {
     rays = (await (await api("/api/rays?point=" + encodeURIComponent(r.point))).json()).rays;
   } catch (e) { say(e.message); return; }
   if (round !== state.chipRound) return;
+  drawMap(r.point, rays);
   for (const ray of rays) {
     if (round !== state.chipRound) return;
     const fig = el("figure", undefined, ray.photo === r.photo ? "this" : "");
@@ -181,6 +182,37 @@ function frame(ray) {
   add("line", { x1: x, y1: y, x2: x + (ray.vx || 0) * 1000, y2: y - (ray.vy || 0) * 1000,
     stroke: "#c00", "stroke-width": h / 100 });
   return s;
+}
+
+function drawMap(point, rays) {
+  // the projection centres in plan, the photos of the point highlighted, the point in red
+  const m = state.map, box = $("map");
+  box.replaceChildren();
+  if (!m || !m.photos.length) return;
+  const xs = m.photos.map((p) => p[1]), ys = m.photos.map((p) => p[2]);
+  let x0 = Math.min(...xs), x1 = Math.max(...xs), y0 = Math.min(...ys), y1 = Math.max(...ys);
+  const pad = Math.max(x1 - x0, y1 - y0, 1) * 0.05;
+  x0 -= pad; x1 += pad; y0 -= pad; y1 += pad;
+  const s = document.createElementNS(SVGNS, "svg");
+  s.setAttribute("viewBox", [x0, -y1, x1 - x0, y1 - y0].join(" "));
+  s.setAttribute("role", "img");
+  const r = Math.max(x1 - x0, y1 - y0) / 150;
+  const seen = new Set((rays || []).map((q) => q.photo));
+  const dot = (x, y, rad, fill) => {
+    const c = document.createElementNS(SVGNS, "circle");
+    for (const [k, v] of Object.entries({ cx: x, cy: -y, r: rad, fill })) c.setAttribute(k, String(v));
+    s.append(c);
+    return c;
+  };
+  for (const [id, x, y] of m.photos) {
+    const c = dot(x, y, seen.has(id) ? 1.6 * r : r, seen.has(id) ? "#2a5bd7" : "#999");
+    const t = document.createElementNS(SVGNS, "title");
+    t.textContent = "photo " + id;
+    c.append(t);
+  }
+  const p = point ? m.points.find((q) => q[0] === point) : null;
+  if (p) dot(p[1], p[2], 2 * r, "#d22").classList.add("point");
+  box.append(s);
 }
 
 function remeasureAt(ray, x, y) {
@@ -241,6 +273,8 @@ async function start() {
   try {
     showSummary(await (await api("/api/summary")).json());
     await loadRows();
+    state.map = await (await api("/api/map")).json();
+    drawMap(null, []);
     say("");
   } catch (e) { say(e.message); }
 }
