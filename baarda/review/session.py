@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 
 import numpy as np
@@ -33,22 +33,34 @@ class State:
     problem: object  # its BundleProblem (all components; `active` applied by reweighted)
     qc: object  # the Assessment
     seconds: float
+    provisional: bool = False  # rho_max, rho_partner, msb still those of the state before
 
 
 def adjusted(block: Block, config: Config, edits: list[Edit], start=None,
-             problem=None) -> State:
+             problem=None, separability: bool = True) -> State:
     """The Assessment of `block` with `edits` (what `baarda adjust --edits` writes):
     prepared as `baarda adjust` prepares it, the rejected components inactive.  start: the
     state to start from (a solution of the same problem, or None); problem: the prepared
-    problem of the same edited block, to reuse."""
+    problem of the same edited block, to reuse; separability: the w-test correlations
+    (rho_max, its partner, the MSB) too (False: left None, `with_separability` adds them)."""
+    from baarda.bundle.bundle_model import BundleModel
+    from baarda.bundle.bundle_quality import calibration_tests
     from baarda.pipeline import assess, prepare
+    from baarda.quality.assessment import Assessment
+    from baarda.quality.statistics import analyse
 
     t0 = time.perf_counter()
     block_e, rejected = edited(block, edits)
     if problem is None:
         problem = prepare(block_e, config=config)
     result = problem.reweighted(active_of(problem, rejected)).fit(start=start)
-    return State(block_e, problem, assess(result, config.tests), time.perf_counter() - t0)
+    if separability:
+        qc = assess(result, config.tests)
+    else:  # bundle_quality.assess without the w-test correlations
+        model = BundleModel(result)
+        qc = Assessment(result, model, analyse(model, config.tests, separability=False),
+                        hypotheses=calibration_tests(result, config.tests))
+    return State(block_e, problem, qc, time.perf_counter() - t0)
 
 
 def _geometry_key(edits: list[Edit]) -> tuple:
@@ -70,6 +82,7 @@ class ReviewSession:
         self.lock = threading.RLock()
         self.state = adjusted(block, config, [])
         self._rows: tuple = (None, [])
+        self._later: threading.Thread | None = None
         self._key = _geometry_key([])
 
     # ------------------------------------------------------------ what the page shows
@@ -93,6 +106,7 @@ class ReviewSession:
             "suspect": sum(r["verdict"] == "suspect" for r in rows),
             "inseparable": sum(r["rho_partner"] is not None for r in rows),
             "edits": len(self.edits), "seconds": round(self.state.seconds, 3),
+            "separability": "updating" if self.state.provisional else "current",
         }
 
     def rows(self) -> list[dict]:
@@ -196,15 +210,45 @@ class ReviewSession:
             edits = self.edits + [e]
             key = _geometry_key(edits)
             same = key == self._key
+            # a rejection or restoration: the same observation vector, the answer at once
+            # with the w-test correlations of the state before (provisional), those of
+            # this state computed in the background (`settle` waits for them)
             state = adjusted(self.block, self.config, edits,
                              start=self.state.qc.adjustment.state if same else None,
-                             problem=self.state.problem if same else None)
+                             problem=self.state.problem if same else None,
+                             separability=not same)
+            if same:
+                bare = state.qc.quality
+                prev = self.state.qc.quality
+                state = replace(state, qc=replace(state.qc, quality=replace(
+                    bare, rho_max=prev.rho_max, rho_partner=prev.rho_partner,
+                    msb=prev.msb)), provisional=True)
+                self._later = threading.Thread(target=self._separability,
+                                               args=(state, bare), daemon=True)
+                self._later.start()
             self.edits, self.state, self._key = edits, state, key
             rows = self.rows()
             changed = [{**{k: r[k] for k in ("kind", "photo", "point", "component", "w")},
                         "before": before.get(_key(r)), "after": r["verdict"]}
                        for r in rows if before.get(_key(r)) != r["verdict"]]
             return {"summary": self.summary(), "changed": changed}
+
+    def _separability(self, state: State, bare) -> None:
+        """The w-test correlations of `state` (its quality `bare`, without them), put in
+        place if it is still the state."""
+        from baarda.quality.statistics import with_separability
+
+        q = with_separability(state.qc.model, bare)
+        with self.lock:
+            if self.state is state:
+                self.state = replace(state, qc=replace(state.qc, quality=q),
+                                     provisional=False)
+
+    def settle(self, timeout: float | None = None) -> None:
+        """Wait until the state's w-test correlations are its own (not provisional)."""
+        t = self._later
+        if t is not None:
+            t.join(timeout)
 
     def _aside(self) -> set[str]:
         return {e.point for e in _effective_list(self.edits) if e.action == "aside"}

@@ -152,3 +152,20 @@ def test_edits_file_round_trip_and_errors(tmp_path):
                                       "remeasure,03008,007008,,1.0,abc,t\n")
     with pytest.raises(ValueError, match=r"bad.csv, line 2, column 'y'"):
         read_edits(tmp_path / "bad.csv")
+
+
+def test_separability_is_brought_up_to_date(demo_session, demo_read):
+    """A rejection answers with the w-test correlations of the block before (provisional);
+    those of the block after follow in the background and equal a fresh adjustment's."""
+    from baarda.review.session import adjusted
+
+    demo_session.edit({"action": "reject", "photo": "03008", "point": "007008",
+                       "component": "x"})
+    demo_session.settle(120)
+    assert demo_session.summary()["separability"] == "current"
+    fresh = adjusted(*demo_read, demo_session.edits).qc.quality
+    q = demo_session.state.qc.quality
+    np.testing.assert_allclose(q.rho_max, fresh.rho_max, rtol=0, atol=1e-9)
+    assert np.array_equal(q.rho_partner, fresh.rho_partner)
+    before = adjusted(*demo_read, []).qc.quality
+    assert np.nanmax(np.abs(before.rho_max - fresh.rho_max)) > 1e-3  # it did change
