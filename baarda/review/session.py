@@ -94,7 +94,7 @@ class ReviewSession:
             "statistic": float(g.statistic), "critical": float(g.critical),
             "alpha": float(g.alpha), "accepted": bool(g.passed)}
         act = np.asarray(q.active, bool)
-        rows = self.rows()
+        verdict, twins = _verdicts(q)
         return {
             "name": self.block.settings.name,
             "photos": len(self.block.photos.ids), "points": len(self.block.points.ids),
@@ -102,9 +102,9 @@ class ReviewSession:
             "redundancy": int(res.redundancy), "converged": bool(res.converged),
             "global_test": gt,
             "k_w": float(q.k_w), "rejected": int((~act).sum()),
-            "significant": sum(r["verdict"] == "reject" for r in rows),
-            "suspect": sum(r["verdict"] == "suspect" for r in rows),
-            "inseparable": sum(r["rho_partner"] is not None for r in rows),
+            "significant": int((verdict == "reject").sum()),
+            "suspect": int((verdict == "suspect").sum()),
+            "inseparable": int(twins.sum()),
             "edits": len(self.edits), "seconds": round(self.state.seconds, 3),
             "separability": "updating" if self.state.provisional else "current",
         }
@@ -127,12 +127,10 @@ class ReviewSession:
         n = len(w)
         rho = np.full(n, np.nan) if q.rho_max is None else np.asarray(q.rho_max, float)
         partner = np.full(n, -1) if q.rho_partner is None else np.asarray(q.rho_partner, int)
-        act = np.asarray(q.active, bool)
-        tested = (r >= 1e-3) & np.isfinite(w)
-        verdict = np.where(~act, "rejected", np.where(~tested, "suspect", np.where(
-            np.abs(np.nan_to_num(w)) > q.k_w, "reject", "accept"))).tolist()
+        verdict, twins = _verdicts(q)
+        verdict = verdict.tolist()
         twin = [None] * n
-        for k in np.flatnonzero((partner >= 0) & (np.nan_to_num(rho) >= RHO_INSEPARABLE)):
+        for k in np.flatnonzero(twins):
             p = int(partner[k])
             twin[k] = {"kind": str(kind[p]), "photo": photo[p], "point": point[p],
                        "component": str(comp[p])}
@@ -206,7 +204,7 @@ class ReviewSession:
                 check(self.block, e)
             if e.action == "aside" and e.point in self._aside():
                 raise ValueError(f"point {e.point} is set aside already")
-            before = {_key(r): r["verdict"] for r in self.rows()}
+            old = self.state
             edits = self.edits + [e]
             key = _geometry_key(edits)
             same = key == self._key
@@ -227,11 +225,7 @@ class ReviewSession:
                                                args=(state, bare), daemon=True)
                 self._later.start()
             self.edits, self.state, self._key = edits, state, key
-            rows = self.rows()
-            changed = [{**{k: r[k] for k in ("kind", "photo", "point", "component", "w")},
-                        "before": before.get(_key(r)), "after": r["verdict"]}
-                       for r in rows if before.get(_key(r)) != r["verdict"]]
-            return {"summary": self.summary(), "changed": changed}
+            return {"summary": self.summary(), "changed": _changed(old, state, same)}
 
     def _separability(self, state: State, bare) -> None:
         """The w-test correlations of `state` (its quality `bare`, without them), put in
@@ -260,6 +254,55 @@ def _effective_list(edits):
     return effective(edits)
 
 
+def _verdicts(q) -> tuple[np.ndarray, np.ndarray]:
+    """(the verdict of every component: rejected, suspect, reject or accept; whether it has
+    a partner it cannot be told from, |rho| >= RHO_INSEPARABLE)."""
+    w, r = np.asarray(q.w, float), np.asarray(q.redundancy_number, float)
+    act = np.asarray(q.active, bool)
+    tested = (r >= 1e-3) & np.isfinite(w)
+    verdict = np.where(~act, "rejected", np.where(~tested, "suspect", np.where(
+        np.abs(np.nan_to_num(w)) > q.k_w, "reject", "accept")))
+    if q.rho_max is None:
+        return verdict, np.zeros(len(w), bool)
+    twins = (np.asarray(q.rho_partner) >= 0) & \
+        (np.nan_to_num(np.asarray(q.rho_max, float)) >= RHO_INSEPARABLE)
+    return verdict, twins
+
+
+def _labels(qc) -> list[tuple]:
+    m = qc.model
+    return list(zip(np.asarray(m.kind).astype(str).tolist(),
+                    [_s(v) for v in np.asarray(m.frame).tolist()],
+                    [_s(v) for v in np.asarray(m.point).tolist()],
+                    np.asarray(m.component).astype(str).tolist(), strict=True))
+
+
+def _changed(old: State, new: State, same: bool) -> list[dict]:
+    """The components whose verdict differs between two states: [{kind, photo, point,
+    component, w, before, after}] (same: the same observation vector, compared by index)."""
+    v_old, _ = _verdicts(old.qc.quality)
+    v_new, _ = _verdicts(new.qc.quality)
+    w = np.asarray(new.qc.quality.w, float)
+    new_labels = None
+    if same:
+        at = np.flatnonzero(v_old != v_new)
+        before = v_old[at].tolist()
+    else:
+        new_labels = _labels(new.qc)
+        was = dict(zip(_labels(old.qc), v_old.tolist(), strict=True))
+        before = [was.get(k) for k in new_labels]
+        at = np.flatnonzero([b != v for b, v in zip(before, v_new.tolist(), strict=True)])
+        before = [before[k] for k in at]
+    m = new.qc.model
+    out = []
+    for k, b in zip(at.tolist(), before, strict=True):
+        lab = new_labels[k] if new_labels is not None else (
+            str(m.kind[k]), _s(m.frame[k]), _s(m.point[k]), str(m.component[k]))
+        out.append({"kind": lab[0], "photo": lab[1], "point": lab[2], "component": lab[3],
+                    "w": _f(w[k]), "before": b, "after": str(v_new[k])})
+    return out
+
+
 def _edit_of(body) -> Edit:
     """An Edit from a request's JSON object (ValueError: malformed)."""
     if not isinstance(body, dict):
@@ -284,10 +327,6 @@ def _edit_of(body) -> Edit:
             raise ValueError(f"'{f}' must be a number (mm)")
     now = datetime.now(UTC).isoformat(timespec="seconds")
     return Edit(action, texts["photo"], texts["point"], texts["component"], *xy, now)
-
-
-def _key(r: dict) -> tuple:
-    return (r["kind"], r["photo"], r["point"], r["component"])
 
 
 def _s(v) -> str:
