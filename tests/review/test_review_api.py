@@ -1,6 +1,7 @@
 """baarda review's JSON API on the demo: the acceptance of issue 39 and its security."""
 
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -169,3 +170,17 @@ def test_separability_is_brought_up_to_date(demo_session, demo_read):
     assert np.array_equal(q.rho_partner, fresh.rho_partner)
     before = adjusted(*demo_read, []).qc.quality
     assert np.nanmax(np.abs(before.rho_max - fresh.rho_max)) > 1e-3  # it did change
+
+
+def test_adjust_edits_bad_input(tmp_path, capsys):
+    demo = str(Path(__file__).resolve().parents[2] / "examples" / "demo")
+    bad = tmp_path / "edits.csv"
+    bad.write_text("action,photo,point,component,x,y,time\nreject,03008,nope,x,,,t\n")
+    assert main(["adjust", demo, "--edits", str(bad), "-o", str(tmp_path / "o1")]) == 2
+    assert "point nope on photo 03008: not in the block" in capsys.readouterr().err
+    good = tmp_path / "good.csv"
+    write_edits(good, [Edit("reject", *FIRST, time="t")])
+    assert main(["adjust", demo, "--edits", str(good), "--snoop", "-o",
+                 str(tmp_path / "o2")]) == 2
+    assert "--edits and --snoop" in capsys.readouterr().err
+    assert not (tmp_path / "o1").exists() and not (tmp_path / "o2").exists()
