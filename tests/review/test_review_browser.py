@@ -4,6 +4,7 @@ summary, an id holding markup stays text, the layout holds at 1400 and 390 px.""
 
 import shutil
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 from review_serving import Served
@@ -107,3 +108,41 @@ def test_layout_holds(browser, served, width):
         assert bb["x"] >= 0 and bb["x"] + bb["width"] <= width
     assert problems == []
     page.close()
+
+
+MAUPERTUIS = Path("/work/shared/data/colmap_maupertuis")
+
+
+@pytest.mark.skipif(not (MAUPERTUIS / "images").is_dir(), reason="the shared COLMAP "
+                    "Maupertuis data set with its images is not on this machine")
+def test_chips_and_remeasure_by_click(browser):
+    from baarda.pipeline import read_configured
+    from baarda.review.chips import image_folders
+
+    session = ReviewSession(*read_configured(MAUPERTUIS))
+    s = Served(session, folders=image_folders(MAUPERTUIS / "sparse"), pixel_mm=0.001)
+    try:
+        page, problems = open_page(browser, s, 1400)
+        first = page.locator("#obs tbody tr").nth(0)
+        photo, point = (first.locator("td").nth(k).text_content() for k in (1, 2))
+        first.click()
+        rays = session.rays(point)
+        expect(page.locator("#chips figure img")).to_have_count(len(rays))
+        img = page.locator("#chips figure.this img")
+        page.wait_for_function("() => document.querySelector('#chips figure.this img')"
+                               ".naturalWidth > 0")
+        status, _, hdr = s.request(f"/api/chip?photo={photo}&point={point}")
+        cx, cy = map(float, hdr["X-Chip-Centre"].split(","))
+        k = img.bounding_box()["width"] / 384
+        img.click(position={"x": (cx + 40) * k, "y": (cy - 20) * k})  # 10 px right, 5 up
+        ray = next(r for r in rays if r["photo"] == photo)
+        x, y = float(page.input_value("#r-x")), float(page.input_value("#r-y"))
+        assert x == pytest.approx(ray["x"] + 10 * 0.001, abs=0.0004)
+        assert y == pytest.approx(ray["y"] + 5 * 0.001, abs=0.0004)
+        page.click("#b-remeasure")
+        expect(page.locator('#summary div[data-key="edits"] dd')).to_have_text("1")
+        assert session.edits[0].action == "remeasure" and session.edits[0].x == x
+        assert problems == []
+        page.close()
+    finally:
+        s.close()
