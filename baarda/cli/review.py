@@ -19,7 +19,9 @@ def register(sub) -> None:
     p = sub.add_parser("review", help="review a block in the browser: the suspicious "
                        "observations, their image chips, reject / restore / re-measure / set "
                        "aside, each answered by the test at once")
-    p.add_argument("input", type=Path, help=formats_help() + " (docs/formats.md)")
+    p.add_argument("input", type=Path, help=formats_help() + " (docs/formats.md), or a "
+                   "result folder of review or adjust: its input with its edits.csv, saved "
+                   "back into it unless -o")
     p.add_argument("-o", "--out", type=Path, help="output folder written by Save (and at the "
                    "end): edits.csv and the result folder of `baarda adjust INPUT --edits "
                    "OUT/edits.csv`")
@@ -36,12 +38,19 @@ def register(sub) -> None:
 
 
 def run_review(args) -> int:
-    from baarda.review.app import OutputLock, bind, saver, serve
+    from baarda.review.app import OutputLock, bind, resumed, saver, serve
     from baarda.review.chips import image_folders
     from baarda.review.server import new_token
     from baarda.review.session import ReviewSession
 
     con = console(args)
+    earlier = resumed(args.input) if args.input.is_dir() else None
+    edits = []
+    if earlier is not None:  # a result folder: its input, its edits; saved back into it
+        if args.out is None:
+            args.out = args.input
+        args.input, edits = earlier
+        con.note(f"reviewing {args.input} with the {len(edits)} edit(s) of {args.out}")
     if not 0 <= args.port <= 65535:
         raise ProjectError("command line", "--port: 0 .. 65535", None, "--port")
     if args.images is not None and not args.images.is_dir():
@@ -55,7 +64,7 @@ def run_review(args) -> int:
         block, config = read_configured_input(args)
         announce_compile(args, len(block.photos))
         try:
-            session = ReviewSession(block, config)
+            session = ReviewSession(block, config, edits)
         except ValueError as e:
             if type(e) is not ValueError:
                 raise

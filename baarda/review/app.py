@@ -70,6 +70,32 @@ def saver(session: ReviewSession, block: Block, config: Config, out: Path, input
     return save
 
 
+def resumed(folder: Path) -> tuple[Path, list] | None:
+    """A result folder given as INPUT: (the input it was adjusted from, as its summary.json
+    names it, and its edits.csv's edits, [] without one); None for a folder that is not a
+    result folder.  ProjectError when the input it names is not found from here."""
+    import json
+
+    from baarda.review.edits import read_edits
+
+    folder = Path(folder)
+    if not ((folder / "summary.json").is_file() and (folder / "run.json").is_file()):
+        return None
+    try:
+        src = json.loads((folder / "summary.json").read_text(encoding="utf-8"))["input"]["path"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ProjectError(str(folder / "summary.json"), "a result folder without the path "
+                           "of its input: give the input instead") from None
+    path = Path(src)
+    if not path.is_absolute() and not path.exists():
+        path = folder.parent / src
+    if not path.exists():
+        raise ProjectError(str(folder / "summary.json"), f"its input {src} is not found "
+                           "from here: give the input instead")
+    edits = read_edits(folder / "edits.csv") if (folder / "edits.csv").is_file() else []
+    return path, edits
+
+
 def bind(host: str, port: int) -> socket.socket:
     """A listening socket on host:port (0: any free port); OutputError when it cannot."""
     family = socket.AF_INET6 if ":" in host else socket.AF_INET

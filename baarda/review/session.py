@@ -75,15 +75,16 @@ class ReviewSession:
     """The block under review: `summary()`, `observations()`, `edit()`; thread-safe (one
     edit at a time)."""
 
-    def __init__(self, block: Block, config: Config):
+    def __init__(self, block: Block, config: Config, edits: list[Edit] = ()):
+        """edits: those made before (a result folder's edits.csv), applied at once."""
         self.block, self.config = block, config
-        self.edits: list[Edit] = []
-        self.saved = 0  # edits written by the last save
+        self.edits: list[Edit] = list(edits)
+        self.saved = len(self.edits)  # edits written by the last save
         self.lock = threading.RLock()
-        self.state = adjusted(block, config, [])
+        self.state = adjusted(block, config, self.edits)
         self._rows: tuple = (None, [])
         self._later: threading.Thread | None = None
-        self._key = _geometry_key([])
+        self._key = _geometry_key(self.edits)
 
     # ------------------------------------------------------------ what the page shows
     def summary(self) -> dict:

@@ -10,8 +10,9 @@ from review_serving import Served
 
 from baarda.cli import main
 from baarda.pipeline import prepare, snoop
-from baarda.review.app import OutputLock, saver
+from baarda.review.app import OutputLock, resumed, saver
 from baarda.review.edits import Edit, read_edits, write_edits
+from baarda.review.session import ReviewSession
 
 FIRST = ("03008", "007008", "x")  # the demo's largest |w| (-8.53), snooping's first rejection
 
@@ -68,6 +69,12 @@ def test_reject_reaches_snoopings_first_step_then_adjust_edits_agrees(served, de
     pd.testing.assert_frame_equal(a, b)
     assert (tmp_path / "adj" / "observations.csv").read_bytes() == \
         (out / "observations.csv").read_bytes()
+    # the saved folder as INPUT: its input and its edits (baarda review OUT resumes)
+    src, again = resumed(out)
+    assert src.resolve() == Path(block.source).resolve() and again == edits
+    resumed_session = ReviewSession(block, config, again)
+    assert resumed_session.summary()["sigma0"] == pytest.approx(after_first, abs=1e-8)
+    assert resumed(tmp_path) is None
 
 
 def test_undo_restore_remeasure_aside(served, demo_session):
