@@ -103,6 +103,9 @@ def check(block: Block, e: Edit) -> None:
         if e.point not in block.point_index:
             raise UnknownId(f"point {e.point}: not in the block")
         return
+    if not e.photo:
+        raise ValueError(f"{e.action} edits an image point: give its photo and point (control "
+                         "and GNSS observations are edited in the project's files)")
     image_row(block, e.photo, e.point)
     if e.action in ("reject", "restore") and e.component not in ("x", "y"):
         raise ValueError(f"component {e.component!r}: x or y")

@@ -131,6 +131,7 @@ def test_bad_requests_are_answered_and_the_server_goes_on(served):
            (b'{"action": "reject", "photo": 3, "point": "007008", "component": "x"}', 422),
            (b'{"action": "reject", "photo": "03008", "point": "nope", "component": "x"}',
             404),
+           (b'{"action": "reject", "point": "001003", "component": "X"}', 422),
            (b'{"action": "undo"}', 422)]
     for raw, code in bad:
         status, body, _ = served.request("/api/edits", raw=raw)
