@@ -189,7 +189,9 @@ function drawMap(point, rays) {
   const m = state.map, box = $("map");
   box.replaceChildren();
   if (!m || !m.photos.length) return;
-  const xs = m.photos.map((p) => p[1]), ys = m.photos.map((p) => p[2]);
+  const p = point ? m.points.find((q) => q[0] === point) : null;
+  const xs = m.photos.map((q) => q[1]).concat(p ? [p[1]] : []);
+  const ys = m.photos.map((q) => q[2]).concat(p ? [p[2]] : []);
   let x0 = Math.min(...xs), x1 = Math.max(...xs), y0 = Math.min(...ys), y1 = Math.max(...ys);
   const pad = Math.max(x1 - x0, y1 - y0, 1) * 0.05;
   x0 -= pad; x1 += pad; y0 -= pad; y1 += pad;
@@ -210,7 +212,6 @@ function drawMap(point, rays) {
     t.textContent = "photo " + id;
     c.append(t);
   }
-  const p = point ? m.points.find((q) => q[0] === point) : null;
   if (p) dot(p[1], p[2], 2 * r, "#d22").classList.add("point");
   box.append(s);
 }
