@@ -26,6 +26,7 @@ FLOORS = [
     {"evaluation"},
     {"output"},
     {"report"},
+    {"review"},
     {"cli"},
     {"__init__", "__main__"},
 ]

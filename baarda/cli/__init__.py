@@ -59,6 +59,9 @@ COMMANDS = {
     "check": ("baarda.cli.check", "check a result folder's invariants: sum of r = "
               "redundancy, sigma0 from every used observation, the global test, every RMS "
               "line"),
+    "review": ("baarda.cli.review", "review a block in the browser: the suspicious "
+               "observations, their image chips, reject / restore / re-measure / set aside, "
+               "each answered by the test at once"),
     "screen": ("baarda.cli.screen", "pre-adjustment screening: photo pairs, strip formation, "
                "control; writes a cleaned project and the screening log"),
 }

@@ -62,6 +62,9 @@ def register(sub) -> None:
     p = sub.add_parser("adjust", help="bundle block adjustment with observation statistics")
     _common(p)
     p.add_argument("--snoop", action="store_true", help="iterative data snooping")
+    p.add_argument("--edits", type=Path, metavar="FILE", help="apply an operator's edits "
+                   "before adjusting (edits.csv of baarda review: rejections, restorations, "
+                   "re-measurements, points set aside; docs/review.md)")
     p.add_argument("--screen", action="store_true", help="screen the data first (photo "
                    "pairs, strip formation, control; see baarda screen); with --snoop, what "
                    "the snooping rejects is removed with the observations it cannot be told "
@@ -77,7 +80,8 @@ def register(sub) -> None:
 
 def run_adjust(args) -> int:
     con = console(args)
-    with open_run(args, input_paths(args)) as run:
+    edits = getattr(args, "edits", None)
+    with open_run(args, input_paths(args) + ([edits] if edits else [])) as run:
         qc, text = _adjust(args, run)
     con.print(text)
     con.print(f"results written to {run.describe()}")
@@ -122,6 +126,8 @@ def _adjust(args, run):
     from baarda.output.bundle_results import write_results
 
     statistic = "tau" if args.tau else "w"
+    if getattr(args, "edits", None) is not None:
+        return _edited(args, run, block, config)
     if getattr(args, "screen", False):
         from baarda.cli.screen import options
         from baarda.output.screening_log import write_screening_log
@@ -152,6 +158,31 @@ def _adjust(args, run):
     write_results(run, qc, **_format(args))
     _gpkg(args, run, qc)
     return qc, qc.summary()
+
+
+def _edited(args, run, block, config):
+    """--edits FILE: the block with the operator's edits, adjusted and assessed as `baarda
+    review` does (review/session.adjusted), the edits copied into the folder."""
+    from baarda.errors import GeometryError, ProjectError
+    from baarda.output.bundle_results import write_results
+    from baarda.review.edits import read_edits, write_edits
+    from baarda.review.session import adjusted
+
+    used = [o for o in ("snoop", "screen", "vce", "robust") if getattr(args, o, False)]
+    if used:
+        raise ProjectError("command line", f"--edits and --{used[0]}: the edits are the "
+                           "operator's rejections (baarda review); give one or the other")
+    edits = read_edits(args.edits)
+    try:
+        state = adjusted(block, config, edits)
+    except GeometryError:
+        raise
+    except ValueError as e:
+        raise ProjectError(str(args.edits), str(e)) from None
+    write_results(run, state.qc, **_format(args))
+    write_edits(run.file("edits.csv"), edits)
+    _gpkg(args, run, state.qc)
+    return state.qc, state.qc.summary()
 
 
 def _format(args) -> dict:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.stats import binom
+from scipy.special import bdtrc  # the binomial survival function (scipy.stats' binom.sf)
 
 from baarda.kinds import GNSS
 
@@ -240,7 +240,7 @@ def _rejections(summary: dict) -> Row:
         return Row("rejections", INFO, "Rejections", f"{n} rejected", "log")
     tested = int(m) + n
     expect = float(alpha0) * tested
-    p = float(binom.sf(n - 1, tested, float(alpha0))) if n else 1.0
+    p = float(bdtrc(n - 1, tested, float(alpha0))) if n else 1.0
     text = (f"{n} observation component(s) rejected; alpha0 x n = {alpha0:g} x {tested}"
             f" = {expect:.2g} false alarms expected" + (
                 f", P(at least {n} false alarms) = {p:.2g}" if n else ""))
@@ -347,7 +347,7 @@ def _suspicious(summary: dict, kind: str, label: str, section: str,
     alpha0 = summary.get("alpha0")
     if n_tested and alpha0 is not None:
         n = max(n_tested, len(rej))
-        p = float(binom.sf(len(rej) - 1, n, float(alpha0)))
+        p = float(bdtrc(len(rej) - 1, n, float(alpha0)))
         text += f"; P(at least {len(rej)} false alarms among {n} components) = {p:.2g}"
         if p >= REJECTIONS_P:
             return Row(kind, PASS, label, text + ": as many as chance alone gives (the "

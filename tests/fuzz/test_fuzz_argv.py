@@ -121,7 +121,9 @@ def commands() -> dict[str, argparse.ArgumentParser]:
     return dict(sub.choices)
 
 
-COMMANDS = commands()
+# `review` serves until Ctrl-C (and opens a browser): its command line is tested as a
+# process in tests/review/test_review_cli.py, not drawn here
+COMMANDS = {name: p for name, p in commands().items() if name != "review"}
 # positional inputs of each command (the first value drawn is the usual one)
 POSITIONAL = {"adjust": "project", "snoop": "project", "screen": "project",
               "convert": "project", "modified-snoop": "project", "models": "models",

@@ -1,0 +1,1 @@
+"""`baarda review`: the operator's loop in the browser (docs/review.md)."""
