@@ -384,16 +384,26 @@ def test_check_of_a_result_that_did_not_converge_says_so(tmp_path):
 
     res = read_results(adjust(tmp_path, "examples/demo"))
     obs = res.obs.copy()
-    obs.loc[obs.index[0], "redundancy"] += 0.45  # as the last iterate of a diverged block
+    # as the last iterate of a diverged block: one row's r off by 0.45, its sigma_v, w and
+    # MDB consistent with it (the row relations hold, the sum does not)
+    i = obs.index[(obs["redundancy"] < 0.5) & ~obs["rejected"].astype(bool)
+                  & obs["w"].notna()][0]
+    r = obs.loc[i, "redundancy"] + 0.45
+    sv = obs.loc[i, "sigma"] * np.sqrt(r)
+    obs.loc[i, ["redundancy", "sigma_residual", "w", "mdb"]] = [
+        r, sv, -obs.loc[i, "residual"] / sv,
+        res.summary["delta0"] * obs.loc[i, "sigma"] / np.sqrt(r)]
     bad = [f for f in check_results(replace(res, obs=obs)) if not f.ok]
-    assert [f.name for f in bad] == ["sum of the redundancy numbers = redundancy"]
+    assert {f.name for f in bad} == {"sum of the redundancy numbers = redundancy"}
     summary = {**res.summary, "converged": False,
                "adjustments": {k: {**v, "converged": False}
                                for k, v in res.summary["adjustments"].items()}}
     findings = check_results(replace(res, obs=obs, summary=summary))
     said = [f for f in findings if f.verdict == "not converged"]
-    assert len(said) == 1 and said[0].recomputed == pytest.approx(summary["redundancy"] + 0.45)
-    assert said[0].line().strip().startswith("not converged  the adjustment did not converge")
+    assert said and all(f.recomputed == pytest.approx(summary["redundancy"] + 0.45)
+                        for f in said)  # the adjustment's and summary.json's top level
+    assert all(f.line().strip().startswith("not converged  ") and
+               "the adjustment did not converge" in f.line() for f in said)
     assert all(f.ok for f in findings)
     assert {"sigma0 = sqrt(vTPv / redundancy)", "global test statistic = sigma0^2",
             "redundancy = observations - unknowns"} <= {f.name for f in findings}
