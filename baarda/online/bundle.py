@@ -791,10 +791,6 @@ class OnlineBundle:
         sv, w, mdb, _ = w_tests(f.v0, f.sigma, qvv, r, self._bm.delta0)
         return w, r, f.v0, sv, mdb
 
-    def _mdb(self, sigma, r) -> np.ndarray:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(r >= 1e-3, self._bm.delta0 * sigma / np.sqrt(r), np.inf)
-
     def _changes(self, keys, w, r, mdb) -> list[Change]:
         out = []
         new = verdicts(np.asarray(w, float), np.asarray(r, float), self._bm.k_w)

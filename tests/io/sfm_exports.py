@@ -48,17 +48,23 @@ def export_bundler(model: str | Path, folder: Path) -> Path:
         out.append(" ".join(str(int(v)) for v in p.color))
         views = []
         for e in p.track.elements:
-            im = r.images[e.image_id]
-            cam = r.cameras[im.camera_id]
-            x, y = im.points2D[e.point2D_idx].xy
-            views.append(f"{index[e.image_id]} {e.point2D_idx} "
-                         f"{float(x - cam.principal_point_x)!r} "
-                         f"{float(cam.principal_point_y - y)!r}")
+            views.append(_view(r, index, e, y_up=True))
         out.append(f"{len(views)} " + " ".join(views))
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "bundle.out").write_text("\n".join(out) + "\n")
     (folder / "list.txt").write_text("\n".join(names) + "\n")
     return folder / "bundle.out"
+
+
+def _view(r, index: dict, e, y_up: bool) -> str:
+    """'camera key x y' of a track element, x and y from the principal point (y up: Bundler;
+    y down: NVM)."""
+    im = r.images[e.image_id]
+    cam = r.cameras[im.camera_id]
+    x, y = im.points2D[e.point2D_idx].xy
+    dy = cam.principal_point_y - y if y_up else y - cam.principal_point_y
+    return (f"{index[e.image_id]} {e.point2D_idx} {float(x - cam.principal_point_x)!r} "
+            f"{float(dy)!r}")
 
 
 def export_nvm(model: str | Path, path: Path) -> Path:
@@ -90,12 +96,7 @@ def export_nvm(model: str | Path, path: Path) -> Path:
             if lowest.get(e.image_id) != e.point2D_idx:
                 continue
             del lowest[e.image_id]
-            im = r.images[e.image_id]
-            cam = r.cameras[im.camera_id]
-            x, y = im.points2D[e.point2D_idx].xy
-            views.append(f"{index[e.image_id]} {e.point2D_idx} "
-                         f"{float(x - cam.principal_point_x)!r} "
-                         f"{float(y - cam.principal_point_y)!r}")
+            views.append(_view(r, index, e, y_up=False))
         out.append(" ".join(repr(float(v)) for v in p.xyz) + " " +
                    " ".join(str(int(v)) for v in p.color) + f" {len(views)} " + " ".join(views))
     out += ["", "0", ""]
