@@ -54,7 +54,8 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          encoding: str = ENCODING, camera_model: str | None = None,
          calibrate=None, camera: str | Path | None = None,
          calibration_group: str | None = None, check_gcp=None,
-         control: str | Path | None = None, model: int | None = None) -> Block:
+         control: str | Path | None = None, model: int | None = None,
+         tie_points: str | Path | None = None) -> Block:
     """Read any supported input (io/formats.py) into a Block, configured as asked.
 
     crs: the CRS of the ground coordinates (overrides project.toml); sigma_image_um or
@@ -74,8 +75,9 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     control points to use as check points (with_check_points), e.g. an OpenSfM dataset's
     GCPs; control: a control file (DBAT's text format or a native ground_points.csv,
     io/control_file.py) whose points replace the input's control, matched by id
-    (block/control.py); model: of a file with several (NVM, 0-based; default the first).
-    The settings are resolved once (io/configuration.py: the rule of
+    (block/control.py); model: of a file with several (NVM, 0-based; default the first);
+    tie_points: a Bundler file of the same chunk joining a Metashape cameras XML's markers
+    (io/metashape_cameras.py).  The settings are resolved once (io/configuration.py: the rule of
     each); `read_configured` returns the configuration too.
     """
     requested = Requested(crs=crs, pixel_mm=pixel_mm, sigma_px=sigma_px,
@@ -84,14 +86,16 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
                           calibrate=tuple(calibrate) if isinstance(calibrate, list)
                           else calibrate, calibration_group=calibration_group)
     return read_configured(path, fmt, requested, encoding=encoding, camera=camera,
-                           check_gcp=check_gcp, control=control, model=model)[0]
+                           check_gcp=check_gcp, control=control, model=model,
+                           tie_points=tie_points)[0]
 
 
 def read_configured(path: str | Path, fmt: str | None = None,
                     requested: Requested | None = None, *, encoding: str = ENCODING,
                     camera: str | Path | None = None, check_gcp=None,
                     control: str | Path | None = None,
-                    model: int | None = None) -> tuple[Block, Config]:
+                    model: int | None = None,
+                    tie_points: str | Path | None = None) -> tuple[Block, Config]:
     """(the block, the run's configuration): the input read (io/formats.py), its control
     replaced (`control`) or turned into check points (`check_gcp`: see `read`), and what
     the command line or the API asks for (`requested`) merged once with the input's
@@ -105,7 +109,7 @@ def read_configured(path: str | Path, fmt: str | None = None,
     fmt = fmt or detect(path)
     block = read_any(path, fmt, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px,
                      sigma_image_um=r.sigma_image_um, encoding=encoding, camera=camera,
-                     crs=r.crs, model=model)
+                     crs=r.crs, model=model, tie_points=tie_points)
     if control is not None:
         from baarda.block.control import with_control
         from baarda.io.control_file import read_control_file

@@ -24,14 +24,16 @@ def register(sub) -> None:
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
                    help="what to write: a native project (default), bundler (bundle.out, "
-                   "list.txt) or nvm (model.nvm); a result folder of baarda adjust as INPUT "
+                   "list.txt), nvm (model.nvm) or metashape (cameras.xml with bundle.out and list.txt "
+                   "for the tie points); a result folder of baarda adjust as INPUT "
                    "gives its adjusted block, without the rejected observations (listed in "
                    "rejected.csv)")
     add_input_options(p)
     p.set_defaults(func=run_convert)
 
 
-TARGETS = ("project", "bundler", "nvm")
+TARGETS = ("project", "bundler", "nvm", "metashape")
+WRITERS = {"bundler": "sfm_files", "nvm": "sfm_files", "metashape": "metashape_files"}
 
 
 def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
@@ -40,10 +42,11 @@ def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
     if to == "project":
         write_project(block, folder)
         return []
-    from baarda.output import sfm_files
+    import importlib
 
+    writers = importlib.import_module(f"baarda.output.{WRITERS[to]}")
     try:
-        return getattr(sfm_files, f"write_{to}")(block, folder)
+        return getattr(writers, f"write_{to}")(block, folder)
     except ValueError as e:
         raise ProjectError(str(block.source or to), f"cannot be written as {to}: {e}") from None
 

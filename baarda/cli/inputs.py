@@ -55,6 +55,9 @@ def add_input_options(p) -> None:
     p.add_argument("--camera", metavar="FILE", help="a DBAT camera file (e.g. DBAT's "
                    "calibration result) replacing a DBAT script's camera; with --calibrate "
                    "none it is held fixed. Default: the script's camera")
+    p.add_argument("--tie-points", metavar="FILE", help="a Bundler file (bundle.out) of the "
+                   "same chunk joining a Metashape cameras XML's markers with its tie points. "
+                   "Default: a bundle.out beside the XML, if there is one")
     p.add_argument("--control", metavar="FILE", help="control points replacing the input's "
                    "own (matched by id): DBAT's text format 'id[, name], X, Y, Z[, sigmas]' "
                    "(no sigma: fixed) or a native ground_points.csv. Default: the input's")
@@ -81,10 +84,12 @@ def read_configured_input(args) -> tuple[Block, Config]:
     return read_configured(args.input, args.format, requested_settings(args),
                            encoding=args.encoding, camera=args.camera,
                            check_gcp=args.check_gcp, control=args.control,
-                           model=getattr(args, "model", None))
+                           model=getattr(args, "model", None),
+                           tie_points=getattr(args, "tie_points", None))
 
 
 def input_paths(args) -> list[Path]:
     """The files a command reads (its input, --camera, --control): checked against the
     output folder, never written over."""
-    return [Path(p) for p in (args.input, args.camera, args.control) if p is not None]
+    return [Path(p) for p in (args.input, args.camera, args.control,
+                              getattr(args, "tie_points", None)) if p is not None]

@@ -14,6 +14,8 @@ list the formats and the errors that name them are generated from the registry.
 | .bz2 / text whose first line is three counts | BAL | io/bal.py |
 | file (or folder's bundle.out) starting "# Bundle file v" | Bundler | io/bundler.py |
 | file starting NVM_V3 | VisualSFM NVM | io/nvm.py |
+| .psz zip with doc.xml, .psx | Metashape / PhotoScan project | io/metashape_project.py |
+| .xml with <document> and <chunk> | Metashape cameras XML | io/metashape_cameras.py |
 
 A new reader is one module with `detect(path) -> bool` and `read(path, request) -> Block`
 (`request`: a `ReadRequest`) and one `FormatSpec` line in REGISTRY (or `register`); the
@@ -60,6 +62,7 @@ class ReadRequest:
     camera: Path | None = None
     crs: str | None = None
     model: int | None = None  # the model of a file with several (NVM; None: the first)
+    tie_points: Path | None = None  # a Bundler file joining a Metashape cameras XML
 
 
 Detect = Callable[[Path], bool]
@@ -73,7 +76,7 @@ class FormatSpec:
     policy (PIXEL_POLICIES), `detect` and `read` ("module:function" imported on demand, or
     the functions themselves), `writer` ("module:function" of the writer in baarda/output,
     None: baarda does not write it), `camera_file`: it takes --camera, `models`: a file may
-    hold several models (--model K picks one)."""
+    hold several models (--model K picks one), `tie_points`: it takes --tie-points."""
 
     name: str
     title: str
@@ -85,6 +88,7 @@ class FormatSpec:
     writer: str | None = None
     camera_file: bool = False
     models: bool = False
+    tie_points: bool = False
 
     def __post_init__(self) -> None:
         if self.path not in PATH_KINDS or self.pixels not in PIXEL_POLICIES:
@@ -139,6 +143,13 @@ REGISTRY: list[FormatSpec] = [
     FormatSpec("nvm", "VisualSFM NVM", "a VisualSFM NVM_V3 .nvm file", "file", "nominal",
                "baarda.io.nvm:detect", "baarda.io.nvm:read", "baarda.output.sfm_files:write_nvm",
                models=True),
+    FormatSpec("metashape", "Agisoft Metashape", "a Metashape / PhotoScan project (.psz, "
+               ".psx)", "file", "header", "baarda.io.metashape_project:detect",
+               "baarda.io.metashape_project:read"),
+    FormatSpec("metashape-xml", "Metashape cameras XML", "a Metashape cameras XML (File > "
+               "Export > Cameras)", "file", "header", "baarda.io.metashape_cameras:detect",
+               "baarda.io.metashape_cameras:read", "baarda.output.metashape_files:"
+               "write_metashape", tie_points=True),
 ]
 
 FORMATS = tuple(s.name for s in REGISTRY)  # the built-in formats (format_names: all)
@@ -224,7 +235,8 @@ def _check_kind(p: Path, s: FormatSpec) -> None:
 def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None = None,
              sigma_px: float | None = None, sigma_image_um: float | None = None,
              encoding: str = ENCODING, camera: str | Path | None = None,
-             crs: str | None = None, model: int | None = None) -> Block:
+             crs: str | None = None, model: int | None = None,
+             tie_points: str | Path | None = None) -> Block:
     """Read any registered input into a Block.
 
     pixel_mm, sigma_px, sigma_image_um: pixel size [mm] and image sigma [px] or [µm],
@@ -234,7 +246,8 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
     its own); camera: a DBAT camera file (a calibration result) replacing a DBAT script's
     camera; crs: the project CRS of an OpenSfM dataset (its topocentric frame is placed in
     it; other formats take the CRS in pipeline.read); model: of a file with several (NVM,
-    0-based; None: the first).  The cameras are as the files give
+    0-based; None: the first); tie_points: a Bundler file of the chunk of a Metashape
+    cameras XML (default: a bundle.out beside it, if any).  The cameras are as the files give
     them: pipeline.read applies the calibration group (settings.calibration_group).
     """
     from baarda.io.image_sigma import check_image_sigmas, resolve_image_options, with_image_sigma
@@ -256,8 +269,12 @@ def read_any(path: str | Path, fmt: str | None = None, *, pixel_mm: float | None
         takes = " or ".join(r.title for r in REGISTRY if r.models)
         raise ProjectError(str(p), f"--model picks a model of a {takes} file; this is "
                            f"{s.name} input (one model)")
+    if tie_points is not None and not s.tie_points:
+        raise ProjectError(str(tie_points), "--tie-points joins the tie points of a Bundler "
+                           f"file to a Metashape cameras XML; {p.name} is {s.name} input")
     opts = resolve_image_options(s.name, pixel_mm, sigma_px, sigma_image_um)
     block = s.reads(p, ReadRequest(opts.pixel_mm, opts.sigma_px, encoding,
-                                   None if camera is None else Path(camera), crs, model))
+                                   None if camera is None else Path(camera), crs, model,
+                                   None if tie_points is None else Path(tie_points)))
     check_image_sigmas(block)
     return block if opts.sigma_um is None else with_image_sigma(block, opts.sigma_um)

@@ -62,7 +62,14 @@ def parse_xml(path: str | Path) -> Node:
     if size > MAX_BYTES:
         raise ProjectError(str(path), f"{size} bytes: larger than an XML project "
                            f"description can be ({MAX_BYTES} bytes)")
-    data = file_bytes(p)
+    return parse_xml_bytes(file_bytes(p), str(path))
+
+
+def parse_xml_bytes(data: bytes, path: str) -> Node:
+    """Parse XML `data` (named `path` in errors, e.g. "project.psz!doc.xml") into Nodes."""
+    if len(data) > MAX_BYTES:
+        raise ProjectError(path, f"{len(data)} bytes: larger than an XML project "
+                           f"description can be ({MAX_BYTES} bytes)")
     parser = expat.ParserCreate()
     parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
     stack: list[Node] = []
