@@ -24,8 +24,8 @@ def register(sub) -> None:
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
                    help="what to write: a native project (default), bundler (bundle.out, "
-                   "list.txt), nvm (model.nvm) or metashape (cameras.xml with bundle.out and list.txt "
-                   "for the tie points); a result folder of baarda adjust as INPUT "
+                   "list.txt), nvm (model.nvm) or metashape (cameras.xml with bundle.out "
+                   "and list.txt for the tie points); a result folder of baarda adjust as INPUT "
                    "gives its adjusted block, without the rejected observations (listed in "
                    "rejected.csv)")
     add_input_options(p)

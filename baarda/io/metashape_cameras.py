@@ -83,8 +83,9 @@ def _bundler_ties(path: Path, ch, all_cams: list[str], all_labels: list[str]) ->
         else:
             k = int(name) if name.isdigit() and int(name) < len(all_cams) else -1
         if k < 0:
+            more = ", ..." if len(all_labels) > 5 else ""
             raise ProjectError(src, f"image {name} is not a camera of the chunk (its labels: "
-                               f"{', '.join(all_labels[:5])}{', ...' if len(all_labels) > 5 else ''})")
+                               f"{', '.join(all_labels[:5])}{more})")
         ids.append(all_cams[k])
     # the frame of the Bundler file: the chunk frame or the CRS (by the camera centres)
     index = {c: i for i, c in enumerate(ch.camera_ids)}

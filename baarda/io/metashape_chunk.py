@@ -248,12 +248,12 @@ def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float, 
                            "in Metashape's arbitrary internal frame, not a reference system; "
                            "reference the chunk (markers or camera positions) and optimise "
                            "before exporting", chunk.line, "transform")
-    rot = numbers(t.find("rotation"), where, 9, "rotation").reshape(3, 3)  # type: ignore[arg-type]
-    check_rotation(rot, where, t.find("rotation"), "the chunk's <rotation>")  # type: ignore[arg-type]
-    tr = numbers(t.find("translation"), where, 3, "translation") \
-        if t.find("translation") is not None else np.zeros(3)
-    sc = float(numbers(t.find("scale"), where, 1, "scale")[0]) \
-        if t.find("scale") is not None else 1.0
+    rn, tn, sn = t.find("rotation"), t.find("translation"), t.find("scale")
+    assert rn is not None
+    rot = numbers(rn, where, 9, "rotation").reshape(3, 3)
+    check_rotation(rot, where, rn, "the chunk's <rotation>")
+    tr = numbers(tn, where, 3, "translation") if tn is not None else np.zeros(3)
+    sc = float(numbers(sn, where, 1, "scale")[0]) if sn is not None else 1.0
     if not sc > 0:
         raise ProjectError(where, f"<scale> {sc:g}: positive expected", t.line, "scale")
     return rot, tr, sc, t

@@ -41,8 +41,15 @@ class _Place:
     by a path relative to it; `name` shows where in errors ("a.psz!0/chunk.zip!doc.xml")."""
 
     def __init__(self, name: str, folder: Path | None = None,
-                 archive: zipfile.ZipFile | None = None, prefix: str = "") -> None:
+                 archive: zipfile.ZipFile | None = None, prefix: str = "",
+                 beside: _Place | None = None) -> None:
         self.name, self.folder, self.archive, self.prefix = name, folder, archive, prefix
+        self.beside = beside  # where a path not in the archive is: the archive's folder
+
+    def has(self, rel: str) -> bool:
+        if self.archive is None:
+            return ((self.folder or Path(".")) / rel).is_file()
+        return self._key(rel) in self.archive.NameToInfo
 
     def _key(self, rel: str) -> str:
         parts: list[str] = []
@@ -57,6 +64,8 @@ class _Place:
         return "/".join(parts)
 
     def where(self, rel: str) -> str:
+        if self.beside is not None and not self.has(rel):
+            return self.beside.where(rel)
         return f"{self.name}!{self._key(rel)}" if self.archive is not None else \
             str((self.folder or Path(".")) / rel)
 
@@ -68,6 +77,8 @@ class _Place:
             except OSError as e:
                 raise ProjectError(by, f"{what} '{rel}' cannot be read ({e.strerror or e}; "
                                    f"expected at {p})", line) from None
+        if self.beside is not None and not self.has(rel):
+            return self.beside.read(rel, what, by, line)
         key = self._key(rel)
         try:
             info = self.archive.getinfo(key)
@@ -86,15 +97,21 @@ class _Place:
         """The place of a file named by a path attribute: inside a zip for ``*.zip`` (then
         its doc.xml is read), else the same place with the file's folder; and the file
         name to read there."""
+        d, _, f = rel.replace("\\", "/").rpartition("/")
         if rel.lower().endswith(".zip"):
             data = self.read(rel, "the archive", by, line)
-            return _Place(self.where(rel), archive=_zip(data, self.where(rel))), "doc.xml"
-        d, _, f = rel.replace("\\", "/").rpartition("/")
+            return _Place(self.where(rel), archive=_zip(data, self.where(rel)),
+                          beside=self.at(d)), "doc.xml"
+        return self.at(d), f
+
+    def at(self, d: str) -> _Place:
+        """This place moved into its folder `d`."""
+        if not d:
+            return self
         if self.archive is None:
-            return _Place(self.name, folder=(self.folder or Path(".")) / d if d else
-                          self.folder), f
-        return _Place(self.name, archive=self.archive,
-                      prefix=self._key(d) + "/" if d else self.prefix), f
+            return _Place(self.name, folder=(self.folder or Path(".")) / d)
+        return _Place(self.name, archive=self.archive, prefix=self._key(d) + "/",
+                      beside=self.beside.at(d) if self.beside is not None else None)
 
 
 def _zip(data: bytes | Path, name: str) -> zipfile.ZipFile:
