@@ -32,6 +32,16 @@ pytestmark = [pytest.mark.slow,
               pytest.mark.skipif(not SHARED.is_dir(),
                                  reason=f"the shared data sets are not found at {SHARED}")]
 
+# data sets kept in the repository (tests/data) rather than in ../shared/data
+TESTS_DATA = Path(__file__).resolve().parents[1] / "data"
+LOCAL = {"metashape_sxb": TESTS_DATA / "metashape_sxb",
+         "metashape_cameras_spec": TESTS_DATA / "metashape_cameras_spec"}
+
+
+def source(dataset: str) -> Path:
+    return LOCAL.get(dataset, SHARED / dataset)
+
+
 # data set folder -> the inputs read from it (relative paths; "." the folder itself)
 INPUTS = {
     "aicon_jaicov_closerange": ["."],
@@ -42,6 +52,8 @@ INPUTS = {
                                "photomodeler_export/camcal-pmexport.txt"],
     "dbat_sxb_aerial": ["dbat_script/sxb.xml",
                         "photomodeler_export/wsmart-no-orient-pmexport.txt"],
+    "metashape_cameras_spec": ["cameras.xml"],
+    "metashape_sxb": ["sxb.psz"],
     "micmac_ign_ultracam_aerial": ["."],
     "opensfm_berlin": ["."],
 }
@@ -146,7 +158,7 @@ def check_truncations(dataset: str, tmp: Path) -> list[str]:
     """The cuts of the data set's files that were read as a block different from the
     intact input's, or refused without naming the cut file."""
     folder = tmp / dataset
-    _mirror(SHARED / dataset, folder)
+    _mirror(source(dataset), folder)
     files = sorted(p for p in folder.rglob("*") if p.is_file())
     unseen = UNSEEN_AT_LINE_END.get(dataset, ())
     wrong = []
@@ -187,8 +199,8 @@ def check_truncations(dataset: str, tmp: Path) -> list[str]:
 
 @pytest.mark.parametrize("dataset", sorted(INPUTS))
 def test_a_cut_file_is_refused_or_does_not_matter(dataset, tmp_path):
-    if not (SHARED / dataset).is_dir():
-        pytest.skip(f"{SHARED / dataset} not found")
+    if not source(dataset).is_dir():
+        pytest.skip(f"{source(dataset)} not found")
     wrong = check_truncations(dataset, tmp_path)
     assert not wrong, "\n".join(wrong)
 
