@@ -33,6 +33,7 @@ def register(sub) -> None:
 
 
 TARGETS = ("project", "bundler", "nvm", "metashape")
+HOLDS_CONTROL = ("metashape",)  # formats whose control keeps its given coordinates
 WRITERS = {"bundler": "sfm_files", "nvm": "sfm_files", "metashape": "metashape_files"}
 
 
@@ -58,7 +59,8 @@ def run_convert(args) -> int:
     with open_run(args, input_paths(args)) as run:
         if is_result_folder(args.input):
             fmt = "result folder"
-            block, rejected = read_result_block(args.input)
+            block, rejected = read_result_block(args.input,
+                                                given_control=args.to in HOLDS_CONTROL)
         else:
             fmt = args.format or detect(args.input)
             block = with_approximations(read_input(args))

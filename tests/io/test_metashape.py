@@ -347,3 +347,42 @@ def test_bad_input_is_exit_2_naming_file_and_element(tmp_path, capsys):
             out], capsys, "bundle.out")
     _exit2(["convert", str(PSZ), "--tie-points", str(tmp_path / "sxb" / "bundle.out"), "-o",
             out], capsys, "--tie-points")
+
+
+@pytest.mark.slow
+def test_metashape_xml_with_markers_and_bundler_adjusts(tmp_path):
+    """A Metashape XML with control and check markers plus its Bundler file adjusts; the
+    markers are control and check points with their given accuracies; the result folder
+    written back as Metashape and re-adjusted gives the same sigma0 (1e-6)."""
+    import pandas as pd
+
+    from dataclasses import replace
+
+    a = baarda.read(PSZ)
+    role = a.points.role.copy()
+    sigma = a.points.sigma.copy()
+    for pid in ("305", "511"):
+        k = a.point_index[pid]
+        role[k], sigma[k] = "check", np.nan
+    a = replace(a, points=replace(a.points, role=role, sigma=sigma))
+    write_metashape(a, tmp_path / "xml")
+    out = tmp_path / "adj"
+    assert main(["adjust", str(tmp_path / "xml" / "cameras.xml"), "-o", str(out), "-q"]) == 0
+    pts = pd.read_csv(out / "points.csv", dtype={"point": str})
+    assert sorted(pts.point[pts.role == "check"]) == ["305", "511"]
+    assert (pts.role == "control").sum() == 14
+    obs = pd.read_csv(out / "observations.csv", dtype={"point": str})
+    ctrl = obs[obs.kind == "control"]
+    assert len(ctrl) == 42
+    assert np.allclose(ctrl.sigma[ctrl.component != "Z"], 0.02)
+    assert np.allclose(ctrl.sigma[ctrl.component == "Z"], 0.04)
+    s = summary(out)
+    assert s["n_check_points"] == 2 and s["redundancy"] == 4604 - 6
+    # the result folder goes back out as Metashape and re-adjusts to the same sigma0
+    assert main(["convert", str(out), "--to", "metashape", "-o", str(tmp_path / "back"),
+                 "-q"]) == 0
+    assert main(["adjust", str(tmp_path / "back" / "cameras.xml"), "-o",
+                 str(tmp_path / "again"), "-q"]) == 0
+    again = summary(tmp_path / "again")
+    assert again["redundancy"] == s["redundancy"]
+    assert again["sigma0"] == pytest.approx(s["sigma0"], rel=1e-6)
