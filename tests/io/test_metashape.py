@@ -354,9 +354,9 @@ def test_metashape_xml_with_markers_and_bundler_adjusts(tmp_path):
     """A Metashape XML with control and check markers plus its Bundler file adjusts; the
     markers are control and check points with their given accuracies; the result folder
     written back as Metashape and re-adjusted gives the same sigma0 (1e-6)."""
-    import pandas as pd
-
     from dataclasses import replace
+
+    import pandas as pd
 
     a = baarda.read(PSZ)
     role = a.points.role.copy()
@@ -386,3 +386,34 @@ def test_metashape_xml_with_markers_and_bundler_adjusts(tmp_path):
     again = summary(tmp_path / "again")
     assert again["redundancy"] == s["redundancy"]
     assert again["sigma0"] == pytest.approx(s["sigma0"], rel=1e-6)
+
+
+def test_ply_tables():
+    from baarda.io.ply import read_ply
+
+    head = b"ply\nformat %s 1.0\nelement vertex 2\nproperty float x\nproperty int id\nend_header\n"
+    rows = np.array([(1.5, 7), (-2.25, 9)], dtype=[("x", "<f4"), ("id", "<i4")])
+    t = read_ply(head % b"binary_little_endian" + rows.tobytes(), "a.ply")
+    assert t["x"].tolist() == [1.5, -2.25] and t["id"].tolist() == [7, 9]
+    big = rows.astype([("x", ">f4"), ("id", ">i4")])
+    assert read_ply(head % b"binary_big_endian" + big.tobytes(), "b.ply")["id"].tolist() == [7, 9]
+    assert read_ply(head % b"ascii" + b"1.5 7\n-2.25 9\n", "c.ply")["x"].tolist() == [1.5, -2.25]
+    with pytest.raises(ProjectError, match="c.ply: the file ends early: 2 rows"):
+        read_ply(head % b"ascii" + b"1.5 7\n", "c.ply")
+    with pytest.raises(ProjectError, match="a.ply: the file ends early: 2 rows of 8 bytes"):
+        read_ply(head % b"binary_little_endian" + rows.tobytes()[:12], "a.ply")
+    with pytest.raises(ProjectError, match="not a PLY file"):
+        read_ply(b"PK\x03\x04", "d.ply")
+
+
+def test_chunk_rotation_and_dropped_terms(tmp_path, capsys):
+    x = spec_xml(tmp_path / "a")
+    text = x.read_text()
+    rot = re.search(r"<rotation locked=\"false\">([^<]*)</rotation>", text).group(1)  # type: ignore[union-attr]
+    x.write_text(text.replace(rot, " ".join(["1"] * 9)))
+    _exit2(["convert", str(x), "-o", str(tmp_path / "o")], capsys, str(x),
+           "the chunk's <rotation> is not a rotation", "column 'rotation'")
+    y = spec_xml(tmp_path / "b")
+    y.write_text(y.read_text().replace("<k3>", "<k4>0.002</k4><b2>0.5</b2><k3>", 1))
+    b = read_any(y)
+    assert any("k4 = 0.002, b2 = 0.5 not held" in n for n in b.notes)
