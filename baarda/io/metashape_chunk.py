@@ -304,6 +304,13 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
         poses.append(m)
     if skipped:
         notes.append(f"{skipped} camera(s) disabled or not aligned (no <transform>) left out")
+    refs = [c.find("reference") for c in _cameras(chunk)]
+    gnss = sum(1 for r in refs if r is not None and _flag(r, "enabled", False))
+    bars = chunk.find("scalebars")
+    if gnss or (bars is not None and bars.children):
+        notes.append("not read: " + ", ".join(
+            w for w in ([f"{gnss} camera reference position(s) (GNSS)"] if gnss else [])
+            + (["scale bars"] if bars is not None and bars.children else [])))
     if not ids:
         raise ProjectError(where, "no enabled and aligned camera (a <camera> with a "
                            "<transform>) in the chunk", chunk.line, "cameras")

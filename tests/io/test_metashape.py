@@ -414,6 +414,9 @@ def test_chunk_rotation_and_dropped_terms(tmp_path, capsys):
     _exit2(["convert", str(x), "-o", str(tmp_path / "o")], capsys, str(x),
            "the chunk's <rotation> is not a rotation", "column 'rotation'")
     y = spec_xml(tmp_path / "b")
-    y.write_text(y.read_text().replace("<k3>", "<k4>0.002</k4><b2>0.5</b2><k3>", 1))
+    y.write_text(y.read_text().replace("<k3>", "<k4>0.002</k4><b2>0.5</b2><k3>", 1).replace(
+        '<camera id="1" sensor_id="0" label="IMG_0001.JPG">', '<camera id="1" sensor_id="0" '
+        'label="IMG_0001.JPG"><reference x="1" y="2" z="3" enabled="true"/>'))
     b = read_any(y)
     assert any("k4 = 0.002, b2 = 0.5 not held" in n for n in b.notes)
+    assert "not read: 1 camera reference position(s) (GNSS)" in b.notes
