@@ -51,6 +51,8 @@ DEFAULT_TIE_PX = 1.0  # Metashape's default tie point accuracy [px]
 DEFAULT_PROJECTION_PX = 0.5  # Metashape's default marker projection accuracy [px]
 DEFAULT_MARKER_M = 0.005  # Metashape's default marker accuracy [m]
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".tif", ".tiff", ".png", ".dng", ".raw", ".bmp")
+CALIBRATION_TERMS = ("f", "fx", "fy", "cx", "cy", "b1", "b2", "skew", "k1", "k2", "k3", "k4",
+                     "p1", "p2", "p3", "p4")
 BROWN_FORWARD = ("k1", "k2", "k3", "p1", "p2", "a")
 
 
@@ -175,8 +177,8 @@ def read_sensor(s: Node, where: str, pixel_mm: float | None) -> Sensor:
     else:
         val = {}
         for c in cal.children:
-            if c.tag in ("resolution",) or not c.text.strip():
-                continue
+            if c.tag not in CALIBRATION_TERMS or not c.text.strip():
+                continue  # resolution, date, ...
             try:
                 val[c.tag] = float(c.text)
             except ValueError:
@@ -238,10 +240,13 @@ def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float, 
     t = chunk.find("transform")
     if t is None:
         comps = chunk.find("components")
-        for comp in (comps.findall("component") if comps is not None else []):
-            if comp.find("transform") is not None:
-                t = comp.find("transform")
-                break
+        found = [c for c in (comps.findall("component") if comps is not None else [])
+                 if c.find("transform") is not None]
+        if len(found) > 1:
+            raise ProjectError(where, f"{len(found)} components with their own <transform>: "
+                               "only a chunk of one component is read (merge them, or "
+                               "export each)", found[1].line, "component")
+        t = found[0].find("transform") if found else None
     if t is None or t.find("rotation") is None:
         raise ProjectError(where, f"chunk '{chunk.attrib.get('label', '')}' has no "
                            "<transform> (rotation, translation, scale): its coordinates are "
@@ -328,10 +333,11 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
         enabled = False
         if ref is not None and all(k in ref.attrib for k in "xyz"):
             xyz = np.array([attr_number(ref, k, where) for k in "xyz"])
-            sxy = attr_number(ref, "sxy", where, default_sigma)
+            sxyz = attr_number(ref, "sxyz", where, default_sigma)
+            sxy = attr_number(ref, "sxy", where, sxyz)
             sig = np.array([attr_number(ref, "sx", where, sxy), attr_number(ref, "sy", where,
                                                                             sxy),
-                            attr_number(ref, "sz", where, default_sigma)])
+                            attr_number(ref, "sz", where, sxyz)])
             enabled = _flag(ref, "enabled")
         mids.append(mid)
         mlabels.append(m.attrib.get("label", mid))

@@ -133,7 +133,8 @@ def spec_xml(folder: Path, *, transform=True, bad_rotation=False, unknown_camera
              '        <property name="layer_index" value="0"/>',
              '        <calibration type="frame" class="initial">',
              f'          <resolution width="{s["w"]}" height="{s["h"]}"/>',
-             '          <f>4000</f>', '        </calibration>',
+             '          <f>4000</f>', '          <date>2024-05-01T10:00:00Z</date>',
+             '        </calibration>',
              '        <calibration type="frame" class="adjusted">',
              f'          <resolution width="{s["w"]}" height="{s["h"]}"/>']
     lines += [f"          <{k}>{s[k]!r}</{k}>" for k in ("f", "cx", "cy", "b1", "k1", "k2",
@@ -420,3 +421,28 @@ def test_chunk_rotation_and_dropped_terms(tmp_path, capsys):
     b = read_any(y)
     assert any("k4 = 0.002, b2 = 0.5 not held" in n for n in b.notes)
     assert "not read: 1 camera reference position(s) (GNSS)" in b.notes
+
+
+def test_component_transform_and_sxyz(tmp_path):
+    """Metashape 1.6+ keeps the transform in <components>; accuracies as sxyz."""
+    x = spec_xml(tmp_path / "a")
+    a = read_any(x)
+    text = x.read_text()
+    t0 = text.index("\n    <transform>\n") + 1
+    t1 = text.index("    </transform>\n", t0) + len("    </transform>\n")
+    moved = text[:t0] + text[t1:]
+    moved = moved.replace("    <cameras ", '    <components next_id="1" active_id="0">\n'
+                          '      <component id="0" label="Component 1">\n' + text[t0:t1]
+                          + "      </component>\n    </components>\n    <cameras ", 1)
+    moved = moved.replace('sxy="0.02" sz="0.05"', 'sxyz="0.03"')
+    y = tmp_path / "b" / "cameras.xml"
+    y.parent.mkdir()
+    y.write_text(moved)
+    b = read_any(y)
+    assert np.array_equal(a.photos.eo, b.photos.eo)
+    assert b.points.sigma[0] == pytest.approx([0.03, 0.03, 0.03])
+    two = moved.replace("    </components>", '      <component id="1">' + text[t0:t1]
+                        + "      </component>\n    </components>")
+    y.write_text(two)
+    with pytest.raises(ProjectError, match="2 components with their own <transform>"):
+        read_any(y)
