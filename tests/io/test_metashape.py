@@ -446,3 +446,27 @@ def test_component_transform_and_sxyz(tmp_path):
     y.write_text(two)
     with pytest.raises(ProjectError, match="2 components with their own <transform>"):
         read_any(y)
+
+
+def test_bundler_ties_in_the_chunk_frame(tmp_path):
+    """A Bundler file in the chunk's own frame (not the reference system) joins as well:
+    its camera centres tell which frame it is in."""
+    a = baarda.read(PSZ)
+    write_metashape(a, tmp_path)
+    text = (tmp_path / "cameras.xml").read_text()
+    centre = np.array([float(v) for v in re.search(r"<translation>([^<]*)</translation>",
+                                                   text).group(1).split()])  # type: ignore[union-attr]
+    lines = (tmp_path / "bundle.out").read_text().splitlines()
+    nc, npt = (int(v) for v in lines[1].split())
+    for k in range(nc):
+        r = np.array([[float(v) for v in lines[3 + 5 * k + i].split()] for i in range(3)])
+        t = np.array([float(v) for v in lines[6 + 5 * k].split()])
+        lines[6 + 5 * k] = " ".join(repr(float(v)) for v in t + r @ centre)
+    for j in range(npt):
+        i = 2 + 5 * nc + 3 * j
+        lines[i] = " ".join(repr(float(v)) for v in
+                            np.array([float(v) for v in lines[i].split()]) - centre)
+    (tmp_path / "bundle.out").write_text("\n".join(lines) + "\n")
+    b = baarda.read(tmp_path / "cameras.xml")
+    assert np.allclose(b.points.xyz, a.points.xyz, rtol=0, atol=1e-8)
+    assert len(b.image) == len(a.image)
