@@ -209,30 +209,24 @@ def read_sensor(s: Node, where: str, pixel_mm: float | None) -> Sensor:
                   kind)
 
 
-def _cameras(chunk: Node) -> list[Node]:
-    cams = chunk.find("cameras")
-    if cams is None:
-        return []
-    out = []
-    for c in cams.children:
-        if c.tag == "camera":
+def _members(chunk: Node, holder: str, tag: str) -> list[Node]:
+    """The `tag` elements of the chunk's `holder`, also those inside its <group>s."""
+    h = chunk.find(holder)
+    out: list[Node] = []
+    for c in (h.children if h is not None else []):
+        if c.tag == tag:
             out.append(c)
         elif c.tag == "group":
-            out.extend(c.findall("camera"))
+            out.extend(c.findall(tag))
     return out
+
+
+def _cameras(chunk: Node) -> list[Node]:
+    return _members(chunk, "cameras", "camera")
 
 
 def _markers(chunk: Node) -> list[Node]:
-    ms = chunk.find("markers")
-    if ms is None:
-        return []
-    out = []
-    for c in ms.children:
-        if c.tag == "marker":
-            out.append(c)
-        elif c.tag == "group":
-            out.extend(c.findall("marker"))
-    return out
+    return _members(chunk, "markers", "marker")
 
 
 def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float, Node]:
