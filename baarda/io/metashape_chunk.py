@@ -94,6 +94,7 @@ class Chunk:
     crs: str | None
     accuracy: dict[str, float]
     notes: list[str] = field(default_factory=list)
+    unpinned: int = 0  # marker projections with pinned="false"
 
 
 def numbers(node: Node, where: str, n: int, what: str) -> np.ndarray:
@@ -340,6 +341,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
         men.append(enabled)
     known = set(mids)
     projections = []
+    unpinned = 0
     for holder in (frame, chunk) if frame is not chunk else (chunk,):
         ms = holder.find("markers") if holder is not None else None
         for m in (ms.findall("marker") if ms is not None else []):
@@ -350,13 +352,14 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
                 raise ProjectError(where, f"projections of marker {mid}, which the chunk's "
                                    "<markers> do not define", m.line, "marker_id")
             for loc in m.findall("location"):
+                unpinned += not _flag(loc, "pinned")
                 projections.append((mid, loc.attrib.get("camera_id", ""),
                                     attr_number(loc, "x", where), attr_number(loc, "y", where),
                                     loc.line))
     return Chunk(where, chunk.attrib.get("label", ""), sensors, ids, labels, sensor_of,
                  np.array(poses), mids, mlabels, np.array(mxyz).reshape(-1, 3),
                  np.array(msig).reshape(-1, 3), np.array(men, bool), projections,  # type: ignore[arg-type]
-                 rot, tr, sc, _crs(chunk), acc, notes)
+                 rot, tr, sc, _crs(chunk), acc, notes, unpinned)
 
 
 def _is_float(v: str) -> bool:
@@ -437,6 +440,9 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
         rows.append((index[cid], mindex[mid], u, v))
     if out_of:
         notes.append(f"{out_of} marker projection(s) on cameras left out not used")
+    if ch.unpinned:
+        notes.append(f"{ch.unpinned} marker projection(s) not pinned (placed by Metashape, "
+                     "not confirmed on the image): used as measured")
     mp = np.array(rows, float).reshape(-1, 4)
     seen = np.bincount(mp[:, 1].astype(int), minlength=len(ch.marker_ids))
     keep_m = seen > 0

@@ -309,7 +309,17 @@ def test_psx_nested_layout_reads_the_same_block(tmp_path):
     assert np.array_equal(a.photos.eo, b.photos.eo)
     assert np.array_equal(a.image.xy_mm, b.image.xy_mm)
     assert a.points.ids == b.points.ids
-    (tmp_path / "sxb.files" / "0" / "0" / "frame.zip").unlink()
+    # Metashape 1.4's .psz: the .files folder zipped, project.zip's doc.xml as its doc.xml
+    files = tmp_path / "sxb.files"
+    nested = tmp_path / "nested.psz"
+    with zipfile.ZipFile(nested, "w") as z:
+        z.writestr("doc.xml", zipfile.ZipFile(files / "project.zip").read("doc.xml"))
+        for f in files.rglob("*.zip"):
+            if f.name != "project.zip":
+                z.write(f, f.relative_to(files).as_posix())
+    c = baarda.read(nested)
+    assert np.array_equal(a.image.xy_mm, c.image.xy_mm) and a.points.ids == c.points.ids
+    (files / "0" / "0" / "frame.zip").unlink()
     with pytest.raises(ProjectError, match="frame"):
         baarda.read(psx)
 
@@ -421,6 +431,9 @@ def test_chunk_rotation_and_dropped_terms(tmp_path, capsys):
     b = read_any(y)
     assert any("k4 = 0.002, b2 = 0.5 not held" in n for n in b.notes)
     assert "not read: 1 camera reference position(s) (GNSS)" in b.notes
+    z = spec_xml(tmp_path / "c")
+    z.write_text(z.read_text().replace('pinned="true"', 'pinned="false"', 3))
+    assert any(n.startswith("3 marker projection(s) not pinned") for n in read_any(z).notes)
 
 
 def test_component_transform_and_sxyz(tmp_path):
