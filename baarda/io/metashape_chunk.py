@@ -27,7 +27,11 @@ XML of File > Export > Cameras) into a Block: the conventions both readers share
   origin at the image's upper-left corner, y down) have the sigma ``accuracy_projections``
   [px], tie points ``accuracy_tiepoints`` [px] (``--sigma-px`` replaces both).
 * the CRS: the chunk's ``<reference>`` WKT: its last ``AUTHORITY["EPSG", n]`` is
-  Settings.crs ("EPSG:n"); a ``LOCAL_CS`` or none: no CRS.
+  Settings.crs ("EPSG:n"); a ``LOCAL_CS`` or none: no CRS, and the transform maps to the
+  references' coordinates.  With a CRS the transform maps to earth-centred coordinates on
+  the CRS's ellipsoid (Metashape's `chunk.crs.project(chunk.transform.matrix.mulp(x))`):
+  the block is in the east-north-up LocalFrame (block/crs.py) at the markers' mean, the
+  markers' references converted into it.
 
 Image coordinates x = (u - w/2) p, y = (h/2 - v) p [mm].  Camera reference positions (GNSS)
 and scale bars are not read (noted).
@@ -414,6 +418,10 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
     flip = np.diag([1.0, -1.0, -1.0])
     r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ flip
     x0 = ch.translation + ch.scale * ch.camera_pose[:, :3, 3] @ ch.rotation.T
+    frame = _geocentric_frame(ch)
+    if frame is not None:  # the transform gives earth-centred coordinates: into the frame
+        r_cam = frame.rot @ r_cam
+        x0 = (x0 - frame.origin_ecef) @ frame.rot.T
     names = [Path(s).stem if Path(s).suffix.lower() in IMAGE_SUFFIXES else s
              for s in ch.camera_labels]
     if len(set(names)) < len(names):
@@ -454,7 +462,7 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
     role = np.where(has_ref & ch.marker_enabled, "control",
                     np.where(has_ref, "check", "tie")).astype(object)
     pt_ids = [str(s) for s in np.array(ch.marker_labels, dtype=object)[keep_m]]
-    xyz = ch.marker_xyz[keep_m]
+    xyz = ch.marker_xyz[keep_m] if frame is None else frame.to_local(ch.marker_xyz[keep_m])
     sig = np.where((role == "control")[:, None], ch.marker_sigma, np.nan)[keep_m]
     roles = role[keep_m]
     photo = mp[:, 0].astype(np.int64)
@@ -467,6 +475,8 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
             raise ProjectError(ties.source, "tie point ids repeat marker labels: "
                                + ", ".join(sorted(set(ties.ids) & set(pt_ids))[:5]))
         txyz = ties.xyz if ties.in_crs else ch.translation + ch.scale * ties.xyz @ ch.rotation.T
+        if frame is not None:
+            txyz = (txyz - frame.origin_ecef) @ frame.rot.T
         tcam = np.array([index.get(c, -1) for c in ties.camera], np.int64)
         bad = [c for c in ties.camera if c not in every]
         if bad:
@@ -506,4 +516,24 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
     if n_ctrl:
         settings.sigma_control_m = tuple(float(v) for v in  # type: ignore[assignment]
                                          np.median(sig[roles == "control"], axis=0))
-    return Block(settings, cameras, photos, image, points, source=where, notes=notes)
+    if frame is not None:
+        notes.append(f"the chunk transform gives earth-centred coordinates ({ch.crs}): the "
+                     "block is adjusted in a local east-north-up frame at the markers' mean, "
+                     "results converted back to the CRS")
+    return Block(settings, cameras, photos, image, points, source=where, notes=notes,
+                 frame=frame)
+
+
+def _geocentric_frame(ch: Chunk):
+    """The LocalFrame of a chunk in a geographic or projected CRS (Metashape's transform then
+    maps to earth-centred coordinates on the CRS's ellipsoid; its references are in the
+    CRS), at the mean of the markers' references; None for a chunk without a CRS."""
+    if ch.crs is None:
+        return None
+    from baarda.block.crs import LocalFrame
+
+    ref = ch.marker_xyz[np.isfinite(ch.marker_xyz).all(axis=1)]
+    if not len(ref):
+        raise ProjectError(ch.where, f"the chunk is in {ch.crs} but no marker has reference "
+                           "coordinates: the local frame cannot be placed", None, "markers")
+    return LocalFrame(ch.crs, ref.mean(axis=0))

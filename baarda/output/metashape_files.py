@@ -8,7 +8,9 @@ in io/metashape_chunk.py), read back by it as one block.
   pixel size is the camera's, else the nominal 1 µm; the image size is not in a Block: the
   smallest even size centred on the image origin that holds every observation (noted);
 * the chunk transform: rotation I, scale 1, translation the mean projection centre;
-  camera transforms [R diag(1, -1, -1) | X0 - t];
+  camera transforms [R diag(1, -1, -1) | X0 - t]; a block in a CRS's local frame
+  (block.frame) goes out in it, the transform mapping it to earth-centred coordinates (as
+  Metashape's does), the markers' references in the CRS and its WKT as <reference>;
 * markers: control points (reference with sx, sy, sz, enabled) and check points (enabled
   false), with their projections; tie points go to bundle.out (cameras f = c / p, k1 = k2 =
   0: the XML holds the cameras); accuracy_tiepoints / accuracy_projections: the median image
@@ -83,7 +85,8 @@ def write_metashape(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM
         sizes.append((int(2 * ext[0]), int(2 * ext[1])))
     notes.append("image size: not in the block; the smallest even size centred on the image "
                  "origin that holds the observations is written")
-    centre = block.photos.eo[:, :3].mean(axis=0)
+    frame = block.frame
+    centre = block.photos.eo[:, :3].mean(axis=0) if frame is None else np.zeros(3)
     lines = ['<?xml version="1.0" encoding="UTF-8"?>', '<document version="1.5.0">',
              f'  <chunk label={quoteattr(block.settings.name)} enabled="true">',
              f'    <sensors next_id="{len(block.cameras)}">']
@@ -105,8 +108,9 @@ def write_metashape(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM
     used = np.unique(im.point)
     marked = used[pts.role[used] != "tie"]
     lines.append(f'    <markers next_id="{len(marked)}">')
+    ref = pts.xyz if frame is None else frame.from_local(pts.xyz)
     for k, j in enumerate(marked):
-        x, y, z = (float(v) for v in pts.xyz[j])
+        x, y, z = (float(v) for v in ref[j])
         s = pts.sigma[j]
         ctrl = pts.role[j] == "control"
         sig = "".join(f' {a}="{_n(v)}"' for a, v in zip(("sx", "sy", "sz"), s, strict=True)
@@ -133,12 +137,20 @@ def write_metashape(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM
             lines.append(f'            <location camera_id="{int(im.photo[o])}" '
                          f'pinned="true" x="{_n(u)}" y="{_n(v)}"/>')
         lines.append("          </marker>")
+    # the chunk frame: the block's, moved by `centre`; in a CRS (block.frame) the transform
+    # maps it to earth-centred coordinates, as Metashape's does
+    r_t = np.eye(3) if frame is None else frame.rot.T
+    t_t = centre if frame is None else frame.origin_ecef
     lines += ["        </markers>", "      </frame>", "    </frames>",
-              "    <transform>", "      <rotation>1 0 0 0 1 0 0 0 1</rotation>",
-              "      <translation>" + " ".join(_n(v) for v in centre) + "</translation>",
+              "    <transform>", "      <rotation>" + " ".join(_n(v) for v in r_t.ravel())
+              + "</rotation>",
+              "      <translation>" + " ".join(_n(v) for v in t_t) + "</translation>",
               "      <scale>1</scale>", "    </transform>"]
-    if block.settings.crs:
-        lines.append(f"    <reference>{block.settings.crs}</reference>")
+    if frame is not None:
+        lines.append(f"    <reference>{frame.crs.to_wkt('WKT1_GDAL')}</reference>")
+    elif block.settings.crs:
+        notes.append(f"CRS {block.settings.crs}: the block's coordinates are written as they "
+                     "are, without a CRS (a chunk in a CRS needs its local frame)")
     settings = []
     for name, sel in (("accuracy_tiepoints", ~is_mark), ("accuracy_projections", is_mark)):
         if sel.any():

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from pyproj import CRS
 
 import baarda
 from baarda.block.camera_models import MODELS, apply_forward
@@ -113,16 +114,27 @@ def spec_xml(folder: Path, *, transform=True, bad_rotation=False, unknown_camera
     <chunk>, sensors with an adjusted calibration f/cx/cy/b1/k/p, camera transforms in the
     chunk frame, the chunk <transform>, markers with reference and accuracies, projections
     in <frames><frame><markers>), its projections computed with Metashape's model."""
+    from pyproj import Transformer
+
     rng = np.random.default_rng(7)
     s = SENSOR
-    r_chunk, t_chunk, scale = rot(0.1, -0.2, 1.3), np.array([500000.0, 5e6, 300.0]), 40.0
+    # Metashape: with a CRS the chunk transform maps to earth-centred coordinates (WGS 84);
+    # the chunk's local frame here: east-north-up at 48 N, 9 E, turned about up and scaled
+    lon, lat = np.radians(9.0), np.radians(48.0)
+    enu = np.array([[-np.sin(lon), np.cos(lon), 0.0],
+                    [-np.sin(lat) * np.cos(lon), -np.sin(lat) * np.sin(lon), np.cos(lat)],
+                    [np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)]])
+    t_chunk = np.array(Transformer.from_crs("EPSG:4979", "EPSG:4978", always_xy=True)
+                       .transform(9.0, 48.0, 300.0))
+    r_chunk, scale = enu.T @ rot(0.0, 0.0, 1.3), 40.0
+    to_utm = Transformer.from_crs("EPSG:4978", CRS("EPSG:32632").to_3d(), always_xy=True)
     centres = np.array([[-1.0, -0.5, 2.0], [0.0, -0.5, 2.0], [1.0, -0.5, 2.0],
                         [-1.0, 0.5, 2.0], [0.0, 0.5, 2.0], [1.0, 0.5, 2.0]])
     # cameras look down the chunk's -z: camera z forward = chunk -z (x right, y down)
     r_cams = [np.diag([1.0, -1.0, -1.0]) @ rot(*rng.normal(0, 0.02, 3)) for _ in centres]
     local = np.column_stack([rng.uniform(-1.2, 1.2, 10), rng.uniform(-0.8, 0.8, 10),
                              rng.uniform(-0.1, 0.1, 10)])
-    world = t_chunk + scale * local @ r_chunk.T
+    world = np.column_stack(to_utm.transform(*(t_chunk + scale * local @ r_chunk.T).T))
     lines = ['<?xml version="1.0" encoding="UTF-8"?>', '<document version="1.5.0">',
              '  <chunk label="spec" enabled="true">', '    <sensors next_id="1">',
              '      <sensor id="0" label="cam" type="frame">',
@@ -246,7 +258,11 @@ def test_round_trip_with_distortion(tmp_path):
     notes = write_metashape(a, tmp_path / "out")
     assert any("image size" in n for n in notes)
     b = read_any(tmp_path / "out" / "cameras.xml")
-    assert np.allclose(b.photos.eo, a.photos.eo, rtol=1e-9, atol=0)
+    assert b.settings.crs == "EPSG:32632" and b.frame is not None and a.frame is not None
+    assert np.allclose(b.frame.origin_ecef, a.frame.origin_ecef, rtol=0, atol=1e-6)
+    assert np.allclose(b.frame.from_local(b.points.xyz), a.frame.from_local(a.points.xyz),
+                       rtol=0, atol=1e-6)
+    assert np.allclose(b.photos.eo, a.photos.eo, rtol=1e-9, atol=1e-6)
     assert np.allclose(b.image.xy_mm, a.image.xy_mm, rtol=0, atol=1e-12)
     assert np.array_equal(b.image.point, a.image.point)
     assert np.allclose(b.cameras.coefficients, a.cameras.coefficients, rtol=1e-12)
