@@ -536,4 +536,8 @@ def _geocentric_frame(ch: Chunk):
     if not len(ref):
         raise ProjectError(ch.where, f"the chunk is in {ch.crs} but no marker has reference "
                            "coordinates: the local frame cannot be placed", None, "markers")
-    return LocalFrame(ch.crs, ref.mean(axis=0))
+    try:
+        return LocalFrame(ch.crs, ref.mean(axis=0))
+    except ProjectError as e:
+        raise ProjectError(ch.where, f"the chunk's CRS {ch.crs}: {e.detail}", None,
+                           "reference") from None

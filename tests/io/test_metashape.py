@@ -447,6 +447,11 @@ def test_chunk_rotation_and_dropped_terms(tmp_path, capsys):
     b = read_any(y)
     assert any("k4 = 0.002, b2 = 0.5 not held" in n for n in b.notes)
     assert "not read: 1 camera reference position(s) (GNSS)" in b.notes
+    w = spec_xml(tmp_path / "d")
+    w.write_text(w.read_text().replace('AUTHORITY["EPSG","32632"]]</reference>',
+                                       'AUTHORITY["EPSG","9707"]]</reference>'))
+    _exit2(["convert", str(w), "-o", str(tmp_path / "o")], capsys, str(w), "EPSG:9707",
+           "compound")
     z = spec_xml(tmp_path / "c")
     z.write_text(z.read_text().replace('pinned="true"', 'pinned="false"', 3))
     assert any(n.startswith("3 marker projection(s) not pinned") for n in read_any(z).notes)
