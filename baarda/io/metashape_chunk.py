@@ -1,5 +1,6 @@
 """One chunk of an Agisoft Metashape / PhotoScan document (a project's doc.xml or a cameras
-XML of File > Export > Cameras) into a Block: the conventions both readers share.
+XML of File > Export > Cameras), read as it is (`read_chunk`), and the conventions both
+readers share (io/metashape_sensor.py: the camera; io/metashape_block.py: the Block).
 
 * sensors: ``<resolution width height>``, the pixel size (properties ``pixel_width``,
   ``pixel_height`` [mm]; without them the nominal ``--pixel-mm``), ``fixed``; the
@@ -41,13 +42,11 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
+from baarda.io.metashape_sensor import Sensor, attr_number, flag, numbers, properties, read_sensor
 from baarda.io.xmltree import Node
 
 ROTATION_TOLERANCE = 1e-6  # |R R^T - I| of a rotation Metashape writes with 17 digits
@@ -55,25 +54,6 @@ DEFAULT_TIE_PX = 1.0  # Metashape's default tie point accuracy [px]
 DEFAULT_PROJECTION_PX = 0.5  # Metashape's default marker projection accuracy [px]
 DEFAULT_MARKER_M = 0.005  # Metashape's default marker accuracy [m]
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".tif", ".tiff", ".png", ".dng", ".raw", ".bmp")
-CALIBRATION_TERMS = ("f", "fx", "fy", "cx", "cy", "b1", "b2", "skew", "k1", "k2", "k3", "k4",
-                     "p1", "p2", "p3", "p4")
-BROWN_FORWARD = ("k1", "k2", "k3", "p1", "p2", "a")
-
-
-@dataclass
-class Sensor:
-    id: str
-    label: str
-    width: int
-    height: int
-    pixel_mm: float | None
-    c_px: float  # f + b1 (or fx) [px]
-    pp_px: tuple[float, float]  # from the image centre, y down [px]
-    coef: np.ndarray  # brown_forward: k1 k2 k3 p1 p2 a
-    fixed: bool
-    free: tuple[str, ...]
-    dropped: dict[str, float]
-    calibration_class: str
 
 
 @dataclass
@@ -101,34 +81,6 @@ class Chunk:
     unpinned: int = 0  # marker projections with pinned="false"
 
 
-def numbers(node: Node, where: str, n: int, what: str) -> np.ndarray:
-    """The n numbers of `node`'s text; ProjectError naming the element and line."""
-    try:
-        v = np.array([float(t) for t in node.text.split()])
-    except ValueError:
-        raise ProjectError(where, f"<{what}>: {n} numbers expected", node.line, what) from None
-    if len(v) != n or not np.isfinite(v).all():
-        raise ProjectError(where, f"<{what}>: {n} finite numbers expected, found "
-                           f"{len(v)}", node.line, what)
-    return v
-
-
-def attr_number(node: Node, name: str, where: str, default: float | None = None) -> float:
-    s = node.attrib.get(name)
-    if s is None:
-        if default is None:
-            raise ProjectError(where, f"<{node.tag}> has no attribute {name}", node.line, name)
-        return default
-    try:
-        v = float(s)
-    except ValueError:
-        v = float("nan")
-    if not np.isfinite(v):
-        raise ProjectError(where, f"<{node.tag} {name}='{s}'>: a number expected", node.line,
-                           name)
-    return v
-
-
 def check_rotation(r: np.ndarray, where: str, node: Node, what: str) -> None:
     err = float(np.abs(r @ r.T - np.eye(3)).max())
     det = float(np.linalg.det(r))
@@ -136,82 +88,6 @@ def check_rotation(r: np.ndarray, where: str, node: Node, what: str) -> None:
         raise ProjectError(where, f"{what} is not a rotation (|R R^T - I| = {err:.3g}, det "
                            f"{det:.3g}; expected an orthonormal matrix with determinant +1)",
                            node.line, node.tag)
-
-
-def _flag(node: Node, name: str, default: bool = True) -> bool:
-    return node.attrib.get(name, "true" if default else "false").lower() in ("true", "1")
-
-
-def _properties(node: Node) -> dict[str, str]:
-    return {p.attrib.get("name", ""): p.attrib.get("value", "") for p in node.findall("property")}
-
-
-def read_sensor(s: Node, where: str, pixel_mm: float | None) -> Sensor:
-    sid = s.attrib.get("id", "")
-    label = s.attrib.get("label", sid)
-    cals = s.findall("calibration")
-    cal = next((c for c in cals if c.attrib.get("class") == "adjusted"), None) or \
-        next(iter(cals), None)
-    res = s.find("resolution") or (cal.find("resolution") if cal is not None else None)
-    if res is None:
-        raise ProjectError(where, f"sensor {sid}: no <resolution width height>", s.line,
-                           "resolution")
-    w, h = attr_number(res, "width", where), attr_number(res, "height", where)
-    props = _properties(s)
-    pm = None
-    if "pixel_width" in props and "pixel_height" in props:
-        try:
-            pw, ph = float(props["pixel_width"]), float(props["pixel_height"])
-        except ValueError:
-            pw = ph = float("nan")
-        if not (pw > 0 and ph > 0):
-            raise ProjectError(where, f"sensor {sid}: pixel size {props['pixel_width']} x "
-                               f"{props['pixel_height']} mm: positive numbers expected",
-                               s.line, "pixel_width")
-        if abs(pw - ph) > 1e-9 * pw:
-            raise ProjectError(where, f"sensor {sid}: non-square pixels ({pw} x {ph} mm) are "
-                               "not read", s.line, "pixel_height")
-        pm = pw
-    fixed = props.get("fixed", "false").lower() == "true"
-    if cal is None:
-        if "focal_length" not in props or pm is None:
-            raise ProjectError(where, f"sensor {sid}: no <calibration> and no focal_length "
-                               "and pixel size to start from", s.line, "calibration")
-        val = {"f": float(props["focal_length"]) / pm}
-        kind = "none (the sensor's focal_length)"
-    else:
-        val = {}
-        for c in cal.children:
-            if c.tag not in CALIBRATION_TERMS or not c.text.strip():
-                continue  # resolution, date, ...
-            try:
-                val[c.tag] = float(c.text)
-            except ValueError:
-                raise ProjectError(where, f"sensor {sid}: <{c.tag}> '{c.text.strip()}': a "
-                                   "number expected", c.line, c.tag) from None
-        kind = cal.attrib.get("class", "")
-    if "f" in val:
-        fx, fy = val["f"] + val.get("b1", 0.0), val["f"]
-        cx, cy = val.get("cx", 0.0), val.get("cy", 0.0)
-    elif "fx" in val:
-        fx, fy = val["fx"], val.get("fy", val["fx"])
-        cx, cy = val.get("cx", w / 2) - w / 2, val.get("cy", h / 2) - h / 2
-    else:
-        raise ProjectError(where, f"sensor {sid}: the calibration has no <f> (or <fx>)",
-                           (cal or s).line, "f")
-    if not (fx > 0 and fy > 0):
-        raise ProjectError(where, f"sensor {sid}: focal length {fx:g} px: positive expected",
-                           (cal or s).line, "f")
-    coef = np.array([val.get("k1", 0.0), val.get("k2", 0.0), val.get("k3", 0.0),
-                     val.get("p1", 0.0), -val.get("p2", 0.0), fy / fx - 1.0])
-    dropped = {k: val[k] for k in ("k4", "p3", "p4", "b2", "skew") if val.get(k, 0.0) != 0}
-    free: tuple[str, ...] = ()
-    if not fixed and cal is not None:
-        free = ("c", "x0", "y0") + tuple(k for k in ("k1", "k2", "k3", "p1", "p2") if k in val)
-        if "b1" in val:
-            free += ("a",)
-    return Sensor(sid, label, int(w), int(h), pm, fx, (cx, cy), coef, fixed, free, dropped,
-                  kind)
 
 
 def _members(chunk: Node, holder: str, tag: str) -> list[Node]:
@@ -289,7 +165,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
         if cid is None:
             raise ProjectError(where, "<camera> without id", c.line, "id")
         t = c.find("transform")
-        if not _flag(c, "enabled") or t is None:
+        if not flag(c, "enabled") or t is None:
             skipped += 1
             continue
         m = numbers(t, where, 16, "transform").reshape(4, 4)
@@ -309,7 +185,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
     if skipped:
         notes.append(f"{skipped} camera(s) disabled or not aligned (no <transform>) left out")
     refs = [c.find("reference") for c in _cameras(chunk)]
-    gnss = sum(1 for r in refs if r is not None and _flag(r, "enabled", False))
+    gnss = sum(1 for r in refs if r is not None and flag(r, "enabled", False))
     bars = chunk.find("scalebars")
     if gnss or (bars is not None and bars.children):
         notes.append("not read: " + ", ".join(
@@ -318,7 +194,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
     if not ids:
         raise ProjectError(where, "no enabled and aligned camera (a <camera> with a "
                            "<transform>) in the chunk", chunk.line, "cameras")
-    acc = {k: float(v) for k, v in _properties(chunk.find("settings") or Node("", {}, 0)).items()
+    acc = {k: float(v) for k, v in properties(chunk.find("settings") or Node("", {}, 0)).items()
            if k.startswith("accuracy_") and _is_float(v)}
     default_sigma = acc.get("accuracy_markers", DEFAULT_MARKER_M)
     mids, mlabels, mxyz, msig, men = [], [], [], [], []
@@ -337,7 +213,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
             sig = np.array([attr_number(ref, "sx", where, sxy), attr_number(ref, "sy", where,
                                                                             sxy),
                             attr_number(ref, "sz", where, sxyz)])
-            enabled = _flag(ref, "enabled")
+            enabled = flag(ref, "enabled")
         mids.append(mid)
         mlabels.append(m.attrib.get("label", mid))
         mxyz.append(xyz)
@@ -356,7 +232,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
                 raise ProjectError(where, f"projections of marker {mid}, which the chunk's "
                                    "<markers> do not define", m.line, "marker_id")
             for loc in m.findall("location"):
-                unpinned += not _flag(loc, "pinned")
+                unpinned += not flag(loc, "pinned")
                 projections.append((mid, loc.attrib.get("camera_id", ""),
                                     attr_number(loc, "x", where), attr_number(loc, "y", where),
                                     loc.line))
@@ -385,159 +261,3 @@ class TiePoints:
     uv: np.ndarray
     source: str
     in_crs: bool = False  # xyz already in the CRS (a Bundler file of the chunk)
-
-
-def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: float | None,
-             name: str, all_cameras: list[str] | None = None) -> Block:
-    """The Block of a chunk and its tie points (module docstring).  `all_cameras`: the ids
-    of every camera of the chunk (enabled or not), to tell a projection on a camera left
-    out from one on a camera that does not exist."""
-    where = ch.where
-    notes = list(ch.notes)
-    index = {c: i for i, c in enumerate(ch.camera_ids)}
-    every = set(all_cameras or []) | set(ch.camera_ids)
-    sensor_ids = sorted(set(ch.camera_sensor), key=list(ch.sensors).index)
-    sens = [ch.sensors[s] for s in sensor_ids]
-    pix = np.array([s.pixel_mm or pixel_mm for s in sens])
-    if any(s.pixel_mm is None for s in sens):
-        notes.append(f"Metashape: no pixel size in the sensor: nominal {pixel_mm:g} mm")
-    for s in sens:
-        if s.dropped:
-            notes.append(f"sensor {s.label}: " + ", ".join(f"{k} = {v:g}" for k, v in
-                                                           s.dropped.items())
-                         + " not held (baarda's brown_forward has no K4, P3, P4 or skew): "
-                         "the camera is approximated without them")
-    cam_of = np.array([sensor_ids.index(s) for s in ch.camera_sensor])
-    cameras = Cameras([s.label if [t.label for t in sens].count(s.label) == 1 else
-                       f"{s.label}#{s.id}" for s in sens],
-                      np.array([s.c_px for s in sens]) * pix,
-                      np.array([[s.pp_px[0], -s.pp_px[1]] for s in sens]) * pix[:, None],
-                      np.full(len(sens), "brown_forward", dtype=object),
-                      np.array([s.coef for s in sens]), None,
-                      tuple(s.free for s in sens), pixel_mm=pix)
-    flip = np.diag([1.0, -1.0, -1.0])
-    r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ flip
-    x0 = ch.translation + ch.scale * ch.camera_pose[:, :3, 3] @ ch.rotation.T
-    frame = _geocentric_frame(ch)
-    if frame is not None:  # the transform gives earth-centred coordinates: into the frame
-        r_cam = frame.rot @ r_cam
-        x0 = (x0 - frame.origin_ecef) @ frame.rot.T
-    names = [Path(s).stem if Path(s).suffix.lower() in IMAGE_SUFFIXES else s
-             for s in ch.camera_labels]
-    if len(set(names)) < len(names):
-        names = list(ch.camera_labels)
-    if len(set(names)) < len(names):
-        names = [f"{lab}#{cid}" for lab, cid in zip(ch.camera_labels, ch.camera_ids, strict=True)]
-    photos = Photos(names, cam_of, np.full(len(names), "", dtype=object),
-                    np.column_stack([x0, angles_from_matrix(r_cam)]))
-    tie_px = sigma_px if sigma_px is not None else ch.accuracy.get("accuracy_tiepoints",
-                                                                    DEFAULT_TIE_PX)
-    mark_px = sigma_px if sigma_px is not None else ch.accuracy.get("accuracy_projections",
-                                                                     DEFAULT_PROJECTION_PX)
-    # marker projections
-    mindex = {m: k for k, m in enumerate(ch.marker_ids)}
-    rows = []
-    out_of = 0
-    for mid, cid, u, v, line in ch.projections:  # type: ignore[misc]
-        if cid not in index:
-            if cid not in every:
-                raise ProjectError(where, f"marker {mid}: a projection on camera {cid}, "
-                                   f"which the chunk does not have", line, "camera_id")
-            out_of += 1
-            continue
-        rows.append((index[cid], mindex[mid], u, v))
-    if out_of:
-        notes.append(f"{out_of} marker projection(s) on cameras left out not used")
-    if ch.unpinned:
-        notes.append(f"{ch.unpinned} marker projection(s) not pinned (placed by Metashape, "
-                     "not confirmed on the image): used as measured")
-    mp = np.array(rows, float).reshape(-1, 4)
-    seen = np.bincount(mp[:, 1].astype(int), minlength=len(ch.marker_ids))
-    keep_m = seen > 0
-    if (~keep_m).any():
-        notes.append(f"{int((~keep_m).sum())} marker(s) without a projection left out: "
-                     + ", ".join(np.array(ch.marker_labels)[~keep_m][:10]))
-    m_new = np.cumsum(keep_m) - 1
-    has_ref = np.isfinite(ch.marker_xyz).all(axis=1)
-    role = np.where(has_ref & ch.marker_enabled, "control",
-                    np.where(has_ref, "check", "tie")).astype(object)
-    pt_ids = [str(s) for s in np.array(ch.marker_labels, dtype=object)[keep_m]]
-    xyz = ch.marker_xyz[keep_m] if frame is None else frame.to_local(ch.marker_xyz[keep_m])
-    sig = np.where((role == "control")[:, None], ch.marker_sigma, np.nan)[keep_m]
-    roles = role[keep_m]
-    photo = mp[:, 0].astype(np.int64)
-    point = m_new[mp[:, 1].astype(np.int64)]
-    uv = mp[:, 2:4]
-    sigma = np.full(len(mp), mark_px)
-    n_mark = len(mp)
-    if ties is not None:
-        if set(ties.ids) & set(pt_ids):
-            raise ProjectError(ties.source, "tie point ids repeat marker labels: "
-                               + ", ".join(sorted(set(ties.ids) & set(pt_ids))[:5]))
-        txyz = ties.xyz if ties.in_crs else ch.translation + ch.scale * ties.xyz @ ch.rotation.T
-        if frame is not None:
-            txyz = (txyz - frame.origin_ecef) @ frame.rot.T
-        tcam = np.array([index.get(c, -1) for c in ties.camera], np.int64)
-        bad = [c for c in ties.camera if c not in every]
-        if bad:
-            raise ProjectError(ties.source, f"projections on camera {bad[0]}, which the chunk "
-                               "does not have", None, "camera_id")
-        ok = tcam >= 0
-        if not ok.all():
-            notes.append(f"{int((~ok).sum())} tie point projection(s) on cameras left out "
-                         "not used")
-        base = len(pt_ids)
-        pt_ids += ties.ids
-        xyz = np.vstack([xyz, txyz])
-        sig = np.vstack([sig, np.full((len(ties.ids), 3), np.nan)])
-        roles = np.concatenate([roles, np.full(len(ties.ids), "tie", dtype=object)])
-        photo = np.concatenate([photo, tcam[ok]])
-        point = np.concatenate([point, base + ties.point[ok]])
-        uv = np.vstack([uv, ties.uv[ok]])
-        sigma = np.concatenate([sigma, np.full(int(ok.sum()), tie_px)])
-    cam = cam_of[photo]
-    w = np.array([s.width for s in sens], float)[cam]
-    h = np.array([s.height for s in sens], float)[cam]
-    p = pix[cam]
-    xy = np.column_stack([(uv[:, 0] - w / 2) * p, (h / 2 - uv[:, 1]) * p])
-    image = ImagePoints(photo, point, xy, sigma * p)
-    points = GroundPoints(pt_ids, xyz, sig, roles)
-    n_ctrl, n_chk = int(np.sum(roles == "control")), int(np.sum(roles == "check"))
-    notes.insert(0, f"Metashape chunk '{ch.label}': {len(names)} camera(s), "
-                 f"{len(ch.marker_ids)} marker(s) ({n_ctrl} control, {n_chk} check), "
-                 f"{n_mark} marker projection(s) at {mark_px:g} px, "
-                 + (f"{len(ties.ids)} tie point(s) from {ties.source} at {tie_px:g} px"
-                    if ties is not None else "no tie points")
-                 + f"; chunk transform scale {ch.scale:.6g}"
-                 + (f", CRS {ch.crs}" if ch.crs else ", no CRS (local or none)"))
-    settings = Settings(name=name, angle_unit="deg",
-                        sigma_image_um=float(tie_px * pix[0] * 1e3), crs=ch.crs,
-                        datum="control" if n_ctrl else "free")
-    if n_ctrl:
-        settings.sigma_control_m = tuple(float(v) for v in  # type: ignore[assignment]
-                                         np.median(sig[roles == "control"], axis=0))
-    if frame is not None:
-        notes.append(f"the chunk transform gives earth-centred coordinates ({ch.crs}): the "
-                     "block is adjusted in a local east-north-up frame at the markers' mean, "
-                     "results converted back to the CRS")
-    return Block(settings, cameras, photos, image, points, source=where, notes=notes,
-                 frame=frame)
-
-
-def _geocentric_frame(ch: Chunk):
-    """The LocalFrame of a chunk in a geographic or projected CRS (Metashape's transform then
-    maps to earth-centred coordinates on the CRS's ellipsoid; its references are in the
-    CRS), at the mean of the markers' references; None for a chunk without a CRS."""
-    if ch.crs is None:
-        return None
-    from baarda.block.crs import LocalFrame
-
-    ref = ch.marker_xyz[np.isfinite(ch.marker_xyz).all(axis=1)]
-    if not len(ref):
-        raise ProjectError(ch.where, f"the chunk is in {ch.crs} but no marker has reference "
-                           "coordinates: the local frame cannot be placed", None, "markers")
-    try:
-        return LocalFrame(ch.crs, ref.mean(axis=0))
-    except ProjectError as e:
-        raise ProjectError(ch.where, f"the chunk's CRS {ch.crs}: {e.detail}", None,
-                           "reference") from None

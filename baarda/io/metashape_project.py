@@ -29,7 +29,8 @@ import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
-from baarda.io.metashape_chunk import TiePoints, read_chunk, to_block
+from baarda.io.metashape_block import to_block
+from baarda.io.metashape_chunk import TiePoints, read_chunk
 from baarda.io.ply import read_ply
 from baarda.io.xmltree import Node, parse_xml_bytes
 

@@ -475,6 +475,10 @@ def test_component_transform_and_sxyz(tmp_path):
     b = read_any(y)
     assert np.array_equal(a.photos.eo, b.photos.eo)
     assert b.points.sigma[0] == pytest.approx([0.03, 0.03, 0.03])
+    grouped = moved.replace('<camera id="0"', '<group id="0" label="Flight 1" type="folder">'
+                            '<camera id="0"', 1).replace("    </cameras>", "</group></cameras>")
+    y.write_text(grouped)
+    assert read_any(y).photos.ids == a.photos.ids  # cameras in a <group> (a folder)
     two = moved.replace("    </components>", '      <component id="1">' + text[t0:t1]
                         + "      </component>\n    </components>")
     y.write_text(two)
