@@ -1,6 +1,7 @@
 """`baarda convert IN -o OUT [--to FMT]`: any supported input, or a result folder of `baarda
-adjust` (its adjusted block), -> a native project folder, or a Bundler or NVM file
-(output/sfm_files.py; a result folder's rejected observations go to rejected.csv)."""
+adjust` (its adjusted block), -> a native project folder, or a Bundler, NVM or PAT-B file
+(output/sfm_files.py, output/patb_files.py; a result folder's rejected observations go to
+rejected.csv)."""
 
 from __future__ import annotations
 
@@ -24,14 +25,14 @@ def register(sub) -> None:
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
                    help="what to write: a native project (default), bundler (bundle.out, "
-                   "list.txt) or nvm (model.nvm); a result folder of baarda adjust as INPUT "
-                   "gives its adjusted block, without the rejected observations (listed in "
-                   "rejected.csv)")
+                   "list.txt), nvm (model.nvm) or patb (block.im .con .ori .at .pro); a "
+                   "result folder of baarda adjust as INPUT gives its adjusted block, "
+                   "without the rejected observations (listed in rejected.csv)")
     add_input_options(p)
     p.set_defaults(func=run_convert)
 
 
-TARGETS = ("project", "bundler", "nvm")
+TARGETS = ("project", "bundler", "nvm", "patb")
 
 
 def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
@@ -40,10 +41,10 @@ def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
     if to == "project":
         write_project(block, folder)
         return []
-    from baarda.output import sfm_files
+    from baarda.io.formats import spec
 
     try:
-        return getattr(sfm_files, f"write_{to}")(block, folder)
+        return spec(to).writes(block, Path(folder))
     except ValueError as e:
         raise ProjectError(str(block.source or to), f"cannot be written as {to}: {e}") from None
 

@@ -14,6 +14,7 @@ list the formats and the errors that name them are generated from the registry.
 | .bz2 / text whose first line is three counts | BAL | io/bal.py |
 | file (or folder's bundle.out) starting "# Bundle file v" | Bundler | io/bundler.py |
 | file starting NVM_V3 | VisualSFM NVM | io/nvm.py |
+| .im file (or folder with one) starting 'photo_id c' | PAT-B | io/patb.py |
 
 A new reader is one module with `detect(path) -> bool` and `read(path, request) -> Block`
 (`request`: a `ReadRequest`) and one `FormatSpec` line in REGISTRY (or `register`); the
@@ -101,6 +102,13 @@ class FormatSpec:
     def reads(self, p: Path, request: ReadRequest) -> Block:
         return _function(self.read)(p, request)
 
+    def writes(self, block: Block, folder: Path) -> list[str]:
+        """Write `block` into `folder` with this format's writer; its notes on what was
+        dropped (ValueError when baarda does not write the format)."""
+        if self.writer is None:
+            raise ValueError(f"baarda does not write {self.title}")
+        return _function(self.writer)(block, folder)
+
 
 def _function(ref):
     """The function of a "module:function" reference (imported now), or `ref` itself."""
@@ -139,6 +147,9 @@ REGISTRY: list[FormatSpec] = [
     FormatSpec("nvm", "VisualSFM NVM", "a VisualSFM NVM_V3 .nvm file", "file", "nominal",
                "baarda.io.nvm:detect", "baarda.io.nvm:read", "baarda.output.sfm_files:write_nvm",
                models=True),
+    FormatSpec("patb", "PAT-B", "a PAT-B .im file (.con .ori .at .pro beside it) or its folder",
+               "either", "mm", "baarda.io.patb:detect", "baarda.io.patb:read",
+               "baarda.output.patb_files:write_patb"),
 ]
 
 FORMATS = tuple(s.name for s in REGISTRY)  # the built-in formats (format_names: all)
