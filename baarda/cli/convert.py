@@ -1,7 +1,7 @@
 """`baarda convert IN -o OUT [--to FMT]`: any supported input, or a result folder of `baarda
-adjust` (its adjusted block), -> a native project folder, or a Bundler, NVM or PAT-B file
-(output/sfm_files.py, output/patb_files.py; a result folder's rejected observations go to
-rejected.csv)."""
+adjust` (its adjusted block), -> a native project folder, or a Bundler, NVM, PAT-B or BINGO
+file (output/sfm_files.py, patb_files.py, bingo_files.py; a result folder's rejected
+observations go to rejected.csv)."""
 
 from __future__ import annotations
 
@@ -25,14 +25,15 @@ def register(sub) -> None:
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
                    help="what to write: a native project (default), bundler (bundle.out, "
-                   "list.txt), nvm (model.nvm) or patb (block.im .con .ori .at .pro); a "
+                   "list.txt), nvm (model.nvm), patb (block.im .con .ori .at .pro) or bingo "
+                   "(block_tp_bingo.txt, block_calibrated_camera_parameters.txt); a "
                    "result folder of baarda adjust as INPUT gives its adjusted block, "
                    "without the rejected observations (listed in rejected.csv)")
     add_input_options(p)
     p.set_defaults(func=run_convert)
 
 
-TARGETS = ("project", "bundler", "nvm", "patb")
+TARGETS = ("project", "bundler", "nvm", "patb", "bingo")
 
 
 def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
@@ -56,7 +57,10 @@ def run_convert(args) -> int:
     with open_run(args, input_paths(args)) as run:
         if is_result_folder(args.input):
             fmt = "result folder"
-            block, rejected = read_result_block(args.input)
+            from baarda.io.formats import spec
+
+            holds = args.to != "project" and spec(args.to).control
+            block, rejected = read_result_block(args.input, keep_given=holds)
         else:
             fmt = args.format or detect(args.input)
             block = with_approximations(read_input(args))

@@ -15,6 +15,7 @@ list the formats and the errors that name them are generated from the registry.
 | file (or folder's bundle.out) starting "# Bundle file v" | Bundler | io/bundler.py |
 | file starting NVM_V3 | VisualSFM NVM | io/nvm.py |
 | .im file (or folder with one) starting 'photo_id c' | PAT-B | io/patb.py |
+| *bingo.txt (or folder with one) starting 'name CAMERA' | BINGO + Pix4D | io/bingo.py |
 
 A new reader is one module with `detect(path) -> bool` and `read(path, request) -> Block`
 (`request`: a `ReadRequest`) and one `FormatSpec` line in REGISTRY (or `register`); the
@@ -74,7 +75,9 @@ class FormatSpec:
     policy (PIXEL_POLICIES), `detect` and `read` ("module:function" imported on demand, or
     the functions themselves), `writer` ("module:function" of the writer in baarda/output,
     None: baarda does not write it), `camera_file`: it takes --camera, `models`: a file may
-    hold several models (--model K picks one)."""
+    hold several models (--model K picks one), `control`: its files hold control and check
+    points with their given coordinates (a result folder written in it keeps those, not the
+    adjusted ones)."""
 
     name: str
     title: str
@@ -86,6 +89,7 @@ class FormatSpec:
     writer: str | None = None
     camera_file: bool = False
     models: bool = False
+    control: bool = False
 
     def __post_init__(self) -> None:
         if self.path not in PATH_KINDS or self.pixels not in PIXEL_POLICIES:
@@ -149,7 +153,10 @@ REGISTRY: list[FormatSpec] = [
                models=True),
     FormatSpec("patb", "PAT-B", "a PAT-B .im file (.con .ori .at .pro beside it) or its folder",
                "either", "mm", "baarda.io.patb:detect", "baarda.io.patb:read",
-               "baarda.output.patb_files:write_patb"),
+               "baarda.output.patb_files:write_patb", control=True),
+    FormatSpec("bingo", "BINGO", "a BINGO *bingo.txt (Pix4D's *_calibrated_camera_parameters"
+               ".txt beside it) or its folder", "either", "header", "baarda.io.bingo:detect",
+               "baarda.io.bingo:read", "baarda.output.bingo_files:write_bingo"),
 ]
 
 FORMATS = tuple(s.name for s in REGISTRY)  # the built-in formats (format_names: all)

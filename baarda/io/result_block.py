@@ -106,8 +106,11 @@ def _observed_as_run(block: Block, obs: pd.DataFrame, notes: list[str]) -> Block
     return block
 
 
-def read_result_block(folder: str | Path, **read_options) -> tuple[Block, pd.DataFrame]:
-    """(adjusted block, rejected observations: photo, point, component, w, mdb)."""
+def read_result_block(folder: str | Path, keep_given: bool = False,
+                      **read_options) -> tuple[Block, pd.DataFrame]:
+    """(adjusted block, rejected observations: photo, point, component, w, mdb).
+    keep_given: control and check points keep their given coordinates (for a format that
+    holds them as observations, PAT-B); else every point gets its adjusted ones."""
     from baarda.io.formats import read_any
     from baarda.io.result_folder import read_results
 
@@ -129,6 +132,8 @@ def read_result_block(folder: str | Path, **read_options) -> tuple[Block, pd.Dat
         block = replace(block, photos=replace(block.photos, eo=eo))
     if res.points is not None:
         used = np.unique(block.image.point)
+        if keep_given:
+            used = used[block.points.role[used] == "tie"]
         ids = [block.points.ids[j] for j in used]
         pt = res.points.iloc[_by_id(ids, res.points, "point", folder / "points.csv")]
         xyz = block.points.xyz.copy()

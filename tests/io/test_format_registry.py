@@ -84,7 +84,7 @@ def test_a_registered_format_is_detected_read_and_offered(toy, tmp_path, capsys)
 def test_unknown_format_and_wrong_kind_name_the_registry():
     with pytest.raises(ProjectError, match="unknown format 'nope' \\(one of project, colmap, "
                        "aicon, micmac, opensfm, dbat, photomodeler, bal, bundler, nvm, "
-                       "patb\\)"):
+                       "patb, bingo\\)"):
         read_any(DEMO, "nope")
     with pytest.raises(ValueError, match="path one of"):
         FormatSpec("x", "X", "an x", "disk", "mm", is_toy, read_toy)
@@ -95,7 +95,8 @@ def test_pixel_policy_comes_from_the_spec():
     assert {s.name: s.pixels for s in formats.REGISTRY} == {
         "project": "mm", "colmap": "nominal", "aicon": "mm", "micmac": "camera",
         "opensfm": "nominal", "dbat": "camera", "photomodeler": "header", "bal": "nominal",
-        "bundler": "nominal", "nvm": "nominal", "patb": "mm"}
+        "bundler": "nominal", "nvm": "nominal", "patb": "mm",
+        "bingo": "header"}
     assert resolve_image_options("bal").pixel_mm == 0.001
     with pytest.raises(ProjectError, match="--pixel-mm does not apply to MicMac input"):
         resolve_image_options("micmac", pixel_mm=0.01)
