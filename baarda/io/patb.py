@@ -12,7 +12,7 @@ columns are separated by blanks reads the same); every list ends with a line ``-
   rotation matrix (image to object, baarda's R = R_x(omega) R_y(phi) R_z(kappa)); then -99.
 * ``.at`` adjusted terrain (tie point coordinates): ``point_id X Y Z``, then -99.
 * ``.pro`` project (optional): ``key value`` lines: ``project NAME``, ``sigma_image_um S``,
-  ``sigma_control_m SX SY SZ``; other keys are noted and not used.
+  ``sigma_control_m SX SY SZ``; other keys are noted and not used; then -99.
 
 Photos that share c share a camera (no distortion: PAT-B's image coordinates are corrected
 and reduced to the principal point).  No public PAT-B specification or sample file was
@@ -61,26 +61,12 @@ def files(path: str | Path) -> dict[str, Path]:
 
 
 def is_patb(path: str | Path) -> bool:
-    """A .im file (or a folder with one) whose first data line is a photo header
-    'photo_id c'."""
+    """A .im file, or a folder with one .im file (its content is checked when read, so that
+    an empty or cut .im is refused naming it, not as an unknown format)."""
     p = Path(path)
     if p.is_dir():
-        ims = list(p.glob("*.im"))
-        if len(ims) != 1:
-            return False
-        p = ims[0]
-    if p.suffix.lower() != ".im" or not p.is_file():
-        return False
-    try:
-        with open(p, "rb") as f:
-            head = f.read(4096).decode("utf-8-sig", errors="replace")
-    except OSError:
-        return False
-    for line in head.splitlines():
-        t = line.split()
-        if t and not line.lstrip().startswith("#"):
-            return len(t) == 2 and _is_float(t[1])
-    return False
+        return len(list(p.glob("*.im"))) == 1
+    return p.suffix.lower() == ".im" and p.is_file()
 
 
 def _is_float(s: str) -> bool:
@@ -94,7 +80,7 @@ def _is_float(s: str) -> bool:
 def _read_pro(path: Path, encoding: str, notes: list[str]) -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
     known = {"project": 1, "sigma_image_um": 1, "sigma_control_m": 3}
-    for r in data_rows(path, encoding):
+    for r in rows_to_end(path, data_rows(path, encoding), "project lines"):
         key = r.tokens[0].lower()
         if key in known:
             if len(r.tokens) != 1 + known[key]:

@@ -118,7 +118,7 @@ def write_patb(block: Block, folder: str | Path, name: str = "block") -> list[st
     at.append("-99")
     pro = [f"project {s.name.split()[0] if s.name.split() else name}",
            f"sigma_image_um {_f(s.sigma_image_um)}",
-           "sigma_control_m " + " ".join(_f(v) for v in s.sigma_control_m)]
+           "sigma_control_m " + " ".join(_f(v) for v in s.sigma_control_m), "-99"]
     folder.mkdir(parents=True, exist_ok=True)
     for suffix, lines in ((".im", out), (".ori", ori), (".con", con), (".at", at),
                           (".pro", pro)):

@@ -46,6 +46,11 @@ INPUTS = {
     "opensfm_berlin": ["."],
 }
 
+# data sets of this repository's tests/data (the others are in ../shared/data)
+LOCAL = Path(__file__).resolve().parents[1] / "data"
+INPUTS.update({"patb_demo": ["."], "bingo_pix4d": ["."]})
+SOURCE = {"patb_demo": LOCAL, "bingo_pix4d": LOCAL}
+
 # files whose format cannot show a cut exactly at a line end (no count; docs/formats.md
 # "Where a cut cannot show"): data set -> file name patterns.  Every other cut of them is
 # still refused.
@@ -146,7 +151,7 @@ def check_truncations(dataset: str, tmp: Path) -> list[str]:
     """The cuts of the data set's files that were read as a block different from the
     intact input's, or refused without naming the cut file."""
     folder = tmp / dataset
-    _mirror(SHARED / dataset, folder)
+    _mirror(SOURCE.get(dataset, SHARED) / dataset, folder)
     files = sorted(p for p in folder.rglob("*") if p.is_file())
     unseen = UNSEEN_AT_LINE_END.get(dataset, ())
     wrong = []
@@ -187,8 +192,8 @@ def check_truncations(dataset: str, tmp: Path) -> list[str]:
 
 @pytest.mark.parametrize("dataset", sorted(INPUTS))
 def test_a_cut_file_is_refused_or_does_not_matter(dataset, tmp_path):
-    if not (SHARED / dataset).is_dir():
-        pytest.skip(f"{SHARED / dataset} not found")
+    if not (SOURCE.get(dataset, SHARED) / dataset).is_dir():
+        pytest.skip(f"{SOURCE.get(dataset, SHARED) / dataset} not found")
     wrong = check_truncations(dataset, tmp_path)
     assert not wrong, "\n".join(wrong)
 
