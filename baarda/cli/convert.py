@@ -45,7 +45,7 @@ def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
     from baarda.io.formats import spec
 
     try:
-        return spec(to).writes(block, Path(folder))
+        return spec(to).writes(block, folder.path if isinstance(folder, RunFolder) else folder)
     except ValueError as e:
         raise ProjectError(str(block.source or to), f"cannot be written as {to}: {e}") from None
 
