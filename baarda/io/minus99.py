@@ -72,7 +72,7 @@ def rows_to_end(path: Path, rows: list[Row], what: str) -> list[Row]:
             return rows[:k]
     last = rows[-1].line if rows else 1
     raise ProjectError(str(path), f"the file ends without the closing {END} after its "
-                       f"{what} (a truncated file, or a record line missing its end)", last)
+                       f"{what} (a truncated file, or a record line missing its end)", last, END)
 
 
 def groups(path: Path, rows: list[Row], what: str, closing: bool) -> list[Group]:
@@ -98,11 +98,11 @@ def groups(path: Path, rows: list[Row], what: str, closing: bool) -> list[Group]
         if k == len(rows):
             raise ProjectError(str(path), f"{what} {head.tokens[0]} (line {head.line}) is not "
                                f"ended by {END} (a truncated file, or a missing {END})",
-                               rows[-1].line)
+                               rows[-1].line, END)
         out.append(Group(head, body))
         k += 1
     if closing:
         last = rows[-1].line if rows else 1
         raise ProjectError(str(path), f"the file ends without the closing {END} after its "
-                           f"last {what} (a truncated file)", last)
+                           f"last {what} (a truncated file)", last, END)
     return out
