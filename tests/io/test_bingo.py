@@ -200,3 +200,16 @@ def test_readjusted_gives_the_same_sigma0(tmp_path):
     assert (tmp_path / "c" / "rejected.csv").read_text().startswith("photo,point,component")
     r, s = adjust(tmp_path / "c", tmp_path / "r2")
     assert r == red and s == pytest.approx(s0, rel=1e-6)
+
+
+def test_demo_as_bingo_with_its_control_adjusts_as_the_demo(tmp_path):
+    """The demo written as BINGO (no control in the format) and read back with `--control`
+    its ground_points.csv and `--sigma-image-um 5` adjusts to the demo's redundancy 172 and
+    sigma0 1.4629371 (1e-6)."""
+    demo = ROOT / "examples" / "demo"
+    assert main(["convert", str(demo), "--to", "bingo", "-o", str(tmp_path / "b"),
+                 "-q"]) == 0
+    assert main(["adjust", str(tmp_path / "b"), "--control", str(demo / "ground_points.csv"),
+                 "--sigma-image-um", "5", "-o", str(tmp_path / "r"), "-q"]) in (0, 5)
+    s = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert s["redundancy"] == 172 and s["sigma0"] == pytest.approx(1.4629371, rel=1e-6)
