@@ -69,14 +69,6 @@ def is_patb(path: str | Path) -> bool:
     return p.suffix.lower() == ".im" and p.is_file()
 
 
-def _is_float(s: str) -> bool:
-    try:
-        float(s)
-        return True
-    except ValueError:
-        return False
-
-
 def _read_pro(path: Path, encoding: str, notes: list[str]) -> dict[str, list[str]]:
     out: dict[str, list[str]] = {}
     known = {"project": 1, "sigma_image_um": 1, "sigma_control_m": 3}
