@@ -16,9 +16,11 @@ sensor width [mm] / width [px] (the BINGO header's; without one `--pixel-mm`, de
 c = fx p; principal point ((cx - W/2) p, (H/2 - cy) p); lens ``brown_forward`` on normalised
 coordinates (Pix4D's perspective model, its image frame y up: k1..k3 = R1..R3, baarda's p1 =
 T2, p2 = T1, aspect a = fy / fx - 1); images with the same values share a camera; X0 = t,
-R_b = R^T diag(1, -1, -1).  Every calibrated image must have a BINGO record (a truncated file
-otherwise) and every BINGO image a calibration.  No public Pix4D sample with a licence was
-found (tests/data/bingo_pix4d/README.md): tested against files written from this layout.
+R_b = R^T diag(1, -1, -1); with Pix4D's `*_offset.xyz` beside them (the camera file is in
+the output frame less that offset) X0 = t + offset.  Every calibrated image must have a
+BINGO record (a truncated file otherwise) and every BINGO image a calibration.  No public
+Pix4D sample with a licence was found (tests/data/bingo_pix4d/README.md): tested against
+files written from this layout.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, 
 from baarda.block.rotation import eo_of_pose
 from baarda.errors import ProjectError
 from baarda.io.minus99 import Row, data_rows, groups
-from baarda.io.records import ENCODING, first_appearance, whole_lines
+from baarda.io.records import ENCODING, first_appearance, read_lines, whole_lines
 
 CAMERA_FILE = "calibrated_camera_parameters.txt"
 ROTATION_TOLERANCE = 1e-4
@@ -140,6 +142,23 @@ def read_cameras(path: Path, encoding: str = ENCODING) -> tuple[list[str], np.nd
     return names, values, first
 
 
+def read_offset(folder: Path, encoding: str = ENCODING) -> tuple[np.ndarray, Path] | None:
+    """Pix4D's `*_offset.xyz` beside the files (one line X Y Z [m], subtracted from the
+    output coordinates in the camera file), and its path; None when there is none."""
+    found = sorted(folder.glob("*_offset.xyz"))
+    if not found:
+        return None
+    if len(found) > 1:
+        raise ProjectError(str(folder), f"{len(found)} '*_offset.xyz' files: one expected")
+    # Pix4D may write its one line without a line end: read_lines, not whole_lines
+    rows = [Row(k + 1, t.split()) for k, t in enumerate(read_lines(found[0], encoding))
+            if t.strip()]
+    if len(rows) != 1 or len(rows[0].tokens) != 3:
+        raise ProjectError(str(found[0]), "one line 'X Y Z' expected", rows[0].line if rows
+                           else 1, "offset")
+    return rows[0].numbers(str(found[0]), 0, ("X", "Y", "Z")), found[0]
+
+
 def _match(names: list[str], name: str) -> int | None:
     """The camera-file record of a BINGO image name: the same name, or the same stem."""
     if name in names:
@@ -234,6 +253,11 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
                       np.where(lens[:, None], cc, 0.0), None, None, pc)
     rot = v[:, 19:28].reshape(-1, 3, 3)
     centre = v[:, 16:19]
+    offset = read_offset(bf.parent, encoding)
+    if offset is not None:
+        centre = centre + offset[0]
+        notes.append(f"Pix4D: camera positions + the offset {offset[0].tolist()} of "
+                     f"{offset[1].name} (Pix4D's camera file is in the offset frame)")
     eo = eo_of_pose(rot, -np.einsum("nij,nj->ni", rot, centre))
     eo[:, :3] = centre
     photos = Photos(photo_ids, cam_of, np.full(len(photo_ids), "", dtype=object), eo)

@@ -17,6 +17,7 @@ import baarda
 from baarda.block.camera_models import MODELS, apply_forward
 from baarda.bundle.collinearity import project
 from baarda.cli import main
+from baarda.errors import ProjectError
 from baarda.io.formats import detect
 from baarda.output.bingo_files import write_bingo
 from baarda.pipeline import with_approximations
@@ -213,3 +214,19 @@ def test_demo_as_bingo_with_its_control_adjusts_as_the_demo(tmp_path):
                  "--sigma-image-um", "5", "-o", str(tmp_path / "r"), "-q"]) in (0, 5)
     s = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert s["redundancy"] == 172 and s["sigma0"] == pytest.approx(1.4629371, rel=1e-6)
+
+
+def test_offset_is_added_to_the_camera_positions(tmp_path):
+    """Pix4D's camera file is in the output frame less `*_offset.xyz` (EasyIDP's example:
+    t 21.549 + offset 368009 = the image position 368030.549): X0 = t + offset, noted."""
+    d = _copy(tmp_path)
+    (d / "proj_offset.xyz").write_text("368009.000 3955854.000 97.000")  # no line end
+    a, b = baarda.read(SAMPLE), baarda.read(d)
+    assert np.array_equal(b.photos.eo[:, :3], a.photos.eo[:, :3] + [368009.0, 3955854.0, 97.0])
+    assert np.array_equal(b.photos.eo[:, 3:], a.photos.eo[:, 3:])
+    assert any("the offset [368009.0, 3955854.0, 97.0] of proj_offset.xyz" in n
+               for n in b.notes)
+    (d / "proj_offset.xyz").write_text("368009.000 3955854.000\n")
+    with pytest.raises(ProjectError, match="proj_offset.xyz, line 1, column 'offset': one "
+                       "line 'X Y Z' expected"):
+        baarda.read(d)
