@@ -230,3 +230,20 @@ def test_offset_is_added_to_the_camera_positions(tmp_path):
     with pytest.raises(ProjectError, match="proj_offset.xyz, line 1, column 'offset': one "
                        "line 'X Y Z' expected"):
         baarda.read(d)
+
+
+def test_headers_without_a_sensor_size(tmp_path):
+    """BINGO's own image.dat headers ('photo camera') have no sensor size: the pixel is
+    --pixel-mm (default 1 µm, noted); with the sample's 1.58 µm the block is the sample's.
+    With a sensor size in the headers --pixel-mm is refused."""
+    d = _copy(tmp_path)
+    _edit(d / "proj_tp_bingo.txt", lambda s: [x.split()[0] + " H" if x.startswith("IMG")
+                                              else x for x in s])
+    b = baarda.read(d)
+    assert b.cameras.pixel_mm.tolist() == [0.001, 0.001]
+    assert any("no sensor size in an image header: pixel 0.001 mm" in n for n in b.notes)
+    a, c = baarda.read(SAMPLE), baarda.read(d, pixel_mm=0.00158)
+    _same(a, c)
+    assert np.array_equal(c.cameras.focal_mm, a.cameras.focal_mm)
+    with pytest.raises(ProjectError, match="--pixel-mm does not apply: the BINGO headers"):
+        baarda.read(SAMPLE, pixel_mm=0.002)
