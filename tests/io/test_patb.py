@@ -172,8 +172,11 @@ def test_no_pro_and_unknown_points_are_noted(tmp_path):
     (d / "demo.pro").unlink()
     with open(d / "demo.at", "w") as f:
         f.write("nowhere 1 2 3\n-99\n")
+    _edit(d, ".ori", lambda s: s[:-6] + s[-2:])  # the last photo's orientation gone
     b = baarda.read(d)
     assert any("no .pro: image sigma 5 µm" in n for n in b.notes)
+    assert any("1 photo(s) without an orientation (.ori): approximated" in n for n in b.notes)
+    assert np.isnan(b.photos.eo[-1]).all() and np.isfinite(b.photos.eo[:-1]).all()
     assert any("point nowhere (line 1) is measured on no photo" in n for n in b.notes)
     with pytest.raises(ProjectError, match="no .im file"):
         baarda.read(tmp_path, "patb")
