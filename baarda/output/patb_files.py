@@ -14,6 +14,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
+from baarda.io.minus99 import is_end
 from baarda.output.atomic import write_text
 
 
@@ -27,12 +28,8 @@ def check_ids(ids: list[str], what: str) -> None:
         if not i or any(ch.isspace() for ch in i) or i.startswith("#"):
             raise ValueError(f"{what} id '{i}': the format's ids have no blanks and do not "
                              "start with '#'")
-        try:
-            if float(i) == -99:
-                raise ValueError(f"{what} id '{i}' reads as the record end -99")
-        except ValueError as e:
-            if "record end" in str(e):
-                raise
+        if is_end([i]):
+            raise ValueError(f"{what} id '{i}' reads as the record end -99")
 
 
 def checked_block(block: Block, *, lens: bool) -> list[str]:

@@ -82,6 +82,16 @@ def test_lens_model_refused(tmp_path):
         write_patb(replace(block, cameras=cams), tmp_path)
 
 
+def test_ids_the_format_cannot_hold(tmp_path):
+    block = baarda.read(DEMO)
+    for bad, match in (("-99", "photo id '-99' reads as the record end"),
+                       ("-99.0", "photo id '-99.0' reads as the record end"),
+                       ("a b", "photo id 'a b': the format's ids have no blanks")):
+        photos = replace(block.photos, ids=[bad] + block.photos.ids[1:])
+        with pytest.raises(ValueError, match=match):
+            write_patb(replace(block, photos=photos), tmp_path)
+
+
 def _copy(tmp_path: Path) -> Path:
     d = tmp_path / "p"
     shutil.copytree(SAMPLE, d)
