@@ -247,3 +247,15 @@ def test_headers_without_a_sensor_size(tmp_path):
     assert np.array_equal(c.cameras.focal_mm, a.cameras.focal_mm)
     with pytest.raises(ProjectError, match="--pixel-mm does not apply: the BINGO headers"):
         baarda.read(SAMPLE, pixel_mm=0.002)
+
+
+def test_sample_adjusts_to_its_rounding(tmp_path):
+    """The sample's image coordinates are Pix4D projections rounded to 1e-8 mm: adjusted as
+    read (cameras held, 1 px = 1.58 µm) its sigma0 is that rounding's, 1.5e-6 (rounding
+    noise 1e-8 / sqrt(12) mm over 1.58 µm), with redundancy 2 x 60 - (3 x 6 + 20 x 3 - 7) =
+    49: baarda's model of the files is Pix4D's."""
+    assert main(["adjust", str(SAMPLE), "--calibrate", "none", "-o", str(tmp_path / "r"),
+                 "-q"]) in (0, 5)
+    s = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert s["redundancy"] == 49
+    assert 0.5e-6 < s["sigma0"] < 3e-6
