@@ -7,7 +7,8 @@ columns are separated by blanks reads the same); every list ends with a line ``-
   header ``photo_id c`` (camera constant [mm]), then ``point_id x y [sigma | sx sy]``
   (sigmas [mm], optional), then -99; the file ends with one more -99.
 * ``.con`` control: ``point_id X Y Z [code [sX sY sZ]]`` [m], then -99.  code 3 (or none):
-  X, Y, Z control; 1: planimetric (X, Y); 2: height (Z); 0: a check point.
+  X, Y, Z control; 1: planimetric (X, Y); 2: height (Z); 0: a check point (its sigmas where
+  > 0).
 * ``.ori`` orientations: per photo ``photo_id X0 Y0 Z0`` [m] and three lines of the
   rotation matrix (image to object, baarda's R = R_x(omega) R_y(phi) R_z(kappa)); then -99.
 * ``.at`` adjusted terrain (tie point coordinates): ``point_id X Y Z``, then -99.
@@ -217,8 +218,10 @@ def _read_con(path: Path, encoding: str, index, xyz, sigma, role, ctrl_sigma, no
         if k is None:
             continue
         xyz[k] = v
-        if code == 0:
+        if code == 0:  # a check point: its sigmas where given (> 0), else none
             role[k] = "check"
+            if n == 8:
+                sigma[k] = np.where(s > 0, s, np.nan)
             continue
         role[k] = "control"
         sigma[k] = np.where(CODES[int(code)], s, np.nan)

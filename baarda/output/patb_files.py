@@ -98,7 +98,8 @@ def write_patb(block: Block, folder: str | Path, name: str = "block") -> list[st
     for j in used:
         role, v, sig = pts.role[j], pts.xyz[j], pts.sigma[j]
         if role == "check":
-            con.append(f"{pts.ids[j]} " + " ".join(_f(x) for x in v) + " 0 0 0 0")
+            con.append(f"{pts.ids[j]} " + " ".join(_f(x) for x in v) + " 0 "
+                       + " ".join(_f(x) for x in np.where(np.isfinite(sig), sig, 0.0)))
         elif role in ("control", "fixed"):
             given = np.isfinite(sig)
             code = 3 if given.all() else 1 if given[:2].all() and not given[2] else \

@@ -64,6 +64,7 @@ def test_round_trip_of_a_simulated_block(tmp_path):
     xyz, sigma = block.points.xyz.copy(), block.points.sigma.copy()
     xyz[role == "tie"] += 0.25
     sigma[role == "check"] = np.nan
+    sigma[np.flatnonzero(role == "check")[0]] = [0.02, 0.03, 0.04]  # a check point's own
     block = replace(block, image=replace(block.image, sigma_mm=sig),
                     points=replace(block.points, role=role, xyz=xyz, sigma=sigma))
     assert {"control", "check", "tie"} <= set(role)
