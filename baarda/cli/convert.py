@@ -1,6 +1,7 @@
 """`baarda convert IN -o OUT [--to FMT]`: any supported input, or a result folder of `baarda
-adjust` (its adjusted block), -> a native project folder, or a Bundler or NVM file
-(output/sfm_files.py; a result folder's rejected observations go to rejected.csv)."""
+adjust` (its adjusted block), -> a native project folder, or a Bundler, NVM, PAT-B or BINGO
+file (output/sfm_files.py, patb_files.py, bingo_files.py; a result folder's rejected
+observations go to rejected.csv)."""
 
 from __future__ import annotations
 
@@ -24,17 +25,24 @@ def register(sub) -> None:
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
                    help="what to write: a native project (default), bundler (bundle.out, "
-                   "list.txt), nvm (model.nvm) or metashape (cameras.xml with bundle.out "
-                   "and list.txt for the tie points); a result folder of baarda adjust as INPUT "
-                   "gives its adjusted block, without the rejected observations (listed in "
-                   "rejected.csv)")
+                   "list.txt), nvm (model.nvm), metashape (cameras.xml with bundle.out "
+                   "and list.txt for the tie points), patb (block.im .con .ori .at .pro) or "
+                   "bingo (block_tp_bingo.txt, block_calibrated_camera_parameters.txt); a "
+                   "result folder of baarda adjust as INPUT gives its adjusted block, "
+                   "without the rejected observations (listed in rejected.csv)")
     add_input_options(p)
     p.set_defaults(func=run_convert)
 
 
-TARGETS = ("project", "bundler", "nvm", "metashape")
-HOLDS_CONTROL = ("metashape",)  # formats whose control keeps its given coordinates
-WRITERS = {"bundler": "sfm_files", "nvm": "sfm_files", "metashape": "metashape_files"}
+TARGETS = ("project", "bundler", "nvm", "metashape", "patb", "bingo")
+WRITTEN_AS = {"metashape": "metashape-xml"}  # a target whose writer is another format's
+
+
+def _spec(to: str):
+    """The registry entry whose writer writes `to`."""
+    from baarda.io.formats import spec
+
+    return spec(WRITTEN_AS.get(to, to))
 
 
 def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
@@ -43,11 +51,8 @@ def _write(block, to: str, folder: Path | RunFolder) -> list[str]:
     if to == "project":
         write_project(block, folder)
         return []
-    import importlib
-
-    writers = importlib.import_module(f"baarda.output.{WRITERS[to]}")
     try:
-        return getattr(writers, f"write_{to}")(block, folder)
+        return _spec(to).writes(block, folder.path if isinstance(folder, RunFolder) else folder)
     except ValueError as e:
         raise ProjectError(str(block.source or to), f"cannot be written as {to}: {e}") from None
 
@@ -59,8 +64,8 @@ def run_convert(args) -> int:
     with open_run(args, input_paths(args)) as run:
         if is_result_folder(args.input):
             fmt = "result folder"
-            block, rejected = read_result_block(args.input,
-                                                given_control=args.to in HOLDS_CONTROL)
+            holds = args.to != "project" and _spec(args.to).control
+            block, rejected = read_result_block(args.input, keep_given=holds)
         else:
             fmt = args.format or detect(args.input)
             block = with_approximations(read_input(args))

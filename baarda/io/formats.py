@@ -16,6 +16,8 @@ list the formats and the errors that name them are generated from the registry.
 | file starting NVM_V3 | VisualSFM NVM | io/nvm.py |
 | .psz zip with doc.xml, .psx | Metashape / PhotoScan project | io/metashape_project.py |
 | .xml with <document> and <chunk> | Metashape cameras XML | io/metashape_cameras.py |
+| .im file (or folder with one) starting 'photo_id c' | PAT-B | io/patb.py |
+| *bingo.txt (or folder with one) starting 'name CAMERA' | BINGO + Pix4D | io/bingo.py |
 
 A new reader is one module with `detect(path) -> bool` and `read(path, request) -> Block`
 (`request`: a `ReadRequest`) and one `FormatSpec` line in REGISTRY (or `register`); the
@@ -76,7 +78,10 @@ class FormatSpec:
     policy (PIXEL_POLICIES), `detect` and `read` ("module:function" imported on demand, or
     the functions themselves), `writer` ("module:function" of the writer in baarda/output,
     None: baarda does not write it), `camera_file`: it takes --camera, `models`: a file may
-    hold several models (--model K picks one), `tie_points`: it takes --tie-points."""
+    hold several models (--model K picks one), `tie_points`: it takes --tie-points,
+    `control`: its files hold control and check
+    points with their given coordinates (a result folder written in it keeps those, not the
+    adjusted ones)."""
 
     name: str
     title: str
@@ -89,6 +94,7 @@ class FormatSpec:
     camera_file: bool = False
     models: bool = False
     tie_points: bool = False
+    control: bool = False
 
     def __post_init__(self) -> None:
         if self.path not in PATH_KINDS or self.pixels not in PIXEL_POLICIES:
@@ -104,6 +110,13 @@ class FormatSpec:
 
     def reads(self, p: Path, request: ReadRequest) -> Block:
         return _function(self.read)(p, request)
+
+    def writes(self, block: Block, folder: Path) -> list[str]:
+        """Write `block` into `folder` with this format's writer; its notes on what was
+        dropped (ValueError when baarda does not write the format)."""
+        if self.writer is None:
+            raise ValueError(f"baarda does not write {self.title}")
+        return _function(self.writer)(block, folder)
 
 
 def _function(ref):
@@ -149,7 +162,13 @@ REGISTRY: list[FormatSpec] = [
     FormatSpec("metashape-xml", "Metashape cameras XML", "a Metashape cameras XML (File > "
                "Export > Cameras)", "file", "header", "baarda.io.metashape_cameras:detect",
                "baarda.io.metashape_cameras:read", "baarda.output.metashape_files:"
-               "write_metashape", tie_points=True),
+               "write_metashape", tie_points=True, control=True),
+    FormatSpec("patb", "PAT-B", "a PAT-B .im file (.con .ori .at .pro beside it) or its folder",
+               "either", "mm", "baarda.io.patb:detect", "baarda.io.patb:read",
+               "baarda.output.patb_files:write_patb", control=True),
+    FormatSpec("bingo", "BINGO", "a BINGO *bingo.txt (Pix4D's *_calibrated_camera_parameters"
+               ".txt beside it) or its folder", "either", "header", "baarda.io.bingo:detect",
+               "baarda.io.bingo:read", "baarda.output.bingo_files:write_bingo"),
 ]
 
 FORMATS = tuple(s.name for s in REGISTRY)  # the built-in formats (format_names: all)

@@ -106,12 +106,12 @@ def _observed_as_run(block: Block, obs: pd.DataFrame, notes: list[str]) -> Block
     return block
 
 
-def read_result_block(folder: str | Path, given_control: bool = False,
+def read_result_block(folder: str | Path, keep_given: bool = False,
                       **read_options) -> tuple[Block, pd.DataFrame]:
     """(adjusted block, rejected observations: photo, point, component, w, mdb).
-    given_control: control and check points keep their given coordinates (for a format that
-    holds them as reference coordinates: the adjusted ones would make the control agree with
-    the result and change sigma0 when adjusted again); else every point is as adjusted."""
+    keep_given: control and check points keep their given coordinates (for a format that
+    holds them as reference coordinates: PAT-B, Metashape; the adjusted ones would make
+    the control agree with the result and change sigma0 when adjusted again); else every point gets its adjusted ones."""
     from baarda.io.formats import read_any
     from baarda.io.result_folder import read_results
 
@@ -133,13 +133,12 @@ def read_result_block(folder: str | Path, given_control: bool = False,
         block = replace(block, photos=replace(block.photos, eo=eo))
     if res.points is not None:
         used = np.unique(block.image.point)
+        if keep_given:
+            used = used[block.points.role[used] == "tie"]
         ids = [block.points.ids[j] for j in used]
         pt = res.points.iloc[_by_id(ids, res.points, "point", folder / "points.csv")]
         xyz = block.points.xyz.copy()
         xyz[used] = pt[["X", "Y", "Z"]].to_numpy(float)
-        if given_control:
-            ref = block.points.role != "tie"
-            xyz[ref] = block.points.xyz[ref]
         block = replace(block, points=replace(block.points, xyz=xyz))
     cams = res.cameras
     if cams:

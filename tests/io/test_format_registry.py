@@ -84,7 +84,7 @@ def test_a_registered_format_is_detected_read_and_offered(toy, tmp_path, capsys)
 def test_unknown_format_and_wrong_kind_name_the_registry():
     with pytest.raises(ProjectError, match="unknown format 'nope' \\(one of project, colmap, "
                        "aicon, micmac, opensfm, dbat, photomodeler, bal, bundler, nvm, metashape, "
-                       "metashape-xml\\)"):
+                       "metashape-xml, patb, bingo\\)"):
         read_any(DEMO, "nope")
     with pytest.raises(ValueError, match="path one of"):
         FormatSpec("x", "X", "an x", "disk", "mm", is_toy, read_toy)
@@ -96,7 +96,7 @@ def test_pixel_policy_comes_from_the_spec():
         "project": "mm", "colmap": "nominal", "aicon": "mm", "micmac": "camera",
         "opensfm": "nominal", "dbat": "camera", "photomodeler": "header", "bal": "nominal",
         "bundler": "nominal", "nvm": "nominal", "metashape": "header",
-        "metashape-xml": "header"}
+        "metashape-xml": "header", "patb": "mm", "bingo": "header"}
     assert resolve_image_options("bal").pixel_mm == 0.001
     with pytest.raises(ProjectError, match="--pixel-mm does not apply to MicMac input"):
         resolve_image_options("micmac", pixel_mm=0.01)

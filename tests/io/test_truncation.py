@@ -58,6 +58,10 @@ INPUTS = {
     "opensfm_berlin": ["."],
 }
 
+# data sets of this repository's tests/data (the others are in ../shared/data)
+INPUTS.update({"patb_demo": ["."], "bingo_pix4d": ["."]})
+LOCAL.update({"patb_demo": TESTS_DATA / "patb_demo", "bingo_pix4d": TESTS_DATA / "bingo_pix4d"})
+
 # files whose format cannot show a cut exactly at a line end (no count; docs/formats.md
 # "Where a cut cannot show"): data set -> file name patterns.  Every other cut of them is
 # still refused.
