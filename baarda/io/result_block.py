@@ -111,7 +111,8 @@ def read_result_block(folder: str | Path, keep_given: bool = False,
     """(adjusted block, rejected observations: photo, point, component, w, mdb).
     keep_given: control and check points keep their given coordinates (for a format that
     holds them as reference coordinates: PAT-B, Metashape; the adjusted ones would make
-    the control agree with the result and change sigma0 when adjusted again); else every point gets its adjusted ones."""
+    the control agree with the result and change sigma0 when adjusted again); else every
+    point gets its adjusted ones."""
     from baarda.io.formats import read_any
     from baarda.io.result_folder import read_results
 
