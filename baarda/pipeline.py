@@ -162,6 +162,7 @@ def with_gcp_list(block: Block, path: str | Path, encoding: str = ENCODING,
                            "GCPs measured on the images are added to blocks without them "
                            "(COLMAP, BAL, Bundler, NVM)")
     k0 = len(block.points)
+    block = _sizes_from_images(block, gcps, path)
     block = add_gcps(block, gcps)
     full = np.flatnonzero(np.isfinite(gcps.xyz).all(axis=1)
                           & (np.bincount(gcps.gcp, minlength=len(gcps)) >= 2))
@@ -186,6 +187,24 @@ def with_gcp_list(block: Block, path: str | Path, encoding: str = ENCODING,
     settings = replace(block.settings, crs=gcps.crs, datum="control", free_datum=None)
     return replace(block, settings=settings, points=replace(pts, xyz=xyz),
                    photos=replace(block.photos, eo=eo), frame=None, notes=notes)
+
+
+def _sizes_from_images(block: Block, gcps, path: str | Path) -> Block:
+    """The block with the image size of its cameras that have none (Bundler, NVM) from the
+    image files the GCP list names, looked for beside the GCP list and the input and in
+    their images/ folders."""
+    from baarda.block.gcp import photo_of_image, with_image_sizes
+    from baarda.block.pixels import known_grid
+    from baarda.io.gcp_list import image_sizes
+
+    if block.cameras.pixel_xy_mm is None or known_grid(block.cameras).all():
+        return block
+    src = Path(block.source) if block.source else None
+    bases = [Path(path).parent] + ([] if src is None else [src if src.is_dir() else src.parent])
+    folders = [f for b in bases for f in (b, b / "images", b.parent / "images")]
+    found = image_sizes(gcps.image, folders)
+    photo = photo_of_image(block, gcps.image, gcps.path, gcps.line)
+    return with_image_sizes(block, photo, [found.get(n) for n in gcps.image])
 
 
 CHECK_ALTERNATE = ("alternate", "every-other")

@@ -67,6 +67,29 @@ def photo_of_image(block: Block, names: list[str], source: str,
     return out
 
 
+def with_image_sizes(block: Block, photo: np.ndarray,
+                     sizes: list[tuple[int, int] | None]) -> Block:
+    """The block with the image size of each camera that has none (and a pixel size)
+    taken from the image files of its photos (`photo` indices, `sizes` (width, height) [px]
+    or None where no file was found), with a note."""
+    cams = block.cameras
+    if cams.pixel_xy_mm is None:
+        return block
+    size = (np.full((len(cams), 2), np.nan) if cams.image_size_px is None
+            else cams.image_size_px.copy())
+    filled = []
+    for p, wh in zip(photo.tolist(), sizes, strict=True):
+        c = int(block.photos.camera[p])
+        if wh is not None and not np.isfinite(size[c]).all():
+            size[c] = wh
+            filled.append(f"camera {cams.ids[c]} {wh[0]} x {wh[1]} px")
+    if not filled:
+        return block
+    return replace(block, cameras=replace(cams, image_size_px=size),
+                   notes=list(block.notes) + ["image size from the image files beside the "
+                                              "input: " + ", ".join(filled)])
+
+
 def add_gcps(block: Block, gcps: GcpList) -> Block:
     """The block with the GCPs as control points and their measurements as image
     observations (module docstring); the coordinates are the file's, in its CRS (the block's

@@ -84,3 +84,23 @@ def read_gcp_list(path: str | Path, encoding: str = ENCODING) -> GcpList:
     return GcpList(spath, parse_crs_line(crs_text), crs_line, ids, np.array(xyz, float),
                    np.array(first, np.int64), np.array(gcp, np.int64), image,
                    np.array(uv, float).reshape(-1, 2), np.array(at, np.int64))
+
+
+def image_sizes(names: list[str], folders: list[Path]) -> dict[str, tuple[int, int]]:
+    """(width, height) [px] of the image files `names` (their base names) found in the first
+    of `folders` that holds them (Pillow reads the header only); names not found are left
+    out."""
+    from PIL import Image, UnidentifiedImageError
+
+    out: dict[str, tuple[int, int]] = {}
+    for name in dict.fromkeys(names):
+        for folder in folders:
+            p = folder / Path(name).name
+            if p.is_file():
+                try:
+                    with Image.open(p) as im:
+                        out[name] = (int(im.width), int(im.height))
+                except (OSError, UnidentifiedImageError):
+                    continue
+                break
+    return out

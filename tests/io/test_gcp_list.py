@@ -326,3 +326,44 @@ def test_maupertuis_with_gcps_from_its_own_points(tmp_path):
     photo, point, component = _first_rejection(snoop(read(model, gcp_list=bad,
                                                           sigma_px=1.0)))
     assert (point, component) == ("M1", "x")
+
+
+@pytest.mark.parametrize("fmt", ["bundler", "nvm"])
+def test_bundler_and_nvm_take_the_image_size_from_the_images(tmp_path, fmt):
+    """Bundler and NVM state no image size: their GCP pixels are placed with the size of
+    the image files beside the input (Pillow reads the header; blank 1919 x 1079 JPEGs
+    stand in for Maupertuis' photos), and then land exactly on the measurements of the same
+    keypoints that the files hold from the image centre (the Maupertuis export of
+    tests/io/sfm_exports.py, a writer other than baarda's).  Without the images: exit 2
+    naming the line and field."""
+    import sys
+
+    from PIL import Image
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from sfm_exports import export_bundler, export_nvm
+
+    (tmp_path / "bundler").mkdir()
+    path = (export_bundler(MAUPERTUIS, tmp_path / "bundler") if fmt == "bundler" else
+            export_nvm(MAUPERTUIS, tmp_path / "bundler" / "model.nvm"))
+    gcps, names, tie_ids = _maupertuis_gcps(tmp_path)
+    with pytest.raises(ProjectError) as e:
+        read(path, gcp_list=gcps)
+    assert e.value.column == "im_x" and e.value.line == 2 and "image size" in str(e.value)
+    (tmp_path / "bundler" / "images").mkdir()
+    for k in range(4):
+        Image.new("L", (1919, 1079)).save(tmp_path / "bundler" / "images" / f"{k:02d}.jpg")
+    block = read(path, gcp_list=gcps)
+    np.testing.assert_array_equal(block.cameras.image_size_px, [[1919, 1079]])
+    assert any("image size from the image files" in n for n in block.notes)
+    # each GCP measurement coincides with a measurement of its tie point on that photo
+    im, index = block.image, block.point_index
+    checked = 0
+    for name in names:
+        g = im.point == index[name]
+        for photo in np.flatnonzero(np.bincount(im.photo[g], minlength=len(block.photos))):
+            here = im.xy_mm[g & (im.photo == photo)][0]
+            same = np.abs(im.xy_mm[(im.photo == photo) & ~g] - here).max(axis=1)
+            assert same.min() < 1e-9
+            checked += 1
+    assert checked >= 2 * len(names)
