@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from dense import dense_system
+from docs_text import doc_says
 from gcp_blocks import gcp_block, gcp_lines, write_colmap_text
 
 from baarda.block.photo_block import Cameras
@@ -244,12 +245,19 @@ def test_monte_carlo_the_wrong_gcp_is_named(tmp_path):
 
     named, _ = rates(15 * px)
     assert named >= 0.80
-    _, power = rates(q.mdb[row])
+    named_at_mdb, power = rates(q.mdb[row])
     se = np.sqrt(q.beta0 * (1 - q.beta0) / runs)
     assert abs(power - q.beta0) < 3 * se, power
     false = (np.abs(w0) > q.k_w).sum(axis=0)
     expected = q.alpha0 * tested.sum()
     assert false.mean() <= expected + 3 * np.sqrt(expected / runs), (false.mean(), expected)
+    assert doc_says("docs/formats.md", f"of {q.mdb[row] / px:.1f} px; marked 15 px off it is "
+                    f"rejected and named first by data snooping in {100 * named:.0f} % of the "
+                    f"runs (at least 80 % required); at exactly its MDB its w-test rejects it "
+                    f"in {100 * power:.1f} % of the runs (beta0 80 %, within the binomial "
+                    f"spread) and names it first in {100 * named_at_mdb:.1f} %; without an "
+                    f"error, {false.mean():.2f} w-tests are rejected per run against alpha0 x "
+                    f"n = {expected:.2f}")
 
 
 # ------------------------------------------------------------------ a real model
