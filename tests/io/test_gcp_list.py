@@ -189,6 +189,23 @@ def test_cli_exit_2_names_file_line_field(tmp_path):
     assert "Traceback" not in r.stderr
 
 
+def test_cli_missing_or_fifo_gcp_list(tmp_path, capsys):
+    import os
+
+    from baarda.cli import main
+
+    model, _, _ = _files(tmp_path)
+    missing = tmp_path / "nope.txt"
+    assert main(["adjust", str(model), "--gcp-list", str(missing), "-o",
+                 str(tmp_path / "o")]) == 2
+    assert f"{missing}: GCP list not found" in capsys.readouterr().err
+    fifo = tmp_path / "fifo.txt"
+    os.mkfifo(fifo)
+    assert main(["adjust", str(model), "--gcp-list", str(fifo), "-o",
+                 str(tmp_path / "o")]) == 2
+    assert f"{fifo}: is a FIFO (named pipe), not a regular file" in capsys.readouterr().err
+
+
 # ------------------------------------------------------------------ the GCP that is wrong
 def _first_rejection(qc) -> tuple[str, str, str]:
     """(photo, point, component) of data snooping's first rejection."""
