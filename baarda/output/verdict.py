@@ -356,6 +356,38 @@ def _suspicious(summary: dict, kind: str, label: str, section: str,
     return Row(kind, WARN, label, text, section)
 
 
+def _suspicious_gcps(summary: dict, points: pd.DataFrame | None) -> Row | None:
+    """The rejected control components (`_suspicious`) and the rejected image measurements
+    of control and check points, named by GCP and photo: a GCP marked in the wrong place on
+    an image (`--gcp-list`) is a warning of its own."""
+    row = _suspicious(summary, "control", "Suspicious GCPs", "control",
+                      _control_components(summary, points))
+    marks = _gcp_marks_rejected(summary, points)
+    if not marks:
+        return row
+    shown = "; ".join(marks[:6]) + ("; ..." if len(marks) > 6 else "")
+    text = (f"{len(marks)} image measurement(s) of GCPs rejected (marked in the wrong place "
+            f"on the image? remeasure it): {shown}")
+    if row is not None and row.text != "none rejected":
+        text = f"{row.text}; {text}"
+    return Row("control", WARN, "Suspicious GCPs", text, "control")
+
+
+def _gcp_marks_rejected(summary: dict, points: pd.DataFrame | None) -> list[str]:
+    """'GCP3 on photo IMG_0004 (x)' for each rejected image component of a control or
+    check point (labels 'image photo P point Q c')."""
+    if points is None or "role" not in points:
+        return []
+    gcp = set(points.loc[points["role"].isin(("control", "check")), "point"].astype(str))
+    out = []
+    for label in _rejected_of(summary, "image"):
+        head, _, comp = label.rpartition(" ")
+        photo, sep, point = head.removeprefix("image photo ").partition(" point ")
+        if sep and point in gcp:
+            out.append(f"{point} on photo {photo} ({comp})")
+    return out
+
+
 def _control_components(summary: dict, points: pd.DataFrame | None) -> int | None:
     """The control components tested: the control points times the control axes."""
     axes = (summary.get("observation_groups") or {}).get("control") or {}
@@ -402,8 +434,7 @@ def verdict(summary: dict, points: pd.DataFrame | None = None, *,
             _sigma0(summary, pixel_um, image_sigma_um), _check_points(summary, points),
             _rejections(summary), _uncontrolled(summary, points)]
     rows += [r for r in (_camera(summary),
-                         _suspicious(summary, "control", "Suspicious GCPs", "control",
-                                     _control_components(summary, points)),
+                         _suspicious_gcps(summary, points),
                          _suspicious(summary, GNSS.name, "Suspicious GNSS positions", GNSS.name))
              if r is not None]
     return Verdict(tuple(rows))

@@ -224,6 +224,26 @@ def test_snooping_names_the_gcp_marked_15_px_off(tmp_path):
     assert _first_rejection(snoop(block)) == ("IMG_0004", "GCP3", "x")
 
 
+def test_the_command_names_the_wrong_gcp(tmp_path, capsys):
+    """baarda adjust --gcp-list --snoop: the snooping log and the quality check name GCP3
+    on IMG_0004, and the result folder holds it as a rejected image observation."""
+    import pandas as pd
+
+    from baarda.cli import main
+
+    model, gcps, _ = _files(tmp_path, error=("GCP3", "IMG_0004.JPG", 15.0, 0.0))
+    out = tmp_path / "out"
+    main(["adjust", str(model), "--gcp-list", str(gcps), "--snoop", "-o", str(out)])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "1 reject image photo IMG_0004 point GCP3 x w = " in text  # the first step
+    assert "Suspicious GCPs: 1 image measurement(s) of GCPs rejected" in text
+    assert "GCP3 on photo IMG_0004 (x)" in text
+    obs = pd.read_csv(out / "observations.csv")
+    bad = obs[(obs["point"].astype(str) == "GCP3") & (obs["photo"] == "IMG_0004")
+              & (obs["component"] == "x")]
+    assert bad["rejected"].tolist() == [True]
+
+
 def test_monte_carlo_the_wrong_gcp_is_named(tmp_path):
     """Issue 38's acceptance on the block's linearised model (the dense system of the
     adjusted block read from the files; w = (I - H)(e + b u_j) / sigma_v, 200 runs):

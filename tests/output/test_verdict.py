@@ -176,3 +176,16 @@ def test_a_rejected_gcp_that_chance_explains_passes_named():
     assert "P(at least 1 false alarms among 66 components) = 0.064" in r.text
     r = row(verdict(summary(rejection_log=log, observation_groups=groups), pts[:1]), "control")
     assert r.status == WARN  # 1 of 3 components: P = 0.003
+
+
+def test_a_rejected_image_measurement_of_a_gcp_is_named():
+    """A GCP marked in the wrong place on one image (--gcp-list, issue 38): its rejected
+    image component is named by GCP and photo, a warning; a tie point's is not a GCP's."""
+    log = [{"action": "reject", "observations": ["image photo IMG_0004 point GCP3 x"]},
+           {"action": "reject", "observations": ["image photo IMG_0001 point 17 y"]}]
+    pts = _points({"GCP3": "control", "17": "tie"})
+    r = row(verdict(summary(rejection_log=log), pts), "control")
+    assert r.status == WARN and r.label == "Suspicious GCPs"
+    assert r.text.startswith("1 image measurement(s) of GCPs rejected")
+    assert r.text.endswith(": GCP3 on photo IMG_0004 (x)")
+    assert all(x.key != "control" for x in verdict(summary(rejection_log=log[1:]), pts).rows)
