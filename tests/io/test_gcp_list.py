@@ -244,6 +244,21 @@ def test_the_command_names_the_wrong_gcp(tmp_path, capsys):
     assert bad["rejected"].tolist() == [True]
 
 
+def test_convert_keeps_the_gcps(tmp_path, capsys):
+    """baarda convert --gcp-list writes a native project in the GCPs' CRS that adjusts to
+    the same sigma0 (1e-6: the CSV files keep 10 digits) as the COLMAP model with the list."""
+    from baarda.cli import main
+
+    model, gcps, _ = _files(tmp_path)
+    assert main(["convert", str(model), "--gcp-list", str(gcps), "-o",
+                 str(tmp_path / "proj")]) == 0
+    capsys.readouterr()
+    back = read(tmp_path / "proj")
+    assert back.settings.crs == "EPSG:32632" and (back.points.role == "control").sum() == 8
+    assert adjust(back).sigma0 == pytest.approx(adjust(read(model, gcp_list=gcps)).sigma0,
+                                                rel=1e-6)
+
+
 def test_monte_carlo_the_wrong_gcp_is_named(tmp_path):
     """Issue 38's acceptance on the block's linearised model (the dense system of the
     adjusted block read from the files; w = (I - H)(e + b u_j) / sigma_v, 200 runs):
