@@ -31,17 +31,21 @@ def known_grid(cameras: Cameras) -> np.ndarray:
             & np.isfinite(cameras.pixel_xy_mm).all(axis=1))
 
 
+def _grid(cameras: Cameras, camera: np.ndarray, n: int):
+    """(W H (m, 2), px py (m, 2)) of cameras `camera`; NaN where the grid is unknown."""
+    camera = np.asarray(camera, np.int64)
+    if cameras.image_size_px is None or cameras.pixel_xy_mm is None:
+        return np.full((n, 2), np.nan), np.full((n, 2), np.nan)
+    return cameras.image_size_px[camera], cameras.pixel_xy_mm[camera]
+
+
 def pixels_to_mm(cameras: Cameras, camera: np.ndarray, uv: np.ndarray,
                  first_centre: float = CENTRE_OF_FIRST_PIXEL) -> np.ndarray:
     """Image coordinates [mm] (m, 2) of pixels uv (m, 2) on cameras `camera` (m,) (module
     docstring; `first_centre`: the coordinate of the first pixel's centre, 0 or 0.5).  NaN
     where the camera's grid is unknown."""
     uv = np.asarray(uv, float).reshape(-1, 2)
-    camera = np.asarray(camera, np.int64)
-    if cameras.image_size_px is None or cameras.pixel_xy_mm is None:
-        return np.full(uv.shape, np.nan)
-    size = cameras.image_size_px[camera]
-    pix = cameras.pixel_xy_mm[camera]
+    size, pix = _grid(cameras, camera, len(uv))
     shift = 0.5 - first_centre
     return np.column_stack([(uv[:, 0] + shift - size[:, 0] / 2) * pix[:, 0],
                             (size[:, 1] / 2 - uv[:, 1] - shift) * pix[:, 1]])
@@ -51,11 +55,7 @@ def mm_to_pixels(cameras: Cameras, camera: np.ndarray, xy_mm: np.ndarray,
                  first_centre: float = CENTRE_OF_FIRST_PIXEL) -> np.ndarray:
     """The inverse of pixels_to_mm (for writers and tests)."""
     xy_mm = np.asarray(xy_mm, float).reshape(-1, 2)
-    camera = np.asarray(camera, np.int64)
-    if cameras.image_size_px is None or cameras.pixel_xy_mm is None:
-        return np.full(xy_mm.shape, np.nan)
-    size = cameras.image_size_px[camera]
-    pix = cameras.pixel_xy_mm[camera]
+    size, pix = _grid(cameras, camera, len(xy_mm))
     shift = 0.5 - first_centre
     return np.column_stack([xy_mm[:, 0] / pix[:, 0] + size[:, 0] / 2 - shift,
                             size[:, 1] / 2 - xy_mm[:, 1] / pix[:, 1] - shift])

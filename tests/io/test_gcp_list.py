@@ -246,7 +246,8 @@ def test_the_command_names_the_wrong_gcp(tmp_path, capsys):
 
 def test_convert_keeps_the_gcps(tmp_path, capsys):
     """baarda convert --gcp-list writes a native project in the GCPs' CRS that adjusts to
-    the same sigma0 (1e-6: the CSV files keep 10 digits) as the COLMAP model with the list."""
+    the same sigma0 (1e-6, as written to the project's files) as the COLMAP model
+    with the list."""
     from baarda.cli import main
 
     model, gcps, _ = _files(tmp_path)
