@@ -313,6 +313,21 @@ def test_monte_carlo_the_wrong_gcp_is_named(tmp_path):
                     f"n = {expected:.2f}")
 
 
+@pytest.mark.slow
+def test_monte_carlo_through_the_files(tmp_path):
+    """The same acceptance without linearising: 20 runs, each with its own noise written
+    to a COLMAP model and a gcp_list.txt, read and snooped by the pipeline; GCP3 marked
+    15 px off on IMG_0004 is the first rejection in every run (at least 80 % required)."""
+    named = 0
+    for seed in range(20):
+        folder = tmp_path / str(seed)
+        model, gcps, _ = _files(folder, seed=100 + seed,
+                                error=("GCP3", "IMG_0004.JPG", 15.0, 0.0))
+        named += _first_rejection(snoop(read(model, gcp_list=gcps))) == \
+            ("IMG_0004", "GCP3", "x")
+    assert named == 20
+
+
 # ------------------------------------------------------------------ a real model
 def _maupertuis_gcps(folder: Path,
                      error_px: float = 0.0) -> tuple[Path, list[str], list[str]]:
