@@ -164,23 +164,30 @@ def with_gcp_list(block: Block, path: str | Path, encoding: str = ENCODING,
     k0 = len(block.points)
     block = _sizes_from_images(block, gcps, path)
     block = add_gcps(block, gcps)
-    full = np.flatnonzero(np.isfinite(gcps.xyz).all(axis=1)
-                          & (np.bincount(gcps.gcp, minlength=len(gcps)) >= 2))
+    rays = np.flatnonzero(np.bincount(gcps.gcp, minlength=len(gcps)) >= 2)
     with np.errstate(all="ignore"):
-        own = intersect(block, block.photos.eo, k0 + full) if len(full) else np.zeros((0, 3))
-    ok = np.isfinite(own).all(axis=1)
-    frame = LocalFrame(gcps.crs, gcps.xyz[full[ok]].mean(axis=0) if ok.any() else
-                       np.zeros(3))
+        seen = intersect(block, block.photos.eo, k0 + rays) if len(rays) else np.zeros((0, 3))
     pts = block.points
-    xyz, eo, text = into_frame(pts.xyz, block.photos.eo, own[ok],
-                               frame.to_local(gcps.xyz[full[ok]]))
+    own_xyz = pts.xyz.copy()
+    own_xyz[k0:] = np.nan
+    own_xyz[k0 + rays] = seen  # the GCPs in the input's frame, carried along as its points
+    full = np.isfinite(gcps.xyz[rays]).all(axis=1) & np.isfinite(seen).all(axis=1)
+    given = gcps.xyz[rays[full]]
+    frame = LocalFrame(gcps.crs, given.mean(axis=0) if full.any() else np.zeros(3))
+    xyz, eo, text = into_frame(own_xyz, block.photos.eo, seen[full], frame.to_local(given))
     if not np.isfinite(eo).all():
-        raise ProjectError(gcps.path, f"{int(ok.sum())} GCP(s) with X, Y, Z measured on two "
+        raise ProjectError(gcps.path, f"{int(full.sum())} GCP(s) with X, Y, Z measured on two "
                            "or more images of the block, not on a line: three are needed to "
                            "place the block in the GCPs' CRS")
     known = np.isfinite(xyz).all(axis=1)
     xyz[known] = frame.from_local(xyz[known])
-    xyz[k0:] = gcps.xyz
+    xyz[k0:] = np.where(np.isfinite(gcps.xyz), gcps.xyz, xyz[k0:])  # a height not given:
+    lost = np.flatnonzero(~np.isfinite(xyz[k0:]).all(axis=1))  # the intersection's
+    if len(lost):
+        k = int(lost[0])
+        raise ProjectError(gcps.path, f"GCP {gcps.ids[k]} has no height and is measured on "
+                           "one image: its height cannot be approximated (measure it on a "
+                           "second image or give geo_z)", int(gcps.first_line[k]), "geo_z")
     eo = frame.eo_from_local(eo)
     notes = list(block.notes) + [f"{gcps.path}: the block placed in {frame.crs.name} by the "
                                  "GCPs: " + text.replace("the control's frame", "the CRS")]

@@ -175,6 +175,32 @@ def test_too_few_gcps_to_place_the_block(tmp_path):
         read(model, gcp_list=gcps)
 
 
+def test_a_gcp_without_height(tmp_path):
+    """geo_z NaN (ODM: no value): a planimetric control point, its height approximated by
+    intersection, only X and Y observed; measured on one image only it cannot be placed:
+    exit 2 at its line, field geo_z."""
+    model, gcps, _ = _files(tmp_path)
+    lines = gcps.read_text().splitlines()
+    nan = [lines[0]] + [" ".join(f[:2] + ["NaN"] + f[3:]) if f[6] == "GCP8" else s
+                        for s, f in ((s, s.split()) for s in lines[1:])]
+    gcps.write_text("\n".join(nan) + "\n")
+    block = read(model, gcp_list=gcps)
+    j = block.point_index["GCP8"]
+    assert block.points.role[j] == "control" and np.isnan(block.points.sigma[j, 2])
+    assert np.isfinite(block.points.xyz[j]).all()
+    assert block.points.controlled[j].tolist() == [True, True, False]
+    t = assess(adjust(block)).table()
+    assert sorted(t.loc[(t["kind"] == "control") & (t["point"].astype(str) == "GCP8"),
+                        "component"]) == ["X", "Y"]
+    one = [s for s in nan if s.split()[-1] != "GCP8" or s == nan[0]]
+    one += [next(s for s in nan[1:] if s.split()[-1] == "GCP8")]
+    gcps.write_text("\n".join(one) + "\n")
+    with pytest.raises(ProjectError) as e:
+        read(model, gcp_list=gcps)
+    assert (e.value.line, e.value.column) == (len(one), "geo_z")
+    assert "GCP8 has no height and is measured on one image" in str(e.value)
+
+
 def test_cli_exit_2_names_file_line_field(tmp_path):
     import subprocess
     import sys
