@@ -108,6 +108,10 @@ def read_configured(path: str | Path, fmt: str | None = None,
 
     r = requested or Requested()
     check_requested(r)  # before reading: a bad value costs nothing
+    if control is not None and gcp_list is not None:
+        raise ProjectError("command line", "--control and --gcp-list both replace the input's "
+                           "control: give the control in one of them (a gcp_list.txt holds "
+                           "the GCPs' coordinates and their image measurements)")
     fmt = fmt or detect(path)
     block = read_any(path, fmt, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px,
                      sigma_image_um=r.sigma_image_um, encoding=encoding, camera=camera,

@@ -166,6 +166,12 @@ def test_crs_line_and_crs_option(tmp_path):
     assert read(model, gcp_list=gcps, crs="EPSG:32632").settings.crs == "EPSG:32632"
 
 
+def test_control_and_gcp_list_together_are_refused(tmp_path):
+    model, gcps, _ = _files(tmp_path)
+    with pytest.raises(ProjectError, match="--control and --gcp-list both replace"):
+        read(model, gcp_list=gcps, control=gcps)
+
+
 def test_too_few_gcps_to_place_the_block(tmp_path):
     model, gcps, which = _files(tmp_path)
     lines = gcps.read_text().splitlines()
