@@ -54,8 +54,8 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
          encoding: str = ENCODING, camera_model: str | None = None,
          calibrate=None, camera: str | Path | None = None,
          calibration_group: str | None = None, check_gcp=None,
-         control: str | Path | None = None, model: int | None = None,
-         tie_points: str | Path | None = None) -> Block:
+         control: str | Path | None = None, gcp_list: str | Path | None = None,
+         model: int | None = None, tie_points: str | Path | None = None) -> Block:
     """Read any supported input (io/formats.py) into a Block, configured as asked.
 
     crs: the CRS of the ground coordinates (overrides project.toml); sigma_image_um or
@@ -75,9 +75,12 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
     control points to use as check points (with_check_points), e.g. an OpenSfM dataset's
     GCPs; control: a control file (DBAT's text format or a native ground_points.csv,
     io/control_file.py) whose points replace the input's control, matched by id
-    (block/control.py); model: of a file with several (NVM, 0-based; default the first);
-    tie_points: a Bundler file of the same chunk joining a Metashape cameras XML's markers
-    (io/metashape_cameras.py).  The settings are resolved once (io/configuration.py: the rule of
+    (block/control.py); gcp_list: OpenDroneMap's gcp_list.txt, GCPs measured on the images
+    added as control points, the block moved into their CRS (with_gcp_list; `check_gcp`
+    names those that are check points); model: of a file with several (NVM, 0-based;
+    default the first); tie_points: a Bundler file of the same chunk joining a Metashape
+    cameras XML's markers (io/metashape_cameras.py).
+    The settings are resolved once (io/configuration.py: the rule of
     each); `read_configured` returns the configuration too.
     """
     requested = Requested(crs=crs, pixel_mm=pixel_mm, sigma_px=sigma_px,
@@ -86,18 +89,19 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
                           calibrate=tuple(calibrate) if isinstance(calibrate, list)
                           else calibrate, calibration_group=calibration_group)
     return read_configured(path, fmt, requested, encoding=encoding, camera=camera,
-                           check_gcp=check_gcp, control=control, model=model,
-                           tie_points=tie_points)[0]
+                           check_gcp=check_gcp, control=control, gcp_list=gcp_list,
+                           model=model, tie_points=tie_points)[0]
 
 
 def read_configured(path: str | Path, fmt: str | None = None,
                     requested: Requested | None = None, *, encoding: str = ENCODING,
                     camera: str | Path | None = None, check_gcp=None,
-                    control: str | Path | None = None,
+                    control: str | Path | None = None, gcp_list: str | Path | None = None,
                     model: int | None = None,
                     tie_points: str | Path | None = None) -> tuple[Block, Config]:
     """(the block, the run's configuration): the input read (io/formats.py), its control
-    replaced (`control`) or turned into check points (`check_gcp`: see `read`), and what
+    replaced (`control`), GCP image measurements added (`gcp_list`: with_gcp_list), control
+    points turned into check points (`check_gcp`: see `read`), and what
     the command line or the API asks for (`requested`) merged once with the input's
     settings (io/configuration.resolve_config) and applied to the block (`configure`).
     Every command reads its input here; `prepare` and the tests take the configuration."""
@@ -106,6 +110,10 @@ def read_configured(path: str | Path, fmt: str | None = None,
 
     r = requested or Requested()
     check_requested(r)  # before reading: a bad value costs nothing
+    if control is not None and gcp_list is not None:
+        raise ProjectError("command line", "--control and --gcp-list both replace the input's "
+                           "control: give the control in one of them (a gcp_list.txt holds "
+                           "the GCPs' coordinates and their image measurements)")
     fmt = fmt or detect(path)
     block = read_any(path, fmt, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px,
                      sigma_image_um=r.sigma_image_um, encoding=encoding, camera=camera,
@@ -116,10 +124,100 @@ def read_configured(path: str | Path, fmt: str | None = None,
 
         cf = read_control_file(control, encoding, block.settings.sigma_control_m)
         block = with_control(block, cf.ids, cf.xyz, cf.sigma, cf.role, cf.path)
+    if gcp_list is not None:
+        block = with_gcp_list(block, gcp_list, encoding, r.crs)
     if check_gcp is not None:
         block = with_check_points(block, check_gcp)
     config = resolve_config(r, block, fmt)
     return configure(block, config), config
+
+
+def with_gcp_list(block: Block, path: str | Path, encoding: str = ENCODING,
+                  crs: str | None = None) -> Block:
+    """The block with the GCPs of an OpenDroneMap gcp_list.txt (io/gcp_list.py) as control
+    points measured on its images (block/gcp.py), placed in the file's CRS: the GCPs with
+    X, Y, Z and two or more measurements are intersected from the block's orientations (in
+    the input's own frame), and the similarity that fits them to the file's coordinates
+    (three or more, not on a line; computed in a local east-north-up frame of the CRS,
+    pyproj) carries every orientation and point into the CRS, as --control carries an input
+    in another frame.  The CRS is the file's first line; `crs` (--crs), an input's own CRS
+    or GNSS/IMU observations that differ from it are errors."""
+    from pyproj import CRS
+    from pyproj.exceptions import CRSError
+
+    from baarda.block.control import into_frame
+    from baarda.block.crs import LocalFrame
+    from baarda.block.gcp import add_gcps
+    from baarda.bundle.geometry import intersect
+    from baarda.io.gcp_list import read_gcp_list
+
+    gcps = read_gcp_list(path, encoding)
+    try:
+        crs_file = CRS.from_user_input(gcps.crs)
+    except CRSError as e:
+        raise ProjectError(gcps.path, f"the first line {gcps.crs!r} is not a CRS (a PROJ "
+                           f"string, EPSG:NNNN or 'WGS84 UTM 32N'): {e}", gcps.crs_line,
+                           "crs") from None
+    for given, where in ((crs, "--crs"), (block.settings.crs, "the input's CRS")):
+        if given and CRS.from_user_input(given) != crs_file:
+            raise ProjectError(gcps.path, f"{where} {given} is not the CRS of the GCPs "
+                               f"({gcps.crs}): the block is placed in the GCPs' CRS",
+                               gcps.crs_line, "crs")
+    if len(block.gnss) or len(block.imu):
+        raise ProjectError(gcps.path, "the input has GNSS/IMU observations in its own frame: "
+                           "GCPs measured on the images are added to blocks without them "
+                           "(COLMAP, BAL, Bundler, NVM)")
+    k0 = len(block.points)
+    block = _sizes_from_images(block, gcps, path)
+    block = add_gcps(block, gcps)
+    rays = np.flatnonzero(np.bincount(gcps.gcp, minlength=len(gcps)) >= 2)
+    with np.errstate(all="ignore"):
+        seen = intersect(block, block.photos.eo, k0 + rays) if len(rays) else np.zeros((0, 3))
+    pts = block.points
+    own_xyz = pts.xyz.copy()
+    own_xyz[k0:] = np.nan
+    own_xyz[k0 + rays] = seen  # the GCPs in the input's frame, carried along as its points
+    full = np.isfinite(gcps.xyz[rays]).all(axis=1) & np.isfinite(seen).all(axis=1)
+    given = gcps.xyz[rays[full]]
+    frame = LocalFrame(gcps.crs, given.mean(axis=0) if full.any() else np.zeros(3))
+    xyz, eo, text = into_frame(own_xyz, block.photos.eo, seen[full], frame.to_local(given))
+    if not np.isfinite(eo).all():
+        raise ProjectError(gcps.path, f"{int(full.sum())} GCP(s) with X, Y, Z measured on two "
+                           "or more images of the block, not on a line: three are needed to "
+                           "place the block in the GCPs' CRS")
+    known = np.isfinite(xyz).all(axis=1)
+    xyz[known] = frame.from_local(xyz[known])
+    xyz[k0:] = np.where(np.isfinite(gcps.xyz), gcps.xyz, xyz[k0:])  # a height not given:
+    lost = np.flatnonzero(~np.isfinite(xyz[k0:]).all(axis=1))  # the intersection's
+    if len(lost):
+        k = int(lost[0])
+        raise ProjectError(gcps.path, f"GCP {gcps.ids[k]} has no height and is measured on "
+                           "one image: its height cannot be approximated (measure it on a "
+                           "second image or give geo_z)", int(gcps.first_line[k]), "geo_z")
+    eo = frame.eo_from_local(eo)
+    notes = list(block.notes) + [f"{gcps.path}: the block placed in {frame.crs.name} by the "
+                                 "GCPs: " + text.replace("the control's frame", "the CRS")]
+    settings = replace(block.settings, crs=gcps.crs, datum="control", free_datum=None)
+    return replace(block, settings=settings, points=replace(pts, xyz=xyz),
+                   photos=replace(block.photos, eo=eo), frame=None, notes=notes)
+
+
+def _sizes_from_images(block: Block, gcps, path: str | Path) -> Block:
+    """The block with the image size of its cameras that have none (Bundler, NVM) from the
+    image files the GCP list names, looked for beside the GCP list and the input and in
+    their images/ folders."""
+    from baarda.block.gcp import photo_of_image, with_image_sizes
+    from baarda.block.pixels import known_grid
+    from baarda.io.gcp_list import image_sizes
+
+    if block.cameras.pixel_xy_mm is None or known_grid(block.cameras).all():
+        return block
+    src = Path(block.source) if block.source else None
+    bases = [Path(path).parent] + ([] if src is None else [src if src.is_dir() else src.parent])
+    folders = [f for b in bases for f in (b, b / "images", b.parent / "images")]
+    found = image_sizes(gcps.image, folders)
+    photo = photo_of_image(block, gcps.image, gcps.path, gcps.line)
+    return with_image_sizes(block, photo, [found.get(n) for n in gcps.image])
 
 
 CHECK_ALTERNATE = ("alternate", "every-other")

@@ -59,7 +59,7 @@ def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarra
         extent = float(np.max(np.ptp(xyz[rows][ok], axis=0)))
         spread = float(np.nanmax(sigma[rows], initial=0.0))
         if diff > 0.05 * extent + 3 * spread:
-            new_xyz, eo, text = _into_frame(pts.xyz, eo, own[ok], xyz[rows][ok])
+            new_xyz, eo, text = into_frame(pts.xyz, eo, own[ok], xyz[rows][ok])
             new_role = np.where(new_role == "check", "tie", new_role).astype(object)
             notes.append(f"the input's coordinates of {source}'s points differ from the file's "
                          f"by up to {diff:.4g} m (another frame): {text}")
@@ -87,7 +87,7 @@ def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarra
     return replace(block, settings=settings, points=points, photos=photos, notes=notes)
 
 
-def _into_frame(xyz: np.ndarray, eo: np.ndarray, src: np.ndarray,
+def into_frame(xyz: np.ndarray, eo: np.ndarray, src: np.ndarray,
                 dst: np.ndarray) -> tuple[np.ndarray, np.ndarray, str]:
     """The input's point coordinates and orientations carried into the control's frame by
     the similarity that fits `src` (the input's coordinates of the matched points) to `dst`

@@ -66,6 +66,12 @@ class Cameras:
     # `configure` writes it here for the bundle (bundle/calibration.py reads it).
     free: tuple[tuple[str, ...], ...] | None = None
     pixel_mm: np.ndarray | None = None  # (n,) pixel size where the source states it (mm)
+    # the image grid where the input states it (block/pixels.py turns pixels with the origin
+    # at the upper-left corner into the block's image coordinates): (n, 2) width, height
+    # [px] (NaN: unknown) and (n, 2) the mm of one pixel in x and in y as the reader scaled
+    # the image coordinates (COLMAP: p and p fx/fy)
+    image_size_px: np.ndarray | None = None
+    pixel_xy_mm: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ids)

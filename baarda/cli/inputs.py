@@ -61,6 +61,13 @@ def add_input_options(p) -> None:
     p.add_argument("--control", metavar="FILE", help="control points replacing the input's "
                    "own (matched by id): DBAT's text format 'id[, name], X, Y, Z[, sigmas]' "
                    "(no sigma: fixed) or a native ground_points.csv. Default: the input's")
+    p.add_argument("--gcp-list", metavar="FILE", help="GCPs measured on the images, in "
+                   "OpenDroneMap's gcp_list.txt (a CRS line, then 'geo_x geo_y geo_z im_x im_y "
+                   "image_name [gcp_name]', pixels from the upper-left corner): added as "
+                   "control points to any input whose image size is known (COLMAP; Bundler "
+                   "and NVM with their images beside them), the block moved into the file's "
+                   "CRS by a similarity; --check-gcp names the check points "
+                   "(docs/formats.md)")
     p.add_argument("--datum", choices=DATUMS, help="control: the control fixes the block; "
                    "free: a free network (minimal constraints; control points become check "
                    "points); inner: a free network whose coordinates and standard deviations "
@@ -84,12 +91,13 @@ def read_configured_input(args) -> tuple[Block, Config]:
     return read_configured(args.input, args.format, requested_settings(args),
                            encoding=args.encoding, camera=args.camera,
                            check_gcp=args.check_gcp, control=args.control,
-                           model=getattr(args, "model", None),
+                           gcp_list=args.gcp_list, model=getattr(args, "model", None),
                            tie_points=getattr(args, "tie_points", None))
 
 
 def input_paths(args) -> list[Path]:
-    """The files a command reads (its input, --camera, --control): checked against the
-    output folder, never written over."""
+    """The files a command reads (its input, --camera, --control, --gcp-list, --tie-points):
+    checked against the output folder, never written over."""
     return [Path(p) for p in (args.input, args.camera, args.control,
+                              getattr(args, "gcp_list", None),
                               getattr(args, "tie_points", None)) if p is not None]

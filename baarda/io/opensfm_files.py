@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from baarda.errors import ProjectError
+from baarda.io.gcp_list import parse_crs_line
 from baarda.io.records import (
     decode_text,
     file_bytes,
@@ -96,16 +97,6 @@ def utm_crs(lon: float, lat: float) -> str:
     """The WGS84 UTM zone of a place, as 'EPSG:326zz' / 'EPSG:327zz'."""
     zone = min(60, max(1, int((lon + 180) // 6) + 1))
     return f"EPSG:{(32600 if lat >= 0 else 32700) + zone}"
-
-
-def parse_crs_line(text: str) -> str:
-    """The CRS of gcp_list.txt's first line: ODM's 'WGS84 UTM 32N', an EPSG code or a proj
-    string (pyproj checks it later)."""
-    t = text.strip()
-    m = re.fullmatch(r"WGS84\s+UTM\s+(\d{1,2})\s*([NS])", t, re.IGNORECASE)
-    if m and 1 <= int(m.group(1)) <= 60:
-        return f"EPSG:{(32600 if m.group(2).upper() == 'N' else 32700) + int(m.group(1))}"
-    return t
 
 
 # ------------------------------------------------------------------ tracks

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.special import bdtrc  # the binomial survival function (scipy.stats' binom.sf)
+from scipy.special import bdtrc, erfc  # bdtrc: the binomial survival function (binom.sf)
 
 from baarda.kinds import GNSS
 
@@ -356,6 +356,58 @@ def _suspicious(summary: dict, kind: str, label: str, section: str,
     return Row(kind, WARN, label, text, section)
 
 
+def _suspicious_gcps(summary: dict, points: pd.DataFrame | None) -> Row | None:
+    """The rejected control components (`_suspicious`) and the rejected image measurements
+    of control and check points, named by GCP and photo (a GCP marked in the wrong place on
+    an image, `--gcp-list`): a warning unless chance explains the largest |w| among the
+    GCPs' image components (2 x their rays, points.csv): P(max |w| >= it) >= REJECTIONS_P
+    passes, named."""
+    row = _suspicious(summary, "control", "Suspicious GCPs", "control",
+                      _control_components(summary, points))
+    marks = _gcp_marks_rejected(summary, points)
+    if not marks:
+        return row
+    shown = "; ".join(m for m, _ in marks[:6]) + ("; ..." if len(marks) > 6 else "")
+    text = f"{len(marks)} image measurement(s) of GCPs rejected: {shown}"
+    status = WARN
+    assert points is not None  # marks come from its roles
+    ws = [abs(v) for _, v in marks if np.isfinite(v)]
+    if "rays" in points and ws:
+        gcp = points["role"].isin(("control", "check")).to_numpy()
+        n = max(2 * int(np.nansum(points.loc[gcp, "rays"].to_numpy(float))), len(marks))
+        w = max(ws)
+        p = float(-np.expm1(n * np.log1p(-erfc(w / np.sqrt(2)))))
+        text += f"; P(|w| >= {w:.2f} among the GCPs' {n} image components) = {p:.2g}"
+        if p >= REJECTIONS_P:
+            status = PASS
+            text += ": chance alone gives as much (left out; remeasure it if in doubt)"
+    if status == WARN:
+        text += ": marked in the wrong place on the image? remeasure it"
+    if row is not None and row.text != "none rejected":
+        text = f"{row.text}; {text}"
+        status = WARN if row.status == WARN else status
+    return Row("control", status, "Suspicious GCPs", text, "control")
+
+
+def _gcp_marks_rejected(summary: dict,
+                        points: pd.DataFrame | None) -> list[tuple[str, float]]:
+    """('GCP3 on photo IMG_0004 (x)', its w when rejected) for each image component of a
+    control or check point rejected in the end (labels 'image photo P point Q c')."""
+    if points is None or "role" not in points:
+        return []
+    gcp = set(points.loc[points["role"].isin(("control", "check")), "point"].astype(str))
+    value = {str(o): float(st.get("value") or np.nan)
+             for st in summary.get("rejection_log") or [] if st.get("action") == "reject"
+             for o in st.get("observations") or []}
+    out = []
+    for label in _rejected_of(summary, "image"):
+        head, _, comp = label.rpartition(" ")
+        photo, sep, point = head.removeprefix("image photo ").partition(" point ")
+        if sep and point in gcp:
+            out.append((f"{point} on photo {photo} ({comp})", value.get(label, np.nan)))
+    return out
+
+
 def _control_components(summary: dict, points: pd.DataFrame | None) -> int | None:
     """The control components tested: the control points times the control axes."""
     axes = (summary.get("observation_groups") or {}).get("control") or {}
@@ -402,8 +454,7 @@ def verdict(summary: dict, points: pd.DataFrame | None = None, *,
             _sigma0(summary, pixel_um, image_sigma_um), _check_points(summary, points),
             _rejections(summary), _uncontrolled(summary, points)]
     rows += [r for r in (_camera(summary),
-                         _suspicious(summary, "control", "Suspicious GCPs", "control",
-                                     _control_components(summary, points)),
+                         _suspicious_gcps(summary, points),
                          _suspicious(summary, GNSS.name, "Suspicious GNSS positions", GNSS.name))
              if r is not None]
     return Verdict(tuple(rows))

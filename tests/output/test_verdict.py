@@ -1,6 +1,8 @@
 """The quality check of a run from its files (output/verdict.py): each row's colour and
 numbers, on summaries made to trigger them."""
 
+import math
+
 import numpy as np
 import pandas as pd
 
@@ -176,3 +178,24 @@ def test_a_rejected_gcp_that_chance_explains_passes_named():
     assert "P(at least 1 false alarms among 66 components) = 0.064" in r.text
     r = row(verdict(summary(rejection_log=log, observation_groups=groups), pts[:1]), "control")
     assert r.status == WARN  # 1 of 3 components: P = 0.003
+
+
+def test_a_rejected_image_measurement_of_a_gcp_is_named():
+    """A GCP marked in the wrong place on one image (--gcp-list, issue 38): its rejected
+    image component is named by GCP and photo, a warning; a tie point's is not a GCP's."""
+    log = [{"action": "reject", "observations": ["image photo IMG_0004 point GCP3 x"],
+            "value": 13.14},
+           {"action": "reject", "observations": ["image photo IMG_0001 point 17 y"],
+            "value": -3.9}]
+    pts = _points({"GCP3": "control", "17": "tie"}).assign(rays=[50, 3])
+    r = row(verdict(summary(rejection_log=log), pts), "control")
+    assert r.status == WARN and r.label == "Suspicious GCPs"
+    assert r.text.startswith("1 image measurement(s) of GCPs rejected: GCP3 on photo "
+                             "IMG_0004 (x); P(|w| >= 13.14 among the GCPs' 100 image "
+                             "components) = 1.9e-37")
+    assert all(x.key != "control" for x in verdict(summary(rejection_log=log[1:]), pts).rows)
+    # a |w| of 3.3 among 100 components: chance (P = 1 - (1 - erfc(3.3 / sqrt 2))^100)
+    log[0]["value"] = 3.3
+    r = row(verdict(summary(rejection_log=log), pts), "control")
+    p = 1 - (1 - math.erfc(3.3 / math.sqrt(2))) ** 100
+    assert r.status == PASS and f"= {p:.2g}: chance alone gives as much" in r.text
