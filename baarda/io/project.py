@@ -336,7 +336,8 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
         cameras = _camera_models(t, cameras)
     if not cam_ids:
         raise ProjectError(t.path, "no cameras")
-    cameras = replace(cameras, free=_calibration(doc, cameras, folder / "project.toml"))
+    settings = replace(settings, calibration_free=_calibration(doc, cameras,
+                                                                folder / "project.toml"))
 
     t = Table(folder / "photos.csv",
               ["photo", "camera", "strip", "X0", "Y0", "Z0", "omega", "phi", "kappa"], encoding)

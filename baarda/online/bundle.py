@@ -203,19 +203,23 @@ class OnlineBundle:
             m.gnss(i, gnss[0], gnss[1])
         return self._added(t0, f"photo {photo}, {len(points)} image point(s)")
 
-    def add_camera(self, cameras: Cameras, index: int = 0) -> Answer:
+    def add_camera(self, cameras: Cameras, index: int = 0, free: tuple[str, ...] = ()) -> Answer:
         """A camera for photos still to come: camera `index` of `cameras` (a Block's),
         its interior orientation and model held as given.  Refused: an id the block has,
-        parameters to be estimated (new unknowns of the whole block: adjust with baarda
-        adjust).  A block already adjusted is factored again with it (the same solution)."""
+        parameters to be estimated (`free`, its block's settings.calibration_free: new
+        unknowns of the whole block: adjust with baarda adjust).  A block already adjusted
+        is factored again with it (the same solution)."""
         t0 = time.perf_counter()
         cid = cameras.ids[index]
         if cid in self.m.cameras.ids:
             raise ValueError(f"camera {cid} is in the block already")
-        if cameras.free is not None and cameras.free[index]:
+        if free:
             raise ValueError(f"camera {cid}: the on-line bundle does not estimate the "
-                             f"parameters of a new camera ({', '.join(cameras.free[index])})")
+                             f"parameters of a new camera ({', '.join(free)})")
         self.m.cameras = with_camera(self.m.cameras, cameras, index)
+        held = self.m.settings.calibration_free
+        if held is not None:  # the new camera's parameters held
+            self.m.settings = replace(self.m.settings, calibration_free=(*held, ()))
         changed = self._refactor() if self._f is not None else []
         return self._answer(action="camera", what=f"camera {cid}", changed=tuple(changed),
                             refactorised=self._f is not None,
