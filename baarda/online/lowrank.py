@@ -37,6 +37,9 @@ from baarda.errors import GeometryError
 UNDETERMINED = 1e-8  # smallest eigenvalue of the scaled G: below it, new unknowns not determined
 
 
+KY = 9  # new unknowns a row can touch: a photo's six and a point's three
+
+
 @dataclass(frozen=True)
 class Rows:
     """k scalar observation rows linearised at the factorisation's estimate.
