@@ -22,11 +22,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from baarda.block.control import CHECK_ALTERNATE, with_check_points  # noqa: F401
 from baarda.block.model_block import ModelBlock
 from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
 from baarda.block.photo_block import Block, Photos
-from baarda.errors import GeometryError, ProjectError
-from baarda.io.formats import read_any
+from baarda.errors import GeometryError
+from baarda.io.configuration import read_configured  # noqa: F401  (re-exported)
 from baarda.io.records import ENCODING
 from baarda.options import (
     Config,
@@ -85,73 +86,6 @@ def read(path: str | Path, fmt: str | None = None, *, crs: str | None = None,
                           else calibrate, calibration_group=calibration_group)
     return read_configured(path, fmt, requested, encoding=encoding, camera=camera,
                            check_gcp=check_gcp, control=control, model=model)[0]
-
-
-def read_configured(path: str | Path, fmt: str | None = None,
-                    requested: Requested | None = None, *, encoding: str = ENCODING,
-                    camera: str | Path | None = None, check_gcp=None,
-                    control: str | Path | None = None,
-                    model: int | None = None) -> tuple[Block, Config]:
-    """(the block, the run's configuration): the input read (io/formats.py), its control
-    replaced (`control`) or turned into check points (`check_gcp`: see `read`), and what
-    the command line or the API asks for (`requested`) merged once with the input's
-    settings (io/configuration.resolve_config) and applied to the block (`configure`).
-    Every command reads its input here; `prepare` and the tests take the configuration."""
-    from baarda.io.configuration import check_requested, configure, resolve_config
-    from baarda.io.formats import detect
-
-    r = requested or Requested()
-    check_requested(r)  # before reading: a bad value costs nothing
-    fmt = fmt or detect(path)
-    block = read_any(path, fmt, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px,
-                     sigma_image_um=r.sigma_image_um, encoding=encoding, camera=camera,
-                     crs=r.crs, model=model)
-    if control is not None:
-        from baarda.block.control import with_control
-        from baarda.io.control_file import read_control_file
-
-        cf = read_control_file(control, encoding, block.settings.sigma_control_m)
-        block = with_control(block, cf.ids, cf.xyz, cf.sigma, cf.role, cf.path)
-    if check_gcp is not None:
-        block = with_check_points(block, check_gcp)
-    config = resolve_config(r, block, fmt)
-    return configure(block, config), config
-
-
-CHECK_ALTERNATE = ("alternate", "every-other")
-
-
-def with_check_points(block: Block, spec) -> Block:
-    """The block with control points turned into check points: `spec` a list of point ids
-    (or a comma-separated string of them; an OpenSfM GCP renamed 'gcp ID' is found by its
-    ID too), or "alternate" / "every-other": every second control point with all three
-    coordinates in the order read (the 2nd, 4th, ...).  ProjectError for an id that is not
-    a control point."""
-    pts = block.points
-    ctrl = pts.role == "control"
-    if isinstance(spec, str) and spec.strip() in CHECK_ALTERNATE:
-        full = np.flatnonzero(ctrl & np.isfinite(pts.xyz).all(axis=1))
-        chosen = set(full[1::2].tolist())
-    else:
-        names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else \
-            [str(p) for p in spec]
-        index = block.point_index
-        chosen = set()
-        for name in (n for n in names if n):
-            found = [j for j in (index.get(name), index.get(f"gcp {name}"))
-                     if j is not None and ctrl[j]]
-            j = found[0] if found else None
-            if j is None:
-                raise ProjectError("command line", f"--check-gcp: {name} is not a control "
-                                   "point of " + (block.source or block.settings.name))
-            chosen.add(j)
-    if not chosen:
-        return block
-    role = pts.role.copy()
-    role[sorted(chosen)] = "check"
-    names = ", ".join(pts.ids[j] for j in sorted(chosen))
-    return replace(block, points=replace(pts, role=role), notes=list(block.notes) + [
-        f"{len(chosen)} control point(s) used as check points: {names}"])
 
 
 def with_approximations(block: Block) -> Block:

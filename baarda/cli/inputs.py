@@ -8,9 +8,9 @@ from baarda.block.camera import KINDS
 from baarda.block.photo_block import Block
 from baarda.cli.argtypes import positive
 from baarda.cli.common import add_encoding_option, requested_settings
+from baarda.io.configuration import read_configured
 from baarda.io.formats import format_names, spec, titles
 from baarda.options import DATUMS, Config
-from baarda.pipeline import read_configured
 
 
 def formats_help() -> str:
@@ -76,7 +76,7 @@ def read_input(args) -> Block:
 
 
 def read_configured_input(args) -> tuple[Block, Config]:
-    """(block, configuration): baarda.pipeline.read_configured with the command's input
+    """(block, configuration): io/configuration.read_configured with the command's input
     options, resolved once over the input's settings (io/configuration.py)."""
     return read_configured(args.input, args.format, requested_settings(args),
                            encoding=args.encoding, camera=args.camera,

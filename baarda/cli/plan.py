@@ -114,7 +114,8 @@ def _plan(args, run) -> tuple[list[Path], str]:
     flight = None
     wi = None
     if args.project:
-        from baarda.pipeline import as_design, read_configured
+        from baarda.io.configuration import read_configured
+        from baarda.pipeline import as_design
 
         block, config = read_configured(args.project, None, requested_settings(args),
                                         encoding=args.encoding)
@@ -172,8 +173,9 @@ def run_modified(args) -> int:
 
 
 def _modified(args, run) -> tuple[str, str]:
+    from baarda.io.configuration import read_configured
     from baarda.output.plan_files import write_modified_snooping
-    from baarda.pipeline import adjust, prepare, read_configured
+    from baarda.pipeline import adjust, prepare
     from baarda.planning.modified_snoop import modified_snoop
     from baarda.planning.reliability_tables import baarda_table, gruen_table, read_table
 

@@ -2,7 +2,8 @@
 API call asks for (`options.Requested`), the input's settings (project.toml, or what the
 source program states) and the defaults into one frozen `options.Config`; `configure`
 applies its data part to the block as read.  Every command goes through them
-(pipeline.read_configured), so that no setting is resolved twice or forgotten.
+(`read_configured`: the input read and configured, its block and its Config), so that no
+setting is resolved twice or forgotten.
 
 The rule of every setting (a value given twice: the first column wins, and the run notes
 it where project.toml gave another):
@@ -25,6 +26,7 @@ where the new model has them (c, x0, y0 always); the others are dropped; both ar
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 from baarda.block.camera import (
     INPUT_CALIBRATION,
@@ -34,8 +36,10 @@ from baarda.block.camera import (
     parameter_names,
     with_camera_model,
 )
+from baarda.block.control import with_check_points
 from baarda.block.photo_block import Block, Settings
 from baarda.errors import ProjectError
+from baarda.io.records import ENCODING
 from baarda.options import (
     CALIBRATION_GROUPS,
     DATUMS,
@@ -176,3 +180,32 @@ def configure(block: Block, config: Config) -> Block:
     block = replace(block, settings=replace(block.settings, calibration_group=cal.group))
     return cameras_per_strip(block) if cal.group == "strip" else block
 
+
+def read_configured(path: str | Path, fmt: str | None = None,
+                    requested: Requested | None = None, *, encoding: str = ENCODING,
+                    camera: str | Path | None = None, check_gcp=None,
+                    control: str | Path | None = None,
+                    model: int | None = None) -> tuple[Block, Config]:
+    """(the block, the run's configuration): the input read (io/formats.py), its control
+    replaced (`control`) or turned into check points (`check_gcp`: see `read`), and what
+    the command line or the API asks for (`requested`) merged once with the input's
+    settings (io/configuration.resolve_config) and applied to the block (`configure`).
+    Every command reads its input here; `prepare` and the tests take the configuration."""
+    from baarda.io.formats import detect, read_any
+
+    r = requested or Requested()
+    check_requested(r)  # before reading: a bad value costs nothing
+    fmt = fmt or detect(path)
+    block = read_any(path, fmt, pixel_mm=r.pixel_mm, sigma_px=r.sigma_px,
+                     sigma_image_um=r.sigma_image_um, encoding=encoding, camera=camera,
+                     crs=r.crs, model=model)
+    if control is not None:
+        from baarda.block.control import with_control
+        from baarda.io.control_file import read_control_file
+
+        cf = read_control_file(control, encoding, block.settings.sigma_control_m)
+        block = with_control(block, cf.ids, cf.xyz, cf.sigma, cf.role, cf.path)
+    if check_gcp is not None:
+        block = with_check_points(block, check_gcp)
+    config = resolve_config(r, block, fmt)
+    return configure(block, config), config

@@ -104,7 +104,7 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
 
     pixel_mm: nominal pixel size (mm); sigma_px: image sigma (px); crs: the project CRS
     (default: gcp_list.txt's, else the UTM zone of reference_lla).  Check points: see
-    pipeline.with_check_points (`--check-gcp`)."""
+    block/control.with_check_points (`--check-gcp`)."""
     from pyproj.exceptions import CRSError, ProjError
 
     try:
