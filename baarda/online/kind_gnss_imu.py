@@ -19,7 +19,7 @@ from baarda.block.photo_block import (
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.gnss_imu import GnssImu
 from baarda.kinds import GNSS, IMU
-from baarda.online.lowrank import KY, Rows
+from baarda.online.lowrank import KY, Rows, empty_rows
 from baarda.online.measurements import Measurements
 
 
@@ -62,9 +62,7 @@ def gnss_imu_rows(f, m: Measurements, group: dict, photo_at
     ext = [(GNSS.name, r, m.g_photo[r]) for r in group[GNSS.name]] + \
         [(IMU.name, r, m.i_photo[r]) for r in group[IMU.name]]
     if not ext:
-        return [], Rows(np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, np.int64),
-                        np.zeros((0, 3)), np.zeros((0, ng)), np.zeros((0, KY), np.int64),
-                        np.zeros((0, KY)), np.zeros(0), np.zeros(0))
+        return [], empty_rows(ng)
     ph = [photo_at(i) for _, _, i in ext]
     gsel = [r for kind, r, _ in ext if kind == GNSS.name]
     isel = [r for kind, r, _ in ext if kind == IMU.name]

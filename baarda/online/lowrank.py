@@ -66,6 +66,12 @@ class Rows:
 GATHER = 200_000  # k q above this: rows grouped by unknown block, no (k, b, q) gather
 
 
+def empty_rows(ng: int) -> Rows:
+    return Rows(np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, np.int64),
+                np.zeros((0, 3)), np.zeros((0, ng)), np.zeros((0, KY), np.int64),
+                np.zeros((0, KY)), np.zeros(0), np.zeros(0))
+
+
 def times(rows: Rows, hf: np.ndarray, hp: np.ndarray, hg: np.ndarray) -> np.ndarray:
     """a H for the rows' Jacobians a (over the factorisation's unknowns) and q columns H in
     the factor's parts (nf, b, q), (np, d, q), (ng, q): (k, q)."""

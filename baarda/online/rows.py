@@ -24,14 +24,8 @@ from baarda.block.rotation import rotation_and_derivatives
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.image_rows import ImageRows
 from baarda.online.kind_gnss_imu import gnss_imu_rows, one_photo_each
-from baarda.online.lowrank import KY, Rows
+from baarda.online.lowrank import KY, Rows, empty_rows
 from baarda.online.measurements import Measurements
-
-
-def empty_rows(ng: int) -> Rows:
-    return Rows(np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, np.int64),
-                np.zeros((0, 3)), np.zeros((0, ng)), np.zeros((0, KY), np.int64),
-                np.zeros((0, KY)), np.zeros(0), np.zeros(0))
 
 
 def take(rows: Rows, idx: np.ndarray) -> Rows:
