@@ -114,7 +114,7 @@ def factor_rows(problem: BundleProblem, factor: SchurFactor, flat: np.ndarray) -
 def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
                ) -> tuple[list[tuple[str, int, int]], Rows]:
     """The observation rows of a group of held observations (online/entering.py) linearised
-    at the estimate of the factorisation `f` (online/bundle.py `_Factored`), new photos and
+    at the estimate of the factorisation `f` (online/factorised.py `Factored`), new photos and
     points at y0 (their columns in `cols`): (their keys (kind, universe index, component),
     the Rows)."""
     res = f.result
