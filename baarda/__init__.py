@@ -25,7 +25,7 @@ _WHERE = {
     "read": "baarda.pipeline", "prepare": "baarda.pipeline", "adjust": "baarda.pipeline",
     "assess": "baarda.pipeline", "snoop": "baarda.pipeline", "screen": "baarda.pipeline",
     "read_models": "baarda.pipeline", "adjust_models": "baarda.pipeline",
-    "read_configured": "baarda.pipeline",
+    "read_configured": "baarda.io.configuration",
     # planning, simulation, on-line relative orientation
     "plan": "baarda.planning.design_reliability",
     "ControlLayout": "baarda.planning.design",

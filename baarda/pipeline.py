@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from baarda.block.control import CHECK_ALTERNATE, with_check_points  # noqa: F401
 from baarda.block.model_block import ModelBlock
 from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
 from baarda.block.photo_block import Block, Photos
@@ -218,42 +219,6 @@ def _sizes_from_images(block: Block, gcps, path: str | Path) -> Block:
     found = image_sizes(gcps.image, folders)
     photo = photo_of_image(block, gcps.image, gcps.path, gcps.line)
     return with_image_sizes(block, photo, [found.get(n) for n in gcps.image])
-
-
-CHECK_ALTERNATE = ("alternate", "every-other")
-
-
-def with_check_points(block: Block, spec) -> Block:
-    """The block with control points turned into check points: `spec` a list of point ids
-    (or a comma-separated string of them; an OpenSfM GCP renamed 'gcp ID' is found by its
-    ID too), or "alternate" / "every-other": every second control point with all three
-    coordinates in the order read (the 2nd, 4th, ...).  ProjectError for an id that is not
-    a control point."""
-    pts = block.points
-    ctrl = pts.role == "control"
-    if isinstance(spec, str) and spec.strip() in CHECK_ALTERNATE:
-        full = np.flatnonzero(ctrl & np.isfinite(pts.xyz).all(axis=1))
-        chosen = set(full[1::2].tolist())
-    else:
-        names = [p.strip() for p in spec.split(",")] if isinstance(spec, str) else \
-            [str(p) for p in spec]
-        index = block.point_index
-        chosen = set()
-        for name in (n for n in names if n):
-            found = [j for j in (index.get(name), index.get(f"gcp {name}"))
-                     if j is not None and ctrl[j]]
-            j = found[0] if found else None
-            if j is None:
-                raise ProjectError("command line", f"--check-gcp: {name} is not a control "
-                                   "point of " + (block.source or block.settings.name))
-            chosen.add(j)
-    if not chosen:
-        return block
-    role = pts.role.copy()
-    role[sorted(chosen)] = "check"
-    names = ", ".join(pts.ids[j] for j in sorted(chosen))
-    return replace(block, points=replace(pts, role=role), notes=list(block.notes) + [
-        f"{len(chosen)} control point(s) used as check points: {names}"])
 
 
 def with_approximations(block: Block) -> Block:

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1] / "baarda"
 
 FLOORS = [
     {"kinds"},
-    {"errors", "options", "schema", "sections", "linalg", "process"},
+    {"errors", "options", "schema", "sections", "table_data", "linalg", "process"},
     {"block"},
     {"io", "quality"},
     {"adjustment"},

@@ -11,8 +11,9 @@ sets).  Kinds (docs/camera_models.md): ``none``, ``brown``, ``dbat3``, ``dbat5``
 * forward models distort the projection: projected = pp + s (u + delta(u)),
   u = (ideal - pp) / s, s = c for normalised models, 1 otherwise.
 
-`free` names the parameters a self-calibration estimates per camera: 'c', 'x0', 'y0' and
-any of the model's params.
+The parameters a self-calibration estimates per camera ('c', 'x0', 'y0' and any of the
+model's params) are no part of the cameras: the block's `settings.calibration_free`, as the
+input states them and as the run's configuration resolves them (io/configuration.py).
 """
 
 from __future__ import annotations
@@ -106,9 +107,6 @@ def with_camera(cameras, other, i: int):
     def stacked(a, b, k, fill):
         return np.vstack([_table(a, n, k, fill), _table(b, m, k, fill)[[i]]]) if k else None
 
-    free = None
-    if cameras.free is not None or other.free is not None:
-        free = tuple(cameras.free or ((),) * n) + ((other.free or ((),) * m)[i],)
     pixel = None
     if cameras.pixel_mm is not None or other.pixel_mm is not None:
         pixel = np.append(_table(cameras.pixel_mm, n, 1, np.nan)[:, 0],
@@ -120,7 +118,7 @@ def with_camera(cameras, other, i: int):
                    model=None if (kind == "none").all() else kind,
                    coefficients=stacked(cameras.coefficients, other.coefficients, kc, 0.0),
                    constants=stacked(cameras.constants, other.constants, kk, np.nan),
-                   free=free, pixel_mm=pixel)
+                   pixel_mm=pixel)
 
 
 def _cameras_of_side(block, side: str):
@@ -188,9 +186,11 @@ def cameras_per_strip(block):
     new = replace(cams, ids=ids, focal_mm=cams.focal_mm[source],
                   principal_point_mm=cams.principal_point_mm[source], model=take(cams.model),
                   coefficients=take(cams.coefficients), constants=take(cams.constants),
-                  free=None if cams.free is None else tuple(cams.free[c] for c in source),
                   pixel_mm=take(cams.pixel_mm))
-    return replace(block, cameras=new, photos=replace(ph, camera=new_camera),
+    free = block.settings.calibration_free
+    settings = block.settings if free is None else replace(
+        block.settings, calibration_free=tuple(free[c] for c in source))
+    return replace(block, cameras=new, photos=replace(ph, camera=new_camera), settings=settings,
                    notes=list(block.notes) + [
                        f"calibration per strip: {len(cams)} camera(s) -> {len(new)} "
                        "(one per camera and strip)"])
@@ -223,8 +223,9 @@ def with_camera_model(block, model: str):
                          "it in cameras.csv")
     cams = replace(cams, model=np.full(n, model, dtype=object),
                    coefficients=coef if new.n_params else None,
-                   constants=const if new.constants else None, free=None)
-    return replace(block, cameras=cams)
+                   constants=const if new.constants else None)
+    return replace(block, cameras=cams,
+                   settings=replace(block.settings, calibration_free=None))
 
 
 def chosen_parameters(cameras, free) -> tuple[tuple[str, ...], ...]:
@@ -259,15 +260,15 @@ def with_calibration(block, model: str | None = None, free=None):
     `free` estimated (chosen_parameters): a list of parameter names for every camera,
     "none" or "all"; None keeps the block's (readers and project.toml set it).  The API of
     one step; a run resolves its calibration once in io/configuration.py."""
-    before = block.cameras
+    before = block.settings.calibration_free
     if model is not None:
         block = with_camera_model(block, model)
-        if free is None and before.free is not None:
+        if free is None and before is not None:
             names = [set(parameter_names(block.cameras, i)) for i in range(len(before))]
-            kept = tuple(tuple(p for p in f if p in names[i])
-                         for i, f in enumerate(before.free))
-            block = replace(block, cameras=replace(block.cameras, free=kept))
+            kept = tuple(tuple(p for p in f if p in names[i]) for i, f in enumerate(before))
+            block = replace(block, settings=replace(block.settings, calibration_free=kept))
     if free is None:
         return block
-    cams = replace(block.cameras, free=chosen_parameters(block.cameras, free))
-    return replace(block, cameras=cams, notes=[*block.notes, calibrate_note(free)])
+    chosen = chosen_parameters(block.cameras, free)
+    return replace(block, settings=replace(block.settings, calibration_free=chosen),
+                   notes=[*block.notes, calibrate_note(free)])

@@ -38,6 +38,11 @@ class Settings:
     # camera parameters estimated per camera ("camera") or per camera and strip ("strip":
     # project.toml [calibration] group; pipeline.read splits the cameras)
     calibration_group: str = "camera"
+    # per camera: the parameters a self-calibration estimates, as the input states them
+    # (project.toml's [calibration] free, or the source program's choice; None: none stated)
+    # and, after io/configuration.configure, as the run's resolved options.Config has them
+    # (bundle/calibration.py reads them there; the cameras are data only)
+    calibration_free: tuple[tuple[str, ...], ...] | None = None
     # GNSS/IMU (docs/format.md [gnss], [imu]): lever arm (m, camera frame) from the
     # projection centre to the antenna; shifts per block or strip and a linear drift per
     # strip as unknowns; IMU boresight misalignment held (identity) or estimated
@@ -60,11 +65,6 @@ class Cameras:
     model: np.ndarray | None = None  # (n,) model kind (block/camera.py), None = none
     coefficients: np.ndarray | None = None  # (n, k) the model's params in order, 0-padded
     constants: np.ndarray | None = None  # (n, kc) the model's constants (R0, grid spacing)
-    # per camera: the parameters the input estimates (project.toml's [calibration] free, or
-    # the source program's choice).  Not yet moved out of the data (issue 37): the run's
-    # choice is options.Config.calibration, resolved once by io/configuration.py, and
-    # `configure` writes it here for the bundle (bundle/calibration.py reads it).
-    free: tuple[tuple[str, ...], ...] | None = None
     pixel_mm: np.ndarray | None = None  # (n,) pixel size where the source states it (mm)
     # the image grid where the input states it (block/pixels.py turns pixels with the origin
     # at the upper-left corner into the block's image coordinates): (n, 2) width, height

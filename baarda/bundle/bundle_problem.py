@@ -127,7 +127,8 @@ class BundleProblem(SchurProblem):
         self.held_border[self.bremap[border_control]] = np.isfinite(sig_b) & (sig_b == 0)
         # global unknowns, a named layout: free camera parameters, the border points'
         # coordinates, then each kind's own (GNSS shifts and drifts, IMU boresight)
-        self.calibration = cal = Calibration(block.cameras, block.photos.camera)
+        self.calibration = cal = Calibration(block.cameras, block.photos.camera,
+                                             free=block.settings.calibration_free)
         self.b = 6 + cal.photo_width  # unknowns of a photo (its camera's, if its own)
         own = [(kind.name, kind.global_labels(block)) for kind in self.kinds]
         own = [(name, labels) for name, labels in own if labels or name == "gnss_imu"]

@@ -2,7 +2,8 @@
 where they sit among the unknowns of the Schur system.
 
 Every camera has the parameter vector [c, x0, y0, coefficients of its model] (mm, the
-model's units; block/camera.py); `Cameras.free` names those that are unknowns.  A camera
+model's units; block/camera.py); `free` (the block's settings.calibration_free, as the
+run's configuration resolves it) names those that are unknowns.  A camera
 shared by several photos has its free parameters among the global unknowns
 (adjustment/schur_system.py: the border, shared by every image observation of the camera).
 A camera that exactly one photo uses (BAL, COLMAP's camera per image) has them in that
@@ -50,14 +51,15 @@ class Calibration:
     the border)."""
 
     def __init__(self, cameras, photo_camera: np.ndarray | None = None,
-                 first_column: int = 0):
+                 first_column: int = 0,
+                 free: tuple[tuple[str, ...], ...] | None = None):
         n = len(cameras)
         self.cameras = cameras
         self.models = [model_of(k) for k in kinds(cameras)]
         self.names = [parameter_names(cameras, i) for i in range(n)]
         self.nominal = [parameters(cameras, i) for i in range(n)]
         self.constants = [constants(cameras, i) for i in range(n)]
-        free = cameras.free if cameras.free is not None else ((),) * n
+        free = free if free is not None else ((),) * n
         self.free_index = [np.array([self.names[i].index(p) for p in free[i]], dtype=np.int64)
                            for i in range(n)]
         sizes = np.array([len(f) for f in self.free_index], dtype=np.int64)

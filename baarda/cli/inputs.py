@@ -86,7 +86,7 @@ def read_input(args) -> Block:
 
 
 def read_configured_input(args) -> tuple[Block, Config]:
-    """(block, configuration): baarda.pipeline.read_configured with the command's input
+    """(block, configuration): io/configuration.read_configured with the command's input
     options, resolved once over the input's settings (io/configuration.py)."""
     return read_configured(args.input, args.format, requested_settings(args),
                            encoding=args.encoding, camera=args.camera,

@@ -99,7 +99,7 @@ class AiconProject:
         coef = np.column_stack([cams[k] for k in ("A1", "A2", "A3", "B1", "B2", "C1", "C2")])
         cameras = Cameras(cam_ids, -cams["ck"], np.column_stack([cams["xh"], cams["yh"]]),
                           np.full(len(cam_ids), "aicon", dtype=object), coef,
-                          cams["R0"][:, None].astype(float), (free,) * len(cam_ids))
+                          cams["R0"][:, None].astype(float))
         act_i = self.active_images()
         im = {k: v[act_i] for k, v in self.images.items()}
         cam_index = {int(c): i for i, c in enumerate(cams["id"])}
@@ -158,7 +158,8 @@ class AiconProject:
             notes.append("no AICON protocol (.htm) beside the project: the camera parameters "
                          "AICON estimates by default are estimated (" + ", ".join(free) + ")")
         settings = Settings(name=self.name, angle_unit="rad",
-                            sigma_image_um=float(np.median(sig)) * 1e3, datum="inner")
+                            sigma_image_um=float(np.median(sig)) * 1e3, datum="inner",
+                            calibration_free=(free,) * len(cam_ids))
         return Block(settings, cameras, photos, image, points,
                      source=str(self.folder / self.name), notes=notes, distances=distances)
 

@@ -222,8 +222,7 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
     ids = [str(i) for i in range(n)]
     dist = np.column_stack([cams[:, 7], cams[:, 8], np.zeros((n, 3))])
     kinds = np.full(n, "brown_forward", dtype=object)
-    cameras = Cameras(ids, cams[:, 6] * pixel_mm, np.zeros((n, 2)), kinds, dist, None,
-                      (("c", "k1", "k2"),) * n if calibrate else None)
+    cameras = Cameras(ids, cams[:, 6] * pixel_mm, np.zeros((n, 2)), kinds, dist, None)
     photos = Photos(ids, np.arange(n), np.full(n, "", dtype=object), eo)
     key = problem.obs_camera * len(problem.points) + problem.obs_point
     _, first = np.unique(key, return_index=True)
@@ -242,7 +241,8 @@ def bal_to_block(problem: BalProblem, pixel_mm: float = 0.001, sigma_px: float =
     points = GroundPoints([str(j) for j in range(m)], problem.points.copy(),
                           np.full((m, 3), np.nan), np.full(m, "tie", dtype=object))
     settings = Settings(name=name, angle_unit="rad", sigma_image_um=sigma_px * pixel_mm * 1e3,
-                        datum="free")
+                        datum="free", calibration_free=(("c", "k1", "k2"),) * n
+                        if calibrate else None)
     return Block(settings, cameras, photos, image, points, source=source, notes=notes)
 
 

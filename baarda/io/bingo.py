@@ -250,7 +250,7 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
     lens = np.any(cc != 0, axis=1)
     cameras = Cameras([str(k + 1) for k in range(m)], focal, pp,
                       np.where(lens, "brown_forward", "none").astype(object),
-                      np.where(lens[:, None], cc, 0.0), None, None, pc)
+                      np.where(lens[:, None], cc, 0.0), None, pc)
     rot = v[:, 19:28].reshape(-1, 3, 3)
     centre = v[:, 16:19]
     offset = read_offset(bf.parent, encoding)

@@ -210,7 +210,6 @@ def _block(p: Path, names, fk, rot, t, made, xyz, obs_point, obs, pixel_mm, sigm
     cameras = Cameras([str(k + 1) for k in range(m)], groups[:, 0] * pixel_mm,
                       np.zeros((m, 2)), np.full(m, "brown_forward", dtype=object),
                       np.column_stack([groups[:, 1:3], np.zeros((m, 3))]), None,
-                      (("c", "k1", "k2"),) * m,
                       pixel_xy_mm=np.full((m, 2), pixel_mm))  # the image size: not stated
     rt = np.swapaxes(rot[keep], 1, 2)
     x0 = -np.einsum("nij,nj->ni", rt, t[keep])
@@ -230,7 +229,8 @@ def _block(p: Path, names, fk, rot, t, made, xyz, obs_point, obs, pixel_mm, sigm
                  "principal point), y up; f, k1, k2 per camera (Bundler's radial model); "
                  "colours and keypoint indices not kept")
     settings = Settings(name=p.parent.name or p.stem, angle_unit="rad",
-                        sigma_image_um=sigma_px * pixel_mm * 1e3, datum="free")
+                        sigma_image_um=sigma_px * pixel_mm * 1e3, datum="free",
+                        calibration_free=(("c", "k1", "k2"),) * m)
     return Block(settings, cameras, photos, image, points, source=str(p), notes=notes)
 
 

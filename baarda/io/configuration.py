@@ -2,7 +2,8 @@
 API call asks for (`options.Requested`), the input's settings (project.toml, or what the
 source program states) and the defaults into one frozen `options.Config`; `configure`
 applies its data part to the block as read.  Every command goes through them
-(pipeline.read_configured), so that no setting is resolved twice or forgotten.
+(`read_configured`: the input read and configured, its block and its Config), so that no
+setting is resolved twice or forgotten.
 
 The rule of every setting (a value given twice: the first column wins, and the run notes
 it where project.toml gave another):
@@ -112,6 +113,7 @@ def _calibration(r: Requested, block: Block, fmt: str | None,
                  group: str) -> tuple[CalibrationConfig, list[str]]:
     """The calibration of the run and its notes (module docstring's rule)."""
     cams = block.cameras
+    stated = block.settings.calibration_free
     source = ("project.toml [calibration] free" if fmt == "project" else
               "as the input estimates them")
     where = (f"{block.source}/project.toml" if fmt == "project" else
@@ -130,20 +132,20 @@ def _calibration(r: Requested, block: Block, fmt: str | None,
             raise ProjectError("command line", str(e)) from None
         return (CalibrationConfig(model, free, group, "command line"),
                 [calibrate_note(r.calibrate)])
-    if cams.free is None:
+    if stated is None:
         return CalibrationConfig(model, None, group, "none"), []
     names = [parameter_names(target, i) for i in range(len(target))]
     if model is None:  # each camera's own model: every name must be one of its parameters
-        for i, f in enumerate(cams.free):
+        for i, f in enumerate(stated):
             bad = [p for p in f if p not in names[i]]
             if bad:
                 raise ProjectError(where, f"camera {cams.ids[i]}: '{bad[0]}' is not a "
                                    f"parameter of its model ({', '.join(names[i])})",
                                    column="calibration")
-        return CalibrationConfig(None, tuple(cams.free), group, source), []
-    kept = tuple(tuple(p for p in f if p in names[i]) for i, f in enumerate(cams.free))
-    dropped = sorted({p for i, f in enumerate(cams.free) for p in f if p not in names[i]})
-    if not any(cams.free):
+        return CalibrationConfig(None, tuple(stated), group, source), []
+    kept = tuple(tuple(p for p in f if p in names[i]) for i, f in enumerate(stated))
+    dropped = sorted({p for i, f in enumerate(stated) for p in f if p not in names[i]})
+    if not any(stated):
         return CalibrationConfig(model, kept, group, source), []
     union = list(dict.fromkeys(p for f in kept for p in f))
     what = (", ".join(union) if len(set(kept)) == 1 else
@@ -166,7 +168,7 @@ def configure(block: Block, config: Config) -> Block:
     if cal.model is not None:
         block = with_camera_model(block, cal.model)
     if cal.free is not None:
-        block = replace(block, cameras=replace(block.cameras, free=cal.free))
+        block = replace(block, settings=replace(block.settings, calibration_free=cal.free))
     notes = block.notes
     if cal.source == "command line":  # the input's own calibration note no longer holds
         notes = [n for n in notes if not n.startswith(INPUT_CALIBRATION)]
@@ -174,4 +176,3 @@ def configure(block: Block, config: Config) -> Block:
         block = replace(block, notes=[*notes, *config.notes])
     block = replace(block, settings=replace(block.settings, calibration_group=cal.group))
     return cameras_per_strip(block) if cal.group == "strip" else block
-

@@ -382,7 +382,8 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
         notes.append("no control points and no set_datum: a free network")
     cameras = Cameras([str(cam["id"])], np.array([cam["c"]]), cam["pp"][None, :],
                       np.array([cam["kind"]], dtype=object), np.array([cam["coef"]], float),
-                      None, (free,) if free else None, pixel_mm=np.array([cam["py"]]))
+                      None, pixel_mm=np.array([cam["py"]]))
+    settings.calibration_free = (free,) if free else None
     eo = np.full((len(photo_ids), 6), np.nan)
     prior = inp.find("prior_eo")
     if prior is not None and stations is None:

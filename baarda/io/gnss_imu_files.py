@@ -20,6 +20,7 @@ from baarda.block.rotation import angle_to_rad
 from baarda.errors import ProjectError
 from baarda.io.records import ENCODING
 from baarda.io.table import Table
+from baarda.kinds import GNSS, IMU
 
 DEFAULT_GNSS_SIGMA_M = (0.05, 0.05, 0.05)
 DEFAULT_IMU_SIGMA_DEG = 0.005
@@ -30,18 +31,18 @@ def gnss_imu_settings(doc: dict, path: Path, s: Settings) -> dict:
     the default sigmas from [sigma] gnss_m (m, one or [X, Y, Z]) and imu (angle_unit)."""
     from baarda.io.project import toml_table
 
-    g, i, sig = toml_table(doc, "gnss", path), toml_table(doc, "imu", path), \
+    g, i, sig = toml_table(doc, GNSS.name, path), toml_table(doc, IMU.name, path), \
         toml_table(doc, "sigma", path)
     try:
         lever = [float(v) for v in g.get("lever_arm", [0.0, 0.0, 0.0])]
-        gs = sig.get("gnss_m", list(DEFAULT_GNSS_SIGMA_M))
+        gs = sig.get(f"{GNSS.name}_m", list(DEFAULT_GNSS_SIGMA_M))
         gs = [float(gs)] * 3 if np.isscalar(gs) else [float(v) for v in gs]  # type: ignore[arg-type]
         imu_default = float(angle_to_rad(np.array(DEFAULT_IMU_SIGMA_DEG), "deg"))
-        isig = (float(angle_to_rad(np.array(float(sig["imu"])), s.angle_unit))
-                if "imu" in sig else imu_default)
+        isig = (float(angle_to_rad(np.array(float(sig[IMU.name])), s.angle_unit))
+                if IMU.name in sig else imu_default)
     except (TypeError, ValueError, OverflowError) as e:
         raise ProjectError(str(path), f"a [gnss] or [sigma] setting is not a number: {e}",
-                           column="gnss") from None
+                           column=GNSS.name) from None
     if len(lever) != 3 or not np.isfinite(lever).all():
         raise ProjectError(str(path), "gnss.lever_arm must be [dx, dy, dz] in m (camera frame)",
                            column="gnss.lever_arm")

@@ -47,8 +47,7 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
                       np.array([s.c_px for s in sens]) * pix,
                       np.array([[s.pp_px[0], -s.pp_px[1]] for s in sens]) * pix[:, None],
                       np.full(len(sens), "brown_forward", dtype=object),
-                      np.array([s.coef for s in sens]), None,
-                      tuple(s.free for s in sens), pixel_mm=pix)
+                      np.array([s.coef for s in sens]), None, pixel_mm=pix)
     flip = np.diag([1.0, -1.0, -1.0])
     r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ flip
     x0 = ch.translation + ch.scale * ch.camera_pose[:, :3, 3] @ ch.rotation.T
@@ -146,7 +145,8 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
                  + (f", CRS {ch.crs}" if ch.crs else ", no CRS (local or none)"))
     settings = Settings(name=name, angle_unit="deg",
                         sigma_image_um=float(tie_px * pix[0] * 1e3), crs=ch.crs,
-                        datum="control" if n_ctrl else "free")
+                        datum="control" if n_ctrl else "free",
+                        calibration_free=tuple(s.free for s in sens))
     if n_ctrl:
         settings.sigma_control_m = tuple(float(v) for v in  # type: ignore[assignment]
                                          np.median(sig[roles == "control"], axis=0))

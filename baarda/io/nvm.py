@@ -189,7 +189,6 @@ def _block(p, names, cams, xyz, obs_point, obs, pixel_mm, sigma_px, notes) -> Bl
     radial = groups[:, 1] != 0
     cameras = Cameras([str(k + 1) for k in range(m)], c, np.zeros((m, 2)),
                       np.where(radial, "brown", "none").astype(object), coef, None,
-                      tuple(("c", "k1") if r else ("c",) for r in radial),
                       pixel_xy_mm=np.full((m, 2), pixel_mm))  # the image size: not stated
     photos = Photos(ids, cam_of, np.full(len(ids), "", dtype=object),
                     np.column_stack([cams[:, 5:8], angles_from_matrix(rb)]))
@@ -205,7 +204,8 @@ def _block(p, names, cams, xyz, obs_point, obs, pixel_mm, sigma_px, notes) -> Bl
                  "VisualSFM's one radial term r per camera (k1 = r / c^2 on the measured "
                  "point); colours and feature indices not kept")
     settings = Settings(name=p.stem, angle_unit="rad", sigma_image_um=sigma_px * pixel_mm * 1e3,
-                        datum="free")
+                        datum="free",
+                        calibration_free=tuple(("c", "k1") if r else ("c",) for r in radial))
     return Block(settings, cameras, photos, image, points, source=str(p), notes=notes)
 
 

@@ -104,7 +104,7 @@ def read_opensfm(path: str | Path, *, pixel_mm: float = 0.001, sigma_px: float =
 
     pixel_mm: nominal pixel size (mm); sigma_px: image sigma (px); crs: the project CRS
     (default: gcp_list.txt's, else the UTM zone of reference_lla).  Check points: see
-    pipeline.with_check_points (`--check-gcp`)."""
+    block/control.with_check_points (`--check-gcp`)."""
     from pyproj.exceptions import CRSError, ProjError
 
     try:
@@ -159,12 +159,12 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
         coef[k, :len(c.coefficients)] = c.coefficients
     cameras = Cameras(cam_ids, np.array([c.focal_mm for c in cams]),
                       np.array([c.pp_mm for c in cams]).reshape(-1, 2),
-                      np.array([c.model for c in cams], dtype=object), coef,
-                      free=tuple(c.free for c in cams))
+                      np.array([c.model for c in cams], dtype=object), coef)
     datum, why = datum_of(pts.xyz, pts.role, pts.rays, shots.gnss_xyz, shots.gnss_sigma)
     settings = Settings(name=root.name, angle_unit="deg", sigma_image_um=sig_mm * 1e3,
                         sigma_control_m=tuple(control.sigma),  # type: ignore[arg-type]  # X, Y, Z
-                        crs=ground.crs if ground.frame else None, datum=datum)
+                        crs=ground.crs if ground.frame else None, datum=datum,
+                        calibration_free=tuple(c.free for c in cams))
     notes = _notes(notes, folder, tpath, pixel_mm, sigma_px, shots, ground, tracks, control,
                    pts, [why] + ([stored] if stored is not None else []))
     block = Block(settings, cameras,

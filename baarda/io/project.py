@@ -36,6 +36,7 @@ from baarda.io.gnss_imu_files import gnss_imu_settings, read_gnss, read_imu
 from baarda.io.image_sigma import SIGMA_IMAGE_UM, check_sigma_um
 from baarda.io.records import ENCODING, decode_text, file_bytes
 from baarda.io.table import Table
+from baarda.kinds import GNSS, IMU
 from baarda.options import DATUMS
 
 SIGMA_GROUND_MAX_M = 1e6  # a ground standard deviation beyond 1000 km means nothing (and
@@ -83,13 +84,13 @@ def positive_settings(path: Path, values: dict[str, float],
 
 
 # the keys project.toml accepts, by table ("": its top); [calibration] also takes a table
-# per camera id (docs/format.md)
+# per camera id (docs/format.md); the tables and sigmas of an observation kind by its name
 KEYS = {"": ("name", "angle_unit", "image_unit", "crs", "datum", "sigma", "tests",
-             "calibration", "gnss", "imu"),
-        "sigma": ("image_um", "control_m", "distance_m", "gnss_m", "imu"),
+             "calibration", GNSS.name, IMU.name),
+        "sigma": ("image_um", "control_m", "distance_m", f"{GNSS.name}_m", IMU.name),
         "tests": ("alpha0", "beta0", "alpha_global"),
-        "gnss": ("lever_arm", "offsets", "drift"),
-        "imu": ("boresight",),
+        GNSS.name: ("lever_arm", "offsets", "drift"),
+        IMU.name: ("boresight",),
         "calibration": ("free", "group")}
 HINTS = {"calibration.calibrate": " (the command line's --calibrate is `free` here)",
          "calibration.fixed": " (list the parameters to estimate in `free`; the others are "
@@ -120,7 +121,7 @@ def _settings(path: Path, encoding: str = ENCODING) -> tuple[Settings, dict]:
     """The settings of project.toml and the document (to tell given from default values)."""
     s = Settings()
     doc, s.angle_unit = load_toml(path, s.angle_unit, encoding)
-    for table in ("sigma", "tests", "gnss", "imu"):
+    for table in ("sigma", "tests", GNSS.name, IMU.name):
         check_keys(toml_table(doc, table, path), path, table)
     check_keys(doc, path)
     s.given = _given(doc)
@@ -336,7 +337,8 @@ def read_project(folder: str | Path, encoding: str = ENCODING) -> Block:
         cameras = _camera_models(t, cameras)
     if not cam_ids:
         raise ProjectError(t.path, "no cameras")
-    cameras = replace(cameras, free=_calibration(doc, cameras, folder / "project.toml"))
+    settings = replace(settings, calibration_free=_calibration(doc, cameras,
+                                                                folder / "project.toml"))
 
     t = Table(folder / "photos.csv",
               ["photo", "camera", "strip", "X0", "Y0", "Z0", "omega", "phi", "kappa"], encoding)

@@ -153,10 +153,8 @@ def whole_lines(path: str | Path, encoding: str = ENCODING, *,
     if not data.strip() and not allow_empty:
         raise ProjectError(str(path), "the file is empty: cut short, or not written "
                            "(it must hold at least one record)")
-    if data and data[-1:] not in (b"\n", b"\r"):
-        line = data.count(b"\n") + 1
-        raise ProjectError(str(path), "the last line has no line end: the file is cut short "
-                           "(a program writes every line whole)", line)
+    refuse_cut_short(str(path), not data or data[-1:] in (b"\n", b"\r"),
+                     data.count(b"\n") + 1)
     return split_lines(decode_text(data, str(path), encoding))
 
 
@@ -168,13 +166,21 @@ def _decimals(text: str) -> int | None:
     return len(t.split(".", 1)[1]) if "." in t else 0
 
 
-def refuse_cut_short(ends_a_line: bool, rows: list[list[str]], last_line: int,
-                     path: str) -> None:
-    """A file cut short in the middle of its last line is refused naming that line: when the
-    text does not end with a line end and its last data row has fewer fields than the row
-    before, or its last value has fewer decimals than that column has in every other row
-    (a program's fixed format, at least 3 rows; '11' where the column reads '11933.7743')."""
-    if ends_a_line or len(rows) < 2:
+def refuse_cut_short(path: str, ends_a_line: bool, last_line: int,
+                     rows: list[list[str]] | None = None) -> None:
+    """The one rule for a file cut short in the middle of its last line (`last_line`): a
+    ProjectError naming that line when the text does not end with a line end and
+    - `rows` is None (a file a program writes whole, `whole_lines`): always;
+    - else (its data rows, as given): its last row has fewer fields than the row before, or
+      its last value has fewer decimals than that column has in every other row (a
+      program's fixed format, at least 3 rows; '11' where the column reads '11933.7743').
+    A cut exactly at a line end cannot be seen (docs/formats.md)."""
+    if ends_a_line:
+        return
+    if rows is None:
+        raise ProjectError(path, "the last line has no line end: the file is cut short "
+                           "(a program writes every line whole)", last_line)
+    if len(rows) < 2:
         return
     last, before = rows[-1], rows[-2]
     said = (f"the file ends in the middle of line {last_line} (no line end after it, and "
@@ -276,8 +282,8 @@ class Records(Columns):
             sizes.append(len(parts))  # the fields as given, before the padding
             numbers.append(no)
         if rows and not ends_a_line:
-            refuse_cut_short(False, [r[:n] for r, n in zip(rows, sizes, strict=True)],
-                             numbers[-1], self.path)
+            refuse_cut_short(self.path, False, numbers[-1],
+                             [r[:n] for r, n in zip(rows, sizes, strict=True)])
         self.lines = np.asarray(numbers, dtype=np.int64)
         data = np.asarray(rows, dtype=object).reshape(len(rows), len(fields))
         self.columns = {f: data[:, i].astype(str) for i, f in enumerate(fields)}

@@ -28,11 +28,12 @@ from typing import TypedDict
 import numpy as np
 
 from baarda.block.rotation import angle_to_rad
+from baarda.kinds import GNSS
 from baarda.online.answers import Answer
 from baarda.online.bundle import OnlineBundle
 from baarda.relative.online_commands import LineError, parse_number
 
-KEYWORDS = ("point", "photo", "end", "control", "gnss", "remeasure", "remove", "aside",
+KEYWORDS = ("point", "photo", "end", "control", GNSS.name, "remeasure", "remove", "aside",
             "status", "help", "quit")
 HELP = __doc__.split("\n\n")[1]
 #: the largest standard deviation of a ground coordinate (m; as in ground_points.csv) and of
@@ -179,7 +180,7 @@ class BundleInterpreter:
             a = self.ob.remove_image_point(*args)
         elif what == "control" and len(args) == 1:
             a = self.ob.remove_control(args[0])
-        elif what == "gnss" and len(args) == 1:
+        elif what == GNSS.name and len(args) == 1:
             a = self.ob.remove_gnss(args[0])
         elif what == "photo" and len(args) == 1:
             a = self.ob.remove_photo(args[0])
@@ -208,7 +209,7 @@ class BundleInterpreter:
 COMMANDS: dict[str, Callable[[BundleInterpreter, list[str], str], None]] = {
     "point": BundleInterpreter._point, "photo": BundleInterpreter._photo,
     "end": BundleInterpreter._end, "control": BundleInterpreter._control,
-    "gnss": BundleInterpreter._gnss, "remeasure": BundleInterpreter._remeasure,
+    GNSS.name: BundleInterpreter._gnss, "remeasure": BundleInterpreter._remeasure,
     "remove": BundleInterpreter._remove, "aside": BundleInterpreter._aside,
     "status": BundleInterpreter._status, "help": BundleInterpreter._help,
     "quit": BundleInterpreter._quit}

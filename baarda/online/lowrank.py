@@ -37,6 +37,9 @@ from baarda.errors import GeometryError
 UNDETERMINED = 1e-8  # smallest eigenvalue of the scaled G: below it, new unknowns not determined
 
 
+KY = 9  # new unknowns a row can touch: a photo's six and a point's three
+
+
 @dataclass(frozen=True)
 class Rows:
     """k scalar observation rows linearised at the factorisation's estimate.
@@ -61,6 +64,12 @@ class Rows:
 
 
 GATHER = 200_000  # k q above this: rows grouped by unknown block, no (k, b, q) gather
+
+
+def empty_rows(ng: int) -> Rows:
+    return Rows(np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, np.int64),
+                np.zeros((0, 3)), np.zeros((0, ng)), np.zeros((0, KY), np.int64),
+                np.zeros((0, KY)), np.zeros(0), np.zeros(0))
 
 
 def times(rows: Rows, hf: np.ndarray, hp: np.ndarray, hg: np.ndarray) -> np.ndarray:

@@ -1,7 +1,8 @@
 """Observation rows of the on-line bundle as the low-rank update takes them (online/lowrank.py).
 
 New image points and GNSS/IMU observations are evaluated with the bundle's own code (the
-camera models of bundle/image_rows.py, bundle/gnss_imu.py) at the factorisation's estimate;
+camera models of bundle/image_rows.py; bundle/gnss_imu.py through online/kind_gnss_imu.py,
+the rows of that kind) at the factorisation's estimate;
 the rows of the factorisation's own observations come from its linearisation.  Each image
 point gives two rows (x, y), each control point or GNSS position three (X, Y, Z; only the
 observed coordinates of control), each IMU attitude three.
@@ -16,27 +17,15 @@ import numpy as np
 from baarda.adjustment.schur import SchurFactor
 from baarda.block.photo_block import (
     Block,
-    GnssObservations,
     GroundPoints,
     ImagePoints,
-    ImuObservations,
-    Photos,
 )
 from baarda.block.rotation import rotation_and_derivatives
 from baarda.bundle.bundle_problem import BundleProblem
-from baarda.bundle.gnss_imu import GnssImu
 from baarda.bundle.image_rows import ImageRows
-from baarda.kinds import GNSS, IMU
-from baarda.online.lowrank import Rows
+from baarda.online.kind_gnss_imu import gnss_imu_rows, one_photo_each
+from baarda.online.lowrank import KY, Rows, empty_rows
 from baarda.online.measurements import Measurements
-
-KY = 9  # new unknowns a row can touch: a photo's six and a point's three
-
-
-def empty_rows(ng: int) -> Rows:
-    return Rows(np.zeros(0, np.int64), np.zeros((0, 6)), np.zeros(0, np.int64),
-                np.zeros((0, 3)), np.zeros((0, ng)), np.zeros((0, KY), np.int64),
-                np.zeros((0, KY)), np.zeros(0), np.zeros(0))
 
 
 def take(rows: Rows, idx: np.ndarray) -> Rows:
@@ -52,12 +41,6 @@ def concat(parts: list[Rows], ng: int) -> Rows:
                   for f in Rows.__dataclass_fields__))
 
 
-def _one_photo_each(block: Block, camera: np.ndarray, eo: np.ndarray) -> Photos:
-    k = len(camera)
-    return Photos([str(i) for i in range(k)], np.asarray(camera, np.int64),
-                  np.full(k, "", dtype=object), np.asarray(eo, float))
-
-
 def image_rows(block: Block, problem: BundleProblem, camera: np.ndarray, eo: np.ndarray,
                xyz: np.ndarray, xy: np.ndarray, g: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -68,7 +51,7 @@ def image_rows(block: Block, problem: BundleProblem, camera: np.ndarray, eo: np.
     ng = problem.system.ng
     if not k:
         return np.zeros((0, 2)), np.zeros((0, 2, 6)), np.zeros((0, 2, 3)), np.zeros((0, 2, ng))
-    tmp = Block(block.settings, block.cameras, _one_photo_each(block, camera, eo),
+    tmp = Block(block.settings, block.cameras, one_photo_each(block, camera, eo),
                 ImagePoints(np.arange(k), np.arange(k), np.asarray(xy, float), np.ones(k)),
                 GroundPoints([str(i) for i in range(k)], np.asarray(xyz, float),
                              np.full((k, 3), np.nan), np.full(k, "tie", dtype=object)))
@@ -86,28 +69,6 @@ def image_rows(block: Block, problem: BundleProblem, camera: np.ndarray, eo: np.
                 jg[sel[:, None, None], np.arange(2)[None, :, None], cols[None, None, :]] = \
                     free[sel][:, :, :len(cols)]
     return np.asarray(xy, float) - f, je, jp, jg
-
-
-def extra_rows(block: Block, problem: BundleProblem, eo: np.ndarray, gnss_xyz: np.ndarray,
-               gnss_sigma: np.ndarray, imu_angles: np.ndarray, imu_sigma: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Misclosures e (k,) and Jacobians jf (k, 6) of GNSS positions and IMU attitudes of
-    photos with orientations eo (one per observation: the GNSS ones, then the IMU ones),
-    as bundle/gnss_imu.py has them (lever arm; no shifts, drifts or estimated boresight)."""
-    kg, ki = len(gnss_xyz), len(imu_angles)
-    photos = _one_photo_each(block, np.zeros(kg + ki, np.int64), eo)
-    tmp = Block(block.settings, block.cameras, photos,
-                ImagePoints(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)),
-                            np.zeros(0)),
-                GroundPoints([], np.zeros((0, 3)), np.zeros((0, 3)),
-                             np.zeros(0, dtype=object)),
-                gnss=GnssObservations(np.arange(kg), np.asarray(gnss_xyz, float),
-                                      np.asarray(gnss_sigma, float)),
-                imu=ImuObservations(kg + np.arange(ki), np.asarray(imu_angles, float),
-                                    np.asarray(imu_sigma, float)))
-    gi = GnssImu(tmp, 0)
-    e, jxf, _ = gi.rows(np.asarray(eo, float), np.zeros(0), 0)
-    return e, jxf[:, 0, :]
 
 
 def factor_rows(problem: BundleProblem, factor: SchurFactor, flat: np.ndarray) -> Rows:
@@ -153,7 +114,7 @@ def factor_rows(problem: BundleProblem, factor: SchurFactor, flat: np.ndarray) -
 def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
                ) -> tuple[list[tuple[str, int, int]], Rows]:
     """The observation rows of a group of held observations (online/entering.py) linearised
-    at the estimate of the factorisation `f` (online/bundle.py `_Factored`), new photos and
+    at the estimate of the factorisation `f` (online/factorised.py `Factored`), new photos and
     points at y0 (their columns in `cols`): (their keys (kind, universe index, component),
     the Rows)."""
     res = f.result
@@ -217,31 +178,7 @@ def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
                           jp if c < 0 else np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
                           sig[obs], (m.point_xyz[j] - x)[obs]))
         keys += [("control", j, int(a)) for a in obs]
-    ext = [(GNSS.name, r, m.g_photo[r]) for r in group[GNSS.name]] + \
-        [(IMU.name, r, m.i_photo[r]) for r in group[IMU.name]]
-    if ext:
-        ph = [photo_at(i) for _, _, i in ext]
-        gsel = [r for kind, r, _ in ext if kind == GNSS.name]
-        isel = [r for kind, r, _ in ext if kind == IMU.name]
-        e, jf = extra_rows(f.problem.block, f.problem,
-                           np.repeat(np.array([p[0] for p in ph]), 1, axis=0),
-                           np.array([m.g_xyz[r] for r in gsel]).reshape(-1, 3),
-                           np.array([m.g_sigma[r] for r in gsel]).reshape(-1, 3),
-                           np.array([m.i_angles[r] for r in isel]).reshape(-1, 3),
-                           np.array([m.i_sigma[r] for r in isel]).reshape(-1, 3))
-        k = 3 * len(ext)
-        frame = np.repeat([f.frame_of[i] if c < 0 else -1
-                           for (_, _, i), (_, c) in zip(ext, ph, strict=True)], 3)
-        pc = np.repeat([c for _, c in ph], 3)
-        ycol = np.full((k, KY), -1, np.int64)
-        jy = np.zeros((k, KY))
-        on = pc >= 0
-        ycol[on, :6] = pc[on, None] + np.arange(6)
-        jy[on, :6] = jf[on]
-        sig = np.concatenate([np.array([m.g_sigma[r] for r in gsel]).reshape(-1),
-                              np.array([m.i_sigma[r] for r in isel]).reshape(-1)])
-        parts.append(Rows(frame, np.where((frame >= 0)[:, None], jf, 0.0),
-                          np.full(k, -1), np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
-                          sig, e))
-        keys += [(kind, r, c) for kind, r, _ in ext for c in range(3)]
+    ext_keys, ext_rows = gnss_imu_rows(f, m, group, photo_at)
+    keys += ext_keys
+    parts.append(ext_rows)
     return keys, concat(parts, ng)

@@ -227,8 +227,10 @@ class Watch:
                 cam = cams[int(block.photos.camera[i])]
                 if cam not in ob.m.cameras.ids:
                     try:
-                        self._say(name, ob.add_camera(block.cameras,
-                                                      int(block.photos.camera[i])))
+                        k = int(block.photos.camera[i])
+                        free = block.settings.calibration_free
+                        self._say(name, ob.add_camera(block.cameras, k,
+                                                      free[k] if free is not None else ()))
                     except ValueError as e:
                         raise ProjectError(name, f"photo {photo}: {e}") from None
                 kw = {"camera": cam, "eo": eo[photo], "strip": block.photos.strip[i]}

@@ -51,7 +51,8 @@ def _sensor(block: Block, i: int, pixel: float, w: int, h: int) -> list[str]:
     c_px = float(cams.focal_mm[i]) / pixel
     f = c_px * (1 + a)
     x0, y0 = (float(v) for v in cams.principal_point_mm[i])
-    free = cams.free[i] if cams.free is not None else ()
+    chosen = block.settings.calibration_free
+    free = chosen[i] if chosen is not None else ()
     out = [f'      <sensor id="{i}" label={quoteattr(cams.ids[i])} type="frame">',
            f'        <resolution width="{w}" height="{h}"/>',
            f'        <property name="pixel_width" value="{_n(pixel)}"/>',

@@ -79,9 +79,10 @@ def _write_project(block: Block, folder: Path) -> None:
              f"control_m = [{', '.join(repr(float(c)) for c in s.sigma_control_m)}]",
              "", "[tests]", f"alpha0 = {s.alpha0!r}", f"beta0 = {s.beta0!r}", ""]
     c = block.cameras
-    if c.free is not None and any(c.free):  # the parameters a self-calibration estimates
+    free = s.calibration_free
+    if free is not None and any(free):  # the parameters a self-calibration estimates
         for i, cid in enumerate(c.ids):
-            names = ", ".join(f'"{p}"' for p in c.free[i])
+            names = ", ".join(f'"{p}"' for p in free[i])
             toml += [f'[calibration."{cid}"]', f"free = [{names}]", ""]
     if len(block.gnss):
         toml += ["[gnss]", f"lever_arm = [{', '.join(repr(float(v)) for v in s.gnss_lever_arm)}]",

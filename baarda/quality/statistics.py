@@ -110,7 +110,7 @@ def w_tests(v: np.ndarray, sigma: np.ndarray, qvv: np.ndarray, r: np.ndarray, de
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(sigma_v, w, MDB, controlled) of components from their residuals v, sigmas, residual
     cofactors q_vv and redundancy numbers r (module docstring): every consumer's w-test
-    and internal reliability (`analyse`; the on-line bundle, online/bundle.py).
+    and internal reliability (`analyse`; the on-line bundle, online/addition_tests.py).
     `controlled`: the components tested (default r >= R_MIN); the others have w NaN and an
     infinite MDB."""
     if controlled is None:

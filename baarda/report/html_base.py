@@ -4,8 +4,8 @@ quality check and the sign-off block; a user's folder of templates of the same n
 overrides them), escaped text, the formatting rules of numbers, tables and embedded
 figures (base64 PNG, no network access).
 
-Number rules: a fixed number of decimals per column (format specs like ".3f"), no "-0",
-no "True"/"False" (yes / blank), "-" for a missing value.
+The number rules of every cell are baarda/table_data.py's (`cell`): a table is data
+(`TableData`), `html_table` renders it.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from jinja2.sandbox import SandboxedEnvironment
 
 from baarda.errors import ProjectError
 from baarda.report.plots import Plot
+from baarda.table_data import TableData, cell, num  # noqa: F401  (cell, num re-exported)
 
 TEMPLATES = Path(__file__).parent / "templates"
 
@@ -110,31 +111,6 @@ def esc(x) -> str:
     return html.escape(str(x))
 
 
-def num(x: float, decimals: int) -> str:
-    """Fixed decimals without a negative zero."""
-    return f"{round(float(x), decimals) + 0.0:.{decimals}f}"
-
-
-def cell(v, f: str | None = None) -> str:
-    """A table cell as text by the number rules (module docstring); f: a format spec."""
-    if isinstance(v, bool | np.bool_):
-        return "yes" if v else ""
-    if isinstance(v, float | np.floating | int | np.integer) and not isinstance(v, bool):
-        x = float(v)
-        if not np.isfinite(x):
-            return "∞" if np.isinf(x) and x > 0 and f == "inf" else "-"
-        if isinstance(v, int | np.integer) and not f:
-            return str(int(v))
-        f = f or ".4g"
-        m = re.fullmatch(r"([+]?)\.(\d+)f", f)
-        if m:
-            s = num(x, int(m.group(2)))
-            return ("+" + s if m.group(1) and not s.startswith("-") else s)
-        s = format(x, f)
-        return s[1:] if re.fullmatch(r"-0(\.0*)?(e[+-]?0+)?", s) else s
-    return "" if v is None else str(v)
-
-
 def csv_link(df: pd.DataFrame, name: str) -> str:
     """The whole table as a CSV data URI (the report stays one file)."""
     data = df.to_csv(index=False).encode("utf-8")
@@ -147,13 +123,22 @@ def table(df: pd.DataFrame, fmt: dict[str, str] | None = None, row_class=None,
     """An HTML table of `df`, numbers formatted with `fmt` (column -> format spec);
     `attrs` may name its id; `note` and a link (`csv`: a data URI or a relative path) above
     it."""
-    fmt = fmt or {}
+    t = TableData.from_frame(df, fmt, text_cols)
+    if row_class is not None:
+        t = t.with_row_class(list(row_class(df)))
+    return html_table(t, attrs, note=note, csv=csv, csv_text=csv_text, download=download)
+
+
+def html_table(t: TableData, attrs: str = "", *, note: str = "", csv: str | None = None,
+               csv_text: str = "", download: str | None = None) -> str:
+    """The HTML renderer of a table (table_data.py: its cells are formatted there)."""
     m = re.search(r'id="([^"]+)"', attrs)
-    classes = row_class(df) if row_class is not None else [""] * len(df)
-    cols = [str(c) for c in df.columns]
-    rows = [(cls, [(c, cell(v, fmt.get(c))) for c, v in zip(cols, rec, strict=True)])
-            for rec, cls in zip(df.itertuples(index=False), classes, strict=True)]
-    view = {"id": m.group(1) if m else "", "columns": cols, "text_cols": set(text_cols),
+    classes = t.row_class or ("",) * len(t.rows)
+    cols = t.titles
+    rows = [(cls, list(zip(cols, cells, strict=True)))
+            for cells, cls in zip(t.cells(), classes, strict=True)]
+    view = {"id": m.group(1) if m else "", "columns": cols,
+            "text_cols": {c.head for c in t.columns if c.text},
             "rows": rows, "note": note, "csv": csv, "csv_text": csv_text or "whole table (CSV)",
             "download": download}
     return macro("table")(view)

@@ -32,14 +32,26 @@ from baarda.report.front import (
 )
 from baarda.report.geometry import geometry_plots
 from baarda.report.histogram import format_histogram
-from baarda.report.html_base import csv_link, esc, figure, macro, num, page, table, worst_table
+from baarda.report.html_base import (
+    csv_link,
+    esc,
+    figure,
+    html_table,
+    macro,
+    page,
+    table,
+    worst_table,
+)
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.quality_html import tables_html
 from baarda.report.separability import counts_line, least_separable, msb_histogram
 from baarda.report.stats import (
     gnss_imu_per_strip,
     group_statistics,
+    group_table,
+    image_group_table,
     largest_rms,
+    model_group_table,
     model_groups,
     per_photo,
     per_strip,
@@ -95,25 +107,11 @@ def _log_table(summary: dict) -> str:
 
 
 def _group_table(res: Results) -> str:
-    g = group_statistics(res.obs, res.units)
-
-    def f(x: float, unit: str) -> str:
-        return "-" if not np.isfinite(x) else num(x, 3 if unit == "m" else 2)
-
-    df = pd.DataFrame([{"group": x.name, "unit": x.unit, "number": x.count,
-                        "mean": f(x.mean, x.unit), "RMS": f(x.rms, x.unit),
-                        "minimum": f(x.minimum, x.unit), "at (min)": x.min_at,
-                        "maximum": f(x.maximum, x.unit), "at (max)": x.max_at,
-                        "rejected": x.rejected} for x in g])
-    return table(df, text_cols=("group", "unit", "at (min)", "at (max)"), attrs='id="groups"')
+    return html_table(group_table(group_statistics(res.obs, res.units)), 'id="groups"')
 
 
 def _image_table(t: pd.DataFrame, by: str) -> str:
-    t = t.rename(columns={"mean_x": "mean x", "mean_y": "mean y", "rms_x": "RMS x",
-                          "rms_y": "RMS y", "rms_xy": "RMS x+y", "max_abs": "max |v|",
-                          "max_at": "at"})
-    return table(t, {c: ".2f" for c in ("mean x", "mean y", "RMS x", "RMS y", "RMS x+y",
-                                        "max |v|")}, text_cols=(by, "at"))
+    return html_table(image_group_table(t, by))
 
 
 def plots(res: Results, opt: ReportOptions) -> dict[str, Plot | None]:
@@ -327,11 +325,7 @@ def html_report(res: Results, opt: ReportOptions | None = None,
             t, {c: ".4f" for c in t.columns if c.startswith(("mean", "RMS"))} | {
                 "max |w|": ".2f"}, text_cols=("kind", "strip"))
     if (res.obs["kind"] == "model").any():
-        t = model_groups(res.obs).rename(columns=lambda c: c.replace("rms_", "RMS ").replace(
-            "max_abs", "max |v|").replace("max_at", "at"))
-        body += "<h3>Per model</h3>" + table(
-            t, {c: ".2f" for c in t.columns if c.startswith("RMS") or c == "max |v|"},
-            text_cols=("model", "at"))
+        body += "<h3>Per model</h3>" + html_table(model_group_table(model_groups(res.obs)))
     sec.append(("groups", "Group statistics (rejected observations left out; image and model "
                 "µm, control m)", body))
     geo = "".join(str(figure(figs.get(k))) for k in ("centres", "ground_vectors",

@@ -32,9 +32,9 @@ from baarda.io.result_folder import Results
 from baarda.output.accuracy import TABLE_FORMATS
 from baarda.output.verdict import failures
 from baarda.report.front import accuracy, metadata, patterns, quality_check
-from baarda.report.html_base import cell
 from baarda.report.plots import DPI, to_png
 from baarda.report.quality_report import Part, quality_content
+from baarda.table_data import TableData
 
 PDF_ROWS = 25  # rows of a long table in the PDF (the worst)
 MARGIN = 14 * mm
@@ -100,12 +100,18 @@ WRAP_AT = 0.45  # a text column wider than this share of the page wraps in its c
 
 
 def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> list:
-    """One or more ReportLab tables of df (wide ones split by columns, the first column
-    repeated; a long text column wraps within the page)."""
-    fmt = fmt or {}
-    cols = [str(c) for c in df.columns]
-    body = [[cell(v, fmt.get(c)) for c, v in zip(cols, r, strict=True)]
-            for r in df.itertuples(index=False)]
+    """One or more ReportLab tables of df (`pdf_table`), numbers formatted by `fmt`."""
+    text = [str(c) for c, t in zip(df.columns, df.dtypes, strict=True)
+            if not pd.api.types.is_numeric_dtype(t)]
+    return pdf_table(TableData.from_frame(df, fmt, text), st, head_bg)
+
+
+def pdf_table(table: TableData, st: dict, head_bg="#eef2f7") -> list:
+    """The PDF renderer of a table (table_data.py formats its cells): one or more
+    ReportLab tables (wide ones split by columns, the first column repeated; a long text
+    column wraps within the page)."""
+    cols = table.titles
+    body = table.cells()
     size = 7.0
     width = [max([stringWidth(c, "Helvetica-Bold", size)] + [
         stringWidth(r[k], "Helvetica", size) for r in body]) + 2 * PAD + GAP
@@ -115,7 +121,7 @@ def _table(df: pd.DataFrame, fmt: dict | None, st: dict, head_bg="#eef2f7") -> l
         for k in sorted(range(len(cols)), key=lambda k: -width[k]):
             if sum(width) <= WIDTH or width[k] <= WRAP_AT * WIDTH:
                 break
-            if not pd.api.types.is_numeric_dtype(df.dtypes.iloc[k]):
+            if table.columns[k].text:
                 width[k] = max(WRAP_AT * WIDTH, width[k] - (sum(width) - WIDTH))
                 wrap.add(k)
     if wrap:

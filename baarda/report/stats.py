@@ -11,13 +11,14 @@ separately.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 
 from baarda.kinds import EXTERIOR, EXTERIOR_NAMES
 from baarda.schema import UNITS
+from baarda.table_data import Column, TableData, text_lines
 
 
 @dataclass
@@ -235,15 +236,21 @@ def model_groups(df: pd.DataFrame) -> pd.DataFrame:
     return out[cols].reset_index(drop=True)
 
 
+def model_group_table(t: pd.DataFrame, unit: str = "µm") -> TableData:
+    """model_groups as a table (the text and the HTML report)."""
+    rms = [c for c in t.columns if c.startswith("rms_")]
+    f = _decimals(unit)
+    return TableData.of([Column("model", width=10, text=True), Column("points", width=7),
+                         *[Column(c, "RMS " + c[4:], f, width=9) for c in rms],
+                         Column("max_abs", "max |v|", f, width=9),
+                         Column("max_at", "at", text=True, width=34, gap=2),
+                         Column("rejected", text_title="rej", width=4)], t)
+
+
 def format_model_groups(t: pd.DataFrame, unit: str = "µm") -> str:
     """Per-model table as text."""
-    rms = [c for c in t.columns if c.startswith("rms_")]
-    lines = [f"{'model':<10}{'points':>7}" + "".join(f"{'RMS ' + c[4:]:>9}" for c in rms)
-             + f"{'max |v|':>9}  {'at':<34}{'rej':>4}   ({unit})"]
-    for r in t.to_dict("records"):
-        lines.append(f"{str(r['model']):<10}{r['points']:>7}"
-                     + "".join(f"{_num(r[c], unit):>9}" for c in rms)
-                     + f"{_num(r['max_abs'], unit):>9}  {r['max_at']:<34}{r['rejected']:>4}")
+    lines = text_lines(model_group_table(t, unit))
+    lines[0] += f"   ({unit})"
     return "\n".join(lines)
 
 
@@ -290,18 +297,20 @@ def gnss_imu_per_strip(df: pd.DataFrame, strip_of: dict[str, str]) -> pd.DataFra
 
 
 def format_gnss_imu(t: pd.DataFrame) -> str:
-    """gnss_imu_per_strip as text (GNSS m, IMU in the output's unit)."""
+    """gnss_imu_per_strip as text (GNSS m, IMU in the output's unit), a table per kind."""
     lines = []
     for k, names in ((e.name, e.components) for e in EXTERIOR):
         part = t[t["kind"] == k] if len(t) else t
         if not len(part):
             continue
-        lines.append(f"{k:<6}{'strip':<8}{'number':>7}" + "".join(
-            f"{'mean ' + c:>12}{'RMS ' + c:>12}" for c in names) + f"{'max |w|':>9}{'rej':>5}")
-        for r in part.to_dict("records"):
-            lines.append(f"{'':<6}{r['strip']:<8}{r['number']:>7}" + "".join(
-                f"{r['mean ' + c]:>12.4f}{r['RMS ' + c]:>12.4f}" for c in names)
-                + f"{r['max |w|']:>9.2f}{r['rejected']:>5}")
+        cols = [Column("kind", text_title=k, text=True, width=6),
+                Column("strip", text=True, width=8), Column("number", width=7)]
+        for c in names:
+            cols += [Column(f"mean {c}", fmt=".4f", width=12),
+                     Column(f"RMS {c}", fmt=".4f", width=12)]
+        cols += [Column("max |w|", fmt=".2f", width=9), Column("rejected", text_title="rej",
+                                                              width=5)]
+        lines += text_lines(TableData.of(cols, part.assign(kind="")))
     return "\n".join(lines)
 
 
@@ -346,33 +355,52 @@ def weakest(obs: pd.DataFrame, n: int,
     return {"smallest redundancy numbers": small, "largest MDB (per kind)": large}
 
 
-# ------------------------------------------------------------------ text output
-def _num(x: float, unit: str) -> str:
-    if not np.isfinite(x):
-        return "-"
-    d = 3 if unit in ("m", "px") else 2
-    return f"{round(x, d) + 0.0:.{d}f}"  # no '-0.00'
+# ------------------------------------------------------------------ tables
+def _decimals(unit: str) -> str:
+    """The format of a residual statistic in `unit`: mm-level decimals for m and px."""
+    return ".3f" if unit in ("m", "px") else ".2f"
+
+
+UNIT_DECIMALS = {"m": ".3f", "px": ".3f"}  # a row's unit -> its format (else .2f)
+
+
+def group_table(groups: list[GroupStats]) -> TableData:
+    """The VAN summary table (the text and the HTML report)."""
+    def stat(key: str) -> Column:
+        return Column(key, fmt=".2f", unit_fmt=UNIT_DECIMALS, width=10)
+
+    t = TableData.of([
+        Column("group", width=14, text=True), Column("unit", width=5, text=True, align=">"),
+        Column("number", width=8), stat("mean"), stat("RMS"), stat("minimum"),
+        Column("at (min)", text_title="at", text=True, width=28, gap=2),
+        stat("maximum"),
+        Column("at (max)", text_title="at", text=True, width=28, gap=2),
+        Column("rejected", width=8)],
+        [(g.name, g.unit, g.count, g.mean, g.rms, g.minimum, g.min_at, g.maximum, g.max_at,
+          g.rejected) for g in groups])
+    return replace(t, unit_key="unit")
 
 
 def format_groups(groups: list[GroupStats]) -> str:
     """The VAN summary table as text."""
-    lines = [f"{'group':<14}{'unit':>5}{'number':>8}{'mean':>10}{'RMS':>10}{'minimum':>10}"
-             f"  {'at':<28}{'maximum':>10}  {'at':<28}{'rejected':>8}"]
-    for g in groups:
-        lines.append(f"{g.name:<14}{g.unit:>5}{g.count:>8}{_num(g.mean, g.unit):>10}"
-                     f"{_num(g.rms, g.unit):>10}{_num(g.minimum, g.unit):>10}  {g.min_at:<28}"
-                     f"{_num(g.maximum, g.unit):>10}  {g.max_at:<28}{g.rejected:>8}")
-    return "\n".join(lines)
+    return "\n".join(text_lines(group_table(groups)))
+
+
+def image_group_table(t: pd.DataFrame, by: str, unit: str = "µm") -> TableData:
+    """Per-photo or per-strip statistics (image_groups) as a table."""
+    f = _decimals(unit)
+    return TableData.of([
+        Column(by, width=10, text=True), Column("points", width=7),
+        Column("mean_x", "mean x", f, width=9), Column("mean_y", "mean y", f, width=9),
+        Column("rms_x", "RMS x", f, width=8), Column("rms_y", "RMS y", f, width=8),
+        Column("rms_xy", "RMS x+y", f, width=8, text_title="RMS xy"),
+        Column("max_abs", "max |v|", f, width=9),
+        Column("max_at", "at", text=True, width=30, gap=2),
+        Column("rejected", text_title="rej", width=4)], t)
 
 
 def format_image_groups(t: pd.DataFrame, by: str, unit: str = "µm") -> str:
     """Per-photo or per-strip table as text."""
-    lines = [f"{by:<10}{'points':>7}{'mean x':>9}{'mean y':>9}{'RMS x':>8}{'RMS y':>8}"
-             f"{'RMS xy':>8}{'max |v|':>9}  {'at':<30}{'rej':>4}   ({unit})"]
-    for r in t.itertuples(index=False):
-        d = r._asdict()
-        lines.append(f"{str(d[by]):<10}{d['points']:>7}{_num(d['mean_x'], unit):>9}"
-                     f"{_num(d['mean_y'], unit):>9}{_num(d['rms_x'], unit):>8}"
-                     f"{_num(d['rms_y'], unit):>8}{_num(d['rms_xy'], unit):>8}"
-                     f"{_num(d['max_abs'], unit):>9}  {d['max_at']:<30}{d['rejected']:>4}")
+    lines = text_lines(image_group_table(t, by, unit))
+    lines[0] += f"   ({unit})"
     return "\n".join(lines)

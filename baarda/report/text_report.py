@@ -36,6 +36,7 @@ from baarda.report.stats import (
 )
 from baarda.schema import UNITS
 from baarda.sections import render
+from baarda.table_data import Column, TableData, text_lines
 
 if TYPE_CHECKING:
     from baarda.io.residual_listings import ResidualSet
@@ -182,22 +183,35 @@ def weakest_text(obs: pd.DataFrame, opt: ReportOptions,
         return []
     out = []
     for title, t in weakest(obs, opt.worst, units).items():
-        out += ["", f"{title.upper()} ({opt.worst})", "-" * 78]
-        for r, la in zip(t.itertuples(index=False), obs_label(t), strict=True):
-            out.append(f"{r.kind:<8}{la:<36} r {r.redundancy:6.3f}  w {r.w:6.2f}  MDB "
-                       f"{r.mdb:10.4g} {r.unit}".rstrip())
+        out += ["", f"{title.upper()} ({opt.worst})", "-" * 78,
+                *text_lines(weakest_table(t), header=False)]
     return out
+
+
+def weakest_table(t: pd.DataFrame) -> TableData:
+    """One of `weakest`'s tables as the text report's lines: kind, observation, r, w, MDB
+    in the unit of its kind."""
+    return TableData.of([
+        Column("kind", text=True, width=8), Column("label", text=True, width=36),
+        Column("redundancy", fmt=".3f", width=6, gap=1, label="r "),
+        Column("w", fmt=".2f", width=6, gap=2, label="w "),
+        Column("mdb", fmt=".4g", width=10, gap=2, label="MDB "),
+        Column("unit", text=True, gap=1)], t.assign(label=obs_label(t)))
 
 
 def format_worst(t: pd.DataFrame, units: dict[str, str] | None = None) -> str:
     """The largest residuals, with w where the file has it."""
     units = {**UNITS, **(units or {})}
-    lines = []
-    for r, la in zip(t.itertuples(index=False), obs_label(t), strict=True):
-        w = f"w {r.w:7.2f}" if "w" in t and np.isfinite(r.w) else ""
-        lines.append(f"{r.kind:<8}{la:<36}{r.residual:>12.4f} {units.get(r.kind, ''):<3} {w}"
-                     .rstrip())
-    return "\n".join(lines) or "none"
+    w = (t["w"].astype(object).where(np.isfinite(t["w"].to_numpy(float)), None) if "w" in t
+         else pd.Series(None, index=t.index, dtype=object))
+    table = TableData.of([
+        Column("kind", text=True, width=8), Column("label", text=True, width=36),
+        Column("residual", fmt=".4f", width=12),
+        Column("unit", text=True, width=3, gap=1), Column("w", fmt=".2f", width=7, gap=1,
+                                                          label="w ")],
+        t.assign(label=obs_label(t), unit=[units.get(k, "") for k in t["kind"]],
+                 w=w))
+    return "\n".join(text_lines(table, header=False)) or "none"
 
 
 def residuals_report(rs: ResidualSet, width: float = 1.0, lo: float = -25.0, hi: float = 25.0,

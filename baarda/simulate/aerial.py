@@ -19,6 +19,7 @@ from baarda.block.field_models import ebner_fields
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.bundle.collinearity import project
 from baarda.errors import GeometryError
+from baarda.kinds import GNSS
 from baarda.simulate.gnss_imu import with_gnss_imu
 from baarda.simulate.ground import block_geometry
 
@@ -269,7 +270,7 @@ def simulate_block(plan: FlightPlan) -> tuple[Block, dict]:
         "units": {"angles": "rad", "coordinates": "m"},
     }
     if plan.gnss_sigma_m > 0 or plan.imu_sigma_deg > 0:
-        block, truth["gnss"] = with_gnss_imu(plan, block, eo_true)
+        block, truth[GNSS.name] = with_gnss_imu(plan, block, eo_true)
     if plan.image_deformation_um:
         coef, b = deformation_coefficients(plan)
         truth["camera"] = {"model": "ebner", "b": b, "coefficients": coef.tolist()}

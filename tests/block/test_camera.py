@@ -152,13 +152,31 @@ def test_with_camera_widens_the_tables():
     b = Cameras(["7", "8"], np.array([35.0, 24.0]), np.array([[0.0, 0.0], [0.1, 0.2]]),
                 model=np.array(["none", "brown"], dtype=object),
                 coefficients=np.array([[0, 0, 0, 0, 0], [1e-4, -2e-7, 0, 3e-6, 0]], float),
-                free=((), ("c",)), pixel_mm=np.array([0.004, 0.005]))
+                pixel_mm=np.array([0.004, 0.005]))
     c = with_camera(a, b, 1)
     assert c.ids == ["1", "8"] and c.focal_mm.tolist() == [153.0, 24.0]
     assert c.principal_point_mm.tolist() == [[0.01, -0.02], [0.1, 0.2]]
     assert kinds(c).tolist() == ["none", "brown"]
     assert coefficients(c, 1).tolist() == [1e-4, -2e-7, 0.0, 3e-6, 0.0, 0.0, 0.0]  # b1 b2
     assert parameter_names(c, 0) == ("c", "x0", "y0")
-    assert c.free == ((), ("c",))
     assert np.isnan(c.pixel_mm[0]) and c.pixel_mm[1] == 0.005
     assert with_camera(a, a, 0).model is None  # no models: still none
+
+
+def test_what_is_free_is_a_setting_not_camera_data():
+    """The cameras are data only (issue 37): the parameters a self-calibration estimates
+    are the block's settings.calibration_free, split with the cameras per strip and cleared
+    with a new camera model (io/configuration.py decides them again)."""
+    from dataclasses import fields, replace
+
+    from baarda.block.camera import cameras_per_strip, with_camera_model
+    from baarda.block.photo_block import Cameras
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    assert "free" not in {f.name for f in fields(Cameras)}
+    block, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=4, seed=2))
+    b = replace(block, settings=replace(block.settings, calibration_free=(("c", "x0"),)))
+    split = cameras_per_strip(b)
+    assert len(split.cameras) == 2
+    assert split.settings.calibration_free == (("c", "x0"), ("c", "x0"))
+    assert with_camera_model(b, "brown").settings.calibration_free is None

@@ -19,8 +19,7 @@ def case():
     block, truth = simulate_block(FlightPlan(strips=3, photos_per_strip=5, relief_m=150.0,
                                              side_overlap=0.6, seed=21))
     cams = replace(block.cameras, model=np.array(["brown"], dtype=object),
-                   coefficients=np.array([[1e-6, 0, 0, 2e-6, -1e-6, 0, 0]]),
-                   free=(("c", "k1", "p1", "p2", "b1"),))
+                   coefficients=np.array([[1e-6, 0, 0, 2e-6, -1e-6, 0, 0]]))
     pts = block.points
     sigma = pts.sigma.copy()
     ctrl = np.flatnonzero(pts.role == "control")
@@ -34,7 +33,10 @@ def case():
     im = block.image
     rng = np.random.default_rng(4)
     sxy = im.sigma_mm[:, None] * rng.uniform(0.7, 1.4, (len(im), 2))
-    block = replace(block, cameras=cams, points=replace(pts, sigma=sigma), distances=dist,
+    block = replace(block, cameras=cams,
+                    settings=replace(block.settings,
+                                     calibration_free=(("c", "k1", "p1", "p2", "b1"),)),
+                    points=replace(pts, sigma=sigma), distances=dist,
                     image=replace(im, sigma_xy_mm=sxy))
     res = adjust(block)
     return res, BundleModel(res)

@@ -33,8 +33,9 @@ def block():
     xy = b.image.xy_mm.copy()
     xy[rows] = pp + invert(get_model("brown"), xy[rows] - pp, coef, None)
     cams = replace(b.cameras, model=np.array(["brown"], dtype=object),
-                   coefficients=np.zeros((1, 7)), free=(("k1",),))
-    return replace(b, image=replace(b.image, xy_mm=xy), cameras=cams), second
+                   coefficients=np.zeros((1, 7)))
+    return replace(b, image=replace(b.image, xy_mm=xy), cameras=cams,
+                   settings=replace(b.settings, calibration_free=(("k1",),))), second
 
 
 def _k1(result):

@@ -66,16 +66,17 @@ def mixed_case():
     block = bal_to_block(_bal(shared=5))
     c = block.cameras
     keep = np.arange(6)
-    free = (("c",),) + tuple(c.free[1:6])
+    free = (("c",),) + tuple(block.settings.calibration_free[1:6])
     cams = replace(c, ids=[c.ids[i] for i in keep], focal_mm=c.focal_mm[keep],
                    principal_point_mm=c.principal_point_mm[keep], model=c.model[keep],
-                   coefficients=c.coefficients[keep], free=free)
+                   coefficients=c.coefficients[keep])
     photos = replace(block.photos, camera=np.minimum(block.photos.camera, 5))
     a, b = 3, 40
     length = float(np.linalg.norm(block.points.xyz[a] - block.points.xyz[b]))
     dist = Distances(["bar"], np.array([a]), np.array([b]), np.array([length + 0.002]),
                      np.array([0.005]))
-    return _fit(replace(block, cameras=cams, photos=photos, distances=dist))
+    return _fit(replace(block, cameras=cams, photos=photos, distances=dist,
+                        settings=replace(block.settings, calibration_free=free)))
 
 
 def _dense(res):
@@ -239,19 +240,20 @@ def test_the_same_numbers_as_with_every_camera_in_the_border(which, bal_case, mi
 
 def test_which_cameras_go_into_their_photos_blocks():
     block, _ = simulate_block(FlightPlan(strips=2, photos_per_strip=4, seed=2))
-    one = replace(block.cameras, free=(("c", "x0", "y0"),))
-    cal = Calibration(one, block.photos.camera)
+    cal = Calibration(block.cameras, block.photos.camera, free=(("c", "x0", "y0"),))
     assert np.all(cal.owner == -1) and cal.n_global == 3 and cal.photo_width == 0
     bal = bal_to_block(_bal(ncam=6))
-    cal = Calibration(bal.cameras, bal.photos.camera)
+    bal_free = bal.settings.calibration_free
+    cal = Calibration(bal.cameras, bal.photos.camera, free=bal_free)
     assert np.array_equal(cal.owner, np.arange(6)) and cal.photo_width == 3
     assert cal.global_labels == [] and len(cal.labels) == 18
     # fewer than half of the photos with a camera of their own: the border is cheaper
-    cal = Calibration(bal.cameras, np.array([0, 1, 2, 2, 2, 2, 2]))
+    cal = Calibration(bal.cameras, np.array([0, 1, 2, 2, 2, 2, 2]), free=bal_free)
     assert np.all(cal.owner == -1)
-    four = bal_to_block(_bal(ncam=4)).cameras
-    cal = Calibration(four, np.array([0, 1, 2, 3, 3, 3]))
+    four = bal_to_block(_bal(ncam=4))
+    cal = Calibration(four.cameras, np.array([0, 1, 2, 3, 3, 3]),
+                      free=four.settings.calibration_free)
     assert list(cal.owner) == [0, 1, 2, -1]
     assert cal.held_photo_columns.sum() == 9 and cal.n_global == 3  # photos 3-5 share 3
     # without the photos' cameras every camera is in the border (as before issue 32)
-    assert np.all(Calibration(bal.cameras).owner == -1)
+    assert np.all(Calibration(bal.cameras, free=bal_free).owner == -1)

@@ -149,7 +149,7 @@ def test_one_configuration_from_three_sources(tmp_path, capsys):
     assert config.calibration.free == (("c", "x0", "y0"),)
     assert config.calibration.source == "project.toml [calibration] free"
     assert (config.datum, config.solver, config.crs, config.notes) == ("control", None, None, ())
-    assert block.cameras.free == (("c", "x0", "y0"),)
+    assert block.settings.calibration_free == (("c", "x0", "y0"),)
     with pytest.raises(FrozenInstanceError):
         config.datum = "free"
     block, config = read_configured(proj, requested=Requested(

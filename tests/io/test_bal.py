@@ -146,11 +146,11 @@ def test_calibrate_chosen_for_the_run_is_noted(tmp_path):
     write_bal(_synthetic(seed=2), p)
     assert any("estimated, as the BAL problems intend" in n for n in read(p).notes)
     b = read(p, calibrate="none")
-    assert all(f == () for f in b.cameras.free)
+    assert all(f == () for f in b.settings.calibration_free)
     # issue 41: the reader's "estimated" is replaced, not contradicted
     assert not any("estimated" in n for n in b.notes)
     assert any(n.startswith("calibrate none (every camera's parameters held at the input's "
                             "values): chosen for this run") for n in b.notes)
     b = read(p, calibrate=["c", "k1"])
-    assert b.cameras.free[0] == ("c", "k1")
+    assert b.settings.calibration_free[0] == ("c", "k1")
     assert any(n.startswith("calibrate c, k1: chosen for this run") for n in b.notes)

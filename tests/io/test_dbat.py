@@ -324,9 +324,9 @@ def _estimate(io: str) -> str:
 def test_estimation_flags_as_dbat_applies_them(tmp_path, io, free):
     b = read_dbat(_script(tmp_path, _estimate(io)))
     if free is None:
-        assert b.cameras.free is None and b.cameras.model[0] == "brown_backward"
+        assert b.settings.calibration_free is None and b.cameras.model[0] == "brown_backward"
     else:
-        assert b.cameras.free == (free,) and b.cameras.model[0] == "dbat3"
+        assert b.settings.calibration_free == (free,) and b.cameras.model[0] == "dbat3"
 
 
 @pytest.mark.parametrize("io, field", [

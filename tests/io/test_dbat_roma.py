@@ -76,7 +76,7 @@ def test_script_settings_as_dbat_reads_them(script):
     b = read(script)
     assert (len(b.photos), len(b.image), len(b.points)) == (60, 90561, 26321)
     assert b.cameras.model[0] == "dbat3"
-    assert b.cameras.free == (("c", "x0", "y0", "k1", "k2"),)  # <P>false, <K3>false
+    assert b.settings.calibration_free == (("c", "x0", "y0", "k1", "k2"),)  # <P>false, <K3>false
     assert np.isclose(b.cameras.focal_mm[0], 24.3581)  # the camera file's, 'loaded'
     assert np.isclose(b.cameras.coefficients[0, 0], 2.174e-4)
     assert np.isfinite(b.photos.eo).all()  # every image from <prior_eo>, degrees

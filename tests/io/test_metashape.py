@@ -46,7 +46,7 @@ def test_sxb_psz_is_read_as_dbat_reads_it():
     # fx 20656.5 px of 0.006 mm; cx, cy absolute (PhotoScan 1.2): 4430 - 8858/2, 6468 - 12996/2
     assert b.cameras.focal_mm[0] == pytest.approx(123.939)
     assert b.cameras.principal_point_mm[0] == pytest.approx([0.006, 0.18])
-    assert b.cameras.free == ((),)  # the sensor is fixed
+    assert b.settings.calibration_free == ((),)  # the sensor is fixed
     marks = b.points.role[b.image.point] == "control"
     assert marks.sum() == 47
     assert np.allclose(b.image.sigma_mm[marks], 0.1 * 0.006)  # accuracy_projections
@@ -220,7 +220,7 @@ def test_cameras_xml_is_metashapes_camera_model(tmp_path):
     assert list(b.points.role).count("check") == 2
     assert b.points.sigma[0] == pytest.approx([0.02, 0.02, 0.05])
     assert np.allclose(b.image.sigma_mm, 0.5 * SENSOR["pixel"])
-    assert b.cameras.free == (("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a"),)
+    assert b.settings.calibration_free == (("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a"),)
     # the observations are Metashape's projections; baarda's model reproduces them
     assert np.abs(forward_xy(b) - b.image.xy_mm).max() / SENSOR["pixel"] < 1e-6
 
@@ -267,7 +267,7 @@ def test_round_trip_with_distortion(tmp_path):
     assert np.array_equal(b.image.point, a.image.point)
     assert np.allclose(b.cameras.coefficients, a.cameras.coefficients, rtol=1e-12)
     assert np.allclose(b.cameras.focal_mm, a.cameras.focal_mm, rtol=1e-12)
-    assert b.cameras.free == a.cameras.free
+    assert b.settings.calibration_free == a.settings.calibration_free
 
 
 def test_convert_writes_metashape(tmp_path):

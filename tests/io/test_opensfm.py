@@ -58,8 +58,8 @@ def test_read(block):
     assert np.allclose(block.gnss.sigma, 5.0)
     assert block.settings.crs == "EPSG:32633" and block.frame is not None
     assert block.settings.datum == "inner"  # 1 GCP on two shots; GPS almost on a line
-    assert block.cameras.model[0] == "brown_forward" and block.cameras.free == (("c", "k1",
-                                                                                  "k2"),)
+    assert block.cameras.model[0] == "brown_forward" and \
+        block.settings.calibration_free == (("c", "k1", "k2"),)
     c = block.cameras.focal_mm[0]
     assert c == pytest.approx(0.8696658484855359 * SIZE * 0.001, rel=1e-15)
     assert "137 row(s) of shots or tracks not in the reconstruction" in block.notes[-1]
@@ -331,7 +331,7 @@ def test_brown_camera_conventions(tmp_path):
     assert back.cameras.focal_mm[0] == pytest.approx(cams.focal_mm[0], rel=1e-12)
     assert back.cameras.principal_point_mm[0] == pytest.approx([0.12, -0.08], rel=1e-12)
     assert back.cameras.coefficients[0] == pytest.approx(coef[0], rel=1e-12)
-    assert back.cameras.free == (("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a"),)
+    assert back.settings.calibration_free == (("c", "x0", "y0", "k1", "k2", "k3", "p1", "p2", "a"),)
 
 
 @pytest.mark.parametrize("coef, pp, kind", [
@@ -379,7 +379,7 @@ def test_calibrate_none_replaces_the_readers_note():
     said = [n for n in baarda.read(DATA).notes if "parameters are estimated (c, k1, k2)" in n]
     assert len(said) == 1
     b = baarda.read(DATA, calibrate="none")
-    assert all(f == () for f in b.cameras.free)
+    assert all(f == () for f in b.settings.calibration_free)
     assert not any("are estimated" in n for n in b.notes)
 
 

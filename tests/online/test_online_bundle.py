@@ -105,9 +105,9 @@ def test_add_camera_refusals(block):
     n, steps = len(ob.m.cameras), ob.steps
     with pytest.raises(ValueError, match="is in the block already"):
         ob.add_camera(block.cameras, 0)
-    free = replace(block.cameras, ids=["other"], free=(("c",),))
+    other = replace(block.cameras, ids=["other"])
     with pytest.raises(ValueError, match="does not estimate the parameters of a new camera"):
-        ob.add_camera(free, 0)
+        ob.add_camera(other, 0, ("c",))
     assert len(ob.m.cameras) == n and ob.steps == steps
     a = ob.add_camera(replace(block.cameras, ids=["second"]), 0)
     assert a.what == "camera second" and a.refactorised and not a.changed

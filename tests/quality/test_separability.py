@@ -54,8 +54,7 @@ def test_with_self_calibration_fixed_control_and_a_distance():
     block, truth = simulate_block(FlightPlan(strips=4, photos_per_strip=5, relief_m=150.0,
                                              side_overlap=0.6, seed=21))
     cams = replace(block.cameras, model=np.array(["brown"], dtype=object),
-                   coefficients=np.array([[1e-6, 0, 0, 2e-6, -1e-6, 0, 0]]),
-                   free=(("c", "k1", "p1", "p2", "b1"),))
+                   coefficients=np.array([[1e-6, 0, 0, 2e-6, -1e-6, 0, 0]]))
     pts = block.points
     sigma = pts.sigma.copy()
     sigma[np.flatnonzero(pts.role == "control")[0]] = 0.0
@@ -64,7 +63,10 @@ def test_with_self_calibration_fixed_control_and_a_distance():
     xa, xb = (np.array(truth["points"][pts.ids[j]]) for j in (a, b))
     dist = Distances(["bar"], np.array([a]), np.array([b]),
                      np.array([float(np.linalg.norm(xa - xb)) + 0.01]), np.array([0.02]))
-    block = replace(block, cameras=cams, points=replace(pts, sigma=sigma), distances=dist)
+    block = replace(block, cameras=cams,
+                    settings=replace(block.settings,
+                                     calibration_free=(("c", "k1", "p1", "p2", "b1"),)),
+                    points=replace(pts, sigma=sigma), distances=dist)
     model = BundleModel(adjust(block))
     assert len(block.photos) == 20 and model.factor.system.ng > 5
     check(model)
