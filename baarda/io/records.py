@@ -53,7 +53,9 @@ def decode_text(data: bytes, path: str, encoding: str = ENCODING) -> str:
                            line) from None
 
 
-LINE_END = re.compile(r"\r\n|\r|\n")
+#: a line end: LF, CRLF or CR, and CR blanks LF as one (MicMac's liaisons files end their
+#: lines " \r \n": read as two ends, every line number after the first was 2N - 1)
+LINE_END = re.compile(r"\r[ \t]*\n|\r|\n")
 
 
 def line_of(text: str, index: int) -> int:
@@ -88,9 +90,9 @@ def no_nul(text: str, path: str, header: list[str] | None = None) -> str:
 
 
 def split_lines(text: str) -> list[str]:
-    """Lines without their ends (LF, CRLF or CR; no line after a final line end).  Unlike
-    str.splitlines, form feeds, vertical tabs, U+2028 and the like are not line ends, so
-    that line numbers are those an editor shows."""
+    """Lines without their ends (LF, CRLF, CR or CR blanks LF; no line after a final line
+    end).  Unlike str.splitlines, form feeds, vertical tabs, U+2028 and the like are not
+    line ends, so that line numbers are those an editor shows."""
     lines = LINE_END.split(text)
     if lines[-1] == "":
         lines.pop()
