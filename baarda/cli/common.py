@@ -44,7 +44,9 @@ EXIT_CODES = ("exit codes: 0 success, 2 bad input (the message names the file, l
               "step limit), 4 the results could not be written (the message names the file; "
               "the output folder keeps the earlier run), 5 an invariant of a result folder "
               "does not hold (baarda check), 130 interrupted (Ctrl-C), 143 terminated "
-              "(SIGTERM); after 130 and 143 nothing of the run was written")
+              "(SIGTERM); after 130 and 143 nothing of the run was written.  A standard output "
+              "that fails (a closed pipe) is a warning; the commands whose printout is the "
+              "result (check, pattern, online, residuals, report --text) then exit 4")
 
 
 def progress(args):
