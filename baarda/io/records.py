@@ -128,6 +128,14 @@ def not_a_file(path: str | Path, what: str = "file not found") -> str | None:
     return f"is {file_kind(st.st_mode)}, not a regular file"
 
 
+def require_file(path: str | Path, what: str = "file not found") -> None:
+    """ProjectError naming `path` unless it is a regular file (or a link to one): says
+    what it is instead (missing: `what`; a folder, a FIFO, a link loop, ...)."""
+    problem = not_a_file(path, what)
+    if problem is not None:
+        raise ProjectError(str(path), problem)
+
+
 def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
     """The bytes of a regular file; ProjectError naming it when it does not exist (`what`),
     is not a regular file (`not_a_file`) or cannot be read (permissions, ...)."""
