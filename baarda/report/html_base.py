@@ -11,9 +11,13 @@ no "True"/"False" (yes / blank), "-" for a missing value.
 from __future__ import annotations
 
 import base64
+import functools
 import html
+import inspect
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -27,6 +31,35 @@ from baarda.errors import ProjectError
 from baarda.report.plots import Plot
 
 TEMPLATES = Path(__file__).parent / "templates"
+MACROS = "macros.html.j2"
+
+#: the user's folder of templates (--templates) of the page being built: the macros that
+#: the page's pieces are made with (tables, figures, ...) come from it too
+_USER_TEMPLATES: ContextVar[str | None] = ContextVar("user_templates", default=None)
+
+
+@contextmanager
+def user_templates(folder: str | Path | None) -> Iterator[None]:
+    """While a page is built: `folder` (a user's templates, None: baarda's own) supplies
+    the macros of every piece (`macro`), as it supplies the page's templates."""
+    token = _USER_TEMPLATES.set(str(folder) if folder else None)
+    try:
+        yield
+    finally:
+        _USER_TEMPLATES.reset(token)
+
+
+def with_user_templates(build: Callable[..., str]) -> Callable[..., str]:
+    """A page builder whose `templates` argument (a folder that overrides baarda's
+    templates) also supplies the macros of every piece it builds (`user_templates`)."""
+    signature = inspect.signature(build)
+
+    @functools.wraps(build)
+    def wrapper(*args: Any, **kwargs: Any) -> str:
+        with user_templates(signature.bind(*args, **kwargs).arguments.get("templates")):
+            return build(*args, **kwargs)
+
+    return wrapper
 
 
 @lru_cache(maxsize=4)
@@ -95,13 +128,38 @@ def template_error(e: Exception, name: str, user_dir) -> ProjectError | None:
 
 
 def macro(name: str) -> Callable[..., str]:
-    """A macro of macros.html.j2 (table, figure, check, meta, signoff), returning plain
-    `str`: the page is assembled from `str` pieces and marked safe once, where a section's
-    body is handed to the template (a `Markup` joined to a `str` escapes the `str`)."""
-    m = getattr(environment().get_template("macros.html.j2").module, name)
+    """A macro of macros.html.j2 (table, figure, check, meta, signoff), from the user's
+    folder of templates of the page being built when it has one (`with_user_templates`),
+    returning plain `str`: the page is assembled from `str` pieces and marked safe once,
+    where a section's body is handed to the template (a `Markup` joined to a `str` escapes
+    the `str`).  An error of the user's macros is "template FILE, line N: ..."."""
+    user_dir = _USER_TEMPLATES.get()
+
+    def refuse(e: Exception) -> ProjectError:
+        error = template_error(e, MACROS, user_dir)
+        if error is None:
+            raise e
+        return error
+
+    try:
+        module = environment(user_dir).get_template(MACROS).module
+    except Exception as e:
+        raise refuse(e) from None
+    m = getattr(module, name, None)
+    if m is None:
+        where = Path(user_dir or TEMPLATES) / MACROS
+        raise ProjectError(f"template {where}", f"defines no macro '{name}' (the reports "
+                           "call table, figure, check, meta and signoff)")
 
     def call(*args: Any, **kwargs: Any) -> str:
-        return str(m(*args, **kwargs))
+        try:
+            return str(m(*args, **kwargs))
+        except Exception:
+            try:  # the traceback rewritten to the template's lines, as render() does
+                environment(user_dir).handle_exception()
+            except Exception as e:
+                raise refuse(e) from None
+            raise
 
     return call
 

@@ -32,7 +32,17 @@ from baarda.report.front import (
 )
 from baarda.report.geometry import geometry_plots
 from baarda.report.histogram import format_histogram
-from baarda.report.html_base import csv_link, esc, figure, macro, num, page, table, worst_table
+from baarda.report.html_base import (
+    csv_link,
+    esc,
+    figure,
+    macro,
+    num,
+    page,
+    table,
+    with_user_templates,
+    worst_table,
+)
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.quality_html import tables_html
 from baarda.report.separability import counts_line, least_separable, msb_histogram
@@ -271,6 +281,7 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     return out
 
 
+@with_user_templates
 def html_report(res: Results, opt: ReportOptions | None = None,
                 calibration: list | None = None, out: Path | None = None,
                 templates: str | Path | None = None) -> str:
