@@ -29,6 +29,15 @@ FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (the earlier run
 
 
 
+def add_excel_safe_option(p, tables: str = "the result tables") -> None:
+    """--excel-safe: text cells a spreadsheet would run as a formula written quoted."""
+    p.add_argument("--excel-safe", action="store_true", help=f"write {tables} for "
+                   "spreadsheets: a text cell (an id) that begins with =, +, -, @, a tab or "
+                   "a carriage return is written as '\"'=...\"' (OWASP's advice against CSV "
+                   "formula injection); run.json says so and baarda reads the ids back as "
+                   "given (docs/format.md)")
+
+
 def add_out_argument(p, what: str = "output folder") -> None:
     """The required -o/--out folder of a command that writes a run (output/run_folder.py)."""
     p.add_argument("-o", "--out", type=Path, required=True, help=FOLDER_HELP.format(what))
@@ -145,7 +154,8 @@ def open_run(args, inputs: list[Path]) -> Iterator[RunFolder]:
     argv = getattr(args, "argv", None)
     command = shlex.join(["baarda", *argv]) if argv is not None else None
     con = console(args)
-    run = RunFolder(args.out, [p for p in inputs if p is not None], command=command)
+    run = RunFolder(args.out, [p for p in inputs if p is not None], command=command,
+                    excel_safe=getattr(args, "excel_safe", False))
     for text in run.cleaned:
         con.warn(text)
     with run:

@@ -279,8 +279,11 @@ class RunFolder:
     the results were in place (an earlier run that could not be removed)."""
 
     def __init__(self, out: str | Path, inputs: Iterable[str | Path] = (),
-                 command: str | None = None):
+                 command: str | None = None, excel_safe: bool = False):
         self.given = Path(out)
+        # the tables' text cells that a spreadsheet would run as a formula written quoted
+        # (output/tables.py, docs/format.md); run.json says so, and baarda's readers undo it
+        self.excel_safe = bool(excel_safe)
         self.final = check_output_folder(out, inputs)
         self._staging: Path | None = None  # made below, once no live run writes here
         self._refuse_if_busy(None)  # before anything is removed or made
@@ -393,6 +396,8 @@ class RunFolder:
                     "started": self.started.isoformat(timespec="seconds"),
                     "finished": datetime.now(UTC).isoformat(timespec="seconds"),
                     "command": self.command, "files": files}
+        if self.excel_safe:
+            manifest["excel_safe"] = True
         try:
             (self.path / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n",
                                               encoding="utf-8")

@@ -194,8 +194,12 @@ def cell(v, f: str | None = None) -> str:
 
 
 def csv_link(df: pd.DataFrame, name: str) -> str:
-    """The whole table as a CSV data URI (the report stays one file)."""
-    data = df.to_csv(index=False).encode("utf-8")
+    """The whole table as a CSV data URI (the report stays one file), for spreadsheets: a
+    text cell that begins with =, +, -, @ is written "'=..." (output/tables.py, as with
+    --excel-safe: a report's table is for people, never read back)."""
+    from baarda.output.tables import csv_chunks
+
+    data = b"".join(csv_chunks(df.reset_index(drop=True), excel_safe=True))
     return "data:text/csv;base64," + base64.b64encode(data).decode("ascii")
 
 
