@@ -241,7 +241,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
 
         if not out_of_memory(e):
             raise
-        detail = "" if isinstance(e, MemoryError) else f": {e}"
+        detail = f": {e}" if str(e) else ""
         _error(f"baarda: error: out of memory{memory_limit_text()}{detail}; nothing of this "
                "run was written")
         return WRITE_FAILED

@@ -82,6 +82,13 @@ def announce_compile(args, photos: int | None = None) -> None:
     parallel processes (linalg/precompile.py; a command calls it once its input is read, with
     the block's number of `photos` when it has one: the multi-threaded kernels are compiled
     too for blocks that will likely use them, the others compile on demand)."""
+    from baarda.process import MIN_KERNEL_ADDRESS_SPACE, address_space, memory_limit_text
+
+    if address_space() < MIN_KERNEL_ADDRESS_SPACE:  # LLVM would abort with no message
+        raise MemoryError(f"the numerical kernels (numba, LLVM) need at least "
+                          f"{MIN_KERNEL_ADDRESS_SPACE / 2**20:.0f} MB of address space; "
+                          "below that they end the process without a word: raise the "
+                          "limit (ulimit -v)")
     import numba
 
     from baarda.linalg.precompile import compile_kernels, pending_kernels
@@ -92,7 +99,12 @@ def announce_compile(args, photos: int | None = None) -> None:
         return
     console(args).note("compiling the numerical kernels once (5-20 s, on every CPU; later "
                        "runs start at once)")
-    compile_kernels(parallel=parallel, entries=todo)
+    limit = memory_limit_text()
+    failed = compile_kernels(parallel=parallel, entries=todo, in_process=not limit)
+    if limit and failed:  # compiled on demand, LLVM would abort this process (no message)
+        raise MemoryError(f"{len(failed)} numerical kernel(s) could not be compiled under "
+                          "this limit (LLVM needs about 1.5 GB): run 'baarda compile' once "
+                          "without it, then runs start without compiling")
 
 
 def add_test_options(p, *, what: str = "the w-test", alpha_global: bool = False,
