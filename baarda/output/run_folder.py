@@ -392,10 +392,11 @@ class RunFolder:
         for f in sorted(self.path.rglob("*")):
             if f.is_file():
                 files[f.relative_to(self.path).as_posix()] = file_record(f)
-        manifest = {"run": self.run_id, "baarda": package_version(),
-                    "started": self.started.isoformat(timespec="seconds"),
-                    "finished": datetime.now(UTC).isoformat(timespec="seconds"),
-                    "command": self.command, "files": files}
+        manifest: dict[str, object] = {
+            "run": self.run_id, "baarda": package_version(),
+            "started": self.started.isoformat(timespec="seconds"),
+            "finished": datetime.now(UTC).isoformat(timespec="seconds"),
+            "command": self.command, "files": files}
         if self.excel_safe:
             manifest["excel_safe"] = True
         try:
