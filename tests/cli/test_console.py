@@ -201,3 +201,16 @@ def test_errors_are_shown_however_quiet(tmp_path, capsys, quiet):
     assert main(["adjust", str(tmp_path / "missing"), "-o", str(tmp_path / "o"),
                  *quiet]) == 2
     assert capsys.readouterr().err.startswith("baarda: error: ")
+
+
+@pytest.mark.parametrize("argv", [["simulate", "--strips", "2", "--photos", "3"],
+                                  ["simulate-models", "--strips", "1", "--models", "2"]])
+def test_simulate_commands_take_quiet(tmp_path, capsys, argv):
+    """simulate and simulate-models had no -q (issue 43): without it they print a summary,
+    with -q and -qq nothing on stdout."""
+    assert main([*argv, "-o", str(tmp_path / "a")]) == 0
+    assert capsys.readouterr().out != ""
+    assert main([*argv, "-o", str(tmp_path / "b"), "-q"]) == 0
+    assert capsys.readouterr().out == ""
+    assert main([*argv, "-o", str(tmp_path / "c"), "-qq"]) == 0
+    assert capsys.readouterr() == ("", "")
