@@ -15,6 +15,7 @@ from baarda.process import (
     closed_streams,
     memory_limit_text,
     out_of_memory,
+    quiet_unraisable_memory_errors,
 )
 
 INTERRUPTED, WRITE_FAILED = 130, 4
@@ -42,6 +43,8 @@ def run(argv: list[str] | None = None) -> int:
     try:
         try:
             closed = closed_streams()
+            if address_space() < float("inf"):
+                quiet_unraisable_memory_errors()
             if address_space() < SMALL_ADDRESS_SPACE:  # each thread reserves memory
                 for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
                              "NUMBA_NUM_THREADS"):

@@ -4,6 +4,17 @@ from __future__ import annotations
 
 import os
 
+#: below this magnitude a figure in a message keeps its fixed decimals; above, 3 significant
+#: digits (a coordinate of 1e308 printed with '.0f' is a number of 309 digits)
+FIXED_BELOW = 1e9
+
+
+def figure(x: float, decimals: int = 0) -> str:
+    """A number for a message: `decimals` fixed decimals, or 3 significant digits when its
+    magnitude is FIXED_BELOW or more."""
+    x = float(x)
+    return f"{x:.{decimals}f}" if abs(x) < FIXED_BELOW else f"{x:.3g}"
+
 
 class ProjectError(ValueError):
     """Bad input: the message names the file, the line (1-based) and the column."""

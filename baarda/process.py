@@ -9,6 +9,11 @@ import sys
 #: a thread's stack and arena reserve address space, and a thread that cannot get it aborts
 #: the process in C (no Python error to report)
 SMALL_ADDRESS_SPACE = 2 * 2**30
+#: below this address space the numerical kernels cannot run: numba's LLVM (or a C++
+#: library) aborts the process with no Python error (measured: the demo's adjust aborts at
+#: 977 MB with "LLVM ERROR: out of memory" or std::bad_alloc, fails with a Python
+#: MemoryError at 1465 MB and runs at 1953 MB)
+MIN_KERNEL_ADDRESS_SPACE = 1.5 * 2**30
 
 
 def closed_streams() -> list[str]:
@@ -48,3 +53,18 @@ def out_of_memory(e: BaseException) -> bool:
         return True
     text = str(e).lower()
     return isinstance(e, ImportError) and ("memory" in text or "map segment" in text)
+
+
+def quiet_unraisable_memory_errors() -> None:
+    """Under a memory limit a MemoryError raised while a generator or object is finalised
+    is 'ignored' by Python with a traceback on stderr: say nothing of it (the error that
+    stops the run is reported), other such errors as before."""
+    default = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, MemoryError) or \
+                isinstance(getattr(unraisable.exc_value, "__context__", None), MemoryError):
+            return
+        default(unraisable)
+
+    sys.unraisablehook = hook

@@ -72,3 +72,15 @@ def test_the_tutorial_prints_what_the_program_prints(tmp_path, monkeypatch):
             if not re.fullmatch(pattern(expected), shown):
                 pytest.fail(f"{command}: the tutorial shows\n" + "\n".join(expected)
                             + "\nbut baarda printed\n" + shown)
+
+
+def test_the_prose_quotes_the_printout_s_iterations():
+    """'converges in N Gauss-Newton iterations' is the printout's 'iterations N
+    (converged)' shown above it (the prose said three where the printout says 4; the
+    printout itself is run by test_the_tutorial_prints_what_the_program_prints)."""
+    text = TUTORIAL.read_text(encoding="utf-8")
+    printed = re.findall(r"^iterations (\d+) \(converged\)", text, flags=re.M)
+    said = re.findall(r"converges in (\w+) Gauss-Newton iterations", text)
+    assert printed and said
+    words = {"one": "1", "two": "2", "three": "3", "four": "4", "five": "5", "six": "6"}
+    assert [words.get(w, w) for w in said] == printed[:len(said)] == ["4"]

@@ -29,7 +29,7 @@ from baarda.block.photo_block import Block, Photos
 from baarda.block.rotation import ANGLE_FACTORS
 from baarda.bundle.collinearity import project
 from baarda.bundle.geometry import intersect, usable_points
-from baarda.errors import GeometryError
+from baarda.errors import GeometryError, figure
 
 MAX_FIELD = 10.0  # image radius / c beyond which no frame camera images (84 deg off axis)
 PIXELS_FIELD = 3.0  # a median image radius / c beyond this: coordinates are not in mm
@@ -63,7 +63,7 @@ def _image_size(block: Block) -> None:
     if med > PIXELS_FIELD:
         raise GeometryError(
             f"the image coordinates are far too large for the camera(s): their median "
-            f"distance from the principal point is {med:.0f} times the camera constant "
+            f"distance from the principal point is {figure(med)} times the camera constant "
             f"(a frame camera images within a few c). Are they in pixels? Image coordinates "
             "are in mm with the origin at the image centre: multiply pixels by the pixel size "
             "and subtract the centre (docs/format.md)")
@@ -71,7 +71,7 @@ def _image_size(block: Block) -> None:
     if len(bad):
         shown = "; ".join(
             f"photo {block.photos.ids[im.photo[i]]}, point {block.points.ids[im.point[i]]}: "
-            f"({im.xy_mm[i, 0]:.6g}, {im.xy_mm[i, 1]:.6g}) mm, {ratio[i]:.0f} c from the "
+            f"({im.xy_mm[i, 0]:.6g}, {im.xy_mm[i, 1]:.6g}) mm, {figure(ratio[i])} c from the "
             "principal point" for i in bad[:5])
         raise GeometryError(
             f"{len(bad)} image point(s) lie outside any image format (more than "

@@ -8,7 +8,7 @@ from baarda.block.camera import constants, ideal_image_coordinates, kinds, model
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.bundle.collinearity import camera_projection
-from baarda.errors import GeometryError
+from baarda.errors import GeometryError, figure
 
 
 def usable_points(block: Block) -> tuple[np.ndarray, list[str]]:
@@ -95,7 +95,7 @@ def weak_control(block: Block, plan_xy: np.ndarray, height_xy: np.ndarray) -> li
         if share < WEAK_WIDTH:
             direction = "length" if k == 0 else "width"
             out.append(f"weak control: the {what} control spans {share:.0%} of the block's "
-                       f"{direction} ({span[k]:.0f} m of {extent[k]:.0f} m between the "
+                       f"{direction} ({figure(span[k])} m of {figure(extent[k])} m between the "
                        "outer projection centres); " + (
                            "scale and azimuth are extrapolated" if k == 0 else
                            "the block can tilt about it and heights far from it are weakly "

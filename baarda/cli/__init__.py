@@ -19,7 +19,7 @@ from baarda.cli.common import (
     TERMINATED,
     WRITE_FAILED,
 )
-from baarda.cli.console import console
+from baarda.cli.console import GuardedStdout, console
 from baarda.errors import GeometryError, OutputError, ProjectError
 from baarda.io.formats import titles  # the format registry (no reader imported)
 from baarda.output.run_folder import package_version
@@ -224,6 +224,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
         if not getattr(args, "prints_results", False):
             con.warn("standard output is closed: the printout is lost (the files are "
                      "written)")
+    stdout, sys.stdout = sys.stdout, GuardedStdout(sys.stdout, con)
     try:
         with _safe_interrupts():
             code = int(args.func(args) or 0)
@@ -240,7 +241,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
 
         if not out_of_memory(e):
             raise
-        detail = "" if isinstance(e, MemoryError) else f": {e}"
+        detail = f": {e}" if str(e) else ""
         _error(f"baarda: error: out of memory{memory_limit_text()}{detail}; nothing of this "
                "run was written")
         return WRITE_FAILED
@@ -276,6 +277,7 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
         return WRITE_FAILED
     finally:
         con.close()
+        sys.stdout = stdout
 
 
 def _error(text: str) -> None:

@@ -8,6 +8,7 @@ from pathlib import Path
 from baarda.cli.common import (
     NOT_CONVERGED,
     OK,
+    add_excel_safe_option,
     add_out_argument,
     add_quiet_option,
     add_test_options,
@@ -28,6 +29,7 @@ from baarda.cli.verdicts import adjustment_verdict
 def _common(p) -> None:
     p.add_argument("input", type=Path, help=formats_help() + " (docs/formats.md)")
     add_out_argument(p, "output folder")
+    add_excel_safe_option(p)
     add_test_options(p, alpha_global=True)
     p.add_argument("--tau", action="store_true", help="snoop with Pope's tau (sigma0 a "
                    "posteriori) instead of Baarda's w (sigma0 a priori)")

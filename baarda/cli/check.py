@@ -16,7 +16,7 @@ def register(sub) -> None:
     p.add_argument("--rtol", type=number(1e-15, 1.0), default=1e-6, help="relative "
                    "agreement of the sums recomputed from the rows with the figures stated")
     p.add_argument("-q", "--quiet", action="store_true", help="print only what does not hold")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, prints_results=True)
 
 
 def run(args) -> int:

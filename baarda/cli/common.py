@@ -29,6 +29,15 @@ FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (the earlier run
 
 
 
+def add_excel_safe_option(p, tables: str = "the result tables") -> None:
+    """--excel-safe: text cells a spreadsheet would run as a formula written quoted."""
+    p.add_argument("--excel-safe", action="store_true", help=f"write {tables} for "
+                   "spreadsheets: a text cell (an id) that begins with =, +, -, @, a tab or "
+                   "a carriage return is written as '\"'=...\"' (OWASP's advice against CSV "
+                   "formula injection); run.json says so and baarda reads the ids back as "
+                   "given (docs/format.md)")
+
+
 def add_out_argument(p, what: str = "output folder") -> None:
     """The required -o/--out folder of a command that writes a run (output/run_folder.py)."""
     p.add_argument("-o", "--out", type=Path, required=True, help=FOLDER_HELP.format(what))
@@ -44,7 +53,9 @@ EXIT_CODES = ("exit codes: 0 success, 2 bad input (the message names the file, l
               "step limit), 4 the results could not be written (the message names the file; "
               "the output folder keeps the earlier run), 5 an invariant of a result folder "
               "does not hold (baarda check), 130 interrupted (Ctrl-C), 143 terminated "
-              "(SIGTERM); after 130 and 143 nothing of the run was written")
+              "(SIGTERM); after 130 and 143 nothing of the run was written.  A standard output "
+              "that fails (a closed pipe) is a warning; the commands whose printout is the "
+              "result (check, pattern, online, residuals, report --text) then exit 4")
 
 
 def progress(args):
@@ -71,6 +82,13 @@ def announce_compile(args, photos: int | None = None) -> None:
     parallel processes (linalg/precompile.py; a command calls it once its input is read, with
     the block's number of `photos` when it has one: the multi-threaded kernels are compiled
     too for blocks that will likely use them, the others compile on demand)."""
+    from baarda.process import MIN_KERNEL_ADDRESS_SPACE, address_space, memory_limit_text
+
+    if address_space() < MIN_KERNEL_ADDRESS_SPACE:  # LLVM would abort with no message
+        raise MemoryError(f"the numerical kernels (numba, LLVM) need at least "
+                          f"{MIN_KERNEL_ADDRESS_SPACE / 2**20:.0f} MB of address space; "
+                          "below that they end the process without a word: raise the "
+                          "limit (ulimit -v)")
     import numba
 
     from baarda.linalg.precompile import compile_kernels, pending_kernels
@@ -81,7 +99,12 @@ def announce_compile(args, photos: int | None = None) -> None:
         return
     console(args).note("compiling the numerical kernels once (5-20 s, on every CPU; later "
                        "runs start at once)")
-    compile_kernels(parallel=parallel, entries=todo)
+    limit = memory_limit_text()
+    failed = compile_kernels(parallel=parallel, entries=todo, in_process=not limit)
+    if limit and failed:  # compiled on demand, LLVM would abort this process (no message)
+        raise MemoryError(f"{len(failed)} numerical kernel(s) could not be compiled under "
+                          "this limit (LLVM needs about 1.5 GB): run 'baarda compile' once "
+                          "without it, then runs start without compiling")
 
 
 def add_test_options(p, *, what: str = "the w-test", alpha_global: bool = False,
@@ -143,7 +166,8 @@ def open_run(args, inputs: list[Path]) -> Iterator[RunFolder]:
     argv = getattr(args, "argv", None)
     command = shlex.join(["baarda", *argv]) if argv is not None else None
     con = console(args)
-    run = RunFolder(args.out, [p for p in inputs if p is not None], command=command)
+    run = RunFolder(args.out, [p for p in inputs if p is not None], command=command,
+                    excel_safe=getattr(args, "excel_safe", False))
     for text in run.cleaned:
         con.warn(text)
     with run:

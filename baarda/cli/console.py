@@ -24,6 +24,37 @@ def _isatty(stream) -> bool:
         return False
 
 
+class GuardedStdout:
+    """Standard output for the length of one command: a write or flush that fails (a closed
+    pipe, a full disk) tells the console once (a warning, then silence) instead of raising
+    in the middle of the command, so that every printout, also a plain print(), follows
+    the one rule of the module docstring."""
+
+    def __init__(self, stream, console: Console):
+        self._stream = stream
+        self._console = console
+
+    def write(self, text: str) -> int:
+        if self._console.stdout_failed:
+            return len(text)
+        try:
+            return self._stream.write(text)
+        except OSError as e:
+            self._console._stdout_failed(e)
+            return len(text)
+
+    def flush(self) -> None:
+        if self._console.stdout_failed:
+            return
+        try:
+            self._stream.flush()
+        except OSError as e:
+            self._console._stdout_failed(e)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
 class Console:
     """The channels of one command run (module docstring); `quiet` 0, 1 (-q) or 2 (-qq)."""
 

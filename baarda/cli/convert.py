@@ -7,7 +7,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from baarda.cli.common import add_out_argument, add_quiet_option, open_run
+from baarda.cli.common import (
+    add_excel_safe_option,
+    add_out_argument,
+    add_quiet_option,
+    open_run,
+)
 from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, input_paths, read_input
 from baarda.errors import ProjectError
@@ -22,6 +27,7 @@ def register(sub) -> None:
                        "native project folder")
     p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
     add_out_argument(p, "project folder to write")
+    add_excel_safe_option(p, "the project's tables")
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
                    help="what to write: a native project (default), bundler (bundle.out, "

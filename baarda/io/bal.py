@@ -34,7 +34,13 @@ from baarda.block.rotation import (
     rotation_vector,
 )
 from baarda.errors import ProjectError
-from baarda.io.records import check_pixel_options, finite_numbers, is_number, split_lines
+from baarda.io.records import (
+    check_pixel_options,
+    finite_numbers,
+    is_number,
+    require_file,
+    split_lines,
+)
 
 
 @dataclass
@@ -94,8 +100,7 @@ def _read_lines(path: Path) -> tuple[tuple[int, int, int], list[str]]:
     """The header's counts and the lines of a BAL file, read as a stream: no more than the
     counts allow is decompressed or read (BYTES_PER_VALUE per announced value)."""
     sp = str(path)
-    if not path.is_file():
-        raise ProjectError(sp, "file not found")
+    require_file(path)
     opener = bz2.open if path.suffix == ".bz2" else open
     try:
         with opener(path, "rb") as f:

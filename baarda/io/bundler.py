@@ -26,7 +26,7 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
-from baarda.io.records import check_pixel_options, finite_numbers, split_lines
+from baarda.io.records import check_pixel_options, finite_numbers, require_file, split_lines
 
 HEADER = "# Bundle file v0.3"
 ROTATION_TOLERANCE = 1e-4  # |R R^T - I| of a rotation written with 6 digits or more
@@ -129,8 +129,7 @@ def read_bundler(path: str | Path, pixel_mm: float = 0.001, sigma_px: float = 1.
     """A Block of a Bundler v0.3 file (conventions in the module docstring)."""
     check_pixel_options(pixel_mm, sigma_px)
     p = bundle_file(Path(path))
-    if not p.is_file():
-        raise ProjectError(str(p), "file not found")
+    require_file(p)
     lines = read_lines(p)
     if not lines or not lines[0].startswith("# Bundle file v"):
         raise ProjectError(str(p), f"first line must be '{HEADER}'", 1)

@@ -91,19 +91,32 @@ def matrix_to_qvec(r: np.ndarray) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ public API
+def _present(folder: Path, ext: str) -> list[str]:
+    return [f for f in FILES if (folder / f"{f}{ext}").is_file()]
+
+
 def is_colmap_model(path: str | Path) -> bool:
+    """A folder with at least two of COLMAP's three model files (.txt or .bin): one with
+    a file missing is recognised, so that reading it names the missing file."""
     p = Path(path)
-    return p.is_dir() and (all((p / f"{f}.txt").is_file() for f in FILES) or
-                           all((p / f"{f}.bin").is_file() for f in FILES))
+    return p.is_dir() and any(len(_present(p, ext)) >= 2 for ext in (".txt", ".bin"))
 
 
 def model_files(folder: str | Path) -> dict[str, Path]:
     """The files of a model folder that read_colmap reads (binary preferred when both
-    exist), by name (cameras, images, points3D); ProjectError if there is no model."""
+    exist), by name (cameras, images, points3D); ProjectError if there is no model, naming
+    the files missing from a model that has some."""
     folder = Path(folder)
     for ext in (".bin", ".txt"):
         if all((folder / f"{f}{ext}").is_file() for f in FILES):
             return {f: folder / f"{f}{ext}" for f in FILES}
+    for ext in (".bin", ".txt"):
+        have = _present(folder, ext)
+        if have:
+            lost = [f"{f}{ext}" for f in FILES if f not in have]
+            raise ProjectError(str(folder / lost[0]), "not found: a COLMAP model folder "
+                               f"holds {', '.join(f + ext for f in FILES)}; this one has "
+                               f"{', '.join(f + ext for f in have)} only")
     raise ProjectError(str(folder), "not a COLMAP model folder (cameras, images, points3D "
                        ".txt or .bin)")
 

@@ -213,11 +213,19 @@ def titles(pixels: tuple[str, ...] | None = None) -> str:
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
 
+def _missing(p: Path) -> str:
+    """Why a path that does not exist as far as Path.exists sees: not found, a symbolic
+    link loop, a name too long, a folder that cannot be searched."""
+    from baarda.io.records import not_a_file
+
+    return not_a_file(p, "not found") or "not found"
+
+
 def detect(path: str | Path) -> str:
     """The format of `path` (one of format_names()); ProjectError if none fits."""
     p = Path(path)
     if not p.exists():
-        raise ProjectError(str(p), "not found")
+        raise ProjectError(str(p), _missing(p))
     for s in REGISTRY:
         if s.detects(p):
             return s.name
@@ -239,7 +247,7 @@ def _check_kind(p: Path, s: FormatSpec) -> None:
     """ProjectError when --format names a format whose input is a file and the path is a
     folder, or the other way round (the reader would say 'file not found')."""
     if not p.exists():
-        raise ProjectError(str(p), "not found")
+        raise ProjectError(str(p), _missing(p))
     wrong = (s.path == "file" and p.is_dir()) or (s.path == "folder" and p.is_file())
     if not wrong:
         return

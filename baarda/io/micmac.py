@@ -57,22 +57,28 @@ def _tie_files(folder: Path) -> list[Path]:
 
 
 def _sensor(folder: Path) -> Path | None:
-    """The first IGN camera description of the folder (a .xml whose head has <sensor>)."""
+    """The first IGN camera description of the folder (a .xml whose root is <sensor>)."""
     found = _sensors(folder)
     return found[0] if found else None
 
 
 def _sensors(folder: Path) -> list[Path]:
+    """The IGN camera descriptions of the folder: the .xml files whose root element, parsed,
+    is <sensor> (a comment or declaration of any length may come before it); a file that
+    does not parse counts when it names <sensor>, so that reading it names its error."""
     out = []
-    for p in sorted(folder.glob("*.xml")):
+    for p in _camera_files(folder):
         if not p.is_file():  # a FIFO would block the reader
             continue
         try:
-            head = p.read_bytes()[:200].lower()
-        except OSError:
-            continue
-        if b"<sensor>" in head:
-            out.append(p)
+            if parse_xml(p).tag == "sensor":
+                out.append(p)
+        except ProjectError:
+            try:
+                if b"<sensor>" in p.read_bytes().lower():
+                    out.append(p)
+            except OSError:
+                continue
     return out
 
 

@@ -34,7 +34,7 @@ from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, 
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.bundler import first_line_starts, once_per_image, read_lines
-from baarda.io.records import check_pixel_options, finite_numbers
+from baarda.io.records import check_pixel_options, finite_numbers, require_file
 
 QUATERNION_TOLERANCE = 1e-4  # | |q| - 1 | of a quaternion written with 6 digits or more
 FLIP = np.diag([1.0, -1.0, -1.0])  # VisualSFM's camera frame (y down, +z) <-> baarda's
@@ -131,8 +131,7 @@ def read_nvm(path: str | Path, pixel_mm: float = 0.001, sigma_px: float = 1.0,
     """A Block of model `model` (0-based; None: the first) of an NVM_V3 file."""
     check_pixel_options(pixel_mm, sigma_px)
     p = Path(path)
-    if not p.is_file():
-        raise ProjectError(str(p), "file not found")
+    require_file(p)
     lines = read_lines(p)
     if not lines or not lines[0].startswith("NVM_V3"):
         raise ProjectError(str(p), "first line must start with NVM_V3", 1)

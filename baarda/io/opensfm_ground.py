@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.errors import ProjectError
+from baarda.errors import ProjectError, figure
 from baarda.io.opensfm_files import (
     CONTROL_SIGMA_M,
     GCP_JSON,
@@ -193,7 +193,7 @@ def _near(local: np.ndarray, given: np.ndarray, pid: str, frame, path: Path,
         hint = (f"; its X {given[0]:.10g}, Y {given[1]:.10g} look like longitude and latitude:"
                 " name EPSG:4326 on the first line, or give the coordinates in "
                 f"{frame.crs.name}")
-    raise ProjectError(str(path), f"control point {pid} lies {d / 1e3:.0f} km from the "
+    raise ProjectError(str(path), f"control point {pid} lies {figure(d / 1e3)} km from the "
                        f"reconstruction's reference point (reference_lla): its coordinates are "
                        f"not in {frame.crs.name}, the CRS of the first line" + hint, line, "X")
 

@@ -109,6 +109,20 @@ def _lines(path: str | Path, encoding: str) -> tuple[list[str], list[str]]:
     return split_lines(decode_text(data, str(path), encoding)), []
 
 
+def _check_marking_precisions(sxy: np.ndarray, s_px: np.ndarray, lines: list[int],
+                              path: str) -> None:
+    """Refuse the first mark (in file order) whose sx or sy (px) is negative, or whose sx
+    is 0 while the default of line 3 is not positive, naming its line and column."""
+    bad = (sxy < 0) | np.column_stack([s_px <= 0, np.zeros(len(s_px), dtype=bool)])
+    rows = np.flatnonzero(bad.any(axis=1))
+    if len(rows):
+        r = int(rows[0])
+        c = int(np.argmax(bad[r]))
+        said = (f"marking precision {sxy[r, c]:g} px is negative" if sxy[r, c] < 0 else
+                "marking precision 0 px and the default of line 3 is not positive")
+        raise ProjectError(path, said, lines[r], ("sx", "sy")[c])
+
+
 def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
                       pixel_mm: float | None = None, sigma_px: float | None = None) -> Block:
     """Read a PhotoModeler export into a Block (see the module docstring).
@@ -241,9 +255,7 @@ def read_photomodeler(path: str | Path, encoding: str = ENCODING, *,
     point = np.array([index[m] for m in mark_ids], dtype=np.int64)
     xy = np.column_stack([(marks[:, 2] - iw / 2) * px, (ih / 2 - marks[:, 3]) * py])
     s_px = np.where(marks[:, 4] > 0, marks[:, 4], def_std[0])
-    if np.any(s_px <= 0) or np.any(marks[:, 4:6] < 0):
-        raise ProjectError(spath, "marking precision must be positive",
-                           mark_lines[int(np.argmin(s_px))], "sx")
+    _check_marking_precisions(marks[:, 4:6], s_px, mark_lines, spath)
     if sigma_px is not None:
         s_px = np.full(len(marks), float(sigma_px))
         notes.append(f"image sigma {sigma_px:g} px for every mark (given)")

@@ -53,7 +53,9 @@ def decode_text(data: bytes, path: str, encoding: str = ENCODING) -> str:
                            line) from None
 
 
-LINE_END = re.compile(r"\r\n|\r|\n")
+#: a line end: LF, CRLF or CR, and CR blanks LF as one (MicMac's liaisons files end their
+#: lines " \r \n": read as two ends, every line number after the first was 2N - 1)
+LINE_END = re.compile(r"\r[ \t]*\n|\r|\n")
 
 
 def line_of(text: str, index: int) -> int:
@@ -88,9 +90,9 @@ def no_nul(text: str, path: str, header: list[str] | None = None) -> str:
 
 
 def split_lines(text: str) -> list[str]:
-    """Lines without their ends (LF, CRLF or CR; no line after a final line end).  Unlike
-    str.splitlines, form feeds, vertical tabs, U+2028 and the like are not line ends, so
-    that line numbers are those an editor shows."""
+    """Lines without their ends (LF, CRLF, CR or CR blanks LF; no line after a final line
+    end).  Unlike str.splitlines, form feeds, vertical tabs, U+2028 and the like are not
+    line ends, so that line numbers are those an editor shows."""
     lines = LINE_END.split(text)
     if lines[-1] == "":
         lines.pop()
@@ -124,6 +126,14 @@ def not_a_file(path: str | Path, what: str = "file not found") -> str | None:
     if stat.S_ISREG(st.st_mode):
         return None
     return f"is {file_kind(st.st_mode)}, not a regular file"
+
+
+def require_file(path: str | Path, what: str = "file not found") -> None:
+    """ProjectError naming `path` unless it is a regular file (or a link to one): says
+    what it is instead (missing: `what`; a folder, a FIFO, a link loop, ...)."""
+    problem = not_a_file(path, what)
+    if problem is not None:
+        raise ProjectError(str(path), problem)
 
 
 def file_bytes(path: str | Path, what: str = "file not found") -> bytes:

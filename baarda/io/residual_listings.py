@@ -25,6 +25,7 @@ import pandas as pd
 
 from baarda.errors import ProjectError
 from baarda.io.observations_file import numbers, read_observations
+from baarda.io.records import require_file
 from baarda.io.table import Table
 
 PM_HEADER = "Object Point ID"
@@ -66,8 +67,7 @@ def _interleave(photo, point, vx, vy, lines, strip=None) -> pd.DataFrame:
 
 def detect(path: Path) -> str:
     """'photomodeler', 'baarda', 'generic-image' or 'generic-control'."""
-    if not path.is_file():
-        raise ProjectError(str(path), "file not found")
+    require_file(path)
     with open(path, encoding="utf-8-sig", errors="replace") as f:
         head = [f.readline() for _ in range(30)]
     for line in head:

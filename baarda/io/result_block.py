@@ -18,6 +18,8 @@ import pandas as pd
 from baarda.block.photo_block import Block
 from baarda.block.rotation import angle_to_rad
 from baarda.errors import ProjectError
+from baarda.io.run_manifest import written_excel_safe
+from baarda.io.table import unquoted_formulas
 
 
 def is_result_folder(path: str | Path) -> bool:
@@ -40,6 +42,8 @@ def _calibrated(cams, path: Path):
     from baarda.block.camera_models import MODELS
 
     t = pd.read_csv(path, dtype={"camera": str})
+    if written_excel_safe(path.parent) and "camera" in t:
+        t["camera"] = unquoted_formulas(t["camera"].to_numpy(str))
     missing = {"camera", "model", "parameter", "value"} - set(t.columns)
     if missing:
         raise ProjectError(str(path), f"columns {sorted(missing)} missing")

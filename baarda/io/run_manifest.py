@@ -41,6 +41,20 @@ def read_json(path: Path) -> object:
         raise ProjectError(str(path), "not a file of baarda: JSON nested too deeply") from None
 
 
+def written_excel_safe(folder: Path) -> bool:
+    """Whether the run in `folder` wrote its tables with --excel-safe (its run.json says
+    "excel_safe": true); False where there is no readable run.json."""
+    p = folder / MANIFEST
+    try:
+        data = p.read_bytes() if p.is_file() else b""
+        if b'"excel_safe"' not in data:
+            return False
+        doc = json.loads(data)
+    except (OSError, ValueError, RecursionError):
+        return False
+    return isinstance(doc, dict) and doc.get("excel_safe") is True
+
+
 def read_manifest(path: Path) -> dict:
     """run.json checked: an object with 'run' (text) and 'files' (an object of name ->
     {bytes, sha256}); ProjectError naming what is wrong."""

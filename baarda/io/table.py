@@ -39,11 +39,32 @@ MAX_FIELDS_FACTOR = 4  # a line with more than this many times the header's fiel
 CONTROL_BYTES = re.compile(b"[\x00-\x08\x0e-\x19\x1b-\x1f\x7f]|\xc2[\x80-\x9f]")
 
 
+#: the first characters that make a spreadsheet read a cell as a formula (OWASP, CSV
+#: injection): with --excel-safe such a text cell is written with a single quote before it
+#: (output/tables.spreadsheet_cell), and read back without it
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def unquoted_formulas(values: np.ndarray) -> np.ndarray:
+    """Text cells of a table written with --excel-safe as they were given: a single quote
+    before a FORMULA_START character taken off."""
+    out = values.astype(object)
+    for k in np.flatnonzero(np.char.startswith(values.astype(str), "'")):
+        v = str(values[k])
+        if v[1:2] and v[1] in FORMULA_START:
+            out[k] = v[1:]
+    return out.astype(str)
+
+
 class Table(Columns):
-    """Columns of a CSV file as string arrays, with line numbers."""
+    """Columns of a CSV file as string arrays, with line numbers; the text cells of a table
+    that a run wrote with --excel-safe (its run.json says so) as they were given."""
 
     def __init__(self, path: str | Path, required: list[str], encoding: str = ENCODING):
+        from baarda.io.run_manifest import written_excel_safe
+
         self.path = str(path)
+        self._excel_safe = written_excel_safe(Path(path).parent)
         data = file_bytes(path)
         while data.startswith(b"\xef\xbb\xbf"):  # a byte-order mark (two: files joined)
             data = data[3:]
@@ -93,7 +114,8 @@ class Table(Columns):
         self.header, self._header_line = header, header_line
         self._lines = np.asarray(lines, dtype=np.int64)
         table = np.asarray(rows, dtype=object).reshape(len(rows), width)
-        self._columns = {h: table[:, i].astype(str) for i, h in enumerate(header)}
+        self._columns = {h: self._as_given(table[:, i].astype(str))
+                         for i, h in enumerate(header)}
 
     def _check_header(self, required: list[str]) -> None:
         for name in required:
@@ -122,8 +144,11 @@ class Table(Columns):
         if name not in self._columns:  # the fast path: turned into strings on first use
             assert self._arrow is not None  # the fast path
             col = self._arrow.column(name).to_numpy(zero_copy_only=False)
-            self._columns[name] = col.astype(str)
+            self._columns[name] = self._as_given(col.astype(str))
         return self._columns[name]
+
+    def _as_given(self, values: np.ndarray) -> np.ndarray:
+        return unquoted_formulas(values) if self._excel_safe else values
 
     def has(self, name: str) -> bool:
         return name in self.header

@@ -122,11 +122,13 @@ def _bins(entries: list[dict], n: int) -> list[list[dict]]:
 
 
 def compile_kernels(jobs: int | None = None, parallel: bool = True,
-                    entries: list[dict] | None = None) -> list[str]:
+                    entries: list[dict] | None = None, in_process: bool = True) -> list[str]:
     """Compile the kernels that are not cached yet with `jobs` processes (default: the CPUs
     this process may use, at most 8); returns the names that could not be compiled (the run
     compiles those on demand).  With one job nothing is done in advance unless `entries`
-    are given.  `parallel`: also the multi-threaded kernels (large blocks use them)."""
+    are given.  `parallel`: also the multi-threaded kernels (large blocks use them).
+    `in_process` False: every kernel in a child process (under a memory limit LLVM aborts
+    the process that runs out, with no Python error: then a child, not this one)."""
     todo = pending_kernels(parallel) if entries is None else list(entries)
     if not todo:
         return []
@@ -151,7 +153,7 @@ def compile_kernels(jobs: int | None = None, parallel: bool = True,
     children = []
     failed: list[str] = []
     try:
-        for part in bins[1:]:
+        for part in (bins if not in_process else bins[1:]):
             if part:
                 children.append((part, subprocess.Popen(
                     [sys.executable, "-m", "baarda.linalg.precompile", "--compile"],
@@ -160,7 +162,8 @@ def compile_kernels(jobs: int | None = None, parallel: bool = True,
                 assert children[-1][1].stdin is not None  # stdin=PIPE
                 children[-1][1].stdin.write(json.dumps(part))
                 children[-1][1].stdin.close()
-        failed += _compile(bins[0])
+        if in_process:
+            failed += _compile(bins[0])
         for part, proc in children:
             assert proc.stdout is not None  # stdout=PIPE
             out = proc.stdout.read()

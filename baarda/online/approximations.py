@@ -12,6 +12,7 @@ from baarda.adjustment.solve import solve
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.bundle.bundle_problem import BundleProblem
+from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
 from baarda.online.lowrank import UNDETERMINED
 from baarda.online.measurements import MIN_PHOTO_POINTS, REMOVED, Measurements
@@ -21,6 +22,8 @@ from baarda.options import SolveOptions
 # the new unknowns alone, damped (weak directions stay near the approximations)
 REFINE = SolveOptions(max_iterations=50, tolerance=1e-9, min_step=1e-6, damping=1e-3)
 SPREAD = 0.1  # points on a photo spread less than this across their line: on one line
+MISFIT = 10.0  # a resection's RMS above this many image sigmas: the points fit no orientation
+FAR_POINT = 10.0  # an image point this many times farther out than the others: far outside
 
 
 def prepared(block: Block) -> Block:
@@ -165,3 +168,55 @@ def refine(m: Measurements, problem: BundleProblem, g: np.ndarray, group: dict,
     e, x = unpack(sol.state)
     eo[:], xyz[:] = e, x
     return True
+
+
+def why_held(m: Measurements, i: int) -> str:
+    """Why photo i, held, is not in the block, in words: too few of its points in the block,
+    one point far outside where the others lie (named: outside the format, a mistyped
+    coordinate), those points on one line in the image, or points that fit no one
+    orientation (a resection's RMS above MISFIT image sigmas)."""
+    name = m.photo_ids[i]
+    rows = [r for r in m.rows_of_photo[i] if m.im_status[r] != REMOVED
+            and m.point_in[m.im_point[r]]]
+    n = len({m.im_point[r] for r in rows})
+    if n < MIN_PHOTO_POINTS:
+        return f"photo {name} is not determined yet ({n} of its points in the block, " \
+               f"{MIN_PHOTO_POINTS} needed)"
+    xy = np.array([m.im_xy[r] for r in rows]).reshape(-1, 2)
+    far = _far_point(xy)
+    if far is not None:
+        k, times = far
+        return (f"photo {name}: point {m.point_ids[m.im_point[rows[k]]]} at "
+                f"({xy[k][0]:.6g}, {xy[k][1]:.6g}) mm lies {times:.0f} times as far from the "
+                "middle of the photo's points as the others: outside the format, a mistyped "
+                "coordinate? (remove it or measure it again)")
+    if not spread(xy):
+        return f"photo {name}: its {n} points in the block lie on one line in the image " \
+               "(a photo is determined by points spread across it)"
+    cam = m.photo_cam[i]
+    c, pp = float(m.cameras.focal_mm[cam]), m.cameras.principal_point_mm[cam]
+    xyz = np.array([m.point_xyz[m.im_point[r]] for r in rows]).reshape(-1, 3)
+    sigma = float(np.median(np.array([m.im_sigma[r] for r in rows])))
+    try:
+        rms = resect(xy - pp, xyz, c)[1]
+    except GeometryError:
+        rms = np.inf
+    if rms <= MISFIT * sigma:
+        return f"photo {name}: its {n} points in the block fit an orientation, but the " \
+               "new photo and points are not determined by them yet"
+    how = "no resection puts them in front of the camera" if not np.isfinite(rms) else \
+        f"resection RMS {rms:.4g} mm against an image sigma of {sigma * 1e3:.3g} µm"
+    return f"photo {name}: its {n} points in the block fit no one orientation ({how})"
+
+
+def _far_point(xy: np.ndarray) -> tuple[int, float] | None:
+    """(index, how many times the others' median distance) of the one image point that
+    lies FAR_POINT times farther from the points' median than the others lie, else None."""
+    if len(xy) < MIN_PHOTO_POINTS + 1:
+        return None
+    d = np.hypot(*(xy - np.median(xy, axis=0)).T)
+    k = int(np.argmax(d))
+    typical = float(np.median(np.delete(d, k)))
+    if typical > 0 and d[k] > FAR_POINT * typical:
+        return k, float(d[k] / typical)
+    return None

@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 
 from baarda.kinds import GNSS, IMU
-from baarda.online.approximations import prune
+from baarda.online.approximations import prune, why_held
 from baarda.online.measurements import HELD, IN, MIN_PHOTO_POINTS, REMOVED, Measurements
 
 MAX_HELD_PHOTOS = 50  # held photos looked at together when one is added
@@ -127,14 +127,15 @@ def leaving(m: Measurements) -> None:
 def held_words(m: Measurements) -> list[str]:
     """What of this step is held, in words."""
     out = []
+    said: dict[int, str] = {}  # per photo, worked out once
     for r in sorted(m.fresh_rows):
         if m.im_status[r] != HELD:
             continue
         i, j = m.im_photo[r], m.im_point[r]
         if not m.photo_in[i]:
-            n = len({m.im_point[x] for x in m.rows_of_photo[i] if m.point_in[m.im_point[x]]})
-            why = f"photo {m.photo_ids[i]} is not determined yet ({n} of its points in " \
-                f"the block, {MIN_PHOTO_POINTS} needed)"
+            if i not in said:
+                said[i] = why_held(m, i)
+            why = said[i]
         else:
             why = "its first ray" if len(m.live_rays(j)) < 2 else \
                 "its point is not determined yet"

@@ -19,5 +19,5 @@ def write_online(run: RunFolder, assessment: Assessment | None, tests: pd.DataFr
                  name: str = "replay.csv", parquet: bool = False) -> list[Path]:
     """The block's result folder (when it could be adjusted) and the table of tests."""
     paths = write_results(run, assessment, parquet=parquet) if assessment is not None else []
-    write_csv(run.file(name), tests)
+    write_csv(run.file(name), tests, excel_safe=run.excel_safe)
     return paths + [run.final / name]

@@ -6,6 +6,7 @@ The inverse of baarda.io.project.read_project and baarda.io.model_project.read_m
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from baarda.block.photo_block import Block
 from baarda.block.rotation import rad_to_angle
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import RunFolder, staged
+from baarda.output.tables import spreadsheet_cell
 
 
 def format_number(x: float) -> str:
@@ -26,16 +28,17 @@ def format_number(x: float) -> str:
 
 
 def write_ground_points(path: Path, ids: list[str], xyz: np.ndarray, sigma: np.ndarray,
-                        role: np.ndarray) -> None:
-    """ground_points.csv of a project or a model project: control and check points."""
+                        role: np.ndarray, cell: Callable[[str], str] = str) -> None:
+    """ground_points.csv of a project or a model project: control and check points; `cell`
+    writes an id (spreadsheet_cell with --excel-safe)."""
     rows = ["point,X,Y,Z,sigma_X,sigma_Y,sigma_Z,role"]
     for j in np.flatnonzero(role != "tie"):
-        rows.append(",".join([ids[j]] + [format_number(v) for v in xyz[j]] +
+        rows.append(",".join([cell(ids[j])] + [format_number(v) for v in xyz[j]] +
                              [format_number(v) for v in sigma[j]] + [str(role[j])]))
     write_text(path, "\n".join(rows) + "\n")
 
 
-def cameras_csv(c) -> str:
+def cameras_csv(c, cell: Callable[[str], str] = str) -> str:
     """cameras.csv: interior orientation, and with any camera model the `model` column and
     one column per parameter or constant name of the models used (empty where a camera's
     model has no such parameter)."""
@@ -48,7 +51,7 @@ def cameras_csv(c) -> str:
     rows = ["camera,focal_mm,x0_mm,y0_mm" + (",model" + "".join(f",{n}" for n in names)
                                              if lens else "")]
     for i in range(len(c)):
-        row = (f"{c.ids[i]},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
+        row = (f"{cell(c.ids[i])},{float(c.focal_mm[i])!r},{float(c.principal_point_mm[i, 0])!r},"
                f"{float(c.principal_point_mm[i, 1])!r}")
         if lens:
             m = model_of(kinds[i])
@@ -63,10 +66,11 @@ def cameras_csv(c) -> str:
 def write_project(block: Block, folder: str | Path | RunFolder) -> None:
     """Write `block` as a native project folder, one run (output/run_folder.py)."""
     with staged(folder) as run:
-        _write_project(block, run.path)
+        _write_project(block, run.path, spreadsheet_cell if run.excel_safe else str)
 
 
-def _write_project(block: Block, folder: Path) -> None:
+def _write_project(block: Block, folder: Path, cell: Callable[[str], str]) -> None:
+    """The project's files; `cell` writes an id or other text cell."""
     if block.frame is not None:  # held in a local frame (OpenSfM): write the CRS's numbers
         block = delocalize(block)
     s = block.settings
@@ -90,11 +94,11 @@ def _write_project(block: Block, folder: Path) -> None:
     if len(block.imu):
         toml += ["[imu]", f'boresight = "{s.imu_boresight}"', ""]
     write_text(folder / "project.toml", "\n".join(toml))
-    write_text(folder / "cameras.csv", cameras_csv(c))
+    write_text(folder / "cameras.csv", cameras_csv(c, cell))
     p = block.photos
     ang = rad_to_angle(p.eo[:, 3:], s.angle_unit)
     rows = ["photo,camera,strip,X0,Y0,Z0,omega,phi,kappa"] + [
-        ",".join([p.ids[i], c.ids[p.camera[i]], str(p.strip[i])] +
+        ",".join([cell(p.ids[i]), cell(c.ids[p.camera[i]]), cell(str(p.strip[i]))] +
                  [format_number(v) for v in p.eo[i, :3]] + [format_number(v) for v in ang[i]])
         for i in range(len(p))]
     write_text(folder / "photos.csv", "\n".join(rows) + "\n")
@@ -106,28 +110,29 @@ def _write_project(block: Block, folder: Path) -> None:
            if im.sigma_xy_mm is not None else [f"{s * 1e3:.6g}" for s in im.sigma_mm.tolist()])
     head = "photo,point,x_mm,y_mm," + ("sigma_x_um,sigma_y_um" if per_axis else "sigma_um")
     rows = [head + (",model" if has_model else "")] + [
-        f"{p.ids[im.photo[i]]},{pts.ids[im.point[i]]},{xy[i][0]!r},{xy[i][1]!r},{sig[i]}"
+        f"{cell(p.ids[im.photo[i]])},{cell(pts.ids[im.point[i]])},{xy[i][0]!r},{xy[i][1]!r},{sig[i]}"
         + (f",{im.model[i]}" if im.model is not None else "")
         for i in range(len(im))]
     write_text(folder / "image_points.csv", "\n".join(rows) + "\n")
-    write_ground_points(folder / "ground_points.csv", pts.ids, pts.xyz, pts.sigma, pts.role)
+    write_ground_points(folder / "ground_points.csv", pts.ids, pts.xyz, pts.sigma, pts.role,
+                        cell)
     d = block.distances
     if len(d):
         rows = ["name,point_from,point_to,distance_m,sigma_m"] + [
-            f"{d.ids[i]},{pts.ids[d.point_a[i]]},{pts.ids[d.point_b[i]]},"
+            f"{cell(d.ids[i])},{cell(pts.ids[d.point_a[i]])},{cell(pts.ids[d.point_b[i]])},"
             f"{float(d.length_m[i])!r},{float(d.sigma_m[i])!r}" for i in range(len(d))]
         write_text(folder / "distances.csv", "\n".join(rows) + "\n")
-    _write_gnss_imu(block, folder)
+    _write_gnss_imu(block, folder, cell)
 
 
-def _write_gnss_imu(block: Block, folder: Path) -> None:
+def _write_gnss_imu(block: Block, folder: Path, cell: Callable[[str], str]) -> None:
     """gnss.csv and imu.csv (docs/format.md) when the block has such observations."""
     ids = block.photos.ids
     g = block.gnss
     if len(g):
         t = g.time is not None
         rows = ["photo,X,Y,Z,sigma_X,sigma_Y,sigma_Z" + (",time" if t else "")] + [
-            ",".join([ids[g.photo[i]]] + [format_number(v) for v in g.xyz[i]]
+            ",".join([cell(ids[g.photo[i]])] + [format_number(v) for v in g.xyz[i]]
                      + [repr(float(v)) for v in g.sigma[i]]
                      + ([repr(float(g.time[i]))] if g.time is not None else []))
             for i in range(len(g))]
@@ -137,7 +142,7 @@ def _write_gnss_imu(block: Block, folder: Path) -> None:
         unit = block.settings.angle_unit
         ang, sig = rad_to_angle(m.angles, unit), rad_to_angle(m.sigma, unit)
         rows = ["photo,omega,phi,kappa,sigma_omega,sigma_phi,sigma_kappa"] + [
-            ",".join([ids[m.photo[i]]] + [repr(float(v)) for v in ang[i]]
+            ",".join([cell(ids[m.photo[i]])] + [repr(float(v)) for v in ang[i]]
                      + [repr(float(v)) for v in sig[i]]) for i in range(len(m))]
         write_text(folder / "imu.csv", "\n".join(rows) + "\n")
 

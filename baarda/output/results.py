@@ -103,7 +103,7 @@ def write_folder(out: str | Path | RunFolder, summary: dict,
             if name.endswith(".parquet"):
                 write_parquet(run.file(name), df)
             else:
-                write_csv(run.file(name), df)
+                write_csv(run.file(name), df, excel_safe=run.excel_safe)
         for name, text in (texts or {}).items():
             write_text(run.file(name), text)
         return [run.final / name for name in ["summary.json", *tables, *(texts or {})]]

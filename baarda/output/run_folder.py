@@ -27,6 +27,7 @@ once: the later one is refused while the first holds the lock of its staging fol
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import re
@@ -77,6 +78,21 @@ def resolved(path: str | Path) -> Path:
         raise ProjectError(str(path), f"cannot be used ({e.strerror})") from None
 
 
+#: why an output place cannot be written that is no fault of its name (exit 4, like a write
+#: that fails later: the tutorial's "disk full, no permission"): a path of the wrong kind
+#: (a file where a folder is named, /proc) is bad input (exit 2)
+UNWRITABLE = {errno.EACCES, errno.EPERM, errno.EROFS, errno.ENOSPC, errno.EDQUOT}
+
+
+def place_error(path: Path, e: OSError, said: str) -> Exception:
+    """The error of an output place at `path` that cannot be used: OutputError (exit 4) for
+    a permission, a read-only file system or a full disk, else ProjectError (`said` and
+    the system's reason)."""
+    if e.errno in UNWRITABLE:
+        return OutputError(e.errno, f"{e.strerror}; choose another place with -o", str(path))
+    return ProjectError(str(path), f"{said} ({e.strerror}); choose another place with -o")
+
+
 def _covers(out: Path, path: Path) -> bool:
     return out == path or out in path.parents
 
@@ -97,7 +113,7 @@ def check_output_folder(out: str | Path, inputs: Iterable[str | Path] = ()) -> P
         try:
             entries = sorted(e.name for e in out.iterdir())
         except OSError as e:
-            raise ProjectError(str(out), f"cannot be read ({e.strerror})") from None
+            raise place_error(out, e, "cannot be read") from None
         if entries and not any(m in entries for m in MARKERS):
             shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
             raise ProjectError(str(out), f"exists and holds files that baarda did not write "
@@ -128,8 +144,7 @@ def check_output_file(out: str | Path, inputs: Iterable[str | Path] = ()) -> Pat
         with tempfile.TemporaryFile(dir=parent):
             pass
     except OSError as e:
-        raise ProjectError(str(parent), f"cannot write a file here ({e.strerror}); choose "
-                           "another place with -o") from None
+        raise place_error(parent, e, "cannot write a file here") from None
     return out
 
 
@@ -264,8 +279,11 @@ class RunFolder:
     the results were in place (an earlier run that could not be removed)."""
 
     def __init__(self, out: str | Path, inputs: Iterable[str | Path] = (),
-                 command: str | None = None):
+                 command: str | None = None, excel_safe: bool = False):
         self.given = Path(out)
+        # the tables' text cells that a spreadsheet would run as a formula written quoted
+        # (output/tables.py, docs/format.md); run.json says so, and baarda's readers undo it
+        self.excel_safe = bool(excel_safe)
         self.final = check_output_folder(out, inputs)
         self._staging: Path | None = None  # made below, once no live run writes here
         self._refuse_if_busy(None)  # before anything is removed or made
@@ -283,8 +301,7 @@ class RunFolder:
             self._staging = parent / f".{self.final.name}.{self.run_id}.partial"
             self._staging.mkdir()
         except OSError as e:
-            raise ProjectError(str(self.final), "cannot write the output folder here "
-                               f"({e.strerror}); choose another place with -o") from None
+            raise place_error(self.final, e, "cannot write the output folder here") from None
         self._lock = _lock(self.path)
         self.done = False
         self.kept: list[str] = []
@@ -375,10 +392,13 @@ class RunFolder:
         for f in sorted(self.path.rglob("*")):
             if f.is_file():
                 files[f.relative_to(self.path).as_posix()] = file_record(f)
-        manifest = {"run": self.run_id, "baarda": package_version(),
-                    "started": self.started.isoformat(timespec="seconds"),
-                    "finished": datetime.now(UTC).isoformat(timespec="seconds"),
-                    "command": self.command, "files": files}
+        manifest: dict[str, object] = {
+            "run": self.run_id, "baarda": package_version(),
+            "started": self.started.isoformat(timespec="seconds"),
+            "finished": datetime.now(UTC).isoformat(timespec="seconds"),
+            "command": self.command, "files": files}
+        if self.excel_safe:
+            manifest["excel_safe"] = True
         try:
             (self.path / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n",
                                               encoding="utf-8")

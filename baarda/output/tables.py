@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from baarda.io.table import FORMULA_START
+
 CHUNK_ROWS = 32_768  # rows formatted and joined at a time
 THREAD_ROWS = 100_000  # tables from this many rows on format their columns in threads
 
@@ -38,11 +40,12 @@ def csv_text(df: pd.DataFrame, float_format: str | None = None) -> str:
     return buf.getvalue()
 
 
-def write_csv(path: str | Path, df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS) -> None:
+def write_csv(path: str | Path, df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS,
+              excel_safe: bool = False) -> None:
     """Write a result table as CSV (csv_chunks' bytes) atomically, chunk by chunk."""
     from baarda.output.atomic import atomic_open
 
-    chunks = csv_chunks(df, chunk_rows)
+    chunks = csv_chunks(df, chunk_rows, excel_safe)
     with atomic_open(path, "wb") as f:
         for chunk in chunks:
             f.write(chunk)
@@ -72,6 +75,28 @@ def _csv_row(values: list[str]) -> str:
     return buf.getvalue()
 
 
+def spreadsheet_cell(text: str) -> str:
+    """One text cell as written with --excel-safe: a cell that begins with a FORMULA_START
+    character gets a single quote in front and is enclosed in double quotes (quotes
+    inside doubled, OWASP's advice), any other cell as the csv module writes it."""
+    text = str(text)
+    if text.startswith(FORMULA_START):
+        return '"\'' + text.replace('"', '""') + '"'
+    return _csv_row([text])[:-1]
+
+
+def _spreadsheet_text(arr):
+    """`spreadsheet_cell` of a string array (the cells it changes, already quoted)."""
+    import pyarrow.compute as pc
+
+    risky = pc.match_substring_regex(arr, "^[=+\\-@\t\r]")
+    if not pc.any(risky).as_py():
+        return _quoted_text(arr)
+    doubled = pc.replace_substring(arr, '"', '""')
+    enclosed = pc.binary_join_element_wise("\"'", doubled, '"', "")
+    return pc.if_else(risky, enclosed, _quoted_text(arr))
+
+
 def _quoted_text(arr):
     """A string array with the cells that need it quoted as the csv module quotes them
     (a delimiter, a quote or a line break inside: enclosed in quotes, quotes doubled)."""
@@ -85,8 +110,9 @@ def _quoted_text(arr):
     return pc.if_else(special, enclosed, arr)
 
 
-def cells(s: pd.Series):
-    """The CSV cells of one column as a pyarrow string array (module docstring)."""
+def cells(s: pd.Series, excel_safe: bool = False):
+    """The CSV cells of one column as a pyarrow string array (module docstring); text cells
+    by `spreadsheet_cell` with `excel_safe`."""
     import pyarrow as pa
     import pyarrow.compute as pc
 
@@ -113,28 +139,31 @@ def cells(s: pd.Series):
     elif not (pa.types.is_string(t) or pa.types.is_large_string(t)):
         arr = pc.cast(arr, pa.string())  # floats: shortest round trip; integers: decimal
     else:
-        arr = _quoted_text(arr.cast(pa.string()))
+        text = arr.cast(pa.string())
+        arr = _spreadsheet_text(text) if excel_safe else _quoted_text(text)
     return pc.fill_null(arr, "")
 
 
-def csv_chunks(df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS) -> Iterator[bytes]:
+def csv_chunks(df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS,
+               excel_safe: bool = False) -> Iterator[bytes]:
     """The CSV bytes of a result table: the header, then `chunk_rows` rows at a time (each
     chunk's cells formatted when it is written: the text of the whole table is never held;
-    a column of Python objects, whose type only the whole column decides, at once)."""
+    a column of Python objects, whose type only the whole column decides, at once); text
+    cells spreadsheet-safe with `excel_safe` (`spreadsheet_cell`)."""
     yield _csv_row([str(c) for c in df.columns]).encode("utf-8")
     if df.shape[1] == 0 or len(df) == 0:
         return
     import pyarrow.compute as pc
 
     series = [df.iloc[:, j] for j in range(df.shape[1])]
-    whole = {j: cells(s) for j, s in enumerate(series) if s.dtype == object}
+    whole = {j: cells(s, excel_safe) for j, s in enumerate(series) if s.dtype == object}
     pool = ThreadPoolExecutor(min(len(series), os.cpu_count() or 1)) \
         if len(df) >= THREAD_ROWS and len(series) > 1 else None
 
     def column(j: int, r0: int):
         if j in whole:
             return whole[j].slice(r0, chunk_rows)
-        return cells(series[j].iloc[r0: r0 + chunk_rows])
+        return cells(series[j].iloc[r0: r0 + chunk_rows], excel_safe)
 
     try:
         for r0 in range(0, len(df), chunk_rows):

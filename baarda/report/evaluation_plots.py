@@ -56,6 +56,14 @@ def study_html(summary: dict, power: pd.DataFrame, png: bytes | None,
     """A self-contained HTML page in the reports' look: the summary lines, the power
     curves (legend beside them) and the counts per size class, strategies side by side;
     `run`: the run being written (version, date, id and command, as every report)."""
+    from baarda.report.html_base import user_templates
+
+    with user_templates(templates):
+        return _study_html(summary, power, png, templates, run)
+
+
+def _study_html(summary: dict, power: pd.DataFrame, png: bytes | None,
+                templates: str | Path | None, run) -> str:
     from baarda.report.html_base import (
         esc,
         figure,

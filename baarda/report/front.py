@@ -90,6 +90,11 @@ def folder_quality_check(folder, image_sigma_um: float | None) -> Verdict:
     if (folder / "points.csv").is_file():
         points = pd.read_csv(folder / "points.csv", dtype={"point": str, "role": str},
                              keep_default_na=False, na_values=[""])
+        from baarda.io.run_manifest import written_excel_safe
+        from baarda.io.table import unquoted_formulas
+
+        if written_excel_safe(folder) and "point" in points:
+            points["point"] = unquoted_formulas(points["point"].to_numpy(str))
     return verdict(summary, points, pixel_um=summary_pixel_um(summary),
                    image_sigma_um=image_sigma_um)
 

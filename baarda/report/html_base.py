@@ -11,9 +11,13 @@ The number rules of every cell are baarda/table_data.py's (`cell`): a table is d
 from __future__ import annotations
 
 import base64
+import functools
 import html
+import inspect
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -28,6 +32,35 @@ from baarda.report.plots import Plot
 from baarda.table_data import TableData, cell, num  # noqa: F401  (cell, num re-exported)
 
 TEMPLATES = Path(__file__).parent / "templates"
+MACROS = "macros.html.j2"
+
+#: the user's folder of templates (--templates) of the page being built: the macros that
+#: the page's pieces are made with (tables, figures, ...) come from it too
+_USER_TEMPLATES: ContextVar[str | None] = ContextVar("user_templates", default=None)
+
+
+@contextmanager
+def user_templates(folder: str | Path | None) -> Iterator[None]:
+    """While a page is built: `folder` (a user's templates, None: baarda's own) supplies
+    the macros of every piece (`macro`), as it supplies the page's templates."""
+    token = _USER_TEMPLATES.set(str(folder) if folder else None)
+    try:
+        yield
+    finally:
+        _USER_TEMPLATES.reset(token)
+
+
+def with_user_templates(build: Callable[..., str]) -> Callable[..., str]:
+    """A page builder whose `templates` argument (a folder that overrides baarda's
+    templates) also supplies the macros of every piece it builds (`user_templates`)."""
+    signature = inspect.signature(build)
+
+    @functools.wraps(build)
+    def wrapper(*args: Any, **kwargs: Any) -> str:
+        with user_templates(signature.bind(*args, **kwargs).arguments.get("templates")):
+            return build(*args, **kwargs)
+
+    return wrapper
 
 
 @lru_cache(maxsize=4)
@@ -96,13 +129,38 @@ def template_error(e: Exception, name: str, user_dir) -> ProjectError | None:
 
 
 def macro(name: str) -> Callable[..., str]:
-    """A macro of macros.html.j2 (table, figure, check, meta, signoff), returning plain
-    `str`: the page is assembled from `str` pieces and marked safe once, where a section's
-    body is handed to the template (a `Markup` joined to a `str` escapes the `str`)."""
-    m = getattr(environment().get_template("macros.html.j2").module, name)
+    """A macro of macros.html.j2 (table, figure, check, meta, signoff), from the user's
+    folder of templates of the page being built when it has one (`with_user_templates`),
+    returning plain `str`: the page is assembled from `str` pieces and marked safe once,
+    where a section's body is handed to the template (a `Markup` joined to a `str` escapes
+    the `str`).  An error of the user's macros is "template FILE, line N: ..."."""
+    user_dir = _USER_TEMPLATES.get()
+
+    def refuse(e: Exception) -> ProjectError:
+        error = template_error(e, MACROS, user_dir)
+        if error is None:
+            raise e
+        return error
+
+    try:
+        module = environment(user_dir).get_template(MACROS).module
+    except Exception as e:
+        raise refuse(e) from None
+    m = getattr(module, name, None)
+    if m is None:
+        where = Path(user_dir or TEMPLATES) / MACROS
+        raise ProjectError(f"template {where}", f"defines no macro '{name}' (the reports "
+                           "call table, figure, check, meta and signoff)")
 
     def call(*args: Any, **kwargs: Any) -> str:
-        return str(m(*args, **kwargs))
+        try:
+            return str(m(*args, **kwargs))
+        except Exception:
+            try:  # the traceback rewritten to the template's lines, as render() does
+                environment(user_dir).handle_exception()
+            except Exception as e:
+                raise refuse(e) from None
+            raise
 
     return call
 
@@ -112,8 +170,12 @@ def esc(x) -> str:
 
 
 def csv_link(df: pd.DataFrame, name: str) -> str:
-    """The whole table as a CSV data URI (the report stays one file)."""
-    data = df.to_csv(index=False).encode("utf-8")
+    """The whole table as a CSV data URI (the report stays one file), for spreadsheets: a
+    text cell that begins with =, +, -, @ is written "'=..." (output/tables.py, as with
+    --excel-safe: a report's table is for people, never read back)."""
+    from baarda.output.tables import csv_chunks
+
+    data = b"".join(csv_chunks(df.reset_index(drop=True), excel_safe=True))
     return "data:text/csv;base64," + base64.b64encode(data).decode("ascii")
 
 

@@ -40,6 +40,7 @@ from baarda.report.html_base import (
     macro,
     page,
     table,
+    with_user_templates,
     worst_table,
 )
 from baarda.report.plots import Plot, residual_histograms, w_histogram
@@ -269,6 +270,7 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     return out
 
 
+@with_user_templates
 def html_report(res: Results, opt: ReportOptions | None = None,
                 calibration: list | None = None, out: Path | None = None,
                 templates: str | Path | None = None) -> str:

@@ -11,13 +11,21 @@ from pathlib import Path
 import pandas as pd
 from markupsafe import Markup
 
-from baarda.report.html_base import esc, metadata_section, page, run_metadata, table
+from baarda.report.html_base import (
+    esc,
+    metadata_section,
+    page,
+    run_metadata,
+    table,
+    with_user_templates,
+)
 
 
 def _csv(path: Path) -> pd.DataFrame | None:
     return pd.read_csv(path, keep_default_na=False, na_values=[""]) if path.is_file() else None
 
 
+@with_user_templates
 def plan_html(file: Callable[[str], Path], title: str = "",
               templates: str | Path | None = None, run=None) -> str:
     """The page; `file(name)`: the path of a file plan wrote; `run`: the run being written

@@ -15,7 +15,15 @@ from markupsafe import Markup
 from baarda.io.result_folder import Results
 from baarda.kinds import GNSS, IMU
 from baarda.output.verdict import failures
-from baarda.report.html_base import csv_link, esc, figure, page, table, worst_table
+from baarda.report.html_base import (
+    csv_link,
+    esc,
+    figure,
+    page,
+    table,
+    with_user_templates,
+    worst_table,
+)
 from baarda.report.plots import Plot, to_png
 from baarda.report.quality_report import Part, calibration_parts, quality_content
 
@@ -122,6 +130,7 @@ def tables_html(res: Results, calibration: list[Part] | None = None) -> str:
         "reliability.</p>")
 
 
+@with_user_templates
 def quality_page(res: Results, parts: list[Part] | None = None,
                  templates: str | Path | None = None, out: Path | None = None) -> str:
     """The quality report as a self-contained HTML page (the PDF's content): the quality

@@ -163,3 +163,23 @@ def test_sigma_so_small_that_its_weight_overflows(demo, capsys):
         adjust(read(demo))
     assert (Path(e.value.path).name, e.value.line, e.value.column) == \
         ("image_points.csv", 2, "sigma_um")
+
+
+def test_a_huge_coordinate_is_printed_in_three_digits(tmp_path, capsys):
+    """A projection centre at X0 = 1e300 m: the weak-control note said '(0 m of 1000000...
+    (301 digits) m between the outer projection centres)'; now 1e+300, and no message of
+    the run holds a number of 20 digits."""
+    import re
+
+    from baarda.errors import figure
+
+    assert (figure(1234.5), figure(-2.5e9), figure(1e308), figure(0.123, 2)) == \
+        ("1234", "-2.5e+09", "1e+308", "0.12")
+    shutil.copytree(DEMO, tmp_path / "big")
+    photos = pd.read_csv(tmp_path / "big" / "photos.csv", dtype=str)
+    photos.loc[0, "X0"] = "1e300"
+    photos.to_csv(tmp_path / "big" / "photos.csv", index=False)
+    assert main(["adjust", str(tmp_path / "big"), "-o", str(tmp_path / "o"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "(0 m of 1e+300 m between the outer projection centres)" in err
+    assert not re.search(r"\d{20}", err), err

@@ -111,22 +111,39 @@ def test_evaluate_shows_a_bar_on_a_terminal(tmp_path):
     assert "3/3 trials" in shown and "baarda evaluate: 3 trials of 4 strategies" in shown
 
 
+def _closed_pipe() -> int:
+    """The write end of a pipe whose read end is closed: every write fails with EPIPE (a
+    reader gone, `baarda ... | head -c 0`), without a device node."""
+    read, write = os.pipe()
+    os.close(read)
+    return write
+
+
 @pytest.mark.slow
-def test_a_failing_standard_output_is_a_warning_after_complete_results(tmp_path):
-    with open("/dev/full", "w") as full:
-        p = baarda("adjust", str(DEMO), "-o", str(tmp_path / "o"), stdout=full,
-                   stderr=subprocess.PIPE)
+def test_a_failing_standard_output_follows_one_rule_for_every_command(tmp_path):
+    """A closed pipe as stdout: a warning, the command goes on; where the results are files
+    the exit code is the command's own (adjust 0), where the printout is the result it is 4
+    (check, pattern, online --bundle --replay: check was 2 'Broken pipe', the replay 2)."""
+    def run(*args: str) -> subprocess.CompletedProcess:
+        write = _closed_pipe()
+        try:
+            return baarda(*args, stdout=write, stderr=subprocess.PIPE)
+        finally:
+            os.close(write)
+
+    p = run("adjust", str(DEMO), "-o", str(tmp_path / "o"))
     assert p.returncode == 0, p.stderr
-    assert "baarda: warning: could not print to standard output (No space left on " \
-           "device); the printout is lost, the files written are complete" in p.stderr
+    assert "baarda: warning: could not print to standard output (Broken pipe); the " \
+           "printout is lost, the files written are complete" in p.stderr
     assert "Traceback" not in p.stderr and "Exception ignored" not in p.stderr
     assert (tmp_path / "o" / "summary.json").is_file()
-    # where the printout is the result, it could not be written: exit 4
-    with open("/dev/full", "w") as full:
-        p = baarda("pattern", "9", stdout=full, stderr=subprocess.PIPE)
-    assert p.returncode == 4, p.stderr
-    assert "could not write the results to standard output (No space left on device)" \
-        in p.stderr
+    for args in (("check", str(tmp_path / "o")), ("pattern", "9"),
+                 ("online", "--bundle", "--replay", str(DEMO), "-o", str(tmp_path / "r"))):
+        p = run(*args)
+        assert p.returncode == 4, (args, p.stderr)
+        assert "could not write the results to standard output (Broken pipe)" in p.stderr
+        assert "Traceback" not in p.stderr and "Exception ignored" not in p.stderr
+    assert (tmp_path / "r" / "summary.json").is_file()
 
 
 def _limit_file_size():
@@ -184,3 +201,16 @@ def test_errors_are_shown_however_quiet(tmp_path, capsys, quiet):
     assert main(["adjust", str(tmp_path / "missing"), "-o", str(tmp_path / "o"),
                  *quiet]) == 2
     assert capsys.readouterr().err.startswith("baarda: error: ")
+
+
+@pytest.mark.parametrize("argv", [["simulate", "--strips", "2", "--photos", "3"],
+                                  ["simulate-models", "--strips", "1", "--models", "2"]])
+def test_simulate_commands_take_quiet(tmp_path, capsys, argv):
+    """simulate and simulate-models had no -q (issue 43): without it they print a summary,
+    with -q and -qq nothing on stdout."""
+    assert main([*argv, "-o", str(tmp_path / "a")]) == 0
+    assert capsys.readouterr().out != ""
+    assert main([*argv, "-o", str(tmp_path / "b"), "-q"]) == 0
+    assert capsys.readouterr().out == ""
+    assert main([*argv, "-o", str(tmp_path / "c"), "-qq"]) == 0
+    assert capsys.readouterr() == ("", "")

@@ -192,3 +192,59 @@ def test_a_non_numeric_field_in_a_dbat_control_line_is_an_error_of_that_line(tmp
     assert f"{p}, line 2, column 'X': 'abc' is not a number" in capsys.readouterr().err
     p.write_text("1, a, 1, 2, 3\n2, 17, 1, 2, 3\n3, c, 1, 2, 3\n")  # names, one numeric
     assert read_control_file(p).ids == ["1", "2", "3"]
+
+
+def _deny(monkeypatch, folder: Path, code: int) -> None:
+    """Writing under `folder` fails with `code` (EACCES: the test may run as root, which
+    chmod does not stop; EROFS: a read-only file system), as the system would say it."""
+    import errno
+    import tempfile
+
+    mkdir, temporary = Path.mkdir, tempfile.TemporaryFile
+
+    def refuse(path) -> None:
+        if folder == Path(path) or folder in Path(path).parents:
+            raise OSError(code, os.strerror(code), str(path))
+
+    def guarded_mkdir(self, *a, **k):
+        refuse(self)
+        return mkdir(self, *a, **k)
+
+    def guarded_temporary(*a, **k):
+        refuse(Path(k.get("dir") or "/") / "x")
+        return temporary(*a, **k)
+
+    monkeypatch.setattr(Path, "mkdir", guarded_mkdir)
+    monkeypatch.setattr(tempfile, "TemporaryFile", guarded_temporary)
+    assert errno.errorcode[code]
+
+
+@pytest.mark.parametrize("code", [13, 30])  # EACCES, EROFS
+def test_an_unwritable_output_place_is_exit_4_as_the_tutorial_says(results, tmp_path,
+                                                                   capsys, monkeypatch,
+                                                                   code):
+    """'4 the results could not be written (disk full, no permission ...)': a place without
+    permission or on a read-only file system was exit 2 when found before the work; a
+    place of the wrong kind (a file where a folder is named) stays bad input, 2."""
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    _deny(monkeypatch, locked, code)
+    assert main(["adjust", str(DEMO), "-o", str(locked / "out"), "-q"]) == 4
+    err = capsys.readouterr().err
+    assert f"could not write the results: {locked / 'out'}: {os.strerror(code)}" in err
+    assert main(["report", str(results), "-o", str(locked / "r.html"), "-q"]) == 4
+    assert f"{locked}: {os.strerror(code)}" in capsys.readouterr().err
+    (tmp_path / "a_file").write_text("")
+    assert main(["adjust", str(DEMO), "-o", str(tmp_path / "a_file" / "out"), "-q"]) == 2
+    assert not list(locked.iterdir())
+
+
+def test_a_folder_without_write_permission_is_exit_4(tmp_path, capsys):
+    """The same with the file system's own permissions, where they bind (not as root)."""
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o555)
+    try:
+        code = main(["adjust", str(DEMO), "-o", str(locked / "out"), "-q"])
+        assert code == (0 if os.geteuid() == 0 else 4), capsys.readouterr().err
+    finally:
+        locked.chmod(0o755)

@@ -8,13 +8,16 @@ lines end at parsing and those that run stay cheap (tiny inputs, few trials).  S
 are valid but large (a 1000-strip block) are not drawn: they are legitimate and slow.
 
 The properties: exit code 0, 2 or 3 (or argparse's 0 for --help), no traceback, every input
-byte-identical, the output folder absent (or, when it held an earlier run, that run as it
-was) or one complete run, no staging folder and no temporary file left."""
+byte-identical (a FIFO, a link loop and a dangling link among them: none opened, replaced or
+followed into new folders; no device node is named), the output folder absent (or, when it
+held an earlier run, that run as it was) or one complete run, no staging folder and no
+temporary file left."""
 
 from __future__ import annotations
 
 import argparse
 import io
+import os
 import shutil
 import sys
 import tempfile
@@ -93,6 +96,10 @@ class Inputs:
         self.empty.mkdir()
         self.loop = root / "loop"  # a symbolic link loop
         self.loop.symlink_to("loop")
+        self.fifo = root / "pipe"  # a FIFO: never opened (it would block), never replaced
+        os.mkfifo(self.fifo)
+        self.dangling = root / "dangling"  # a link into folders that do not exist
+        self.dangling.symlink_to(root / "missing" / "deeper" / "x")
         self.folders = [self.project, self.models, self.results, self.empty]
         self.before = snapshot(root)
 
@@ -103,10 +110,13 @@ class Inputs:
                                  self.pattern, self.file, self.empty, missing,
                                  self.results / "observations.csv", self.results /
                                  "summary.json", self.loop)] + [
-            "", "-", "/dev/null", "/proc", "x" * 5000, str(self.root / ("y" * 300))]
+            "", "-", str(self.fifo), str(self.dangling), "/proc", "x" * 5000,
+            str(self.root / ("y" * 300))]
 
     def unchanged(self) -> None:
         assert snapshot(self.root) == self.before, "a command changed an input"
+        assert self.fifo.is_fifo() and self.loop.is_symlink() and self.dangling.is_symlink()
+        assert not (self.root / "missing").exists(), "a link's missing folders were made"
 
 
 @pytest.fixture(scope="session")
@@ -176,7 +186,8 @@ def values(draw, action: argparse.Action, inputs: Inputs, work: Path,
             pool = [str(work / "new.out"), str(work / "sub" / "new.out"), str(inputs.results),
                     str(inputs.project), str(inputs.results / "observations.csv"),
                     str(inputs.strip), str(inputs.pattern), "", "/proc/new.out",
-                    str(inputs.loop), str(work / ("z" * 5000))]
+                    str(inputs.loop), str(inputs.fifo), str(inputs.dangling),
+                    str(work / ("z" * 5000))]
             pool = [v for v in pool if v not in others or v in (own or [])]
         elif kind == "path":
             pool = inputs.paths()

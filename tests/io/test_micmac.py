@@ -79,3 +79,38 @@ def test_errors_name_the_file_and_line(tmp_path):
     with pytest.raises(ProjectError) as e:
         read_micmac(folder)
     assert e.value.line == 4 and "trajectograhie.opk" in str(e.value)
+
+
+def _copy(tmp_path: Path) -> Path:
+    folder = tmp_path / "mm"
+    folder.mkdir()
+    for f in DATA.iterdir():
+        if f.name != "21FD2447_alt.OPK":
+            (folder / f.name).write_bytes(f.read_bytes())
+    return folder
+
+
+def test_tie_point_errors_name_the_line_an_editor_shows(tmp_path):
+    """Filtered_all_liaisons.mes ends its lines ' \\r \\n': one line end, not two (the third
+    line was reported as line 5, every line N as 2N - 1)."""
+    folder = _copy(tmp_path)
+    tie = folder / "Filtered_all_liaisons.mes"
+    lines = tie.read_bytes().split(b"\n")
+    assert lines[0].endswith(b" \r ")
+    lines[2] = lines[2].replace(b".", b"x", 1)
+    tie.write_bytes(b"\n".join(lines))
+    with pytest.raises(ProjectError) as e:
+        read_micmac(folder)
+    assert e.value.line == 3 and e.value.column == "x" and "liaisons" in str(e.value)
+
+
+def test_camera_descriptions_are_parsed_not_sniffed(tmp_path, block):
+    """A comment longer than 200 bytes before <sensor> in both camera files: the folder is
+    still MicMac's and each photo gets the camera its orientations name (s07, 123.9 mm)."""
+    folder = _copy(tmp_path)
+    for name in ("s07_UC_Eagle_M3_120.xml", "s08_UC_Eagle_M3_120.xml"):
+        p = folder / name
+        p.write_bytes(b"<!-- " + b"x" * 300 + b" -->\n" + p.read_bytes())
+    commented = read(folder)
+    assert commented.cameras.ids == block.cameras.ids == ["UCE-M3-f120-s07"]
+    assert np.array_equal(commented.cameras.focal_mm, block.cameras.focal_mm)

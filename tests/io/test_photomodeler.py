@@ -157,3 +157,22 @@ def test_sxb_export_with_its_own_control_and_default_camera():
     b = read_photomodeler(SXB)
     assert b.cameras.focal_mm[0] == 123.939 and len(b.cameras) == 1
     assert any("--control FILE replaces them" in n for n in b.notes)
+
+
+def test_negative_sy_is_named_at_its_own_line_and_column(tmp_path):
+    """A negative sy on line 614 of the SXB export (a mark with sx 0, a SmartPoint) was
+    reported at 'line 436, column sx' (the first mark with the smallest sx)."""
+    lines = SXB.read_text().split("\n")
+    fields = lines[613].split()
+    assert fields[:2] == ["1", "65740"] and fields[4] == "0.00000"
+    lines[613] = "   " + "   ".join(fields[:5] + ["-1.00000"])
+    p = tmp_path / "x.txt"
+    p.write_text("\n".join(lines))
+    with pytest.raises(ProjectError, match="-1 px is negative") as e:
+        read_photomodeler(p)
+    assert (e.value.line, e.value.column) == (614, "sy")
+    lines[613] = "   " + "   ".join(fields[:4] + ["-0.5", "1.0"])
+    p.write_text("\n".join(lines))
+    with pytest.raises(ProjectError, match="-0.5 px") as e:
+        read_photomodeler(p)
+    assert (e.value.line, e.value.column) == (614, "sx")

@@ -147,3 +147,27 @@ def test_a_control_point_before_any_image_point_is_answered(block):
     assert ans is not None and ans.step == 1 and ans.action == "add"
     assert ans.note == "the block cannot be adjusted yet: nothing measured"
     assert not ob.started
+
+
+@pytest.mark.parametrize("shift, said", [
+    (1e4, "photo 02006N: point 005009 at (9906.93, -55.3513) mm lies 246 times as far from "
+          "the middle of the photo's points as the others: outside the format, a mistyped "
+          "coordinate? (remove it or measure it again)"),
+    (100.0, "photo 02006N: its 4 points in the block fit no one orientation (no resection "
+            "puts them in front of the camera)")])
+def test_a_held_photo_says_what_is_wrong(block, shift, said):
+    """A new photo with one point 10 m outside the format (or 100 mm off) was held as 'not
+    determined yet (4 of its points in the block, 3 needed)': it had them."""
+    im, ids = block.image, block.photos.ids
+    i = len(ids) - 1
+    ob = OnlineBundle(block.select_image(im.photo != i))
+    rows = np.flatnonzero(im.photo == i)
+    points = {block.points.ids[im.point[r]]: tuple(im.xy_mm[r]) for r in rows}
+    a = ob.add_photo(ids[i] + "N", points)  # as measured: taken in
+    assert not a.held and {t.photo for t in a.tested} >= {ids[i] + "N"}
+    ob = OnlineBundle(block.select_image(im.photo != i))
+    first = next(iter(points))
+    points[first] = (points[first][0] + shift, points[first][1])
+    a = ob.add_photo(ids[i] + "N", points)
+    assert not a.tested and len(a.held) == len(rows)
+    assert a.held[0] == f"point {first} on photo {ids[i]}N: {said}"

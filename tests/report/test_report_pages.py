@@ -355,3 +355,41 @@ def test_berlin_snooping_log_stays_within_its_pdf_page(pages):
         assert left >= 0 and right <= w, (left, right, w)
         assert "The first 25 of" in tp.get_text_range()
     assert pages_with_log == 1
+
+
+def test_user_macros_make_the_pieces_of_the_page(pages, tmp_path, capsys):
+    """docs/report.md lists macros.html.j2 as overridable: a user's copy whose sign-off
+    block names the firm and whose tables carry a class is used by the adjustment and the
+    quality page (it was ignored: the pieces came from baarda's own macros)."""
+    d = pages("demo")
+    own = tmp_path / "tpl"
+    own.mkdir()
+    macros = (ROOT / "baarda" / "report" / "templates" / "macros.html.j2").read_text()
+    branded = macros.replace("<div>Checked by (name, date)</div>",
+                             "<div>Checked by ACME Survey Ltd</div>").replace(
+        '<div class="wrap"><table', '<div class="wrap"><table class="acme"')
+    assert branded.count("ACME") == 1 and branded.count("acme") == 1
+    (own / "macros.html.j2").write_text(branded)
+    assert main(["report", str(d / "out"), "-o", str(tmp_path / "r.html"), "--quality",
+                 str(tmp_path / "q.html"), "--templates", str(own), "-q"]) == 0
+    for name in ("r.html", "q.html"):
+        page = (tmp_path / name).read_text(encoding="utf-8")
+        assert "Checked by ACME Survey Ltd" in page and 'table class="acme"' in page
+    assert main(["report", str(d / "out"), "-o", str(tmp_path / "plain.html"), "-q"]) == 0
+    assert "ACME" not in (tmp_path / "plain.html").read_text(encoding="utf-8")
+    # an error in the user's macros names its file and line; a macro left out is named
+    lines = branded.split("\n")
+    k = next(i for i, t in enumerate(lines) if "{% macro meta(items)" in t)
+    lines[k + 1] = "{{ items.nothing.more }}"
+    (own / "macros.html.j2").write_text("\n".join(lines))
+    assert main(["report", str(d / "out"), "-o", str(tmp_path / "e.html"), "--templates",
+                 str(own), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert f"template {own / 'macros.html.j2'}, line {k + 2}:" in err and "Traceback" not in err
+    (own / "macros.html.j2").write_text(branded.replace("{% macro signoff() -%}",
+                                                        "{% macro sign_off() -%}"))
+    assert main(["report", str(d / "out"), "-o", str(tmp_path / "e.html"), "--templates",
+                 str(own), "-q"]) == 2
+    assert f"template {own / 'macros.html.j2'}: defines no macro 'signoff'" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "e.html").exists()
