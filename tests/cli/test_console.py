@@ -36,7 +36,7 @@ def test_quiet_adjust_of_the_demo_prints_the_verdict_line(tmp_path, capsys):
     assert main(["adjust", str(DEMO), "-o", str(tmp_path / "o"), "-q", "--snoop"]) == 0
     assert capsys.readouterr().err == (
         "baarda adjust: sigma0 1.051 (global test accepted), 4 rejected, 4 check points RMS "
-        "X 0.059 Y 0.046 Z 0.117 m; quality check REVIEW: Rejections -> "
+        "X 0.059 Y 0.046 Z 0.117 m; quality check REVIEW: Rejections, Suspicious GCPs -> "
         f"{tmp_path / 'o'} (replacing run {first})\n")
     assert main(["adjust", str(DEMO), "-o", str(tmp_path / "o"), "-qq"]) == 0
     assert capsys.readouterr() == ("", "")

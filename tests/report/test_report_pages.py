@@ -108,7 +108,7 @@ def test_the_quality_check_comes_first_and_is_the_console_verdict(pages):
         assert f'id="{anchor}"' in page, anchor
     # demo: 4 rejections against 0.001 x 598 = 0.6 false alarms (P = 0.0033); 16
     # uncontrolled components on two-ray tie points: a note with its remedy, no REVIEW
-    assert "REVIEW: Rejections</p>" in page
+    assert "REVIEW: Rejections, Suspicious GCPs</p>" in page
     check = section(page, "check")
     assert "alpha0 x n = 0.001 x 598 = 0.6 false alarms expected, P(at least 4 false " \
            "alarms) = 0.0033" in check
