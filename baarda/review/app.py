@@ -129,7 +129,7 @@ def serve(session: ReviewSession, token: str, sock: socket.socket, *, folders, p
     if open_browser:
         webbrowser.open(url)
     web.run_app(app, sock=sock, print=None, access_log=None, handle_signals=True)
-    session.settle()  # a background computation ends before the process does
+    session.close()  # the worker of the w-test correlations ends with the server
     if save is not None and session.saved != len(session.edits):
         answer = save()
         say(f"review: {answer['edits']} edit(s) saved to {answer['out']}")

@@ -20,4 +20,6 @@ def demo_read():
 
 @pytest.fixture
 def demo_session(demo_read):
-    return ReviewSession(*demo_read)
+    session = ReviewSession(*demo_read)
+    yield session
+    session.close()
