@@ -136,9 +136,13 @@ def serve(session: ReviewSession, token: str, sock: socket.socket, *, folders, p
         try:
             await web.SockSite(runner, sock).start()
             ended: asyncio.Future[int] = asyncio.get_running_loop().create_future()
+
+            def end(sig: int) -> None:
+                if not ended.done():
+                    ended.set_result(sig)
+
             for sig in (signal.SIGINT, signal.SIGTERM):
-                asyncio.get_running_loop().add_signal_handler(
-                    sig, lambda s=sig: ended.done() or ended.set_result(int(s)))
+                asyncio.get_running_loop().add_signal_handler(sig, end, int(sig))
             say(f"review: {url}")
             if open_browser:
                 webbrowser.open(url)
