@@ -120,7 +120,9 @@ def with_camera(cameras, other, i: int):
                    model=None if (kind == "none").all() else kind,
                    coefficients=stacked(cameras.coefficients, other.coefficients, kc, 0.0),
                    constants=stacked(cameras.constants, other.constants, kk, np.nan),
-                   free=free, pixel_mm=pixel)
+                   free=free, pixel_mm=pixel,
+                   pixel_frame=None if cameras.pixel_frame is None and other.pixel_frame is None
+                   else stacked(cameras.pixel_frame, other.pixel_frame, 4, np.nan))
 
 
 def _cameras_of_side(block, side: str):
@@ -189,7 +191,7 @@ def cameras_per_strip(block):
                   principal_point_mm=cams.principal_point_mm[source], model=take(cams.model),
                   coefficients=take(cams.coefficients), constants=take(cams.constants),
                   free=None if cams.free is None else tuple(cams.free[c] for c in source),
-                  pixel_mm=take(cams.pixel_mm))
+                  pixel_mm=take(cams.pixel_mm), pixel_frame=take(cams.pixel_frame))
     return replace(block, cameras=new, photos=replace(ph, camera=new_camera),
                    notes=list(block.notes) + [
                        f"calibration per strip: {len(cams)} camera(s) -> {len(new)} "

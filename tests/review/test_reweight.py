@@ -9,8 +9,7 @@ import numpy as np
 import pytest
 from review_serving import Served
 
-from baarda.cli import main
-from baarda.pipeline import assess, prepare, read_configured
+from baarda.pipeline import assess, prepare
 from baarda.review.edits import Edit, active_of, edited
 from baarda.review.reweight import gradient, refit
 from baarda.review.session import ReviewSession, adjusted
@@ -73,14 +72,10 @@ def _no_fit(*args, **kwargs):
 
 
 @pytest.fixture(scope="module")
-def big(tmp_path_factory):
-    """A simulated block of 1,000 photos (20 strips of 50: 8,956 image points), adjusted."""
-    out = tmp_path_factory.mktemp("big") / "block"
-    assert main(["simulate", "-o", str(out), "--strips", "20", "--photos", "50", "-q"]) == 0
-    block, config = read_configured(out)
-    assert len(block.photos.ids) == 1000
-    session = ReviewSession(block, config)
-    yield block, config, session
+def big(big_read):
+    """The 1,000-photo block under review."""
+    session = ReviewSession(*big_read)
+    yield (*big_read, session)
     session.close()
 
 

@@ -148,11 +148,12 @@ async function showChips(r) {
       img.src = url;
       img.alt = "image of point " + r.point + " on photo " + ray.photo;
       const scale = Number(resp.headers.get("X-Chip-Mm-Per-Px"));
+      const scaleY = Number(resp.headers.get("X-Chip-Mm-Per-Px-Y") || scale);
       const [cx, cy] = (resp.headers.get("X-Chip-Centre") || "0,0").split(",").map(Number);
       img.addEventListener("click", (ev) => {
         const k = img.naturalWidth / img.clientWidth;
         const u = ev.offsetX * k - cx, v = ev.offsetY * k - cy;
-        remeasureAt(ray, ray.x + u * scale, ray.y - v * scale);
+        remeasureAt(ray, ray.x + u * scale, ray.y - v * scaleY);
       });
       fig.append(img);
     } catch (e) {
