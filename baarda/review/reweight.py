@@ -18,6 +18,10 @@ is below its tolerance, the estimate is what `solve` would accept (else the solv
 from there).  One factorisation instead of the three of a warm-started Gauss-Newton
 adjustment: the block's numbers are those of a full re-adjustment
 (tests/review/test_reweight.py, to 1e-8).
+
+A re-measurement changes observed values only: the Jacobian at x0, and so N0, is that of
+the block re-measured; with no weight changed (c = 0) the iteration is the chord method
+with N0 itself.
 """
 
 from __future__ import annotations
@@ -63,22 +67,28 @@ def gradient(factor: SchurFactor, lin: Linearization) -> tuple[np.ndarray, ...]:
 
 
 def refit(problem: BundleProblem, before: BundleResult) -> BundleResult | None:
-    """`problem` (the problem of `before` re-weighted: some components rejected or restored)
-    adjusted from `before`'s solution with its factor (module docstring); None where the
-    chord iteration does not converge (the caller adjusts in full)."""
+    """`problem` (the problem of `before` re-weighted: some components rejected or restored;
+    or prepared again with components measured again: the same observation vector, other
+    values) adjusted from `before`'s solution with its factor (module docstring); None where
+    it is not the same observation vector or the chord iteration does not converge (the
+    caller adjusts in full)."""
     t0 = time.perf_counter()
     old = before.problem
     f0 = before.factor
     s = f0.system
+    la, lb = problem.layout, old.layout
+    if (la.m, la.k, la.n_control, la.kc, la.mx, la.kx) != \
+            (lb.m, lb.k, lb.n_control, lb.kc, lb.mx, lb.kx) or \
+            not np.array_equal(la.ctrl_sel, lb.ctrl_sel) or not all(
+            np.array_equal(getattr(problem.system, a), getattr(s, a))
+            for a in ("frame", "point", "control_point")):
+        return None  # not the same observation vector and unknowns
     p_old, p_new = weights(old), weights(problem)
     changed = np.flatnonzero(p_old != p_new)
-    if not len(changed) or problem.layout.n != old.layout.n:
-        return None
     rows = factor_rows(old, f0, changed)
     u = LowRank(f0).solve(rows)  # N0^-1 A_c^T
     m = times(rows, *u)  # A_c N0^-1 A_c^T
-    d_inv = np.diag(1.0 / (p_new[changed] - p_old[changed]))
-    small = d_inv + m
+    small = np.diag(1.0 / (p_new[changed] - p_old[changed])) + m
     options = problem.solve_options
     state = tuple(np.array(x, float) for x in before.state)
     iterations = 0

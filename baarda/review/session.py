@@ -88,6 +88,13 @@ def _geometry_key(edits: list[Edit]) -> tuple:
                  if e.action in ("remeasure", "aside"))
 
 
+def _aside_key(edits: list[Edit]) -> tuple:
+    """What decides the observation vector: the points set aside."""
+    from baarda.review.edits import effective
+
+    return tuple(sorted({e.point for e in effective(edits) if e.action == "aside"}))
+
+
 class ReviewSession:
     """The block under review: `summary()`, `observations()`, `edit()`; thread-safe (one
     edit at a time)."""
@@ -212,14 +219,15 @@ class ReviewSession:
             old = self.state
             edits = self.edits + [e]
             key = _geometry_key(edits)
-            same = key == self._key
-            # a rejection or restoration: the same observation vector, the answer at once
-            # with the w-test correlations of the state before (provisional), those of
-            # this state computed in the background (`settle` waits for them)
+            # the same observation vector (no point set aside or back): a rejection,
+            # restoration or re-measurement is answered from the factorisation before it
+            # (review/reweight.py) with the w-test correlations of the state before
+            # (provisional); those of this state come from the worker process
+            same = _aside_key(edits) == _aside_key(self.edits)
+            problem = self.state.problem if key == self._key else None
             state = adjusted(self.block, self.config, edits,
                              start=self.state.qc.adjustment.state if same else None,
-                             problem=self.state.problem if same else None,
-                             separability=not same,
+                             problem=problem, separability=not same,
                              before=self.state.qc.adjustment if same else None)
             if same:
                 prev = self.state.qc.quality

@@ -119,3 +119,26 @@ def test_an_edit_of_a_1000_photo_block_answers_within_a_second(big, monkeypatch)
     changed = [(c["photo"], c["point"], c["component"]) for c in answer["changed"]]
     assert (worst["photo"], worst["point"], worst["component"]) in changed
     np.testing.assert_allclose(q.w, qr.w, rtol=0, atol=1e-8)
+
+
+def test_remeasurement_and_undo_equal_a_full_readjustment(demo_session, demo_read,
+                                                          monkeypatch):
+    """A re-measurement (other values, the same observation vector) and its undo are
+    answered from the factorisation before them, with a full re-adjustment's numbers."""
+    block, config = demo_read
+    ray = next(r for r in demo_session.rays("007008") if r["photo"] == "03008")
+    monkeypatch.setattr("baarda.bundle.bundle_problem.BundleProblem.fit", _no_fit)
+    demo_session.edit({"action": "remeasure", "photo": "03008", "point": "007008",
+                       "x_mm": ray["pred_x"], "y_mm": ray["y"] + 0.002})
+    after = demo_session.state.qc
+    demo_session.edit({"action": "undo"})
+    back = demo_session.state.qc
+    monkeypatch.undo()
+    for qc, edits in ((after, demo_session.edits[:1]), (back, [])):
+        ref = tight(block, config, edits)
+        assert qc.adjustment.sigma0 == pytest.approx(ref.adjustment.sigma0, abs=1e-10)
+        np.testing.assert_allclose(qc.quality.w, ref.quality.w, rtol=0, atol=1e-8)
+    row = next(k for k, lab in enumerate(zip(after.model.frame, after.model.point,
+                                             after.model.component, strict=True))
+               if tuple(map(str, lab)) == FIRST)
+    assert abs(after.quality.w[row]) < 1.0  # at the predicted x the blunder is gone
