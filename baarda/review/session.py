@@ -25,10 +25,9 @@ from baarda.block.photo_block import Block
 from baarda.options import Config
 from baarda.quality.separability import RHO_INSEPARABLE
 from baarda.review.edits import Edit, active_of, check, edited
+from baarda.review.worker import SeparabilityWorker
 
 if TYPE_CHECKING:
-    from concurrent.futures import ProcessPoolExecutor
-
     from baarda.bundle.bundle_problem import BundleProblem
     from baarda.bundle.bundle_result import BundleResult
     from baarda.quality.assessment import Assessment
@@ -107,9 +106,8 @@ class ReviewSession:
         self.lock = threading.RLock()
         self.state = adjusted(block, config, self.edits)
         self._rows: tuple = (None, [])
-        self._later: tuple | None = None  # (state, the future of its w-test correlations)
-        # the worker process of the w-test correlations, once needed
-        self._pool: ProcessPoolExecutor | None = None
+        self._later: tuple | None = None  # (state, the request of its w-test correlations)
+        self._worker = SeparabilityWorker(block, config, self._separated)
         self._submitting: threading.Thread | None = None
         self._submit_lock = threading.Lock()
         import baarda.review.reweight  # noqa: F401  (imported here, not at the first edit)
@@ -240,37 +238,28 @@ class ReviewSession:
             return {"summary": self.summary(), "changed": _changed(old, state, same)}
 
     def _separability(self, state: State) -> None:
-        """The w-test correlations of `state` computed by the session's worker process (at
-        the lowest priority: in a thread of this process its kernels, which hold the
-        interpreter lock, held up the next edit by seconds on a block of 1,000 photos), put
-        in place when they come if it is still the state.  Handed to the worker from a
-        thread: starting it (a new interpreter) takes longer than the edit."""
+        """The w-test correlations of `state` asked of the session's worker process
+        (review/worker.py), put in place when they come if it is still the state.  Asked
+        from a thread: starting the process (a new interpreter) takes longer than the
+        edit."""
         edits = list(self.edits)
 
         def submit() -> None:
-            from concurrent.futures import ProcessPoolExecutor
-            from multiprocessing import get_context
-
             with self._submit_lock:
-                if self._pool is None:  # spawned: a forked copy of OpenMP's threads can hang
-                    self._pool = ProcessPoolExecutor(1, mp_context=get_context("spawn"),
-                                                     initializer=_worker_start,
-                                                     initargs=(self.block, self.config))
-                if self._later is not None:
-                    self._later[1].cancel()  # not started: no longer wanted
-                future = self._pool.submit(_worker_separability, edits)
-                self._later = (state, future)
-            future.add_done_callback(lambda f: self._separated(state, f))
+                self._later = (state, self._worker.request(edits))
 
         self._submitting = threading.Thread(target=submit, daemon=True)
         self._submitting.start()
 
-    def _separated(self, state: State, future) -> None:
-        if future.cancelled() or future.exception() is not None:
-            return
-        rho, partner, msb = future.result()
+    def _separated(self, n: int, result) -> None:
+        """The worker's answer to request n: (rho_max, rho_partner, msb), or None."""
         with self.lock:
+            later = self._later
+            if result is None or later is None or later[1] != n:
+                return
+            state = later[0]
             if self.state is state and state.provisional:
+                rho, partner, msb = result
                 q = replace(state.qc.quality, rho_max=rho, rho_partner=partner, msb=msb)
                 self.state = replace(state, qc=replace(state.qc, quality=q),
                                      provisional=False)
@@ -278,8 +267,6 @@ class ReviewSession:
     def settle(self, timeout: float | None = None) -> None:
         """Wait until the state's w-test correlations are its own (not provisional); where
         the worker failed, computed here."""
-        from concurrent.futures import wait
-
         from baarda.quality.statistics import with_separability
 
         if self._submitting is not None:
@@ -287,12 +274,11 @@ class ReviewSession:
         later = self._later
         if later is None:
             return
-        state, future = later
-        wait([future], timeout)
-        if future.done():
-            self._separated(state, future)
+        state, n = later
+        if not self._worker.wait(n, timeout):
+            return
         with self.lock:
-            if self.state is state and state.provisional and future.done():
+            if self.state is state and state.provisional:
                 bare = replace(state.qc.quality, rho_max=None, rho_partner=None, msb=None)
                 q = with_separability(state.qc.model, bare)
                 self.state = replace(state, qc=replace(state.qc, quality=q),
@@ -302,38 +288,10 @@ class ReviewSession:
         """End the worker process (a computation under way is dropped)."""
         if self._submitting is not None:
             self._submitting.join(60)
-        with self._submit_lock:
-            pool, self._pool = self._pool, None
-        if pool is not None:
-            procs = list((getattr(pool, "_processes", None) or {}).values())
-            pool.shutdown(wait=False, cancel_futures=True)
-            for proc in procs:
-                proc.terminate()
+        self._worker.close()
 
     def _aside(self) -> set[str]:
         return {e.point for e in _effective_list(self.edits) if e.action == "aside"}
-
-
-_WORKER: tuple = ()  # (block, config) in the worker process
-
-
-def _worker_start(block: Block, config: Config) -> None:
-    import os
-
-    global _WORKER
-    _WORKER = (block, config)
-    try:
-        os.nice(19)
-    except OSError:
-        pass
-
-
-def _worker_separability(edits: list[Edit]) -> tuple:
-    """(rho_max, rho_partner, msb) of the block with `edits`, as `baarda adjust --edits`
-    computes them (in the worker process)."""
-    block, config = _WORKER
-    q = adjusted(block, config, edits).qc.quality
-    return q.rho_max, q.rho_partner, q.msb
 
 
 class _Table:

@@ -57,6 +57,10 @@ function showSummary(s) {
 
 const keyOf = (r) => [r.kind, r.photo, r.point, r.component].join("\u0000");
 
+// rows drawn at most: the worst first; the filters reach the others (2,000 rows took
+// Chromium seconds to draw on a shared machine)
+const MAX_ROWS = 500;
+
 function filtered() {
   const v = $("f-verdict").value, k = $("f-kind").value;
   const ph = $("f-photo").value.trim(), pt = $("f-point").value.trim();
@@ -68,7 +72,7 @@ function filtered() {
 function showRows() {
   const tb = document.querySelector("#obs tbody");
   tb.replaceChildren();
-  const rows = filtered().slice(0, 2000);
+  const rows = filtered().slice(0, MAX_ROWS);
   const sel = state.sel ? keyOf(state.sel) : null;
   for (const r of rows) {
     const tr = el("tr", undefined, "v-" + r.verdict);
