@@ -25,7 +25,7 @@ import numpy as np
 from baarda.block.control import CHECK_ALTERNATE, with_check_points  # noqa: F401
 from baarda.block.model_block import ModelBlock
 from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
-from baarda.block.photo_block import Block, Photos
+from baarda.block.photo_block import Block
 from baarda.errors import GeometryError, ProjectError
 from baarda.io.formats import read_any
 from baarda.io.records import ENCODING
@@ -230,7 +230,7 @@ def with_approximations(block: Block) -> Block:
     from baarda.bundle.resection import orient_block
 
     eo = orient_block(block)
-    photos = Photos(block.photos.ids, block.photos.camera, block.photos.strip, eo)
+    photos = replace(block.photos, eo=eo)
     return replace(block, photos=photos, notes=list(block.notes) + [
         f"approximate orientations of {int(missing.sum())} photo(s) by space resection"])
 

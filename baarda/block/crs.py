@@ -27,7 +27,7 @@ import numpy as np
 from pyproj import CRS, Transformer
 from pyproj.exceptions import CRSError
 
-from baarda.block.photo_block import Block, Photos
+from baarda.block.photo_block import Block
 from baarda.block.rotation import angles_from_matrix, rotation_matrix
 from baarda.errors import ProjectError
 
@@ -185,7 +185,7 @@ def localize(block: Block, crs: str | None = None) -> Block:
     eo_l = np.full(eo.shape, np.nan)
     if ok.any():
         eo_l[ok] = frame.eo_to_local(eo[ok])
-    photos = Photos(block.photos.ids, block.photos.camera, block.photos.strip, eo_l)
+    photos = replace(block.photos, eo=eo_l)
     points = replace(pts, xyz=xyz)
     notes = list(block.notes) + [f"adjusted in a local east-north-up frame of {frame.crs.name} "
                                  "(heights ellipsoidal); results converted back"]
@@ -263,7 +263,6 @@ def delocalize(block: Block) -> Block:
     if part.any():
         xyz[part] = np.where(np.isfinite(pts.xyz[part]), frame.from_local(
             np.nan_to_num(pts.xyz[part])), np.nan)
-    return replace(block, photos=Photos(block.photos.ids, block.photos.camera,
-                                        block.photos.strip, eo_c),
+    return replace(block, photos=replace(block.photos, eo=eo_c),
                    points=replace(pts, xyz=xyz), frame=None, gnss=gnss, imu=imu,
                    notes=list(block.notes))

@@ -72,6 +72,11 @@ class Cameras:
     # the image coordinates (COLMAP: p and p fx/fy)
     image_size_px: np.ndarray | None = None
     pixel_xy_mm: np.ndarray | None = None
+    # (n, 4) how image coordinates (mm) sit on the image's pixels, as the reader converted
+    # them: column and row (pixels from the upper-left corner of the image, y down) of
+    # their origin (NaN: the image's centre, for readers that do not know the image's size),
+    # then the width and height of a pixel (mm): column = c0 + x / pw, row = r0 - y / ph
+    pixel_frame: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -83,6 +88,9 @@ class Photos:
     camera: np.ndarray  # (n,) index into Cameras
     strip: np.ndarray  # (n,) object array of strip labels
     eo: np.ndarray  # (n, 6): X0, Y0, Z0 [m], omega, phi, kappa [rad] (approximations)
+    # the image file the input names for each photo ("" none), as written there (a path
+    # relative to the input's folder, or absolute); baarda review shows it
+    image: list[str] | None = None
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -238,3 +246,9 @@ class Block:
                 + (f", {len(self.distances)} distance(s)" if len(self.distances) else "")
                 + (f", {len(self.gnss)} GNSS position(s)" if len(self.gnss) else "")
                 + (f", {len(self.imu)} IMU attitude(s)" if len(self.imu) else ""))
+
+
+def centred(n: int, pixel_mm: float) -> np.ndarray:
+    """Cameras.pixel_frame of n cameras whose image coordinates have their origin at the
+    image's centre, square pixels of pixel_mm."""
+    return np.tile([np.nan, np.nan, pixel_mm, pixel_mm], (n, 1))

@@ -4,10 +4,11 @@ operator's loop in the browser (review/; docs/review.md)."""
 from __future__ import annotations
 
 import shlex
+import signal
 import sys
 from pathlib import Path
 
-from baarda.cli.common import OK, add_test_options, announce_compile
+from baarda.cli.common import INTERRUPTED, TERMINATED, add_test_options, announce_compile
 from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, formats_help, read_configured_input
 from baarda.errors import ProjectError
@@ -80,14 +81,16 @@ def run_review(args) -> int:
         if args.out is not None:
             command = shlex.join(["baarda", *argv]) if argv is not None else None
             save = saver(session, block, config, args.out, [args.input], command)
-        serve(session, new_token(), sock, folders=image_folders(args.input, args.images),
-              pixel_mm=pixel, save=save, open_browser=not args.no_browser,
-              say=lambda s: print(s, flush=True))
+        signum = serve(session, new_token(), sock,
+                       folders=image_folders(args.input, args.images), pixel_mm=pixel,
+                       save=save, open_browser=not args.no_browser,
+                       say=lambda s: print(s, flush=True))
     finally:
         if lock is not None:
             lock.release()
     sys.stdout.flush()
-    return OK
+    # ended by Ctrl-C or SIGTERM, the edits saved: the exit code of an interrupted command
+    return INTERRUPTED if signum == signal.SIGINT else TERMINATED
 
 
 def _format(path: Path) -> str | None:

@@ -23,7 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
+from baarda.block.photo_block import (
+    Block,
+    Cameras,
+    GroundPoints,
+    ImagePoints,
+    Photos,
+    Settings,
+    centred,
+)
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.records import check_pixel_options, finite_numbers, require_file, split_lines
@@ -198,6 +206,7 @@ def _block(p: Path, names, fk, rot, t, made, xyz, obs_point, obs, pixel_mm, sigm
         notes.append(f"Bundler: {nc - len(keep)} camera(s) of all zeros (images Bundler did "
                      "not reconstruct) left out")
     ids = [names[i] if names else str(i) for i in keep]
+    files = [names[i] for i in keep] if names else None
     stems = [Path(s).stem for s in ids]
     if len(set(stems)) == len(stems):
         ids = stems
@@ -209,11 +218,12 @@ def _block(p: Path, names, fk, rot, t, made, xyz, obs_point, obs, pixel_mm, sigm
     cameras = Cameras([str(k + 1) for k in range(m)], groups[:, 0] * pixel_mm,
                       np.zeros((m, 2)), np.full(m, "brown_forward", dtype=object),
                       np.column_stack([groups[:, 1:3], np.zeros((m, 3))]), None,
-                      pixel_xy_mm=np.full((m, 2), pixel_mm))  # the image size: not stated
+                      pixel_xy_mm=np.full((m, 2), pixel_mm),  # the image size: not stated
+                      pixel_frame=centred(m, pixel_mm))
     rt = np.swapaxes(rot[keep], 1, 2)
     x0 = -np.einsum("nij,nj->ni", rt, t[keep])
     photos = Photos(ids, cam_of, np.full(len(keep), "", dtype=object),
-                    np.column_stack([x0, angles_from_matrix(rt)]))
+                    np.column_stack([x0, angles_from_matrix(rt)]), files)
     index = np.full(nc, -1)
     index[keep] = np.arange(len(keep))
     photo = index[obs[:, 0].astype(np.int64)]

@@ -264,11 +264,14 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     if im_node is None or im_node.find("file") is None:
         raise ProjectError(spath, "no <images><file> in <input>", inp.line)
     img_ids, img_names, img_files = [], [], []
+    img_paths: list[str] = []  # the image files as the script names them
     for f in im_node.findall("file"):
         fields = _fields(f, spath)
         r = Records(_resolve(base, f.text, xml_dir), fields, whole=True)
         img_files.append(Path(r.path).name)
         img_ids += list(r.text("id"))
+        img_paths += [s.replace("\\", "/") for s in r.text("path")] if "path" in fields \
+            else [""] * (len(img_ids) - len(img_paths))
         img_names += [Path(s.replace("\\", "/")).stem for s in
                       (r.text("path") if "path" in fields else r.text("id"))]
     if len(set(img_ids)) != len(img_ids):
@@ -382,7 +385,8 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
         notes.append("no control points and no set_datum: a free network")
     cameras = Cameras([str(cam["id"])], np.array([cam["c"]]), cam["pp"][None, :],
                       np.array([cam["kind"]], dtype=object), np.array([cam["coef"]], float),
-                      None, pixel_mm=np.array([cam["py"]]))
+                      None, pixel_mm=np.array([cam["py"]]),
+                      pixel_frame=np.array([[np.nan, np.nan, cam["px"], cam["py"]]]))
     settings.calibration_free = (free,) if free else None
     eo = np.full((len(photo_ids), 6), np.nan)
     prior = inp.find("prior_eo")
@@ -390,7 +394,7 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
         eo, more = _prior_eo(prior, base, xml_dir, spath, img_ids)
         notes += more
     photos = Photos(photo_ids, np.zeros(len(photo_ids), np.int64),
-                    np.full(len(photo_ids), "", dtype=object), eo)
+                    np.full(len(photo_ids), "", dtype=object), eo, img_paths)
     image = ImagePoints(photo, point, xy, sig)
     points = GroundPoints(ids, pxyz, psig, role)
     if not free and ops.estimated:

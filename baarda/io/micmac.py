@@ -312,7 +312,8 @@ def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
                 if twice else "")]
     return Block(
         settings, Cameras([cam["name"]], np.array([cam["focal"] * p]), np.zeros((1, 2)),
-                          pixel_mm=np.array([p])),
+                          pixel_mm=np.array([p]),
+                          pixel_frame=np.array([[cam["ppx"], cam["ppy"], p, p]])),
         Photos(list(names), np.zeros(n_ph, np.int64),
                np.array([_strip(n) for n in names], dtype=object), eo),
         ImagePoints(photo, point, xy, np.full(len(photo), sig_img)),

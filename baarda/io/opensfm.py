@@ -57,6 +57,7 @@ from baarda.block.photo_block import (
     ImagePoints,
     Photos,
     Settings,
+    centred,
 )
 from baarda.errors import ProjectError
 from baarda.io.opensfm_camera import Shots, camera_docs, read_shots, stored_errors
@@ -159,7 +160,8 @@ def _read(path: str | Path, pixel_mm: float, sigma_px: float, crs: str | None) -
         coef[k, :len(c.coefficients)] = c.coefficients
     cameras = Cameras(cam_ids, np.array([c.focal_mm for c in cams]),
                       np.array([c.pp_mm for c in cams]).reshape(-1, 2),
-                      np.array([c.model for c in cams], dtype=object), coef)
+                      np.array([c.model for c in cams], dtype=object), coef,
+                      pixel_frame=centred(len(cams), pixel_mm))
     datum, why = datum_of(pts.xyz, pts.role, pts.rays, shots.gnss_xyz, shots.gnss_sigma)
     settings = Settings(name=root.name, angle_unit="deg", sigma_image_um=sig_mm * 1e3,
                         sigma_control_m=tuple(control.sigma),  # type: ignore[arg-type]  # X, Y, Z

@@ -112,9 +112,13 @@ def bind(host: str, port: int) -> socket.socket:
 
 
 def serve(session: ReviewSession, token: str, sock: socket.socket, *, folders, pixel_mm,
-          save, say, open_browser: bool) -> None:
+          save, say, open_browser: bool) -> int:
     """Serve until Ctrl-C or SIGTERM; the first line said is the address with the token.
-    Edits not saved are saved when it ends (with an output folder)."""
+    Edits not saved are saved when it ends (with an output folder).  Returns the signal
+    that ended it (signal.SIGINT or signal.SIGTERM)."""
+    import asyncio
+    import signal
+
     from aiohttp import web
 
     from baarda.review.server import make_app
@@ -123,13 +127,37 @@ def serve(session: ReviewSession, token: str, sock: socket.socket, *, folders, p
     shown = f"[{host}]" if ":" in host else host
     hosts = (f"{shown}:{port}", f"localhost:{port}") if host in LOCALHOST else ()
     url = f"http://{shown}:{port}/?token={token}"
-    say(f"review: {url}")
     app = make_app(session, token, folders=folders, pixel_mm=pixel_mm, save=save,
                    hosts=hosts)
-    if open_browser:
-        webbrowser.open(url)
-    web.run_app(app, sock=sock, print=None, access_log=None, handle_signals=True)
-    session.settle()  # a background computation ends before the process does
+
+    async def run() -> int:
+        runner = web.AppRunner(app, handle_signals=False, access_log=None)
+        await runner.setup()
+        try:
+            await web.SockSite(runner, sock).start()
+            ended: asyncio.Future[int] = asyncio.get_running_loop().create_future()
+
+            def end(sig: int) -> None:
+                if not ended.done():
+                    ended.set_result(sig)
+
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                asyncio.get_running_loop().add_signal_handler(sig, end, int(sig))
+            say(f"review: {url}")
+            if open_browser:
+                webbrowser.open(url)
+            return await ended
+        finally:
+            await runner.cleanup()
+
+    held = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        signum = asyncio.run(run())
+    finally:  # the command line's own handlers again (asyncio leaves the defaults)
+        for sig, handler in held.items():
+            signal.signal(sig, handler)
+    session.close()  # the worker of the w-test correlations ends with the server
     if save is not None and session.saved != len(session.edits):
         answer = save()
         say(f"review: {answer['edits']} edit(s) saved to {answer['out']}")
+    return signum

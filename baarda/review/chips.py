@@ -1,16 +1,23 @@
 """Image chips: the image around a measurement with where it was measured and where the
 block predicts it (docs/review.md).
 
-Images are looked up by photo id in the folders `image_folders` finds (--images DIR, then
-INPUT/images, and images/ beside or above INPUT: COLMAP's images/ beside sparse/, OpenSfM's
-images/); a photo id is a name looked up in a folder's listing, never a path.  Image
-coordinates (mm, origin at the image centre, y up) become pixels with the camera's pixel
-size: col = W/2 + x/p, row = H/2 - y/p.
+A photo's image is the file its input names (Photos.image: a Bundler list.txt's path, an
+NVM file name, a DBAT script's image path; relative to the input's folder), else a file
+named by the photo id, or by that file's name, in the folders `image_folders` finds
+(--images DIR, then INPUT/images, and images/ beside or above INPUT: COLMAP's images/
+beside sparse/, OpenSfM's images/); the id in a request is looked up in the block first,
+and in a folder's listing, never joined into a path.  Image coordinates (mm) become pixels
+as the reader made them (Cameras.pixel_frame): column = c0 + x / pw, row = r0 - y / ph,
+with (c0, r0) the pixel of their origin (the image's centre, W/2 and H/2, where the reader
+did not know the image: Bundler, NVM, COLMAP, OpenSfM, DBAT; the principal point of
+MicMac's camera) and pw, ph the pixel's width and height (DBAT's and COLMAP's may differ);
+pixels are counted from the upper-left corner of the upper-left pixel, as Pillow counts.
 """
 
 from __future__ import annotations
 
 import io
+import math
 from pathlib import Path
 
 import numpy as np
@@ -40,19 +47,55 @@ def image_folders(input_path: Path, images: Path | None = None) -> list[Path]:
     return out
 
 
-def find_image(folders: list[Path], photo: str) -> Path | None:
-    """The image file of a photo id: a file of one of the folders whose name is the id (or
-    the id with an image extension); never a path built from the id."""
+def find_image(folders: list[Path], photo: str, named: str = "",
+               source: str = "") -> Path | None:
+    """The image file of a photo id: the file the input names (`named`, relative to the
+    input `source`'s folder), else a file of one of the folders whose name is the id, the
+    id with an image extension, or the named file's name; never a path built from the id."""
+    if named:
+        given = Path(named)
+        if not given.is_absolute() and source:
+            src = Path(source)
+            given = (src if src.is_dir() else src.parent) / given
+        if given.is_file():
+            return given
     names = {photo} | {photo + e for e in EXTENSIONS}
+    if named:
+        names.add(Path(named).name)
     for folder in folders:
         try:
             listing = {q.name: q for q in folder.iterdir() if q.is_file()}
         except OSError:
             continue
-        for n in names:
+        for n in sorted(names):
             if n in listing:
                 return listing[n]
     return None
+
+
+def pixel_frame(block: Block, cam: int, pixel_mm: float | None) -> tuple[float, ...]:
+    """(c0, r0, pw, ph) of a camera (module docstring; c0, r0 NaN: the image's centre);
+    pixel_mm: the pixel where the reader gives none (NoImage without one)."""
+    frame = block.cameras.pixel_frame
+    if frame is not None and np.isfinite(frame[cam, 2:]).all() and (frame[cam, 2:] > 0).all():
+        c0, r0, pw, ph = (float(v) for v in frame[cam])
+        return c0, r0, pw, ph
+    pix = block.cameras.pixel_mm
+    p = float(pix[cam]) if pix is not None and np.isfinite(pix[cam]) and pix[cam] > 0 \
+        else pixel_mm
+    if p is None:
+        raise NoImage(f"camera {block.cameras.ids[cam]} has no pixel size: give the input's "
+                      "pixel size to see its images")
+    return math.nan, math.nan, p, p
+
+
+def to_pixel(frame: tuple[float, ...], width: int, height: int, x: float, y: float
+             ) -> tuple[float, float]:
+    """(column, row) of image coordinates x, y (mm) on an image of width x height pixels
+    (from its upper-left corner, y down), with a camera's `pixel_frame` (c0, r0, pw, ph)."""
+    c0, r0, pw, ph = frame
+    return ((width / 2 if math.isnan(c0) else c0) + x / pw,
+            (height / 2 if math.isnan(r0) else r0) - y / ph)
 
 
 def chip_png(block: Block, folders: list[Path], photo: str, ray: dict,
@@ -62,26 +105,25 @@ def chip_png(block: Block, folders: list[Path], photo: str, ray: dict,
     position as a green cross, the predicted one as a red circle with its 1-sigma ellipse.
     pixel_mm: the pixel size where the camera has none (COLMAP's nominal pixel).  Returns
     (the PNG, {mm_per_px: image mm per chip pixel, cx, cy: the chip pixel of the measured
-    position}).  NoImage when there is no image or it cannot be read."""
+    position; mm_per_px_y: of y, where pixels are not square}).  NoImage when there is no
+    image or it cannot be read."""
     from PIL import Image, ImageDraw, UnidentifiedImageError
 
-    path = find_image(folders, photo)
+    i = block.photos.ids.index(photo)
+    named = block.photos.image[i] if block.photos.image is not None else ""
+    path = find_image(folders, photo, named or "", block.source)
     if path is None:
         raise NoImage(f"no image of photo {photo}")
-    i = block.photos.ids.index(photo)
     cam = int(block.photos.camera[i])
-    pix = block.cameras.pixel_mm
-    p = float(pix[cam]) if pix is not None and np.isfinite(pix[cam]) and pix[cam] > 0 \
-        else pixel_mm
-    if p is None:
-        raise NoImage(f"camera {block.cameras.ids[cam]} has no pixel size: give the input's "
-                      "pixel size to see its images")
+    c0, r0, pw, ph = pixel_frame(block, cam, pixel_mm)
     try:
         with Image.open(path) as im:
             width, height = im.size
 
+            frame = (c0, r0, pw, ph)
+
             def px(x, y):
-                return width / 2 + x / p, height / 2 - y / p
+                return to_pixel(frame, width, height, x, y)
 
             c, r = px(ray["x"], ray["y"])
             box = (int(round(c)) - HALF, int(round(r)) - HALF,
@@ -100,8 +142,8 @@ def chip_png(block: Block, folders: list[Path], photo: str, ray: dict,
     mx, my = at(ray["x"], ray["y"])
     if ray.get("pred_x") is not None and ray.get("pred_y") is not None:
         qx, qy = at(ray["pred_x"], ray["pred_y"])
-        sx = (ray.get("sigma_pred_x") or 0.0) / p * ZOOM
-        sy = (ray.get("sigma_pred_y") or 0.0) / p * ZOOM
+        sx = (ray.get("sigma_pred_x") or 0.0) / pw * ZOOM
+        sy = (ray.get("sigma_pred_y") or 0.0) / ph * ZOOM
         d.line([(mx, my), (qx, qy)], fill=(255, 200, 0), width=1)
         d.ellipse([qx - sx, qy - sy, qx + sx, qy + sy], outline=(255, 40, 40), width=2)
         d.ellipse([qx - 3, qy - 3, qx + 3, qy + 3], fill=(255, 40, 40))
@@ -109,4 +151,5 @@ def chip_png(block: Block, folders: list[Path], photo: str, ray: dict,
     d.line([(mx, my - 8), (mx, my + 8)], fill=(0, 255, 0), width=2)
     out = io.BytesIO()
     chip.save(out, "PNG")
-    return out.getvalue(), {"mm_per_px": p / ZOOM, "cx": mx, "cy": my}
+    return out.getvalue(), {"mm_per_px": pw / ZOOM, "mm_per_px_y": ph / ZOOM, "cx": mx,
+                            "cy": my}

@@ -146,6 +146,7 @@ def make_app(session: ReviewSession, token: str, *, folders: Sequence[Path] = ()
             return _error(404, str(e))
         return web.Response(body=png, content_type="image/png", headers={
             "X-Chip-Mm-Per-Px": repr(meta["mm_per_px"]),
+            "X-Chip-Mm-Per-Px-Y": repr(meta["mm_per_px_y"]),
             "X-Chip-Centre": f"{meta['cx']!r},{meta['cy']!r}"})
 
     async def do_save(request):

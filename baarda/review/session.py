@@ -25,6 +25,7 @@ from baarda.block.photo_block import Block
 from baarda.options import Config
 from baarda.quality.separability import RHO_INSEPARABLE
 from baarda.review.edits import Edit, active_of, check, edited
+from baarda.review.worker import SeparabilityWorker
 
 if TYPE_CHECKING:
     from baarda.bundle.bundle_problem import BundleProblem
@@ -44,23 +45,31 @@ class State:
 
 
 def adjusted(block: Block, config: Config, edits: list[Edit], start=None,
-             problem=None, separability: bool = True) -> State:
+             problem=None, separability: bool = True,
+             before: BundleResult | None = None) -> State:
     """The Assessment of `block` with `edits` (what `baarda adjust --edits` writes):
     prepared as `baarda adjust` prepares it, the rejected components inactive.  start: the
     state to start from (a solution of the same problem, or None); problem: the prepared
     problem of the same edited block, to reuse; separability: the w-test correlations
-    (rho_max, its partner, the MSB) too (False: left None, `with_separability` adds them)."""
+    (rho_max, its partner, the MSB) too (False: left None, `with_separability` adds them);
+    before: the adjustment of the same problem with other components rejected, whose
+    factorisation answers the re-weighting (review/reweight.py; a full adjustment from
+    `start` where it does not converge)."""
     from baarda.bundle.bundle_model import BundleModel
     from baarda.bundle.bundle_quality import calibration_tests
     from baarda.pipeline import assess, prepare
     from baarda.quality.assessment import Assessment
     from baarda.quality.statistics import analyse
+    from baarda.review.reweight import refit
 
     t0 = time.perf_counter()
     block_e, rejected = edited(block, edits)
     if problem is None:
         problem = prepare(block_e, config=config)
-    result = problem.reweighted(active_of(problem, rejected)).fit(start=start)
+    weighted = problem.reweighted(active_of(problem, rejected))
+    result = refit(weighted, before) if before is not None else None
+    if result is None:
+        result = weighted.fit(start=start)
     if separability:
         qc = assess(result, config.tests)
     else:  # bundle_quality.assess without the w-test correlations
@@ -78,6 +87,13 @@ def _geometry_key(edits: list[Edit]) -> tuple:
                  if e.action in ("remeasure", "aside"))
 
 
+def _aside_key(edits: list[Edit]) -> tuple:
+    """What decides the observation vector: the points set aside."""
+    from baarda.review.edits import effective
+
+    return tuple(sorted({e.point for e in effective(edits) if e.action == "aside"}))
+
+
 class ReviewSession:
     """The block under review: `summary()`, `observations()`, `edit()`; thread-safe (one
     edit at a time)."""
@@ -90,7 +106,11 @@ class ReviewSession:
         self.lock = threading.RLock()
         self.state = adjusted(block, config, self.edits)
         self._rows: tuple = (None, [])
-        self._later: threading.Thread | None = None
+        self._later: tuple | None = None  # (state, the request of its w-test correlations)
+        self._worker = SeparabilityWorker(block, config, self._separated)
+        self._submitting: threading.Thread | None = None
+        self._submit_lock = threading.Lock()
+        import baarda.review.reweight  # noqa: F401  (imported here, not at the first edit)
         self._key = _geometry_key(self.edits)
 
     # ------------------------------------------------------------ what the page shows
@@ -120,47 +140,29 @@ class ReviewSession:
     def rows(self) -> list[dict]:
         """Every observation component: kind, photo, point, component, w, mdb (µm for image,
         m for control), redundancy, rho_max, rho_partner, verdict (rejected: taken out by
-        the operator; reject: |w| above critical; suspect: r < 0.001; accept); computed once
-        per state (do not change the dicts)."""
-        if self._rows[0] is self.state:
-            return self._rows[1]
-        qc = self.state.qc
-        m, q = qc.model, qc.quality
-        kind, comp = np.asarray(m.kind).astype(str), np.asarray(m.component).astype(str)
-        photo = [_s(v) for v in np.asarray(m.frame).tolist()]
-        point = [_s(v) for v in np.asarray(m.point).tolist()]
-        image = kind == "image"
-        w, r = np.asarray(q.w, float), np.asarray(q.redundancy_number, float)
-        mdb = np.asarray(q.mdb, float) * np.where(image, 1e3, 1.0)
-        n = len(w)
-        rho = np.full(n, np.nan) if q.rho_max is None else np.asarray(q.rho_max, float)
-        partner = np.full(n, -1) if q.rho_partner is None else np.asarray(q.rho_partner, int)
-        verdict, twins = _verdicts(q)
-        verdict = verdict.tolist()
-        twin: list[dict[str, str] | None] = [None] * n
-        for k in np.flatnonzero(twins):
-            p = int(partner[k])
-            twin[k] = {"kind": str(kind[p]), "photo": photo[p], "point": point[p],
-                       "component": str(comp[p])}
-        unit = np.where(image, "µm", "m").tolist()
-        rows = [{"kind": k, "photo": ph, "point": pt, "component": c, "w": wi, "mdb": mi,
-                 "redundancy": ri, "rho_max": rh, "rho_partner": tw, "verdict": v, "unit": u}
-                for k, ph, pt, c, wi, mi, ri, rh, tw, v, u in zip(
-                    kind.tolist(), photo, point, comp.tolist(), _list(w), _list(mdb),
-                    _list(r), _list(rho), twin, verdict, unit, strict=True)]
-        self._rows = (self.state, rows)
-        return rows
+        the operator; reject: |w| above critical; suspect: r < 0.001; accept)."""
+        return self._table().rows(range(self._table().n))
 
     def observations(self, status: str = "flagged") -> list[dict]:
         """The rows to look at, worst first (rejected by the operator, significant,
-        suspect, inseparable; by |w|), or every row ('all')."""
-        rows = self.rows()
-        if status == "flagged":
-            rows = [r for r in rows if r["verdict"] != "accept" or r["rho_partner"] is not None]
+        suspect, inseparable; by |w|), or every row ('all'); only those rows are built."""
+        t = self._table()
+        keep = np.ones(t.n, bool) if status != "flagged" else \
+            (t.verdict != "accept") | t.twins
         order = {"rejected": 0, "reject": 1, "suspect": 3, "accept": 2}
-        return sorted(rows, key=lambda r: (r["verdict"] == "suspect",
-                                           -abs(r["w"]) if r["w"] is not None else 0.0,
-                                           order[r["verdict"]]))
+        rank = np.vectorize(order.__getitem__, otypes=[np.int64])(t.verdict) if t.n else \
+            np.zeros(0, np.int64)
+        absw = np.where(np.isfinite(t.w), np.abs(t.w), 0.0)
+        idx = np.flatnonzero(keep)
+        # (suspect last, |w| descending, verdict), stable: as sorted() on the dicts
+        by = np.lexsort((rank[idx], -absw[idx], t.verdict[idx] == "suspect"))
+        return t.rows(idx[by].tolist())
+
+    def _table(self) -> _Table:
+        """The observation table of the state (built once per state)."""
+        if self._rows[0] is not self.state:
+            self._rows = (self.state, _Table(self.state.qc))
+        return self._rows[1]
 
     def rays(self, point: str) -> list[dict]:
         """The rays of a point: photo, measured x, y (mm), residuals vx, vy (mm), the
@@ -215,45 +217,120 @@ class ReviewSession:
             old = self.state
             edits = self.edits + [e]
             key = _geometry_key(edits)
-            same = key == self._key
-            # a rejection or restoration: the same observation vector, the answer at once
-            # with the w-test correlations of the state before (provisional), those of
-            # this state computed in the background (`settle` waits for them)
+            # the same observation vector (no point set aside or back): a rejection,
+            # restoration or re-measurement is answered from the factorisation before it
+            # (review/reweight.py) with the w-test correlations of the state before
+            # (provisional); those of this state come from the worker process
+            same = _aside_key(edits) == _aside_key(self.edits)
+            problem = self.state.problem if key == self._key else None
             state = adjusted(self.block, self.config, edits,
                              start=self.state.qc.adjustment.state if same else None,
-                             problem=self.state.problem if same else None,
-                             separability=not same)
+                             problem=problem, separability=not same,
+                             before=self.state.qc.adjustment if same else None)
             if same:
-                bare = state.qc.quality
                 prev = self.state.qc.quality
                 state = replace(state, qc=replace(state.qc, quality=replace(
-                    bare, rho_max=prev.rho_max, rho_partner=prev.rho_partner,
+                    state.qc.quality, rho_max=prev.rho_max, rho_partner=prev.rho_partner,
                     msb=prev.msb)), provisional=True)
-                self._later = threading.Thread(target=self._separability,
-                                               args=(state, bare), daemon=True)
-                self._later.start()
             self.edits, self.state, self._key = edits, state, key
+            if same:
+                self._separability(state)
             return {"summary": self.summary(), "changed": _changed(old, state, same)}
 
-    def _separability(self, state: State, bare) -> None:
-        """The w-test correlations of `state` (its quality `bare`, without them), put in
-        place if it is still the state."""
-        from baarda.quality.statistics import with_separability
+    def _separability(self, state: State) -> None:
+        """The w-test correlations of `state` asked of the session's worker process
+        (review/worker.py), put in place when they come if it is still the state.  Asked
+        from a thread: starting the process (a new interpreter) takes longer than the
+        edit."""
+        edits = list(self.edits)
 
-        q = with_separability(state.qc.model, bare)
+        def submit() -> None:
+            with self._submit_lock:
+                self._later = (state, self._worker.request(edits))
+
+        self._submitting = threading.Thread(target=submit, daemon=True)
+        self._submitting.start()
+
+    def _separated(self, n: int, result) -> None:
+        """The worker's answer to request n: (rho_max, rho_partner, msb), or None."""
         with self.lock:
-            if self.state is state:
+            later = self._later
+            if result is None or later is None or later[1] != n:
+                return
+            state = later[0]
+            if self.state is state and state.provisional:
+                rho, partner, msb = result
+                q = replace(state.qc.quality, rho_max=rho, rho_partner=partner, msb=msb)
                 self.state = replace(state, qc=replace(state.qc, quality=q),
                                      provisional=False)
 
     def settle(self, timeout: float | None = None) -> None:
-        """Wait until the state's w-test correlations are its own (not provisional)."""
-        t = self._later
-        if t is not None:
-            t.join(timeout)
+        """Wait until the state's w-test correlations are its own (not provisional); where
+        the worker failed, computed here."""
+        from baarda.quality.statistics import with_separability
+
+        if self._submitting is not None:
+            self._submitting.join(timeout)
+        later = self._later
+        if later is None:
+            return
+        state, n = later
+        if not self._worker.wait(n, timeout):
+            return
+        with self.lock:
+            if self.state is state and state.provisional:
+                bare = replace(state.qc.quality, rho_max=None, rho_partner=None, msb=None)
+                q = with_separability(state.qc.model, bare)
+                self.state = replace(state, qc=replace(state.qc, quality=q),
+                                     provisional=False)
+
+    def close(self) -> None:
+        """End the worker process (a computation under way is dropped)."""
+        if self._submitting is not None:
+            self._submitting.join(60)
+        self._worker.close()
 
     def _aside(self) -> set[str]:
         return {e.point for e in _effective_list(self.edits) if e.action == "aside"}
+
+
+class _Table:
+    """The observation components of an Assessment as columns; `rows(idx)` the dicts of
+    the rows the page asks for (building all of a large block's took a fifth of a second)."""
+
+    def __init__(self, qc):
+        m, q = qc.model, qc.quality
+        self.kind = np.asarray(m.kind).astype(str)
+        self.comp = np.asarray(m.component).astype(str)
+        self.photo = [_s(v) for v in np.asarray(m.frame).tolist()]
+        self.point = [_s(v) for v in np.asarray(m.point).tolist()]
+        image = self.kind == "image"
+        self.w = np.asarray(q.w, float)
+        self.n = n = len(self.w)
+        self.r = np.asarray(q.redundancy_number, float)
+        self.mdb = np.asarray(q.mdb, float) * np.where(image, 1e3, 1.0)
+        self.rho = np.full(n, np.nan) if q.rho_max is None else np.asarray(q.rho_max, float)
+        self.partner = np.full(n, -1) if q.rho_partner is None else \
+            np.asarray(q.rho_partner, int)
+        self.verdict, self.twins = _verdicts(q)
+        self.unit = np.where(image, "µm", "m")
+
+    def rows(self, idx) -> list[dict]:
+        out = []
+        kind, comp, photo, point = self.kind, self.comp, self.photo, self.point
+        idx = np.asarray(list(idx), np.int64)
+        w, mdb, r, rho = (_list(a[idx]) for a in (self.w, self.mdb, self.r, self.rho))
+        for i, k in enumerate(idx.tolist()):
+            twin = None
+            if self.twins[k]:
+                p = int(self.partner[k])
+                twin = {"kind": str(kind[p]), "photo": photo[p], "point": point[p],
+                        "component": str(comp[p])}
+            out.append({"kind": str(kind[k]), "photo": photo[k], "point": point[k],
+                        "component": str(comp[k]), "w": w[i], "mdb": mdb[i],
+                        "redundancy": r[i], "rho_max": rho[i], "rho_partner": twin,
+                        "verdict": str(self.verdict[k]), "unit": str(self.unit[k])})
+        return out
 
 
 def _effective_list(edits):

@@ -20,4 +20,18 @@ def demo_read():
 
 @pytest.fixture
 def demo_session(demo_read):
-    return ReviewSession(*demo_read)
+    session = ReviewSession(*demo_read)
+    yield session
+    session.close()
+
+
+@pytest.fixture(scope="session")
+def big_read(tmp_path_factory):
+    """A simulated block of 1,000 photos (20 strips of 50: 8,956 image points), read."""
+    from baarda.cli import main
+
+    out = tmp_path_factory.mktemp("big") / "block"
+    assert main(["simulate", "-o", str(out), "--strips", "20", "--photos", "50", "-q"]) == 0
+    block, config = read_configured(out)
+    assert len(block.photos.ids) == 1000
+    return block, config

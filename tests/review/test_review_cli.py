@@ -47,12 +47,38 @@ def test_serve_edit_terminate_save(tmp_path):
     finally:
         if p.poll() is None:
             p.kill()
-    assert p.returncode == 0, err
+    assert p.returncode == 143, err  # 128 + SIGTERM, the edits saved
     assert "1 edit(s) saved" in rest
     assert (out / "edits.csv").read_text().splitlines()[1].startswith(
         "reject,03008,007008,x,,,")
     assert (out / "observations.csv").is_file()
     assert not (tmp_path / ".out.review.lock").exists()
+
+
+def test_ctrl_c_ends_with_130_and_keeps_the_edits(tmp_path):
+    out = tmp_path / "out"
+    p = review("examples/demo", "--no-browser", "-o", str(out))
+    try:
+        base, token = p.stdout.readline().strip().split(" ", 1)[1].split("/?token=")
+        for body in ({"action": "reject", "photo": "03008", "point": "007008",
+                      "component": "x"},
+                     {"action": "reject", "photo": "03008", "point": "007008",
+                      "component": "y"}):
+            req = urllib.request.Request(base + "/api/edits", data=json.dumps(body).encode(),
+                                         headers={"X-Baarda-Token": token,
+                                                  "Content-Type": "application/json"})
+            assert json.load(urllib.request.urlopen(req, timeout=60))["summary"]["edits"]
+        p.send_signal(signal.SIGINT)
+        rest, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 130, err
+    assert "2 edit(s) saved" in rest and "Traceback" not in err
+    rows = (out / "edits.csv").read_text().splitlines()[1:]
+    assert [r.split(",")[:4] for r in rows] == [["reject", "03008", "007008", "x"],
+                                               ["reject", "03008", "007008", "y"]]
+    assert (out / "observations.csv").is_file()
 
 
 def test_bad_port_is_bad_input():

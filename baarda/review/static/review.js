@@ -57,6 +57,10 @@ function showSummary(s) {
 
 const keyOf = (r) => [r.kind, r.photo, r.point, r.component].join("\u0000");
 
+// rows drawn at most: the worst first; the filters reach the others (2,000 rows took
+// Chromium seconds to draw on a shared machine)
+const MAX_ROWS = 500;
+
 function filtered() {
   const v = $("f-verdict").value, k = $("f-kind").value;
   const ph = $("f-photo").value.trim(), pt = $("f-point").value.trim();
@@ -68,7 +72,7 @@ function filtered() {
 function showRows() {
   const tb = document.querySelector("#obs tbody");
   tb.replaceChildren();
-  const rows = filtered().slice(0, 2000);
+  const rows = filtered().slice(0, MAX_ROWS);
   const sel = state.sel ? keyOf(state.sel) : null;
   for (const r of rows) {
     const tr = el("tr", undefined, "v-" + r.verdict);
@@ -148,11 +152,12 @@ async function showChips(r) {
       img.src = url;
       img.alt = "image of point " + r.point + " on photo " + ray.photo;
       const scale = Number(resp.headers.get("X-Chip-Mm-Per-Px"));
+      const scaleY = Number(resp.headers.get("X-Chip-Mm-Per-Px-Y") || scale);
       const [cx, cy] = (resp.headers.get("X-Chip-Centre") || "0,0").split(",").map(Number);
       img.addEventListener("click", (ev) => {
         const k = img.naturalWidth / img.clientWidth;
         const u = ev.offsetX * k - cx, v = ev.offsetY * k - cy;
-        remeasureAt(ray, ray.x + u * scale, ray.y - v * scale);
+        remeasureAt(ray, ray.x + u * scale, ray.y - v * scaleY);
       });
       fig.append(img);
     } catch (e) {
