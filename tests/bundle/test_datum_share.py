@@ -142,3 +142,45 @@ def test_gnss_near_a_line_is_weak_and_left_out(sim):
     assert "GNSS positions left out of the adjustment" in out.notes[-1]
     assert without_weak_datum_observations(_gnss(block, [0, len(block.photos) - 1])) \
         .gnss.photo.tolist() == [0, len(block.photos) - 1]
+
+
+def test_a_divergence_names_the_unknowns_that_are_not_determined():
+    """Issue 41: a flat block of nadir photos, each with a camera of its own whose c, x0 and
+    y0 are free: the message said 'the exterior orientation of photo ... is not determined:
+    the block has a datum defect' (whatever the datum held).  It now names the unknowns
+    whose columns are dependent (the null space of the photo's block of the reduced normal
+    equations), and they are: the image Jacobian's columns of X0 and x0 are parallel."""
+    from baarda.block.photo_block import Cameras
+    from baarda.errors import GeometryError
+    from baarda.pipeline import prepare
+
+    b, _ = simulate_block(FlightPlan(strips=1, photos_per_strip=3, pattern=3, control="none",
+                                     height_chains=0, relief_m=0.0, seed=2))
+    n, c = len(b.photos), b.cameras
+    cams = Cameras([f"cam{p}" for p in b.photos.ids], np.repeat(c.focal_mm, n),
+                   np.repeat(c.principal_point_mm, n, axis=0), free=(("c", "x0", "y0"),) * n)
+    b = replace(b, cameras=cams, photos=replace(b.photos, camera=np.arange(n)),
+                settings=replace(b.settings, datum="free"))
+    p = prepare(b)
+    with pytest.raises(GeometryError) as e:
+        p.fit()
+    msg = str(e.value)
+    assert msg.startswith("X0 of photo 01002 and x0 of camera cam01002 cannot be told apart")
+    assert "datum defect" not in msg and "01001" not in msg  # 01001: held by the datum
+    # independently, densely: photo 01002's block of the normal equations with its points
+    # eliminated (every photo's rays on them) has a null vector in X0 and x0
+    lin = p.linearize(p.approximations)
+    k = 1
+    jf, jp, w = lin.jf, lin.jp, lin.w
+    h = np.zeros((p.b, p.b))
+    for j in np.unique(p.obs_point[p.obs_photo == k]):
+        on = p.obs_point == j
+        hpp = np.einsum("mka,mk,mkc->ac", jp[on], w[on], jp[on])
+        mine = on & (p.obs_photo == k)
+        hfp = np.einsum("mka,mk,mkc->ac", jf[mine], w[mine], jp[mine])
+        h += np.einsum("mka,mk,mkc->ac", jf[mine], w[mine], jf[mine]) \
+            - hfp @ np.linalg.solve(hpp, hfp.T)
+    sc = 1 / np.sqrt(np.diag(h))
+    lam, vec = np.linalg.eigh(sc[:, None] * h * sc[None, :])
+    assert lam[0] < 1e-7 < lam[1]
+    assert set(np.flatnonzero(np.abs(vec[:, 0]) > 0.2)) == {0, 7}  # X0 and x0
