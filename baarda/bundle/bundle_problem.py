@@ -475,8 +475,14 @@ class BundleProblem(SchurProblem):
                          "(self-calibration): with little depth in the block or far points "
                          "they let points drift; hold them (--calibrate none, or [calibration] "
                          "in project.toml) or give better approximations")
+        if not sol.converged:
+            notes += self._not_converged_notes()
         return BundleResult(self, sol.state, sol.lin, sol.factor, sol.iterations,
                             sol.converged, tuple(notes), time.perf_counter() - t0)
+
+    def _not_converged_notes(self) -> list[str]:
+        """Why the datum may keep the adjustment from converging, and what to do."""
+        return []
 
     def _continue_damped(self, gn: Solution, options: SolveOptions,
                          progress: Progress | None) -> Solution:

@@ -79,6 +79,18 @@ class FreeBundleProblem(BundleProblem):
         self.inner_refused = inner and not self.inner
         super().__init__(block, held=held, diagnosis=diagnosis, intersected=intersected)
 
+    def _not_converged_notes(self) -> list[str]:
+        share = self.share
+        if share is None or not share.carried:
+            return []
+        worst = float(share.sd.max())
+        return [f"the {share.by} carry {share.carried} of the {share.d} datum parameters "
+                f"(no constraints hold those; the weakest of them to +- {worst:.3g} m at the "
+                f"block's extent {share.extent:.3g} m): where the approximations are in "
+                "another datum than theirs the block has to turn, shift or scale far to meet "
+                "them; give approximations in their frame, adjust with control (--datum "
+                "control and control points), or adjust without them"]
+
     def _held_text(self) -> str:
         """The unknowns the constraints hold, in words."""
         ids = self.block.photos.ids

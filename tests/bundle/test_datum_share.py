@@ -5,6 +5,7 @@ every w and every redundancy number do not depend on which unknowns are held (v'
 and observations that fix a direction only weakly are left out of a free network."""
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -184,3 +185,22 @@ def test_a_divergence_names_the_unknowns_that_are_not_determined():
     lam, vec = np.linalg.eigh(sc[:, None] * h * sc[None, :])
     assert lam[0] < 1e-7 < lam[1]
     assert set(np.flatnonzero(np.abs(vec[:, 0]) > 0.2)) == {0, 7}  # X0 and x0
+
+
+def test_a_gnss_datum_that_does_not_converge_says_why(sim):
+    """Berlin's 3 GPS positions as the whole datum (no constraints): the least-squares
+    datum turns the block by 134 degrees and scales it by 2.1, Gauss-Newton diverges and
+    Levenberg-Marquardt does not arrive within its iterations; the notes say that the GPS
+    carry the datum, how weakly, and what to do."""
+    import baarda
+    from baarda.pipeline import prepare
+
+    src = Path(__file__).resolve().parents[1] / "data" / "opensfm_berlin"
+    p = prepare(baarda.read(src))
+    b = replace(p.block, gnss=baarda.read(src).gnss)  # the GPS rows back, no constraints
+    q = FreeBundleProblem(b)
+    assert not q.held.any() and q.share.carried == 7
+    res = q.fit()
+    assert not res.converged
+    note = [n for n in res.notes if "carry 7 of the 7 datum parameters" in n]
+    assert len(note) == 1 and "--datum control" in note[0] and "602 m" in note[0]
