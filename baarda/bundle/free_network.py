@@ -148,8 +148,9 @@ def without_weak_datum_observations(block: Block) -> Block:
         f"free network: the {what} left out of the adjustment: they fix the "
         f"{'; '.join(share.weak)} only weakly, so they cannot carry the datum and minimal "
         "constraints would over-constrain them (the statistics would depend on the photo "
-        "held); the 7 datum parameters are held by minimal constraints instead.  Use them "
-        "with --datum control (their datum, if it converges), or add control points"])
+        f"held); the {share.d} datum parameters are held by minimal constraints instead.  "
+        "Use them with --datum control (their datum, if it converges), or add control "
+        "points"])
 
 
 def adjust_free(block: Block, datum: tuple[int, int, int] | None = None,

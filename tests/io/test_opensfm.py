@@ -407,3 +407,10 @@ def test_berlins_statistics_do_not_depend_on_the_photo_held(block):
     assert np.allclose(qa.redundancy_number, qb.redundancy_number, rtol=0, atol=1e-7)
     assert "statistics do not depend on the datum" in p.datum_text()
     assert a.vtpv == pytest.approx(12623.2272, abs=1e-3)  # was 12,628.037 with the GPS rows
+    # carrying the datum alone, the GPS would turn the block by 134 degrees and scale it by
+    # 2.1 (the best similarity of the adjusted projection centres onto them)
+    from baarda.block.rotation import similarity
+
+    sc, r, _ = similarity(a.eo[block.gnss.photo, :3], block.gnss.xyz)
+    angle = np.degrees(np.arccos((np.trace(r) - 1) / 2))
+    assert angle == pytest.approx(134, abs=1) and sc == pytest.approx(2.1, abs=0.05)
