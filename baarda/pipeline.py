@@ -306,7 +306,11 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     from baarda.block.camera import ideal_image_coordinates
     from baarda.bundle.bundle_problem import BundleProblem
     from baarda.bundle.diagnostics import diagnose
-    from baarda.bundle.free_network import FreeBundleProblem, drop_points_behind
+    from baarda.bundle.free_network import (
+        FreeBundleProblem,
+        drop_points_behind,
+        without_weak_datum_observations,
+    )
     from baarda.bundle.geometry import intersected_points
 
     inner = block.settings.datum == "inner"
@@ -320,6 +324,7 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     if block.points.controlled.any():
         block = as_check_points(block)  # the same rays: the same intersections
     block, dropped = drop_points_behind(block)
+    block = without_weak_datum_observations(block)
     return FreeBundleProblem(block, diagnosis=diagnosis, inner=inner,
                              intersected=None if dropped else xyz)
 

@@ -48,10 +48,8 @@ FIGURES = [
      "{n_observations:,} observations, {n_unknowns:,} unknowns, redundancy {redundancy:,}, "
      "{iterations} Gauss-Newton iterations from the stored reconstruction"),
     ("docs/formats.md", "berlin",
-     "sigma0 {sigma0:.4f} (the GPS rows included; image RMS {rms_image_x_px:.2f} / "
+     "sigma0 {sigma0:.4f} (the GPS rows left out; image RMS {rms_image_x_px:.2f} / "
      "{rms_image_y_px:.2f} px); c {c:.4f} +- {sigma_c:.4f} mm"),
-    ("docs/formats.md", "berlin", "GPS residuals up to {max_abs_gnss:.1f} m (w <= "
-     "{max_abs_w_gnss:.2f})"),
     ("docs/formats.md", "berlin snooped",
      "With `--snoop`: {n_rejected} image coordinates rejected (w {w_first:.1f} down to "
      "{w_last:.1f}), {refused} removals refused (without them the adjustment does not "

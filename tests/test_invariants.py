@@ -286,7 +286,8 @@ def test_berlin_snooping_never_builds_on_a_diverged_refit(tmp_path):
         c = pd.read_csv(folder / "photos.csv")[["X0", "Y0", "Z0"]].to_numpy()
         spread[name] = np.linalg.norm(c - c.mean(axis=0), axis=1).max()
     assert abs(spread["snooped"] / spread["plain"] - 1) < 0.15, spread
-    assert s["n_rejected"] == 191 and s["sigma0"] == pytest.approx(1.1101, abs=1e-4)
+    # sigma0 1.1101 with the GPS rows (issue 41: left out, they fix the roll only weakly)
+    assert s["n_rejected"] == 191 and s["sigma0"] == pytest.approx(1.1118, abs=1e-4)
 
 
 def test_one_verdict_per_line_and_the_iterations_the_console_showed(tmp_path, capsys):

@@ -112,12 +112,36 @@ class SchurFactor:
         try:
             self.chol.factorize(values)
         except NotPositiveDefinite as err:
-            raise GeometryError(
-                f"the exterior orientation of {s.frame_names[err.block]} is not determined: "
-                "the block has a datum defect or this photo is not connected well enough "
-                "(check control and tie points)") from None
+            raise GeometryError(self._undetermined(values, err.block)) from None
         if s.ng:
             self._eliminate_globals()
+
+    def _undetermined(self, values: np.ndarray, k: int) -> str:
+        """Why frame k's pivot failed, naming its unknowns whose columns are dependent (the
+        null vector of its diagonal block of the reduced normal equations, after the points'
+        elimination; held unknowns, of weight HOLD, are never among them)."""
+        s = self.system
+        names = s.column_names(k) if s.column_names is not None else None
+        dep, n_null = dependent_columns(values[s.diag_slot[k]])
+        if names is None or not dep:
+            return (f"the exterior orientation of {s.frame_names[k]} is not determined: the "
+                    "block has a datum defect or this photo is not connected well enough "
+                    "(check control and tie points)")
+        which = [names[i] for i in dep]
+        if max(dep) < 6:  # the orientation alone: too few observations, or the datum
+            return (f"the exterior orientation of {s.frame_names[k]} is not determined "
+                    f"({', '.join(which)} move freely): the block has a datum defect or this "
+                    "photo is not connected well enough (check control and tie points)")
+        if len(which) == 1:
+            return (f"{which[0]} is not determined by the observations of "
+                    f"{s.frame_names[k]}: hold it fixed or add observations that determine it")
+        return (f"{', '.join(which[:-1])} and {which[-1]} cannot be told apart ({n_null} "
+                "combination(s) of them are not determined: their columns of the normal "
+                f"equations are dependent in the observations of {s.frame_names[k]}; e.g. a "
+                "flat block seen from above cannot separate the principal distance from the "
+                "height of the photos, nor the principal point from their position): hold "
+                "some of them fixed (--calibrate) or strengthen the geometry (relief, tilted "
+                "or rotated photos, control)")
 
     # ----------------------------------------------------------- global unknowns
     def _assemble_globals(self, lin: Linearization) -> None:
@@ -434,3 +458,25 @@ class SchurFactor:
             xfm = s.x_frame >= 0
             rows_x[xfm] += np.einsum("xkb,xbq->xkq", lin.jxf[xfm], xf[s.x_frame[xfm]])
         return rows, rows_c, rows_x
+
+
+NULL = 1e-7  # an eigenvalue of a diagonal block scaled to unit diagonal below this: singular
+
+
+def dependent_columns(block: np.ndarray) -> tuple[list[int], int]:
+    """(the columns of a symmetric block (lower triangle given) that its null space moves,
+    its dimension): the eigenvectors of the eigenvalues below NULL of the block scaled to
+    unit diagonal, the columns whose share in them is at least 0.2 of the largest, in
+    column order; a column without any weight alone.  ([], 0) when the block is regular."""
+    a = np.tril(block) + np.tril(block, -1).T
+    d = np.diag(a).copy()
+    empty = np.flatnonzero(~(d > 0))
+    if len(empty):
+        return [int(empty[0])], 1
+    sc = 1.0 / np.sqrt(d)
+    lam, vec = np.linalg.eigh(sc[:, None] * a * sc[None, :])
+    null = vec[:, lam < NULL]
+    if not null.shape[1]:
+        return [], 0
+    share = np.linalg.norm(null, axis=1)
+    return [int(i) for i in np.flatnonzero(share >= 0.2 * share.max())], null.shape[1]

@@ -28,6 +28,7 @@ dense (Y is n_unknowns x ng, ng small).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -87,15 +88,18 @@ class SchurSystem:
     observation of large weight): they are not unknowns of the model
     (bundle/free_network.py, fixed control).  ng: global unknowns; gcol (m, kg): the global
     column of each of the kg `jg` columns of a frame-point observation (-1: none); x_frame
-    (mx,): the frame of each extra observation (-1: none).
+    (mx,): the frame of each extra observation (-1: none).  column_names(k): the names of
+    frame k's b unknowns (messages about undetermined unknowns name them).
     """
 
     def __init__(self, n_frames: int, b: int, n_points: int, d: int,
                  frame: np.ndarray, point: np.ndarray, control_point: np.ndarray,
                  frame_names: list[str] | None = None, point_names: list[str] | None = None,
                  n_fixed: int = 0, ng: int = 0, gcol: np.ndarray | None = None,
-                 x_frame: np.ndarray | None = None, global_names: list[str] | None = None):
+                 x_frame: np.ndarray | None = None, global_names: list[str] | None = None,
+                 column_names: Callable[[int], list[str]] | None = None):
         self.nf, self.b, self.np, self.d = n_frames, b, n_points, d
+        self.column_names = column_names  # the names of a frame's b unknowns, when known
         self.frame_names = frame_names or [str(i) for i in range(n_frames)]
         self.point_names = point_names or [str(i) for i in range(n_points)]
         frame = np.asarray(frame, np.int64)

@@ -198,7 +198,8 @@ class BundleProblem(SchurProblem):
             len(block.photos), self.b, len(self.elim_ids), 3, ph, self.eremap[im.point[self.obs]],
             self.eremap[self.control], frame_names=[f"photo {p}" for p in block.photos.ids],
             point_names=[pts.ids[j] for j in self.elim_ids], n_fixed=n_fixed, ng=ng,
-            gcol=gcol, x_frame=x_frame, global_names=list(self.global_layout.labels))
+            gcol=gcol, x_frame=x_frame, global_names=list(self.global_layout.labels),
+            column_names=self._column_names)
         # held global columns (fixed control of border points) and their held values
         self.held_globals = self.global_layout.start("points") + np.flatnonzero(
             self.held_border.ravel())
@@ -218,6 +219,17 @@ class BundleProblem(SchurProblem):
         n = self.layout.n
         self._set_weights(np.ones(n, bool), np.ones(n))
         self._parameter_scale, self._photo_scale = self._camera_effect()
+
+    def _column_names(self, k: int) -> list[str]:
+        """The names of photo k's unknowns: its orientation, then the free parameters of
+        the camera in its block (held columns named as such)."""
+        photo = self.block.photos.ids[k]
+        names = [f"{n} of photo {photo}" for n in ("X0", "Y0", "Z0", "omega", "phi", "kappa")]
+        cal = self.calibration
+        owned = np.flatnonzero(cal.owner == k)
+        free = [f"{cal.names[i][j]} of camera {self.block.cameras.ids[i]}"
+                for i in owned for j in cal.free_index[i]]
+        return names + free + ["(held)"] * (self.b - 6 - len(free))
 
     @property
     def units(self) -> dict[str, tuple[float, str]]:
@@ -464,8 +476,14 @@ class BundleProblem(SchurProblem):
                          "(self-calibration): with little depth in the block or far points "
                          "they let points drift; hold them (--calibrate none, or [calibration] "
                          "in project.toml) or give better approximations")
+        if not sol.converged:
+            notes += self._not_converged_notes()
         return BundleResult(self, sol.state, sol.lin, sol.factor, sol.iterations,
                             sol.converged, tuple(notes), time.perf_counter() - t0)
+
+    def _not_converged_notes(self) -> list[str]:
+        """Why the datum may keep the adjustment from converging, and what to do."""
+        return []
 
     def _continue_damped(self, gn: Solution, options: SolveOptions,
                          progress: Progress | None) -> Solution:

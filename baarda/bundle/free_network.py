@@ -16,11 +16,14 @@ orientations and points do (they refer to the chosen datum).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
+from baarda.bundle.datum_share import datum_share, minimal_constraints
 from baarda.errors import GeometryError
 
 
@@ -58,30 +61,60 @@ class FreeBundleProblem(BundleProblem):
             raise GeometryError("the block has control points: adjust it with its control "
                                 "(a free-network datum would over-constrain it)")
         self.datum = choose_datum(block) if datum is None else datum
-        self.inner = inner  # results given in the inner datum of all points
         a, b, k = self.datum
-        held = np.zeros((len(block.photos), 6), bool)
-        held[a] = True
         self.scaled = bool(len(block.distances))  # a distance fixes the scale
-        if not self.scaled:
-            held[b, k] = True
+        # GNSS positions and IMU attitudes fix part or all of the datum: constraints only
+        # for what they leave free (bundle/datum_share.py)
+        self.share = datum_share(block) if len(block.gnss) or len(block.imu) else None
+        if self.share is not None and self.share.carried:
+            held = minimal_constraints(block, self.share, a, b)
+        else:
+            held = np.zeros((len(block.photos), 6), bool)
+            held[a] = True
+            if not self.scaled:
+                held[b, k] = True
+        # the inner datum moves the block along every datum direction: only where the
+        # observations fix none of them
+        self.inner = inner and (self.share is None or not self.share.carried)
+        self.inner_refused = inner and not self.inner
         super().__init__(block, held=held, diagnosis=diagnosis, intersected=intersected)
 
+    def _not_converged_notes(self) -> list[str]:
+        share = self.share
+        if share is None or not share.carried:
+            return []
+        worst = float(share.sd.max())
+        return [f"the {share.by} carry {share.carried} of the {share.d} datum parameters "
+                f"(no constraints hold those; the weakest of them to +- {worst:.3g} m at the "
+                f"block's extent {share.extent:.3g} m): where the approximations are in "
+                "another datum than theirs the block has to turn, shift or scale far to meet "
+                "them; give approximations in their frame, adjust with control (--datum "
+                "control and control points), or adjust without them"]
 
-    def _invariance(self) -> str:
-        """What the statistics depend on: nothing, unless GNSS or IMU observations carry part
-        of the datum that the minimal constraints hold too (then they over-constrain it)."""
-        g, i = len(self.block.gnss), len(self.block.imu)
-        if not (g or i):
-            return "the observations' statistics do not depend on the datum"
-        what = " and ".join(w for w, n in (("GNSS positions", g), ("IMU attitudes", i)) if n)
-        return (f"the {what} also carry part of the datum, so the constraints are more than "
-                "minimal: the statistics depend on the photo held (up to the weight of those "
-                "observations); --datum control lets them carry the datum")
+    def _held_text(self) -> str:
+        """The unknowns the constraints hold, in words."""
+        ids = self.block.photos.ids
+        assert self.held is not None
+        names = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
+        parts = [f"{', '.join(names[c] for c in np.flatnonzero(row))} of photo {ids[i]}"
+                 for i, row in enumerate(self.held) if row.any()]
+        return " and ".join(parts)
 
     def datum_text(self) -> str:
         a, b, k = self.datum
         ids = self.block.photos.ids
+        invariant = "the observations' statistics do not depend on the datum"
+        share = self.share
+        if share is not None and share.carried:
+            left = share.free.shape[1]
+            held = (f"minimal constraints hold the {left} direction(s) they leave free: "
+                    f"{self._held_text()}" if left else "no constraints")
+            return (f"datum: FREE NETWORK (no control): the {share.by} fix {share.carried} of "
+                    f"its {share.d} datum parameters; {held}; coordinates and their standard "
+                    "deviations refer to this datum" + (
+                        " (not the inner datum of the points: the observations hold part of "
+                        "the datum)" if self.inner_refused else "") + "; " + invariant
+                    + ("" if left else " (there is no choice)"))
         scale = ("the scale by the distance observations" if self.scaled else
                  f"{'XYZ'[k]}0 of photo {ids[b]} (scale)")
         if self.inner:
@@ -91,10 +124,33 @@ class FreeBundleProblem(BundleProblem):
                     "S-transformed to the datum in which the points move least from their "
                     "approximations (" + ("6 parameters, the distances fix the scale"
                                           if self.scaled else "7 parameters") + "); "
-                    + self._invariance())
+                    + invariant)
         return (f"datum: FREE NETWORK (no control): minimal constraints, photo {ids[a]} held "
                 f"(its six orientation unknowns) and {scale}; coordinates and their standard "
-                "deviations refer to this datum; " + self._invariance())
+                "deviations refer to this datum; " + invariant)
+
+
+def without_weak_datum_observations(block: Block) -> Block:
+    """The block without its GNSS positions and IMU attitudes when they fix a datum direction
+    only weakly (bundle/datum_share.py: three GNSS positions close to a line and the roll
+    about it): holding that direction by a constraint would over-constrain them (statistics
+    that depend on the constraint), leaving it to them a datum fixed only in name.  A note
+    says which direction and what to do."""
+    if not (len(block.gnss) or len(block.imu)):
+        return block
+    share = datum_share(block)
+    if not share.weak:
+        return block
+    from baarda.block.photo_block import no_gnss, no_imu
+
+    what = share.by.replace(" and distances", "").replace("distances", "")
+    return replace(block, gnss=no_gnss(), imu=no_imu(), notes=list(block.notes) + [
+        f"free network: the {what} left out of the adjustment: they fix the "
+        f"{'; '.join(share.weak)} only weakly, so they cannot carry the datum and minimal "
+        "constraints would over-constrain them (the statistics would depend on the photo "
+        f"held); the {share.d} datum parameters are held by minimal constraints instead.  "
+        "Use them with --datum control (their datum, if it converges), or add control "
+        "points"])
 
 
 def adjust_free(block: Block, datum: tuple[int, int, int] | None = None,

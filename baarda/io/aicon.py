@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import INPUT_CALIBRATION
 from baarda.block.photo_block import (
     Block,
     Cameras,
@@ -146,17 +147,19 @@ class AiconProject:
                             np.column_stack([o["x"], o["y"]]), sig, None, per_axis)
         distances = self.distances(points.ids)
         notes = [f"AICON project {self.name}: object coordinates mm -> m; c = -ck; camera "
-                 "model 'aicon' (A1..A3 with R0, B1, B2, C1, C2), estimating "
-                 + ", ".join(free),
+                 "model 'aicon' (A1..A3 with R0, B1, B2, C1, C2)",
                  f"{len(distances)} scale bar(s) as distance observations (mm -> m)",
                  "datum: AICON's own, a free network in the inner datum of its points (as "
                  "AICON 3D Studio adjusts it; --datum free holds photo 1 instead)"]
         if protocol is not None:
-            notes.append(f"AICON protocol {protocol.path.name}: the estimated camera parameters "
-                         "and the a-priori sigmas of the image coordinates taken from it")
+            notes.append(f"AICON protocol {protocol.path.name}: the a-priori sigmas of the "
+                         "image coordinates taken from it")
+            notes.append(INPUT_CALIBRATION + f"the camera parameters {protocol.path.name} "
+                         "estimates are estimated (" + ", ".join(free) + ")")
         else:
-            notes.append("no AICON protocol (.htm) beside the project: the camera parameters "
-                         "AICON estimates by default are estimated (" + ", ".join(free) + ")")
+            notes.append(INPUT_CALIBRATION + "no AICON protocol (.htm) beside the project: "
+                         "the camera parameters AICON estimates by default are estimated ("
+                         + ", ".join(free) + ")")
         settings = Settings(name=self.name, angle_unit="rad",
                             sigma_image_um=float(np.median(sig)) * 1e3, datum="inner",
                             calibration_free=(free,) * len(cam_ids))

@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import INPUT_CALIBRATION
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
 from baarda.io.dbat_camera import (
@@ -309,8 +310,10 @@ def read_dbat(path: str | Path, *, camera: str | Path | None = None,
     free = (ops.estimated or ()) if calibrate else ()
     if free:
         cam = calibrated_camera(cam)
-        notes.append("the script estimates the interior orientation (" + ", ".join(free)
-                     + "): self-calibration with DBAT's model 3 (camera model 'dbat3')")
+        notes.append("camera model 'dbat3' (DBAT's model 3, the model of the script's "
+                     "self-calibration)")
+        notes.append(INPUT_CALIBRATION + "the script estimates the interior orientation ("
+                     + ", ".join(free) + "): estimated")
     rows_photo, rows_point, rows_xy, rows_sig = [], [], [], []
     rows_where: list[tuple[str, int]] = []  # (file, line) of each measurement
     for f in ip_node.findall("file"):

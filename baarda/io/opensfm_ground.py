@@ -227,6 +227,5 @@ def datum_of(xyz: np.ndarray, role: np.ndarray, rays: np.ndarray, gnss_xyz: np.n
         why = f"{len(gnss_xyz)} GPS position(s)"
     return "inner", (f"datum: OpenSfM's own (inner constraints on the stored reconstruction): "
                      f"{int(good.sum())} GCP(s) with coordinates on two or more shots (3 "
-                     f"needed) and {why}; GCPs are check points, GPS positions are compared "
-                     "with the reconstruction's georeference (--datum control uses them as "
-                     "control)")
+                     f"needed) and {why}; GCPs are check points, GPS positions observations only "
+                     "where they fix the datum well (--datum control uses both as control)")
