@@ -1,6 +1,7 @@
 """`baarda convert IN -o OUT [--to FMT]`: any supported input, or a result folder of `baarda
-adjust` (its adjusted block), -> a native project folder, or a Bundler, NVM, PAT-B or BINGO
-file (output/sfm_files.py, patb_files.py, bingo_files.py; a result folder's rejected
+adjust` (its adjusted block), -> a native project folder, or a COLMAP, BAL, OpenSfM,
+Bundler, NVM, Metashape, PAT-B or BINGO file (the registry's writers: output/block_formats.py,
+sfm_files.py, metashape_files.py, patb_files.py, bingo_files.py; a result folder's rejected
 observations go to rejected.csv)."""
 
 from __future__ import annotations
@@ -24,17 +25,24 @@ def register(sub) -> None:
     add_out_argument(p, "project folder to write")
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
-                   help="what to write: a native project (default), bundler (bundle.out, "
-                   "list.txt), nvm (model.nvm), metashape (cameras.xml with bundle.out "
-                   "and list.txt for the tie points), patb (block.im .con .ori .at .pro) or "
-                   "bingo (block_tp_bingo.txt, block_calibrated_camera_parameters.txt); a "
-                   "result folder of baarda adjust as INPUT gives its adjusted block, "
-                   "without the rejected observations (listed in rejected.csv)")
+                   help="what to write: " + ", ".join(f"{t} ({w})" for t, w in
+                                                      TARGETS.items()) +
+                   "; a result folder of baarda adjust as INPUT gives its adjusted block, "
+                   "without the rejected observations (listed in rejected.csv); what a "
+                   "format cannot hold is said in notes (docs/formats.md, Writers)")
     add_input_options(p)
     p.set_defaults(func=run_convert)
 
 
-TARGETS = ("project", "bundler", "nvm", "metashape", "patb", "bingo")
+# what `--to` writes: the target and its files (the help is made of it)
+TARGETS = {"project": "a native project folder, the default",
+           "colmap": "cameras.txt, images.txt, points3D.txt",
+           "bal": "problem.txt",
+           "opensfm": "reconstruction.json, tracks.csv, ground_control_points.json",
+           "bundler": "bundle.out, list.txt", "nvm": "model.nvm",
+           "metashape": "cameras.xml with bundle.out and list.txt for the tie points",
+           "patb": "block.im .con .ori .at .pro",
+           "bingo": "block_tp_bingo.txt, block_calibrated_camera_parameters.txt"}
 WRITTEN_AS = {"metashape": "metashape-xml"}  # a target whose writer is another format's
 
 
