@@ -1,13 +1,15 @@
-"""Writing a Block as a COLMAP model, a BAL file or an OpenSfM dataset, for `baarda convert
---to colmap|bal|opensfm` (the registry's `writer`): each writer takes (block, folder) and
-returns its notes on what the format cannot hold.  The Block is turned into the format's
-model object (io/colmap.ColmapModel, io/bal.BalProblem) and written by
+"""Writing a Block as a COLMAP model, a BAL file, an OpenSfM dataset or an AICON project, for
+`baarda convert --to colmap|bal|opensfm|aicon` (the registry's `writer`): each writer takes
+(block, folder) and returns its notes on what the format cannot hold.  The Block is turned
+into the format's model object (io/colmap.ColmapModel, io/bal.BalProblem,
+io/aicon.AiconProject) and written by
 output/format_files.py, the inverses of the readers.
 
 Pixels: a camera's pixel size is the one the block states (`Cameras.pixel_mm`, else the
 reader's `pixel_xy_mm`), else the nominal 1 µm the readers of pixel formats assume; so a
 block read from a pixel format goes back in its own pixels.  Every point goes out as a tie
-point (neither COLMAP nor BAL has control).
+point (none of these formats has control as baarda means it, but OpenSfM, whose GCPs keep
+their given coordinates).
 """
 
 from __future__ import annotations
@@ -19,11 +21,12 @@ import numpy as np
 from baarda.block.camera import coefficients, kinds
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix, rotation_vector
+from baarda.io.aicon import AiconProject, point_id
 from baarda.io.bal import BalProblem
 from baarda.io.colmap import ColmapCamera, ColmapModel
 from baarda.io.colmap_block import eo_to_pose
 from baarda.io.colmap_model import ColmapImages, ColmapPoints
-from baarda.output.format_files import write_bal, write_colmap, write_opensfm
+from baarda.output.format_files import write_aicon, write_bal, write_colmap, write_opensfm
 from baarda.output.sfm_files import PIXEL_MM, _checked, _pixel
 
 BAL_FILE = "problem.txt"
@@ -230,4 +233,100 @@ def write_opensfm_block(block: Block, folder: str | Path) -> list[str]:
                  "sigmas (give --sigma-px when reading), tie point ids kept"
                  + (f"; {checks} check point(s) written as GCPs (read them back with "
                     "--check-gcp)" if checks else ""))
+    return notes
+
+
+def _aicon_ids(ids: list[str], what: str, notes: list[str]) -> tuple[np.ndarray, bool]:
+    """AICON's numeric ids of `ids` (float), kept where every id reads back as itself
+    (aicon.point_id), else 1, 2, ... (noted); and whether they were kept."""
+    try:
+        values = np.array([float(s) for s in ids])
+        kept = all(point_id(v) == s for v, s in zip(values, ids, strict=True)) and \
+            len(set(ids)) == len(ids)
+    except ValueError:
+        kept = False
+    if kept:
+        return values, True
+    notes.append(f"{what} ids renumbered 1, 2, ... (AICON's ids are numbers)")
+    return np.arange(1.0, len(ids) + 1), False
+
+
+def block_to_aicon(block: Block, name: str = "block") -> tuple[AiconProject, list[str]]:
+    """The AICON project of `block` and the notes: cameras with AICON's model (ck = -c, xh,
+    yh = the principal point, A1..A3 with R0, B1, B2, C1, C2; a camera without terms as all
+    zero), orientations and points in mm, the observations with their sigmas sx, sy [mm],
+    the distances as scale bars [mm]; every image, point and observation active."""
+    notes = _checked(block)
+    cams, photos, im, pts = block.cameras, block.photos, block.image, block.points
+    kind = kinds(cams)
+    n_c = len(cams)
+    coef = np.zeros((n_c, 7))
+    r0 = np.zeros(n_c)
+    for i in range(n_c):
+        k = coefficients(cams, i)
+        if kind[i] == "aicon":
+            coef[i] = k
+            c = cams.constants
+            r0[i] = 0.0 if c is None else float(np.asarray(c, float).reshape(n_c, -1)[i, 0])
+        elif np.any(k):
+            raise ValueError(f"camera {cams.ids[i]}: model {kind[i]} has no AICON "
+                             "equivalent (aicon, or a camera without terms)")
+    cam_id, _ = _aicon_ids(cams.ids, "camera", notes)
+    photo_id, _ = _aicon_ids(photos.ids, "photo", notes)
+    used = np.unique(np.concatenate([im.point, block.distances.point_a,
+                                     block.distances.point_b]).astype(np.int64))
+    pid, _ = _aicon_ids([pts.ids[j] for j in used], "point", notes)
+    size = np.abs(im.xy_mm).max(initial=1.0) * 2
+    cameras = {"id": cam_id, "internal": np.zeros(n_c), "ck": -np.asarray(cams.focal_mm, float),
+               "xh": cams.principal_point_mm[:, 0].astype(float),
+               "yh": cams.principal_point_mm[:, 1].astype(float), "R0": r0,
+               "width_mm": np.full(n_c, size), "height_mm": np.full(n_c, size),
+               "nx": np.zeros(n_c), "ny": np.zeros(n_c)}
+    cameras.update({f: coef[:, k] for k, f in enumerate(("A1", "A2", "A3", "B1", "B2", "C1",
+                                                         "C2"))})
+    n = len(photos)
+    eo = photos.eo
+    images = {"id": photo_id, "camera": cam_id[photos.camera], "X0": eo[:, 0] * 1e3,
+              "Y0": eo[:, 1] * 1e3, "Z0": eo[:, 2] * 1e3, "omega": eo[:, 3], "phi": eo[:, 4],
+              "kappa": eo[:, 5], "order": np.zeros(n), "status": np.ones(n),
+              "orient": np.zeros(n)}
+    m = len(used)
+    xyz = pts.xyz[used] * 1e3
+    rays = np.bincount(im.point, minlength=len(pts.ids))[used]
+    points = {"id": pid, "X": xyz[:, 0], "Y": xyz[:, 1], "Z": xyz[:, 2], "sX": np.zeros(m),
+              "sY": np.zeros(m), "sZ": np.zeros(m), "rays": rays, "status": np.ones(m),
+              "new": np.zeros(m), "datum": np.zeros(m)}
+    index = np.full(len(pts.ids), -1, np.int64)
+    index[used] = np.arange(m)
+    k = len(im.photo)
+    sxy = im.sigma_xy
+    observations = {"image": photo_id[im.photo], "point": pid[index[im.point]],
+                    "x": im.xy_mm[:, 0], "y": im.xy_mm[:, 1], "sx": sxy[:, 0], "sy": sxy[:, 1],
+                    "vx": np.zeros(k), "vy": np.zeros(k), "method": np.zeros(k),
+                    "status": np.ones(k), "internal": np.zeros(k)}
+    d = block.distances
+    bad = [s for s in d.ids if '"' in s]
+    if bad:
+        raise ValueError(f"distance '{bad[0]}': AICON's scale bar names have no quotes")
+    scale = {"id": np.arange(1, len(d) + 1), "name": list(d.ids),
+             "a": pid[index[d.point_a]], "b": pid[index[d.point_b]],
+             "length": np.asarray(d.length_m, float) * 1e3,
+             "sigma": np.asarray(d.sigma_m, float) * 1e3, "status": np.ones(len(d))}
+    notes = [n for n in notes if "observations not written" not in n]
+    extra = [w for w, v in (("GNSS", block.gnss), ("IMU", block.imu)) if len(v)]
+    if extra:
+        notes.append(f"{', '.join(extra)} observations not written (no place in the format)")
+    notes.append("AICON: object coordinates in mm, no point sigmas, read back as a free "
+                 "network in the inner datum estimating AICON's default camera parameters "
+                 "(give --calibrate none for the cameras as written)")
+    return AiconProject(name, Path("."), cameras, images, points, observations, scale), notes
+
+
+def write_aicon_block(block: Block, folder: str | Path) -> list[str]:
+    """block.ior, .eor, .obc, .phc, .scale of `block` in `folder` (block_to_aicon); the
+    notes on what was dropped."""
+    project, notes = block_to_aicon(block)
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_aicon(project, folder)
     return notes

@@ -1,4 +1,4 @@
-"""`baarda convert --to colmap|bal|opensfm` (output/block_formats.py): a Block written through
+"""`baarda convert --to colmap|bal|opensfm|aicon` (output/block_formats.py): a Block written through
 the registry's writer, read back as the same block; a result folder converted and adjusted
 again gives the result's sigma0 (1e-6).  Data: COLMAP's Maupertuis model (shared data)."""
 
@@ -22,7 +22,7 @@ COLMAP = DATA / "colmap_maupertuis" / "sparse"
 DEMO = Path(__file__).resolve().parents[2] / "examples" / "demo"
 needs_colmap = pytest.mark.skipif(not COLMAP.is_dir(), reason="the shared COLMAP Maupertuis "
                                   "model is not there (/work/shared/data/colmap_maupertuis)")
-READ_BACK = {"colmap": "", "bal": "problem.txt", "opensfm": ""}
+READ_BACK = {"colmap": "", "bal": "problem.txt", "opensfm": "", "aicon": ""}
 
 
 def _observations(b):
@@ -45,6 +45,11 @@ def test_round_trip(tmp_path, to):
     if to == "bal":  # one camera per photo, photos numbered
         assert b.photos.ids == [str(i) for i in range(4)] and len(b.cameras) == 4
         assert any("one camera per photo" in n and "no principal point" in n for n in notes)
+    elif to == "aicon":  # ids are numbers: COLMAP's image names '03' ... renumbered
+        assert b.photos.ids == ["1", "2", "3", "4"] and b.points.ids == a.points.ids
+        assert any("photo ids renumbered" in n for n in notes)
+        assert np.array_equal(b.image.sigma_xy, a.image.sigma_xy)  # sx, sy [mm] written
+        assert np.abs(b.points.xyz - a.points.xyz).max() <= 1e-15 * np.abs(a.points.xyz).max()
     else:
         assert b.photos.ids == a.photos.ids
         assert any("no image sigmas" in n for n in notes)
@@ -118,16 +123,18 @@ def test_colmap_lens_adjusts_as_written(tmp_path):
 @pytest.mark.slow
 @needs_colmap
 def test_result_converted_and_adjusted_again(tmp_path):
-    """Acceptance (issue 38): `baarda convert RESULT --to colmap|bal|opensfm` re-read and
-    re-adjusted (--sigma-px 1 --calibrate none) gives the result's redundancy and sigma0
-    (1e-6)."""
+    """Acceptance (issue 38): `baarda convert RESULT --to colmap|bal|opensfm|aicon` re-read
+    and re-adjusted (--sigma-px 1, AICON's sigmas in its file; --calibrate none) gives the
+    result's redundancy and sigma0 (1e-6)."""
     first = _adjust(COLMAP, tmp_path / "res")
     assert first["redundancy"] == 3566
     assert first["sigma0"] == pytest.approx(0.4754116, rel=1e-6)
     for to, name in READ_BACK.items():
         assert main(["convert", str(tmp_path / "res"), "--to", to, "-o", str(tmp_path / to),
                      "-q"]) == 0
-        again = _adjust(tmp_path / to / name, tmp_path / f"{to}_again")
+        # AICON holds the image sigmas (mm): no --sigma-px
+        again = _adjust(tmp_path / to / name, tmp_path / f"{to}_again",
+                        () if to == "aicon" else ("--sigma-px", "1"))
         assert again["redundancy"] == first["redundancy"], to
         assert again["sigma0"] == pytest.approx(first["sigma0"], rel=1e-6), to
 
@@ -135,7 +142,7 @@ def test_result_converted_and_adjusted_again(tmp_path):
 @pytest.mark.slow
 def test_demo_result_goes_out_without_its_rejections(tmp_path, capsys):
     """The demo (control and check points, 4 observations rejected by data snooping) as
-    COLMAP and BAL: the adjusted block without the rejected observations (272 of 276), the
+    COLMAP, BAL and AICON: the adjusted block without the rejected observations (272 of 276), the
     control written as tie points (noted); OpenSfM refuses its height-only control points
     (exit 2, naming the point)."""
     res = tmp_path / "res"
