@@ -15,12 +15,13 @@ from baarda.errors import ProjectError
 from baarda.io.formats import detect, titles
 from baarda.output.project_files import write_project
 from baarda.output.run_folder import RunFolder
-from baarda.pipeline import with_approximations
+from baarda.pipeline import with_approximations, with_intersected_ties
 
 
 def register(sub) -> None:
-    p = sub.add_parser("convert", help=f"convert {titles()} input (or a project) into a "
-                       "native project folder")
+    p = sub.add_parser("convert", help=f"convert {titles()} input (or a project, or a "
+                       "result folder) into a native project folder or, with --to, another "
+                       "program's files")
     p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
     add_out_argument(p, "project folder to write")
     add_quiet_option(p, "list of what was read and written")
@@ -78,6 +79,8 @@ def run_convert(args) -> int:
         else:
             fmt = args.format or detect(args.input)
             block = with_approximations(read_input(args))
+            if args.to != "project":  # the other formats store every point's coordinates
+                block = with_intersected_ties(block)
         written = _write(block, args.to, run if args.to == "project" else run.path)
         if rejected is not None and args.to != "project":
             rejected.to_csv(run.file("rejected.csv"), index=False)

@@ -157,3 +157,20 @@ def test_demo_result_goes_out_without_its_rejections(tmp_path, capsys):
         b = baarda.read(tmp_path / to / name)
         assert len(b.image) == 276 - 4 and len(b.photos) == 32
         assert (tmp_path / to / "rejected.csv").read_text().count("\n") == 1 + 4
+
+
+@needs_colmap
+@pytest.mark.parametrize("to", ["colmap", "bal", "aicon"])
+def test_a_lens_the_format_cannot_hold_is_refused(tmp_path, capsys, to):
+    """A backward Brown lens (baarda's `brown`) has no COLMAP, BAL or AICON terms: `convert`
+    exits 2 naming the camera and writes no model files."""
+    a = baarda.read(COLMAP)
+    c = a.cameras
+    a = replace(a, cameras=replace(c, model=np.array(["brown"], dtype=object),
+                                   coefficients=np.array([[1e-5, 0, 0, 0, 0, 0, 0]])))
+    write_project(a, tmp_path / "native")
+    assert main(["convert", str(tmp_path / "native"), "--to", to, "-o",
+                 str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"camera {c.ids[0]}: model brown has no" in err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").glob("*.txt"))
