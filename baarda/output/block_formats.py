@@ -49,6 +49,11 @@ def _pixel_xy(block: Block) -> np.ndarray:
     return np.column_stack([px, px * ratio])
 
 
+def _has_principal_point(notes: list[str]) -> list[str]:
+    """The common notes less the one on the principal point (the format holds it)."""
+    return [n for n in notes if not n.startswith("principal point")]
+
+
 def _lens(block: Block, i: int, fmt: str) -> tuple[str, np.ndarray]:
     """Kind and coefficients of camera i, a model whose coefficients are all 0 as 'none';
     ValueError for a model other than none and brown_forward."""
@@ -87,7 +92,7 @@ def block_to_colmap(block: Block) -> tuple[ColmapModel, list[str]]:
     keypoints x = w/2 + x/px, y = h/2 - y/py (pixel corner at the upper-left of the image).
     Image names: the photo ids + '.jpg' (COLMAP's reader takes the stem as photo id); image
     and camera ids 1, 2, ...; point ids kept where they are positive integers."""
-    notes = _checked(block)
+    notes = _has_principal_point(_checked(block))
     cams, photos, im = block.cameras, block.photos, block.image
     bad = [p for p in photos.ids if not p or any(ch.isspace() for ch in p)]
     if bad:
@@ -256,7 +261,7 @@ def block_to_aicon(block: Block, name: str = "block") -> tuple[AiconProject, lis
     yh = the principal point, A1..A3 with R0, B1, B2, C1, C2; a camera without terms as all
     zero), orientations and points in mm, the observations with their sigmas sx, sy [mm],
     the distances as scale bars [mm]; every image, point and observation active."""
-    notes = _checked(block)
+    notes = _has_principal_point(_checked(block))
     cams, photos, im, pts = block.cameras, block.photos, block.image, block.points
     kind = kinds(cams)
     n_c = len(cams)

@@ -174,3 +174,34 @@ def test_a_lens_the_format_cannot_hold_is_refused(tmp_path, capsys, to):
     err = capsys.readouterr().err
     assert f"camera {c.ids[0]}: model brown has no" in err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").glob("*.txt"))
+
+
+AICON = Path(__file__).resolve().parents[3] / "shared" / "data" / \
+    "aicon_jaicov_closerange" / "example.phc"  # as tests/io/test_aicon.py finds it
+
+
+@pytest.mark.skipif(not AICON.is_file(), reason="the AICON example (GPL-3.0, shared data) is "
+                    "not there")
+def test_aicon_project_round_trip(tmp_path):
+    """AICON's example (lens model aicon with R0, a scale bar, per-axis sigmas) written by
+    the Block writer reads back as the same block: ids, cameras (terms, R0, c, principal
+    point, free parameters) and observations with their sigmas exactly, orientations and
+    points to 1e-15 relative (mm -> m), the scale bar; the principal point is not noted as
+    dropped (AICON holds it)."""
+    a = baarda.read(AICON)
+    notes = spec("aicon").writes(a, tmp_path)
+    assert not any(n.startswith("principal point") for n in notes)
+    b = baarda.read(tmp_path)
+    assert (b.photos.ids, b.points.ids, b.cameras.ids) == (a.photos.ids, a.points.ids,
+                                                           a.cameras.ids)
+    assert np.array_equal(b.cameras.coefficients, a.cameras.coefficients)
+    assert np.array_equal(b.cameras.constants, a.cameras.constants)
+    assert np.array_equal(b.cameras.focal_mm, a.cameras.focal_mm)
+    assert np.array_equal(b.cameras.principal_point_mm, a.cameras.principal_point_mm)
+    assert b.cameras.free == a.cameras.free
+    assert np.array_equal(b.image.xy_mm, a.image.xy_mm)
+    assert np.array_equal(b.image.sigma_xy, a.image.sigma_xy)
+    assert np.abs(b.photos.eo - a.photos.eo).max() <= 1e-15 * np.abs(a.photos.eo).max()
+    assert np.abs(b.points.xyz - a.points.xyz).max() <= 1e-15 * np.abs(a.points.xyz).max()
+    assert b.distances.ids == a.distances.ids == ["Scalebar"]
+    assert np.allclose(b.distances.length_m, a.distances.length_m, rtol=1e-15, atol=0)
