@@ -205,3 +205,26 @@ def test_aicon_project_round_trip(tmp_path):
     assert np.abs(b.points.xyz - a.points.xyz).max() <= 1e-15 * np.abs(a.points.xyz).max()
     assert b.distances.ids == a.distances.ids == ["Scalebar"]
     assert np.allclose(b.distances.length_m, a.distances.length_m, rtol=1e-15, atol=0)
+
+
+@pytest.mark.slow
+def test_opensfm_result_with_control_converted_and_adjusted_again(tmp_path):
+    """A simulated block with 3D control, check points and GNSS (test_opensfm's), adjusted as
+    a native project: `baarda convert RESULT --to opensfm` keeps the control's given
+    coordinates (FormatSpec.control) and the GNSS positions, and re-read (--sigma-px 5: the
+    project's 5 µm in 1 µm pixels; --check-gcp the check points) and re-adjusted gives the
+    result's redundancy and sigma0 (1e-6)."""
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    b, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=5, relief_m=40.0,
+                                     check_points=3, height_chains=0, gnss_sigma_m=0.1,
+                                     seed=11))
+    write_project(b, tmp_path / "native")
+    first = _adjust(tmp_path / "native", tmp_path / "res", ())
+    assert main(["convert", str(tmp_path / "res"), "--to", "opensfm", "-o",
+                 str(tmp_path / "osfm"), "-q"]) == 0
+    checks = [p for p, r in zip(b.points.ids, b.points.role, strict=True) if r == "check"]
+    again = _adjust(tmp_path / "osfm", tmp_path / "again",
+                    ("--sigma-px", "5", "--check-gcp", ",".join(checks)))
+    assert again["redundancy"] == first["redundancy"] == 106
+    assert again["sigma0"] == pytest.approx(first["sigma0"], rel=1e-6)
