@@ -228,3 +228,17 @@ def test_opensfm_result_with_control_converted_and_adjusted_again(tmp_path):
                     ("--sigma-px", "5", "--check-gcp", ",".join(checks)))
     assert again["redundancy"] == first["redundancy"] == 106
     assert again["sigma0"] == pytest.approx(first["sigma0"], rel=1e-6)
+
+
+def test_convert_help_lists_every_writer(capsys):
+    """The help of --to is made of TARGETS, and every target but the native project is a
+    format whose registry entry has a writer."""
+    from baarda.cli.convert import TARGETS, _spec
+
+    with pytest.raises(SystemExit):
+        main(["convert", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for to, files in TARGETS.items():
+        assert f"{to} ({' '.join(files.split())})" in text
+        assert to == "project" or _spec(to).writer is not None
+    assert {"colmap", "bal", "opensfm", "aicon"} <= set(TARGETS)
