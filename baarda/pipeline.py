@@ -246,9 +246,16 @@ def with_tie_coordinates(block: Block) -> Block:
     """The block in a local frame of its CRS (`localized`) with every tie point that has
     no coordinates intersected from the photos' orientations (bundle/geometry.py), for
     the writers of formats that store both (output/format_files.write_opensfm)."""
+    return with_intersected_ties(localized(block))
+
+
+def with_intersected_ties(block: Block) -> Block:
+    """The block with every tie point that has no coordinates intersected from the photos'
+    orientations (bundle/geometry.py), in the block's own frame, noted; GeometryError naming
+    the points that cannot be intersected (`baarda convert --to` a format that stores
+    points)."""
     from baarda.bundle.geometry import intersect
 
-    block = localized(block)
     pts = block.points
     need = np.flatnonzero((pts.role == "tie") & ~np.isfinite(pts.xyz).all(axis=1))
     if not len(need):
@@ -261,7 +268,8 @@ def with_tie_coordinates(block: Block) -> Block:
         keep[lost] = False
         raise GeometryError(f"{len(lost)} tie point(s) cannot be intersected: "
                             + ", ".join(pts.ids[j] for j in lost[:10]))
-    return replace(block, points=replace(pts, xyz=xyz))
+    return replace(block, points=replace(pts, xyz=xyz), notes=list(block.notes) + [
+        f"{len(need)} tie point(s) without coordinates intersected from the orientations"])
 
 
 def localized(block: Block) -> Block:

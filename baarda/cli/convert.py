@@ -1,6 +1,7 @@
 """`baarda convert IN -o OUT [--to FMT]`: any supported input, or a result folder of `baarda
-adjust` (its adjusted block), -> a native project folder, or a Bundler, NVM, PAT-B or BINGO
-file (output/sfm_files.py, patb_files.py, bingo_files.py; a result folder's rejected
+adjust` (its adjusted block), -> a native project folder, or a COLMAP, BAL, OpenSfM,
+Bundler, NVM, Metashape, PAT-B or BINGO file (the registry's writers: output/block_formats.py,
+sfm_files.py, metashape_files.py, patb_files.py, bingo_files.py; a result folder's rejected
 observations go to rejected.csv)."""
 
 from __future__ import annotations
@@ -19,28 +20,37 @@ from baarda.errors import ProjectError
 from baarda.io.formats import detect, titles
 from baarda.output.project_files import write_project
 from baarda.output.run_folder import RunFolder
-from baarda.pipeline import with_approximations
+from baarda.pipeline import with_approximations, with_intersected_ties
 
 
 def register(sub) -> None:
-    p = sub.add_parser("convert", help=f"convert {titles()} input (or a project) into a "
-                       "native project folder")
+    p = sub.add_parser("convert", help=f"convert {titles()} input (or a project, or a "
+                       "result folder) into a native project folder or, with --to, another "
+                       "program's files")
     p.add_argument("input", type=Path, help="input file or folder (see docs/formats.md)")
     add_out_argument(p, "project folder to write")
     add_excel_safe_option(p, "the project's tables")
     add_quiet_option(p, "list of what was read and written")
     p.add_argument("--to", choices=TARGETS, default="project",
-                   help="what to write: a native project (default), bundler (bundle.out, "
-                   "list.txt), nvm (model.nvm), metashape (cameras.xml with bundle.out "
-                   "and list.txt for the tie points), patb (block.im .con .ori .at .pro) or "
-                   "bingo (block_tp_bingo.txt, block_calibrated_camera_parameters.txt); a "
-                   "result folder of baarda adjust as INPUT gives its adjusted block, "
-                   "without the rejected observations (listed in rejected.csv)")
+                   help="what to write: " + ", ".join(f"{t} ({w})" for t, w in
+                                                      TARGETS.items()) +
+                   "; a result folder of baarda adjust as INPUT gives its adjusted block, "
+                   "without the rejected observations (listed in rejected.csv); what a "
+                   "format cannot hold is said in notes (docs/formats.md, Writers)")
     add_input_options(p)
     p.set_defaults(func=run_convert)
 
 
-TARGETS = ("project", "bundler", "nvm", "metashape", "patb", "bingo")
+# what `--to` writes: the target and its files (the help is made of it)
+TARGETS = {"project": "a native project folder, the default",
+           "colmap": "cameras.txt, images.txt, points3D.txt",
+           "bal": "problem.txt",
+           "opensfm": "reconstruction.json, tracks.csv, ground_control_points.json",
+           "aicon": "block.ior .eor .obc .phc .scale",
+           "bundler": "bundle.out, list.txt", "nvm": "model.nvm",
+           "metashape": "cameras.xml with bundle.out and list.txt for the tie points",
+           "patb": "block.im .con .ori .at .pro",
+           "bingo": "block_tp_bingo.txt, block_calibrated_camera_parameters.txt"}
 WRITTEN_AS = {"metashape": "metashape-xml"}  # a target whose writer is another format's
 
 
@@ -75,6 +85,8 @@ def run_convert(args) -> int:
         else:
             fmt = args.format or detect(args.input)
             block = with_approximations(read_input(args))
+            if args.to != "project":  # the other formats store every point's coordinates
+                block = with_intersected_ties(block)
         written = _write(block, args.to, run if args.to == "project" else run.path)
         if rejected is not None and args.to != "project":
             rejected.to_csv(run.file("rejected.csv"), index=False)
