@@ -159,9 +159,10 @@ def test_a_divergence_names_the_unknowns_that_are_not_determined():
                                      height_chains=0, relief_m=0.0, seed=2))
     n, c = len(b.photos), b.cameras
     cams = Cameras([f"cam{p}" for p in b.photos.ids], np.repeat(c.focal_mm, n),
-                   np.repeat(c.principal_point_mm, n, axis=0), free=(("c", "x0", "y0"),) * n)
+                   np.repeat(c.principal_point_mm, n, axis=0))
     b = replace(b, cameras=cams, photos=replace(b.photos, camera=np.arange(n)),
-                settings=replace(b.settings, datum="free"))
+                settings=replace(b.settings, datum="free",
+                                 calibration_free=(("c", "x0", "y0"),) * n))
     p = prepare(b)
     with pytest.raises(GeometryError) as e:
         p.fit()

@@ -198,7 +198,7 @@ def test_aicon_project_round_trip(tmp_path):
     assert np.array_equal(b.cameras.constants, a.cameras.constants)
     assert np.array_equal(b.cameras.focal_mm, a.cameras.focal_mm)
     assert np.array_equal(b.cameras.principal_point_mm, a.cameras.principal_point_mm)
-    assert b.cameras.free == a.cameras.free
+    assert b.settings.calibration_free == a.settings.calibration_free
     assert np.array_equal(b.image.xy_mm, a.image.xy_mm)
     assert np.array_equal(b.image.sigma_xy, a.image.sigma_xy)
     assert np.abs(b.photos.eo - a.photos.eo).max() <= 1e-15 * np.abs(a.photos.eo).max()

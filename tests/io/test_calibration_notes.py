@@ -21,11 +21,11 @@ def test_dbat_calibrate_none_drops_the_scripts_self_calibration_note():
     said = [n for n in b.notes if "the script estimates the interior orientation" in n]
     assert len(said) == 1 and "c, x0, y0, b1, k1, k2, k3, p1, p2" in said[0]
     none = baarda.read(DBAT, calibrate="none")
-    assert all(f == () for f in none.cameras.free)
+    assert all(f == () for f in none.settings.calibration_free)
     assert not [n for n in none.notes if "estimates" in n or "estimated" in n]
     assert any("camera model 'dbat3'" in n for n in none.notes)  # the model still is
     c = baarda.read(DBAT, calibrate="c")
-    assert c.cameras.free == (("c",),)
+    assert c.settings.calibration_free == (("c",),)
     assert not [n for n in c.notes if "the script estimates" in n]
 
 
@@ -36,7 +36,7 @@ def test_aicon_calibrate_none_drops_the_protocols_calibration_note():
     assert len(said) == 1 and "c, x0, y0, a1, a2, b1, b2" in said[0]
     assert "example.htm" in said[0]
     none = baarda.read(AICON / "example.obc", calibrate="none")
-    assert all(f == () for f in none.cameras.free)
+    assert all(f == () for f in none.settings.calibration_free)
     assert not [n for n in none.notes if "estimat" in n]
     assert any("a-priori sigmas of the image coordinates taken from it" in n
                for n in none.notes)  # the protocol's sigmas still are used
