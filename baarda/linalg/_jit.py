@@ -7,7 +7,9 @@ and no writable HOME) ``njit(cache=True)`` raises "no locator available"; :func:
 then points numba at a private folder in the temporary directory
 (``baarda-numba-<uid>``) and caches there, and only if even that fails compiles in memory.
 :func:`is_cached` tells whether a kernel still has to be compiled (its cache index is
-missing): linalg/precompile.py compiles those before the first, slow run.
+missing): a kernel without one takes the package's compiled code where it fits this
+installation (linalg/kernel_bundle.py), and linalg/precompile.py compiles the rest before the
+first, slow run.
 """
 
 from __future__ import annotations
@@ -53,6 +55,10 @@ def kernel(fn: Callable[..., Any], **options: Any) -> Callable[..., Any]:
                           RuntimeWarning, stacklevel=2)
             return njit(cache=False, **options)(fn)
     KERNELS.append(disp)
+    if not is_cached(disp):  # a first run: the package's compiled code, where it fits
+        from .kernel_bundle import seed
+
+        seed(disp)
     return disp
 
 
