@@ -18,13 +18,12 @@ def _rays(model: AdjustedModel, points: set[str]) -> dict[str, int]:
     """Frames (photos, models) on which each of `points` has an active observation."""
     if not points:
         return {}
-    pts = np.asarray(model.point[model.active], dtype=object)
-    frs = np.asarray(model.frame[model.active], dtype=object)
-    keep = np.isin(pts, np.array(sorted(points), dtype=object))
-    keep[keep] = np.fromiter((bool(f) for f in frs[keep]), bool, int(keep.sum()))
+    pts = model.point[model.active].tolist()
+    frs = model.frame[model.active].tolist()
     seen: dict[str, set] = {}
-    for p, f in zip(pts[keep].tolist(), frs[keep].tolist(), strict=True):
-        seen.setdefault(p, set()).add(f)
+    for i in np.flatnonzero(np.fromiter(map(points.__contains__, pts), bool, len(pts))):
+        if frs[i]:
+            seen.setdefault(pts[i], set()).add(frs[i])
     return {p: len(s) for p, s in seen.items()}
 
 
