@@ -63,6 +63,17 @@ def test_a_first_run_loads_the_bundled_kernels_instead_of_compiling(tmp_path):
     assert json.loads(stats_off)[2:] == [1, 1]  # compiled there
     assert numbers == numbers_off
     assert json.loads(numbers) == [[1, 2, -1], [0, 1, 2]]  # a chain: 0 -> 1 -> 2
+    # a cache of an older source (its index stamped for another file): the bundle replaces it
+    for index in (tmp_path / "c").rglob("symbolic.*.nbi"):
+        with open(index, "rb") as fh:
+            version = pickle.load(fh)
+            stamp, overloads = pickle.loads(fh.read())
+        with open(index, "wb") as fh:
+            pickle.dump(version, fh)
+            fh.write(pickle.dumps(((0.0, 0), overloads)))
+    stale = {**off, "BAARDA_KERNEL_BUNDLE": str(bundle)}
+    _, stats_stale, numbers_stale = _python(USE, stale)
+    assert json.loads(stats_stale) == [1, 1, 0, 0] and numbers_stale == numbers
 
 
 def _rewrite(path, target, **changes):
