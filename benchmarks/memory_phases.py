@@ -73,6 +73,9 @@ def held(obj, depth: int = 3, seen=None, path: str = "") -> list[tuple[float, st
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("cameras", type=int, nargs="?", default=100)
+    ap.add_argument("--pycolmap", action="store_true",
+                    help="then pycolmap's read + solve of the same file in its own process "
+                         "(bench_bal_scale.worker_pycolmap): its peak, the ratio")
     args = ap.parse_args(argv)
     from bench_bal_scale import simulate, write
 
@@ -80,6 +83,11 @@ def main(argv=None) -> int:
     path = tmp / f"bal-{args.cameras}.txt"
     write(simulate(args.cameras), path)
     gc.collect()
+    rec = None
+    if args.pycolmap:  # first: a child's peak counts the parent's pages at the fork
+        from bench_bal_scale import _spawn
+
+        rec = _spawn("pycolmap", path, tmp / "pycolmap.json")
     rows = [("start (numpy, the simulation done)", rss_mb(), peak_mb())]
     import baarda
     from baarda.output.bundle_results import write_results
@@ -104,6 +112,11 @@ def main(argv=None) -> int:
     print(f"{'phase':38s} {'RSS after MB':>12s} {'peak so far MB':>14s}")
     for name, now, peak in rows:
         print(f"{name:38s} {now:12.0f} {peak:14.0f}")
+    if rec:
+        ours = max(p for _, _, p in rows)
+        print(f"pycolmap's process (read, solve): peak {rec['peak_mb']:.0f} MB, "
+              f"{rec.get('iterations')} iterations; baarda's peak / pycolmap's: "
+              f"{ours / rec['peak_mb']:.2f}")
     big = sorted(held(qc, 6, path="qc"), reverse=True)[:15]
     print("largest arrays reachable from the assessment (MB):")
     for mb, p in big:

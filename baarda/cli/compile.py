@@ -2,7 +2,10 @@
 e.g. after `pip install` in a container image, so that no later run waits for the compiler.
 
 `python -m baarda.cli.compile --record` (with NUMBA_CACHE_DIR an empty folder) writes the
-table of kernels and argument types that the compile covers, from an adjustment's workload."""
+table of kernels and argument types that the compile covers, from an adjustment's workload;
+`python -m baarda.cli.compile --bundle` compiles every kernel of that table in an empty cache
+and writes the package's compiled kernels (linalg/kernel_bundle.py) from it: run it after a
+kernel module changed (a stale bundle is ignored, and the first run compiles)."""
 
 from __future__ import annotations
 
@@ -112,8 +115,37 @@ def record(path: Path = TABLE_FILE) -> list[dict]:
     return rows
 
 
+def bundle(path: Path | None = None) -> int:
+    """Compile every kernel of the table into an empty cache (child processes, the package's
+    bundle switched off) and write the bundle from that cache; the number of kernels in it."""
+    import os
+    import subprocess
+    import tempfile
+
+    from baarda.linalg.kernel_bundle import BUNDLE_FILE
+
+    with tempfile.TemporaryDirectory(prefix="baarda-bundle-") as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache, "BAARDA_KERNEL_BUNDLE": "0"}
+        script = ("import sys; from pathlib import Path\n"
+                  "from baarda.linalg import precompile\n"
+                  "from baarda.linalg._jit import KERNELS\n"
+                  "from baarda.linalg.kernel_bundle import make_bundle\n"
+                  "failed = precompile.compile_kernels(entries=precompile.load_table())\n"
+                  "if failed: sys.exit('could not compile: ' + ', '.join(failed))\n"
+                  "for e in precompile.load_table(): precompile._dispatcher(e)\n"
+                  "print(make_bundle(KERNELS, Path(sys.argv[1])))\n")
+        out = subprocess.run([sys.executable, "-c", script, str(path or BUNDLE_FILE)],
+                             env=env, check=True, capture_output=True, text=True).stdout
+    return int(out.split()[-1])
+
+
 if __name__ == "__main__":
+    if sys.argv[1:2] == ["--bundle"]:
+        n = bundle(Path(sys.argv[2]) if len(sys.argv) > 2 else None)
+        print(f"{n} kernels in the bundle")
+        sys.exit(0)
     if sys.argv[1:2] != ["--record"]:
-        sys.exit("usage: NUMBA_CACHE_DIR=EMPTY python -m baarda.cli.compile --record [FILE]")
+        sys.exit("usage: NUMBA_CACHE_DIR=EMPTY python -m baarda.cli.compile --record [FILE] | "
+                 "--bundle [FILE]")
     rows = record(Path(sys.argv[2]) if len(sys.argv) > 2 else TABLE_FILE)
     print(f"{len(rows)} kernels, {sum(r['seconds'] for r in rows):.1f} s of compiling")

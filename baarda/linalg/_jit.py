@@ -7,12 +7,15 @@ and no writable HOME) ``njit(cache=True)`` raises "no locator available"; :func:
 then points numba at a private folder in the temporary directory
 (``baarda-numba-<uid>``) and caches there, and only if even that fails compiles in memory.
 :func:`is_cached` tells whether a kernel still has to be compiled (its cache index is
-missing): linalg/precompile.py compiles those before the first, slow run.
+missing): a kernel without one takes the package's compiled code where it fits this
+installation (linalg/kernel_bundle.py), and linalg/precompile.py compiles the rest before the
+first, slow run.
 """
 
 from __future__ import annotations
 
 import os
+import pickle
 import tempfile
 import warnings
 from collections.abc import Callable
@@ -22,7 +25,7 @@ from typing import Any
 from numba import njit
 from numba.core import config
 
-__all__ = ["is_cached", "kernel", "parallel_kernel"]
+__all__ = ["is_cached", "is_fresh", "kernel", "parallel_kernel"]
 
 # every cached kernel of the package (numba dispatchers): the compile table is recorded from them
 KERNELS: list[Any] = []
@@ -53,12 +56,31 @@ def kernel(fn: Callable[..., Any], **options: Any) -> Callable[..., Any]:
                           RuntimeWarning, stacklevel=2)
             return njit(cache=False, **options)(fn)
     KERNELS.append(disp)
+    if not is_cached(disp) or not is_fresh(disp):  # a first run, or the source changed:
+        from .kernel_bundle import seed  # the package's compiled code, where it fits
+
+        seed(disp)
     return disp
 
 
 def parallel_kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
     """:func:`kernel` with ``parallel=True`` (``numba.prange`` loops run on numba's threads)."""
     return kernel(fn, parallel=True)
+
+
+def is_fresh(disp: Any) -> bool:
+    """Whether the kernel's cache index is numba's current one for its source file (written
+    by this numba for the file's present stamp); True where that cannot be told."""
+    try:
+        cf = disp._cache._cache_file
+        with open(cf._index_path, "rb") as fh:
+            version = pickle.load(fh)
+            stamp = pickle.loads(fh.read())[0]
+        return bool(version == cf._version and stamp == cf._source_stamp)
+    except AttributeError:  # not a caching dispatcher, or numba's internals changed
+        return True
+    except (OSError, ValueError, EOFError, pickle.UnpicklingError, IndexError, TypeError):
+        return False
 
 
 def is_cached(disp: Any) -> bool:

@@ -25,7 +25,8 @@ import pandas as pd
 
 from baarda.io.table import FORMULA_START
 
-CHUNK_ROWS = 32_768  # rows formatted and joined at a time
+CHUNK_ROWS = 8_192  # rows formatted and joined at a time (32,768: +129 MB transient at
+# 143,242 rows of 25 columns, 8,192: +53 MB, as fast; benchmarks/README.md round three)
 THREAD_ROWS = 100_000  # tables from this many rows on format their columns in threads
 
 

@@ -51,6 +51,16 @@ def _phi(x):
     return np.exp(-0.5 * x * x) / np.sqrt(2 * np.pi)
 
 
+@functools.cache
+def _gauss_legendre() -> tuple[np.ndarray, np.ndarray]:
+    """The nodes and weights of :data:`_NODES`-point Gauss-Legendre (read-only; computed once:
+    an eigenvalue problem of 96 x 96, about 15 ms)."""
+    t, wt = np.polynomial.legendre.leggauss(_NODES)
+    t.flags.writeable = False
+    wt.flags.writeable = False
+    return t, wt
+
+
 def identification_probability(delta, rho, k: float, others=0) -> np.ndarray:
     """P_j(delta): the probability that |w_j| > k and |w_j| is larger than |w_i| and than
     every |w| of `others` further tests, when E(w_j) = delta, E(w_i) = rho delta, all of
@@ -59,7 +69,7 @@ def identification_probability(delta, rho, k: float, others=0) -> np.ndarray:
     delta, rho, others = np.broadcast_arrays(np.asarray(delta, float),
                                              np.abs(np.asarray(rho, float)),
                                              np.asarray(others, float))
-    t, wt = np.polynomial.legendre.leggauss(_NODES)
+    t, wt = _gauss_legendre()
     s = np.sqrt(np.clip(1.0 - rho**2, 0.0, None))[..., None]
     r = rho[..., None]
     m = others[..., None]

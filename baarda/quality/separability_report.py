@@ -21,7 +21,7 @@ def _rays(model: AdjustedModel, points: set[str]) -> dict[str, int]:
     pts = model.point[model.active].tolist()
     frs = model.frame[model.active].tolist()
     seen: dict[str, set] = {}
-    for i in np.flatnonzero(np.fromiter((p in points for p in pts), bool, len(pts))):
+    for i in np.flatnonzero(np.fromiter(map(points.__contains__, pts), bool, len(pts))):
         if frs[i]:
             seen.setdefault(pts[i], set()).add(frs[i])
     return {p: len(s) for p, s in seen.items()}

@@ -50,7 +50,8 @@ def test_no_writable_cache_falls_back_to_the_temporary_directory(tmp_path):
         f"{str(tmp_path / 'out')!r}])\n"
         "print(code, config.CACHE_DIR)\n")
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
-    env.update(TMPDIR=str(tmp_path), HOME="/nonexistent")
+    # the compile path: the package's compiled kernels (linalg/kernel_bundle.py) not used
+    env.update(TMPDIR=str(tmp_path), HOME="/nonexistent", BAARDA_KERNEL_BUNDLE="0")
     p = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                        env=env, cwd=tmp_path, timeout=300)
     assert p.returncode == 0, p.stderr

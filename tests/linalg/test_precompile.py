@@ -74,7 +74,7 @@ print(json.dumps([sum(k.stats.cache_hits.values()) for k in (elimination_tree, e
 
 @pytest.mark.slow
 def test_kernels_compiled_by_child_processes_are_loaded_from_the_cache(tmp_path):
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path), "BAARDA_KERNEL_BUNDLE": "0"}
     entries = [e for e in precompile.load_table()
                if e["name"] in ("elimination_tree", "etree_postorder")]
     assert len(entries) == 2
