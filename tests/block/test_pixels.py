@@ -3,6 +3,7 @@ conversion of --gcp-list and that of review's chips are one, and the per-camera 
 follow cameras when they are appended or split per strip."""
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -70,3 +71,35 @@ def test_per_camera_tables_follow_their_cameras():
     assert len(per) == 2 and per.ids[0].startswith("a/")
     np.testing.assert_array_equal(per.pixel_frame, cams.pixel_frame[[1, 1]])
     np.testing.assert_array_equal(per.image_size_px, cams.image_size_px[[0, 0]])
+
+
+MICMAC = Path("/work/shared/data/micmac_ign_ultracam_aerial")
+
+
+@pytest.mark.skipif(not MICMAC.is_dir(), reason="the shared MicMac data set is not here")
+def test_a_gcp_on_micmacs_pixel_lands_on_its_measurement(tmp_path):
+    """MicMac's image coordinates start at the principal point, not the image's centre: a
+    GCP measured at the pixel of a tie measurement in the .mes file (its column, row less
+    half a pixel: gcp_list's first centre at 0) gets that measurement's mm to 1e-9 (the
+    image's centre would put it (W/2 - c0, H/2 - r0) pixels off)."""
+    from baarda.block.gcp import add_gcps
+    from baarda.io.gcp_list import read_gcp_list
+    from baarda.pipeline import read_configured
+
+    block, _ = read_configured(MICMAC)
+    first = (MICMAC / "Filtered_all_liaisons.mes").read_text().split("\n", 1)[0].split()
+    point, photo, col, row = first[0], first[1], float(first[2]), float(first[3])
+    i, j = block.photos.ids.index(photo), block.point_index[point]
+    k = np.flatnonzero((block.image.photo == i) & (block.image.point == j))[0]
+    gcp = tmp_path / "gcp_list.txt"
+    gcp.write_text(f"EPSG:32631\n500000 5000000 100 {col - 0.5!r} {row - 0.5!r} {photo} G1\n")
+    sized = replace(block, cameras=replace(block.cameras,
+                                           image_size_px=np.array([[26500.0, 17100.0]])))
+    with_gcp = add_gcps(sized, read_gcp_list(gcp))
+    g = with_gcp.point_index["G1"] if "G1" in with_gcp.point_index else \
+        with_gcp.point_index["gcp G1"]
+    row_g = np.flatnonzero(with_gcp.image.point == g)
+    np.testing.assert_allclose(with_gcp.image.xy_mm[row_g], block.image.xy_mm[[k]],
+                               atol=1e-9)
+    c0, r0 = block.cameras.pixel_frame[0, :2]
+    assert (26500 / 2 - c0, 17100 / 2 - r0) == pytest.approx((20, 48))  # not the centre
