@@ -211,7 +211,7 @@ def _sizes_from_images(block: Block, gcps, path: str | Path) -> Block:
     from baarda.block.pixels import known_grid
     from baarda.io.gcp_list import image_sizes
 
-    if block.cameras.pixel_xy_mm is None or known_grid(block.cameras).all():
+    if block.cameras.pixel_frame is None or known_grid(block.cameras).all():
         return block
     src = Path(block.source) if block.source else None
     bases = [Path(path).parent] + ([] if src is None else [src if src.is_dir() else src.parent])

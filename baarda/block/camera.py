@@ -123,9 +123,7 @@ def with_camera(cameras, other, i: int):
                    else stacked(cameras.pixel_frame, other.pixel_frame, 4, np.nan),
                    image_size_px=None if cameras.image_size_px is None
                    and other.image_size_px is None
-                   else stacked(cameras.image_size_px, other.image_size_px, 2, np.nan),
-                   pixel_xy_mm=None if cameras.pixel_xy_mm is None and other.pixel_xy_mm is None
-                   else stacked(cameras.pixel_xy_mm, other.pixel_xy_mm, 2, np.nan))
+                   else stacked(cameras.image_size_px, other.image_size_px, 2, np.nan))
 
 
 def _cameras_of_side(block, side: str):
@@ -194,7 +192,7 @@ def cameras_per_strip(block):
                   principal_point_mm=cams.principal_point_mm[source], model=take(cams.model),
                   coefficients=take(cams.coefficients), constants=take(cams.constants),
                   pixel_mm=take(cams.pixel_mm), pixel_frame=take(cams.pixel_frame),
-                  image_size_px=take(cams.image_size_px), pixel_xy_mm=take(cams.pixel_xy_mm))
+                  image_size_px=take(cams.image_size_px))
     free = block.settings.calibration_free
     settings = block.settings if free is None else replace(
         block.settings, calibration_free=tuple(free[c] for c in source))

@@ -73,7 +73,7 @@ def with_image_sizes(block: Block, photo: np.ndarray,
     taken from the image files of its photos (`photo` indices, `sizes` (width, height) [px]
     or None where no file was found), with a note."""
     cams = block.cameras
-    if cams.pixel_xy_mm is None:
+    if cams.pixel_frame is None:
         return block
     size = (np.full((len(cams), 2), np.nan) if cams.image_size_px is None
             else cams.image_size_px.copy())

@@ -66,17 +66,13 @@ class Cameras:
     coefficients: np.ndarray | None = None  # (n, k) the model's params in order, 0-padded
     constants: np.ndarray | None = None  # (n, kc) the model's constants (R0, grid spacing)
     pixel_mm: np.ndarray | None = None  # (n,) pixel size where the source states it (mm)
-    # the image grid where the input states it (block/pixels.py turns pixels with the origin
-    # at the upper-left corner into the block's image coordinates): (n, 2) width, height
-    # [px] (NaN: unknown) and (n, 2) the mm of one pixel in x and in y as the reader scaled
-    # the image coordinates (COLMAP: p and p fx/fy)
-    image_size_px: np.ndarray | None = None
-    pixel_xy_mm: np.ndarray | None = None
-    # (n, 4) how image coordinates (mm) sit on the image's pixels, as the reader converted
-    # them: column and row (pixels from the upper-left corner of the image, y down) of
-    # their origin (NaN: the image's centre, for readers that do not know the image's size),
-    # then the width and height of a pixel (mm): column = c0 + x / pw, row = r0 - y / ph
+    # how image coordinates (mm) sit on the image's pixels, as the reader converted them
+    # (block/pixels.py converts both ways): (n, 4) column and row (pixels from the upper-left
+    # corner of the image, y down) of their origin (NaN: the image's centre, for readers that
+    # do not know the image's size), then the width and height of a pixel [mm] as the reader
+    # scaled x and y (COLMAP: p and p fx/fy): column = c0 + x / pw, row = r0 - y / ph
     pixel_frame: np.ndarray | None = None
+    image_size_px: np.ndarray | None = None  # (n, 2) width, height [px] (NaN: unknown)
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -247,8 +243,3 @@ class Block:
                 + (f", {len(self.gnss)} GNSS position(s)" if len(self.gnss) else "")
                 + (f", {len(self.imu)} IMU attitude(s)" if len(self.imu) else ""))
 
-
-def centred(n: int, pixel_mm: float) -> np.ndarray:
-    """Cameras.pixel_frame of n cameras whose image coordinates have their origin at the
-    image's centre, square pixels of pixel_mm."""
-    return np.tile([np.nan, np.nan, pixel_mm, pixel_mm], (n, 1))

@@ -30,8 +30,8 @@ from baarda.block.photo_block import (
     ImagePoints,
     Photos,
     Settings,
-    centred,
 )
+from baarda.block.pixels import centred
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.records import check_pixel_options, finite_numbers, require_file, split_lines
@@ -218,7 +218,6 @@ def _block(p: Path, names, fk, rot, t, made, xyz, obs_point, obs, pixel_mm, sigm
     cameras = Cameras([str(k + 1) for k in range(m)], groups[:, 0] * pixel_mm,
                       np.zeros((m, 2)), np.full(m, "brown_forward", dtype=object),
                       np.column_stack([groups[:, 1:3], np.zeros((m, 3))]), None,
-                      pixel_xy_mm=np.full((m, 2), pixel_mm),  # the image size: not stated
                       pixel_frame=centred(m, pixel_mm))
     rt = np.swapaxes(rot[keep], 1, 2)
     x0 = -np.einsum("nij,nj->ni", rt, t[keep])

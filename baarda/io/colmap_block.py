@@ -125,10 +125,9 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
                       np.array([c[1] for c in cams]),
                       np.array([c[3] for c in cams], dtype=object),
                       np.array([c[4] for c in cams]),
+                      pixel_frame=np.array([[np.nan, np.nan, pixel_mm, c[2]] for c in cams]),
                       image_size_px=np.array([[model.cameras[c].width, model.cameras[c].height]
-                                              for c in cam_ids], float),
-                      pixel_xy_mm=np.array([[pixel_mm, c[2]] for c in cams]),
-                      pixel_frame=np.array([[np.nan, np.nan, pixel_mm, c[2]] for c in cams]))
+                                              for c in cam_ids], float))
     photos = Photos(photo_ids, cam_of_image, np.full(len(im), "", dtype=object), eo)
     # y is scaled by fx/fy (square pixels of size pixel_mm in x): its sigma is sigma_px in
     # y's own unit, sigma_px * pixel_mm * fx/fy, so that v'P v is that of the pixels

@@ -37,8 +37,8 @@ from baarda.block.photo_block import (
     ImagePoints,
     Photos,
     Settings,
-    centred,
 )
+from baarda.block.pixels import centred
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.bundler import first_line_starts, once_per_image, read_lines
@@ -196,7 +196,6 @@ def _block(p, names, cams, xyz, obs_point, obs, pixel_mm, sigma_px, notes) -> Bl
     radial = groups[:, 1] != 0
     cameras = Cameras([str(k + 1) for k in range(m)], c, np.zeros((m, 2)),
                       np.where(radial, "brown", "none").astype(object), coef, None,
-                      pixel_xy_mm=np.full((m, 2), pixel_mm),  # the image size: not stated
                       pixel_frame=centred(m, pixel_mm))
     photos = Photos(ids, cam_of, np.full(len(ids), "", dtype=object),
                     np.column_stack([cams[:, 5:8], angles_from_matrix(rb)]), list(names))

@@ -57,8 +57,8 @@ from baarda.block.photo_block import (
     ImagePoints,
     Photos,
     Settings,
-    centred,
 )
+from baarda.block.pixels import centred
 from baarda.errors import ProjectError
 from baarda.io.opensfm_camera import Shots, camera_docs, read_shots, stored_errors
 from baarda.io.opensfm_files import (

@@ -99,7 +99,10 @@ def _observed_as_run(block: Block, obs: pd.DataFrame, notes: list[str]) -> Block
         c = block.cameras
         px = (np.full(len(c), PIXEL_MM) if c.pixel_mm is None else
               np.where(np.isfinite(c.pixel_mm), c.pixel_mm, PIXEL_MM)) * float(ratio[0])
-        block = replace(block, cameras=replace(c, pixel_mm=px))
+        frame = None if c.pixel_frame is None else np.asarray(c.pixel_frame, float).copy()
+        if frame is not None:
+            frame[:, 2:] *= float(ratio[0])
+        block = replace(block, cameras=replace(c, pixel_mm=px, pixel_frame=frame))
         notes.append(f"the run's pixel size: {px[0]:g} mm (its input read with --pixel-mm)")
     block = replace(block, image=replace(image, xy_mm=np.where(found[:, None], xy,
                                                                image.xy_mm)))

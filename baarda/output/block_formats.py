@@ -5,11 +5,11 @@ into the format's model object (io/colmap.ColmapModel, io/bal.BalProblem,
 io/aicon.AiconProject) and written by
 output/format_files.py, the inverses of the readers.
 
-Pixels: a camera's pixel size is the one the block states (`Cameras.pixel_mm`, else the
-reader's `pixel_xy_mm`), else the nominal 1 µm the readers of pixel formats assume; so a
-block read from a pixel format goes back in its own pixels.  Every point goes out as a tie
-point (none of these formats has control as baarda means it, but OpenSfM, whose GCPs keep
-their given coordinates).
+Pixels: a camera's pixel is the reader's (`Cameras.pixel_frame`: width and height), else the
+size the block states (`Cameras.pixel_mm`), else the nominal 1 µm the readers of pixel
+formats assume; so a block read from a pixel format goes back in its own pixels.  Every
+point goes out as a tie point (none of these formats has control as baarda means it, but
+OpenSfM, whose GCPs keep their given coordinates).
 """
 
 from __future__ import annotations
@@ -34,19 +34,17 @@ GREY = 128
 
 
 def _pixel_xy(block: Block) -> np.ndarray:
-    """(n, 2) the pixel size [mm] in x and y of every camera: `pixel_mm` where the block
-    states it (y scaled as the reader scaled it), else the reader's `pixel_xy_mm`, else the
-    nominal PIXEL_MM."""
+    """(n, 2) the pixel size [mm] in x and y of every camera: the width and height of its
+    pixel as the reader scaled the image coordinates (`Cameras.pixel_frame`), else the
+    pixel size the block states (`pixel_mm`), else the nominal PIXEL_MM."""
     cams = block.cameras
     px = _pixel(block, PIXEL_MM)
-    ratio = np.ones(len(cams))
-    if cams.pixel_xy_mm is not None:
-        pxy = np.asarray(cams.pixel_xy_mm, float)
+    out = np.column_stack([px, px])
+    if cams.pixel_frame is not None:
+        pxy = np.asarray(cams.pixel_frame, float)[:, 2:]
         ok = np.isfinite(pxy).all(axis=1) & (pxy > 0).all(axis=1)
-        ratio = np.where(ok, pxy[:, 1] / np.where(ok, pxy[:, 0], 1.0), 1.0)
-        stated = cams.pixel_mm is not None and np.isfinite(np.asarray(cams.pixel_mm, float))
-        px = np.where(ok & ~np.asarray(stated, bool), pxy[:, 0], px)
-    return np.column_stack([px, px * ratio])
+        out = np.where(ok[:, None], pxy, out)
+    return out
 
 
 def _has_principal_point(notes: list[str]) -> list[str]:

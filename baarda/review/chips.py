@@ -7,11 +7,12 @@ named by the photo id, or by that file's name, in the folders `image_folders` fi
 (--images DIR, then INPUT/images, and images/ beside or above INPUT: COLMAP's images/
 beside sparse/, OpenSfM's images/); the id in a request is looked up in the block first,
 and in a folder's listing, never joined into a path.  Image coordinates (mm) become pixels
-as the reader made them (Cameras.pixel_frame): column = c0 + x / pw, row = r0 - y / ph,
-with (c0, r0) the pixel of their origin (the image's centre, W/2 and H/2, where the reader
-did not know the image: Bundler, NVM, COLMAP, OpenSfM, DBAT; the principal point of
-MicMac's camera) and pw, ph the pixel's width and height (DBAT's and COLMAP's may differ);
-pixels are counted from the upper-left corner of the upper-left pixel, as Pillow counts.
+as the reader made them (Cameras.pixel_frame, block/pixels.py, the conversion `--gcp-list`
+uses too): column = c0 + x / pw, row = r0 - y / ph, with (c0, r0) the pixel of their origin
+(the image's centre, W/2 and H/2 of the image file, where the reader did not know the
+image: Bundler, NVM, COLMAP, OpenSfM, DBAT; the principal point of MicMac's camera) and pw,
+ph the pixel's width and height (DBAT's and COLMAP's may differ); pixels are counted from
+the upper-left corner of the upper-left pixel, as Pillow counts.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block
+from baarda.block.pixels import frame_to_pixels
 
 EXTENSIONS = (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".JPG", ".JPEG", ".PNG", ".TIF")
 HALF = 48  # chip half-width (pixels of the image)
@@ -93,9 +95,9 @@ def to_pixel(frame: tuple[float, ...], width: int, height: int, x: float, y: flo
              ) -> tuple[float, float]:
     """(column, row) of image coordinates x, y (mm) on an image of width x height pixels
     (from its upper-left corner, y down), with a camera's `pixel_frame` (c0, r0, pw, ph)."""
-    c0, r0, pw, ph = frame
-    return ((width / 2 if math.isnan(c0) else c0) + x / pw,
-            (height / 2 if math.isnan(r0) else r0) - y / ph)
+    col, row = frame_to_pixels(np.array([frame], float), np.array([[width, height]], float),
+                               np.array([[x, y]], float))[0]
+    return float(col), float(row)
 
 
 def chip_png(block: Block, folders: list[Path], photo: str, ray: dict,

@@ -75,8 +75,8 @@ def test_pixel_convention_by_hand():
     """The first pixel's centre (0, 0) lies half a pixel inside the corner; the image centre
     is (W/2 - 0.5, H/2 - 0.5); y up; COLMAP's 0.5 convention shifts by half a pixel."""
     cams = Cameras(["1"], np.array([2.4]), np.zeros((1, 2)),
-                   image_size_px=np.array([[4000.0, 3000.0]]),
-                   pixel_xy_mm=np.array([[0.001, 0.002]]))
+                   pixel_frame=np.array([[np.nan, np.nan, 0.001, 0.002]]),
+                   image_size_px=np.array([[4000.0, 3000.0]]))
     uv = np.array([[0.0, 0.0], [1999.5, 1499.5], [3999.0, 2999.0]])
     xy = pixels_to_mm(cams, np.zeros(3, np.int64), uv)
     np.testing.assert_allclose(xy, [[-1.9995, 2.999], [0, 0], [1.9995, -2.999]], atol=1e-12)
@@ -100,7 +100,7 @@ def test_noise_free_gcps_fit_the_independent_projection(tmp_path):
     assert np.abs(g["residual"].to_numpy(float)).max() < 1e-4  # µm = px here
     assert np.abs(t["residual"].to_numpy(float)).max() < 1e-4
     # the pixels were placed with the camera's fx/fy scaling of y (0.995 mm per px)
-    assert block.cameras.pixel_xy_mm[0, 1] == pytest.approx(0.001 * 2400 / 2412)
+    assert block.cameras.pixel_frame[0, 3] == pytest.approx(0.001 * 2400 / 2412)
 
 
 def test_gcp_pixels_land_where_colmap_puts_the_same_ray(tmp_path):
