@@ -23,6 +23,7 @@ from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import BMethod
 from baarda.quality.statistics import residual_cofactors, w_tests
 
+RESTART = 3.0  # a refactorisation's sigma0 this many times the last one's: start cold too
 Key = tuple[str, int, int]  # (kind, universe index, component number)
 
 
@@ -121,6 +122,8 @@ class Factorisation:
                               zip(problem.system.global_names, g, strict=True)])
             start += (g,)
         result = problem.fit(start=None if first else start)
+        if not first and self._f is not None:
+            result = self._better_cold(problem, result, self._f.result.sigma0)
         model = BundleModel(result)
         keys = _flat_keys(problem, maps)
         nf = len(m.photo_ids)
@@ -155,6 +158,26 @@ class Factorisation:
             return []
         w, r, *_, mdb = self._stats(self._f)
         return self._changes(keys, w, r, mdb)
+
+    def _better_cold(self, problem: BundleProblem, warm: BundleResult,
+                     before: float) -> BundleResult:
+        """The warm-started solution, or, where its sigma0 exceeds RESTART times the last
+        factorisation's (a local minimum: new photos and points refined to a block held in
+        a weak, nearly critical configuration), the solution from the approximations (the
+        photos' given or resected orientations, points intersected: what the batch
+        adjustment starts from) when its weighted sum of squares is smaller."""
+        if not warm.sigma0 > RESTART * max(before, 1.0):
+            return warm
+        eo, xyz, tie = self.m.arrays()
+        now, _ = self._current()
+        eo = np.where(np.isfinite(eo).all(axis=1)[:, None], eo, now)
+        block, maps = self.m.state_block(np.where(np.isfinite(eo), eo, 0.0),
+                                         np.where(tie[:, None], np.nan, xyz))
+        try:
+            cold = problem.fit(start=self._problem(block, maps).approximations)
+        except GeometryError:
+            return warm
+        return cold if cold.converged and cold.sigma0 < warm.sigma0 else warm
 
     def _problem(self, block: Block, maps) -> BundleProblem:
         """The bundle problem of the state block: with its control, or a free network held by
@@ -219,3 +242,4 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
     for r in range(gi.n_imu):
         keys += [(IMU.name, int(maps.imu[r]), c) for c in range(3)]
     return keys
+
