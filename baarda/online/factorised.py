@@ -24,6 +24,7 @@ from baarda.quality.distributions import BMethod
 from baarda.quality.statistics import residual_cofactors, w_tests
 
 RESTART = 3.0  # a refactorisation's sigma0 this many times the last one's: start cold too
+SAME = 1e-6  # the cold start's sigma0 not this much smaller (relative): the same minimum
 Key = tuple[str, int, int]  # (kind, universe index, component number)
 
 
@@ -165,7 +166,8 @@ class Factorisation:
         factorisation's (a local minimum: new photos and points refined to a block held in
         a weak, nearly critical configuration), the solution from the approximations (the
         photos' given or resected orientations, points intersected: what the batch
-        adjustment starts from) when its weighted sum of squares is smaller."""
+        adjustment starts from) when its sigma0 is smaller (by more than SAME: another
+        minimum)."""
         if not warm.sigma0 > RESTART * max(before, 1.0):
             return warm
         eo, xyz, tie = self.m.arrays()
@@ -177,7 +179,7 @@ class Factorisation:
             cold = problem.fit(start=self._problem(block, maps).approximations)
         except GeometryError:
             return warm
-        return cold if cold.converged and cold.sigma0 < warm.sigma0 else warm
+        return cold if cold.converged and cold.sigma0 < (1.0 - SAME) * warm.sigma0 else warm
 
     def _problem(self, block: Block, maps) -> BundleProblem:
         """The bundle problem of the state block: with its control, or a free network held by
