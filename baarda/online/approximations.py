@@ -9,9 +9,11 @@ import numpy as np
 
 from baarda.adjustment.dense import DenseLeastSquares
 from baarda.adjustment.solve import solve
+from baarda.block.camera import ideal_image_coordinates
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.bundle.bundle_problem import BundleProblem
+from baarda.bundle.geometry import intersected_points
 from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
 from baarda.online.lowrank import UNDETERMINED
@@ -168,6 +170,29 @@ def refine(m: Measurements, problem: BundleProblem, g: np.ndarray, group: dict,
     e, x = unpack(sol.state)
     eo[:], xyz[:] = e, x
     return True
+
+
+def resected_again(block: Block, again: np.ndarray) -> np.ndarray:
+    """The orientations (n_photos, 6) of the block's photos with those of `again` (mask)
+    resected anew from the control and the points the other photos intersect (their rays
+    only, none of `again`'s); a photo with fewer than MIN_PHOTO_POINTS + 1 such points
+    keeps its orientation."""
+    eo = block.photos.eo.copy()
+    im, pts = block.image, block.points
+    xyz = intersected_points(block.select_image(~again[im.photo]))
+    known = np.isfinite(pts.xyz).all(axis=1) & (pts.role != "tie")
+    xyz[known] = pts.xyz[known]
+    cam = block.photos.camera
+    xy = ideal_image_coordinates(block) - block.cameras.principal_point_mm[cam[im.photo]]
+    for i in np.flatnonzero(again):
+        rows = np.flatnonzero((im.photo == i) & np.isfinite(xyz[im.point]).all(axis=1))
+        if len(rows) < MIN_PHOTO_POINTS + 1:
+            continue
+        try:
+            eo[i] = resect(xy[rows], xyz[im.point[rows]], float(block.cameras.focal_mm[cam[i]]))[0]
+        except GeometryError:
+            continue
+    return eo
 
 
 def why_held(m: Measurements, i: int) -> str:

@@ -171,6 +171,7 @@ class OnlineBundle(Removals):
                         np.full(6, np.nan) if eo is None else eo)
         elif eo is not None:
             m.photo_eo[i] = np.asarray(eo, float).copy()
+            m.resected.discard(i)
             m.changed()
         for pid, obs in points.items():
             obs = tuple(obs)
@@ -387,6 +388,7 @@ class OnlineBundle(Removals):
         except GeometryError:
             return False
         m.photo_eo[i] = e
+        m.resected.add(i)
         m.changed()
         return True
 

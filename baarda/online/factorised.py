@@ -6,7 +6,7 @@ estimates beyond the linear limit (`_nonlinear`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -17,12 +17,15 @@ from baarda.bundle.bundle_result import BundleResult
 from baarda.errors import GeometryError
 from baarda.kinds import GNSS, IMU
 from baarda.online.answers import Change
+from baarda.online.approximations import resected_again
 from baarda.online.lowrank import LowRank
 from baarda.online.measurements import Measurements
 from baarda.options import SolveOptions, TestOptions
 from baarda.quality.distributions import BMethod
 from baarda.quality.statistics import residual_cofactors, w_tests
 
+RESTART = 3.0  # a refactorisation's sigma0 this many times the last one's: start cold too
+SAME = 1e-6  # the cold start's sigma0 not this much smaller (relative): the same minimum
 Key = tuple[str, int, int]  # (kind, universe index, component number)
 
 
@@ -121,6 +124,8 @@ class Factorisation:
                               zip(problem.system.global_names, g, strict=True)])
             start += (g,)
         result = problem.fit(start=None if first else start)
+        if not first and self._f is not None:
+            result = self._better_cold(problem, result, self._f.result.sigma0)
         model = BundleModel(result)
         keys = _flat_keys(problem, maps)
         nf = len(m.photo_ids)
@@ -155,6 +160,39 @@ class Factorisation:
             return []
         w, r, *_, mdb = self._stats(self._f)
         return self._changes(keys, w, r, mdb)
+
+    def _better_cold(self, problem: BundleProblem, warm: BundleResult,
+                     before: float) -> BundleResult:
+        """The warm-started solution, or, where its sigma0 exceeds RESTART times the last
+        factorisation's (a local minimum: new photos and points refined to a block held in
+        a weak, nearly critical configuration), a solution from approximations when its
+        sigma0 is smaller (by more than SAME: another minimum): from the photos' given or
+        resected orientations (what the batch adjustment starts from), else, where that
+        does not converge to a better minimum, with the photos resected on-line resected
+        again from the points the other photos intersect (`resected_again`: their first
+        resection used points in the wrong minimum)."""
+        if not warm.sigma0 > RESTART * max(before, 1.0):
+            return warm
+        m = self.m
+        eo, xyz, tie = m.arrays()
+        now, _ = self._current()
+        eo = np.where(np.isfinite(eo).all(axis=1)[:, None], eo, now)
+        block, maps = m.state_block(np.where(np.isfinite(eo), eo, 0.0),
+                                    np.where(tie[:, None], np.nan, xyz))
+        again = np.isin(maps.photos, sorted(m.resected))
+        for anew in (False, True):
+            if anew and not again.any():
+                break
+            try:
+                if anew:
+                    block = replace(block, photos=replace(
+                        block.photos, eo=resected_again(block, again)))
+                cold = problem.fit(start=self._problem(block, maps).approximations)
+            except GeometryError:
+                continue
+            if cold.converged and cold.sigma0 < (1.0 - SAME) * warm.sigma0:
+                return cold
+        return warm
 
     def _problem(self, block: Block, maps) -> BundleProblem:
         """The bundle problem of the state block: with its control, or a free network held by
@@ -219,3 +257,4 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
     for r in range(gi.n_imu):
         keys += [(IMU.name, int(maps.imu[r]), c) for c in range(3)]
     return keys
+

@@ -46,6 +46,7 @@ class Measurements:
         self.source, self.notes = block.source, list(block.notes)
         self.photo_ids: list[str] = []
         self.photo_at: dict[str, int] = {}
+        self.resected: set[int] = set()  # photos oriented on-line by resection from the block
         self.photo_cam: list[int] = []
         self.photo_strip: list = []
         self.photo_eo: list[np.ndarray] = []
