@@ -46,8 +46,9 @@ COMMANDS = {
     "report": ("baarda.cli.report", "adjustment report: HTML (plots embedded) or text"),
     "residuals": ("baarda.cli.residuals", "post-processor: group statistics and histograms of "
                   "residuals listed by another program (see docs/report.md)"),
-    "convert": ("baarda.cli.convert", f"convert {titles()} input (or a project) into a "
-                "native project folder"),
+    "convert": ("baarda.cli.convert", f"convert {titles()} input (or a project, or a "
+                "result folder) into a native project folder or, with --to, another "
+                "program's files"),
     "models": ("baarda.cli.models", "independent-model block adjustment with data snooping "
                "and tests of model deformations (FOTEF)"),
     "simulate-models": ("baarda.cli.models", "simulate an independent-model block with "
