@@ -10,6 +10,7 @@ import signal
 import sys
 
 from baarda.process import (
+    MIN_ADDRESS_SPACE,
     SMALL_ADDRESS_SPACE,
     address_space,
     closed_streams,
@@ -43,6 +44,12 @@ def run(argv: list[str] | None = None) -> int:
     try:
         try:
             closed = closed_streams()
+            if address_space() < MIN_ADDRESS_SPACE:
+                _say(f"baarda: error: out of memory{memory_limit_text()}: baarda's libraries "
+                     f"(NumPy, pandas, pyarrow, numba) need at least "
+                     f"{MIN_ADDRESS_SPACE / 2**20:.0f} MB of address space to load; raise "
+                     "the limit (ulimit -v)")
+                return WRITE_FAILED
             if address_space() < float("inf"):
                 quiet_unraisable_memory_errors()
             if address_space() < SMALL_ADDRESS_SPACE:  # each thread reserves memory

@@ -9,6 +9,10 @@ import sys
 #: a thread's stack and arena reserve address space, and a thread that cannot get it aborts
 #: the process in C (no Python error to report)
 SMALL_ADDRESS_SPACE = 2 * 2**30
+#: below this address space not even the libraries load reliably: a C++ library (pyarrow's
+#: thread pools, LLVM) may end the process with std::bad_alloc and no Python error (seen at
+#: 300 MB, now and then), so the command line refuses to start
+MIN_ADDRESS_SPACE = 768 * 2**20
 #: below this address space the numerical kernels cannot run: numba's LLVM (or a C++
 #: library) aborts the process with no Python error (measured: the demo's adjust aborts at
 #: 977 MB with "LLVM ERROR: out of memory" or std::bad_alloc, fails with a Python
