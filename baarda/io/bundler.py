@@ -34,7 +34,13 @@ from baarda.block.photo_block import (
 from baarda.block.pixels import centred
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
-from baarda.io.records import check_pixel_options, finite_numbers, require_file, split_lines
+from baarda.io.records import (
+    check_pixel_options,
+    finite_numbers,
+    first_line_starts,
+    read_lines,
+    require_file,
+)
 
 HEADER = "# Bundle file v0.3"
 ROTATION_TOLERANCE = 1e-4  # |R R^T - I| of a rotation written with 6 digits or more
@@ -48,30 +54,6 @@ def bundle_file(path: Path) -> Path:
 def is_bundler(path: str | Path) -> bool:
     """A file (or a folder's bundle.out) whose first line is '# Bundle file v0.x'."""
     return first_line_starts(bundle_file(Path(path)), b"# Bundle file v")
-
-
-def first_line_starts(p: Path, prefix: bytes) -> bool:
-    """Whether `p` is a file whose first line (after a byte-order mark) starts with
-    `prefix`."""
-    if not p.is_file():
-        return False
-    try:
-        with open(p, "rb") as f:
-            head = f.readline(256)
-    except OSError:
-        return False
-    return head.lstrip(b"\xef\xbb\xbf").startswith(prefix)
-
-
-def read_lines(p: Path) -> list[str]:
-    """The lines of a UTF-8 text file; ProjectError naming a byte that does not decode."""
-    try:
-        text = p.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        raise ProjectError(str(p), f"not a text file (byte 0x{e.object[e.start]:02x})") from None
-    except OSError as e:
-        raise ProjectError(str(p), f"cannot be read ({e.strerror or e})") from None
-    return split_lines(text)
 
 
 class _Lines:

@@ -20,20 +20,16 @@ from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
 from baarda.io.metashape_block import to_block
 from baarda.io.metashape_chunk import TiePoints, _cameras, read_chunk
+from baarda.io.records import file_head
 from baarda.io.xmltree import Node, parse_xml
 
 AGREE = 1e-3  # camera centres of a Bundler file agree with the XML's: relative to the extent
 
 
 def is_metashape_cameras(path: str | Path) -> bool:
-    p = Path(path)
-    if not p.is_file() or p.suffix.lower() != ".xml":
+    if Path(path).suffix.lower() != ".xml":
         return False
-    try:
-        with open(p, "rb") as f:
-            head = f.read(4096)
-    except OSError:
-        return False
+    head = file_head(path)
     return b"<document" in head and b"<chunk" in head
 
 

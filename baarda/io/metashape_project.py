@@ -32,6 +32,7 @@ from baarda.errors import ProjectError
 from baarda.io.metashape_block import to_block
 from baarda.io.metashape_chunk import TiePoints, read_chunk
 from baarda.io.ply import read_ply
+from baarda.io.records import file_head
 from baarda.io.xmltree import Node, parse_xml_bytes
 
 MAX_MEMBER = 2 * 2**30  # bytes of one member once unpacked
@@ -135,11 +136,11 @@ def is_metashape_project(path: str | Path) -> bool:
     p = Path(path)
     if not p.is_file() or p.suffix.lower() not in (".psz", ".psx"):
         return False
+    if p.suffix.lower() == ".psx":
+        return b"<document" in file_head(p)
     try:
-        if p.suffix.lower() == ".psz":
-            return zipfile.is_zipfile(p) and "doc.xml" in zipfile.ZipFile(p).namelist()
-        with open(p, "rb") as f:
-            return b"<document" in f.read(4096)
+        with zipfile.ZipFile(p) as z:
+            return "doc.xml" in z.namelist()
     except (OSError, zipfile.BadZipFile):
         return False
 

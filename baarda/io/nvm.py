@@ -41,8 +41,14 @@ from baarda.block.photo_block import (
 from baarda.block.pixels import centred
 from baarda.block.rotation import angles_from_matrix
 from baarda.errors import ProjectError
-from baarda.io.bundler import first_line_starts, once_per_image, read_lines
-from baarda.io.records import check_pixel_options, finite_numbers, require_file
+from baarda.io.bundler import once_per_image
+from baarda.io.records import (
+    check_pixel_options,
+    finite_numbers,
+    first_line_starts,
+    read_lines,
+    require_file,
+)
 
 QUATERNION_TOLERANCE = 1e-4  # | |q| - 1 | of a quaternion written with 6 digits or more
 FLIP = np.diag([1.0, -1.0, -1.0])  # VisualSFM's camera frame (y down, +z) <-> baarda's

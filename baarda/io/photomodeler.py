@@ -55,6 +55,7 @@ from baarda.io.records import (
     ENCODING,
     decode_text,
     file_bytes,
+    file_head,
     first_appearance,
     is_utf8,
     parse_number,
@@ -63,12 +64,9 @@ from baarda.io.records import (
 
 
 def is_photomodeler_export(path: str | Path) -> bool:
-    p = Path(path)
-    if not p.is_file() or p.suffix.lower() != ".txt":
+    if Path(path).suffix.lower() != ".txt":
         return False
-    with open(p, "rb") as f:
-        first = f.readline(256).removeprefix(b"\xef\xbb\xbf")  # a BOM is accepted
-        return first.strip().lower().startswith(b"bundle soln")
+    return file_head(path, 256, line=True).strip().lower().startswith(b"bundle soln")
 
 
 def _nums(line: str, path: str, no: int, what: str, count: int | None = None,

@@ -128,6 +128,27 @@ def not_a_file(path: str | Path, what: str = "file not found") -> str | None:
     return f"is {file_kind(st.st_mode)}, not a regular file"
 
 
+def file_head(path: str | Path, size: int = 4096, *, line: bool = False) -> bytes:
+    """The first `size` bytes of a regular file (its first line only, with `line`), a UTF-8
+    byte-order mark dropped; b"" for anything that is not a readable regular file.  For the
+    readers' `detect`: sniffing never raises."""
+    p = Path(path)
+    if not p.is_file():
+        return b""
+    try:
+        with open(p, "rb") as f:
+            head = f.readline(size) if line else f.read(size)
+    except OSError:
+        return b""
+    return head.removeprefix(b"\xef\xbb\xbf")
+
+
+def first_line_starts(path: str | Path, prefix: bytes) -> bool:
+    """Whether `path` is a file whose first line (after a byte-order mark) starts with
+    `prefix`."""
+    return file_head(path, 256, line=True).startswith(prefix)
+
+
 def require_file(path: str | Path, what: str = "file not found") -> None:
     """ProjectError naming `path` unless it is a regular file (or a link to one): says
     what it is instead (missing: `what`; a folder, a FIFO, a link loop, ...)."""
