@@ -20,7 +20,7 @@ FLOORS = [
     {"io", "quality"},
     {"adjustment"},
     {"bundle", "relative"},
-    {"screening", "independent"},
+    {"screening", "independent", "gcp_placement"},
     {"pipeline", "simulate"},
     {"planning", "online"},
     {"evaluation"},

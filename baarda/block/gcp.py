@@ -1,5 +1,5 @@
 """GCP image measurements added to any block (`--gcp-list FILE`, `baarda.read(gcp_list=...)`;
-the file, OpenDroneMap's gcp_list.txt, is read by io/gcp_list.py; pipeline.with_gcp_list
+the file, OpenDroneMap's gcp_list.txt, is read by io/gcp_list.py; gcp_placement.with_gcp_list
 places the block in the GCPs' frame).
 
 Each GCP becomes a control point of its own (its name, or "gcp NAME" where a point of the

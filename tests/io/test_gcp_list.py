@@ -1,5 +1,5 @@
 """--gcp-list: OpenDroneMap's gcp_list.txt added to a COLMAP block (io/gcp_list.py,
-block/gcp.py, block/pixels.py, pipeline.with_gcp_list): the reader, the pixel convention
+block/gcp.py, block/pixels.py, gcp_placement.with_gcp_list): the reader, the pixel convention
 against an independent projection (tests/gcp_blocks.py), bad input, the Monte Carlo
 acceptance (issue 38) and the shared Maupertuis model."""
 
