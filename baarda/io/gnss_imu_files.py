@@ -29,7 +29,7 @@ DEFAULT_IMU_SIGMA_DEG = 0.005
 def gnss_imu_settings(doc: dict, path: Path, s: Settings) -> dict:
     """Settings fields from [gnss] (lever_arm, offsets, drift) and [imu] (boresight), and
     the default sigmas from [sigma] gnss_m (m, one or [X, Y, Z]) and imu (angle_unit)."""
-    from baarda.io.project import toml_table
+    from baarda.io.project_toml import toml_table
 
     g, i, sig = toml_table(doc, GNSS.name, path), toml_table(doc, IMU.name, path), \
         toml_table(doc, "sigma", path)

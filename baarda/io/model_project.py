@@ -21,7 +21,8 @@ import numpy as np
 
 from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.errors import ProjectError
-from baarda.io.project import check_keys, load_toml, read_ground_points, toml_table
+from baarda.io.project import read_ground_points
+from baarda.io.project_toml import check_keys, load_toml, toml_table
 from baarda.io.records import ENCODING
 from baarda.io.table import Table
 
