@@ -461,7 +461,8 @@ class BundleProblem(SchurProblem):
         except GeometryError as e:
             if not self.diagnosis:
                 raise
-            raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis)) from None
+            raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis),
+                                frame=e.frame) from None
         notes = list(self.notes)
         if gn is not None and sol is not gn:
             notes.append(f"Gauss-Newton {gn.message}; Levenberg-Marquardt continued from "

@@ -26,7 +26,6 @@ observations (tests/online/test_equivalence.py).
 
 from __future__ import annotations
 
-import re
 import time
 from dataclasses import replace
 
@@ -42,7 +41,7 @@ from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, rejected
 from baarda.online.approximations import prepared, prune
 from baarda.online.entering import entering, held_words, leaving, mark_in
-from baarda.online.factorised import Factored, Key
+from baarda.online.factorised import Factored, Key, undetermined_photo
 from baarda.online.measurements import HELD, IN, Measurements
 from baarda.online.removals import Removals
 from baarda.options import SolveOptions, TestOptions
@@ -422,10 +421,10 @@ class OnlineBundle(Removals):
                 for j in points:
                     m.point_in[j] = False
                 leaving(self.m)
-                bad = re.search(r"orientation of photo (\S+) is not determined", note)
-                if bad is None or bad.group(1) not in m.photo_at:
+                bad = undetermined_photo(e)
+                if bad is None or bad not in photos:
                     break
-                photos.discard(m.photo_at[bad.group(1)])
+                photos.discard(bad)
                 photos, points = prune(m, photos, points)
         if self._f is None:
             self._why_not = note

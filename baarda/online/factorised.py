@@ -29,6 +29,13 @@ SAME = 1e-6  # the cold start's sigma0 not this much smaller (relative): the sam
 Key = tuple[str, int, int]  # (kind, universe index, component number)
 
 
+def undetermined_photo(e: GeometryError) -> int | None:
+    """The universe photo whose orientation (or own camera parameters) a refactorisation
+    found not determined (`Factorisation._refactor` names it in the error's frame), else
+    None: the photo to leave out before the block is factored again."""
+    return e.frame
+
+
 @dataclass
 class Factored:
     """The block at its last factorisation: the problem, its solution and what the
@@ -123,7 +130,12 @@ class Factorisation:
                 g = np.array([at.get(n, v) for n, v in
                               zip(problem.system.global_names, g, strict=True)])
             start += (g,)
-        result = problem.fit(start=None if first else start)
+        try:
+            result = problem.fit(start=None if first else start)
+        except GeometryError as e:  # the frame named: its photo in the universe
+            if e.frame is None:
+                raise
+            raise GeometryError(str(e), frame=int(maps.photos[e.frame])) from None
         if not first and self._f is not None:
             result = self._better_cold(problem, result, self._f.result.sigma0)
         model = BundleModel(result)
