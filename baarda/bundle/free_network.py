@@ -24,6 +24,7 @@ from baarda.block.photo_block import Block
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.bundle.datum_share import datum_share, minimal_constraints
+from baarda.bundle.result_text import EO_NAMES
 from baarda.errors import GeometryError
 
 
@@ -95,8 +96,7 @@ class FreeBundleProblem(BundleProblem):
         """The unknowns the constraints hold, in words."""
         ids = self.block.photos.ids
         assert self.held is not None
-        names = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
-        parts = [f"{', '.join(names[c] for c in np.flatnonzero(row))} of photo {ids[i]}"
+        parts = [f"{', '.join(EO_NAMES[c] for c in np.flatnonzero(row))} of photo {ids[i]}"
                  for i, row in enumerate(self.held) if row.any()]
         return " and ".join(parts)
 
