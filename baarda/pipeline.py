@@ -231,6 +231,7 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     from baarda.bundle.free_network import (
         FreeBundleProblem,
         drop_points_behind,
+        observed_datum_share,
         without_weak_datum_observations,
     )
     from baarda.bundle.geometry import intersected_points
@@ -246,9 +247,11 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     if block.points.controlled.any():
         block = as_check_points(block)  # the same rays: the same intersections
     block, dropped = drop_points_behind(block)
-    block = without_weak_datum_observations(block)
+    share = observed_datum_share(block)  # once: for both (None where they leave it out)
+    block = without_weak_datum_observations(block, share)
     return FreeBundleProblem(block, diagnosis=diagnosis, inner=inner,
-                             intersected=None if dropped else xyz)
+                             intersected=None if dropped else xyz,
+                             share=None if share is None or share.weak else share)
 
 
 def as_check_points(block: Block) -> Block:

@@ -23,7 +23,7 @@ import numpy as np
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
-from baarda.bundle.datum_share import datum_share, minimal_constraints
+from baarda.bundle.datum_share import DatumShare, datum_share, minimal_constraints
 from baarda.bundle.result_text import EO_NAMES
 from baarda.errors import GeometryError
 
@@ -57,7 +57,7 @@ class FreeBundleProblem(BundleProblem):
 
     def __init__(self, block: Block, datum: tuple[int, int, int] | None = None,
                  diagnosis: tuple[str, ...] = (), inner: bool = False,
-                 intersected: np.ndarray | None = None):
+                 intersected: np.ndarray | None = None, share: DatumShare | None = None):
         if np.any(block.points.controlled):
             raise GeometryError("the block has control points: adjust it with its control "
                                 "(a free-network datum would over-constrain it)")
@@ -65,8 +65,8 @@ class FreeBundleProblem(BundleProblem):
         a, b, k = self.datum
         self.scaled = bool(len(block.distances))  # a distance fixes the scale
         # GNSS positions and IMU attitudes fix part or all of the datum: constraints only
-        # for what they leave free (bundle/datum_share.py)
-        self.share = datum_share(block) if len(block.gnss) or len(block.imu) else None
+        # for what they leave free (bundle/datum_share.py; `share`: already computed)
+        self.share = share if share is not None else observed_datum_share(block)
         if self.share is not None and self.share.carried:
             held = minimal_constraints(block, self.share, a, b)
         else:
@@ -130,15 +130,21 @@ class FreeBundleProblem(BundleProblem):
                 "deviations refer to this datum; " + invariant)
 
 
-def without_weak_datum_observations(block: Block) -> Block:
+def observed_datum_share(block: Block) -> DatumShare | None:
+    """What the GNSS positions and IMU attitudes of `block` fix of its datum (None without
+    them)."""
+    return datum_share(block) if len(block.gnss) or len(block.imu) else None
+
+
+def without_weak_datum_observations(block: Block, share: DatumShare | None = None) -> Block:
     """The block without its GNSS positions and IMU attitudes when they fix a datum direction
     only weakly (bundle/datum_share.py: three GNSS positions close to a line and the roll
     about it): holding that direction by a constraint would over-constrain them (statistics
     that depend on the constraint), leaving it to them a datum fixed only in name.  A note
-    says which direction and what to do."""
+    says which direction and what to do.  `share`: datum_share(block), where computed."""
     if not (len(block.gnss) or len(block.imu)):
         return block
-    share = datum_share(block)
+    share = share if share is not None else datum_share(block)
     if not share.weak:
         return block
     from baarda.block.photo_block import no_gnss, no_imu
