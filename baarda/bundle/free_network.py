@@ -149,7 +149,7 @@ def without_weak_datum_observations(block: Block, share: DatumShare | None = Non
         return block
     from baarda.block.photo_block import no_gnss, no_imu
 
-    what = share.by.replace(" and distances", "").replace("distances", "")
+    what = " and ".join(s for s in share.sources if s != "distances")
     return replace(block, gnss=no_gnss(), imu=no_imu(), notes=list(block.notes) + [
         f"free network: the {what} left out of the adjustment: they fix the "
         f"{'; '.join(share.weak)} only weakly, so they cannot carry the datum and minimal "
