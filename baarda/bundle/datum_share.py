@@ -120,8 +120,6 @@ def datum_share(block: Block) -> DatumShare:
     lam, vec = np.linalg.eigh((f + f.T) / 2)
     top = max(float(lam.max()), 0.0)
     is_free = lam <= FREE * top if top > 0 else np.ones(d, bool)
-    if scaled and not len(block.gnss) and not len(block.imu):
-        is_free = np.ones(d, bool)
     sd = 1.0 / np.sqrt(lam[~is_free])
     weak = tuple(f"{_describe(vec[:, i], names)} (standard deviation {s:.3g} m at the "
                  f"block's extent {extent:.3g} m)"

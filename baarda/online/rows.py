@@ -51,7 +51,7 @@ def image_rows(block: Block, problem: BundleProblem, camera: np.ndarray, eo: np.
     ng = problem.system.ng
     if not k:
         return np.zeros((0, 2)), np.zeros((0, 2, 6)), np.zeros((0, 2, 3)), np.zeros((0, 2, ng))
-    tmp = Block(block.settings, block.cameras, one_photo_each(block, camera, eo),
+    tmp = Block(block.settings, block.cameras, one_photo_each(camera, eo),
                 ImagePoints(np.arange(k), np.arange(k), np.asarray(xy, float), np.ones(k)),
                 GroundPoints([str(i) for i in range(k)], np.asarray(xyz, float),
                              np.full((k, 3), np.nan), np.full(k, "tie", dtype=object)))
