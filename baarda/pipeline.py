@@ -30,6 +30,7 @@ from baarda.errors import GeometryError, ProjectError
 from baarda.io.formats import read_any
 from baarda.io.records import ENCODING
 from baarda.options import (
+    FREE_DATUMS,
     Config,
     Progress,
     Requested,
@@ -237,7 +238,7 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     from baarda.bundle.geometry import intersected_points
 
     inner = block.settings.datum == "inner"
-    free = block.settings.datum in ("free", "inner") if free is None else free
+    free = block.settings.datum in FREE_DATUMS if free is None else free
     block = with_approximations(localized(block))
     ideal = ideal_image_coordinates(block)  # once: distortion-free image coordinates
     xyz = intersected_points(block, ideal)  # once, for the diagnosis and the approximations

@@ -15,7 +15,7 @@ from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.errors import GeometryError
-from baarda.kinds import GNSS, IMU
+from baarda.kinds import CONTROL, GNSS, IMAGE, IMU
 from baarda.online.answers import Change
 from baarda.online.approximations import resected_again
 from baarda.online.lowrank import LowRank
@@ -148,10 +148,10 @@ class Factorisation:
         by_photo: dict[int, list[int]] = {}
         by_point: dict[int, list[int]] = {}
         for n, (kind, u, _c) in enumerate(keys):
-            if kind == "image":
+            if kind == IMAGE.name:
                 by_photo.setdefault(m.im_photo[u], []).append(n)
                 by_point.setdefault(m.im_point[u], []).append(n)
-            elif kind == "control":
+            elif kind == CONTROL.name:
                 by_point.setdefault(u, []).append(n)
             else:
                 by_photo.setdefault((m.g_photo if kind == GNSS.name else m.i_photo)[u],
@@ -258,11 +258,11 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
     keys = []
     for r in problem.obs:
         u = int(maps.image[r])
-        keys += [("image", u, 0), ("image", u, 1)]
+        keys += [(IMAGE.name, u, 0), (IMAGE.name, u, 1)]
     sel = problem.layout.ctrl_sel
     ci, cc = np.divmod(sel, 3)
     for i, c in zip(ci, cc, strict=True):
-        keys.append(("control", int(maps.points[problem.control[i]]), int(c)))
+        keys.append((CONTROL.name, int(maps.points[problem.control[i]]), int(c)))
     gi = problem.gnss_imu
     for r in range(gi.n_gnss):
         keys += [(GNSS.name, int(maps.gnss[r]), c) for c in range(3)]
