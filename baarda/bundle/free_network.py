@@ -1,17 +1,22 @@
 """Free networks (no control: BAL, COLMAP, AICON): the datum by minimal constraints.
 
-The seven datum parameters (translation, rotation, scale) are fixed by holding the six
-exterior-orientation unknowns of one photo and one projection-centre coordinate of a
-second photo (the coordinate with the largest difference from the first photo).  Held
-unknowns get zero columns in the Jacobian and a direct observation of weight `HOLD`
-(BundleProblem, Linearization.wf), so their corrections and cofactors are exactly zero up
-to 1/HOLD and the rest of the normal equations is untouched.
+Without other observations the seven datum parameters (translation, rotation, scale) are
+fixed by holding the six exterior-orientation unknowns of one photo and one
+projection-centre coordinate of a second photo (the coordinate with the largest difference
+from the first photo); distances fix the scale, and then the first photo alone is held.
+GNSS positions and IMU attitudes fix part or all of the datum (bundle/datum_share.py):
+constraints then hold only the directions they leave free, on unknowns of the same two
+photos (minimal_constraints), and none where they fix the whole datum.  Held unknowns get
+zero columns in the Jacobian and a direct observation of weight `HOLD` (BundleProblem,
+Linearization.wf), so their corrections and cofactors are exactly zero up to 1/HOLD and
+the rest of the normal equations is untouched.
 
 How it counts: the datum observations are not observations and the held unknowns are not
-unknowns (SchurSystem.n_fixed), so redundancy = n - (u - 7), the redundancy of any
-minimal-constraint solution.  Residuals, sigma0, redundancy numbers, w-tests and MDBs of
-the observations do not depend on which minimal datum is chosen; standard deviations of
-orientations and points do (they refer to the chosen datum).
+unknowns (SchurSystem.n_fixed), so redundancy = n - (u - c) with c the number of held
+unknowns (7 with neither distances nor GNSS/IMU), the redundancy of any minimal-constraint
+solution.  Residuals, sigma0, redundancy numbers, w-tests and MDBs of the observations do
+not depend on which minimal datum is chosen; standard deviations of orientations and
+points do (they refer to the chosen datum).
 """
 
 from __future__ import annotations

@@ -74,8 +74,8 @@ def refusal(block: Block) -> str:
         return ("the on-line bundle does not take distances: adjust the block with baarda "
                 "adjust, or measure on-line without them")
     if s.datum in FREE_DATUMS and (block.points.controlled.any() or len(block.gnss)):
-        return ("a free network (datum free) has no control and no GNSS positions: give "
-                "them with datum = \"control\"")
+        return ("the on-line bundle does not take control or GNSS positions in a free "
+                "network (datum free): give them with datum = \"control\"")
     fixed = np.flatnonzero((block.points.sigma == 0).any(axis=1))
     if len(fixed):
         return (f"fixed control (sigma 0) is not supported on-line (point "
