@@ -137,7 +137,7 @@ class Factorisation:
                 raise
             raise GeometryError(str(e), frame=int(maps.photos[e.frame])) from None
         if not first and self._f is not None:
-            result = self._better_cold(problem, result, self._f.result.sigma0)
+            result = self._better_cold(problem, result, self._f.result.sigma0, eo)
         model = BundleModel(result)
         keys = _flat_keys(problem, maps)
         nf = len(m.photo_ids)
@@ -173,8 +173,8 @@ class Factorisation:
         w, r, *_, mdb = self._stats(self._f)
         return self._changes(keys, w, r, mdb)
 
-    def _better_cold(self, problem: BundleProblem, warm: BundleResult,
-                     before: float) -> BundleResult:
+    def _better_cold(self, problem: BundleProblem, warm: BundleResult, before: float,
+                     now: np.ndarray) -> BundleResult:
         """The warm-started solution, or, where its sigma0 exceeds RESTART times the last
         factorisation's (a local minimum: new photos and points refined to a block held in
         a weak, nearly critical configuration), a solution from approximations when its
@@ -182,12 +182,12 @@ class Factorisation:
         resected orientations (what the batch adjustment starts from), else, where that
         does not converge to a better minimum, with the photos resected on-line resected
         again from the points the other photos intersect (`resected_again`: their first
-        resection used points in the wrong minimum)."""
+        resection used points in the wrong minimum).  `now`: the current orientations
+        (`_current`, as the warm start had them), for photos without given ones."""
         if not warm.sigma0 > RESTART * max(before, 1.0):
             return warm
         m = self.m
         eo, xyz, tie = m.arrays()
-        now, _ = self._current()
         eo = np.where(np.isfinite(eo).all(axis=1)[:, None], eo, now)
         block, maps = m.state_block(np.where(np.isfinite(eo), eo, 0.0),
                                     np.where(tie[:, None], np.nan, xyz))
