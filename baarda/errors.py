@@ -31,7 +31,15 @@ class ProjectError(ValueError):
 
 
 class GeometryError(ValueError):
-    """The block cannot be adjusted as given (datum defect, undetermined photo or point)."""
+    """The block cannot be adjusted as given (datum defect, undetermined photo or point).
+
+    `frame`: the index of the frame (photo, model) whose unknowns are not determined, where
+    the error is about one (adjustment/schur.py), else None: callers that leave such a
+    photo out and try again read it here, not in the words of the message."""
+
+    def __init__(self, *args: object, frame: int | None = None) -> None:
+        super().__init__(*args)
+        self.frame = frame
 
 
 class OutputError(OSError):

@@ -96,7 +96,8 @@ class SolveOptions:
 
 DEFAULT_TESTS = TestOptions()
 
-DATUMS = ("control", "free", "inner")  # inner: a free network in its inner datum
+FREE_DATUMS = ("free", "inner")  # a free network (inner: in its inner datum)
+DATUMS = ("control", *FREE_DATUMS)
 SOLVERS = ("gn", "lm")  # Gauss-Newton with step halving, Levenberg-Marquardt
 CALIBRATION_GROUPS = ("camera", "strip")  # the photos that share a camera's parameters
 

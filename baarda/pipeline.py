@@ -30,6 +30,7 @@ from baarda.errors import GeometryError, ProjectError
 from baarda.io.formats import read_any
 from baarda.io.records import ENCODING
 from baarda.options import (
+    FREE_DATUMS,
     Config,
     Progress,
     Requested,
@@ -231,12 +232,13 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     from baarda.bundle.free_network import (
         FreeBundleProblem,
         drop_points_behind,
+        observed_datum_share,
         without_weak_datum_observations,
     )
     from baarda.bundle.geometry import intersected_points
 
     inner = block.settings.datum == "inner"
-    free = block.settings.datum in ("free", "inner") if free is None else free
+    free = block.settings.datum in FREE_DATUMS if free is None else free
     block = with_approximations(localized(block))
     ideal = ideal_image_coordinates(block)  # once: distortion-free image coordinates
     xyz = intersected_points(block, ideal)  # once, for the diagnosis and the approximations
@@ -246,9 +248,11 @@ def _prepare(block: Block, free: bool | None) -> BundleProblem:
     if block.points.controlled.any():
         block = as_check_points(block)  # the same rays: the same intersections
     block, dropped = drop_points_behind(block)
-    block = without_weak_datum_observations(block)
+    share = observed_datum_share(block)  # once: for both (None where they leave it out)
+    block = without_weak_datum_observations(block, share)
     return FreeBundleProblem(block, diagnosis=diagnosis, inner=inner,
-                             intersected=None if dropped else xyz)
+                             intersected=None if dropped else xyz,
+                             share=None if share is None or share.weak else share)
 
 
 def as_check_points(block: Block) -> Block:

@@ -112,7 +112,7 @@ class SchurFactor:
         try:
             self.chol.factorize(values)
         except NotPositiveDefinite as err:
-            raise GeometryError(self._undetermined(values, err.block)) from None
+            raise GeometryError(self._undetermined(values, err.block), frame=err.block) from None
         if s.ng:
             self._eliminate_globals()
 

@@ -132,7 +132,7 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
                                 tuple(history))
             damping = 0.0  # confirm with the undamped normal equations
             continue
-        found = _search(problem, state, step, lin.cost, options, damping > 0.0)
+        found = _search(problem, state, step, lin.cost, options)
         if found is None:
             if damping > 0.0:
                 damping *= 10.0
@@ -213,8 +213,7 @@ def _final_step(problem: Problem, state: Any, step: Any, lin: Any, factor: Any):
     return new_state, new, problem.factorize(new, 0.0)
 
 
-def _search(problem: Problem, state: Any, step: Any, cost: float, options: SolveOptions,
-            damped: bool):
+def _search(problem: Problem, state: Any, step: Any, cost: float, options: SolveOptions):
     """(t, new state, its linearisation) of the longest step t = 1, 1/2, ... >= min_step
     that is admissible and does not raise the cost; None if there is none.  A damped step
     is halved too: tried at t = 1 only, Levenberg-Marquardt's x10 / /10 schedule

@@ -32,6 +32,7 @@ from baarda.bundle.kind_gnss_imu import GnssImuRows
 from baarda.bundle.kind_image import BorderImageRows
 from baarda.bundle.observation_kinds import Context, GlobalLayout, ObservationKind, State
 from baarda.bundle.registered_kinds import registered_kinds
+from baarda.bundle.result_text import photo_unknown_names
 from baarda.errors import GeometryError
 from baarda.kinds import CONTROL, IMAGE, KINDS
 from baarda.options import Progress, SolveOptions
@@ -223,13 +224,8 @@ class BundleProblem(SchurProblem):
     def _column_names(self, k: int) -> list[str]:
         """The names of photo k's unknowns: its orientation, then the free parameters of
         the camera in its block (held columns named as such)."""
-        photo = self.block.photos.ids[k]
-        names = [f"{n} of photo {photo}" for n in ("X0", "Y0", "Z0", "omega", "phi", "kappa")]
-        cal = self.calibration
-        owned = np.flatnonzero(cal.owner == k)
-        free = [f"{cal.names[i][j]} of camera {self.block.cameras.ids[i]}"
-                for i in owned for j in cal.free_index[i]]
-        return names + free + ["(held)"] * (self.b - 6 - len(free))
+        names = photo_unknown_names(self.block, self.calibration, k)
+        return names + ["(held)"] * (self.b - len(names))
 
     @property
     def units(self) -> dict[str, tuple[float, str]]:
@@ -461,7 +457,8 @@ class BundleProblem(SchurProblem):
         except GeometryError as e:
             if not self.diagnosis:
                 raise
-            raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis)) from None
+            raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis),
+                                frame=e.frame) from None
         notes = list(self.notes)
         if gn is not None and sol is not gn:
             notes.append(f"Gauss-Newton {gn.message}; Levenberg-Marquardt continued from "

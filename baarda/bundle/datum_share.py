@@ -51,14 +51,20 @@ class DatumShare:
     minimal constraints (unscaled: translations in m, rotations in rad, scale per unit);
     sd (d - k,) m: the standard deviation of each determined direction at the extent;
     weak: the determined directions more than WEAK times worse than the best, in words;
-    extent m; by: what fixes the determined directions, in words ("" when nothing does)."""
+    extent m; sources: the observations that fix the determined directions ("GNSS
+    positions", "IMU attitudes", "distances"), `by` the same in words."""
 
     d: int
     free: np.ndarray
     sd: np.ndarray
     weak: tuple[str, ...]
     extent: float
-    by: str
+    sources: tuple[str, ...]
+
+    @property
+    def by(self) -> str:
+        """What fixes the determined directions, in words ("" when nothing does)."""
+        return " and ".join(self.sources)
 
     @property
     def carried(self) -> int:
@@ -82,8 +88,9 @@ def datum_share(block: Block) -> DatumShare:
     d = 6 if scaled else 7
     names = DIRECTIONS[:d]
     eo = block.photos.eo
-    by = [w for w, n in (("GNSS positions", len(block.gnss)), ("IMU attitudes", len(block.imu)),
-                         ("distances", len(block.distances))) if n]
+    by = tuple(w for w, n in (("GNSS positions", len(block.gnss)),
+                              ("IMU attitudes", len(block.imu)),
+                              ("distances", len(block.distances))) if n)
     ok = np.isfinite(eo).all(axis=1)
     centres = eo[ok, :3]
     pts = block.points.xyz[np.isfinite(block.points.xyz).all(axis=1)]
@@ -94,7 +101,7 @@ def datum_share(block: Block) -> DatumShare:
     gi = GnssImu(block, 0)
     if not gi.m:
         free = np.eye(d)
-        return DatumShare(d, free, np.zeros(0), (), extent, " and ".join(by))
+        return DatumShare(d, free, np.zeros(0), (), extent, by)
     photos = gi.photos
     e0 = np.where(ok[:, None], eo, 0.0)
     _, jxf, jxg = gi.rows(e0, np.zeros(gi.n), gi.n)
@@ -113,8 +120,6 @@ def datum_share(block: Block) -> DatumShare:
     lam, vec = np.linalg.eigh((f + f.T) / 2)
     top = max(float(lam.max()), 0.0)
     is_free = lam <= FREE * top if top > 0 else np.ones(d, bool)
-    if scaled and not len(block.gnss) and not len(block.imu):
-        is_free = np.ones(d, bool)
     sd = 1.0 / np.sqrt(lam[~is_free])
     weak = tuple(f"{_describe(vec[:, i], names)} (standard deviation {s:.3g} m at the "
                  f"block's extent {extent:.3g} m)"
@@ -122,7 +127,7 @@ def datum_share(block: Block) -> DatumShare:
                  if len(sd) and s > WEAK * sd.min())
     free = vec[:, is_free] / unit[:, None]  # back to m, rad and scale per unit
     free = free / np.linalg.norm(free, axis=0, keepdims=True) if free.shape[1] else free
-    return DatumShare(d, free, sd, weak, extent, " and ".join(by))
+    return DatumShare(d, free, sd, weak, extent, by)
 
 
 def minimal_constraints(block: Block, share: DatumShare, first: int, second: int

@@ -1,17 +1,22 @@
 """Free networks (no control: BAL, COLMAP, AICON): the datum by minimal constraints.
 
-The seven datum parameters (translation, rotation, scale) are fixed by holding the six
-exterior-orientation unknowns of one photo and one projection-centre coordinate of a
-second photo (the coordinate with the largest difference from the first photo).  Held
-unknowns get zero columns in the Jacobian and a direct observation of weight `HOLD`
-(BundleProblem, Linearization.wf), so their corrections and cofactors are exactly zero up
-to 1/HOLD and the rest of the normal equations is untouched.
+Without other observations the seven datum parameters (translation, rotation, scale) are
+fixed by holding the six exterior-orientation unknowns of one photo and one
+projection-centre coordinate of a second photo (the coordinate with the largest difference
+from the first photo); distances fix the scale, and then the first photo alone is held.
+GNSS positions and IMU attitudes fix part or all of the datum (bundle/datum_share.py):
+constraints then hold only the directions they leave free, on unknowns of the same two
+photos (minimal_constraints), and none where they fix the whole datum.  Held unknowns get
+zero columns in the Jacobian and a direct observation of weight `HOLD` (BundleProblem,
+Linearization.wf), so their corrections and cofactors are exactly zero up to 1/HOLD and
+the rest of the normal equations is untouched.
 
 How it counts: the datum observations are not observations and the held unknowns are not
-unknowns (SchurSystem.n_fixed), so redundancy = n - (u - 7), the redundancy of any
-minimal-constraint solution.  Residuals, sigma0, redundancy numbers, w-tests and MDBs of
-the observations do not depend on which minimal datum is chosen; standard deviations of
-orientations and points do (they refer to the chosen datum).
+unknowns (SchurSystem.n_fixed), so redundancy = n - (u - c) with c the number of held
+unknowns (7 with neither distances nor GNSS/IMU), the redundancy of any minimal-constraint
+solution.  Residuals, sigma0, redundancy numbers, w-tests and MDBs of the observations do
+not depend on which minimal datum is chosen; standard deviations of orientations and
+points do (they refer to the chosen datum).
 """
 
 from __future__ import annotations
@@ -23,7 +28,8 @@ import numpy as np
 from baarda.block.photo_block import Block
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
-from baarda.bundle.datum_share import datum_share, minimal_constraints
+from baarda.bundle.datum_share import DatumShare, datum_share, minimal_constraints
+from baarda.bundle.result_text import EO_NAMES
 from baarda.errors import GeometryError
 
 
@@ -56,7 +62,7 @@ class FreeBundleProblem(BundleProblem):
 
     def __init__(self, block: Block, datum: tuple[int, int, int] | None = None,
                  diagnosis: tuple[str, ...] = (), inner: bool = False,
-                 intersected: np.ndarray | None = None):
+                 intersected: np.ndarray | None = None, share: DatumShare | None = None):
         if np.any(block.points.controlled):
             raise GeometryError("the block has control points: adjust it with its control "
                                 "(a free-network datum would over-constrain it)")
@@ -64,8 +70,8 @@ class FreeBundleProblem(BundleProblem):
         a, b, k = self.datum
         self.scaled = bool(len(block.distances))  # a distance fixes the scale
         # GNSS positions and IMU attitudes fix part or all of the datum: constraints only
-        # for what they leave free (bundle/datum_share.py)
-        self.share = datum_share(block) if len(block.gnss) or len(block.imu) else None
+        # for what they leave free (bundle/datum_share.py; `share`: already computed)
+        self.share = share if share is not None else observed_datum_share(block)
         if self.share is not None and self.share.carried:
             held = minimal_constraints(block, self.share, a, b)
         else:
@@ -95,8 +101,7 @@ class FreeBundleProblem(BundleProblem):
         """The unknowns the constraints hold, in words."""
         ids = self.block.photos.ids
         assert self.held is not None
-        names = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
-        parts = [f"{', '.join(names[c] for c in np.flatnonzero(row))} of photo {ids[i]}"
+        parts = [f"{', '.join(EO_NAMES[c] for c in np.flatnonzero(row))} of photo {ids[i]}"
                  for i, row in enumerate(self.held) if row.any()]
         return " and ".join(parts)
 
@@ -130,20 +135,26 @@ class FreeBundleProblem(BundleProblem):
                 "deviations refer to this datum; " + invariant)
 
 
-def without_weak_datum_observations(block: Block) -> Block:
+def observed_datum_share(block: Block) -> DatumShare | None:
+    """What the GNSS positions and IMU attitudes of `block` fix of its datum (None without
+    them)."""
+    return datum_share(block) if len(block.gnss) or len(block.imu) else None
+
+
+def without_weak_datum_observations(block: Block, share: DatumShare | None = None) -> Block:
     """The block without its GNSS positions and IMU attitudes when they fix a datum direction
     only weakly (bundle/datum_share.py: three GNSS positions close to a line and the roll
     about it): holding that direction by a constraint would over-constrain them (statistics
     that depend on the constraint), leaving it to them a datum fixed only in name.  A note
-    says which direction and what to do."""
+    says which direction and what to do.  `share`: datum_share(block), where computed."""
     if not (len(block.gnss) or len(block.imu)):
         return block
-    share = datum_share(block)
+    share = share if share is not None else datum_share(block)
     if not share.weak:
         return block
     from baarda.block.photo_block import no_gnss, no_imu
 
-    what = share.by.replace(" and distances", "").replace("distances", "")
+    what = " and ".join(s for s in share.sources if s != "distances")
     return replace(block, gnss=no_gnss(), imu=no_imu(), notes=list(block.notes) + [
         f"free network: the {what} left out of the adjustment: they fix the "
         f"{'; '.join(share.weak)} only weakly, so they cannot carry the datum and minimal "

@@ -11,7 +11,9 @@ import numpy as np
 from baarda.sections import Section, section
 
 if TYPE_CHECKING:
+    from baarda.block.photo_block import Block
     from baarda.bundle.bundle_result import BundleResult
+    from baarda.bundle.calibration import Calibration
 
 HIGH_CORRELATION = 0.95  # camera parameters correlated beyond this are reported
 EO_NAMES = ("X0", "Y0", "Z0", "omega", "phi", "kappa")
@@ -148,13 +150,17 @@ def high_correlations(res: BundleResult, limit: float = HIGH_CORRELATION) -> lis
                                         f"{_photo_unknown(res, f, b)} {x:+.3f}"))
     return [text for _, text in sorted(out, reverse=True)]
 
+def photo_unknown_names(block: Block, cal: Calibration, photo: int) -> list[str]:
+    """The names of a photo's unknowns: its orientation ('X0 of photo P'), then the free
+    parameters of the camera it owns ('c of camera C'; calibration.py)."""
+    names = [f"{n} of photo {block.photos.ids[photo]}" for n in EO_NAMES]
+    return names + [f"{cal.names[i][j]} of camera {block.cameras.ids[i]}"
+                    for i in np.flatnonzero(cal.owner == photo) for j in cal.free_index[i]]
+
+
 def _photo_unknown(res: BundleResult, photo: int | np.integer, k: int | np.integer) -> str:
     """The name of unknown k of a photo's block: 'X0 of photo P', 'c of camera C'."""
-    if k < 6:
-        return f"{EO_NAMES[k]} of photo {res.block.photos.ids[photo]}"
-    cal = res.problem.calibration
-    i = int(np.flatnonzero(cal.owner == photo)[0])
-    return f"{cal.names[i][cal.free_index[i][k - 6]]} of camera {res.block.cameras.ids[i]}"
+    return photo_unknown_names(res.block, res.problem.calibration, int(photo))[int(k)]
 
 def calibration_lines(res: BundleResult) -> list[str]:
     """The estimated camera parameters with standard deviations, and the high

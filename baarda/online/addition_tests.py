@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from baarda.errors import GeometryError
-from baarda.kinds import CONTROL, GNSS, IMAGE, IMU
+from baarda.kinds import CONTROL, GNSS, IMAGE, IMU, KINDS
 from baarda.online.answers import Change, ComponentTest, verdicts
 from baarda.online.approximations import intersect, refine
 from baarda.online.entering import mark
@@ -20,7 +20,6 @@ from baarda.online.rows import factor_rows, group_rows, take
 from baarda.quality.statistics import residual_cofactors, w_tests
 
 CHUNK = 256  # rows solved together for a large group's predictions
-COMPONENTS = {k.name: k.components for k in (IMAGE, CONTROL, GNSS, IMU)}
 
 
 class AdditionTests(Factorisation):
@@ -45,9 +44,9 @@ class AdditionTests(Factorisation):
     def _sigma_of(self, key: Key) -> float:
         m = self.m
         kind, u, c = key
-        if kind == "image":
+        if kind == IMAGE.name:
             return float(np.broadcast_to(m.im_sigma[u], (2,))[c])
-        if kind == "control":
+        if kind == CONTROL.name:
             return float(m.point_sigma[u][c])
         return float((m.g_sigma if kind == GNSS.name else m.i_sigma)[u][c])
 
@@ -196,9 +195,9 @@ class AdditionTests(Factorisation):
         of the group and the rows added since the factorisation."""
         f, m = self._f, self.m
         assert f is not None
-        photos = {m.im_photo[r] for r in group["image"]} | \
+        photos = {m.im_photo[r] for r in group[IMAGE.name]} | \
             {m.g_photo[r] for r in group[GNSS.name]} | {m.i_photo[r] for r in group[IMU.name]}
-        points = {m.im_point[r] for r in group["image"]} | set(group["control"])
+        points = {m.im_point[r] for r in group[IMAGE.name]} | set(group[CONTROL.name])
         flat = set()
         for i in photos:
             flat.update(f.by_photo.get(i, np.zeros(0, int)).tolist())
@@ -259,10 +258,10 @@ class AdditionTests(Factorisation):
     def _label(self, key: Key) -> tuple[str, str, str, str]:
         m = self.m
         kind, u, c = key
-        comp = COMPONENTS[kind][c]
-        if kind == "image":
+        comp = KINDS[kind].components[c]
+        if kind == IMAGE.name:
             return kind, m.photo_ids[m.im_photo[u]], m.point_ids[m.im_point[u]], comp
-        if kind == "control":
+        if kind == CONTROL.name:
             return kind, "", m.point_ids[u], comp
         ph = (m.g_photo if kind == GNSS.name else m.i_photo)[u]
         return kind, m.photo_ids[ph], "", comp

@@ -26,7 +26,6 @@ observations (tests/online/test_equivalence.py).
 
 from __future__ import annotations
 
-import re
 import time
 from dataclasses import replace
 
@@ -37,15 +36,15 @@ from baarda.block.photo_block import Block, Cameras
 from baarda.bundle.bundle_problem import SOLVE
 from baarda.bundle.resection import resect
 from baarda.errors import GeometryError
-from baarda.kinds import GNSS, IMU
+from baarda.kinds import CONTROL, GNSS, IMAGE, IMU
 from baarda.linalg.threads import single_threaded_blas
 from baarda.online.answers import Answer, Change, ComponentTest, rejected
 from baarda.online.approximations import prepared, prune
 from baarda.online.entering import entering, held_words, leaving, mark_in
-from baarda.online.factorised import Factored, Key
+from baarda.online.factorised import Factored, Key, undetermined_photo
 from baarda.online.measurements import HELD, IN, Measurements
 from baarda.online.removals import Removals
-from baarda.options import SolveOptions, TestOptions
+from baarda.options import FREE_DATUMS, SolveOptions, TestOptions
 from baarda.quality.distributions import b_method
 from baarda.quality.separability import RHO_INSEPARABLE
 from baarda.quality.statistics import R_MIN
@@ -74,9 +73,9 @@ def refusal(block: Block) -> str:
     if len(block.distances):
         return ("the on-line bundle does not take distances: adjust the block with baarda "
                 "adjust, or measure on-line without them")
-    if s.datum in ("free", "inner") and (block.points.controlled.any() or len(block.gnss)):
-        return ("a free network (datum free) has no control and no GNSS positions: give "
-                "them with datum = \"control\"")
+    if s.datum in FREE_DATUMS and (block.points.controlled.any() or len(block.gnss)):
+        return ("the on-line bundle does not take control or GNSS positions in a free "
+                "network (datum free): give them with datum = \"control\"")
     fixed = np.flatnonzero((block.points.sigma == 0).any(axis=1))
     if len(fixed):
         return (f"fixed control (sigma 0) is not supported on-line (point "
@@ -115,7 +114,7 @@ class OnlineBundle(Removals):
             raise ValueError(why)
         block = prepared(block)
         s = block.settings
-        self.free = s.datum in ("free", "inner")
+        self.free = s.datum in FREE_DATUMS
         self.tests = tests or TestOptions.resolve(s)
         self._bm = b_method(self.tests.alpha0, self.tests.beta0)
         self.max_rows = int(max_rows)
@@ -236,10 +235,10 @@ class OnlineBundle(Removals):
         if self._f is None or key is None or not self._in(key):
             raise ValueError(f"{kind} {component} of {point or photo} is not in the block")
         m = self.m
-        if kind in ("image", "control"):
-            j = m.im_point[key[1]] if kind == "image" else key[1]
-            cand = [("image", r, c) for r in m.rows_of_point[j] for c in range(2)]
-            cand += [("control", j, c) for c in range(3)]
+        if kind in (IMAGE.name, CONTROL.name):
+            j = m.im_point[key[1]] if kind == IMAGE.name else key[1]
+            cand = [(IMAGE.name, r, c) for r in m.rows_of_point[j] for c in range(2)]
+            cand += [(CONTROL.name, j, c) for c in range(3)]
         else:
             i = (m.g_photo if kind == GNSS.name else m.i_photo)[key[1]]
             cand = [(k, r, c) for k, rows in ((GNSS.name, m.gnss_of(i)), (IMU.name, m.imu_of(i)))
@@ -298,7 +297,7 @@ class OnlineBundle(Removals):
     def _in(self, key: Key) -> bool:
         kind, u, _ = key
         m = self.m
-        st = {"image": m.im_status, "control": m.ctrl_status, GNSS.name: m.g_status,
+        st = {IMAGE.name: m.im_status, CONTROL.name: m.ctrl_status, GNSS.name: m.g_status,
               IMU.name: m.i_status}[kind]
         return st[u] == IN
 
@@ -306,7 +305,7 @@ class OnlineBundle(Removals):
         """Whether an observation is in the block now (image point `point` on `photo`, the
         control of `point`, the GNSS position of `photo`)."""
         m = self.m
-        if kind == "control":
+        if kind == CONTROL.name:
             j = m.point_at.get(point)
             return j is not None and m.ctrl_status[j] == IN
         i = m.photo_at.get(photo)
@@ -422,10 +421,10 @@ class OnlineBundle(Removals):
                 for j in points:
                     m.point_in[j] = False
                 leaving(self.m)
-                bad = re.search(r"orientation of photo (\S+) is not determined", note)
-                if bad is None or bad.group(1) not in m.photo_at:
+                bad = undetermined_photo(e)
+                if bad is None or bad not in photos:
                     break
-                photos.discard(m.photo_at[bad.group(1)])
+                photos.discard(bad)
                 photos, points = prune(m, photos, points)
         if self._f is None:
             self._why_not = note

@@ -28,18 +28,17 @@ from typing import TypedDict
 import numpy as np
 
 from baarda.block.rotation import angle_to_rad
+from baarda.io.project import SIGMA_GROUND_MAX_M
 from baarda.kinds import GNSS
 from baarda.online.answers import Answer
 from baarda.online.bundle import OnlineBundle
 from baarda.relative.online_commands import LineError, parse_number
 
-KEYWORDS = ("point", "photo", "end", "control", GNSS.name, "remeasure", "remove", "aside",
-            "status", "help", "quit")
 HELP = __doc__.split("\n\n")[1]
-#: the largest standard deviation of a ground coordinate (m; as in ground_points.csv) and of
-#: an image coordinate (µm), and the largest coordinate (m): beyond them the statistics
-#: overflow and nothing is meant
-SIGMA_GROUND_MAX_M, SIGMA_IMAGE_MAX_UM, COORDINATE_MAX_M = 1e6, 1e6, 1e9
+#: the largest standard deviation of an image coordinate (µm), and the largest coordinate
+#: (m): beyond them the statistics overflow and nothing is meant (of a ground coordinate:
+#: SIGMA_GROUND_MAX_M, as in ground_points.csv)
+SIGMA_IMAGE_MAX_UM, COORDINATE_MAX_M = 1e6, 1e9
 
 
 def _numbers(fields: list[str], names: list[str], optional: Sequence[str] = (),
@@ -213,3 +212,4 @@ COMMANDS: dict[str, Callable[[BundleInterpreter, list[str], str], None]] = {
     "remove": BundleInterpreter._remove, "aside": BundleInterpreter._aside,
     "status": BundleInterpreter._status, "help": BundleInterpreter._help,
     "quit": BundleInterpreter._quit}
+KEYWORDS = tuple(COMMANDS)  # the words of the language, in the order help names them

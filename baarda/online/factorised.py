@@ -15,7 +15,7 @@ from baarda.bundle.bundle_model import BundleModel
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.bundle_result import BundleResult
 from baarda.errors import GeometryError
-from baarda.kinds import GNSS, IMU
+from baarda.kinds import CONTROL, GNSS, IMAGE, IMU
 from baarda.online.answers import Change
 from baarda.online.approximations import resected_again
 from baarda.online.lowrank import LowRank
@@ -27,6 +27,13 @@ from baarda.quality.statistics import residual_cofactors, w_tests
 RESTART = 3.0  # a refactorisation's sigma0 this many times the last one's: start cold too
 SAME = 1e-6  # the cold start's sigma0 not this much smaller (relative): the same minimum
 Key = tuple[str, int, int]  # (kind, universe index, component number)
+
+
+def undetermined_photo(e: GeometryError) -> int | None:
+    """The universe photo whose orientation (or own camera parameters) a refactorisation
+    found not determined (`Factorisation._refactor` names it in the error's frame), else
+    None: the photo to leave out before the block is factored again."""
+    return e.frame
 
 
 @dataclass
@@ -123,9 +130,14 @@ class Factorisation:
                 g = np.array([at.get(n, v) for n, v in
                               zip(problem.system.global_names, g, strict=True)])
             start += (g,)
-        result = problem.fit(start=None if first else start)
+        try:
+            result = problem.fit(start=None if first else start)
+        except GeometryError as e:  # the frame named: its photo in the universe
+            if e.frame is None:
+                raise
+            raise GeometryError(str(e), frame=int(maps.photos[e.frame])) from None
         if not first and self._f is not None:
-            result = self._better_cold(problem, result, self._f.result.sigma0)
+            result = self._better_cold(problem, result, self._f.result.sigma0, eo)
         model = BundleModel(result)
         keys = _flat_keys(problem, maps)
         nf = len(m.photo_ids)
@@ -136,10 +148,10 @@ class Factorisation:
         by_photo: dict[int, list[int]] = {}
         by_point: dict[int, list[int]] = {}
         for n, (kind, u, _c) in enumerate(keys):
-            if kind == "image":
+            if kind == IMAGE.name:
                 by_photo.setdefault(m.im_photo[u], []).append(n)
                 by_point.setdefault(m.im_point[u], []).append(n)
-            elif kind == "control":
+            elif kind == CONTROL.name:
                 by_point.setdefault(u, []).append(n)
             else:
                 by_photo.setdefault((m.g_photo if kind == GNSS.name else m.i_photo)[u],
@@ -161,8 +173,8 @@ class Factorisation:
         w, r, *_, mdb = self._stats(self._f)
         return self._changes(keys, w, r, mdb)
 
-    def _better_cold(self, problem: BundleProblem, warm: BundleResult,
-                     before: float) -> BundleResult:
+    def _better_cold(self, problem: BundleProblem, warm: BundleResult, before: float,
+                     now: np.ndarray) -> BundleResult:
         """The warm-started solution, or, where its sigma0 exceeds RESTART times the last
         factorisation's (a local minimum: new photos and points refined to a block held in
         a weak, nearly critical configuration), a solution from approximations when its
@@ -170,12 +182,12 @@ class Factorisation:
         resected orientations (what the batch adjustment starts from), else, where that
         does not converge to a better minimum, with the photos resected on-line resected
         again from the points the other photos intersect (`resected_again`: their first
-        resection used points in the wrong minimum)."""
+        resection used points in the wrong minimum).  `now`: the current orientations
+        (`_current`, as the warm start had them), for photos without given ones."""
         if not warm.sigma0 > RESTART * max(before, 1.0):
             return warm
         m = self.m
         eo, xyz, tie = m.arrays()
-        now, _ = self._current()
         eo = np.where(np.isfinite(eo).all(axis=1)[:, None], eo, now)
         block, maps = m.state_block(np.where(np.isfinite(eo), eo, 0.0),
                                     np.where(tie[:, None], np.nan, xyz))
@@ -246,11 +258,11 @@ def _flat_keys(problem: BundleProblem, maps) -> list:
     keys = []
     for r in problem.obs:
         u = int(maps.image[r])
-        keys += [("image", u, 0), ("image", u, 1)]
+        keys += [(IMAGE.name, u, 0), (IMAGE.name, u, 1)]
     sel = problem.layout.ctrl_sel
     ci, cc = np.divmod(sel, 3)
     for i, c in zip(ci, cc, strict=True):
-        keys.append(("control", int(maps.points[problem.control[i]]), int(c)))
+        keys.append((CONTROL.name, int(maps.points[problem.control[i]]), int(c)))
     gi = problem.gnss_imu
     for r in range(gi.n_gnss):
         keys += [(GNSS.name, int(maps.gnss[r]), c) for c in range(3)]

@@ -16,14 +16,13 @@ from baarda.block.photo_block import (
     ImuObservations,
     Photos,
 )
-from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.gnss_imu import GnssImu
 from baarda.kinds import GNSS, IMU
 from baarda.online.lowrank import KY, Rows, empty_rows
 from baarda.online.measurements import Measurements
 
 
-def one_photo_each(block: Block, camera: np.ndarray, eo: np.ndarray) -> Photos:
+def one_photo_each(camera: np.ndarray, eo: np.ndarray) -> Photos:
     """k photos, one per row (camera, orientation eo): the rows of one kind evaluated by the
     bundle's code, each at its own photo's orientation."""
     k = len(camera)
@@ -31,14 +30,14 @@ def one_photo_each(block: Block, camera: np.ndarray, eo: np.ndarray) -> Photos:
                   np.full(k, "", dtype=object), np.asarray(eo, float))
 
 
-def extra_rows(block: Block, problem: BundleProblem, eo: np.ndarray, gnss_xyz: np.ndarray,
-               gnss_sigma: np.ndarray, imu_angles: np.ndarray, imu_sigma: np.ndarray
+def extra_rows(block: Block, eo: np.ndarray, gnss_xyz: np.ndarray, gnss_sigma: np.ndarray,
+               imu_angles: np.ndarray, imu_sigma: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """Misclosures e (k,) and Jacobians jf (k, 6) of GNSS positions and IMU attitudes of
     photos with orientations eo (one per observation: the GNSS ones, then the IMU ones),
     as bundle/gnss_imu.py has them (lever arm; no shifts, drifts or estimated boresight)."""
     kg, ki = len(gnss_xyz), len(imu_angles)
-    photos = one_photo_each(block, np.zeros(kg + ki, np.int64), eo)
+    photos = one_photo_each(np.zeros(kg + ki, np.int64), eo)
     tmp = Block(block.settings, block.cameras, photos,
                 ImagePoints(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)),
                             np.zeros(0)),
@@ -66,12 +65,11 @@ def gnss_imu_rows(f, m: Measurements, group: dict, photo_at
     ph = [photo_at(i) for _, _, i in ext]
     gsel = [r for kind, r, _ in ext if kind == GNSS.name]
     isel = [r for kind, r, _ in ext if kind == IMU.name]
-    e, jf = extra_rows(f.problem.block, f.problem,
-                       np.repeat(np.array([p[0] for p in ph]), 1, axis=0),
-                       np.array([m.g_xyz[r] for r in gsel]).reshape(-1, 3),
-                       np.array([m.g_sigma[r] for r in gsel]).reshape(-1, 3),
-                       np.array([m.i_angles[r] for r in isel]).reshape(-1, 3),
-                       np.array([m.i_sigma[r] for r in isel]).reshape(-1, 3))
+    gnss_sigma = np.array([m.g_sigma[r] for r in gsel]).reshape(-1, 3)
+    imu_sigma = np.array([m.i_sigma[r] for r in isel]).reshape(-1, 3)
+    e, jf = extra_rows(f.problem.block, np.array([p[0] for p in ph]),
+                       np.array([m.g_xyz[r] for r in gsel]).reshape(-1, 3), gnss_sigma,
+                       np.array([m.i_angles[r] for r in isel]).reshape(-1, 3), imu_sigma)
     k = 3 * len(ext)
     frame = np.repeat([f.frame_of[i] if c < 0 else -1
                        for (_, _, i), (_, c) in zip(ext, ph, strict=True)], 3)
@@ -81,8 +79,7 @@ def gnss_imu_rows(f, m: Measurements, group: dict, photo_at
     on = pc >= 0
     ycol[on, :6] = pc[on, None] + np.arange(6)
     jy[on, :6] = jf[on]
-    sig = np.concatenate([np.array([m.g_sigma[r] for r in gsel]).reshape(-1),
-                          np.array([m.i_sigma[r] for r in isel]).reshape(-1)])
+    sig = np.concatenate([gnss_sigma.ravel(), imu_sigma.ravel()])
     keys = [(kind, r, c) for kind, r, _ in ext for c in range(3)]
     return keys, Rows(frame, np.where((frame >= 0)[:, None], jf, 0.0), np.full(k, -1),
                       np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy, sig, e)

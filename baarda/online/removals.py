@@ -5,13 +5,13 @@ factored again (`_removed`); a removal that leaves it undetermined is not made."
 
 from __future__ import annotations
 
-import re
 import time
 
 from baarda.errors import GeometryError
 from baarda.online.addition_tests import AdditionTests
 from baarda.online.answers import Answer
 from baarda.online.entering import leaving
+from baarda.online.factorised import undetermined_photo
 from baarda.online.measurements import HELD, IN, REMOVED
 
 
@@ -129,13 +129,13 @@ class Removals(AdditionTests):
                 changed = self._refactor()
                 break
             except GeometryError as e:
-                bad = re.search(r"orientation of photo (\S+) is not determined", str(e))
-                if bad is None or bad.group(1) not in m.photo_at:
+                bad = undetermined_photo(e)
+                if bad is None or not m.photo_in[bad]:
                     m.restore(before)
                     self._refactor()
                     raise GeometryError(f"{what} cannot be taken out: {e}") from None
-                m.photo_in[m.photo_at[bad.group(1)]] = False
-                left.append(bad.group(1))
+                m.photo_in[bad] = False
+                left.append(m.photo_ids[bad])
                 leaving(self.m)
         else:
             m.restore(before)

@@ -23,6 +23,7 @@ from baarda.block.photo_block import (
 from baarda.block.rotation import rotation_and_derivatives
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.bundle.image_rows import ImageRows
+from baarda.kinds import CONTROL, IMAGE
 from baarda.online.kind_gnss_imu import gnss_imu_rows, one_photo_each
 from baarda.online.lowrank import KY, Rows, empty_rows
 from baarda.online.measurements import Measurements
@@ -51,7 +52,7 @@ def image_rows(block: Block, problem: BundleProblem, camera: np.ndarray, eo: np.
     ng = problem.system.ng
     if not k:
         return np.zeros((0, 2)), np.zeros((0, 2, 6)), np.zeros((0, 2, 3)), np.zeros((0, 2, ng))
-    tmp = Block(block.settings, block.cameras, one_photo_each(block, camera, eo),
+    tmp = Block(block.settings, block.cameras, one_photo_each(camera, eo),
                 ImagePoints(np.arange(k), np.arange(k), np.asarray(xy, float), np.ones(k)),
                 GroundPoints([str(i) for i in range(k)], np.asarray(xyz, float),
                              np.full((k, 3), np.nan), np.full(k, "tie", dtype=object)))
@@ -130,7 +131,7 @@ def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
         return (y0[c:c + 3], c) if c is not None else (res.state[1][f.elim_of[j]], -1)
 
     keys, parts = [], []
-    img = group["image"]
+    img = group[IMAGE.name]
     if img:
         ph = [photo_at(m.im_photo[r]) for r in img]
         pt = [point_at(m.im_point[r]) for r in img]
@@ -161,8 +162,8 @@ def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
         parts.append(Rows(frame, np.where((frame >= 0)[:, None], je, 0.0), point,
                           np.where((point >= 0)[:, None], jp, 0.0), jg.reshape(k, ng),
                           ycol, jy, sig, e.reshape(k)))
-        keys += [("image", r, c) for r in img for c in range(2)]
-    for j in group["control"]:
+        keys += [(IMAGE.name, r, c) for r in img for c in range(2)]
+    for j in group[CONTROL.name]:
         sig = m.point_sigma[j]
         obs = np.flatnonzero(np.isfinite(sig))
         x, c = point_at(j)
@@ -177,7 +178,7 @@ def group_rows(f, m: Measurements, cols: dict, group: dict, y0: np.ndarray
                           np.full(k, f.elim_of[j] if c < 0 else -1),
                           jp if c < 0 else np.zeros((k, 3)), np.zeros((k, ng)), ycol, jy,
                           sig[obs], (m.point_xyz[j] - x)[obs]))
-        keys += [("control", j, int(a)) for a in obs]
+        keys += [(CONTROL.name, j, int(a)) for a in obs]
     ext_keys, ext_rows = gnss_imu_rows(f, m, group, photo_at)
     keys += ext_keys
     parts.append(ext_rows)

@@ -83,8 +83,8 @@ def analyse_design(block: Block, tests: TestOptions | None = None, *,
             f"{e}\nThe planned block cannot be adjusted as designed.  With flat terrain and a "
             "single row of tie points between neighbouring strips the strips can turn about "
             "that row (a hinge): add height control on the rows between strips "
-            "(--bridging-y 0.5), fly 60 % side overlap, or model the terrain (--relief)."
-        ) from None
+            "(--bridging-y 0.5), fly 60 % side overlap, or model the terrain (--relief).",
+            frame=e.frame) from None
     qc = assess(result, tests)
     rc = classify(block, partial_as_control)
     return PlanResult(block, result, qc, rc, observation_table(qc, rc),
