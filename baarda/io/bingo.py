@@ -25,6 +25,7 @@ files written from this layout.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -105,6 +106,7 @@ def read_cameras(path: Path, encoding: str = ENCODING) -> tuple[list[str], np.nd
         raise ProjectError(p, f"{len(body)} record lines: {RECORD} per image expected (a "
                            "truncated file?)", body[-1][0])
     names, values, first = [], np.empty((len(body) // RECORD, 28)), []
+    named: set[str] = set()
     sizes = (3, 3, 3, 3, 3, 2, 3, 3, 3, 3)
     fields = ("name width height", "K", "K", "K", "radial distortion",
               "tangential distortion", "camera position t", "R", "R", "R")
@@ -134,9 +136,10 @@ def read_cameras(path: Path, encoding: str = ENCODING) -> tuple[list[str], np.nd
             raise ProjectError(p, f"image {rec[0][1][0]}: R is not a rotation (|R R^T - I| = "
                                f"{err:.3g}; an orthonormal matrix with determinant +1 "
                                "expected)", head + 7, "R")
-        if rec[0][1][0] in names:
+        if rec[0][1][0] in named:
             raise ProjectError(p, f"image {rec[0][1][0]} twice", head, "name")
         names.append(rec[0][1][0])
+        named.add(rec[0][1][0])
         values[i] = v
         first.append(head)
     return names, values, first
@@ -159,12 +162,22 @@ def read_offset(folder: Path, encoding: str = ENCODING) -> tuple[np.ndarray, Pat
     return rows[0].numbers(str(found[0]), 0, ("X", "Y", "Z")), found[0]
 
 
-def _match(names: list[str], name: str) -> int | None:
-    """The camera-file record of a BINGO image name: the same name, or the same stem."""
-    if name in names:
-        return names.index(name)
-    stems = [Path(n).stem for n in names]
-    return stems.index(name) if stems.count(name) == 1 else None
+def _matcher(names: list[str]) -> Callable[[str], int | None]:
+    """The camera-file record of a BINGO image name: the same name, or the only one with
+    that stem (None: no such record); the look-ups built once for all images."""
+    index: dict[str, int] = {}
+    for i, n in enumerate(names):
+        index.setdefault(n, i)
+    by_stem: dict[str, list[int]] = {}
+    for i, n in enumerate(names):
+        by_stem.setdefault(Path(n).stem, []).append(i)
+
+    def match(name: str) -> int | None:
+        if name in index:
+            return index[name]
+        found = by_stem.get(name, [])
+        return found[0] if len(found) == 1 else None
+    return match
 
 
 def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float = 1.0,
@@ -180,17 +193,19 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
     obs_photo: list[int] = []
     obs_point: list[str] = []
     xy: list[np.ndarray] = []
+    match = _matcher(names)
+    taken: set[int] = set()
     for g in groups(bf, data_rows(bf, encoding), "image", closing=False):
         h = g.header
         if len(h.tokens) != 2:
             raise ProjectError(b, f"an image header 'name CAMERA' expected, found "
                                f"{len(h.tokens)} field(s)", h.line, "image")
         name = h.tokens[0]
-        r = _match(names, name)
+        r = match(name)
         if r is None:
             raise ProjectError(b, f"image {name} is not in {cf.name} ({len(names)} images): "
                                "an unknown image", h.line, "image")
-        if r in rec_of:
+        if r in taken:
             raise ProjectError(b, f"image {name} has two records", h.line, "image")
         size = _sensor_mm(b, h)
         w, hh = values[r, 0], values[r, 1]
@@ -218,6 +233,7 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
             obs_point.append(row.tokens[0])
         photo_ids.append(name)
         rec_of.append(r)
+        taken.add(r)
         pixel.append(p)
     missing = sorted(set(range(len(names))) - set(rec_of))
     if missing:

@@ -71,12 +71,14 @@ def _bundler_ties(path: Path, ch, all_cams: list[str], all_labels: list[str]) ->
 
     b = read_bundler(path, pixel_mm=1.0, sigma_px=1.0)  # pixels
     src = str(bundle_file(path))
-    stems = [Path(s).stem for s in all_labels]
+    stems: dict[str, int] = {}
+    for k, s in enumerate(all_labels):
+        stems.setdefault(Path(s).stem, k)
     has_list = not any(n.startswith("Bundler: no list.txt") for n in b.notes)
     ids = []
     for name in b.photos.ids:
         if has_list:
-            k = stems.index(Path(name).stem) if Path(name).stem in stems else -1
+            k = stems.get(Path(name).stem, -1)
         else:
             k = int(name) if name.isdigit() and int(name) < len(all_cams) else -1
         if k < 0:

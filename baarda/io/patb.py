@@ -112,6 +112,7 @@ def read_patb(path: str | Path, encoding: str = ENCODING) -> Block:
     ctrl_sigma = tuple(float(v) for v in pro.get("sigma_control_m", (0.05, 0.05, 0.05)))
     ims = str(im)
     photo_ids: list[str] = []
+    recorded: set[str] = set()
     focal: list[float] = []
     obs_photo: list[int] = []
     obs_point: list[str] = []
@@ -128,8 +129,9 @@ def read_patb(path: str | Path, encoding: str = ENCODING) -> Block:
         if c <= 0:
             raise ProjectError(ims, f"photo {pid}: the camera constant must be positive",
                                h.line, "c")
-        if pid in photo_ids:
+        if pid in recorded:
             raise ProjectError(ims, f"photo {pid} has two records", h.line, "photo")
+        recorded.add(pid)
         seen: set[str] = set()
         for r in g.rows:
             v, s = _point_row(ims, r, pid)
