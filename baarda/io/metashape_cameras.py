@@ -74,7 +74,7 @@ def _bundler_ties(path: Path, ch, all_cams: list[str], all_labels: list[str]) ->
     stems: dict[str, int] = {}
     for k, s in enumerate(all_labels):
         stems.setdefault(Path(s).stem, k)
-    has_list = not any(n.startswith("Bundler: no list.txt") for n in b.notes)
+    has_list = b.photos.image is not None  # bundler names the images only from list.txt
     ids = []
     for name in b.photos.ids:
         if has_list:
