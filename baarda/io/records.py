@@ -180,13 +180,20 @@ def whole_lines(path: str | Path, encoding: str = ENCODING, *,
     """read_lines of a data file that a program writes whole: ProjectError when it is empty
     (unless `allow_empty`) or its last line has no line end, the marks of a file cut short
     (a cut exactly at a line end cannot be seen: docs/formats.md)."""
+    return split_lines(decode_text(whole_bytes(path, allow_empty=allow_empty), str(path),
+                                   encoding))
+
+
+def whole_bytes(path: str | Path, *, allow_empty: bool = False) -> bytes:
+    """The bytes of a data file that a program writes whole, refused (as `whole_lines`
+    refuses it) when empty or cut short in its last line; not decoded."""
     data = file_bytes(path)
     if not data.strip() and not allow_empty:
         raise ProjectError(str(path), "the file is empty: cut short, or not written "
                            "(it must hold at least one record)")
     refuse_cut_short(str(path), not data or data[-1:] in (b"\n", b"\r"),
                      data.count(b"\n") + 1)
-    return split_lines(decode_text(data, str(path), encoding))
+    return data
 
 
 def _decimals(text: str) -> int | None:
