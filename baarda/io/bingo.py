@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import eo_of_pose
+from baarda.block.rotation import eo_of_pose, not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.minus99 import Row, data_rows, groups
 from baarda.io.records import ENCODING, first_appearance, read_lines, whole_lines
@@ -131,11 +131,9 @@ def read_cameras(path: Path, encoding: str = ENCODING) -> tuple[list[str], np.nd
             raise ProjectError(p, f"image {rec[0][1][0]}: K must be [fx 0 cx; 0 fy cy; 0 0 1] "
                                "with fx, fy > 0", head + 1, "K")
         rot = v[19:28].reshape(3, 3)
-        err = float(np.abs(rot @ rot.T - np.eye(3)).max())
-        if not err <= ROTATION_TOLERANCE or np.linalg.det(rot) <= 0:
-            raise ProjectError(p, f"image {rec[0][1][0]}: R is not a rotation (|R R^T - I| = "
-                               f"{err:.3g}; an orthonormal matrix with determinant +1 "
-                               "expected)", head + 7, "R")
+        why = not_a_rotation(rot, ROTATION_TOLERANCE)
+        if why is not None:
+            raise ProjectError(p, f"image {rec[0][1][0]}: R is {why}", head + 7, "R")
         if rec[0][1][0] in named:
             raise ProjectError(p, f"image {rec[0][1][0]} twice", head, "name")
         names.append(rec[0][1][0])

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix
+from baarda.block.rotation import FLIP, angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.metashape_chunk import (
     DEFAULT_PROJECTION_PX,
@@ -48,8 +48,7 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
                       np.array([[s.pp_px[0], -s.pp_px[1]] for s in sens]) * pix[:, None],
                       np.full(len(sens), "brown_forward", dtype=object),
                       np.array([s.coef for s in sens]), None, pixel_mm=pix)
-    flip = np.diag([1.0, -1.0, -1.0])
-    r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ flip
+    r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ FLIP
     x0 = ch.translation + ch.scale * ch.camera_pose[:, :3, 3] @ ch.rotation.T
     frame = _geocentric_frame(ch)
     if frame is not None:  # the transform gives earth-centred coordinates: into the frame

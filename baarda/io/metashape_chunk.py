@@ -45,6 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baarda.block.rotation import not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.metashape_sensor import Sensor, attr_number, flag, numbers, properties, read_sensor
 from baarda.io.xmltree import Node
@@ -82,12 +83,9 @@ class Chunk:
 
 
 def check_rotation(r: np.ndarray, where: str, node: Node, what: str) -> None:
-    err = float(np.abs(r @ r.T - np.eye(3)).max())
-    det = float(np.linalg.det(r))
-    if not (err <= ROTATION_TOLERANCE) or det <= 0:
-        raise ProjectError(where, f"{what} is not a rotation (|R R^T - I| = {err:.3g}, det "
-                           f"{det:.3g}; expected an orthonormal matrix with determinant +1)",
-                           node.line, node.tag)
+    why = not_a_rotation(r, ROTATION_TOLERANCE)
+    if why is not None:
+        raise ProjectError(where, f"{what} is {why}", node.line, node.tag)
 
 
 def _members(chunk: Node, holder: str, tag: str) -> list[Node]:

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix
+from baarda.block.rotation import angles_from_matrix, not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.minus99 import Row, data_rows, groups, is_end, rows_to_end
 from baarda.io.records import ENCODING, first_appearance
@@ -268,11 +268,9 @@ def _read_ori(path: Path, encoding: str, photo: dict[str, int], eo: np.ndarray) 
                 raise ProjectError(p, f"photo {h.tokens[0]}: rotation row {j + 1}: 3 numbers "
                                    f"expected, found {len(r.tokens)}", r.line, "R")
             rot[j] = r.numbers(p, 0, (f"R{j + 1}1", f"R{j + 1}2", f"R{j + 1}3"))
-        err = float(np.abs(rot @ rot.T - np.eye(3)).max())
-        if not err <= ROTATION_TOLERANCE or np.linalg.det(rot) <= 0:
-            raise ProjectError(p, f"photo {h.tokens[0]}: not a rotation (|R R^T - I| = "
-                               f"{err:.3g}; an orthonormal matrix with determinant +1 "
-                               "expected)", rows[k + 1].line, "R")
+        why = not_a_rotation(rot, ROTATION_TOLERANCE)
+        if why is not None:
+            raise ProjectError(p, f"photo {h.tokens[0]}: {why}", rows[k + 1].line, "R")
         eo[i] = np.concatenate([x0, angles_from_matrix(rot)])
 
 
