@@ -48,6 +48,7 @@ import numpy as np
 from baarda.block.rotation import not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.metashape_sensor import Sensor, attr_number, flag, numbers, properties, read_sensor
+from baarda.io.records import is_number
 from baarda.io.xmltree import Node
 
 ROTATION_TOLERANCE = 1e-6  # |R R^T - I| of a rotation Metashape writes with 17 digits
@@ -193,7 +194,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
         raise ProjectError(where, "no enabled and aligned camera (a <camera> with a "
                            "<transform>) in the chunk", chunk.line, "cameras")
     acc = {k: float(v) for k, v in properties(chunk.find("settings") or Node("", {}, 0)).items()
-           if k.startswith("accuracy_") and _is_float(v)}
+           if k.startswith("accuracy_") and is_number(v)}
     default_sigma = acc.get("accuracy_markers", DEFAULT_MARKER_M)
     mids, mlabels, mxyz, msig, men = [], [], [], [], []
     for m in _markers(chunk):
@@ -238,14 +239,6 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
                  np.array(poses), mids, mlabels, np.array(mxyz).reshape(-1, 3),
                  np.array(msig).reshape(-1, 3), np.array(men, bool), projections,  # type: ignore[arg-type]
                  rot, tr, sc, _crs(chunk), acc, notes, unpinned)
-
-
-def _is_float(v: str) -> bool:
-    try:
-        float(v)
-    except ValueError:
-        return False
-    return True
 
 
 @dataclass
