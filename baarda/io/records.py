@@ -160,9 +160,7 @@ def require_file(path: str | Path, what: str = "file not found") -> None:
 def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
     """The bytes of a regular file; ProjectError naming it when it does not exist (`what`),
     is not a regular file (`not_a_file`) or cannot be read (permissions, ...)."""
-    problem = not_a_file(path, what)
-    if problem is not None:
-        raise ProjectError(str(path), problem)
+    require_file(path, what)
     try:
         return Path(path).read_bytes()
     except OSError as e:
