@@ -162,8 +162,7 @@ def read_result_block(folder: str | Path, keep_given: bool = False,
         notes.append("the cameras as self-calibrated (cameras.csv)")
     obs = res.obs
     block = _observed_as_run(block, obs, notes)
-    rej = obs[(obs["kind"] == "image") & obs["rejected"].astype(str).isin(["True", "true",
-                                                                            "1"])]
+    rej = obs[(obs["kind"] == "image") & obs["rejected"].astype(bool)]  # read as True/False
     rejected = rej[["photo", "point", "component", "w", "mdb"]].reset_index(drop=True)
     if len(rejected):
         pi, qi = block.photo_index, block.point_index
