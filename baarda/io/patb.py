@@ -35,7 +35,8 @@ from baarda.io.records import ENCODING, first_appearance
 
 SUFFIXES = (".im", ".con", ".ori", ".at", ".pro")
 ROTATION_TOLERANCE = 1e-4
-SIGMA_IMAGE_UM = 5.0  # without a .pro: the image sigma [µm]
+DEFAULT_SIGMA_UM = Settings.sigma_image_um  # without a .pro: the image sigma [µm]
+DEFAULT_CONTROL_M = Settings.sigma_control_m  # without a .pro: the control sigmas [m]
 CODES = {3: (True, True, True), 1: (True, True, False), 2: (False, False, True)}
 
 
@@ -108,8 +109,8 @@ def read_patb(path: str | Path, encoding: str = ENCODING) -> Block:
     im = f[".im"]
     notes: list[str] = []
     pro = _read_pro(f[".pro"], encoding, notes) if ".pro" in f else {}
-    sigma_um = float(pro["sigma_image_um"][0]) if "sigma_image_um" in pro else SIGMA_IMAGE_UM
-    ctrl_sigma = tuple(float(v) for v in pro.get("sigma_control_m", (0.05, 0.05, 0.05)))
+    sigma_um = float(pro["sigma_image_um"][0]) if "sigma_image_um" in pro else DEFAULT_SIGMA_UM
+    ctrl_sigma = tuple(float(v) for v in pro.get("sigma_control_m", DEFAULT_CONTROL_M))
     ims = str(im)
     photo_ids: list[str] = []
     recorded: set[str] = set()
