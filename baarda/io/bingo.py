@@ -33,6 +33,7 @@ import numpy as np
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.block.rotation import eo_of_pose, not_a_rotation
 from baarda.errors import ProjectError
+from baarda.io.image_sigma import PIXEL_MM, SIGMA_PX
 from baarda.io.minus99 import Row, data_rows, groups
 from baarda.io.records import ENCODING, first_appearance, read_lines, whole_lines
 
@@ -178,7 +179,7 @@ def _matcher(names: list[str]) -> Callable[[str], int | None]:
     return match
 
 
-def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float = 1.0,
+def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float = SIGMA_PX,
                encoding: str = ENCODING) -> Block:
     """A Block of a BINGO file and Pix4D's camera file beside it (module docstring)."""
     bf = bingo_file(path)
@@ -241,7 +242,7 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
     notes: list[str] = []
     px = np.array(pixel)
     if np.isnan(px).any():
-        nominal = 0.001 if pixel_mm is None else pixel_mm
+        nominal = PIXEL_MM if pixel_mm is None else pixel_mm
         px = np.where(np.isnan(px), nominal, px)
         notes.append(f"BINGO: no sensor size in an image header: pixel {nominal:g} mm "
                      "(--pixel-mm)")
@@ -297,5 +298,5 @@ def detect(path: Path) -> bool:
 
 def read(path: Path, request) -> Block:
     """The registry's entry (io/formats.py)."""
-    return read_bingo(path, request.pixel_mm, 1.0 if request.sigma_px is None
+    return read_bingo(path, request.pixel_mm, SIGMA_PX if request.sigma_px is None
                       else request.sigma_px, request.encoding)
