@@ -221,4 +221,4 @@ def read(path: Path, request) -> Block:
 
     return read_nvm(path, PIXEL_MM if request.pixel_mm is None else request.pixel_mm,
                     SIGMA_PX if request.sigma_px is None else request.sigma_px,
-                    getattr(request, "model", None))
+                    request.model)
