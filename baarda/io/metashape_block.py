@@ -49,7 +49,7 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
                       np.full(len(sens), "brown_forward", dtype=object),
                       np.array([s.coef for s in sens]), None, pixel_mm=pix)
     r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ FLIP
-    x0 = ch.translation + ch.scale * ch.camera_pose[:, :3, 3] @ ch.rotation.T
+    x0 = ch.to_crs(ch.camera_pose[:, :3, 3])
     frame = _geocentric_frame(ch)
     if frame is not None:  # the transform gives earth-centred coordinates: into the frame
         r_cam = frame.rot @ r_cam
@@ -106,7 +106,7 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
         if set(ties.ids) & set(pt_ids):
             raise ProjectError(ties.source, "tie point ids repeat marker labels: "
                                + ", ".join(sorted(set(ties.ids) & set(pt_ids))[:5]))
-        txyz = ties.xyz if ties.in_crs else ch.translation + ch.scale * ties.xyz @ ch.rotation.T
+        txyz = ties.xyz if ties.in_crs else ch.to_crs(ties.xyz)
         if frame is not None:
             txyz = (txyz - frame.origin_ecef) @ frame.rot.T
         tcam = np.array([index.get(c, -1) for c in ties.camera], np.int64)

@@ -82,6 +82,10 @@ class Chunk:
     notes: list[str] = field(default_factory=list)
     unpinned: int = 0  # marker projections with pinned="false"
 
+    def to_crs(self, x: np.ndarray) -> np.ndarray:
+        """Chunk-frame points x (..., 3) in the chunk's reference system: t + s R x."""
+        return self.translation + self.scale * x @ self.rotation.T
+
 
 def check_rotation(r: np.ndarray, where: str, node: Node, what: str) -> None:
     why = not_a_rotation(r, ROTATION_TOLERANCE)
@@ -109,7 +113,7 @@ def _markers(chunk: Node) -> list[Node]:
     return _members(chunk, "markers", "marker")
 
 
-def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float, Node]:
+def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float]:
     """The chunk's transform (or its first component's); ProjectError when there is none."""
     t = chunk.find("transform")
     if t is None:
@@ -135,7 +139,7 @@ def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float, 
     sc = float(numbers(sn, where, 1, "scale")[0]) if sn is not None else 1.0
     if not sc > 0:
         raise ProjectError(where, f"<scale> {sc:g}: positive expected", t.line, "scale")
-    return rot, tr, sc, t
+    return rot, tr, sc
 
 
 def _crs(chunk: Node) -> str | None:
@@ -155,7 +159,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
     sensors = {}
     for s in (sens.findall("sensor") if sens is not None else []):
         sensors[s.attrib.get("id", "")] = read_sensor(s, where, pixel_mm)
-    rot, tr, sc, _ = _transform(chunk, where)
+    rot, tr, sc = _transform(chunk, where)
     notes: list[str] = []
     ids, labels, sensor_of, poses = [], [], [], []
     skipped = 0
