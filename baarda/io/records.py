@@ -66,13 +66,16 @@ def line_of(text: str, index: int) -> int:
 #: characters no text input holds: NUL and the other C0 controls but tab, line ends, form
 #: feed, vertical tab and DOS's end-of-file mark (ESC, BEL ... act on a terminal that prints
 #: an id), DEL and the C1 controls
-CONTROL = re.compile("[\x00-\x08\x0e-\x19\x1b-\x1f\x7f-\x9f]")
+C0_DEL = "\x00-\x08\x0e-\x19\x1b-\x1f\x7f"  # the C0 controls refused, and DEL
+CONTROL = re.compile(f"[{C0_DEL}\x80-\x9f]")
 
 
 def no_nul(text: str, path: str, header: list[str] | None = None) -> str:
     """`text`, or ProjectError naming the line (and, for a CSV table with `header`, the
-    column) of its first NUL character: text files hold none (a damaged file, or a binary
-    one), and inside an id it would make the id differ from the same id elsewhere."""
+    column) of its first control character (CONTROL: NUL, the other C0 controls but tab,
+    line ends, form feed, vertical tab and DOS's end-of-file mark, DEL, the C1 controls):
+    text files hold none (a NUL: a damaged file, or a binary one), and inside an id it would
+    make the id differ from the same id elsewhere (an ESC or BEL acts on a terminal)."""
     m = CONTROL.search(text)
     if m is None:
         return text
