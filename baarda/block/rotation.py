@@ -84,6 +84,18 @@ def angles_from_matrix(r: np.ndarray) -> np.ndarray:
     return np.stack([omega, phi, kappa], -1)
 
 
+def quaternion_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of unit quaternions (..., 4) w x y z (not normalised
+    here)."""
+    q = np.asarray(q, float)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)],
+        axis=-2)
+
+
 # ------------------------------------------------------------------ rotation vectors
 MAX_ANGLE = 1e6  # rad: the largest angle |r| of a rotation vector read (files hold up to ~2 pi)
 
@@ -120,6 +132,19 @@ def rotation_vector(m: np.ndarray) -> np.ndarray:
         axis = axis / np.linalg.norm(axis)
         out[i] = (-axis if w[i] @ axis < 0 else axis) * theta[i]
     return out.reshape(shape + (3,))
+
+
+def not_a_rotation(r: np.ndarray, tolerance: float) -> str | None:
+    """None when the matrix `r` (3, 3) is a rotation: orthonormal (|R R^T - I| <= tolerance,
+    elementwise) with determinant +1; else why not, for a reader's message: "not a rotation
+    (|R R^T - I| = .., det ..; expected an orthonormal matrix with determinant +1)"."""
+    r = np.asarray(r, float)
+    err = float(np.abs(r @ r.T - np.eye(3)).max())
+    det = float(np.linalg.det(r))
+    if err <= tolerance and det > 0:
+        return None
+    return (f"not a rotation (|R R^T - I| = {err:.3g}, det {det:.3g}; expected an "
+            "orthonormal matrix with determinant +1)")
 
 
 # ------------------------------------------------------------------ camera poses

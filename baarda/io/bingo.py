@@ -25,13 +25,15 @@ files written from this layout.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import eo_of_pose
+from baarda.block.rotation import eo_of_pose, not_a_rotation
 from baarda.errors import ProjectError
+from baarda.io.image_sigma import PIXEL_MM, SIGMA_PX
 from baarda.io.minus99 import Row, data_rows, groups
 from baarda.io.records import ENCODING, first_appearance, read_lines, whole_lines
 
@@ -105,6 +107,7 @@ def read_cameras(path: Path, encoding: str = ENCODING) -> tuple[list[str], np.nd
         raise ProjectError(p, f"{len(body)} record lines: {RECORD} per image expected (a "
                            "truncated file?)", body[-1][0])
     names, values, first = [], np.empty((len(body) // RECORD, 28)), []
+    named: set[str] = set()
     sizes = (3, 3, 3, 3, 3, 2, 3, 3, 3, 3)
     fields = ("name width height", "K", "K", "K", "radial distortion",
               "tangential distortion", "camera position t", "R", "R", "R")
@@ -129,14 +132,13 @@ def read_cameras(path: Path, encoding: str = ENCODING) -> tuple[list[str], np.nd
             raise ProjectError(p, f"image {rec[0][1][0]}: K must be [fx 0 cx; 0 fy cy; 0 0 1] "
                                "with fx, fy > 0", head + 1, "K")
         rot = v[19:28].reshape(3, 3)
-        err = float(np.abs(rot @ rot.T - np.eye(3)).max())
-        if not err <= ROTATION_TOLERANCE or np.linalg.det(rot) <= 0:
-            raise ProjectError(p, f"image {rec[0][1][0]}: R is not a rotation (|R R^T - I| = "
-                               f"{err:.3g}; an orthonormal matrix with determinant +1 "
-                               "expected)", head + 7, "R")
-        if rec[0][1][0] in names:
+        why = not_a_rotation(rot, ROTATION_TOLERANCE)
+        if why is not None:
+            raise ProjectError(p, f"image {rec[0][1][0]}: R is {why}", head + 7, "R")
+        if rec[0][1][0] in named:
             raise ProjectError(p, f"image {rec[0][1][0]} twice", head, "name")
         names.append(rec[0][1][0])
+        named.add(rec[0][1][0])
         values[i] = v
         first.append(head)
     return names, values, first
@@ -159,15 +161,25 @@ def read_offset(folder: Path, encoding: str = ENCODING) -> tuple[np.ndarray, Pat
     return rows[0].numbers(str(found[0]), 0, ("X", "Y", "Z")), found[0]
 
 
-def _match(names: list[str], name: str) -> int | None:
-    """The camera-file record of a BINGO image name: the same name, or the same stem."""
-    if name in names:
-        return names.index(name)
-    stems = [Path(n).stem for n in names]
-    return stems.index(name) if stems.count(name) == 1 else None
+def _matcher(names: list[str]) -> Callable[[str], int | None]:
+    """The camera-file record of a BINGO image name: the same name, or the only one with
+    that stem (None: no such record); the look-ups built once for all images."""
+    index: dict[str, int] = {}
+    for i, n in enumerate(names):
+        index.setdefault(n, i)
+    by_stem: dict[str, list[int]] = {}
+    for i, n in enumerate(names):
+        by_stem.setdefault(Path(n).stem, []).append(i)
+
+    def match(name: str) -> int | None:
+        if name in index:
+            return index[name]
+        found = by_stem.get(name, [])
+        return found[0] if len(found) == 1 else None
+    return match
 
 
-def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float = 1.0,
+def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float = SIGMA_PX,
                encoding: str = ENCODING) -> Block:
     """A Block of a BINGO file and Pix4D's camera file beside it (module docstring)."""
     bf = bingo_file(path)
@@ -180,17 +192,19 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
     obs_photo: list[int] = []
     obs_point: list[str] = []
     xy: list[np.ndarray] = []
+    match = _matcher(names)
+    taken: set[int] = set()
     for g in groups(bf, data_rows(bf, encoding), "image", closing=False):
         h = g.header
         if len(h.tokens) != 2:
             raise ProjectError(b, f"an image header 'name CAMERA' expected, found "
                                f"{len(h.tokens)} field(s)", h.line, "image")
         name = h.tokens[0]
-        r = _match(names, name)
+        r = match(name)
         if r is None:
             raise ProjectError(b, f"image {name} is not in {cf.name} ({len(names)} images): "
                                "an unknown image", h.line, "image")
-        if r in rec_of:
+        if r in taken:
             raise ProjectError(b, f"image {name} has two records", h.line, "image")
         size = _sensor_mm(b, h)
         w, hh = values[r, 0], values[r, 1]
@@ -218,6 +232,7 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
             obs_point.append(row.tokens[0])
         photo_ids.append(name)
         rec_of.append(r)
+        taken.add(r)
         pixel.append(p)
     missing = sorted(set(range(len(names))) - set(rec_of))
     if missing:
@@ -227,7 +242,7 @@ def read_bingo(path: str | Path, pixel_mm: float | None = None, sigma_px: float 
     notes: list[str] = []
     px = np.array(pixel)
     if np.isnan(px).any():
-        nominal = 0.001 if pixel_mm is None else pixel_mm
+        nominal = PIXEL_MM if pixel_mm is None else pixel_mm
         px = np.where(np.isnan(px), nominal, px)
         notes.append(f"BINGO: no sensor size in an image header: pixel {nominal:g} mm "
                      "(--pixel-mm)")
@@ -283,5 +298,5 @@ def detect(path: Path) -> bool:
 
 def read(path: Path, request) -> Block:
     """The registry's entry (io/formats.py)."""
-    return read_bingo(path, request.pixel_mm, 1.0 if request.sigma_px is None
+    return read_bingo(path, request.pixel_mm, SIGMA_PX if request.sigma_px is None
                       else request.sigma_px, request.encoding)

@@ -32,7 +32,7 @@ from baarda.block.photo_block import (
     Settings,
 )
 from baarda.block.pixels import centred
-from baarda.block.rotation import angles_from_matrix
+from baarda.block.rotation import angles_from_matrix, not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.records import (
     check_pixel_options,
@@ -79,11 +79,9 @@ class _Lines:
 
 def check_rotation(r: np.ndarray, where: _Lines, line: int, what: str) -> None:
     """ProjectError unless `r` is a rotation (orthonormal, determinant +1)."""
-    err = float(np.abs(r @ r.T - np.eye(3)).max())
-    if not (err <= ROTATION_TOLERANCE) or np.linalg.det(r) <= 0:
-        raise where.error(f"{what} is not a rotation (|R R^T - I| = {err:.3g}, det "
-                          f"{np.linalg.det(r):.3g}; expected an orthonormal matrix with "
-                          "determinant +1)", "R", line)
+    why = not_a_rotation(r, ROTATION_TOLERANCE)
+    if why is not None:
+        raise where.error(f"{what} is {why}", "R", line)
 
 
 def once_per_image(photo: np.ndarray, point: np.ndarray, key: np.ndarray, n_points: int,

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.rotation import quaternion_matrix
 from baarda.errors import ProjectError
 from baarda.io.colmap_binary import read_cameras_bin, read_images_bin, read_points_bin
 from baarda.io.colmap_model import (
@@ -62,10 +63,7 @@ def qvec_to_matrix(q: np.ndarray) -> np.ndarray:
     its largest component before, so that no square overflows)."""
     q = np.asarray(q, float)
     q = q / np.max(np.abs(q))
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    return quaternion_matrix(q / np.linalg.norm(q))
 
 
 def matrix_to_qvec(r: np.ndarray) -> np.ndarray:

@@ -22,7 +22,15 @@ from baarda.io.colmap_model import (
     ColmapPoints,
     first_repeated,
 )
-from baarda.io.records import file_bytes, parse_number, read_lines, whole_lines
+from baarda.io.records import (
+    decode_text,
+    file_bytes,
+    parse_number,
+    require_file,
+    split_lines,
+    whole_bytes,
+    whole_lines,
+)
 
 INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
 BOM = b"\xef\xbb\xbf"
@@ -251,8 +259,10 @@ def _images_lines(raw: list[str], path: Path) -> ColmapImages:
 
 # ---------------------------------------------------------------- points3D.txt
 def read_points_txt(path: Path) -> ColmapPoints:
-    whole_lines(path)  # a last line without its line end: cut short
-    fast = _points_fast(_file_bytes(path))
+    data = whole_bytes(path)  # empty, or a last line without its line end: cut short
+    # the fast path takes printable ASCII only: text that would not decode goes to
+    # _points_lines, which refuses it naming its line
+    fast = _points_fast(data[len(BOM):] if data.startswith(BOM) else data)
     return fast if fast is not None else _points_lines(path)
 
 
@@ -285,6 +295,24 @@ def _points_lines(path: Path) -> ColmapPoints:
 
 
 # ---------------------------------------------------------------- truncated files
+def _head_lines(path: Path, count: int, block: int = 1 << 16) -> list[str]:
+    """read_lines(path)[:count], reading only as far as those lines go (the header of a
+    file the reader has already taken whole)."""
+    require_file(path)
+    data = b""
+    try:
+        with open(path, "rb") as f:
+            while True:
+                more = f.read(block)
+                data += more
+                end = len(data) if not more else data.rfind(b"\n") + 1
+                lines = split_lines(decode_text(data[:end], str(path)))
+                if not more or len(lines) >= count:
+                    return lines[:count]
+    except OSError as e:
+        raise ProjectError(str(path), f"cannot be read ({e.strerror or e})") from None
+
+
 HEADER_COUNT = re.compile(r"#\s*Number of (cameras|images|points)\s*:\s*(\d+)")
 
 
@@ -292,7 +320,7 @@ def check_header_count(path: Path, found: int) -> None:
     """ProjectError when the count COLMAP wrote into the header of cameras.txt, images.txt
     or points3D.txt ('# Number of images: N') differs from the records read: the file was
     cut short (or edited), which would otherwise surface in the other file."""
-    for no, s in enumerate(read_lines(path)[:20], start=1):
+    for no, s in enumerate(_head_lines(path, 20), start=1):
         m = HEADER_COUNT.match(s.strip())
         if m:
             said = int(m.group(2))

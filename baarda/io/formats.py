@@ -16,8 +16,8 @@ list the formats and the errors that name them are generated from the registry.
 | file starting NVM_V3 | VisualSFM NVM | io/nvm.py |
 | .psz zip with doc.xml, .psx | Metashape / PhotoScan project | io/metashape_project.py |
 | .xml with <document> and <chunk> | Metashape cameras XML | io/metashape_cameras.py |
-| .im file (or folder with one) starting 'photo_id c' | PAT-B | io/patb.py |
-| *bingo.txt (or folder with one) starting 'name CAMERA' | BINGO + Pix4D | io/bingo.py |
+| .im file (or folder with one; by name: its content is checked when read) | PAT-B | io/patb.py |
+| *bingo.txt (or folder with one; by name, as PAT-B) | BINGO + Pix4D | io/bingo.py |
 
 A new reader is one module with `detect(path) -> bool` and `read(path, request) -> Block`
 (`request`: a `ReadRequest`) and one `FormatSpec` line in REGISTRY (or `register`); the

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix
+from baarda.block.rotation import FLIP, angles_from_matrix
 from baarda.errors import ProjectError
 from baarda.io.metashape_chunk import (
     DEFAULT_PROJECTION_PX,
@@ -48,9 +48,8 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
                       np.array([[s.pp_px[0], -s.pp_px[1]] for s in sens]) * pix[:, None],
                       np.full(len(sens), "brown_forward", dtype=object),
                       np.array([s.coef for s in sens]), None, pixel_mm=pix)
-    flip = np.diag([1.0, -1.0, -1.0])
-    r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ flip
-    x0 = ch.translation + ch.scale * ch.camera_pose[:, :3, 3] @ ch.rotation.T
+    r_cam = ch.rotation @ ch.camera_pose[:, :3, :3] @ FLIP
+    x0 = ch.to_crs(ch.camera_pose[:, :3, 3])
     frame = _geocentric_frame(ch)
     if frame is not None:  # the transform gives earth-centred coordinates: into the frame
         r_cam = frame.rot @ r_cam
@@ -107,7 +106,7 @@ def to_block(ch: Chunk, ties: TiePoints | None, *, pixel_mm: float, sigma_px: fl
         if set(ties.ids) & set(pt_ids):
             raise ProjectError(ties.source, "tie point ids repeat marker labels: "
                                + ", ".join(sorted(set(ties.ids) & set(pt_ids))[:5]))
-        txyz = ties.xyz if ties.in_crs else ch.translation + ch.scale * ties.xyz @ ch.rotation.T
+        txyz = ties.xyz if ties.in_crs else ch.to_crs(ties.xyz)
         if frame is not None:
             txyz = (txyz - frame.origin_ecef) @ frame.rot.T
         tcam = np.array([index.get(c, -1) for c in ties.camera], np.int64)

@@ -56,8 +56,9 @@ def read_metashape_cameras(path: str | Path, *, pixel_mm: float = 0.001,
     frames = chunk.find("frames")
     frame = frames.find("frame") if frames is not None else None
     ch = read_chunk(chunk, frame if frame is not None else chunk, str(p), pixel_mm)
-    all_cams = [c.attrib.get("id", "") for c in _cameras(chunk)]
-    all_labels = [c.attrib.get("label", "") for c in _cameras(chunk)]
+    cams = _cameras(chunk)
+    all_cams = [c.attrib.get("id", "") for c in cams]
+    all_labels = [c.attrib.get("label", "") for c in cams]
     if tie_points is None and (p.parent / "bundle.out").is_file():
         tie_points = p.parent / "bundle.out"
     ties = None if tie_points is None else _bundler_ties(Path(tie_points), ch, all_cams,
@@ -71,12 +72,14 @@ def _bundler_ties(path: Path, ch, all_cams: list[str], all_labels: list[str]) ->
 
     b = read_bundler(path, pixel_mm=1.0, sigma_px=1.0)  # pixels
     src = str(bundle_file(path))
-    stems = [Path(s).stem for s in all_labels]
-    has_list = not any(n.startswith("Bundler: no list.txt") for n in b.notes)
+    stems: dict[str, int] = {}
+    for k, s in enumerate(all_labels):
+        stems.setdefault(Path(s).stem, k)
+    has_list = b.photos.image is not None  # bundler names the images only from list.txt
     ids = []
     for name in b.photos.ids:
         if has_list:
-            k = stems.index(Path(name).stem) if Path(name).stem in stems else -1
+            k = stems.get(Path(name).stem, -1)
         else:
             k = int(name) if name.isdigit() and int(name) < len(all_cams) else -1
         if k < 0:
@@ -93,7 +96,7 @@ def _bundler_ties(path: Path, ch, all_cams: list[str], all_labels: list[str]) ->
     jb, ix = np.array(common).T
     centre_b = b.photos.eo[jb, :3]
     local = ch.camera_pose[ix, :3, 3]
-    crs = ch.translation + ch.scale * local @ ch.rotation.T
+    crs = ch.to_crs(local)
     ext_l = float(np.ptp(local, axis=0).max()) or 1.0
     ext_c = float(np.ptp(crs, axis=0).max()) or 1.0
     d_local = float(np.abs(centre_b - local).max()) / ext_l

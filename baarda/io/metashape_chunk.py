@@ -45,8 +45,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from baarda.block.rotation import not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.metashape_sensor import Sensor, attr_number, flag, numbers, properties, read_sensor
+from baarda.io.records import is_number
 from baarda.io.xmltree import Node
 
 ROTATION_TOLERANCE = 1e-6  # |R R^T - I| of a rotation Metashape writes with 17 digits
@@ -80,14 +82,15 @@ class Chunk:
     notes: list[str] = field(default_factory=list)
     unpinned: int = 0  # marker projections with pinned="false"
 
+    def to_crs(self, x: np.ndarray) -> np.ndarray:
+        """Chunk-frame points x (..., 3) in the chunk's reference system: t + s R x."""
+        return self.translation + self.scale * x @ self.rotation.T
+
 
 def check_rotation(r: np.ndarray, where: str, node: Node, what: str) -> None:
-    err = float(np.abs(r @ r.T - np.eye(3)).max())
-    det = float(np.linalg.det(r))
-    if not (err <= ROTATION_TOLERANCE) or det <= 0:
-        raise ProjectError(where, f"{what} is not a rotation (|R R^T - I| = {err:.3g}, det "
-                           f"{det:.3g}; expected an orthonormal matrix with determinant +1)",
-                           node.line, node.tag)
+    why = not_a_rotation(r, ROTATION_TOLERANCE)
+    if why is not None:
+        raise ProjectError(where, f"{what} is {why}", node.line, node.tag)
 
 
 def _members(chunk: Node, holder: str, tag: str) -> list[Node]:
@@ -110,7 +113,7 @@ def _markers(chunk: Node) -> list[Node]:
     return _members(chunk, "markers", "marker")
 
 
-def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float, Node]:
+def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float]:
     """The chunk's transform (or its first component's); ProjectError when there is none."""
     t = chunk.find("transform")
     if t is None:
@@ -136,7 +139,7 @@ def _transform(chunk: Node, where: str) -> tuple[np.ndarray, np.ndarray, float, 
     sc = float(numbers(sn, where, 1, "scale")[0]) if sn is not None else 1.0
     if not sc > 0:
         raise ProjectError(where, f"<scale> {sc:g}: positive expected", t.line, "scale")
-    return rot, tr, sc, t
+    return rot, tr, sc
 
 
 def _crs(chunk: Node) -> str | None:
@@ -156,7 +159,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
     sensors = {}
     for s in (sens.findall("sensor") if sens is not None else []):
         sensors[s.attrib.get("id", "")] = read_sensor(s, where, pixel_mm)
-    rot, tr, sc, _ = _transform(chunk, where)
+    rot, tr, sc = _transform(chunk, where)
     notes: list[str] = []
     ids, labels, sensor_of, poses = [], [], [], []
     skipped = 0
@@ -195,7 +198,7 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
         raise ProjectError(where, "no enabled and aligned camera (a <camera> with a "
                            "<transform>) in the chunk", chunk.line, "cameras")
     acc = {k: float(v) for k, v in properties(chunk.find("settings") or Node("", {}, 0)).items()
-           if k.startswith("accuracy_") and _is_float(v)}
+           if k.startswith("accuracy_") and is_number(v)}
     default_sigma = acc.get("accuracy_markers", DEFAULT_MARKER_M)
     mids, mlabels, mxyz, msig, men = [], [], [], [], []
     for m in _markers(chunk):
@@ -240,14 +243,6 @@ def read_chunk(chunk: Node, frame: Node | None, where: str,
                  np.array(poses), mids, mlabels, np.array(mxyz).reshape(-1, 3),
                  np.array(msig).reshape(-1, 3), np.array(men, bool), projections,  # type: ignore[arg-type]
                  rot, tr, sc, _crs(chunk), acc, notes, unpinned)
-
-
-def _is_float(v: str) -> bool:
-    try:
-        float(v)
-    except ValueError:
-        return False
-    return True
 
 
 @dataclass

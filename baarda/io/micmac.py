@@ -42,7 +42,7 @@ from baarda.block.photo_block import (
 )
 from baarda.errors import ProjectError
 from baarda.io.records import parse_number, whole_lines
-from baarda.io.xmltree import parse_xml
+from baarda.io.xmltree import Node, parse_xml
 
 CRS = "EPSG:2154"  # Lambert-93, the IGN's and MicMac's SysCo of this data
 GNSS_SIGMA_M = (0.10, 0.10, 0.15)
@@ -58,25 +58,43 @@ def _tie_files(folder: Path) -> list[Path]:
 
 def _sensor(folder: Path) -> Path | None:
     """The first IGN camera description of the folder (a .xml whose root is <sensor>)."""
-    found = _sensors(folder)
-    return found[0] if found else None
+    found = _sensors(_parsed(folder))
+    return found[0][0] if found else None
 
 
-def _sensors(folder: Path) -> list[Path]:
-    """The IGN camera descriptions of the folder: the .xml files whose root element, parsed,
-    is <sensor> (a comment or declaration of any length may come before it); a file that
-    does not parse counts when it names <sensor>, so that reading it names its error."""
-    out = []
+def _parsed(folder: Path) -> list[tuple[Path, Node | ProjectError | None]]:
+    """Each .xml of the folder (_camera_files) parsed once: its root, the ProjectError
+    parsing it raised, or None for one that is not a regular file (a FIFO would block the
+    reader)."""
+    out: list[tuple[Path, Node | ProjectError | None]] = []
     for p in _camera_files(folder):
-        if not p.is_file():  # a FIFO would block the reader
+        if not p.is_file():
+            out.append((p, None))
             continue
         try:
-            if parse_xml(p).tag == "sensor":
-                out.append(p)
-        except ProjectError:
+            out.append((p, parse_xml(p)))
+        except ProjectError as e:
+            out.append((p, e))
+    return out
+
+
+Parsed = list[tuple[Path, "Node | ProjectError | None"]]
+
+
+def _sensors(parsed: Parsed) -> list[tuple[Path, Node | None]]:
+    """The IGN camera descriptions among the parsed files: those whose root element is
+    <sensor> (a comment or declaration of any length may come before it), with their root;
+    a file that does not parse counts (root None) when it names <sensor>, so that reading
+    it names its error."""
+    out: list[tuple[Path, Node | None]] = []
+    for p, root in parsed:
+        if isinstance(root, Node):
+            if root.tag == "sensor":
+                out.append((p, root))
+        elif isinstance(root, ProjectError):
             try:
                 if b"<sensor>" in p.read_bytes().lower():
-                    out.append(p)
+                    out.append((p, None))
             except OSError:
                 continue
     return out
@@ -105,9 +123,11 @@ def _lines(path: Path):
             yield n, fields
 
 
-def read_sensor(path: Path) -> dict:
-    """The IGN camera description: width, height (px), ppx, ppy, focal (px), pixel (mm)."""
-    root = parse_xml(path)
+def read_sensor(path: Path, root: Node | None = None) -> dict:
+    """The IGN camera description: width, height (px), ppx, ppy, focal (px), pixel (mm);
+    root: the file's root element when already parsed."""
+    if root is None:
+        root = parse_xml(path)
     if root.tag != "sensor":
         raise ProjectError(str(path), "not an IGN camera description (<sensor>)", root.line)
 
@@ -133,11 +153,13 @@ def read_sensor(path: Path) -> dict:
     return out
 
 
-def read_orientations(path: Path) -> dict[str, tuple[np.ndarray, int]]:
+def read_orientations(path: Path, lines: list[tuple[int, list[str]]] | None = None
+                      ) -> dict[str, tuple[np.ndarray, int]]:
     """Image name -> ((X, Y, Z, omega, phi, kappa) in m and degrees, line) of an .opk file;
-    header lines (text in the coordinate fields) are skipped."""
+    header lines (text in the coordinate fields) are skipped.  lines: the file's (_lines)
+    when already read."""
     out: dict[str, tuple[np.ndarray, int]] = {}
-    for n, f in _lines(path):
+    for n, f in (_lines(path) if lines is None else lines):
         try:
             values = np.array([float(v) for v in f[1:7]]) if len(f) >= 7 else None
         except ValueError:
@@ -197,17 +219,22 @@ def _walk(node):
         yield from _walk(c)
 
 
-def _camera(folder: Path, opk: Path, names: list[str]) -> tuple[Path, dict]:
+def _camera(folder: Path, parsed: Parsed,
+            lines: list[tuple[int, list[str]]], names: list[str]) -> tuple[Path, dict]:
     """The IGN camera description of the block's images: the one whose <name> the
-    orientations' CAMERA column names, else the only (or first) one of the folder."""
+    orientations' CAMERA column (`lines`: the .opk's) names, else the only (or first) one
+    of the folder (`parsed`: its .xml files, _parsed)."""
     sensors = {}
-    for p in _camera_files(folder):
-        root = parse_xml(p)
+    for p, root in parsed:
+        if isinstance(root, ProjectError):
+            raise root
+        if root is None:
+            root = parse_xml(p)
         if root.tag == "sensor":
-            sensors[p] = read_sensor(p)
+            sensors[p] = read_sensor(p, root)
     if not sensors:
         raise ProjectError(str(folder), "no IGN camera description (.xml with <sensor>)")
-    column = {f[0]: f[7] for _, f in _lines(opk) if len(f) >= 8}
+    column = {f[0]: f[7] for _, f in lines if len(f) >= 8}
     wanted = {column[n] for n in names if n in column}
     if len(wanted) == 1:
         name = wanted.pop()
@@ -230,7 +257,8 @@ def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
     """A MicMac/IGN aerial block (module docstring).  orientations: the .opk file (default
     trajectograhie.opk, else the only .opk of the folder)."""
     folder = Path(folder)
-    if _sensor(folder) is None:
+    parsed = _parsed(folder)
+    if not _sensors(parsed):
         raise ProjectError(str(folder), "no IGN camera description (.xml with <sensor>)")
     opks = sorted(q for q in folder.iterdir() if q.suffix.lower() == ".opk")
     if orientations is not None:
@@ -242,7 +270,8 @@ def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
     else:
         raise ProjectError(str(folder), "several orientation files: choose one ("
                            + ", ".join(q.name for q in opks) + ")")
-    eo_by_name = read_orientations(opk)
+    opk_lines = list(_lines(opk))
+    eo_by_name = read_orientations(opk, opk_lines)
     ties = _tie_files(folder)
     names = _image_list(folder)
     if names is None:
@@ -255,7 +284,7 @@ def read_micmac(folder: str | Path, *, orientations: str | Path | None = None,
         raise ProjectError(str(opk), f"no orientation of image {missing[0]}")
     if not names:
         raise ProjectError(str(folder), "no image with both measurements and an orientation")
-    _, cam = _camera(folder, opk, names)
+    _, cam = _camera(folder, parsed, opk_lines, names)
     index = {n: i for i, n in enumerate(names)}
     p = cam["pixel_mm"]
     # measurements: tie points, then control

@@ -39,7 +39,7 @@ from baarda.block.photo_block import (
     Settings,
 )
 from baarda.block.pixels import centred
-from baarda.block.rotation import angles_from_matrix
+from baarda.block.rotation import FLIP, angles_from_matrix, quaternion_matrix
 from baarda.errors import ProjectError
 from baarda.io.bundler import once_per_image
 from baarda.io.records import (
@@ -51,22 +51,11 @@ from baarda.io.records import (
 )
 
 QUATERNION_TOLERANCE = 1e-4  # | |q| - 1 | of a quaternion written with 6 digits or more
-FLIP = np.diag([1.0, -1.0, -1.0])  # VisualSFM's camera frame (y down, +z) <-> baarda's
 
 
 def is_nvm(path: str | Path) -> bool:
     """A file whose first line starts with NVM_V3."""
     return first_line_starts(Path(path), b"NVM_V3")
-
-
-def quaternion_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices of unit quaternions (n, 4) w x y z."""
-    w, x, y, z = q.T
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)],
-        axis=1)
 
 
 class _Tokens:
@@ -192,7 +181,7 @@ def _block(p, names, cams, xyz, obs_point, obs, pixel_mm, sigma_px, notes) -> Bl
     stems = [Path(s).stem for s in names]
     ids = stems if len(set(stems)) == len(stems) else list(names)
     q = cams[:, 1:5] / np.linalg.norm(cams[:, 1:5], axis=1)[:, None]
-    rb = np.swapaxes(quaternion_matrix(q), 1, 2) @ FLIP
+    rb = np.swapaxes(quaternion_matrix(q), 1, 2) @ FLIP  # VisualSFM's camera frame: y down
     groups, cam_of = np.unique(cams[:, [0, 8]], axis=0, return_inverse=True)
     cam_of = cam_of.ravel()
     m = len(groups)
@@ -232,4 +221,4 @@ def read(path: Path, request) -> Block:
 
     return read_nvm(path, PIXEL_MM if request.pixel_mm is None else request.pixel_mm,
                     SIGMA_PX if request.sigma_px is None else request.sigma_px,
-                    getattr(request, "model", None))
+                    request.model)

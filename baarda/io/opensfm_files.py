@@ -106,7 +106,6 @@ def read_tracks(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarra
     lines = whole_lines(path)
     start = 1 if lines and lines[0].startswith("OPENSFM_TRACKS_VERSION") else 0
     images, tracks, xs, ys, nos = [], [], [], [], []
-    rows = []
     for n, line in enumerate(lines[start:], start=start + 1):
         if not line.strip():
             continue
@@ -114,7 +113,6 @@ def read_tracks(path: Path) -> tuple[list[str], list[str], np.ndarray, np.ndarra
         if len(f) < 5:
             raise ProjectError(str(path), f"expected 'image track feature x y ...' (tab "
                                f"separated), found {len(f)} field(s)", n)
-        rows.append(f)
         images.append(f[0])
         tracks.append(f[1].strip())
         xs.append(f[3])

@@ -28,14 +28,15 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
-from baarda.block.rotation import angles_from_matrix
+from baarda.block.rotation import angles_from_matrix, not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.minus99 import Row, data_rows, groups, is_end, rows_to_end
 from baarda.io.records import ENCODING, first_appearance
 
 SUFFIXES = (".im", ".con", ".ori", ".at", ".pro")
 ROTATION_TOLERANCE = 1e-4
-SIGMA_IMAGE_UM = 5.0  # without a .pro: the image sigma [µm]
+DEFAULT_SIGMA_UM = Settings.sigma_image_um  # without a .pro: the image sigma [µm]
+DEFAULT_CONTROL_M = Settings.sigma_control_m  # without a .pro: the control sigmas [m]
 CODES = {3: (True, True, True), 1: (True, True, False), 2: (False, False, True)}
 
 
@@ -108,10 +109,11 @@ def read_patb(path: str | Path, encoding: str = ENCODING) -> Block:
     im = f[".im"]
     notes: list[str] = []
     pro = _read_pro(f[".pro"], encoding, notes) if ".pro" in f else {}
-    sigma_um = float(pro["sigma_image_um"][0]) if "sigma_image_um" in pro else SIGMA_IMAGE_UM
-    ctrl_sigma = tuple(float(v) for v in pro.get("sigma_control_m", (0.05, 0.05, 0.05)))
+    sigma_um = float(pro["sigma_image_um"][0]) if "sigma_image_um" in pro else DEFAULT_SIGMA_UM
+    ctrl_sigma = tuple(float(v) for v in pro.get("sigma_control_m", DEFAULT_CONTROL_M))
     ims = str(im)
     photo_ids: list[str] = []
+    recorded: set[str] = set()
     focal: list[float] = []
     obs_photo: list[int] = []
     obs_point: list[str] = []
@@ -128,8 +130,9 @@ def read_patb(path: str | Path, encoding: str = ENCODING) -> Block:
         if c <= 0:
             raise ProjectError(ims, f"photo {pid}: the camera constant must be positive",
                                h.line, "c")
-        if pid in photo_ids:
+        if pid in recorded:
             raise ProjectError(ims, f"photo {pid} has two records", h.line, "photo")
+        recorded.add(pid)
         seen: set[str] = set()
         for r in g.rows:
             v, s = _point_row(ims, r, pid)
@@ -266,11 +269,9 @@ def _read_ori(path: Path, encoding: str, photo: dict[str, int], eo: np.ndarray) 
                 raise ProjectError(p, f"photo {h.tokens[0]}: rotation row {j + 1}: 3 numbers "
                                    f"expected, found {len(r.tokens)}", r.line, "R")
             rot[j] = r.numbers(p, 0, (f"R{j + 1}1", f"R{j + 1}2", f"R{j + 1}3"))
-        err = float(np.abs(rot @ rot.T - np.eye(3)).max())
-        if not err <= ROTATION_TOLERANCE or np.linalg.det(rot) <= 0:
-            raise ProjectError(p, f"photo {h.tokens[0]}: not a rotation (|R R^T - I| = "
-                               f"{err:.3g}; an orthonormal matrix with determinant +1 "
-                               "expected)", rows[k + 1].line, "R")
+        why = not_a_rotation(rot, ROTATION_TOLERANCE)
+        if why is not None:
+            raise ProjectError(p, f"photo {h.tokens[0]}: {why}", rows[k + 1].line, "R")
         eo[i] = np.concatenate([x0, angles_from_matrix(rot)])
 
 

@@ -66,13 +66,16 @@ def line_of(text: str, index: int) -> int:
 #: characters no text input holds: NUL and the other C0 controls but tab, line ends, form
 #: feed, vertical tab and DOS's end-of-file mark (ESC, BEL ... act on a terminal that prints
 #: an id), DEL and the C1 controls
-CONTROL = re.compile("[\x00-\x08\x0e-\x19\x1b-\x1f\x7f-\x9f]")
+C0_DEL = "\x00-\x08\x0e-\x19\x1b-\x1f\x7f"  # the C0 controls refused, and DEL
+CONTROL = re.compile(f"[{C0_DEL}\x80-\x9f]")
 
 
 def no_nul(text: str, path: str, header: list[str] | None = None) -> str:
     """`text`, or ProjectError naming the line (and, for a CSV table with `header`, the
-    column) of its first NUL character: text files hold none (a damaged file, or a binary
-    one), and inside an id it would make the id differ from the same id elsewhere."""
+    column) of its first control character (CONTROL: NUL, the other C0 controls but tab,
+    line ends, form feed, vertical tab and DOS's end-of-file mark, DEL, the C1 controls):
+    text files hold none (a NUL: a damaged file, or a binary one), and inside an id it would
+    make the id differ from the same id elsewhere (an ESC or BEL acts on a terminal)."""
     m = CONTROL.search(text)
     if m is None:
         return text
@@ -160,9 +163,7 @@ def require_file(path: str | Path, what: str = "file not found") -> None:
 def file_bytes(path: str | Path, what: str = "file not found") -> bytes:
     """The bytes of a regular file; ProjectError naming it when it does not exist (`what`),
     is not a regular file (`not_a_file`) or cannot be read (permissions, ...)."""
-    problem = not_a_file(path, what)
-    if problem is not None:
-        raise ProjectError(str(path), problem)
+    require_file(path, what)
     try:
         return Path(path).read_bytes()
     except OSError as e:
@@ -180,13 +181,20 @@ def whole_lines(path: str | Path, encoding: str = ENCODING, *,
     """read_lines of a data file that a program writes whole: ProjectError when it is empty
     (unless `allow_empty`) or its last line has no line end, the marks of a file cut short
     (a cut exactly at a line end cannot be seen: docs/formats.md)."""
+    return split_lines(decode_text(whole_bytes(path, allow_empty=allow_empty), str(path),
+                                   encoding))
+
+
+def whole_bytes(path: str | Path, *, allow_empty: bool = False) -> bytes:
+    """The bytes of a data file that a program writes whole, refused (as `whole_lines`
+    refuses it) when empty or cut short in its last line; not decoded."""
     data = file_bytes(path)
     if not data.strip() and not allow_empty:
         raise ProjectError(str(path), "the file is empty: cut short, or not written "
                            "(it must hold at least one record)")
     refuse_cut_short(str(path), not data or data[-1:] in (b"\n", b"\r"),
                      data.count(b"\n") + 1)
-    return split_lines(decode_text(data, str(path), encoding))
+    return data
 
 
 def _decimals(text: str) -> int | None:

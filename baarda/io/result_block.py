@@ -20,6 +20,7 @@ from baarda.block.rotation import angle_to_rad
 from baarda.errors import ProjectError
 from baarda.io.run_manifest import written_excel_safe
 from baarda.io.table import unquoted_formulas
+from baarda.kinds import IMAGE
 
 
 def is_result_folder(path: str | Path) -> bool:
@@ -78,7 +79,7 @@ def _observed_as_run(block: Block, obs: pd.DataFrame, notes: list[str]) -> Block
     """The image coordinates as the run had them (observations.csv's x_mm, y_mm: the run
     may have read its input with other options, e.g. --pixel-mm); image observations of the
     input that are not in the result are left out, with a note."""
-    img = obs[(obs["kind"] == "image") & (obs["component"] == "x")]
+    img = obs[(obs["kind"] == IMAGE.name) & (obs["component"] == IMAGE.components[0])]
     pairs = pd.DataFrame({"photo": [block.photos.ids[i] for i in block.image.photo],
                           "point": [block.points.ids[j] for j in block.image.point]})
     got = pairs.merge(img[["photo", "point", "x_mm", "y_mm"]].astype(
@@ -162,8 +163,7 @@ def read_result_block(folder: str | Path, keep_given: bool = False,
         notes.append("the cameras as self-calibrated (cameras.csv)")
     obs = res.obs
     block = _observed_as_run(block, obs, notes)
-    rej = obs[(obs["kind"] == "image") & obs["rejected"].astype(str).isin(["True", "true",
-                                                                            "1"])]
+    rej = obs[(obs["kind"] == IMAGE.name) & obs["rejected"].astype(bool)]  # read as True/False
     rejected = rej[["photo", "point", "component", "w", "mdb"]].reset_index(drop=True)
     if len(rejected):
         pi, qi = block.photo_index, block.point_index

@@ -20,6 +20,7 @@ import numpy as np
 
 from baarda.errors import ProjectError
 from baarda.io.records import (
+    C0_DEL,
     ENCODING,
     Columns,
     decode_text,
@@ -36,7 +37,7 @@ MAX_FIELDS_FACTOR = 4  # a line with more than this many times the header's fiel
 
 
 #: the control characters records.CONTROL refuses, as UTF-8 bytes (C1 as \xc2\x80-\x9f)
-CONTROL_BYTES = re.compile(b"[\x00-\x08\x0e-\x19\x1b-\x1f\x7f]|\xc2[\x80-\x9f]")
+CONTROL_BYTES = re.compile(f"[{C0_DEL}]".encode("ascii") + b"|\xc2[\x80-\x9f]")
 
 
 #: the first characters that make a spreadsheet read a cell as a formula (OWASP, CSV
