@@ -1,7 +1,8 @@
 """Writing a Block as a BINGO file with Pix4D's calibrated camera parameters beside it
 (`NAME_tp_bingo.txt`, `NAME_calibrated_camera_parameters.txt`): the inverse of io/bingo.py
-(conventions there).  The image size is not in a Block: each camera's is the smallest even
-number of pixels whose frame, centred on the image centre, holds all its image points; the
+(conventions there).  Pixels and image sizes: block/pixels.pixel_sizes and image_sizes (a
+camera's image size is the block's where its grid is known, else the smallest even number
+of pixels whose frame, centred on the image centre, holds all its image points); the
 sensor size in the BINGO header is that size times the camera's pixel (the nominal 1 µm
 where the block states none).  Numbers are written as Python's shortest exact form.
 """
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block
+from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import pose_of_eo
 from baarda.output.atomic import write_text
 from baarda.output.patb_files import checked_block
@@ -49,17 +51,11 @@ def write_bingo(block: Block, folder: str | Path, name: str = "block") -> list[s
     notes = checked_block(block, lens=True)
     folder = Path(folder)
     cams, im, pts = block.cameras, block.image, block.points
-    px = cams.pixel_mm
-    px = np.full(len(cams), np.nan) if px is None else np.asarray(px, float)
-    px = np.where(np.isfinite(px) & (px > 0), px, PIXEL_MM)
+    pxy = pixel_sizes(cams, PIXEL_MM)
+    px = pxy[:, 0]
     lens = [_lens(block, i) for i in range(len(cams))]
     cam = block.photos.camera
-    obs_cam = cam[im.photo]
-    size = np.zeros((len(cams), 2))
-    for i in range(len(cams)):
-        xy = np.abs(im.xy_mm[obs_cam == i])
-        if len(xy):
-            size[i] = 2 * (np.floor(xy.max(axis=0) / px[i]) + 1)
+    size = image_sizes(cams, cam[im.photo], im.xy_mm, pxy).astype(float)
     bingo, par = [], list(HEADER)
     order = np.argsort(im.photo, kind="stable")
     bounds = np.searchsorted(im.photo[order], np.arange(len(block.photos) + 1))

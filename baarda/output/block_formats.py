@@ -5,9 +5,10 @@ into the format's model object (io/colmap.ColmapModel, io/bal.BalProblem,
 io/aicon.AiconProject) and written by
 output/format_files.py, the inverses of the readers.
 
-Pixels: a camera's pixel is the reader's (`Cameras.pixel_frame`: width and height), else the
-size the block states (`Cameras.pixel_mm`), else the nominal 1 µm the readers of pixel
-formats assume; so a block read from a pixel format goes back in its own pixels.  Every
+Pixels (block/pixels.pixel_sizes): a camera's pixel is the reader's (`Cameras.pixel_frame`:
+width and height), else the size the block states (`Cameras.pixel_mm`), else the nominal
+1 µm the readers of pixel formats assume; so a block read from a pixel format goes back in
+its own pixels.  Every
 point goes out as a tie point (none of these formats has control as baarda means it, but
 OpenSfM, whose GCPs keep their given coordinates).
 """
@@ -20,6 +21,7 @@ import numpy as np
 
 from baarda.block.camera import coefficients, kinds
 from baarda.block.photo_block import Block
+from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import rotation_matrix, rotation_vector
 from baarda.io.aicon import AiconProject, point_id
 from baarda.io.bal import BalProblem
@@ -27,24 +29,15 @@ from baarda.io.colmap import ColmapCamera, ColmapModel
 from baarda.io.colmap_block import eo_to_pose
 from baarda.io.colmap_model import ColmapImages, ColmapPoints
 from baarda.output.format_files import write_aicon, write_bal, write_colmap, write_opensfm
-from baarda.output.sfm_files import PIXEL_MM, _checked, _pixel
+from baarda.output.sfm_files import PIXEL_MM, _checked
 
 BAL_FILE = "problem.txt"
 GREY = 128
 
 
 def _pixel_xy(block: Block) -> np.ndarray:
-    """(n, 2) the pixel size [mm] in x and y of every camera: the width and height of its
-    pixel as the reader scaled the image coordinates (`Cameras.pixel_frame`), else the
-    pixel size the block states (`pixel_mm`), else the nominal PIXEL_MM."""
-    cams = block.cameras
-    px = _pixel(block, PIXEL_MM)
-    out = np.column_stack([px, px])
-    if cams.pixel_frame is not None:
-        pxy = np.asarray(cams.pixel_frame, float)[:, 2:]
-        ok = np.isfinite(pxy).all(axis=1) & (pxy > 0).all(axis=1)
-        out = np.where(ok[:, None], pxy, out)
-    return out
+    """(n, 2) the pixel size [mm] in x and y of every camera (block/pixels.pixel_sizes)."""
+    return pixel_sizes(block.cameras, PIXEL_MM)
 
 
 def _has_principal_point(notes: list[str]) -> list[str]:
@@ -85,8 +78,8 @@ def block_to_colmap(block: Block) -> tuple[ColmapModel, list[str]]:
     Cameras: none -> SIMPLE_PINHOLE (PINHOLE with non-square pixels), brown_forward -> the
     smallest of SIMPLE_RADIAL (k1), RADIAL (k1, k2), OPENCV (k1, k2 and decentring: COLMAP's
     p1, p2 are baarda's -p2, p1, y pointing down) and FULL_OPENCV (k3); the aspect a as fy =
-    fx (1 + a).  Image size: the block's where it states one, else the smallest square
-    around the observations; the principal point cx = w/2 + x0/px, cy = h/2 - y0/py, the
+    fx (1 + a).  Image size: block/pixels.image_sizes (the block's where its grid is
+    known, else the smallest even frame around the observations); the principal point cx = w/2 + x0/px, cy = h/2 - y0/py, the
     keypoints x = w/2 + x/px, y = h/2 - y/py (pixel corner at the upper-left of the image).
     Image names: the photo ids + '.jpg' (COLMAP's reader takes the stem as photo id); image
     and camera ids 1, 2, ...; point ids kept where they are positive integers."""
@@ -96,20 +89,14 @@ def block_to_colmap(block: Block) -> tuple[ColmapModel, list[str]]:
     if bad:
         raise ValueError(f"photo id '{bad[0]}': COLMAP image names have no blanks")
     pxy = _pixel_xy(block)
-    size = None if cams.image_size_px is None else np.asarray(cams.image_size_px, float)
     cam_of = photos.camera[im.photo]
+    size = image_sizes(cams, cam_of, im.xy_mm, pxy)
     cameras, aspect = {}, []
     for i in range(len(cams)):
         kind, k = _lens(block, i, "COLMAP")
         c, (x0, y0) = float(cams.focal_mm[i]), cams.principal_point_mm[i]
         px, py = pxy[i]
-        sel = cam_of == i
-        if size is not None and np.isfinite(size[i]).all() and (size[i] > 0).all():
-            w, h = int(round(size[i, 0])), int(round(size[i, 1]))
-        else:
-            span = max(float(np.abs(im.xy_mm[sel, 0]).max(initial=1.0)) / px,
-                       float(np.abs(im.xy_mm[sel, 1]).max(initial=1.0)) / py)
-            w = h = 2 * int(np.ceil(span)) + 2
+        w, h = (int(v) for v in size[i])
         a = float(k[5])
         if a:
             aspect.append(cams.ids[i])

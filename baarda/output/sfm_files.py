@@ -3,9 +3,10 @@
 
 Both formats are pixels from the principal point: the image coordinates go out as (x - x0) /
 p, so that a camera with a principal point keeps its geometry (the image centre is lost);
-p is the camera's pixel size where the block states one, else `pixel_mm` (the nominal 1 µm
-the readers use).  Every point goes out as a tie point with its coordinates (control and
-check roles have no place in either format), colours grey; the keypoint index of an
+p is the width of the camera's pixel (block/pixels.pixel_sizes: the reader's pixel frame,
+else the pixel size the block states, else `pixel_mm`, the nominal 1 µm the readers use).
+Every point goes out as a tie point with its coordinates (control and check roles have no
+place in either format), colours grey; the keypoint index of an
 observation is its number among its photo's observations.  Each writer returns what it had
 to drop or approximate, in words; a camera model the format cannot hold is a ValueError.
 """
@@ -17,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from baarda.block.photo_block import Block
+from baarda.block.pixels import pixel_sizes
 from baarda.block.rotation import pose_of_eo
 from baarda.io.colmap import matrix_to_qvec
 from baarda.output.atomic import write_text
@@ -27,11 +29,8 @@ FLIP = np.array([1.0, -1.0, -1.0])
 
 
 def _pixel(block: Block, pixel_mm: float) -> np.ndarray:
-    """The pixel size [mm] of every camera."""
-    px = block.cameras.pixel_mm
-    n = len(block.cameras)
-    px = np.full(n, np.nan) if px is None else np.asarray(px, float)
-    return np.where(np.isfinite(px) & (px > 0), px, pixel_mm)
+    """The pixel size [mm] of every camera: its width (pixels.pixel_sizes)."""
+    return pixel_sizes(block.cameras, pixel_mm)[:, 0]
 
 
 def _coefficients(block: Block, i: int) -> tuple[str, np.ndarray]:
