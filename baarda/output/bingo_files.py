@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import lens
 from baarda.block.photo_block import Block
 from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import pose_of_eo
@@ -34,8 +35,7 @@ def _lens(block: Block, i: int) -> np.ndarray:
     """R1 R2 R3 T1 T2 and the aspect a of camera i (ValueError for a model Pix4D's
     perspective lens cannot hold)."""
     cams = block.cameras
-    kind = "none" if cams.model is None else str(cams.model[i])
-    coef = np.zeros(6) if cams.coefficients is None else np.asarray(cams.coefficients[i], float)
+    kind, coef = lens(cams, i)
     if kind == "none" or not np.any(coef):
         return np.zeros(6)
     if kind != "brown_forward":
@@ -53,7 +53,7 @@ def write_bingo(block: Block, folder: str | Path, name: str = "block") -> list[s
     cams, im, pts = block.cameras, block.image, block.points
     pxy = pixel_sizes(cams, PIXEL_MM)
     px = pxy[:, 0]
-    lens = [_lens(block, i) for i in range(len(cams))]
+    lenses = [_lens(block, i) for i in range(len(cams))]
     cam = block.photos.camera
     size = image_sizes(cams, cam[im.photo], im.xy_mm, pxy).astype(float)
     bingo, par = [], list(HEADER)
@@ -68,7 +68,7 @@ def write_bingo(block: Block, folder: str | Path, name: str = "block") -> list[s
             bingo.append(f"{pts.ids[im.point[k]]} {_f(im.xy_mm[k, 0])} {_f(im.xy_mm[k, 1])}")
         bingo.append("-99")
         fx = cams.focal_mm[c] / p
-        k1, k2, k3, t1, t2, a = lens[c]
+        k1, k2, k3, t1, t2, a = lenses[c]
         cx = w / 2 + cams.principal_point_mm[c, 0] / p
         cy = h / 2 - cams.principal_point_mm[c, 1] / p
         r, _ = pose_of_eo(block.photos.eo[i])

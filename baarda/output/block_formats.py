@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.camera import coefficients, kinds
+from baarda.block.camera import coefficients, kinds, lens
 from baarda.block.photo_block import Block
 from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import rotation_matrix, rotation_vector
@@ -48,8 +48,7 @@ def _has_principal_point(notes: list[str]) -> list[str]:
 def _lens(block: Block, i: int, fmt: str) -> tuple[str, np.ndarray]:
     """Kind and coefficients of camera i, a model whose coefficients are all 0 as 'none';
     ValueError for a model other than none and brown_forward."""
-    kind = str(kinds(block.cameras)[i])
-    coef = coefficients(block.cameras, i)
+    kind, coef = lens(block.cameras, i)
     if not np.any(coef):
         return "none", np.zeros(6)
     if kind != "brown_forward":
@@ -79,8 +78,9 @@ def block_to_colmap(block: Block) -> tuple[ColmapModel, list[str]]:
     smallest of SIMPLE_RADIAL (k1), RADIAL (k1, k2), OPENCV (k1, k2 and decentring: COLMAP's
     p1, p2 are baarda's -p2, p1, y pointing down) and FULL_OPENCV (k3); the aspect a as fy =
     fx (1 + a).  Image size: block/pixels.image_sizes (the block's where its grid is
-    known, else the smallest even frame around the observations); the principal point cx = w/2 + x0/px, cy = h/2 - y0/py, the
-    keypoints x = w/2 + x/px, y = h/2 - y/py (pixel corner at the upper-left of the image).
+    known, else the smallest even frame around the observations); the principal point
+    cx = w/2 + x0/px, cy = h/2 - y0/py, the keypoints x = w/2 + x/px, y = h/2 - y/py
+    (pixel corner at the upper-left of the image).
     Image names: the photo ids + '.jpg' (COLMAP's reader takes the stem as photo id); image
     and camera ids 1, 2, ...; point ids kept where they are positive integers."""
     notes = _has_principal_point(_checked(block))

@@ -25,6 +25,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from baarda.block.camera import lens
 from baarda.block.photo_block import Block
 from baarda.block.pixels import image_sizes, known_grid, pixel_sizes
 from baarda.block.rotation import rotation_matrix
@@ -40,11 +41,9 @@ def _n(v: float) -> str:
 
 def _sensor(block: Block, i: int, pixel: float, w: int, h: int) -> list[str]:
     cams = block.cameras
-    kind = "none" if cams.model is None else str(cams.model[i])
-    coef = np.zeros(6) if cams.coefficients is None else \
-        np.asarray(cams.coefficients[i], float)
+    kind, coef = lens(cams, i)
     if kind == "brown_forward":
-        k1, k2, k3, p1, p2, a = (list(coef) + [0.0] * 6)[:6]
+        k1, k2, k3, p1, p2, a = coef[:6]
     elif kind == "none" or not np.any(coef):
         k1 = k2 = k3 = p1 = p2 = a = 0.0
     else:

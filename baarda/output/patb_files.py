@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import lens as camera_lens
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.io.minus99 import is_end
@@ -42,13 +43,12 @@ def checked_block(block: Block, *, lens: bool) -> list[str]:
     check_ids(block.photos.ids, "photo")
     check_ids([block.points.ids[j] for j in np.unique(block.image.point)], "point")
     cams = block.cameras
-    if not lens and cams.model is not None:
-        for i, kind in enumerate(cams.model):
-            coef = np.zeros(0) if cams.coefficients is None else cams.coefficients[i]
+    if not lens:
+        for i in range(len(cams)):
+            kind, coef = camera_lens(cams, i)
             if kind != "none" and np.any(coef):
                 raise ValueError(f"camera {cams.ids[i]}: model {kind} with "
-                                 f"{np.asarray(coef).tolist()}: the format holds no lens "
-                                 "distortion")
+                                 f"{coef.tolist()}: the format holds no lens distortion")
     notes = []
     extra = [n for n, v in (("GNSS", block.gnss), ("IMU", block.imu),
                             ("distance", block.distances)) if len(v)]

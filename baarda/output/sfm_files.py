@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import lens
 from baarda.block.photo_block import Block
 from baarda.block.pixels import pixel_sizes
 from baarda.block.rotation import pose_of_eo
@@ -31,14 +32,6 @@ FLIP = np.array([1.0, -1.0, -1.0])
 def _pixel(block: Block, pixel_mm: float) -> np.ndarray:
     """The pixel size [mm] of every camera: its width (pixels.pixel_sizes)."""
     return pixel_sizes(block.cameras, pixel_mm)[:, 0]
-
-
-def _coefficients(block: Block, i: int) -> tuple[str, np.ndarray]:
-    cams = block.cameras
-    kind = "none" if cams.model is None else str(cams.model[i])
-    coef = (np.zeros(0) if cams.coefficients is None else
-            np.asarray(cams.coefficients[i], float))
-    return kind, coef
 
 
 def _checked(block: Block) -> list[str]:
@@ -98,7 +91,7 @@ def write_bundler(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM) 
     approx = []
     for i in range(len(block.photos)):
         ci = int(block.photos.camera[i])
-        kind, coef = _coefficients(block, ci)
+        kind, coef = lens(block.cameras, ci)
         c = float(block.cameras.focal_mm[ci])
         if kind == "none" or (kind in ("brown_forward", "brown") and not np.any(coef)):
             k1 = k2 = 0.0
@@ -148,7 +141,7 @@ def write_nvm(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM,
     approx = []
     for i, pid in enumerate(block.photos.ids):
         ci = int(block.photos.camera[i])
-        kind, coef = _coefficients(block, ci)
+        kind, coef = lens(block.cameras, ci)
         c = float(block.cameras.focal_mm[ci])
         if kind == "none" or (kind in ("brown_forward", "brown") and not np.any(coef)):
             r = 0.0
