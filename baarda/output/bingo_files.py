@@ -18,7 +18,7 @@ from baarda.block.photo_block import Block
 from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import pose_of_eo
 from baarda.output.atomic import write_text
-from baarda.output.patb_files import checked_block
+from baarda.output.block_checks import checked_block
 
 PIXEL_MM = 0.001
 HEADER = ["fileName imageWidth imageHeight", "camera matrix K [3x3]",
@@ -48,7 +48,7 @@ def _lens(block: Block, i: int) -> np.ndarray:
 def write_bingo(block: Block, folder: str | Path, name: str = "block") -> list[str]:
     """`folder`/NAME_tp_bingo.txt and NAME_calibrated_camera_parameters.txt (atomically);
     the notes on what was dropped."""
-    notes = checked_block(block, lens=True)
+    notes = checked_block(block, lens=True, ids=True, strips=True)
     folder = Path(folder)
     cams, im, pts = block.cameras, block.image, block.points
     pxy = pixel_sizes(cams, PIXEL_MM)

@@ -28,8 +28,9 @@ from baarda.io.bal import BalProblem
 from baarda.io.colmap import ColmapCamera, ColmapModel
 from baarda.io.colmap_block import eo_to_pose
 from baarda.io.colmap_model import ColmapImages, ColmapPoints
+from baarda.output.block_checks import checked_block
 from baarda.output.format_files import write_aicon, write_bal, write_colmap, write_opensfm
-from baarda.output.sfm_files import PIXEL_MM, _checked
+from baarda.output.sfm_files import PIXEL_MM
 
 BAL_FILE = "problem.txt"
 GREY = 128
@@ -38,11 +39,6 @@ GREY = 128
 def _pixel_xy(block: Block) -> np.ndarray:
     """(n, 2) the pixel size [mm] in x and y of every camera (block/pixels.pixel_sizes)."""
     return pixel_sizes(block.cameras, PIXEL_MM)
-
-
-def _has_principal_point(notes: list[str]) -> list[str]:
-    """The common notes less the one on the principal point (the format holds it)."""
-    return [n for n in notes if not n.startswith("principal point")]
 
 
 def _lens(block: Block, i: int, fmt: str) -> tuple[str, np.ndarray]:
@@ -83,7 +79,7 @@ def block_to_colmap(block: Block) -> tuple[ColmapModel, list[str]]:
     (pixel corner at the upper-left of the image).
     Image names: the photo ids + '.jpg' (COLMAP's reader takes the stem as photo id); image
     and camera ids 1, 2, ...; point ids kept where they are positive integers."""
-    notes = _has_principal_point(_checked(block))
+    notes = checked_block(block, coordinates=True, roles=True)
     cams, photos, im = block.cameras, block.photos, block.image
     bad = [p for p in photos.ids if not p or any(ch.isspace() for ch in p)]
     if bad:
@@ -168,7 +164,7 @@ def block_to_bal(block: Block) -> tuple[BalProblem, list[str]]:
     points in block order of the observed ones, the observations in pixels from the
     principal point (x - x0)/px, (y - y0)/py, y up (BAL's camera frame is baarda's:
     R = R_b^T, t = -R X0)."""
-    notes = _checked(block)
+    notes = checked_block(block, coordinates=True, roles=True, principal_point=True)
     cams, photos, im = block.cameras, block.photos, block.image
     pxy = _pixel_xy(block)
     n = len(photos)
@@ -212,7 +208,7 @@ def write_opensfm_block(block: Block, folder: str | Path) -> list[str]:
     """reconstruction.json, tracks.csv, ground_control_points.json, config.yaml of `block`
     in `folder` (format_files.write_opensfm, in the pixels of the first camera); the notes
     on what was dropped."""
-    notes = [n for n in _checked(block) if "control/check" not in n and "principal" not in n]
+    notes = checked_block(block, coordinates=True)
     px = _pixel_xy(block)
     if not np.allclose(px, px[0, 0], rtol=1e-12, atol=0):
         raise ValueError("OpenSfM normalises every camera by one image size: the cameras' "
@@ -246,7 +242,7 @@ def block_to_aicon(block: Block, name: str = "block") -> tuple[AiconProject, lis
     yh = the principal point, A1..A3 with R0, B1, B2, C1, C2; a camera without terms as all
     zero), orientations and points in mm, the observations with their sigmas sx, sy [mm],
     the distances as scale bars [mm]; every image, point and observation active."""
-    notes = _has_principal_point(_checked(block))
+    notes = checked_block(block, coordinates=True, roles=True)
     cams, photos, im, pts = block.cameras, block.photos, block.image, block.points
     kind = kinds(cams)
     n_c = len(cams)

@@ -30,7 +30,8 @@ from baarda.block.photo_block import Block
 from baarda.block.pixels import image_sizes, known_grid, pixel_sizes
 from baarda.block.rotation import rotation_matrix
 from baarda.output.atomic import write_text
-from baarda.output.sfm_files import PIXEL_MM, _checked
+from baarda.output.block_checks import checked_block
+from baarda.output.sfm_files import PIXEL_MM
 
 FLIP = np.diag([1.0, -1.0, -1.0])
 
@@ -75,7 +76,7 @@ def _sensor(block: Block, i: int, pixel: float, w: int, h: int) -> list[str]:
 def write_metashape(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM) -> list[str]:
     """cameras.xml (and bundle.out, list.txt for the tie points) of `block` in `folder`;
     the notes on what was dropped (module docstring)."""
-    notes = [n for n in _checked(block) if "control/check" not in n and "principal" not in n]
+    notes = checked_block(block, coordinates=True)
     folder = Path(folder)
     im, pts = block.image, block.points
     pxy = pixel_sizes(block.cameras, pixel_mm)

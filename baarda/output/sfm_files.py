@@ -23,6 +23,7 @@ from baarda.block.pixels import pixel_sizes
 from baarda.block.rotation import pose_of_eo
 from baarda.io.colmap import matrix_to_qvec
 from baarda.output.atomic import write_text
+from baarda.output.block_checks import checked_block
 
 PIXEL_MM = 0.001  # io/image_sigma.PIXEL_MM: the nominal pixel of formats in pixels
 GREY = "128 128 128"
@@ -32,31 +33,6 @@ FLIP = np.array([1.0, -1.0, -1.0])
 def _pixel(block: Block, pixel_mm: float) -> np.ndarray:
     """The pixel size [mm] of every camera: its width (pixels.pixel_sizes)."""
     return pixel_sizes(block.cameras, pixel_mm)[:, 0]
-
-
-def _checked(block: Block) -> list[str]:
-    """The common checks; notes on what the formats drop."""
-    if not len(block.photos) or not len(block.image.photo):
-        raise ValueError("the block has no photos or no image points")
-    if not np.isfinite(block.photos.eo).all():
-        raise ValueError("every photo needs an orientation (pipeline.with_approximations)")
-    used = np.unique(block.image.point)
-    if not np.isfinite(block.points.xyz[used]).all():
-        raise ValueError("every observed point needs coordinates "
-                         "(pipeline.with_tie_coordinates)")
-    notes = []
-    roles = block.points.role[used]
-    if np.any(roles != "tie"):
-        notes.append(f"{int(np.sum(roles != 'tie'))} control/check point(s) written as tie "
-                     "points (no control in the format)")
-    if np.any(block.cameras.principal_point_mm != 0):
-        notes.append("principal point: the image coordinates are written from it (the format "
-                     "has none; the image centre is not kept)")
-    extra = [n for n, v in (("GNSS", block.gnss), ("IMU", block.imu),
-                            ("distance", block.distances)) if len(v)]
-    if extra:
-        notes.append(f"{', '.join(extra)} observations not written (no place in the format)")
-    return notes
 
 
 def _views(block: Block, pixel: np.ndarray, y_sign: float):
@@ -84,7 +60,7 @@ def write_bundler(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM) 
     was dropped.  Cameras: ``none`` or ``brown_forward`` with k1, k2 only (Bundler's model);
     a ``brown`` camera with k1 only (NVM's) goes out with k1 = -k1 c^2, the first-order
     inverse, noted."""
-    notes = _checked(block)
+    notes = checked_block(block, coordinates=True, roles=True, principal_point=True)
     folder = Path(folder)
     pixel = _pixel(block, pixel_mm)
     out = ["# Bundle file v0.3", ""]
@@ -131,7 +107,7 @@ def write_nvm(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM,
     ``none`` or ``brown`` with k1 only (VisualSFM's one radial term on the measured point, r =
     k1 c^2); a ``brown_forward`` camera with k1 only (Bundler's, COLMAP's) goes out with r =
     -k1, the first-order inverse, noted; photo ids are the image names."""
-    notes = _checked(block)
+    notes = checked_block(block, coordinates=True, roles=True, principal_point=True)
     folder = Path(folder)
     pixel = _pixel(block, pixel_mm)
     bad = [p for p in block.photos.ids if not p or any(ch.isspace() for ch in p)]
