@@ -17,10 +17,10 @@ from baarda.block.camera import lens
 from baarda.block.photo_block import Block
 from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import pose_of_eo
+from baarda.io.image_sigma import PIXEL_MM
 from baarda.output.atomic import write_text
 from baarda.output.block_checks import checked_block
 
-PIXEL_MM = 0.001
 HEADER = ["fileName imageWidth imageHeight", "camera matrix K [3x3]",
           "radial distortion [3x1]", "tangential distortion [2x1]",
           "camera position t [3x1]", "camera rotation R [3x3]",

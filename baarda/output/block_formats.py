@@ -28,9 +28,9 @@ from baarda.io.bal import BalProblem
 from baarda.io.colmap import ColmapCamera, ColmapModel
 from baarda.io.colmap_block import eo_to_pose
 from baarda.io.colmap_model import ColmapImages, ColmapPoints
+from baarda.io.image_sigma import PIXEL_MM
 from baarda.output.block_checks import checked_block
 from baarda.output.format_files import write_aicon, write_bal, write_colmap, write_opensfm
-from baarda.output.sfm_files import PIXEL_MM
 
 BAL_FILE = "problem.txt"
 GREY = 128

@@ -29,9 +29,9 @@ from baarda.block.camera import lens
 from baarda.block.photo_block import Block
 from baarda.block.pixels import image_sizes, known_grid, pixel_sizes
 from baarda.block.rotation import rotation_matrix
+from baarda.io.image_sigma import PIXEL_MM
 from baarda.output.atomic import write_text
 from baarda.output.block_checks import checked_block
-from baarda.output.sfm_files import PIXEL_MM
 
 FLIP = np.diag([1.0, -1.0, -1.0])
 

@@ -22,10 +22,10 @@ from baarda.block.photo_block import Block
 from baarda.block.pixels import pixel_sizes
 from baarda.block.rotation import pose_of_eo
 from baarda.io.colmap import matrix_to_qvec
+from baarda.io.image_sigma import PIXEL_MM
 from baarda.output.atomic import write_text
 from baarda.output.block_checks import checked_block
 
-PIXEL_MM = 0.001  # io/image_sigma.PIXEL_MM: the nominal pixel of formats in pixels
 GREY = "128 128 128"
 FLIP = np.array([1.0, -1.0, -1.0])
 
