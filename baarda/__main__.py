@@ -10,8 +10,10 @@ import signal
 import sys
 
 from baarda.process import (
+    INTERRUPTED,
     MIN_ADDRESS_SPACE,
     SMALL_ADDRESS_SPACE,
+    WRITE_FAILED,
     address_space,
     closed_streams,
     memory_limit_text,
@@ -19,7 +21,6 @@ from baarda.process import (
     quiet_unraisable_memory_errors,
 )
 
-INTERRUPTED, WRITE_FAILED = 130, 4
 MESSAGE = "\nbaarda: interrupted (nothing of this run was written)"
 
 

@@ -1,9 +1,14 @@
 """What a process of baarda needs before anything else is imported: the standard streams
-(closed ones replaced by the null device) and the memory limit (ulimit -v) it runs under
-(used by __main__ and the command line; no import of baarda's own)."""
+(closed ones replaced by the null device), the memory limit (ulimit -v) it runs under and
+the exit codes (used by __main__ and the command line; no import of baarda's own)."""
 
 import os
 import sys
+
+# exit codes (the parser's epilog, README; cli/common.py and __main__ import them): 130 and
+# 143 are 128 + the number of SIGINT and SIGTERM, as a shell reports a process those
+# signals end
+OK, BAD_INPUT, NOT_CONVERGED, WRITE_FAILED, INTERRUPTED, TERMINATED = 0, 2, 3, 4, 130, 143
 
 #: below this address space (ulimit -v, bytes) the numerical libraries run one thread each:
 #: a thread's stack and arena reserve address space, and a thread that cannot get it aborts

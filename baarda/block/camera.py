@@ -63,6 +63,12 @@ def coefficients(cameras, i: int) -> np.ndarray:
     return out
 
 
+def lens(cameras, i: int) -> tuple[str, np.ndarray]:
+    """(kind, coefficients) of camera i: its model kind ('none' where not given) and its
+    coefficients in the model's order (kinds, coefficients), for the writers."""
+    return str(kinds(cameras)[i]), coefficients(cameras, i)
+
+
 def constants(cameras, i: int) -> np.ndarray:
     """The model constants of camera i (NaN where not given)."""
     model = model_of(kinds(cameras)[i])

@@ -90,3 +90,41 @@ def mm_to_pixels(cameras: Cameras, camera: np.ndarray, xy_mm: np.ndarray,
     xy_mm = np.asarray(xy_mm, float).reshape(-1, 2)
     frame, size = _grid(cameras, camera, len(xy_mm))
     return frame_to_pixels(frame, size, xy_mm) - (0.5 - first_centre)
+
+
+def pixel_sizes(cameras: Cameras, default: float) -> np.ndarray:
+    """(n, 2) the pixel width and height [mm] of every camera, for the writers: the frame's
+    pw, ph where the reader gave them (`Cameras.pixel_frame`), else the pixel size the block
+    states (`Cameras.pixel_mm`), else `default` (the nominal pixel of formats in pixels)."""
+    n = len(cameras)
+    px = (np.full(n, np.nan) if cameras.pixel_mm is None
+          else np.asarray(cameras.pixel_mm, float).reshape(n))
+    px = np.where(np.isfinite(px) & (px > 0), px, default)
+    out = np.column_stack([px, px])
+    if cameras.pixel_frame is not None:
+        pxy = np.asarray(cameras.pixel_frame, float)[:, 2:]
+        ok = np.isfinite(pxy).all(axis=1) & (pxy > 0).all(axis=1)
+        out = np.where(ok[:, None], pxy, out)
+    return out
+
+
+def image_sizes(cameras: Cameras, obs_camera: np.ndarray, xy_mm: np.ndarray,
+                pixel: np.ndarray) -> np.ndarray:
+    """(n, 2) int width, height [px] of every camera's images, for the writers: the block's
+    (`Cameras.image_size_px`) where its grid is known (known_grid), else the smallest even
+    frame centred on the image coordinates' origin that holds the observations xy_mm (m, 2)
+    [mm] of cameras obs_camera (m,), in pixels (n, 2) [mm] (pixel_sizes); 2 x 2 without
+    observations."""
+    n = len(cameras)
+    pixel = np.asarray(pixel, float).reshape(n, 2)
+    xy_mm = np.asarray(xy_mm, float).reshape(-1, 2)
+    out = np.zeros((n, 2), np.int64)
+    known = known_grid(cameras)
+    for i in range(n):
+        if known[i]:
+            out[i] = np.round(np.asarray(cameras.image_size_px, float)[i])  # type: ignore[index]
+            continue
+        xy = np.abs(xy_mm[obs_camera == i]) / pixel[i]
+        ext = np.ceil(xy.max(axis=0)) + 1 if len(xy) else np.ones(2)
+        out[i] = 2 * ext
+    return out

@@ -22,6 +22,12 @@ from baarda.cli.console import console
 from baarda.errors import GeometryError, ProjectError
 from baarda.options import Requested, TestOptions
 from baarda.output.run_folder import RunFolder
+from baarda.process import BAD_INPUT as BAD_INPUT
+from baarda.process import INTERRUPTED as INTERRUPTED
+from baarda.process import NOT_CONVERGED as NOT_CONVERGED
+from baarda.process import OK as OK
+from baarda.process import TERMINATED as TERMINATED
+from baarda.process import WRITE_FAILED as WRITE_FAILED
 
 FOLDER_HELP = ("{}: new, empty, or one that baarda wrote before (the earlier run's files "
                "replaced at the end of the run, other files kept; an interrupted run leaves "
@@ -43,9 +49,7 @@ def add_out_argument(p, what: str = "output folder") -> None:
     p.add_argument("-o", "--out", type=Path, required=True, help=FOLDER_HELP.format(what))
 
 
-# exit codes (the parser's epilog, README): 130 and 143 are 128 + the number of SIGINT and
-# SIGTERM, as a shell reports a process those signals end
-OK, BAD_INPUT, NOT_CONVERGED, WRITE_FAILED, INTERRUPTED, TERMINATED = 0, 2, 3, 4, 130, 143
+# exit codes: baarda/process.py (imported here for the commands)
 CHECK_FAILED = 5  # baarda check: an invariant of the result folder does not hold
 EXIT_CODES = ("exit codes: 0 success, 2 bad input (the message names the file, line and "
               "field, the option and its valid range, or the geometry), 3 not converged "

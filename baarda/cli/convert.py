@@ -20,6 +20,7 @@ from baarda.errors import ProjectError
 from baarda.io.formats import detect, titles
 from baarda.output.project_files import write_project
 from baarda.output.run_folder import RunFolder
+from baarda.output.tables import write_csv
 from baarda.pipeline import with_approximations, with_intersected_ties
 
 
@@ -80,7 +81,7 @@ def run_convert(args) -> int:
     with open_run(args, input_paths(args)) as run:
         if is_result_folder(args.input):
             fmt = "result folder"
-            holds = args.to != "project" and _spec(args.to).control
+            holds = _spec(args.to).control
             block, rejected = read_result_block(args.input, keep_given=holds)
         else:
             fmt = args.format or detect(args.input)
@@ -88,8 +89,8 @@ def run_convert(args) -> int:
             if args.to != "project":  # the other formats store every point's coordinates
                 block = with_intersected_ties(block)
         written = _write(block, args.to, run if args.to == "project" else run.path)
-        if rejected is not None and args.to != "project":
-            rejected.to_csv(run.file("rejected.csv"), index=False)
+        if rejected is not None:
+            write_csv(run.file("rejected.csv"), rejected, excel_safe=run.excel_safe)
     con = console(args)
     con.print(f"read {fmt}: {block.summary()}")
     for note in block.notes + written:

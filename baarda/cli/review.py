@@ -13,8 +13,6 @@ from baarda.cli.console import console
 from baarda.cli.inputs import add_input_options, formats_help, read_configured_input
 from baarda.errors import ProjectError
 
-COLMAP_PIXEL_MM = 0.001  # io/colmap_block.py: the nominal pixel of a COLMAP model
-
 
 def register(sub) -> None:
     p = sub.add_parser("review", help="review a block in the browser: the suspicious "
@@ -74,8 +72,7 @@ def run_review(args) -> int:
         if args.host not in ("127.0.0.1", "localhost", "::1"):
             con.warn(f"listening on {args.host}: other computers can reach the review, "
                      "protected by its token only")
-        pixel = args.pixel_mm if getattr(args, "pixel_mm", None) else \
-            COLMAP_PIXEL_MM if (args.format or _format(args.input)) == "colmap" else None
+        pixel = getattr(args, "pixel_mm", None) or None
         argv = getattr(args, "argv", None)
         save = None
         if args.out is not None:
@@ -92,11 +89,3 @@ def run_review(args) -> int:
     # ended by Ctrl-C or SIGTERM, the edits saved: the exit code of an interrupted command
     return INTERRUPTED if signum == signal.SIGINT else TERMINATED
 
-
-def _format(path: Path) -> str | None:
-    from baarda.io.formats import detect
-
-    try:
-        return detect(path)
-    except (ProjectError, OSError):
-        return None

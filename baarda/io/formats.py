@@ -132,7 +132,7 @@ REGISTRY: list[FormatSpec] = [
     FormatSpec("project", "a native project",
                "a native project folder (project.toml and its CSV files)", "folder", "mm",
                f"{_E}:detect_project", f"{_E}:read_project",
-               "baarda.output.project_files:write_project"),
+               "baarda.output.project_files:write_project", control=True),
     FormatSpec("colmap", "COLMAP", "a COLMAP model folder", "folder", "nominal",
                f"{_E}:detect_colmap", f"{_E}:read_colmap",
                "baarda.output.block_formats:write_colmap_block"),

@@ -56,7 +56,7 @@ def kernel(fn: Callable[..., Any], **options: Any) -> Callable[..., Any]:
                           RuntimeWarning, stacklevel=2)
             return njit(cache=False, **options)(fn)
     KERNELS.append(disp)
-    if not is_cached(disp) or not is_fresh(disp):  # a first run, or the source changed:
+    if not is_fresh(disp):  # a first run (no index: not fresh), or the source changed:
         from .kernel_bundle import seed  # the package's compiled code, where it fits
 
         seed(disp)
@@ -70,7 +70,8 @@ def parallel_kernel(fn: Callable[..., Any]) -> Callable[..., Any]:
 
 def is_fresh(disp: Any) -> bool:
     """Whether the kernel's cache index is numba's current one for its source file (written
-    by this numba for the file's present stamp); True where that cannot be told."""
+    by this numba for the file's present stamp); False without an index (not is_cached),
+    True where that cannot be told."""
     try:
         cf = disp._cache._cache_file
         with open(cf._index_path, "rb") as fh:

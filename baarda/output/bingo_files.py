@@ -1,7 +1,8 @@
 """Writing a Block as a BINGO file with Pix4D's calibrated camera parameters beside it
 (`NAME_tp_bingo.txt`, `NAME_calibrated_camera_parameters.txt`): the inverse of io/bingo.py
-(conventions there).  The image size is not in a Block: each camera's is the smallest even
-number of pixels whose frame, centred on the image centre, holds all its image points; the
+(conventions there).  Pixels and image sizes: block/pixels.pixel_sizes and image_sizes (a
+camera's image size is the block's where its grid is known, else the smallest even number
+of pixels whose frame, centred on the image centre, holds all its image points); the
 sensor size in the BINGO header is that size times the camera's pixel (the nominal 1 µm
 where the block states none).  Numbers are written as Python's shortest exact form.
 """
@@ -12,12 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import lens
 from baarda.block.photo_block import Block
+from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import pose_of_eo
+from baarda.io.image_sigma import PIXEL_MM
 from baarda.output.atomic import write_text
-from baarda.output.patb_files import checked_block
+from baarda.output.block_checks import checked_block
 
-PIXEL_MM = 0.001
 HEADER = ["fileName imageWidth imageHeight", "camera matrix K [3x3]",
           "radial distortion [3x1]", "tangential distortion [2x1]",
           "camera position t [3x1]", "camera rotation R [3x3]",
@@ -32,8 +35,7 @@ def _lens(block: Block, i: int) -> np.ndarray:
     """R1 R2 R3 T1 T2 and the aspect a of camera i (ValueError for a model Pix4D's
     perspective lens cannot hold)."""
     cams = block.cameras
-    kind = "none" if cams.model is None else str(cams.model[i])
-    coef = np.zeros(6) if cams.coefficients is None else np.asarray(cams.coefficients[i], float)
+    kind, coef = lens(cams, i)
     if kind == "none" or not np.any(coef):
         return np.zeros(6)
     if kind != "brown_forward":
@@ -46,20 +48,14 @@ def _lens(block: Block, i: int) -> np.ndarray:
 def write_bingo(block: Block, folder: str | Path, name: str = "block") -> list[str]:
     """`folder`/NAME_tp_bingo.txt and NAME_calibrated_camera_parameters.txt (atomically);
     the notes on what was dropped."""
-    notes = checked_block(block, lens=True)
+    notes = checked_block(block, lens=True, ids=True, strips=True)
     folder = Path(folder)
     cams, im, pts = block.cameras, block.image, block.points
-    px = cams.pixel_mm
-    px = np.full(len(cams), np.nan) if px is None else np.asarray(px, float)
-    px = np.where(np.isfinite(px) & (px > 0), px, PIXEL_MM)
-    lens = [_lens(block, i) for i in range(len(cams))]
+    pxy = pixel_sizes(cams, PIXEL_MM)
+    px = pxy[:, 0]
+    lenses = [_lens(block, i) for i in range(len(cams))]
     cam = block.photos.camera
-    obs_cam = cam[im.photo]
-    size = np.zeros((len(cams), 2))
-    for i in range(len(cams)):
-        xy = np.abs(im.xy_mm[obs_cam == i])
-        if len(xy):
-            size[i] = 2 * (np.floor(xy.max(axis=0) / px[i]) + 1)
+    size = image_sizes(cams, cam[im.photo], im.xy_mm, pxy).astype(float)
     bingo, par = [], list(HEADER)
     order = np.argsort(im.photo, kind="stable")
     bounds = np.searchsorted(im.photo[order], np.arange(len(block.photos) + 1))
@@ -72,7 +68,7 @@ def write_bingo(block: Block, folder: str | Path, name: str = "block") -> list[s
             bingo.append(f"{pts.ids[im.point[k]]} {_f(im.xy_mm[k, 0])} {_f(im.xy_mm[k, 1])}")
         bingo.append("-99")
         fx = cams.focal_mm[c] / p
-        k1, k2, k3, t1, t2, a = lens[c]
+        k1, k2, k3, t1, t2, a = lenses[c]
         cx = w / 2 + cams.principal_point_mm[c, 0] / p
         cy = h / 2 - cams.principal_point_mm[c, 1] / p
         r, _ = pose_of_eo(block.photos.eo[i])

@@ -5,9 +5,10 @@ into the format's model object (io/colmap.ColmapModel, io/bal.BalProblem,
 io/aicon.AiconProject) and written by
 output/format_files.py, the inverses of the readers.
 
-Pixels: a camera's pixel is the reader's (`Cameras.pixel_frame`: width and height), else the
-size the block states (`Cameras.pixel_mm`), else the nominal 1 µm the readers of pixel
-formats assume; so a block read from a pixel format goes back in its own pixels.  Every
+Pixels (block/pixels.pixel_sizes): a camera's pixel is the reader's (`Cameras.pixel_frame`:
+width and height), else the size the block states (`Cameras.pixel_mm`), else the nominal
+1 µm the readers of pixel formats assume; so a block read from a pixel format goes back in
+its own pixels.  Every
 point goes out as a tie point (none of these formats has control as baarda means it, but
 OpenSfM, whose GCPs keep their given coordinates).
 """
@@ -18,45 +19,32 @@ from pathlib import Path
 
 import numpy as np
 
-from baarda.block.camera import coefficients, kinds
+from baarda.block.camera import coefficients, kinds, lens
 from baarda.block.photo_block import Block
+from baarda.block.pixels import image_sizes, pixel_sizes
 from baarda.block.rotation import rotation_matrix, rotation_vector
 from baarda.io.aicon import AiconProject, point_id
 from baarda.io.bal import BalProblem
 from baarda.io.colmap import ColmapCamera, ColmapModel
 from baarda.io.colmap_block import eo_to_pose
 from baarda.io.colmap_model import ColmapImages, ColmapPoints
+from baarda.io.image_sigma import PIXEL_MM
+from baarda.output.block_checks import checked_block
 from baarda.output.format_files import write_aicon, write_bal, write_colmap, write_opensfm
-from baarda.output.sfm_files import PIXEL_MM, _checked, _pixel
 
 BAL_FILE = "problem.txt"
 GREY = 128
 
 
 def _pixel_xy(block: Block) -> np.ndarray:
-    """(n, 2) the pixel size [mm] in x and y of every camera: the width and height of its
-    pixel as the reader scaled the image coordinates (`Cameras.pixel_frame`), else the
-    pixel size the block states (`pixel_mm`), else the nominal PIXEL_MM."""
-    cams = block.cameras
-    px = _pixel(block, PIXEL_MM)
-    out = np.column_stack([px, px])
-    if cams.pixel_frame is not None:
-        pxy = np.asarray(cams.pixel_frame, float)[:, 2:]
-        ok = np.isfinite(pxy).all(axis=1) & (pxy > 0).all(axis=1)
-        out = np.where(ok[:, None], pxy, out)
-    return out
-
-
-def _has_principal_point(notes: list[str]) -> list[str]:
-    """The common notes less the one on the principal point (the format holds it)."""
-    return [n for n in notes if not n.startswith("principal point")]
+    """(n, 2) the pixel size [mm] in x and y of every camera (block/pixels.pixel_sizes)."""
+    return pixel_sizes(block.cameras, PIXEL_MM)
 
 
 def _lens(block: Block, i: int, fmt: str) -> tuple[str, np.ndarray]:
     """Kind and coefficients of camera i, a model whose coefficients are all 0 as 'none';
     ValueError for a model other than none and brown_forward."""
-    kind = str(kinds(block.cameras)[i])
-    coef = coefficients(block.cameras, i)
+    kind, coef = lens(block.cameras, i)
     if not np.any(coef):
         return "none", np.zeros(6)
     if kind != "brown_forward":
@@ -85,31 +73,26 @@ def block_to_colmap(block: Block) -> tuple[ColmapModel, list[str]]:
     Cameras: none -> SIMPLE_PINHOLE (PINHOLE with non-square pixels), brown_forward -> the
     smallest of SIMPLE_RADIAL (k1), RADIAL (k1, k2), OPENCV (k1, k2 and decentring: COLMAP's
     p1, p2 are baarda's -p2, p1, y pointing down) and FULL_OPENCV (k3); the aspect a as fy =
-    fx (1 + a).  Image size: the block's where it states one, else the smallest square
-    around the observations; the principal point cx = w/2 + x0/px, cy = h/2 - y0/py, the
-    keypoints x = w/2 + x/px, y = h/2 - y/py (pixel corner at the upper-left of the image).
+    fx (1 + a).  Image size: block/pixels.image_sizes (the block's where its grid is
+    known, else the smallest even frame around the observations); the principal point
+    cx = w/2 + x0/px, cy = h/2 - y0/py, the keypoints x = w/2 + x/px, y = h/2 - y/py
+    (pixel corner at the upper-left of the image).
     Image names: the photo ids + '.jpg' (COLMAP's reader takes the stem as photo id); image
     and camera ids 1, 2, ...; point ids kept where they are positive integers."""
-    notes = _has_principal_point(_checked(block))
+    notes = checked_block(block, coordinates=True, roles=True)
     cams, photos, im = block.cameras, block.photos, block.image
     bad = [p for p in photos.ids if not p or any(ch.isspace() for ch in p)]
     if bad:
         raise ValueError(f"photo id '{bad[0]}': COLMAP image names have no blanks")
     pxy = _pixel_xy(block)
-    size = None if cams.image_size_px is None else np.asarray(cams.image_size_px, float)
     cam_of = photos.camera[im.photo]
+    size = image_sizes(cams, cam_of, im.xy_mm, pxy)
     cameras, aspect = {}, []
     for i in range(len(cams)):
         kind, k = _lens(block, i, "COLMAP")
         c, (x0, y0) = float(cams.focal_mm[i]), cams.principal_point_mm[i]
         px, py = pxy[i]
-        sel = cam_of == i
-        if size is not None and np.isfinite(size[i]).all() and (size[i] > 0).all():
-            w, h = int(round(size[i, 0])), int(round(size[i, 1]))
-        else:
-            span = max(float(np.abs(im.xy_mm[sel, 0]).max(initial=1.0)) / px,
-                       float(np.abs(im.xy_mm[sel, 1]).max(initial=1.0)) / py)
-            w = h = 2 * int(np.ceil(span)) + 2
+        w, h = (int(v) for v in size[i])
         a = float(k[5])
         if a:
             aspect.append(cams.ids[i])
@@ -181,7 +164,7 @@ def block_to_bal(block: Block) -> tuple[BalProblem, list[str]]:
     points in block order of the observed ones, the observations in pixels from the
     principal point (x - x0)/px, (y - y0)/py, y up (BAL's camera frame is baarda's:
     R = R_b^T, t = -R X0)."""
-    notes = _checked(block)
+    notes = checked_block(block, coordinates=True, roles=True, principal_point=True)
     cams, photos, im = block.cameras, block.photos, block.image
     pxy = _pixel_xy(block)
     n = len(photos)
@@ -225,7 +208,7 @@ def write_opensfm_block(block: Block, folder: str | Path) -> list[str]:
     """reconstruction.json, tracks.csv, ground_control_points.json, config.yaml of `block`
     in `folder` (format_files.write_opensfm, in the pixels of the first camera); the notes
     on what was dropped."""
-    notes = [n for n in _checked(block) if "control/check" not in n and "principal" not in n]
+    notes = checked_block(block, coordinates=True)
     px = _pixel_xy(block)
     if not np.allclose(px, px[0, 0], rtol=1e-12, atol=0):
         raise ValueError("OpenSfM normalises every camera by one image size: the cameras' "
@@ -259,7 +242,7 @@ def block_to_aicon(block: Block, name: str = "block") -> tuple[AiconProject, lis
     yh = the principal point, A1..A3 with R0, B1, B2, C1, C2; a camera without terms as all
     zero), orientations and points in mm, the observations with their sigmas sx, sy [mm],
     the distances as scale bars [mm]; every image, point and observation active."""
-    notes = _has_principal_point(_checked(block))
+    notes = checked_block(block, coordinates=True, roles=True)
     cams, photos, im, pts = block.cameras, block.photos, block.image, block.points
     kind = kinds(cams)
     n_c = len(cams)

@@ -5,8 +5,9 @@ in io/metashape_chunk.py), read back by it as one block.
 * sensors: one per camera; f = c (1 + a) / p, b1 = c / p - f, cx = x0 / p, cy = -y0 / p
   [px], k1..k3, p1 = p1, p2 = -p2 (``brown_forward``; ``none`` writes zeros; another model
   with coefficients is a ValueError), ``fixed`` unless the camera has free parameters; the
-  pixel size is the camera's, else the nominal 1 µm; the image size is not in a Block: the
-  smallest even size centred on the image origin that holds every observation (noted);
+  pixel size is the camera's (block/pixels.pixel_sizes), else the nominal 1 µm; the image
+  size is the block's where its grid is known, else the smallest even size centred on the
+  image origin that holds every observation (noted; block/pixels.image_sizes);
 * the chunk transform: rotation I, scale 1, translation the mean projection centre;
   camera transforms [R diag(1, -1, -1) | X0 - t]; a block in a CRS's local frame
   (block.frame) goes out in it, the transform mapping it to earth-centred coordinates (as
@@ -24,10 +25,13 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from baarda.block.camera import lens
 from baarda.block.photo_block import Block
+from baarda.block.pixels import image_sizes, known_grid, pixel_sizes
 from baarda.block.rotation import rotation_matrix
+from baarda.io.image_sigma import PIXEL_MM
 from baarda.output.atomic import write_text
-from baarda.output.sfm_files import PIXEL_MM, _checked, _pixel
+from baarda.output.block_checks import checked_block
 
 FLIP = np.diag([1.0, -1.0, -1.0])
 
@@ -38,11 +42,9 @@ def _n(v: float) -> str:
 
 def _sensor(block: Block, i: int, pixel: float, w: int, h: int) -> list[str]:
     cams = block.cameras
-    kind = "none" if cams.model is None else str(cams.model[i])
-    coef = np.zeros(6) if cams.coefficients is None else \
-        np.asarray(cams.coefficients[i], float)
+    kind, coef = lens(cams, i)
     if kind == "brown_forward":
-        k1, k2, k3, p1, p2, a = (list(coef) + [0.0] * 6)[:6]
+        k1, k2, k3, p1, p2, a = coef[:6]
     elif kind == "none" or not np.any(coef):
         k1 = k2 = k3 = p1 = p2 = a = 0.0
     else:
@@ -74,18 +76,16 @@ def _sensor(block: Block, i: int, pixel: float, w: int, h: int) -> list[str]:
 def write_metashape(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM) -> list[str]:
     """cameras.xml (and bundle.out, list.txt for the tie points) of `block` in `folder`;
     the notes on what was dropped (module docstring)."""
-    notes = [n for n in _checked(block) if "control/check" not in n and "principal" not in n]
+    notes = checked_block(block, coordinates=True)
     folder = Path(folder)
     im, pts = block.image, block.points
-    pixel = _pixel(block, pixel_mm)
+    pxy = pixel_sizes(block.cameras, pixel_mm)
+    pixel = pxy[:, 0]
     cam = block.photos.camera[im.photo]
-    sizes = []
-    for i in range(len(block.cameras)):
-        xy = np.abs(im.xy_mm[cam == i]) / pixel[i]
-        ext = np.ceil(xy.max(axis=0)) + 1 if len(xy) else np.ones(2)
-        sizes.append((int(2 * ext[0]), int(2 * ext[1])))
-    notes.append("image size: not in the block; the smallest even size centred on the image "
-                 "origin that holds the observations is written")
+    sizes = [(int(w), int(h)) for w, h in image_sizes(block.cameras, cam, im.xy_mm, pxy)]
+    if not known_grid(block.cameras).all():
+        notes.append("image size: not in the block for every camera; there the smallest even "
+                     "size centred on the image origin that holds the observations is written")
     frame = block.frame
     centre = block.photos.eo[:, :3].mean(axis=0) if frame is None else np.zeros(3)
     lines = ['<?xml version="1.0" encoding="UTF-8"?>', '<document version="1.5.0">',

@@ -14,55 +14,18 @@ import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
-from baarda.io.minus99 import is_end
 from baarda.output.atomic import write_text
+from baarda.output.block_checks import checked_block
 
 
 def _f(v: float) -> str:
     return repr(float(v))
 
 
-def check_ids(ids: list[str], what: str) -> None:
-    """ValueError naming an id a blank-separated -99 format cannot hold."""
-    for i in ids:
-        if not i or any(ch.isspace() for ch in i) or i.startswith("#"):
-            raise ValueError(f"{what} id '{i}': the format's ids have no blanks and do not "
-                             "start with '#'")
-        if is_end([i]):
-            raise ValueError(f"{what} id '{i}' reads as the record end -99")
-
-
-def checked_block(block: Block, *, lens: bool) -> list[str]:
-    """The checks of the aerial formats; notes on what they drop.  lens: whether the format
-    holds a lens model (else a camera with non-zero terms is a ValueError)."""
-    if not len(block.photos) or not len(block.image.photo):
-        raise ValueError("the block has no photos or no image points")
-    if not np.isfinite(block.photos.eo).all():
-        raise ValueError("every photo needs an orientation (pipeline.with_approximations)")
-    check_ids(block.photos.ids, "photo")
-    check_ids([block.points.ids[j] for j in np.unique(block.image.point)], "point")
-    cams = block.cameras
-    if not lens and cams.model is not None:
-        for i, kind in enumerate(cams.model):
-            coef = np.zeros(0) if cams.coefficients is None else cams.coefficients[i]
-            if kind != "none" and np.any(coef):
-                raise ValueError(f"camera {cams.ids[i]}: model {kind} with "
-                                 f"{np.asarray(coef).tolist()}: the format holds no lens "
-                                 "distortion")
-    notes = []
-    extra = [n for n, v in (("GNSS", block.gnss), ("IMU", block.imu),
-                            ("distance", block.distances)) if len(v)]
-    if extra:
-        notes.append(f"{', '.join(extra)} observations not written (no place in the format)")
-    if len(set(block.photos.strip.tolist()) - {""}):
-        notes.append("strips not written (no place in the format)")
-    return notes
-
-
 def write_patb(block: Block, folder: str | Path, name: str = "block") -> list[str]:
     """`folder`/name.im, .con, .ori, .at, .pro of `block` (each atomically); the notes on
     what was dropped."""
-    notes = checked_block(block, lens=False)
+    notes = checked_block(block, lens=False, ids=True, strips=True)
     folder = Path(folder)
     cams, im, pts = block.cameras, block.image, block.points
     if np.any(cams.principal_point_mm != 0):

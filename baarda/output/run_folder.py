@@ -100,7 +100,7 @@ def _covers(out: Path, path: Path) -> bool:
 def check_output_folder(out: str | Path, inputs: Iterable[str | Path] = ()) -> Path:
     """The resolved output folder, or a ProjectError saying why it cannot be one: an
     existing file, an input or a folder holding an input, a folder that baarda did not
-    write (it would be replaced as a whole)."""
+    write (a run replaces an earlier run's files only: its run.json tells them)."""
     out = resolved(out)
     for p in (resolved(q) for q in inputs if q is not None):
         if _covers(out, p):
@@ -117,8 +117,9 @@ def check_output_folder(out: str | Path, inputs: Iterable[str | Path] = ()) -> P
         if entries and not any(m in entries for m in MARKERS):
             shown = ", ".join(entries[:5]) + (", ..." if len(entries) > 5 else "")
             raise ProjectError(str(out), f"exists and holds files that baarda did not write "
-                               f"({shown}); a result folder is replaced as a whole: choose a "
-                               "new or empty folder with -o")
+                               f"({shown}); a run goes into a new or empty folder or one that "
+                               "baarda wrote (it replaces that run's files): choose another "
+                               "with -o")
     return out
 
 
@@ -152,11 +153,10 @@ def run_files(folder: str | Path) -> list[Path]:
     """The files of a result folder that a run wrote (those run.json lists, else every
     .csv, .json and .txt file)."""
     folder = Path(folder)
-    try:
-        listed = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))["files"]
-        return [folder / MANIFEST] + [folder / name for name in listed]
-    except (OSError, ValueError, KeyError, TypeError):
-        return [p for p in folder.glob("*") if p.suffix in (".csv", ".json", ".txt")]
+    listed = _listed(folder)
+    if listed is not None:
+        return [folder / name for name in sorted(listed)]
+    return [p for p in folder.glob("*") if p.suffix in (".csv", ".json", ".txt")]
 
 
 def _listed(folder: Path) -> set[str] | None:
@@ -384,8 +384,8 @@ class RunFolder:
         self._lock = None
 
     def commit(self) -> Path:
-        """Write run.json and move the staging folder into place (replacing an earlier run
-        as a whole); the output folder."""
+        """Write run.json and move the staging folder into place (replacing an earlier run's
+        files; other files of the folder are kept: _carry_foreign); the output folder."""
         if self.done:
             return self.final
         files = {}

@@ -3,9 +3,10 @@
 
 Both formats are pixels from the principal point: the image coordinates go out as (x - x0) /
 p, so that a camera with a principal point keeps its geometry (the image centre is lost);
-p is the camera's pixel size where the block states one, else `pixel_mm` (the nominal 1 µm
-the readers use).  Every point goes out as a tie point with its coordinates (control and
-check roles have no place in either format), colours grey; the keypoint index of an
+p is the width of the camera's pixel (block/pixels.pixel_sizes: the reader's pixel frame,
+else the pixel size the block states, else `pixel_mm`, the nominal 1 µm the readers use).
+Every point goes out as a tie point with its coordinates (control and check roles have no
+place in either format), colours grey; the keypoint index of an
 observation is its number among its photo's observations.  Each writer returns what it had
 to drop or approximate, in words; a camera model the format cannot hold is a ValueError.
 """
@@ -16,55 +17,22 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.camera import lens
 from baarda.block.photo_block import Block
+from baarda.block.pixels import pixel_sizes
 from baarda.block.rotation import pose_of_eo
 from baarda.io.colmap import matrix_to_qvec
+from baarda.io.image_sigma import PIXEL_MM
 from baarda.output.atomic import write_text
+from baarda.output.block_checks import checked_block
 
-PIXEL_MM = 0.001  # io/image_sigma.PIXEL_MM: the nominal pixel of formats in pixels
 GREY = "128 128 128"
 FLIP = np.array([1.0, -1.0, -1.0])
 
 
 def _pixel(block: Block, pixel_mm: float) -> np.ndarray:
-    """The pixel size [mm] of every camera."""
-    px = block.cameras.pixel_mm
-    n = len(block.cameras)
-    px = np.full(n, np.nan) if px is None else np.asarray(px, float)
-    return np.where(np.isfinite(px) & (px > 0), px, pixel_mm)
-
-
-def _coefficients(block: Block, i: int) -> tuple[str, np.ndarray]:
-    cams = block.cameras
-    kind = "none" if cams.model is None else str(cams.model[i])
-    coef = (np.zeros(0) if cams.coefficients is None else
-            np.asarray(cams.coefficients[i], float))
-    return kind, coef
-
-
-def _checked(block: Block) -> list[str]:
-    """The common checks; notes on what the formats drop."""
-    if not len(block.photos) or not len(block.image.photo):
-        raise ValueError("the block has no photos or no image points")
-    if not np.isfinite(block.photos.eo).all():
-        raise ValueError("every photo needs an orientation (pipeline.with_approximations)")
-    used = np.unique(block.image.point)
-    if not np.isfinite(block.points.xyz[used]).all():
-        raise ValueError("every observed point needs coordinates "
-                         "(pipeline.with_tie_coordinates)")
-    notes = []
-    roles = block.points.role[used]
-    if np.any(roles != "tie"):
-        notes.append(f"{int(np.sum(roles != 'tie'))} control/check point(s) written as tie "
-                     "points (no control in the format)")
-    if np.any(block.cameras.principal_point_mm != 0):
-        notes.append("principal point: the image coordinates are written from it (the format "
-                     "has none; the image centre is not kept)")
-    extra = [n for n, v in (("GNSS", block.gnss), ("IMU", block.imu),
-                            ("distance", block.distances)) if len(v)]
-    if extra:
-        notes.append(f"{', '.join(extra)} observations not written (no place in the format)")
-    return notes
+    """The pixel size [mm] of every camera: its width (pixels.pixel_sizes)."""
+    return pixel_sizes(block.cameras, pixel_mm)[:, 0]
 
 
 def _views(block: Block, pixel: np.ndarray, y_sign: float):
@@ -92,14 +60,14 @@ def write_bundler(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM) 
     was dropped.  Cameras: ``none`` or ``brown_forward`` with k1, k2 only (Bundler's model);
     a ``brown`` camera with k1 only (NVM's) goes out with k1 = -k1 c^2, the first-order
     inverse, noted."""
-    notes = _checked(block)
+    notes = checked_block(block, coordinates=True, roles=True, principal_point=True)
     folder = Path(folder)
     pixel = _pixel(block, pixel_mm)
     out = ["# Bundle file v0.3", ""]
     approx = []
     for i in range(len(block.photos)):
         ci = int(block.photos.camera[i])
-        kind, coef = _coefficients(block, ci)
+        kind, coef = lens(block.cameras, ci)
         c = float(block.cameras.focal_mm[ci])
         if kind == "none" or (kind in ("brown_forward", "brown") and not np.any(coef)):
             k1 = k2 = 0.0
@@ -139,7 +107,7 @@ def write_nvm(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM,
     ``none`` or ``brown`` with k1 only (VisualSFM's one radial term on the measured point, r =
     k1 c^2); a ``brown_forward`` camera with k1 only (Bundler's, COLMAP's) goes out with r =
     -k1, the first-order inverse, noted; photo ids are the image names."""
-    notes = _checked(block)
+    notes = checked_block(block, coordinates=True, roles=True, principal_point=True)
     folder = Path(folder)
     pixel = _pixel(block, pixel_mm)
     bad = [p for p in block.photos.ids if not p or any(ch.isspace() for ch in p)]
@@ -149,7 +117,7 @@ def write_nvm(block: Block, folder: str | Path, pixel_mm: float = PIXEL_MM,
     approx = []
     for i, pid in enumerate(block.photos.ids):
         ci = int(block.photos.camera[i])
-        kind, coef = _coefficients(block, ci)
+        kind, coef = lens(block.cameras, ci)
         c = float(block.cameras.focal_mm[ci])
         if kind == "none" or (kind in ("brown_forward", "brown") and not np.any(coef)):
             r = 0.0

@@ -86,11 +86,15 @@ def spreadsheet_cell(text: str) -> str:
     return _csv_row([text])[:-1]
 
 
+#: a cell that begins with a FORMULA_START character, as a regular expression (RE2)
+FORMULA_PATTERN = "^[" + "".join("\\" + c if c in "\\]^-[" else c for c in FORMULA_START) + "]"
+
+
 def _spreadsheet_text(arr):
     """`spreadsheet_cell` of a string array (the cells it changes, already quoted)."""
     import pyarrow.compute as pc
 
-    risky = pc.match_substring_regex(arr, "^[=+\\-@\t\r]")
+    risky = pc.match_substring_regex(arr, FORMULA_PATTERN)
     if not pc.any(risky).as_py():
         return _quoted_text(arr)
     doubled = pc.replace_substring(arr, '"', '""')

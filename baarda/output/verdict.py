@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 from scipy.special import bdtrc, erfc  # bdtrc: the binomial survival function (binom.sf)
 
-from baarda.kinds import GNSS
+from baarda.kinds import CONTROL, GNSS, IMAGE
 
 PASS, WARN, FAIL, INFO = "pass", "warn", "fail", "info"
 WORDS = {PASS: "PASS", WARN: "REVIEW", FAIL: "FAIL", INFO: "NOTE"}
@@ -269,7 +269,7 @@ def _uncontrolled(summary: dict, points: pd.DataFrame | None) -> Row:
     if points is not None and "role" in points:
         roles = dict(zip(points["point"].astype(str), points["role"].astype(str),
                          strict=True))
-    tie = [c for c in comps if c.get("component") in ("x", "y")
+    tie = [c for c in comps if c.get("component") in IMAGE.components
            and roles.get(str(c.get("point")), "tie") == "tie"]
     elsewhere = len(comps) - len(tie) if comps else n
     two = set(sep.get("two_ray_points") or [])
@@ -362,7 +362,7 @@ def _suspicious_gcps(summary: dict, points: pd.DataFrame | None) -> Row | None:
     an image, `--gcp-list`): a warning unless chance explains the largest |w| among the
     GCPs' image components (2 x their rays, points.csv): P(max |w| >= it) >= REJECTIONS_P
     passes, named."""
-    row = _suspicious(summary, "control", "Suspicious GCPs", "control",
+    row = _suspicious(summary, CONTROL.name, "Suspicious GCPs", CONTROL.name,
                       _control_components(summary, points))
     marks = _gcp_marks_rejected(summary, points)
     if not marks:
@@ -386,7 +386,7 @@ def _suspicious_gcps(summary: dict, points: pd.DataFrame | None) -> Row | None:
     if row is not None and row.text != "none rejected":
         text = f"{row.text}; {text}"
         status = WARN if row.status == WARN else status
-    return Row("control", status, "Suspicious GCPs", text, "control")
+    return Row(CONTROL.name, status, "Suspicious GCPs", text, CONTROL.name)
 
 
 def _gcp_marks_rejected(summary: dict,
@@ -400,9 +400,9 @@ def _gcp_marks_rejected(summary: dict,
              for st in summary.get("rejection_log") or [] if st.get("action") == "reject"
              for o in st.get("observations") or []}
     out = []
-    for label in _rejected_of(summary, "image"):
+    for label in _rejected_of(summary, IMAGE.name):
         head, _, comp = label.rpartition(" ")
-        photo, sep, point = head.removeprefix("image photo ").partition(" point ")
+        photo, sep, point = head.removeprefix(f"{IMAGE.name} photo ").partition(" point ")
         if sep and point in gcp:
             out.append((f"{point} on photo {photo} ({comp})", value.get(label, np.nan)))
     return out
@@ -410,7 +410,7 @@ def _gcp_marks_rejected(summary: dict,
 
 def _control_components(summary: dict, points: pd.DataFrame | None) -> int | None:
     """The control components tested: the control points times the control axes."""
-    axes = (summary.get("observation_groups") or {}).get("control") or {}
+    axes = (summary.get("observation_groups") or {}).get(CONTROL.name) or {}
     if points is None or "role" not in points or not axes:
         return None
     return int((points["role"] == "control").sum()) * len(axes)

@@ -105,7 +105,7 @@ def chip_png(block: Block, folders: list[Path], photo: str, ray: dict,
     """A PNG of the image around a ray of `photo` (ray: session.rays' dict: x, y measured,
     pred_x, pred_y predicted without it, sigma_pred_x, sigma_pred_y, mm): the measured
     position as a green cross, the predicted one as a red circle with its 1-sigma ellipse.
-    pixel_mm: the pixel size where the camera has none (COLMAP's nominal pixel).  Returns
+    pixel_mm: the pixel size where the camera has none (the command line's --pixel-mm).  Returns
     (the PNG, {mm_per_px: image mm per chip pixel, cx, cy: the chip pixel of the measured
     position; mm_per_px_y: of y, where pixels are not square}).  NoImage when there is no
     image or it cannot be read."""

@@ -387,3 +387,20 @@ def test_result_of_a_run_with_another_pixel_size(exports, tmp_path):
     again = adjust(tmp_path / "n" / "model.nvm", tmp_path / "again")
     assert again["redundancy"] == first["redundancy"] == 3566
     assert again["sigma0"] == pytest.approx(first["sigma0"], rel=1e-6)
+
+
+@pytest.mark.parametrize("writer", [write_bundler, write_nvm])
+def test_another_pixel_size_goes_back_in_the_inputs_pixels(exports, tmp_path, writer):
+    """A file read with pixel_mm=0.004 and written back has the same f in pixels (the
+    writers take the reader's pixel frame, block/pixels.pixel_sizes)."""
+    bundle, nvm = exports
+    path = bundle if writer is write_bundler else nvm
+    a = baarda.read(path, pixel_mm=0.004)
+    assert a.cameras.pixel_frame is not None
+    writer(a, tmp_path / "out")
+    out = tmp_path / "out" / ("model.nvm" if writer is write_nvm else "")
+    b = baarda.read(out, pixel_mm=0.004)
+    assert np.allclose(b.cameras.focal_mm, a.cameras.focal_mm, rtol=1e-12, atol=0)
+    f_in = baarda.read(path).cameras.focal_mm / 0.001
+    f_out = baarda.read(out).cameras.focal_mm / 0.001
+    assert np.allclose(f_out, f_in, rtol=1e-12, atol=0)
