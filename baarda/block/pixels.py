@@ -120,9 +120,10 @@ def image_sizes(cameras: Cameras, obs_camera: np.ndarray, xy_mm: np.ndarray,
     xy_mm = np.asarray(xy_mm, float).reshape(-1, 2)
     out = np.zeros((n, 2), np.int64)
     known = known_grid(cameras)
+    given = np.asarray(cameras.image_size_px if known.any() else np.zeros((n, 2)), float)
     for i in range(n):
         if known[i]:
-            out[i] = np.round(np.asarray(cameras.image_size_px, float)[i])  # type: ignore[index]
+            out[i] = np.round(given[i])
             continue
         xy = np.abs(xy_mm[obs_camera == i]) / pixel[i]
         ext = np.ceil(xy.max(axis=0)) + 1 if len(xy) else np.ones(2)
