@@ -312,11 +312,13 @@ def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | 
             problem.reweighted(None, est.factors))
 
 
-def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
-    """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection."""
+def assess(result: BundleResult, tests: TestOptions | None = None, *,
+           separability: bool = True) -> Assessment:
+    """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection;
+    separability: the w-test correlations too (False: left None)."""
     from baarda.bundle.bundle_quality import assess as assess_result
 
-    return assess_result(result, tests)
+    return assess_result(result, tests, separability=separability)
 
 
 def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,

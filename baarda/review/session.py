@@ -55,11 +55,7 @@ def adjusted(block: Block, config: Config, edits: list[Edit], start=None,
     before: the adjustment of the same problem with other components rejected, whose
     factorisation answers the re-weighting (review/reweight.py; a full adjustment from
     `start` where it does not converge)."""
-    from baarda.bundle.bundle_model import BundleModel
-    from baarda.bundle.bundle_quality import calibration_tests
     from baarda.pipeline import assess, prepare
-    from baarda.quality.assessment import Assessment
-    from baarda.quality.statistics import analyse
     from baarda.review.reweight import refit
 
     t0 = time.perf_counter()
@@ -70,12 +66,7 @@ def adjusted(block: Block, config: Config, edits: list[Edit], start=None,
     result = refit(weighted, before) if before is not None else None
     if result is None:
         result = weighted.fit(start=start)
-    if separability:
-        qc = assess(result, config.tests)
-    else:  # bundle_quality.assess without the w-test correlations
-        model = BundleModel(result)
-        qc = Assessment(result, model, analyse(model, config.tests, separability=False),
-                        hypotheses=calibration_tests(result, config.tests))
+    qc = assess(result, config.tests, separability=separability)
     return State(block_e, problem, qc, time.perf_counter() - t0)
 
 
