@@ -24,6 +24,7 @@ import numpy as np
 from baarda.block.photo_block import Block
 from baarda.options import Config
 from baarda.quality.separability import RHO_INSEPARABLE
+from baarda.quality.statistics import R_MIN
 from baarda.review.edits import Edit, active_of, check, edited
 from baarda.review.worker import SeparabilityWorker
 
@@ -172,8 +173,8 @@ class ReviewSession:
             d["v" + c] = v
             d["r" + c] = r
             d["w" + c] = _f(q.w[n])
-            d["pred_" + c] = d[c] + v / r if r >= 1e-3 else None
-            d["sigma_pred_" + c] = float(m.sigma[n] * math.sqrt(1 / r)) if r >= 1e-3 \
+            d["pred_" + c] = d[c] + v / r if r >= R_MIN else None
+            d["sigma_pred_" + c] = float(m.sigma[n] * math.sqrt(1 / r)) if r >= R_MIN \
                 else None
             d["active_" + c] = bool(q.active[n])
         return list(by.values())
@@ -333,11 +334,13 @@ def _effective_list(edits):
 def _verdicts(q) -> tuple[np.ndarray, np.ndarray]:
     """(the verdict of every component: rejected, suspect, reject or accept; whether it has
     a partner it cannot be told from, |rho| >= RHO_INSEPARABLE)."""
-    w, r = np.asarray(q.w, float), np.asarray(q.redundancy_number, float)
+    w = np.asarray(q.w, float)
     act = np.asarray(q.active, bool)
-    tested = (r >= 1e-3) & np.isfinite(w)
+    # an active component is controlled where r >= R_MIN; flagged: active, controlled and
+    # |w| > k (quality/statistics.py)
+    tested = np.asarray(q.controlled, bool) & np.isfinite(w)
     verdict = np.where(~act, "rejected", np.where(~tested, "suspect", np.where(
-        np.abs(np.nan_to_num(w)) > q.k_w, "reject", "accept")))
+        np.asarray(q.flagged, bool), "reject", "accept")))
     if q.rho_max is None:
         return verdict, np.zeros(len(w), bool)
     twins = (np.asarray(q.rho_partner) >= 0) & \
