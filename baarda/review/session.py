@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from baarda.block.photo_block import Block
+from baarda.kinds import kind_of
 from baarda.options import Config
 from baarda.quality.separability import RHO_INSEPARABLE
 from baarda.quality.statistics import R_MIN
@@ -296,16 +297,22 @@ class _Table:
         self.comp = np.asarray(m.component).astype(str)
         self.photo = [_s(v) for v in np.asarray(m.frame).tolist()]
         self.point = [_s(v) for v in np.asarray(m.point).tolist()]
-        image = self.kind == "image"
         self.w = np.asarray(q.w, float)
         self.n = n = len(self.w)
         self.r = np.asarray(q.redundancy_number, float)
-        self.mdb = np.asarray(q.mdb, float) * np.where(image, 1e3, 1.0)
+        # each kind's MDB in its Kind's unit (image µm, control m, IMU thousandths of the
+        # project's angle unit)
+        angle_unit = qc.adjustment.block.settings.angle_unit
+        factor, self.unit = np.ones(n), np.full(n, "", dtype=object)
+        for name in np.unique(self.kind).tolist():
+            f, unit = kind_of(name).shown(angle_unit)
+            at = self.kind == name
+            factor[at], self.unit[at] = f, unit
+        self.mdb = np.asarray(q.mdb, float) * factor
         self.rho = np.full(n, np.nan) if q.rho_max is None else np.asarray(q.rho_max, float)
         self.partner = np.full(n, -1) if q.rho_partner is None else \
             np.asarray(q.rho_partner, int)
         self.verdict, self.twins = _verdicts(q)
-        self.unit = np.where(image, "µm", "m")
 
     def rows(self, idx) -> list[dict]:
         out = []
