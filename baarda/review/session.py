@@ -4,8 +4,9 @@
 Every edit is applied to the block as read through `edits.edited` (what `baarda adjust
 --edits` applies): a rejection or restoration re-weights the prepared problem and adjusts
 again from the solution before it (a component rejected stays in the observation vector,
-predicted and tested, as data snooping leaves it); a re-measurement or a point set aside
-prepares the edited block again, the adjustment warm-started.  The statistics are those of
+predicted and tested, as data snooping leaves it); a re-measurement prepares the edited
+block again and is answered the same way; a point set aside (or back) prepares it again and
+adjusts it from its approximations (start=None: the unknowns differ).  The statistics are those of
 `baarda adjust` without snooping (pipeline.assess).
 """
 
