@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.block.control import CHECK_ALTERNATE, with_check_points  # noqa: F401
+from baarda.block.control import with_check_points
 from baarda.block.model_block import ModelBlock
 from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
 from baarda.block.photo_block import Block

@@ -29,7 +29,7 @@ from jinja2.sandbox import SandboxedEnvironment
 
 from baarda.errors import ProjectError
 from baarda.report.plots import Plot
-from baarda.table_data import TableData, cell, num  # noqa: F401  (cell, num re-exported)
+from baarda.table_data import TableData
 
 TEMPLATES = Path(__file__).parent / "templates"
 MACROS = "macros.html.j2"

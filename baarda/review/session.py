@@ -27,7 +27,7 @@ from baarda.kinds import kind_of
 from baarda.options import Config
 from baarda.quality.separability import RHO_INSEPARABLE
 from baarda.quality.statistics import R_MIN
-from baarda.review.edits import Edit, active_of, check, edited
+from baarda.review.edits import Edit, active_of, check, edited, effective
 from baarda.review.worker import SeparabilityWorker
 
 if TYPE_CHECKING:
@@ -75,16 +75,12 @@ def adjusted(block: Block, config: Config, edits: list[Edit], start=None,
 
 def _geometry_key(edits: list[Edit]) -> tuple:
     """What decides the prepared problem: the re-measurements and points set aside."""
-    from baarda.review.edits import effective
-
     return tuple((e.action, e.photo, e.point, e.x, e.y) for e in effective(edits)
                  if e.action in ("remeasure", "aside"))
 
 
 def _aside_key(edits: list[Edit]) -> tuple:
     """What decides the observation vector: the points set aside."""
-    from baarda.review.edits import effective
-
     return tuple(sorted({e.point for e in effective(edits) if e.action == "aside"}))
 
 
@@ -202,7 +198,7 @@ class ReviewSession:
         e = _edit_of(body)
         with self.lock:
             if e.action == "undo" and not any(x.action != "undo" for x in
-                                              _effective_list(self.edits)):
+                                              effective(self.edits)):
                 raise ValueError("nothing to undo")
             if e.action != "undo":
                 check(self.block, e)
@@ -285,7 +281,7 @@ class ReviewSession:
         self._worker.close()
 
     def _aside(self) -> set[str]:
-        return {e.point for e in _effective_list(self.edits) if e.action == "aside"}
+        return {e.point for e in effective(self.edits) if e.action == "aside"}
 
 
 class _Table:
@@ -331,12 +327,6 @@ class _Table:
                         "redundancy": r[i], "rho_max": rho[i], "rho_partner": twin,
                         "verdict": str(self.verdict[k]), "unit": str(self.unit[k])})
         return out
-
-
-def _effective_list(edits):
-    from baarda.review.edits import effective
-
-    return effective(edits)
 
 
 def _verdicts(q) -> tuple[np.ndarray, np.ndarray]:
