@@ -147,9 +147,9 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
     if not res.obs["redundancy"].notna().any():
         return ""
     out = ""
+    lname, lf = length = length_unit(res)
     for title, t in weakest(res.obs, opt.worst, res.units).items():
-        unit, f = row_units(res, t["kind"])
-        lname, lf = length_unit(res)
+        unit, f = row_units(res, t["kind"], length)
         show = pd.DataFrame({"kind": t["kind"], "photo/model": t["frame"], "point": t["point"],
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
                              "unit": unit, "MDB": t["mdb"].to_numpy(float) * f,
