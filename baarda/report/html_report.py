@@ -38,6 +38,7 @@ from baarda.report.html_base import (
     figure,
     html_table,
     macro,
+    metadata_section,
     page,
     table,
     with_user_templates,
@@ -265,8 +266,8 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     facts = project_facts(res)
     block = ("<h3>The block</h3>" + macro("meta")(facts) + "<h3>Run, input and settings</h3>"
              if facts else "")
-    out.append({"id": "metadata", "nav": "Metadata", "title": "Run, input and settings",
-                "body": Markup(block + macro("meta")(metadata(res)) + macro("signoff")())})
+    out.append(metadata_section(metadata(res), "Run, input and settings", before=block,
+                                after=macro("signoff")()))
     return out
 
 
