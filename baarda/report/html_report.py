@@ -46,7 +46,12 @@ from baarda.report.html_base import (
 )
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.quality_html import tables_html
-from baarda.report.separability import counts_line, least_separable, msb_histogram
+from baarda.report.separability import (
+    SEPARABLE_FORMATS,
+    counts_line,
+    least_separable,
+    msb_histogram,
+)
 from baarda.report.stats import (
     gnss_imu_per_strip,
     group_statistics,
@@ -170,7 +175,7 @@ def _separability(res: Results, opt: ReportOptions) -> str:
     t = t.rename(columns={"frame": "photo/model"})
     return (f"<h3>Least separable</h3><p>{esc(counts_line(res.obs))}; MDB and MSB in the "
             "units of the kind</p>" + table(
-                t, {"rho_max": ".4f", "MDB": ".4g", "MSB": ".4g", "MSB/MDB": ".2f"},
+                t, SEPARABLE_FORMATS,
                 text_cols=("kind", "photo/model", "point", "c", "partner")))
 
 
