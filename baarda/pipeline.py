@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.block.control import CHECK_ALTERNATE, with_check_points  # noqa: F401
+from baarda.block.control import with_check_points
 from baarda.block.model_block import ModelBlock
 from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
 from baarda.block.photo_block import Block
@@ -316,11 +316,13 @@ def snoop_with_variance_components(problem: BundleProblem, tests: TestOptions | 
             problem.reweighted(None, est.factors))
 
 
-def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment:
-    """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection."""
+def assess(result: BundleResult, tests: TestOptions | None = None, *,
+           separability: bool = True) -> Assessment:
+    """Statistics of every observation (w, tau, r, MDB, external reliability), no rejection;
+    separability: the w-test correlations too (False: left None)."""
     from baarda.bundle.bundle_quality import assess as assess_result
 
-    return assess_result(result, tests)
+    return assess_result(result, tests, separability=separability)
 
 
 def snoop(block: Block | BundleProblem, tests: TestOptions | None = None, *,

@@ -28,6 +28,12 @@ from baarda.errors import ProjectError
 INPUT_CONTROL = "the input's control: "
 
 
+def without_input_control_notes(notes) -> list[str]:
+    """`notes` less the readers' notes about the input's own control (INPUT_CONTROL): what
+    replaces the control (with_control, gcp.add_gcps) drops them."""
+    return [n for n in notes if not n.startswith(INPUT_CONTROL)]
+
+
 def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarray,
                  role: np.ndarray, source: str) -> Block:
     """The block with the points (ids, xyz (k, 3) [m], sigma (k, 3) [m, 0: fixed, NaN for
@@ -45,7 +51,7 @@ def with_control(block: Block, ids: list[str], xyz: np.ndarray, sigma: np.ndarra
                            "control points are matched by id")
     j = np.array([index[ids[k]] for k in rows], dtype=np.int64)
     rows = np.array(rows, dtype=np.int64)
-    notes = [n for n in block.notes if not n.startswith(INPUT_CONTROL)]  # replaced
+    notes = without_input_control_notes(block.notes)  # replaced
     old_ctrl = pts.role == "control"
     new_xyz, new_sig = pts.xyz.copy(), np.full_like(pts.sigma, np.nan)
     new_role = np.where(old_ctrl, "tie", pts.role).astype(object)

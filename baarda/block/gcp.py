@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baarda.block.control import without_input_control_notes
 from baarda.block.photo_block import Block, ImagePoints
 from baarda.block.pixels import known_grid, pixels_to_mm
 from baarda.errors import ProjectError
@@ -144,7 +145,7 @@ def add_gcps(block: Block, gcps: GcpList) -> Block:
                         None if im.model is None else
                         np.concatenate([im.model, np.full(n, "", dtype=object)]),
                         np.vstack([im.sigma_xy, sigma_xy]))
-    notes = list(block.notes)
+    notes = without_input_control_notes(block.notes)  # the input's control is replaced
     if old_ctrl.any():
         notes.append(f"{src}: its GCPs replace the input's {int(old_ctrl.sum())} control "
                      "point(s) (now tie points)")

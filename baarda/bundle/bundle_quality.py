@@ -23,13 +23,15 @@ from baarda.quality.robust import danish_method
 from baarda.quality.statistics import analyse
 
 
-def assess(result: BundleResult, tests: TestOptions | None = None) -> Assessment[BundleResult]:
+def assess(result: BundleResult, tests: TestOptions | None = None, *,
+           separability: bool = True) -> Assessment[BundleResult]:
     """Statistics of every observation of an adjusted block, without rejecting any.
 
-    tests: alpha0 and beta0 (default: the project's settings)."""
+    tests: alpha0 and beta0 (default: the project's settings); separability: the w-test
+    correlations (rho_max, its partner, the MSB) too (False: left None)."""
     tests = tests or TestOptions.resolve(result.block.settings)
     model = BundleModel(result)
-    q = analyse(model, tests)
+    q = analyse(model, tests, separability=separability)
     return Assessment(result, model, q, hypotheses=calibration_tests(result, tests))
 
 

@@ -7,10 +7,13 @@ adjustment wrote (observations.csv); nothing is recomputed here.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 
 from baarda.schema import UNITS
+from baarda.table_data import Column, TableData, text_lines
 
 COLUMNS = ["kind", "frame", "point", "component", "unit", "redundancy", "residual",
            "sigma_residual", "w", "flag"]
@@ -85,10 +88,21 @@ def _candidates(df: pd.DataFrame, min_abs_w: float | None, top: int,
     return np.flatnonzero(keep | (sel & (absw >= kth)))
 
 
-def _v(x: float, unit: str, width: int) -> str:
-    if not np.isfinite(x):
-        return f"{'-':>{width}}"
-    return f"{x:>{width}.4f}" if unit == "m" else f"{x:>{width}.2f}"
+def snooping_data(t: pd.DataFrame) -> TableData:
+    """The rows of snooping_table as a TableData with ANAPLOT headings (the text report's):
+    residual and sigma_v to 0.1 mm in m (.4f), to 0.01 in the other units."""
+    v = {"fmt": ".2f", "unit_fmt": {"m": ".4f"}}
+    cols = [Column("kind", text_title="KIND", text=True, width=8),
+            Column("frame", text_title="FRAME", text=True, width=10),
+            Column("point", text_title="POINT", text=True, width=12),
+            Column("component", text_title="C", text=True, width=2),
+            Column("redundancy", text_title="RED-N", fmt=".3f", width=7),
+            Column("residual", text_title="PARX", width=11, **v),
+            Column("sigma_residual", text_title="EXPD", width=10, **v),
+            Column("w", text_title="SIGF", fmt=".2f", width=8),
+            Column("unit", text_title="UNIT", text=True, width=4, gap=2),
+            Column("flag", text_title="FLAG", text=True, gap=1)]
+    return replace(TableData.of(cols, t), unit_key="unit")
 
 
 def format_snooping(t: pd.DataFrame, k_w: float | None = None) -> str:
@@ -96,14 +110,7 @@ def format_snooping(t: pd.DataFrame, k_w: float | None = None) -> str:
     lines = []
     if k_w is not None and np.isfinite(k_w):
         lines.append(f"critical value |w| = {k_w:.2f}; SIGF = w = -v / sigma_v")
-    lines.append(f"{'KIND':<8}{'FRAME':<10}{'POINT':<12}{'C':<2}{'RED-N':>7}{'PARX':>11}"
-                 f"{'EXPD':>10}{'SIGF':>8}  {'UNIT':<4} FLAG")
-    for r in t.itertuples(index=False):
-        w = f"{r.w:8.2f}" if np.isfinite(r.w) else f"{'-':>8}"
-        lines.append(f"{r.kind:<8}{r.frame:<10}{r.point:<12}{r.component:<2}"
-                     f"{r.redundancy:7.3f}{_v(r.residual, r.unit, 11)}"
-                     f"{_v(r.sigma_residual, r.unit, 10)}{w}  {r.unit:<4} {r.flag}".rstrip())
-    return "\n".join(lines)
+    return "\n".join(lines + text_lines(snooping_data(t)))
 
 
 def format_log(summary: dict) -> str:

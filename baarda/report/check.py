@@ -99,7 +99,7 @@ def _adjustments(res: Results) -> dict[str, tuple[dict, pd.DataFrame]]:
 NEEDED = ("residual", "sigma", "redundancy", "sigma_residual")
 
 
-def _row_relations(label: str, p: dict, used: pd.DataFrame, delta0, rtol: float,
+def _row_relations(label: str, used: pd.DataFrame, delta0, rtol: float,
                    groups: dict | None) -> list[Finding]:
     """The relations that tie each used row's statistics to its residual and sigma, the
     columns they need, and the kind and component of every row."""
@@ -228,7 +228,7 @@ def check_results(res: Results, rtol: float = RTOL) -> list[Finding]:
                         _close(gt["statistic"], s0**2, rtol)))
         if name != "summary.json (top level)":
             delta0 = p.get("delta0", res.summary.get("delta0"))
-            findings += _row_relations(label, p, used, delta0, max(rtol, 1e-9),
+            findings += _row_relations(label, used, delta0, max(rtol, 1e-9),
                                        res.summary.get("observation_groups"))
             findings += _summary_rms(res, label, used, several)
     findings += _report_rms(res)

@@ -52,11 +52,13 @@ def length_unit(res: Results) -> tuple[str, float]:
     return verdict_length_unit(res.summary, res.points)
 
 
-def row_units(res: Results, kinds) -> tuple[np.ndarray, np.ndarray]:
+def row_units(res: Results, kinds, length: tuple[str, float] | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
     """Per observation row of `kinds`: the unit its residual, sigma and MDB are shown in
     (the kind's own, lengths in metres in the project's length unit) and the factor from
-    observations.csv's values to it."""
-    name, f = length_unit(res)
+    observations.csv's values to it.  length: `length_unit(res)` where the caller has it
+    (not worked out again)."""
+    name, f = length if length is not None else length_unit(res)
     units = res.units
     u = np.array([units.get(str(k), "") for k in kinds], dtype=object)
     factor = np.where(u == "m", f, 1.0)

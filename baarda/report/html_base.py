@@ -29,7 +29,7 @@ from jinja2.sandbox import SandboxedEnvironment
 
 from baarda.errors import ProjectError
 from baarda.report.plots import Plot
-from baarda.table_data import TableData, cell, num  # noqa: F401  (cell, num re-exported)
+from baarda.table_data import TableData
 
 TEMPLATES = Path(__file__).parent / "templates"
 MACROS = "macros.html.j2"
@@ -243,8 +243,11 @@ def run_metadata(run) -> list[tuple[str, str]]:
             ("command", str(getattr(run, "command", None) or "not recorded"))]
 
 
-def metadata_section(meta: list[tuple[str, str]]) -> dict:
-    """The page section of `meta` (run_metadata)."""
+def metadata_section(meta: list[tuple[str, str]], title: str = "Run", before: str = "",
+                     after: str = "") -> dict:
+    """The page section of `meta` (run_metadata), its nav entry "Run"; before, after: HTML
+    around the list (the report's project facts and sign-off block)."""
     from markupsafe import Markup
 
-    return {"id": "metadata", "nav": "Run", "title": "Run", "body": Markup(macro("meta")(meta))}
+    return {"id": "metadata", "nav": "Run", "title": title,
+            "body": Markup(before + macro("meta")(meta) + after)}

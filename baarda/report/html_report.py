@@ -38,6 +38,7 @@ from baarda.report.html_base import (
     figure,
     html_table,
     macro,
+    metadata_section,
     page,
     table,
     with_user_templates,
@@ -45,7 +46,12 @@ from baarda.report.html_base import (
 )
 from baarda.report.plots import Plot, residual_histograms, w_histogram
 from baarda.report.quality_html import tables_html
-from baarda.report.separability import counts_line, least_separable, msb_histogram
+from baarda.report.separability import (
+    SEPARABLE_FORMATS,
+    counts_line,
+    least_separable,
+    msb_histogram,
+)
 from baarda.report.stats import (
     gnss_imu_per_strip,
     group_statistics,
@@ -147,9 +153,9 @@ def _weakest_tables(res: Results, opt: ReportOptions) -> str:
     if not res.obs["redundancy"].notna().any():
         return ""
     out = ""
+    lname, lf = length = length_unit(res)
     for title, t in weakest(res.obs, opt.worst, res.units).items():
-        unit, f = row_units(res, t["kind"])
-        lname, lf = length_unit(res)
+        unit, f = row_units(res, t["kind"], length)
         show = pd.DataFrame({"kind": t["kind"], "photo/model": t["frame"], "point": t["point"],
                              "c": t["component"], "r": t["redundancy"], "w": t["w"],
                              "unit": unit, "MDB": t["mdb"].to_numpy(float) * f,
@@ -169,7 +175,7 @@ def _separability(res: Results, opt: ReportOptions) -> str:
     t = t.rename(columns={"frame": "photo/model"})
     return (f"<h3>Least separable</h3><p>{esc(counts_line(res.obs))}; MDB and MSB in the "
             "units of the kind</p>" + table(
-                t, {"rho_max": ".4f", "MDB": ".4g", "MSB": ".4g", "MSB/MDB": ".2f"},
+                t, SEPARABLE_FORMATS,
                 text_cols=("kind", "photo/model", "point", "c", "partner")))
 
 
@@ -265,8 +271,8 @@ def front_sections(res: Results, opt: ReportOptions, rest: list[dict]) -> list[d
     facts = project_facts(res)
     block = ("<h3>The block</h3>" + macro("meta")(facts) + "<h3>Run, input and settings</h3>"
              if facts else "")
-    out.append({"id": "metadata", "nav": "Metadata", "title": "Run, input and settings",
-                "body": Markup(block + macro("meta")(metadata(res)) + macro("signoff")())})
+    out.append(metadata_section(metadata(res), "Run, input and settings", before=block,
+                                after=macro("signoff")()))
     return out
 
 

@@ -325,8 +325,8 @@ def image_parts(res: Results) -> list[Part]:
 
 def observation_parts(res: Results) -> list[Part]:
     o = res.obs
-    unit, f = row_units(res, o["kind"])
-    lname, lf = length_unit(res)
+    lname, lf = length = length_unit(res)
+    unit, f = row_units(res, o["kind"], length)
     t = pd.DataFrame({c: o[c] for c in ("kind", "photo", "point", "component") if c in o})
     t["unit"] = unit  # one unit per row: residual, sigma and MDB are in it
     for c, name in (("residual", "residual"), ("sigma", "sigma"), ("mdb", "MDB")):

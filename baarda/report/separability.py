@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 
 from baarda.report.plots import Plot, plt, to_png
+from baarda.table_data import Column, TableData, text_lines
 
 RHO_INSEPARABLE = 0.99  # as quality/separability.py (the report reads files, not the model)
 
@@ -40,21 +41,25 @@ def counts_line(obs: pd.DataFrame) -> str:
             f"(rho_max >= {RHO_INSEPARABLE}: their partner's w-test moves with theirs)")
 
 
+# the number formats of least_separable's columns (the text and the HTML report)
+SEPARABLE_FORMATS = {"rho_max": ".4f", "MSB/MDB": ".2f", "MDB": ".4g", "MSB": ".4g"}
+
+
+def least_separable_data(t: pd.DataFrame) -> TableData:
+    """The rows of least_separable as a TableData (the text report's layout); "-" where a
+    number is not finite (an MSB of a pair that is one test)."""
+    f = SEPARABLE_FORMATS
+    return TableData.of([
+        Column("kind", text=True, width=8), Column("frame", "photo/model", text=True, width=12),
+        Column("point", text=True, width=10), Column("c", text=True, width=3),
+        Column("rho_max", fmt=f["rho_max"], width=9),
+        Column("MSB/MDB", fmt=f["MSB/MDB"], width=9),
+        Column("MDB", fmt=f["MDB"], width=11), Column("MSB", fmt=f["MSB"], width=11),
+        Column("partner", text=True, gap=2)], t)
+
+
 def format_least_separable(t: pd.DataFrame) -> str:
-    t = t.rename(columns={"MSB/MDB": "ratio"})
-    lines = [f"{'kind':<8}{'photo/model':<12}{'point':<10}{'c':<3}{'rho_max':>9}{'MSB/MDB':>9}"
-             f"{'MDB':>11}{'MSB':>11}  partner"]
-    for r in t.itertuples(index=False):
-        lines.append(f"{r.kind:<8}{r.frame:<12}{r.point:<10}{r.c:<3}{r.rho_max:9.4f}"
-                     f"{_num(r.ratio, '9.2f')}{_num(r.MDB, '11.4g')}{_num(r.MSB, '11.4g')}"
-                     f"  {r.partner}")
-    return "\n".join(lines)
-
-
-def _num(x: float, spec: str) -> str:
-    """x formatted, "-" where it is not finite (an MSB of a pair that is one test)."""
-    width = int(spec.split(".")[0])
-    return f"{x:{spec}}" if np.isfinite(x) else f"{'-':>{width}}"
+    return "\n".join(text_lines(least_separable_data(t)))
 
 
 def msb_histogram(obs: pd.DataFrame) -> Plot | None:

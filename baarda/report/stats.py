@@ -356,12 +356,12 @@ def weakest(obs: pd.DataFrame, n: int,
 
 
 # ------------------------------------------------------------------ tables
+UNIT_DECIMALS = {"m": ".3f", "px": ".3f"}  # a row's unit -> its format (else .2f)
+
+
 def _decimals(unit: str) -> str:
     """The format of a residual statistic in `unit`: mm-level decimals for m and px."""
-    return ".3f" if unit in ("m", "px") else ".2f"
-
-
-UNIT_DECIMALS = {"m": ".3f", "px": ".3f"}  # a row's unit -> its format (else .2f)
+    return UNIT_DECIMALS.get(unit, ".2f")
 
 
 def group_table(groups: list[GroupStats]) -> TableData:

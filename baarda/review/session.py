@@ -4,8 +4,9 @@
 Every edit is applied to the block as read through `edits.edited` (what `baarda adjust
 --edits` applies): a rejection or restoration re-weights the prepared problem and adjusts
 again from the solution before it (a component rejected stays in the observation vector,
-predicted and tested, as data snooping leaves it); a re-measurement or a point set aside
-prepares the edited block again, the adjustment warm-started.  The statistics are those of
+predicted and tested, as data snooping leaves it); a re-measurement prepares the edited
+block again and is answered the same way; a point set aside (or back) prepares it again and
+adjusts it from its approximations (start=None: the unknowns differ).  The statistics are those of
 `baarda adjust` without snooping (pipeline.assess).
 """
 
@@ -22,9 +23,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from baarda.block.photo_block import Block
+from baarda.kinds import kind_of
 from baarda.options import Config
 from baarda.quality.separability import RHO_INSEPARABLE
-from baarda.review.edits import Edit, active_of, check, edited
+from baarda.quality.statistics import R_MIN
+from baarda.review.edits import Edit, active_of, check, edited, effective
 from baarda.review.worker import SeparabilityWorker
 
 if TYPE_CHECKING:
@@ -55,11 +58,7 @@ def adjusted(block: Block, config: Config, edits: list[Edit], start=None,
     before: the adjustment of the same problem with other components rejected, whose
     factorisation answers the re-weighting (review/reweight.py; a full adjustment from
     `start` where it does not converge)."""
-    from baarda.bundle.bundle_model import BundleModel
-    from baarda.bundle.bundle_quality import calibration_tests
     from baarda.pipeline import assess, prepare
-    from baarda.quality.assessment import Assessment
-    from baarda.quality.statistics import analyse
     from baarda.review.reweight import refit
 
     t0 = time.perf_counter()
@@ -70,27 +69,18 @@ def adjusted(block: Block, config: Config, edits: list[Edit], start=None,
     result = refit(weighted, before) if before is not None else None
     if result is None:
         result = weighted.fit(start=start)
-    if separability:
-        qc = assess(result, config.tests)
-    else:  # bundle_quality.assess without the w-test correlations
-        model = BundleModel(result)
-        qc = Assessment(result, model, analyse(model, config.tests, separability=False),
-                        hypotheses=calibration_tests(result, config.tests))
+    qc = assess(result, config.tests, separability=separability)
     return State(block_e, problem, qc, time.perf_counter() - t0)
 
 
 def _geometry_key(edits: list[Edit]) -> tuple:
     """What decides the prepared problem: the re-measurements and points set aside."""
-    from baarda.review.edits import effective
-
     return tuple((e.action, e.photo, e.point, e.x, e.y) for e in effective(edits)
                  if e.action in ("remeasure", "aside"))
 
 
 def _aside_key(edits: list[Edit]) -> tuple:
     """What decides the observation vector: the points set aside."""
-    from baarda.review.edits import effective
-
     return tuple(sorted({e.point for e in effective(edits) if e.action == "aside"}))
 
 
@@ -181,8 +171,8 @@ class ReviewSession:
             d["v" + c] = v
             d["r" + c] = r
             d["w" + c] = _f(q.w[n])
-            d["pred_" + c] = d[c] + v / r if r >= 1e-3 else None
-            d["sigma_pred_" + c] = float(m.sigma[n] * math.sqrt(1 / r)) if r >= 1e-3 \
+            d["pred_" + c] = d[c] + v / r if r >= R_MIN else None
+            d["sigma_pred_" + c] = float(m.sigma[n] * math.sqrt(1 / r)) if r >= R_MIN \
                 else None
             d["active_" + c] = bool(q.active[n])
         return list(by.values())
@@ -208,7 +198,7 @@ class ReviewSession:
         e = _edit_of(body)
         with self.lock:
             if e.action == "undo" and not any(x.action != "undo" for x in
-                                              _effective_list(self.edits)):
+                                              effective(self.edits)):
                 raise ValueError("nothing to undo")
             if e.action != "undo":
                 check(self.block, e)
@@ -291,7 +281,7 @@ class ReviewSession:
         self._worker.close()
 
     def _aside(self) -> set[str]:
-        return {e.point for e in _effective_list(self.edits) if e.action == "aside"}
+        return {e.point for e in effective(self.edits) if e.action == "aside"}
 
 
 class _Table:
@@ -304,16 +294,22 @@ class _Table:
         self.comp = np.asarray(m.component).astype(str)
         self.photo = [_s(v) for v in np.asarray(m.frame).tolist()]
         self.point = [_s(v) for v in np.asarray(m.point).tolist()]
-        image = self.kind == "image"
         self.w = np.asarray(q.w, float)
         self.n = n = len(self.w)
         self.r = np.asarray(q.redundancy_number, float)
-        self.mdb = np.asarray(q.mdb, float) * np.where(image, 1e3, 1.0)
+        # each kind's MDB in its Kind's unit (image µm, control m, IMU thousandths of the
+        # project's angle unit)
+        angle_unit = qc.adjustment.block.settings.angle_unit
+        factor, self.unit = np.ones(n), np.full(n, "", dtype=object)
+        for name in np.unique(self.kind).tolist():
+            f, unit = kind_of(name).shown(angle_unit)
+            at = self.kind == name
+            factor[at], self.unit[at] = f, unit
+        self.mdb = np.asarray(q.mdb, float) * factor
         self.rho = np.full(n, np.nan) if q.rho_max is None else np.asarray(q.rho_max, float)
         self.partner = np.full(n, -1) if q.rho_partner is None else \
             np.asarray(q.rho_partner, int)
         self.verdict, self.twins = _verdicts(q)
-        self.unit = np.where(image, "µm", "m")
 
     def rows(self, idx) -> list[dict]:
         out = []
@@ -333,20 +329,16 @@ class _Table:
         return out
 
 
-def _effective_list(edits):
-    from baarda.review.edits import effective
-
-    return effective(edits)
-
-
 def _verdicts(q) -> tuple[np.ndarray, np.ndarray]:
     """(the verdict of every component: rejected, suspect, reject or accept; whether it has
     a partner it cannot be told from, |rho| >= RHO_INSEPARABLE)."""
-    w, r = np.asarray(q.w, float), np.asarray(q.redundancy_number, float)
+    w = np.asarray(q.w, float)
     act = np.asarray(q.active, bool)
-    tested = (r >= 1e-3) & np.isfinite(w)
+    # an active component is controlled where r >= R_MIN; flagged: active, controlled and
+    # |w| > k (quality/statistics.py)
+    tested = np.asarray(q.controlled, bool) & np.isfinite(w)
     verdict = np.where(~act, "rejected", np.where(~tested, "suspect", np.where(
-        np.abs(np.nan_to_num(w)) > q.k_w, "reject", "accept")))
+        np.asarray(q.flagged, bool), "reject", "accept")))
     if q.rho_max is None:
         return verdict, np.zeros(len(w), bool)
     twins = (np.asarray(q.rho_partner) >= 0) & \

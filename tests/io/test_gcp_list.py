@@ -154,6 +154,23 @@ def test_block_refuses_bad_measurements(tmp_path, change, line, field, words):
     assert str(gcps) in str(e.value)
 
 
+def test_gcps_drop_the_notes_on_the_input_control(tmp_path):
+    """The GCPs replace the input's control as --control does (block/control.py): a
+    reader's note about that control (INPUT_CONTROL) goes with it."""
+    from dataclasses import replace
+
+    from baarda.block.control import INPUT_CONTROL
+    from baarda.block.gcp import add_gcps
+
+    model, gcps, _ = _files(tmp_path)
+    block = read(model)
+    said = INPUT_CONTROL + "the coordinates the input lists"
+    block = replace(block, notes=[*block.notes, said])
+    notes = add_gcps(block, read_gcp_list(gcps)).notes
+    assert said not in notes
+    assert any(n.startswith("GCPs from ") for n in notes)
+
+
 def test_crs_line_and_crs_option(tmp_path):
     model, gcps, _ = _files(tmp_path)
     _replace_line(gcps, 0, lambda s: "not a crs")

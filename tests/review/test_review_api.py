@@ -192,3 +192,24 @@ def test_adjust_edits_bad_input(tmp_path, capsys):
                  str(tmp_path / "o2")]) == 2
     assert "--edits and --snoop" in capsys.readouterr().err
     assert not (tmp_path / "o1").exists() and not (tmp_path / "o2").exists()
+
+
+def test_each_kind_has_its_own_unit():
+    """An IMU row's MDB is an angle, in thousandths of the project's angle unit (was
+    labelled m); image µm, control and GNSS m (baarda/kinds.py)."""
+    from baarda.options import Config
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    plan = FlightPlan(strips=2, photos_per_strip=4, relief_m=80.0, seed=5,
+                      gnss_sigma_m=0.05, imu_sigma_deg=0.005)
+    block, _ = simulate_block(plan)
+    assert block.settings.angle_unit == "gon"
+    session = ReviewSession(block, Config())
+    try:
+        rows = session.observations("all")
+    finally:
+        session.close()
+    units = {(r["kind"], r["unit"]) for r in rows}
+    assert units == {("image", "µm"), ("control", "m"), ("gnss", "m"), ("imu", "mgon")}
+    imu = [r["mdb"] for r in rows if r["kind"] == "imu"]
+    assert all(1 < m < 1000 for m in imu)  # mgon, not rad
