@@ -91,14 +91,15 @@ def _candidates(df: pd.DataFrame, min_abs_w: float | None, top: int,
 def snooping_data(t: pd.DataFrame) -> TableData:
     """The rows of snooping_table as a TableData with ANAPLOT headings (the text report's):
     residual and sigma_v to 0.1 mm in m (.4f), to 0.01 in the other units."""
-    v = {"fmt": ".2f", "unit_fmt": {"m": ".4f"}}
+    in_m = {"m": ".4f"}
     cols = [Column("kind", text_title="KIND", text=True, width=8),
             Column("frame", text_title="FRAME", text=True, width=10),
             Column("point", text_title="POINT", text=True, width=12),
             Column("component", text_title="C", text=True, width=2),
             Column("redundancy", text_title="RED-N", fmt=".3f", width=7),
-            Column("residual", text_title="PARX", width=11, **v),
-            Column("sigma_residual", text_title="EXPD", width=10, **v),
+            Column("residual", text_title="PARX", fmt=".2f", unit_fmt=in_m, width=11),
+            Column("sigma_residual", text_title="EXPD", fmt=".2f", unit_fmt=in_m,
+                   width=10),
             Column("w", text_title="SIGF", fmt=".2f", width=8),
             Column("unit", text_title="UNIT", text=True, width=4, gap=2),
             Column("flag", text_title="FLAG", text=True, gap=1)]
