@@ -206,6 +206,50 @@ def _by_frame(keys: np.ndarray, nf: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 @kernel
+def _sandwich(bm, sig, nobs, k, b, obs, point, ptr, frame_sorted, colof):
+    """(nr, nr) q with q[r, s] = (bm sig bm^T)[r, s] for r < s (the rest zero) over the
+    nonzero column blocks of each row of bm only: those of the frames that see the point of
+    an image row (obs: the frame's observations, k rows each; colof: a frame's block; a
+    frame with two rays to the point counted once), the frame's own (block 0) for an extra
+    row.  In an aerial block a row has about 5 of the 20-25 blocks: a fifth of the dense
+    product's work, without a BLAS call per frame."""
+    nr, nc = bm.shape
+    seen = np.full(nc // b, -1, np.int64)
+    wm = np.zeros((nr, nc))  # bm sig
+    for r in range(nr):
+        image = r < nobs * k
+        p = point[obs[r // k]] if image else 0
+        t0, t1 = (ptr[p], ptr[p + 1]) if image else (0, 1)
+        for t in range(t0, t1):
+            blk = colof[frame_sorted[t]] if image else 0
+            if seen[blk] == r:
+                continue
+            seen[blk] = r
+            for x in range(blk * b, blk * b + b):
+                v = bm[r, x]
+                if v != 0.0:
+                    for y in range(nc):
+                        wm[r, y] += v * sig[x, y]
+    seen[:] = -1
+    q = np.zeros((nr, nr))
+    for s in range(1, nr):
+        image = s < nobs * k
+        p = point[obs[s // k]] if image else 0
+        t0, t1 = (ptr[p], ptr[p + 1]) if image else (0, 1)
+        for t in range(t0, t1):
+            blk = colof[frame_sorted[t]] if image else 0
+            if seen[blk] == s:
+                continue
+            seen[blk] = s
+            for r in range(s):
+                acc = 0.0
+                for x in range(blk * b, blk * b + b):
+                    acc += wm[r, x] * bm[s, x]
+                q[r, s] += acc
+    return q
+
+
+@kernel
 def _frame_pairs(frames, fptr, fobs, xptr, xobs, ptr, frame_sorted, point, jf, jp, hinv,
                  hfp, jxf, e, k, kx, base, colptr, rowind, iperm, slot_pos, slot_stride,
                  panels, oi, oj, oq):
@@ -281,7 +325,7 @@ def _frame_pairs(frames, fptr, fobs, xptr, xobs, ptr, frame_sorted, point, jf, j
                 for r in range(b):
                     for y in range(b):
                         sig[a * b + r, c * b + y] = blk[r, y]
-        q = np.dot(np.dot(bm, sig), bm.T)
+        q = _sandwich(bm, sig, nobs, k, b, fobs[o0:o1], point, ptr, frame_sorted, colof)
         for a in range(nobs):
             oa = fobs[o0 + a]
             p = point[oa]

@@ -43,6 +43,7 @@ from baarda.linalg._jit import kernel
 
 RHO_INSEPARABLE = 0.99  # |rho| from which two w-tests are called not separable
 RHO_ONE = 1e-9  # |rho| within this of 1 is one test (1 +- rounding): MSB infinite
+RHO_TIE = 1e-12  # two |rho| within this (relative) are a tie: the lower partner is taken
 _NODES = 96  # Gauss-Legendre nodes of P_j over delta +- 9
 _U = np.linspace(0.0, 1.0, 129)  # the table of delta_s: u = sqrt(1 - rho)
 
@@ -149,19 +150,31 @@ def _cubic(x: np.ndarray, g: np.ndarray) -> np.ndarray:
 @kernel
 def _update(i, j, q, d, act, tested, best, partner):
     """best[i] = max |q_ij| / (d_i d_j) over the pairs (both tested, alike in being active);
-    partner[i] = that j."""
+    partner[i] = that j, the lowest j of those within RHO_TIE of it (relative: two partners
+    of a two-ray point are 1 +- rounding both, and which one the rounding favours would
+    depend on the order of a sum)."""
     for n in range(i.size):
         a = i[n]
         c = j[n]
         if a == c or not tested[a] or not tested[c] or act[a] != act[c]:
             continue
         r = abs(q[n]) / (d[a] * d[c])
-        if r > best[a] or (r == best[a] and partner[a] > c):
-            best[a] = r
+        _take(r, a, c, best, partner)
+        _take(r, c, a, best, partner)
+
+
+def _take_partner(r, a, c, best, partner):
+    """Partner c at |rho| r for component a (_update)."""
+    if r > best[a] * (1.0 + RHO_TIE):
+        best[a] = r
+        partner[a] = c
+    elif r >= best[a] * (1.0 - RHO_TIE):
+        best[a] = max(best[a], r)
+        if partner[a] > c:
             partner[a] = c
-        if r > best[c] or (r == best[c] and partner[c] > a):
-            best[c] = r
-            partner[c] = a
+
+
+_take = kernel(_take_partner, inline="always")
 
 
 def _reduce(pairs: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray]], d: np.ndarray,

@@ -133,3 +133,24 @@ def test_farther_pairs_rarely_change_rho_max():
                     f"than 0.01 (at most {am}); on a 4 x 8 block with 3 x 3 points {b} (at "
                     f"most {bm}); with 60 % side overlap {c} (at most {cm}); none of them "
                     "crosses |rho| = 0.99")
+
+
+def test_partners_within_rounding_of_each_other_are_a_tie_the_first_is_taken():
+    """Two partners of one test (rho = 1 +- rounding): the lower index, whichever the
+    rounding favours and in whatever order the pairs come; rho_max the larger value."""
+    from baarda.quality.separability import _update
+
+    d = np.ones(4)
+    act, tested = np.ones(4, np.bool_), np.ones(4, np.bool_)
+    for order in ([0, 1, 2], [2, 1, 0]):
+        i = np.array([0, 0, 0])[order]
+        j = np.array([3, 1, 2])[order]
+        q = np.array([0.5, 1.0 - 2e-16, 1.0 + 2e-16])[order]
+        best, partner = np.zeros(4), np.full(4, -1, np.int64)
+        _update(i, j, q, d, act, tested, best, partner)
+        assert partner[0] == 1 and best[0] == 1.0 + 2e-16
+        assert partner[1] == 0 and partner[2] == 0 and partner[3] == 0
+    best, partner = np.zeros(4), np.full(4, -1, np.int64)
+    _update(np.array([0, 0]), np.array([1, 2]), np.array([0.9, 0.9 + 1e-9]), d, act, tested,
+            best, partner)
+    assert partner[0] == 2  # 1e-9 apart: not a tie
