@@ -262,10 +262,10 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
         _error(f"baarda: error: {where}{e.strerror or e}")
         return BAD_INPUT
     except Terminated:
-        _error("\nbaarda: terminated by SIGTERM (nothing of this run was written)")
+        _error(f"\nbaarda: terminated by SIGTERM ({_what_was_written(con)})")
         return TERMINATED
     except KeyboardInterrupt:
-        _error("\nbaarda: interrupted (nothing of this run was written)")
+        _error(f"\nbaarda: interrupted ({_what_was_written(con)})")
         return INTERRUPTED
     except Exception as e:  # under ulimit -v, libraries fail in their own words
         from baarda.process import memory_limit_text
@@ -279,6 +279,14 @@ def main(argv: list[str] | None = None, closed: list[str] | None = None) -> int:
     finally:
         con.close()
         sys.stdout = stdout
+
+
+def _what_was_written(con) -> str:
+    """What an interrupted command leaves: nothing, or its results complete."""
+    if con.results_in_place is None:
+        return "nothing of this run was written"
+    return (f"after the results were written: {con.results_in_place} holds this run, "
+            "complete; what was still to be printed is lost")
 
 
 def _error(text: str) -> None:

@@ -174,8 +174,12 @@ def open_run(args, inputs: list[Path]) -> Iterator[RunFolder]:
                     excel_safe=getattr(args, "excel_safe", False))
     for text in run.cleaned:
         con.warn(text)
-    with run:
-        yield run
+    try:
+        with run:
+            yield run
+    finally:
+        if run.placed:  # a Ctrl-C from now on comes after the results were written
+            con.results_in_place = run.final
     for text in run.warnings:
         con.warn(text)
 

@@ -15,6 +15,7 @@ import os
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 
 def _isatty(stream) -> bool:
@@ -61,6 +62,9 @@ class Console:
     def __init__(self, quiet: int = 0):
         self.quiet = int(quiet or 0)
         self.stdout_failed: str | None = None
+        #: the output folder this command has put its results in (an interruption after
+        #: that says so instead of "nothing of this run was written")
+        self.results_in_place: Path | None = None
         self._bar = None
         self._t0 = time.perf_counter()
 

@@ -42,6 +42,7 @@ from pathlib import Path
 
 from baarda.errors import OutputError, ProjectError
 from baarda.io.run_manifest import MANIFEST, file_record
+from baarda.process import signals_held
 
 try:
     import fcntl
@@ -304,6 +305,7 @@ class RunFolder:
             raise place_error(self.final, e, "cannot write the output folder here") from None
         self._lock = _lock(self.path)
         self.done = False
+        self.placed = False  # the run's files are in the output folder (commit)
         self.kept: list[str] = []
         self._refuse_if_busy(self.run_id)  # two that started at once: the later one
 
@@ -413,10 +415,14 @@ class RunFolder:
                 held = _lock(self.final)  # moved aside under a lock: not a leftover
                 old = self.final.parent / f".{self.final.name}.{self.run_id}.old"
                 os.replace(self.final, old)
-            os.replace(self.path, self.final)
+            with signals_held():  # in place and known to be: both or neither
+                os.replace(self.path, self.final)
+                self.placed = True
         except BaseException as e:
             if old is not None and old.exists() and not self.final.exists():
                 os.replace(old, self.final)  # the earlier run back in its place
+            elif old is not None and self.placed:  # interrupted as the run went in place
+                shutil.rmtree(old, ignore_errors=True)
             _unlock(held)
             self.discard()
             if isinstance(e, OSError):

@@ -178,3 +178,37 @@ def test_an_earlier_run_that_cannot_be_removed_is_a_warning(tmp_path, capsys, mo
     (old,) = [p for p in tmp_path.iterdir() if p.name.endswith(".old")]
     assert f"baarda: warning: could not remove the earlier run, moved aside to {old}: " \
         "remove it by hand" in err
+
+
+@pytest.mark.parametrize("when", ["printing", "moving"])
+def test_ctrl_c_after_the_results_went_in_place_says_they_are_written(tmp_path, monkeypatch,
+                                                                     capsys, when):
+    """Ctrl-C once the run's folder is in place (while the summary is printed, or as the
+    folder is moved there: the signal waits for the move and its record): exit 130, and the
+    message says the folder holds this run, complete, not that nothing was written."""
+    import baarda.output.run_folder as run_folder
+    from baarda.cli.console import Console
+
+    out = tmp_path / "out"
+    assert main(["adjust", str(DEMO), "-o", str(out), "-qq"]) == 0  # an earlier run
+    first = run_id(out)
+    if when == "printing":
+        def interrupted(self, text="", end="\n"):
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(Console, "print", interrupted)
+    else:
+        replace = os.replace
+
+        def replace_then_ctrl_c(src, dst):
+            replace(src, dst)
+            if Path(dst) == out:
+                os.kill(os.getpid(), signal.SIGINT)  # held until the move is recorded
+
+        monkeypatch.setattr(run_folder.os, "replace", replace_then_ctrl_c)
+    assert main(["adjust", str(DEMO), "-o", str(out)]) == 130
+    err = capsys.readouterr().err
+    assert f"interrupted (after the results were written: {out} holds this run, " \
+        "complete" in err and "nothing of this run was written" not in err
+    assert run_id(out) != first and (out / "summary.json").is_file()
+    assert leftovers(tmp_path) == []
