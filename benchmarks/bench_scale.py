@@ -88,7 +88,7 @@ def main() -> None:
     qc = Assessment(res, model, q)
     t = q.active & q.controlled
     print(f"rho_max >= 0.99: {int((q.rho_max[t] >= 0.99).sum())} of {int(t.sum())} tested; "
-          f"MSB/MDB median {float(np.median((q.msb / q.mdb)[t])):.3f}", flush=True)
+          f"MSB/MDB median {float(np.median(q.msb[t] / q.mdb[t])):.3f}", flush=True)
     print(block.summary())
     print(f"observation components {qc.model.n}, unknowns {res.n_unknowns}, redundancy "
           f"{res.redundancy}, {res.iterations} iterations")
