@@ -128,7 +128,8 @@ def colmap_to_block(model: ColmapModel, pixel_mm: float = 0.001, sigma_px: float
                       pixel_frame=np.array([[np.nan, np.nan, pixel_mm, c[2]] for c in cams]),
                       image_size_px=np.array([[model.cameras[c].width, model.cameras[c].height]
                                               for c in cam_ids], float))
-    photos = Photos(photo_ids, cam_of_image, np.full(len(im), "", dtype=object), eo)
+    photos = Photos(photo_ids, cam_of_image, np.full(len(im), "", dtype=object), eo,
+                    image=[str(n) for n in names])  # relative to images/ (review)
     # y is scaled by fx/fy (square pixels of size pixel_mm in x): its sigma is sigma_px in
     # y's own unit, sigma_px * pixel_mm * fx/fy, so that v'P v is that of the pixels
     sxy = None

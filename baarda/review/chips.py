@@ -52,8 +52,10 @@ def image_folders(input_path: Path, images: Path | None = None) -> list[Path]:
 def find_image(folders: list[Path], photo: str, named: str = "",
                source: str = "") -> Path | None:
     """The image file of a photo id: the file the input names (`named`, relative to the
-    input `source`'s folder), else a file of one of the folders whose name is the id, the
-    id with an image extension, or the named file's name; never a path built from the id."""
+    input `source`'s folder), else, in each of the folders, the file at the id's or the
+    named file's relative path where it has folders (COLMAP's "cam1/0001.jpg" under
+    images/), then a file whose name is the id, the id with an image extension, or the
+    named file's name; never a path built from the id."""
     if named:
         given = Path(named)
         if not given.is_absolute() and source:
@@ -64,7 +66,12 @@ def find_image(folders: list[Path], photo: str, named: str = "",
     names = {photo} | {photo + e for e in EXTENSIONS}
     if named:
         names.add(Path(named).name)
+    nested = sorted({n for n in (photo, named) if n and _parts(n)[1:]})
     for folder in folders:
+        for n in nested:  # a name with folders (COLMAP's "cam1/0001.jpg") under the folder
+            found = _below(folder, _parts(n))
+            if found is not None:
+                return found
         try:
             listing = {q.name: q for q in folder.iterdir() if q.is_file()}
         except OSError:
@@ -72,6 +79,38 @@ def find_image(folders: list[Path], photo: str, named: str = "",
         for n in sorted(names):
             if n in listing:
                 return listing[n]
+    return None
+
+
+def image_of(block: Block, folders: list[Path], photo: str) -> Path | None:
+    """The image file of a photo of the block (find_image with the name its input gave)."""
+    i = block.photos.ids.index(photo)
+    named = block.photos.image[i] if block.photos.image is not None else ""
+    return find_image(folders, photo, named or "", block.source)
+
+
+def _parts(name: str) -> list[str]:
+    """The parts of a relative image name, / or \\ between them."""
+    return [p for p in name.replace("\\", "/").split("/") if p and p != "."]
+
+
+def _below(folder: Path, parts: list[str]) -> Path | None:
+    """The file at `parts` below `folder`, each part found in its folder's listing (so that
+    '..' or an absolute name never leads out of it); None where a part is missing."""
+    here = folder
+    for i, part in enumerate(parts):
+        try:
+            entries = {q.name: q for q in here.iterdir()}
+        except OSError:
+            return None
+        q = entries.get(part)
+        if q is None:
+            return None
+        if i == len(parts) - 1:
+            return q if q.is_file() else None
+        if not q.is_dir():
+            return None
+        here = q
     return None
 
 
@@ -112,8 +151,7 @@ def chip_png(block: Block, folders: list[Path], photo: str, ray: dict,
     from PIL import Image, ImageDraw, UnidentifiedImageError
 
     i = block.photos.ids.index(photo)
-    named = block.photos.image[i] if block.photos.image is not None else ""
-    path = find_image(folders, photo, named or "", block.source)
+    path = image_of(block, folders, photo)
     if path is None:
         raise NoImage(f"no image of photo {photo}")
     cam = int(block.photos.camera[i])

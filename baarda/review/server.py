@@ -20,7 +20,7 @@ from pathlib import Path
 
 from aiohttp import web
 
-from baarda.review.chips import NoImage, chip_png, find_image
+from baarda.review.chips import NoImage, chip_png, image_of
 from baarda.review.edits import UnknownId
 from baarda.review.session import ReviewSession
 
@@ -109,7 +109,8 @@ def make_app(session: ReviewSession, token: str, *, folders: Sequence[Path] = ()
         rays = _locked(session, session.rays, point)
         for r in rays:  # whether a chip can be asked for (the page asks only then)
             if r["photo"] not in has_image:
-                has_image[r["photo"]] = find_image(list(folders), r["photo"]) is not None
+                has_image[r["photo"]] = image_of(session.block, list(folders),
+                                                   r["photo"]) is not None
             r["image"] = has_image[r["photo"]]
         return web.json_response({"point": point, "rays": rays})
 

@@ -146,3 +146,32 @@ def test_dbat_measurements_map_back_to_their_pixels():
     # the camera's image: 8858 x 12996 pixels (sxb.xml)
     assert to_pixel(frame, 8858, 12996, *block.image.xy_mm[k]) == pytest.approx(
         (float(col), float(row)), abs=1e-6)
+
+
+def test_colmap_image_names_with_folders_under_images(tmp_path):
+    """COLMAP: an image named "cam1/a.png" is found at images/cam1/a.png beside the model's
+    sparse/0 (measurements in pixels, the first pixel's centre at 0.5); a name that would
+    lead out of images/ ("../x.png") is not followed."""
+    import baarda
+    from baarda.review.chips import find_image, image_of
+
+    for name in ("cam1/a.png", "cam1/b.png"):
+        image_with_dot(tmp_path / "images" / name)
+    image_with_dot(tmp_path / "outside.png")
+    sparse = tmp_path / "sparse" / "0"
+    sparse.mkdir(parents=True)
+    (sparse / "cameras.txt").write_text(f"1 SIMPLE_PINHOLE {W} {H} 1000 {W / 2} {H / 2}\n")
+    u, v = DOT[0] + 0.5, DOT[1] + 0.5
+    (sparse / "images.txt").write_text(
+        f"1 1 0 0 0 0 0 10 1 cam1/a.png\n{u} {v} 1\n"
+        f"2 1 0 0 0 -1 0 10 1 cam1/b.png\n{u} {v} 1\n")
+    (sparse / "points3D.txt").write_text("1 0 0 0 255 255 255 0.1 1 0 2 0\n")
+    block = baarda.read(str(sparse))
+    photo = block.photos.ids[0]
+    folders = image_folders(sparse)
+    # what the page asks before it shows a chip (server.py) and what the chip reads
+    assert image_of(block, folders, photo) == tmp_path.resolve() / "images" / "cam1" / "a.png"
+    x, y = block.image.xy_mm[0]
+    check_mark_on_dot(block, photo, x, y, folders)
+    assert find_image(folders, "../outside.png") is None
+    assert find_image(folders, "cam1/../../outside.png") is None
