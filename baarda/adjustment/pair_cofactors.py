@@ -205,45 +205,52 @@ def _by_frame(keys: np.ndarray, nf: int) -> tuple[np.ndarray, np.ndarray]:
     return ptr.astype(np.int64), order.astype(np.int64)
 
 
+def _row_blocks_of(r, nobs, k, obs, point, ptr, frame_sorted, colof, blocks):
+    """The distinct nonzero column blocks of row r of B into `blocks`, their count: the
+    frames that see the point of an image row (a frame with two rays to it once), block 0
+    (the frame's own) for an extra row."""
+    if r >= nobs * k:
+        blocks[0] = 0
+        return 1
+    p = point[obs[r // k]]
+    n = 0
+    for t in range(ptr[p], ptr[p + 1]):
+        blk = colof[frame_sorted[t]]
+        seen = False
+        for u in range(n):
+            seen = seen or blocks[u] == blk
+        if not seen:
+            blocks[n] = blk
+            n += 1
+    return n
+
+
+_row_blocks = kernel(_row_blocks_of, inline="always")
+
+
 @kernel
 def _sandwich(bm, sig, nobs, k, b, obs, point, ptr, frame_sorted, colof):
     """(nr, nr) q with q[r, s] = (bm sig bm^T)[r, s] for r < s (the rest zero) over the
-    nonzero column blocks of each row of bm only: those of the frames that see the point of
-    an image row (obs: the frame's observations, k rows each; colof: a frame's block; a
-    frame with two rays to the point counted once), the frame's own (block 0) for an extra
-    row.  In an aerial block a row has about 5 of the 20-25 blocks: a fifth of the dense
-    product's work, without a BLAS call per frame."""
+    nonzero column blocks of each row of bm only (_row_blocks; obs: the frame's
+    observations, k rows each; colof: a frame's block).  In an aerial block a row has about
+    5 of the 20-25 blocks: a fifth of the dense product's work, without a BLAS call per
+    frame."""
     nr, nc = bm.shape
-    seen = np.full(nc // b, -1, np.int64)
+    blocks = np.empty(nc // b, np.int64)
     wm = np.zeros((nr, nc))  # bm sig
     for r in range(nr):
-        image = r < nobs * k
-        p = point[obs[r // k]] if image else 0
-        t0, t1 = (ptr[p], ptr[p + 1]) if image else (0, 1)
-        for t in range(t0, t1):
-            blk = colof[frame_sorted[t]] if image else 0
-            if seen[blk] == r:
-                continue
-            seen[blk] = r
-            for x in range(blk * b, blk * b + b):
+        for i in range(_row_blocks(r, nobs, k, obs, point, ptr, frame_sorted, colof, blocks)):
+            for x in range(blocks[i] * b, blocks[i] * b + b):
                 v = bm[r, x]
                 if v != 0.0:
                     for y in range(nc):
                         wm[r, y] += v * sig[x, y]
-    seen[:] = -1
     q = np.zeros((nr, nr))
     for s in range(1, nr):
-        image = s < nobs * k
-        p = point[obs[s // k]] if image else 0
-        t0, t1 = (ptr[p], ptr[p + 1]) if image else (0, 1)
-        for t in range(t0, t1):
-            blk = colof[frame_sorted[t]] if image else 0
-            if seen[blk] == s:
-                continue
-            seen[blk] = s
+        for i in range(_row_blocks(s, nobs, k, obs, point, ptr, frame_sorted, colof, blocks)):
             for r in range(s):
                 acc = 0.0
-                for x in range(blk * b, blk * b + b):
+                for x in range(blocks[i] * b, blocks[i] * b + b):
                     acc += wm[r, x] * bm[s, x]
                 q[r, s] += acc
     return q
