@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from degenerate_blocks import flat_strip_camera_per_photo
 
 from baarda.block.photo_block import GnssObservations, ImuObservations
 from baarda.bundle.bundle_problem import BundleProblem
@@ -151,18 +152,10 @@ def test_a_divergence_names_the_unknowns_that_are_not_determined():
     the block has a datum defect' (whatever the datum held).  It now names the unknowns
     whose columns are dependent (the null space of the photo's block of the reduced normal
     equations), and they are: the image Jacobian's columns of X0 and x0 are parallel."""
-    from baarda.block.photo_block import Cameras
     from baarda.errors import GeometryError
     from baarda.pipeline import prepare
 
-    b, _ = simulate_block(FlightPlan(strips=1, photos_per_strip=3, pattern=3, control="none",
-                                     height_chains=0, relief_m=0.0, seed=2))
-    n, c = len(b.photos), b.cameras
-    cams = Cameras([f"cam{p}" for p in b.photos.ids], np.repeat(c.focal_mm, n),
-                   np.repeat(c.principal_point_mm, n, axis=0))
-    b = replace(b, cameras=cams, photos=replace(b.photos, camera=np.arange(n)),
-                settings=replace(b.settings, datum="free",
-                                 calibration_free=(("c", "x0", "y0"),) * n))
+    b = flat_strip_camera_per_photo()
     p = prepare(b)
     with pytest.raises(GeometryError) as e:
         p.fit()

@@ -2,12 +2,11 @@
 of its message, which name camera parameters where the photo's own are free): the on-line
 bundle leaves that photo out and factors the block again, at the start and on a removal."""
 
-from dataclasses import replace
 
 import numpy as np
 import pytest
+from degenerate_blocks import flat_strip_camera_per_photo
 
-from baarda.block.photo_block import Cameras
 from baarda.bundle.bundle_problem import BundleProblem
 from baarda.errors import GeometryError
 from baarda.online.bundle import OnlineBundle
@@ -29,14 +28,7 @@ def test_the_schur_factor_names_the_frame_it_cannot_determine():
     error carries the photo (frame 1, 01002)."""
     from baarda.pipeline import prepare
 
-    b, _ = simulate_block(FlightPlan(strips=1, photos_per_strip=3, pattern=3, control="none",
-                                     height_chains=0, relief_m=0.0, seed=2))
-    n, c = len(b.photos), b.cameras
-    cams = Cameras([f"cam{p}" for p in b.photos.ids], np.repeat(c.focal_mm, n),
-                   np.repeat(c.principal_point_mm, n, axis=0))
-    b = replace(b, cameras=cams, photos=replace(b.photos, camera=np.arange(n)),
-                settings=replace(b.settings, datum="free",
-                                 calibration_free=(("c", "x0", "y0"),) * n))
+    b = flat_strip_camera_per_photo()
     with pytest.raises(GeometryError, match="cannot be told apart") as e:
         prepare(b).fit()
     assert "is not determined:" not in str(e.value)
