@@ -1,13 +1,9 @@
 """What a process of baarda needs before anything else is imported: the standard streams
-(closed ones replaced by the null device), the memory limit (ulimit -v) it runs under, the
-exit codes (used by __main__ and the command line; no import of baarda's own) and a section
-that Ctrl-C and SIGTERM wait for (`signals_held`)."""
+(closed ones replaced by the null device), the memory limit (ulimit -v) it runs under and
+the exit codes (used by __main__ and the command line; no import of baarda's own)."""
 
 import os
-import signal
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 
 # exit codes (the parser's epilog, README; cli/common.py and __main__ import them): 130 and
 # 143 are 128 + the number of SIGINT and SIGTERM, as a shell reports a process those
@@ -83,18 +79,3 @@ def quiet_unraisable_memory_errors() -> None:
 
     sys.unraisablehook = hook
 
-
-@contextmanager
-def signals_held() -> Iterator[None]:
-    """SIGINT and SIGTERM held back (blocked) while the block runs, delivered when it ends:
-    a step and the record that it was done (a run folder moved into place) happen both or
-    neither.  Where signals cannot be blocked (no pthread_sigmask), the block runs as is."""
-    try:
-        held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-    except (AttributeError, OSError, ValueError):
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)

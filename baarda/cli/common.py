@@ -178,7 +178,7 @@ def open_run(args, inputs: list[Path]) -> Iterator[RunFolder]:
         with run:
             yield run
     finally:
-        if run.placed:  # a Ctrl-C from now on comes after the results were written
+        if run.placed():  # a Ctrl-C from now on comes after the results were written
             con.results_in_place = run.final
     for text in run.warnings:
         con.warn(text)

@@ -42,7 +42,6 @@ from pathlib import Path
 
 from baarda.errors import OutputError, ProjectError
 from baarda.io.run_manifest import MANIFEST, file_record
-from baarda.process import signals_held
 
 try:
     import fcntl
@@ -305,7 +304,6 @@ class RunFolder:
             raise place_error(self.final, e, "cannot write the output folder here") from None
         self._lock = _lock(self.path)
         self.done = False
-        self.placed = False  # the run's files are in the output folder (commit)
         self.kept: list[str] = []
         self._refuse_if_busy(self.run_id)  # two that started at once: the later one
 
@@ -379,6 +377,15 @@ class RunFolder:
         name = Path(e.filename).relative_to(self.path)
         return OutputError(e.errno, e.strerror or str(e), str(self.given / name))
 
+    def placed(self) -> bool:
+        """Whether the output folder holds this run (its run.json names this run's id): read
+        from the folder, so that an interruption at any moment of the move is told right."""
+        try:
+            doc = json.loads((self.final / MANIFEST).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return False
+        return isinstance(doc, dict) and doc.get("run") == self.run_id
+
     def discard(self) -> None:
         """Remove the staging folder; the output folder is left as it was."""
         shutil.rmtree(self.path, ignore_errors=True)
@@ -415,13 +422,11 @@ class RunFolder:
                 held = _lock(self.final)  # moved aside under a lock: not a leftover
                 old = self.final.parent / f".{self.final.name}.{self.run_id}.old"
                 os.replace(self.final, old)
-            with signals_held():  # in place and known to be: both or neither
-                os.replace(self.path, self.final)
-                self.placed = True
+            os.replace(self.path, self.final)
         except BaseException as e:
             if old is not None and old.exists() and not self.final.exists():
                 os.replace(old, self.final)  # the earlier run back in its place
-            elif old is not None and self.placed:  # interrupted as the run went in place
+            elif old is not None and self.placed():  # interrupted as the run went in place
                 shutil.rmtree(old, ignore_errors=True)
             _unlock(held)
             self.discard()

@@ -183,8 +183,8 @@ def test_an_earlier_run_that_cannot_be_removed_is_a_warning(tmp_path, capsys, mo
 @pytest.mark.parametrize("when", ["printing", "moving"])
 def test_ctrl_c_after_the_results_went_in_place_says_they_are_written(tmp_path, monkeypatch,
                                                                      capsys, when):
-    """Ctrl-C once the run's folder is in place (while the summary is printed, or as the
-    folder is moved there: the signal waits for the move and its record): exit 130, and the
+    """Ctrl-C once the run's folder is in place (while the summary is printed, or just as the
+    folder is moved there: the folder's run.json tells whose run it holds): exit 130, and the
     message says the folder holds this run, complete, not that nothing was written."""
     import baarda.output.run_folder as run_folder
     from baarda.cli.console import Console
@@ -203,7 +203,7 @@ def test_ctrl_c_after_the_results_went_in_place_says_they_are_written(tmp_path, 
         def replace_then_ctrl_c(src, dst):
             replace(src, dst)
             if Path(dst) == out:
-                os.kill(os.getpid(), signal.SIGINT)  # held until the move is recorded
+                os.kill(os.getpid(), signal.SIGINT)  # the move is done, the caller not told yet
 
         monkeypatch.setattr(run_folder.os, "replace", replace_then_ctrl_c)
     assert main(["adjust", str(DEMO), "-o", str(out)]) == 130
