@@ -1,6 +1,8 @@
 """Numbers unchanged by a performance change (issue 40): run `baarda adjust` on the README's
 demo (--snoop) and on BAL Ladybug-49 (--calibrate none, the benchmark's options), and compare
-the result folders with a reference made before the change.
+the result folders with a reference made before the change; and a simulated BAL problem of
+100 cameras with f, k1, k2 free (bench_bal_scale.simulate, seed 1: cameras.csv and the
+calibration's entries of summary.json).
 
     PYTHONPATH=$PWD python benchmarks/compare_results.py --save /tmp/before   # before
     PYTHONPATH=$PWD python benchmarks/compare_results.py --against /tmp/before  # after
@@ -26,8 +28,9 @@ LADYBUG = Path("/work/shared/data/bal/problem-49-7776-pre.txt.bz2")
 JOBS = {
     "demo": [str(ROOT / "examples" / "demo"), "--snoop"],
     "ladybug49": [str(LADYBUG), "--calibrate", "none"],
+    "bal100": [str(Path(tempfile.gettempdir()) / "baarda-compare-bal100.txt")],
 }
-TABLES = ("observations.csv", "photos.csv", "points.csv")
+TABLES = ("observations.csv", "photos.csv", "points.csv", "cameras.csv")
 DURATION = re.compile(r"\d+(\.\d+)? s\b")
 
 
@@ -43,6 +46,11 @@ def stable(value):
 
 
 def run(job: str, out: Path) -> None:
+    if job == "bal100" and not Path(JOBS[job][0]).exists():
+        sys.path.insert(0, str(ROOT / "benchmarks"))
+        from bench_bal_scale import simulate, write
+
+        write(simulate(100), Path(JOBS[job][0]))
     cmd = [sys.executable, "-m", "baarda", "adjust", *JOBS[job], "-o", str(out), "-q"]
     rc = subprocess.run(cmd, cwd=ROOT).returncode
     if rc not in (0, 3):  # 3: not converged is a result too

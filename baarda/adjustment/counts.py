@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -14,13 +15,16 @@ if TYPE_CHECKING:
 class AdjustmentCounts:
     """Mixin: observation and unknown counts, vTPv and sigma0 from `lin` and `problem.system`.
 
-    Components with zero weight (not observed, or rejected) are not observations.
+    Components with zero weight (not observed, or rejected) are not observations.  The
+    counts and vTPv are computed once per result (a result is immutable): a table that
+    asks sigma0 for each of thousands of cameras must not sum the whole observation
+    vector each time.
     """
 
     problem: SchurProblem
     lin: Linearization
 
-    @property
+    @cached_property
     def n_observations(self) -> int:
         n = np.count_nonzero(self.lin.w) + np.count_nonzero(self.lin.wc)
         if self.lin.wx is not None:
@@ -48,7 +52,7 @@ class AdjustmentCounts:
     def redundancy(self) -> int:
         return self.n_observations - self.n_unknowns
 
-    @property
+    @cached_property
     def vtpv(self) -> float:
         """v'Pv over every observation: image (or model) rows, control, and the extra rows
         (GNSS, IMU, distances, observations of border points); the direct constraints that

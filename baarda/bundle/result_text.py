@@ -166,9 +166,11 @@ def calibration_lines(res: BundleResult) -> list[str]:
     """The estimated camera parameters with standard deviations, and the high
     correlations (the significance tests are in the quality section)."""
     lines = []
-    table = camera_table(res)
+    by_camera: dict[str, list[dict]] = {}
+    for r in camera_table(res):
+        by_camera.setdefault(r["camera"], []).append(r)
     for cid in res.block.cameras.ids:
-        rows = [r for r in table if r["camera"] == cid]
+        rows = by_camera[cid]
         est = [f"{r['parameter']} {r['value']:.6g} +- {r['sigma']:.2g}" for r in rows
                if r["estimated"]]
         held = [f"{r['parameter']} {r['value']:.6g}" for r in rows

@@ -21,7 +21,7 @@ from baarda.output.accuracy import (
 )
 from baarda.output.results import input_fingerprint, summary_document, write_folder
 from baarda.output.run_folder import RunFolder
-from baarda.quality.assessment import Assessment, observation_table
+from baarda.quality.assessment import Assessment, observation_columns
 
 
 def photos_table(result: BundleResult) -> pd.DataFrame:
@@ -138,10 +138,10 @@ def write_results(out: str | Path | RunFolder, result: Assessment[BundleResult] 
     blk = res.block
     cam = res.cameras  # as adjusted (self-calibration) or as given
     if qc is not None:
-        part, sections, obs = qc.to_dict(), qc.sections(), qc.table()
+        part, sections, obs = qc.to_dict(), qc.sections(), qc.columns()
     else:
         part, sections = {"adjustment": "bundle", **res.to_dict()}, res.sections()
-        obs = observation_table(BundleModel(res))
+        obs = observation_columns(BundleModel(res))
     crs = None
     if blk.frame is not None:  # adjusted in a local frame of a CRS
         c = blk.frame.crs

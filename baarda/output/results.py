@@ -21,7 +21,14 @@ import pandas as pd
 
 from baarda.output.atomic import write_text
 from baarda.output.run_folder import RunFolder, staged
-from baarda.output.tables import json_text, write_csv, write_parquet
+from baarda.output.tables import (
+    Table,
+    as_frame,
+    json_text,
+    n_rows,
+    write_csv,
+    write_parquet,
+)
 from baarda.sections import Section
 
 
@@ -71,16 +78,18 @@ def input_fingerprint(source: str | Path | None) -> dict | None:
     return {"path": str(source), "files": len(files), "bytes": size, "sha256": h.hexdigest()}
 
 
-def observation_groups(obs: pd.DataFrame) -> dict[str, dict[str, str]]:
+def observation_groups(obs: Table) -> dict[str, dict[str, str]]:
     """kind -> component -> the observation group of those components (control and GNSS by
     axis, model coordinates in planimetry and height, any other kind by itself:
     quality.adjusted_model.kind_groups), for summary.json 'observation_groups': the report
     draws a histogram of w per group from it."""
     from baarda.quality.adjusted_model import kind_groups
 
-    if not {"kind", "component"} <= set(obs.columns) or not len(obs):
+    names = set(obs.columns) if isinstance(obs, pd.DataFrame) else set(obs)
+    if not {"kind", "component"} <= names or not n_rows(obs):
         return {}
-    pairs = obs[["kind", "component"]].astype(str).drop_duplicates()
+    pairs = as_frame({"kind": obs["kind"], "component": obs["component"]}).astype(str) \
+        .drop_duplicates()
     group = kind_groups(pairs["kind"].to_numpy(object), pairs["component"].to_numpy(object))
     out: dict[str, dict[str, str]] = {}
     for k, c, g in zip(pairs["kind"], pairs["component"], np.asarray(group, str), strict=True):
@@ -89,7 +98,7 @@ def observation_groups(obs: pd.DataFrame) -> dict[str, dict[str, str]]:
 
 
 def write_folder(out: str | Path | RunFolder, summary: dict,
-                 tables: Mapping[str, pd.DataFrame],
+                 tables: Mapping[str, Table],
                  texts: Mapping[str, str] | None = None) -> list[Path]:
     """summary.json (with the run id under 'run'), the tables (CSV, or Parquet when the
     name ends in .parquet) and any texts, as one run of the folder `out`

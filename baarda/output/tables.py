@@ -16,9 +16,10 @@ import csv
 import io
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import Any, TypeAlias
 
 import numpy as np
 import pandas as pd
@@ -28,6 +29,11 @@ from baarda.io.table import FORMULA_START
 CHUNK_ROWS = 8_192  # rows formatted and joined at a time (32,768: +129 MB transient at
 # 143,242 rows of 25 columns, 8,192: +53 MB, as fast; benchmarks/README.md round three)
 THREAD_ROWS = 100_000  # tables from this many rows on format their columns in threads
+
+#: a table as columns (name -> an array of one value per row, or one value for every row),
+#: in order: the observation table is written from the result's arrays without a DataFrame
+Columns: TypeAlias = Mapping[str, Any]
+Table: TypeAlias = "pd.DataFrame | Columns"
 
 
 def csv_text(df: pd.DataFrame, float_format: str | None = None) -> str:
@@ -41,7 +47,7 @@ def csv_text(df: pd.DataFrame, float_format: str | None = None) -> str:
     return buf.getvalue()
 
 
-def write_csv(path: str | Path, df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS,
+def write_csv(path: str | Path, df: Table, chunk_rows: int = CHUNK_ROWS,
               excel_safe: bool = False) -> None:
     """Write a result table as CSV (csv_chunks' bytes) atomically, chunk by chunk."""
     from baarda.output.atomic import atomic_open
@@ -50,13 +56,13 @@ def write_csv(path: str | Path, df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS,
     with atomic_open(path, "wb") as f:
         for chunk in chunks:
             f.write(chunk)
-    if len(df) >= THREAD_ROWS:  # the cells' memory back to the system, not kept by pyarrow
+    if n_rows(df) >= THREAD_ROWS:  # the cells' memory back to the system, not kept by pyarrow
         import pyarrow as pa
 
         pa.default_memory_pool().release_unused()
 
 
-def write_parquet(path: str | Path, df: pd.DataFrame) -> None:
+def write_parquet(path: str | Path, df: Table) -> None:
     """Write a table as Parquet (pyarrow, zstd; numbers as stored, float64 exactly),
     atomically."""
     import pyarrow as pa
@@ -64,7 +70,7 @@ def write_parquet(path: str | Path, df: pd.DataFrame) -> None:
 
     from baarda.output.atomic import atomic_open
 
-    table = pa.Table.from_pandas(df, preserve_index=False)
+    table = pa.Table.from_pandas(as_frame(df), preserve_index=False)
     with atomic_open(path, "wb") as f:
         pq.write_table(table, f, compression="zstd", row_group_size=1 << 20)
 
@@ -115,6 +121,12 @@ def _quoted_text(arr):
     return pc.if_else(special, enclosed, arr)
 
 
+def _texts(values) -> list[str | None]:
+    """Objects of mixed types as text cells: None and NaN empty, anything else str()."""
+    return [None if v is None or (isinstance(v, float) and v != v) else str(v)
+            for v in values]
+
+
 def cells(s: pd.Series, excel_safe: bool = False):
     """The CSV cells of one column as a pyarrow string array (module docstring); text cells
     by `spreadsheet_cell` with `excel_safe`."""
@@ -130,12 +142,40 @@ def cells(s: pd.Series, excel_safe: bool = False):
         try:
             arr = pa.array(s, from_pandas=True)
         except (pa.ArrowInvalid, pa.ArrowTypeError):  # objects of mixed types
-            arr = pa.array([None if v is None or (isinstance(v, float) and v != v) else str(v)
-                            for v in s], pa.string())
+            arr = pa.array(_texts(s), pa.string())
         if isinstance(arr, pa.ChunkedArray):
             arr = arr.combine_chunks()
         if pa.types.is_dictionary(arr.type):
             arr = arr.dictionary_decode()
+    return _arrow_cells(arr, excel_safe)
+
+
+def array_cells(a: np.ndarray, excel_safe: bool = False):
+    """`cells` of a NumPy array (a column of a table given as arrays, `Columns`): the same
+    text as the column in a DataFrame gives; an object array holds text (str, None or NaN
+    for an empty cell; any other object as str())."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    if a.dtype.kind == "f":
+        arr = pa.array(a.astype(np.float64, copy=False), from_pandas=True)
+    elif a.dtype == np.bool_:
+        return pc.if_else(pa.array(a), "True", "False")
+    elif a.dtype.kind in "OUS":
+        try:
+            arr = pa.array(a, pa.string(), from_pandas=True)
+        except (pa.ArrowInvalid, pa.ArrowTypeError):
+            arr = pa.array(_texts(a), pa.string())
+    else:
+        arr = pa.array(a)
+    return _arrow_cells(arr, excel_safe)
+
+
+def _arrow_cells(arr, excel_safe: bool):
+    """A pyarrow array as CSV cells (module docstring)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
     t = arr.type
     if pa.types.is_boolean(t):
         arr = pc.if_else(arr, "True", "False")
@@ -149,31 +189,60 @@ def cells(s: pd.Series, excel_safe: bool = False):
     return pc.fill_null(arr, "")
 
 
-def csv_chunks(df: pd.DataFrame, chunk_rows: int = CHUNK_ROWS,
+def n_rows(table: Table) -> int:
+    """The rows of a table given as a DataFrame or as `Columns`."""
+    if isinstance(table, pd.DataFrame):
+        return len(table)
+    return next((len(v) for v in table.values() if np.ndim(v)), 1 if table else 0)
+
+
+def as_frame(table: Table) -> pd.DataFrame:
+    """A table as a DataFrame (`Columns`: its arrays, a text the same in every row
+    broadcast)."""
+    if isinstance(table, pd.DataFrame):
+        return table
+    return pd.DataFrame(dict(table), columns=list(table), index=pd.RangeIndex(n_rows(table)))
+
+
+def csv_chunks(df: Table, chunk_rows: int = CHUNK_ROWS,
                excel_safe: bool = False) -> Iterator[bytes]:
     """The CSV bytes of a result table: the header, then `chunk_rows` rows at a time (each
     chunk's cells formatted when it is written: the text of the whole table is never held;
-    a column of Python objects, whose type only the whole column decides, at once); text
-    cells spreadsheet-safe with `excel_safe` (`spreadsheet_cell`)."""
-    yield _csv_row([str(c) for c in df.columns]).encode("utf-8")
-    if df.shape[1] == 0 or len(df) == 0:
+    a DataFrame's column of Python objects, whose type only the whole column decides, at
+    once; a `Columns`' text, whose every cell is text, chunk by chunk); text cells
+    spreadsheet-safe with `excel_safe` (`spreadsheet_cell`)."""
+    names = [str(c) for c in df.columns] if isinstance(df, pd.DataFrame) else list(df)
+    yield _csv_row(names).encode("utf-8")
+    n = n_rows(df)
+    if not names or n == 0:
         return
     import pyarrow.compute as pc
 
-    series = [df.iloc[:, j] for j in range(df.shape[1])]
-    whole = {j: cells(s, excel_safe) for j, s in enumerate(series) if s.dtype == object}
-    pool = ThreadPoolExecutor(min(len(series), os.cpu_count() or 1)) \
-        if len(df) >= THREAD_ROWS and len(series) > 1 else None
+    column: Callable[[int, int], Any]
+    if isinstance(df, pd.DataFrame):
+        series = [df.iloc[:, j] for j in range(df.shape[1])]
+        whole = {j: cells(s, excel_safe) for j, s in enumerate(series) if s.dtype == object}
 
-    def column(j: int, r0: int):
-        if j in whole:
-            return whole[j].slice(r0, chunk_rows)
-        return cells(series[j].iloc[r0: r0 + chunk_rows], excel_safe)
+        def column(j: int, r0: int):
+            if j in whole:
+                return whole[j].slice(r0, chunk_rows)
+            return cells(series[j].iloc[r0: r0 + chunk_rows], excel_safe)
+    else:
+        values = list(df.values())
 
+        def column(j: int, r0: int):
+            v = values[j]
+            if np.ndim(v):
+                return array_cells(np.asarray(v)[r0: r0 + chunk_rows], excel_safe)
+            return array_cells(np.full(min(chunk_rows, n - r0), v,  # the same in every row
+                                       object if isinstance(v, str) else None), excel_safe)
+
+    pool = ThreadPoolExecutor(min(len(names), os.cpu_count() or 1)) \
+        if n >= THREAD_ROWS and len(names) > 1 else None
     try:
-        for r0 in range(0, len(df), chunk_rows):
-            js = range(len(series))
-            parts = list(pool.map(column, js, [r0] * len(series))) if pool else \
+        for r0 in range(0, n, chunk_rows):
+            js = range(len(names))
+            parts = list(pool.map(column, js, [r0] * len(names))) if pool else \
                 [column(j, r0) for j in js]
             if len(parts) == 1:  # a row of one empty cell is written "" (not a blank line)
                 parts[0] = pc.if_else(pc.equal(parts[0], ""), '""', parts[0])

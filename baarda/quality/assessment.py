@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Generic, Protocol, TypeVar
 
 import numpy as np
@@ -110,6 +111,15 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
                       name: str = "bundle") -> pd.DataFrame:
     """The observation table (COLUMNS) of a model: residuals, and the statistics of `q`
     (NaN without them: an adjustment written without quality control)."""
+    return pd.DataFrame(observation_columns(model, q, name), columns=list(COLUMNS))
+
+
+def observation_columns(model: AdjustedModel, q: QualityResult | None = None,
+                        name: str = "bundle") -> dict[str, np.ndarray | str]:
+    """`observation_table`'s columns (COLUMNS, in order) as arrays of one row per component
+    (a text the same in every row as one str), without a DataFrame: the writers format
+    them chunk by chunk (output/tables.py), so that a table of millions of rows is never
+    held as a whole a second time."""
     m = model
     kinds, which = np.unique(np.asarray(m.kind, dtype=str), return_inverse=True)
     scale = np.array([m.units.get(str(k), (1.0, ""))[0] for k in kinds], float)[which]
@@ -143,7 +153,7 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
             cols.update({"rho_max": q.rho_max, "msb": q.msb * scale,
                          "rho_partner": partner_labels(m, q.rho_partner)})
     cols.setdefault("rho_partner", empty)
-    return pd.DataFrame({c: cols.get(c, nan) for c in COLUMNS}, columns=list(COLUMNS))
+    return {c: cols.get(c, nan) for c in COLUMNS}
 
 
 def partner_labels(model: AdjustedModel, partner: np.ndarray) -> np.ndarray:
@@ -201,13 +211,23 @@ class Assessment(Generic[A]):
         """A non-conventional alternative hypothesis: h (n, q) over the observation vector."""
         return hypothesis_test(self.model, h, name, self.quality.tests)
 
+    @cached_property
+    def separability(self) -> dict:
+        """summary.json's "separability" (quality/separability_report.py; {} without the
+        separability), computed once: the summary and summary.json both state it."""
+        return separability_dict(self.model, self.quality)
+
     # ------------------------------------------------------------ tables
     def table(self) -> pd.DataFrame:
         """One row per observation component (observations.csv), in the model's units."""
-        df = observation_table(self.model, self.quality, self.name)
-        for k, v in self.extra_columns().items():
-            df[k] = v
-        return df
+        cols = self.columns()
+        return pd.DataFrame(cols, columns=list(cols))
+
+    def columns(self) -> dict[str, np.ndarray | str]:
+        """`table()`'s columns as arrays (observation_columns), the method's own after the
+        common ones: what the writers format, chunk by chunk."""
+        return {**observation_columns(self.model, self.quality, self.name),
+                **self.extra_columns()}
 
     def extra_columns(self) -> dict[str, np.ndarray]:
         """Method-specific columns after the common ones (none by default)."""
@@ -242,8 +262,7 @@ class Assessment(Generic[A]):
             "n_rejected": int(np.sum(~q.active)),
             "n_flagged": int(np.sum(q.flagged)),
             "n_uncontrolled": int(np.sum(q.active & ~q.controlled)),
-            **({"separability": separability_dict(self.model, q)}
-               if q.rho_max is not None else {}),
+            **({"separability": self.separability} if q.rho_max is not None else {}),
             "rejection_log": [] if self.run is None else
             [self._log_entry(s) for s in self.run.log],
             "snooping_converged": None if self.run is None else self.run.converged,
@@ -281,7 +300,8 @@ class Assessment(Generic[A]):
     def quality_sections(self) -> list[Section]:
         q = self.quality
         lines = (quality_lines(self.model, q, self.kind_suffix)
-                 + separability_lines(self.model, q) + self.extra_quality_lines())
+                 + separability_lines(self.separability, self.model.frame_kind)
+                 + self.extra_quality_lines())
         if self.run is not None:
             lines += self.run.summary_lines()
         params = [t for t in self.hypotheses if t.parameters]

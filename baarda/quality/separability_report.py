@@ -62,12 +62,12 @@ def separability_dict(model: AdjustedModel, q: QualityResult) -> dict:
         "uncontrolled_components": by_point, "two_ray_points": weak}
 
 
-def separability_lines(model: AdjustedModel, q: QualityResult) -> list[str]:
-    """The summary's lines: the counts, the uncontrolled components in words, the advice."""
-    d = separability_dict(model, q)
+def separability_lines(d: dict, fk: str) -> list[str]:
+    """The summary's lines from `separability_dict` (computed once per assessment: it
+    walks every observation): the counts, the uncontrolled components in words, the advice;
+    fk: the frame kind ("photo", "model")."""
     if not d or not d["tested"]:
         return []
-    fk = model.frame_kind
     lines = [f"separability: {d['not_separable']} of {d['tested']} tested components "
              f"({100 * d['share_not_separable']:.1f} %) are detectable but not separable "
              f"(their w-test correlated with a neighbour's at |rho| >= {RHO_INSEPARABLE}: "

@@ -185,3 +185,40 @@ def test_the_text_of_a_long_table_is_formatted_chunk_by_chunk():
         size += len(chunk)
         held = max(held, pa.total_allocated_bytes() - base)
     assert size > 8_000_000 and held < size / 4, (size, held)
+
+
+def test_a_table_given_as_columns_is_written_as_its_dataframe(monkeypatch):
+    """Issue 40 (memory): observations.csv is written from the result's arrays (a mapping of
+    columns, `tables.Columns`) without building a DataFrame; every cell is the text the same
+    table as a DataFrame gives: floats, NaN, bools, integers, text quoted or empty, one value
+    for every row, on chunk boundaries and in threads, and spreadsheet-safe."""
+    n = 2_345
+    i = np.arange(n)
+    cols = {"adjustment": "bundle", "v": values(n)[:n], "flag": i % 3 == 0, "count": i - 50,
+            "point": np.array([f"p{k}" if k % 97 else 'a,"b"' for k in i], dtype=object),
+            "empty": np.full(n, "", dtype=object),
+            "missing": np.array([None if k % 7 == 0 else ("=1+1" if k % 5 == 0 else "é")
+                                 for k in i], dtype=object),
+            "fixed": np.array(["x\ny" if k % 11 == 0 else "01001" for k in i]),
+            "mixed": np.array([1, "x", None, True] * (n // 4) + [1] * (n % 4), dtype=object),
+            "nan": np.full(n, np.nan)}
+    df = pd.DataFrame(cols)
+    frame_text = text(df, chunk_rows=500)
+    assert text(cols, chunk_rows=500) == frame_text
+    assert text(cols) == frame_text
+    assert b"".join(csv_chunks(cols, 300, excel_safe=True)) == \
+        b"".join(csv_chunks(df, 300, excel_safe=True))
+    assert "'=1+1" in b"".join(csv_chunks(cols, 300, excel_safe=True)).decode()
+    monkeypatch.setattr(tables, "THREAD_ROWS", 1)
+    assert text(cols, chunk_rows=100) == frame_text
+    assert tables.n_rows(cols) == n and tables.n_rows({}) == 0
+    assert text({"a": np.zeros(0)}) == "a\n"
+
+
+def test_the_observation_columns_are_the_observation_table(folders):
+    """qc.columns() (what the writer formats) holds table()'s columns, in order, and the
+    file written from them is the DataFrame's text."""
+    _, qc = folders
+    cols, df = qc.columns(), qc.table()
+    assert list(cols) == list(df.columns)
+    assert text(cols, chunk_rows=97) == text(df)
