@@ -23,7 +23,6 @@ from baarda.output.atomic import write_text
 from baarda.output.run_folder import RunFolder, staged
 from baarda.output.tables import (
     Table,
-    as_frame,
     json_text,
     n_rows,
     write_csv,
@@ -88,13 +87,34 @@ def observation_groups(obs: Table) -> dict[str, dict[str, str]]:
     names = set(obs.columns) if isinstance(obs, pd.DataFrame) else set(obs)
     if not {"kind", "component"} <= names or not n_rows(obs):
         return {}
-    pairs = as_frame({"kind": obs["kind"], "component": obs["component"]}).astype(str) \
-        .drop_duplicates()
-    group = kind_groups(pairs["kind"].to_numpy(object), pairs["component"].to_numpy(object))
+    kinds, comps = _distinct_pairs(np.asarray(obs["kind"], dtype=object),
+                                   np.asarray(obs["component"], dtype=object))
+    group = kind_groups(kinds, comps)
     out: dict[str, dict[str, str]] = {}
-    for k, c, g in zip(pairs["kind"], pairs["component"], np.asarray(group, str), strict=True):
+    for k, c, g in zip(kinds, comps, np.asarray(group, str), strict=True):
         out.setdefault(k, {})[c] = g
     return out
+
+
+def _distinct_pairs(kind: np.ndarray, comp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct (kind, component) pairs as text, in the order of their first row (a
+    few pairs among millions of rows: coded by pyarrow, without a string copy per row)."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    try:
+        k, c = (pc.dictionary_encode(pa.array(a, pa.string())) for a in (kind, comp))
+    except (pa.ArrowInvalid, pa.ArrowTypeError):  # not all text: as str()
+        k, c = (pc.dictionary_encode(pa.array(a.astype(str), pa.string()))
+                for a in (kind, comp))
+    ki, ci = (np.asarray(a.indices.fill_null(-1)).astype(np.int64) for a in (k, c))
+    code = (ki + 1) * (len(c.dictionary) + 1) + (ci + 1)
+    _, first = np.unique(code, return_index=True)
+    first.sort()
+    text = (np.array([str(v) for v in a.dictionary.to_pylist()] + ["None"], dtype=object)
+            for a in (k, c))
+    kt, ct = text
+    return kt[ki[first]], ct[ci[first]]
 
 
 def write_folder(out: str | Path | RunFolder, summary: dict,

@@ -30,8 +30,9 @@ CHUNK_ROWS = 8_192  # rows formatted and joined at a time (32,768: +129 MB trans
 # 143,242 rows of 25 columns, 8,192: +53 MB, as fast; benchmarks/README.md round three)
 THREAD_ROWS = 100_000  # tables from this many rows on format their columns in threads
 
-#: a table as columns (name -> an array of one value per row, or one value for every row),
-#: in order: the observation table is written from the result's arrays without a DataFrame
+#: a table as columns (name -> an array of one value per row, NumPy's or pyarrow's, or one
+#: value for every row), in order: the observation table is written from the result's
+#: arrays without a DataFrame
 Columns: TypeAlias = Mapping[str, Any]
 Table: TypeAlias = "pd.DataFrame | Columns"
 
@@ -189,11 +190,17 @@ def _arrow_cells(arr, excel_safe: bool):
     return pc.fill_null(arr, "")
 
 
+def _per_row(value) -> bool:
+    """Whether a `Columns` value holds one value per row (an array: NumPy's or pyarrow's),
+    not one value for every row."""
+    return hasattr(value, "__len__") and not isinstance(value, (str, bytes))
+
+
 def n_rows(table: Table) -> int:
     """The rows of a table given as a DataFrame or as `Columns`."""
     if isinstance(table, pd.DataFrame):
         return len(table)
-    return next((len(v) for v in table.values() if np.ndim(v)), 1 if table else 0)
+    return next((len(v) for v in table.values() if _per_row(v)), 1 if table else 0)
 
 
 def as_frame(table: Table) -> pd.DataFrame:
@@ -232,8 +239,12 @@ def csv_chunks(df: Table, chunk_rows: int = CHUNK_ROWS,
 
         def column(j: int, r0: int):
             v = values[j]
-            if np.ndim(v):
-                return array_cells(np.asarray(v)[r0: r0 + chunk_rows], excel_safe)
+            if isinstance(v, np.ndarray):
+                return array_cells(v[r0: r0 + chunk_rows], excel_safe)
+            if _per_row(v):  # a pyarrow array, or chunked array (text joined by pyarrow)
+                part = v.slice(r0, chunk_rows)
+                return _arrow_cells(part.combine_chunks() if hasattr(part, "combine_chunks")
+                                    else part, excel_safe)
             return array_cells(np.full(min(chunk_rows, n - r0), v,  # the same in every row
                                        object if isinstance(v, str) else None), excel_safe)
 

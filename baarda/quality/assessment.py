@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Generic, Protocol, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -29,7 +29,7 @@ from baarda.quality.hypotheses import (
     hypothesis_test,
     image_point_tests,
 )
-from baarda.quality.iterative import SnoopingRun, labels
+from baarda.quality.iterative import SnoopingRun, joined_labels, labels
 from baarda.quality.separability_report import separability_dict, separability_lines
 from baarda.quality.statistics import QualityResult
 from baarda.schema import OBSERVATION_COLUMNS
@@ -115,7 +115,7 @@ def observation_table(model: AdjustedModel, q: QualityResult | None = None,
 
 
 def observation_columns(model: AdjustedModel, q: QualityResult | None = None,
-                        name: str = "bundle") -> dict[str, np.ndarray | str]:
+                        name: str = "bundle") -> dict[str, Any]:
     """`observation_table`'s columns (COLUMNS, in order) as arrays of one row per component
     (a text the same in every row as one str), without a DataFrame: the writers format
     them chunk by chunk (output/tables.py), so that a table of millions of rows is never
@@ -156,13 +156,19 @@ def observation_columns(model: AdjustedModel, q: QualityResult | None = None,
     return {c: cols.get(c, nan) for c in COLUMNS}
 
 
-def partner_labels(model: AdjustedModel, partner: np.ndarray) -> np.ndarray:
-    """(n,) the snooping log's label of each component's most correlated partner, or ""."""
+def partner_labels(model: AdjustedModel, partner: np.ndarray):
+    """(n,) the snooping log's label of each component's most correlated partner, or "":
+    a pyarrow string array where the labels are joined by pyarrow (quality/iterative.py:
+    pandas and the writers take it as the same text), else an object array."""
+    has = partner >= 0
+    if not has.any():
+        return np.full(model.n, "", dtype=object)
+    joined = joined_labels(model, np.where(has, partner, 0), keep=has)
+    if joined is not None:
+        return joined
     out = np.full(model.n, "", dtype=object)
-    has = np.flatnonzero(partner >= 0)
-    if len(has):
-        uniq, inv = np.unique(partner[has], return_inverse=True)
-        out[has] = np.array(labels(model, uniq), dtype=object)[inv]
+    uniq, inv = np.unique(partner[has], return_inverse=True)
+    out[has] = np.array(labels(model, uniq), dtype=object)[inv]
     return out
 
 
@@ -223,7 +229,7 @@ class Assessment(Generic[A]):
         cols = self.columns()
         return pd.DataFrame(cols, columns=list(cols))
 
-    def columns(self) -> dict[str, np.ndarray | str]:
+    def columns(self) -> dict[str, Any]:
         """`table()`'s columns as arrays (observation_columns), the method's own after the
         common ones: what the writers format, chunk by chunk."""
         return {**observation_columns(self.model, self.quality, self.name),

@@ -181,6 +181,9 @@ INSEPARABLE = ("flag", "group")
 
 def labels(model: AdjustedModel, rows: np.ndarray) -> list[str]:
     """label() of many rows at once (the same words, without a call per row)."""
+    joined = joined_labels(model, rows)
+    if joined is not None:
+        return joined.to_pylist()
     rows = np.asarray(rows, np.int64)
     kind, frame, point, comp = (np.asarray(getattr(model, a), dtype=object)[rows].tolist()
                                 for a in ("kind", "frame", "point", "component"))
@@ -191,6 +194,55 @@ def labels(model: AdjustedModel, rows: np.ndarray) -> list[str]:
         pw = f" point {p}" if p or kind.named_point else ""
         out.append(f"{k}{fw}{pw} {c}")
     return out
+
+
+def joined_labels(model: AdjustedModel, rows: np.ndarray, keep: np.ndarray | None = None):
+    """`labels` as a pyarrow string array (chunked), joined in C: the partners of a million
+    rows in a fraction of the time, without a Python string each; rows where `keep` is
+    False get "".  None where a part is not text: then only `labels` says the words, row
+    by row."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    rows = np.asarray(rows, np.int64)
+    parts = [np.asarray(getattr(model, a), dtype=object)
+             for a in ("kind", "frame", "point", "component")]
+    out = []
+    for r0 in range(0, len(rows), LABEL_ROWS):  # the parts of a chunk at a time
+        at = rows[r0: r0 + LABEL_ROWS]
+        chunk = _joined(*(a[at] for a in parts))
+        if chunk is None:
+            return None
+        if keep is not None:
+            chunk = pc.if_else(pa.array(keep[r0: r0 + LABEL_ROWS]), chunk, "")
+        out.append(chunk)
+    return pa.chunked_array(out, pa.string())
+
+
+LABEL_ROWS = 1 << 16  # labels joined at a time (the parts of a chunk held, not the whole)
+
+
+def _joined(*parts: np.ndarray):
+    """`joined_labels` of the rows whose kind, frame, point and component are `parts`."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    try:
+        k, f, p, c = (pa.array(a, pa.string()) for a in parts)
+    except (pa.ArrowInvalid, pa.ArrowTypeError):
+        return None
+    if any(a.null_count for a in (k, f, p, c)):
+        return None
+    codes = pc.dictionary_encode(k)
+    kinds = [kind_of(name) for name in codes.dictionary.to_pylist()]
+    at = codes.indices.to_numpy(zero_copy_only=False)
+    on_photo = pa.array(np.array([x.on_photo for x in kinds], bool)[at])
+    named = pa.array(np.array([x.named_point for x in kinds], bool)[at])
+    fw = pc.if_else(pc.not_equal(f, ""), pc.binary_join_element_wise(
+        pc.if_else(on_photo, " photo ", " "), f, ""), "")
+    pw = pc.if_else(pc.or_(pc.not_equal(p, ""), named),
+                    pc.binary_join_element_wise(" point ", p, ""), "")
+    return pc.binary_join_element_wise(k, fw, pw, " ", c, "")
 
 
 def iterative_snooping(model: AdjustedModel, tests: TestOptions = DEFAULT_TESTS, *,

@@ -222,3 +222,23 @@ def test_the_observation_columns_are_the_observation_table(folders):
     cols, df = qc.columns(), qc.table()
     assert list(cols) == list(df.columns)
     assert text(cols, chunk_rows=97) == text(df)
+
+
+def test_observation_groups_in_the_order_of_the_first_row():
+    """summary.json's observation_groups: each distinct (kind, component) pair once, in the
+    order of its first row, as pandas' drop_duplicates of the text gives them (a kind that
+    is a number as its text)."""
+    from baarda.output.results import observation_groups
+
+    kind = np.array(["image", "control", "image", "gnss", "control", 3.0, "image"] * 50,
+                    dtype=object)
+    comp = np.array(["x", "Z", "y", "X", "X", "x", "x"] * 50, dtype=object)
+    groups = observation_groups({"kind": kind, "component": comp})
+    pairs = pd.DataFrame({"kind": kind, "component": comp}).astype(str).drop_duplicates()
+    assert list(groups) == list(dict.fromkeys(pairs["kind"])) == \
+        ["image", "control", "gnss", "3.0"]
+    assert {k: list(cs) for k, cs in groups.items()} == \
+        {k: list(pairs["component"][pairs["kind"] == k]) for k in groups}
+    assert groups["control"] == {"Z": "control Z", "X": "control X"}  # control by axis
+    text_only = {"kind": kind[:4].astype(str), "component": comp[:4].astype(str)}
+    assert list(observation_groups(text_only)) == ["image", "control", "gnss"]
