@@ -19,7 +19,7 @@ together.  The solver changes nothing it is given; each call returns a new Solut
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Protocol
 
 import numpy as np
@@ -28,6 +28,9 @@ from baarda.errors import GeometryError
 from baarda.options import SolveOptions
 
 DEFAULT_OPTIONS = SolveOptions()
+# Levenberg-Marquardt where Gauss-Newton diverged (solve_continued): its damping at the start
+# and its iteration limit (the bundle's SOLVE_LM)
+CONTINUATION = SolveOptions(max_iterations=100, damping=1e-3)
 MAX_DAMPING = 1e16  # Levenberg-Marquardt gives up beyond this lambda
 
 
@@ -178,6 +181,48 @@ def solve(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
         f"not converged after {options.max_iterations} iterations"
     return Solution(state, lin, factor, it, converged, "converged" if converged else
                     "iterations", message, tuple(history))
+
+
+def solve_continued(problem: Problem, start: Any, options: SolveOptions = DEFAULT_OPTIONS,
+                    progress: Callable[[str], None] | None = None, label: str = "",
+                    damped: SolveOptions = CONTINUATION) -> tuple[Solution, Solution | None]:
+    """`solve`; where undamped Gauss-Newton diverges, Levenberg-Marquardt (`damped`'s
+    damping and iteration limit) continues from its last sound estimate, the iterations of
+    both counted.  Returns (the solution, the Gauss-Newton solution that diverged or None):
+    the two are the same when the damped solver cannot start there or leaves the admissible
+    region.  `solve_notes` says in words what happened."""
+    sol = solve(problem, start, options, progress, label)
+    if sol.reason != "diverged" or options.damping:
+        return sol, None
+    (progress or _quiet)(f"{label}Gauss-Newton diverged: Levenberg-Marquardt continues from "
+                         "the last sound estimate")
+    lm_options = replace(options, damping=damped.damping,
+                         max_iterations=damped.max_iterations)
+    try:
+        lm = solve(problem, sol.state, lm_options, progress, label)
+    except GeometryError:
+        return sol, sol
+    if lm.reason == "inadmissible":
+        return sol, sol
+    return replace(lm, iterations=sol.iterations + lm.iterations,
+                   history=sol.history + lm.history), sol
+
+
+def solve_notes(sol: Solution, gn: Solution | None) -> list[str]:
+    """The notes of `solve_continued`'s answer, in this order: the Levenberg-Marquardt
+    continuation; why the solution is not converged; where Levenberg-Marquardt could not
+    start, the advice to ask for it from the start."""
+    notes = []
+    if gn is not None and sol is not gn:
+        notes.append(f"Gauss-Newton {gn.message}; Levenberg-Marquardt continued from the last "
+                     f"sound estimate: {sol.message} after {sol.iterations - gn.iterations} "
+                     "iteration(s)")
+    if not sol.converged:
+        notes.append(sol.message)
+    if sol is gn:
+        notes.append("Gauss-Newton diverged from these approximations: Levenberg-Marquardt "
+                     "(--damping lm, or solve=\"lm\") may reach the minimum")
+    return notes
 
 
 def _diverged(problem: Problem, before: tuple, it: int, err: GeometryError,

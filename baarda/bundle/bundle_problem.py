@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import replace
 from typing import cast
 
 import numpy as np
@@ -20,7 +19,7 @@ import numpy as np
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem, read_only
 from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
-from baarda.adjustment.solve import Solution, solve
+from baarda.adjustment.solve import solve_continued, solve_notes
 from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_and_derivatives, rotation_matrix
 from baarda.bundle.bundle_result import BundleResult
@@ -445,10 +444,8 @@ class BundleProblem(SchurProblem):
         options = options or self.solve_options
         start = self.approximations if start is None else self._start(start)
         try:
-            sol = solve(self, tuple(np.array(s, float) for s in start), options, progress)
-            gn = sol if sol.reason == "diverged" and not options.damping else None
-            if gn is not None:
-                sol = self._continue_damped(gn, options, progress)
+            sol, gn = solve_continued(self, tuple(np.array(s, float) for s in start), options,
+                                      progress, damped=SOLVE_LM)
             if sol.reason == "inadmissible":
                 raise GeometryError("the adjustment diverged: no step along the Gauss-Newton "
                                     "direction keeps the points in front of the cameras; check "
@@ -459,15 +456,7 @@ class BundleProblem(SchurProblem):
                 raise
             raise GeometryError(f"{e}. Likely cause: " + "; ".join(self.diagnosis),
                                 frame=e.frame) from None
-        notes = list(self.notes)
-        if gn is not None and sol is not gn:
-            notes.append(f"Gauss-Newton {gn.message}; Levenberg-Marquardt continued from "
-                         f"the last sound estimate: {sol.message} after "
-                         f"{sol.iterations - gn.iterations} iteration(s)")
-        notes += [] if sol.converged else [sol.message]
-        if sol.reason == "diverged" and not options.damping and sol is gn:
-            notes.append("Gauss-Newton diverged from these approximations: Levenberg-Marquardt "
-                         "(--damping lm, or solve=\"lm\") may reach the minimum")
+        notes = list(self.notes) + solve_notes(sol, gn)
         if sol.reason == "diverged" and self.calibration.n:
             notes.append(f"{self.calibration.n} camera parameter(s) are estimated "
                          "(self-calibration): with little depth in the block or far points "
@@ -481,26 +470,6 @@ class BundleProblem(SchurProblem):
     def _not_converged_notes(self) -> list[str]:
         """Why the datum may keep the adjustment from converging, and what to do."""
         return []
-
-    def _continue_damped(self, gn: Solution, options: SolveOptions,
-                         progress: Progress | None) -> Solution:
-        """Gauss-Newton diverged (`gn`): Levenberg-Marquardt (SOLVE_LM's damping and
-        iteration limit) from its last sound estimate, with the iterations of both counted;
-        `gn` itself when the damped solver cannot start there or leaves the admissible
-        region."""
-        lm_options = replace(options, damping=SOLVE_LM.damping,
-                             max_iterations=SOLVE_LM.max_iterations)
-        if progress:
-            progress("Gauss-Newton diverged: Levenberg-Marquardt continues from the last "
-                     "sound estimate")
-        try:
-            lm = solve(self, gn.state, lm_options, progress)
-        except GeometryError:
-            return gn
-        if lm.reason == "inadmissible":
-            return gn
-        return replace(lm, iterations=gn.iterations + lm.iterations,
-                       history=gn.history + lm.history)
 
     def _start(self, start) -> tuple[np.ndarray, ...]:
         """A start given as (eo, xyz of every adjusted point) in this problem's state."""

@@ -28,7 +28,7 @@ import numpy as np
 from baarda.adjustment.schur_model import FlatLayout
 from baarda.adjustment.schur_problem import SchurProblem
 from baarda.adjustment.schur_system import HOLD, Linearization, SchurSystem
-from baarda.adjustment.solve import solve
+from baarda.adjustment.solve import solve_continued, solve_notes
 from baarda.block.model_block import ModelBlock
 from baarda.block.model_deformations import model_radius
 from baarda.errors import GeometryError
@@ -290,9 +290,9 @@ class ModelProblem(SchurProblem):
                 start = (np.zeros((self.block.n_models, 3)), np.zeros((len(self.point_ids), 1)))
             else:
                 start = approximations(self)
-        sol = solve(self, tuple(np.array(a, float) for a in start), options, progress,
-                    label=f"{self.mode} ")
-        notes = () if sol.converged else (sol.message,)
+        sol, gn = solve_continued(self, tuple(np.array(a, float) for a in start), options,
+                                  progress, label=f"{self.mode} ")
+        notes = tuple(solve_notes(sol, gn))
         params, pts = sol.state
         return ModelResult(self, params, pts, sol.lin, sol.factor, sol.iterations,
                            sol.converged, notes, time.perf_counter() - t0)
