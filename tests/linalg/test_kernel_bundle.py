@@ -109,3 +109,26 @@ def test_the_bundle_can_be_switched_off_or_replaced(monkeypatch, tmp_path):
     assert not kernel_bundle.seed(elimination_tree)  # no such file
     monkeypatch.delenv("BAARDA_KERNEL_BUNDLE")
     assert kernel_bundle.bundle_file() == kernel_bundle.BUNDLE_FILE
+
+
+def test_a_kernel_the_bundle_does_not_hold_is_told_from_its_list(tmp_path, monkeypatch):
+    """Kernels that only other kernels call never get a cache index of their own, so every
+    start asked the bundle for them and decompressed it (about 70 ms); the list of names
+    beside the bundle answers without decompressing."""
+    from baarda.linalg.symbolic import etree_postorder
+
+    elimination_tree(3, np.array([0, 0, 1, 2]), np.array([0, 1]))  # compiled or cached here
+    good = tmp_path / "good.xz"
+    assert kernel_bundle.make_bundle([elimination_tree], good) == 1
+    listed = kernel_bundle.names_file(good)
+    assert listed.read_text() == "baarda.linalg.symbolic.elimination_tree\n"
+    loads = []
+    monkeypatch.setattr(kernel_bundle, "_load", lambda path: loads.append(path))
+    assert not kernel_bundle.seed(etree_postorder, good)  # not listed: the bundle unread
+    assert loads == []
+    kernel_bundle.seed(elimination_tree, good)  # listed: the bundle is read
+    assert loads == [good]
+    # the package's list names every kernel its bundle holds
+    shipped = pickle.loads(lzma.decompress(kernel_bundle.BUNDLE_FILE.read_bytes()))
+    assert sorted(shipped["kernels"]) == \
+        kernel_bundle.names_file(kernel_bundle.BUNDLE_FILE).read_text().split()
