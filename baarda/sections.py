@@ -10,6 +10,10 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+#: the lines of one list a summary shows (a camera or a test per line): a block of thousands
+#: of cameras lists the first ones and counts the rest, which the result's files hold
+MAX_LISTED = 20
+
 
 @dataclass(frozen=True)
 class Section:
@@ -26,6 +30,14 @@ class Section:
 
 def section(title: str, lines: Iterable[str]) -> Section:
     return Section(title, tuple(lines))
+
+
+def at_most(lines: list[str], rest: str, limit: int = MAX_LISTED) -> list[str]:
+    """`lines` when there are at most `limit` (or one more: a line in place of a line), else
+    the first `limit` and one line "... and N more REST" for the others."""
+    if len(lines) <= limit + 1:
+        return lines
+    return lines[:limit] + [f"... and {len(lines) - limit} more {rest}"]
 
 
 def render(sections: Iterable[Section], width: int = 60) -> str:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from baarda.sections import Section, section
+from baarda.sections import Section, at_most, section
 
 if TYPE_CHECKING:
     from baarda.block.photo_block import Block
@@ -169,14 +169,16 @@ def calibration_lines(res: BundleResult) -> list[str]:
     by_camera: dict[str, list[dict]] = {}
     for r in camera_table(res):
         by_camera.setdefault(r["camera"], []).append(r)
+    cameras = []
     for cid in res.block.cameras.ids:
         rows = by_camera[cid]
         est = [f"{r['parameter']} {r['value']:.6g} +- {r['sigma']:.2g}" for r in rows
                if r["estimated"]]
         held = [f"{r['parameter']} {r['value']:.6g}" for r in rows
                 if not r["estimated"] and r["value"] != 0]
-        lines.append(f"camera {cid} ({rows[0]['model']}): " + (", ".join(est) or "held")
-                     + (f"; held: {', '.join(held)}" if held else ""))
+        cameras.append(f"camera {cid} ({rows[0]['model']}): " + (", ".join(est) or "held")
+                       + (f"; held: {', '.join(held)}" if held else ""))
+    lines += at_most(cameras, "camera(s) (every parameter of every camera in cameras.csv)")
     high = high_correlations(res)
     if high:
         lines.append(f"high correlations (|r| > {HIGH_CORRELATION}): " + "; ".join(high[:8])

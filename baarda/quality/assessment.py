@@ -33,7 +33,7 @@ from baarda.quality.iterative import SnoopingRun, joined_labels, labels
 from baarda.quality.separability_report import separability_dict, separability_lines
 from baarda.quality.statistics import QualityResult
 from baarda.schema import OBSERVATION_COLUMNS
-from baarda.sections import Section, render, section
+from baarda.sections import MAX_LISTED, Section, at_most, render, section
 
 
 class AdjustmentResult(Protocol):
@@ -315,7 +315,11 @@ class Assessment(Generic[A]):
         if params:
             lines.append("significance of the estimated parameters at the 5 % level (H0: no "
                          "effect; the interior orientation against its given values):")
-            lines += ["  " + t.summary() for t in params]
+            rest = params[MAX_LISTED:] if len(params) > MAX_LISTED + 1 else []
+            sig = sum(bool(t.rejected) for t in rest)
+            lines += ["  " + x for x in at_most(
+                [t.summary() for t in params], f"test(s): {sig} significant, "
+                f"{len(rest) - sig} not (every test in summary.json's \"hypotheses\")")]
         if others:
             lines.append("alternative hypotheses:")
             lines += ["  " + t.summary() for t in others]
