@@ -9,6 +9,7 @@ from baarda.block.photo_block import Block
 from baarda.block.rotation import rotation_matrix
 from baarda.bundle.collinearity import camera_projection
 from baarda.errors import GeometryError, figure
+from baarda.sections import MAX_LISTED
 
 
 def usable_points(block: Block) -> tuple[np.ndarray, list[str]]:
@@ -20,15 +21,31 @@ def usable_points(block: Block) -> tuple[np.ndarray, list[str]]:
     full = block.points.controlled.all(axis=1)
     ok = (rays >= 2) | ((rays == 1) & full)
     notes = []
+    ties: dict[bool, list[str]] = {True: [], False: []}  # no ray / one ray: tie points
     for j in np.flatnonzero(~ok):
         pid, role = block.points.ids[j], block.points.role[j]
-        if rays[j] == 0:
-            notes.append(f"{role} point {pid} has no ray (measured on no photo, or its rays "
-                         "left out: see the notes above): left out")
-        else:
-            notes.append(f"{role} point {pid} is measured on one photo only (one ray "
-                         "cannot be intersected): left out")
+        if role == "tie":  # counted together: a large block can leave out thousands
+            ties[bool(rays[j] == 0)].append(str(pid))
+        else:  # control and check points each by name
+            notes.append(_left_out(f"{role} point {pid}", 1, rays[j] == 0))
+    for none, ids in ties.items():
+        if len(ids) == 1:
+            notes.append(_left_out(f"tie point {ids[0]}", 1, none))
+        elif ids:
+            shown = ", ".join(ids[:MAX_LISTED]) + (f" and {len(ids) - MAX_LISTED} more"
+                                                  if len(ids) > MAX_LISTED else "")
+            notes.append(_left_out(f"{len(ids)} tie points", len(ids), none) + f": {shown}")
     return ok, notes
+
+
+def _left_out(what: str, n: int, no_ray: bool) -> str:
+    """The note on points left out for want of rays: `what` the point(s), n how many."""
+    if no_ray:
+        return (f"{what} {'has' if n == 1 else 'have'} no ray (measured on no photo, or "
+                "{} rays left out: see the notes above): left out".format(
+                    "its" if n == 1 else "their"))
+    return (f"{what} {'is' if n == 1 else 'are'} measured on one photo only (one ray "
+            "cannot be intersected): left out")
 
 
 def check_datum(block: Block, keep: np.ndarray) -> list[str]:

@@ -2,6 +2,7 @@
 block of 5,000 cameras printed 15,000 such lines; issue 40's run): the result's files hold
 every one (cameras.csv, summary.json's "hypotheses")."""
 
+import numpy as np
 from bal_reference import _synthetic
 
 import baarda
@@ -32,3 +33,33 @@ def test_at_most_keeps_a_list_one_line_over():
     assert at_most(items, "x", limit=4) == items  # "and 1 more" would take a line too
     assert at_most(items, "x", limit=3) == ["x0", "x1", "x2", "... and 2 more x"]
     assert at_most([], "x") == [] and at_most(items, "x") == items
+
+
+def test_tie_points_left_out_are_counted_in_one_note_control_and_check_by_name():
+    """Points without two rays: each control or check point in a note of its own, the tie
+    points in one note per cause with their names (the first 20; a large BAL problem can
+    leave out thousands)."""
+    from baarda.bundle.geometry import usable_points
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    block, _ = simulate_block(FlightPlan(strips=3, photos_per_strip=8, check_points=2, seed=4))
+    pts, im = block.points, block.image
+    ties = np.flatnonzero(pts.role == "tie")[:25]
+    assert len(ties) == 25
+    check = int(np.flatnonzero(pts.role == "check")[0])
+    drop = np.zeros(len(im.point), bool)
+    for j in [*ties[:23], check]:  # one ray left: the first of the point's rows kept
+        rows = np.flatnonzero(im.point == j)
+        drop[rows[1:]] = True
+    for j in ties[23:]:  # no ray left
+        drop[im.point == j] = True
+    ok, notes = usable_points(block.select_image(~drop))
+    assert not ok[ties].any() and not ok[check]
+    names = [str(pts.ids[j]) for j in ties]
+    assert notes[0] == (f"check point {pts.ids[check]} is measured on one photo only (one "
+                        "ray cannot be intersected): left out")
+    assert notes[1] == ("2 tie points have no ray (measured on no photo, or their rays left "
+                        "out: see the notes above): left out: " + ", ".join(names[23:]))
+    assert notes[2] == ("23 tie points are measured on one photo only (one ray cannot be "
+                        "intersected): left out: " + ", ".join(names[:20]) + " and 3 more")
+    assert len(notes) == 3
