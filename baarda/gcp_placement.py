@@ -12,7 +12,7 @@ import numpy as np
 
 from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING
+from baarda.io.text_files import ENCODING
 
 
 def with_gcp_list(block: Block, path: str | Path, encoding: str = ENCODING,

@@ -28,7 +28,7 @@ from baarda.block.model_deformations import ALL as ALL_DEFORMATIONS
 from baarda.block.photo_block import Block
 from baarda.errors import GeometryError, ProjectError
 from baarda.io.formats import read_any
-from baarda.io.records import ENCODING
+from baarda.io.text_files import ENCODING
 from baarda.options import (
     FREE_DATUMS,
     Config,

@@ -64,7 +64,7 @@ def run(args) -> int:
         else:
             _batch(interp, sys.stdin, "<stdin>")
     else:
-        from baarda.io.records import decode_text, file_bytes, split_lines
+        from baarda.io.text_files import decode_text, file_bytes, split_lines
 
         name = str(args.file)
         text = decode_text(file_bytes(args.file), name, args.encoding)

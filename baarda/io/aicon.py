@@ -44,7 +44,8 @@ from baarda.block.photo_block import (
 from baarda.errors import ProjectError
 from baarda.io.aicon_protocol import AiconProtocol, read_protocol
 from baarda.io.image_sigma import SIGMA_IMAGE_UM
-from baarda.io.records import ENCODING, refuse_repeats, to_numbers, whole_lines
+from baarda.io.records import refuse_repeats, to_numbers
+from baarda.io.text_files import ENCODING, whole_lines
 
 EXTENSIONS = ("ior", "eor", "obc", "phc", "scale")
 # the camera parameters AICON 3D Studio estimates by default (A3, C1, C2 held)

@@ -34,13 +34,8 @@ from baarda.block.rotation import (
     rotation_vector,
 )
 from baarda.errors import ProjectError
-from baarda.io.records import (
-    check_pixel_options,
-    finite_numbers,
-    is_number,
-    require_file,
-    split_lines,
-)
+from baarda.io.records import check_pixel_options, finite_numbers
+from baarda.io.text_files import is_number, require_file, split_lines
 
 
 @dataclass

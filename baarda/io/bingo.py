@@ -35,7 +35,8 @@ from baarda.block.rotation import eo_of_pose, not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.image_sigma import PIXEL_MM, SIGMA_PX
 from baarda.io.minus99 import Row, data_rows, groups
-from baarda.io.records import ENCODING, first_appearance, read_lines, whole_lines
+from baarda.io.records import first_appearance
+from baarda.io.text_files import ENCODING, read_lines, whole_lines
 
 CAMERA_FILE = "calibrated_camera_parameters.txt"
 ROTATION_TOLERANCE = 1e-4

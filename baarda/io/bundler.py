@@ -34,13 +34,8 @@ from baarda.block.photo_block import (
 from baarda.block.pixels import centred
 from baarda.block.rotation import angles_from_matrix, not_a_rotation
 from baarda.errors import ProjectError
-from baarda.io.records import (
-    check_pixel_options,
-    finite_numbers,
-    first_line_starts,
-    read_lines,
-    require_file,
-)
+from baarda.io.records import check_pixel_options, finite_numbers
+from baarda.io.text_files import first_line_starts, read_lines, require_file
 
 HEADER = "# Bundle file v0.3"
 ROTATION_TOLERANCE = 1e-4  # |R R^T - I| of a rotation written with 6 digits or more

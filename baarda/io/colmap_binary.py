@@ -16,7 +16,7 @@ import numpy as np
 
 from baarda.errors import ProjectError
 from baarda.io.colmap_model import MODELS, ColmapCamera, ColmapImages, ColmapPoints
-from baarda.io.records import file_bytes
+from baarda.io.text_files import file_bytes
 
 IMAGE_HEADER = np.dtype([("id", "<u4"), ("qvec", "<f8", 4), ("tvec", "<f8", 3),
                          ("camera_id", "<u4")])  # 64 bytes, then the name

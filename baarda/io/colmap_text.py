@@ -22,10 +22,10 @@ from baarda.io.colmap_model import (
     ColmapPoints,
     first_repeated,
 )
-from baarda.io.records import (
+from baarda.io.records import parse_number
+from baarda.io.text_files import (
     decode_text,
     file_bytes,
-    parse_number,
     require_file,
     split_lines,
     whole_bytes,

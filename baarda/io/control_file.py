@@ -20,14 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import (
-    ENCODING,
-    decode_text,
-    file_bytes,
-    is_number,
-    parse_number,
-    split_lines,
-)
+from baarda.io.records import parse_number
+from baarda.io.text_files import ENCODING, decode_text, file_bytes, is_number, split_lines
 
 
 @dataclass(frozen=True)

@@ -36,11 +36,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from baarda.errors import ProjectError
+from baarda.io.text_files import ENCODING
 
 if TYPE_CHECKING:  # the registry is read by `baarda --help`: no numpy, no reader
     from baarda.block.photo_block import Block
 
-ENCODING = "utf-8"  # io/records.ENCODING (not imported here: it imports numpy)
 
 PATH_KINDS = ("file", "folder", "either")
 # how a format's image coordinates relate to pixels (io/image_sigma.py):
@@ -218,7 +218,7 @@ def titles(pixels: tuple[str, ...] | None = None) -> str:
 def _missing(p: Path) -> str:
     """Why a path that does not exist as far as Path.exists sees: not found, a symbolic
     link loop, a name too long, a folder that cannot be searched."""
-    from baarda.io.records import not_a_file
+    from baarda.io.text_files import not_a_file
 
     return not_a_file(p, "not found") or "not found"
 

@@ -22,7 +22,8 @@ import numpy as np
 
 from baarda.block.gcp import GcpList
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, decode_text, file_bytes, parse_number, split_lines
+from baarda.io.records import parse_number
+from baarda.io.text_files import ENCODING, decode_text, file_bytes, split_lines
 
 FIELDS = "geo_x geo_y geo_z im_x im_y image_name [gcp_name]"
 

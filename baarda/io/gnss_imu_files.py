@@ -18,8 +18,8 @@ from baarda.block.photo_block import (
 )
 from baarda.block.rotation import angle_to_rad
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING
 from baarda.io.table import Table
+from baarda.io.text_files import ENCODING
 from baarda.kinds import GNSS, IMU
 
 DEFAULT_GNSS_SIGMA_M = (0.05, 0.05, 0.05)

@@ -20,7 +20,7 @@ from baarda.block.photo_block import Block
 from baarda.errors import ProjectError
 from baarda.io.metashape_block import to_block
 from baarda.io.metashape_chunk import TiePoints, _cameras, read_chunk
-from baarda.io.records import file_head
+from baarda.io.text_files import file_head
 from baarda.io.xmltree import Node, parse_xml
 
 AGREE = 1e-3  # camera centres of a Bundler file agree with the XML's: relative to the extent

@@ -48,7 +48,7 @@ import numpy as np
 from baarda.block.rotation import not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.metashape_sensor import Sensor, attr_number, flag, numbers, properties, read_sensor
-from baarda.io.records import is_number
+from baarda.io.text_files import is_number
 from baarda.io.xmltree import Node
 
 ROTATION_TOLERANCE = 1e-6  # |R R^T - I| of a rotation Metashape writes with 17 digits

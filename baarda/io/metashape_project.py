@@ -32,7 +32,7 @@ from baarda.errors import ProjectError
 from baarda.io.metashape_block import to_block
 from baarda.io.metashape_chunk import TiePoints, read_chunk
 from baarda.io.ply import read_ply
-from baarda.io.records import file_head
+from baarda.io.text_files import file_head
 from baarda.io.xmltree import Node, parse_xml_bytes
 
 MAX_MEMBER = 2 * 2**30  # bytes of one member once unpacked

@@ -41,7 +41,8 @@ from baarda.block.photo_block import (
     Settings,
 )
 from baarda.errors import ProjectError
-from baarda.io.records import parse_number, whole_lines
+from baarda.io.records import parse_number
+from baarda.io.text_files import whole_lines
 from baarda.io.xmltree import Node, parse_xml
 
 CRS = "EPSG:2154"  # Lambert-93, the IGN's and MicMac's SysCo of this data

@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, finite_numbers, whole_lines
+from baarda.io.records import finite_numbers
+from baarda.io.text_files import ENCODING, whole_lines
 
 END = "-99"
 
@@ -54,7 +55,7 @@ class Group:
 
 
 def data_rows(path: Path, encoding: str = ENCODING) -> list[Row]:
-    """The non-blank lines of a file written whole (io/records.whole_lines), numbered; '#'
+    """The non-blank lines of a file written whole (io/text_files.whole_lines), numbered; '#'
     starts a comment line."""
     lines = whole_lines(path, encoding)
     return [Row(k + 1, s.split()) for k, s in enumerate(lines)

@@ -23,8 +23,8 @@ from baarda.block.model_block import ModelBlock, ModelSettings
 from baarda.errors import ProjectError
 from baarda.io.project import read_ground_points
 from baarda.io.project_toml import check_keys, load_toml, toml_table
-from baarda.io.records import ENCODING
 from baarda.io.table import Table
+from baarda.io.text_files import ENCODING
 
 
 def _positive(values, name: str) -> tuple[float, ...]:

@@ -42,13 +42,8 @@ from baarda.block.pixels import centred
 from baarda.block.rotation import FLIP, angles_from_matrix, quaternion_matrix
 from baarda.errors import ProjectError
 from baarda.io.bundler import once_per_image
-from baarda.io.records import (
-    check_pixel_options,
-    finite_numbers,
-    first_line_starts,
-    read_lines,
-    require_file,
-)
+from baarda.io.records import check_pixel_options, finite_numbers
+from baarda.io.text_files import first_line_starts, read_lines, require_file
 
 QUATERNION_TOLERANCE = 1e-4  # | |q| - 1 | of a quaternion written with 6 digits or more
 

@@ -16,14 +16,8 @@ import numpy as np
 
 from baarda.errors import ProjectError
 from baarda.io.gcp_list import parse_crs_line
-from baarda.io.records import (
-    decode_text,
-    file_bytes,
-    parse_number,
-    split_lines,
-    to_numbers,
-    whole_lines,
-)
+from baarda.io.records import parse_number, to_numbers
+from baarda.io.text_files import decode_text, file_bytes, split_lines, whole_lines
 
 if TYPE_CHECKING:
     from baarda.io.opensfm_camera import OpenSfmCamera

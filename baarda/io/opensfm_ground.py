@@ -85,7 +85,7 @@ def ground_frame(rec: dict, folder: Path, rpath: Path, text: str, crs: str | Non
 def _first_line(path: Path) -> int:
     """The line of a gcp_list.txt that names the CRS (its first that is not blank or a
     comment)."""
-    from baarda.io.records import decode_text, file_bytes, split_lines
+    from baarda.io.text_files import decode_text, file_bytes, split_lines
 
     for n, s in enumerate(split_lines(decode_text(file_bytes(path), str(path))), start=1):
         if s.strip() and not s.lstrip().startswith("#"):

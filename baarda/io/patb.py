@@ -31,7 +31,8 @@ from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, 
 from baarda.block.rotation import angles_from_matrix, not_a_rotation
 from baarda.errors import ProjectError
 from baarda.io.minus99 import Row, data_rows, groups, is_end, rows_to_end
-from baarda.io.records import ENCODING, first_appearance
+from baarda.io.records import first_appearance
+from baarda.io.text_files import ENCODING
 
 SUFFIXES = (".im", ".con", ".ori", ".at", ".pro")
 ROTATION_TOLERANCE = 1e-4

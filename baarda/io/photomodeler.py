@@ -51,16 +51,8 @@ import numpy as np
 from baarda.block.control import INPUT_CONTROL
 from baarda.block.photo_block import Block, Cameras, GroundPoints, ImagePoints, Photos, Settings
 from baarda.errors import ProjectError
-from baarda.io.records import (
-    ENCODING,
-    decode_text,
-    file_bytes,
-    file_head,
-    first_appearance,
-    is_utf8,
-    parse_number,
-    split_lines,
-)
+from baarda.io.records import first_appearance, parse_number
+from baarda.io.text_files import ENCODING, decode_text, file_bytes, file_head, is_utf8, split_lines
 
 
 def is_photomodeler_export(path: str | Path) -> bool:

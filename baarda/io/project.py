@@ -41,8 +41,8 @@ from baarda.io.project_toml import (
     positive_settings,
     toml_table,
 )
-from baarda.io.records import ENCODING
 from baarda.io.table import Table
+from baarda.io.text_files import ENCODING
 from baarda.kinds import GNSS, IMU
 from baarda.options import DATUMS
 

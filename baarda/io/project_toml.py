@@ -11,7 +11,7 @@ import numpy as np
 
 from baarda.block.rotation import ANGLE_FACTORS
 from baarda.errors import ProjectError
-from baarda.io.records import ENCODING, decode_text, file_bytes
+from baarda.io.text_files import ENCODING, decode_text, file_bytes
 from baarda.kinds import GNSS, IMU
 
 

@@ -25,8 +25,8 @@ import pandas as pd
 
 from baarda.errors import ProjectError
 from baarda.io.observations_file import numbers, read_observations
-from baarda.io.records import require_file
 from baarda.io.table import Table
+from baarda.io.text_files import require_file
 
 PM_HEADER = "Object Point ID"
 FORMATS = ("auto", "generic", "photomodeler", "baarda")

@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from baarda.errors import ProjectError
-from baarda.io.records import (
+from baarda.io.records import Columns
+from baarda.io.text_files import (
     C0_DEL,
     ENCODING,
-    Columns,
     decode_text,
     file_bytes,
     is_utf8,

@@ -13,7 +13,7 @@ from typing import overload
 from xml.parsers import expat
 
 from baarda.errors import ProjectError
-from baarda.io.records import file_bytes
+from baarda.io.text_files import file_bytes
 
 
 @dataclass

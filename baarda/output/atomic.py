@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from baarda.errors import OutputError, ProjectError
-from baarda.io.records import file_kind
+from baarda.io.text_files import file_kind
 
 #: how many symbolic links a target may pass through (Linux's own limit)
 MAX_LINKS = 40

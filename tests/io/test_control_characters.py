@@ -41,7 +41,7 @@ def test_a_control_character_in_a_dbat_id(tmp_path, capsys):
 
 
 def test_tabs_form_feeds_and_line_ends_stay_accepted(tmp_path):
-    from baarda.io.records import no_nul
+    from baarda.io.text_files import no_nul
 
     assert no_nul("a\tb\r\nc\fd\ve\x1a", "f") == "a\tb\r\nc\fd\ve\x1a"
 

@@ -109,7 +109,7 @@ def test_pixel_policy_comes_from_the_spec():
 
 
 def test_read_request_encoding_is_the_readers():
-    from baarda.io.records import ENCODING
+    from baarda.io.text_files import ENCODING
 
     assert ReadRequest().encoding == formats.ENCODING == ENCODING
 
