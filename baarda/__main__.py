@@ -13,6 +13,7 @@ from baarda.process import (
     INTERRUPTED,
     MIN_ADDRESS_SPACE,
     SMALL_ADDRESS_SPACE,
+    TERMINATED,
     WRITE_FAILED,
     address_space,
     closed_streams,
@@ -31,11 +32,17 @@ def _say(text: str) -> None:
         pass
 
 
-def _interrupted() -> int:
-    try:  # a second Ctrl-C now is the same request
+def _ignore_interrupts() -> None:
+    """A later Ctrl-C is the same request: ignored until the process ends (else one that
+    comes while Python shuts down, in its threads' exit hooks, prints a traceback)."""
+    try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     except (ValueError, OSError):
         pass
+
+
+def _interrupted() -> int:
+    _ignore_interrupts()  # a second Ctrl-C now is the same request
     _say(MESSAGE)
     return INTERRUPTED
 
@@ -59,7 +66,10 @@ def run(argv: list[str] | None = None) -> int:
                     os.environ.setdefault(name, "1")
             from baarda.cli import main
 
-            return main(argv, closed=closed)
+            code = main(argv, closed=closed)
+            if code in (INTERRUPTED, TERMINATED):  # said once, by the command line
+                _ignore_interrupts()
+            return code
         except KeyboardInterrupt:
             return _interrupted()
         except MemoryError:  # while importing the command line
