@@ -38,3 +38,22 @@ def with_gnss(block, truth, *, sigma_m=0.05, sigma_rad=1e-4, lever=(0.1, -0.2, 1
         ang += rng.normal(0.0, sigma_rad, (n, 3))
         out = replace(out, imu=ImuObservations(np.arange(n), ang, np.full((n, 3), sigma_rad)))
     return out
+
+
+def gnss_imu_block_with_a_distance():
+    """A simulated block with GNSS positions (a shift per strip), IMU attitudes and one
+    distance between two tie points (its true length, sigma 0.01 m): every kind of
+    observation row at once; (block, truth)."""
+    from baarda.block.photo_block import Distances
+    from baarda.simulate.aerial import FlightPlan, simulate_block
+
+    block, truth = simulate_block(FlightPlan(strips=2, photos_per_strip=6, seed=5,
+                                             gnss_sigma_m=0.05, gnss_offset_m=0.3,
+                                             imu_sigma_deg=0.005))
+    pts = block.points
+    tie = np.flatnonzero(pts.role == "tie")
+    a, b = tie[1], tie[-2]
+    xa, xb = (np.array(truth["points"][pts.ids[j]]) for j in (a, b))
+    dist = Distances(["bar"], np.array([a]), np.array([b]),
+                     np.array([float(np.linalg.norm(xa - xb))]), np.array([0.01]))
+    return replace(block, distances=dist), truth

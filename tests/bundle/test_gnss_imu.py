@@ -181,22 +181,12 @@ def test_external_reliability_of_gnss_and_imu_equals_dense(base):
 def test_points_tied_by_a_distance_in_a_block_with_gnss_imu_unknowns():
     """The coordinates of points carried as global unknowns (tied by a distance) are read from
     their own columns, not from those of the GNSS/IMU shifts that follow them."""
-    from dataclasses import replace
+    from gnss_blocks import gnss_imu_block_with_a_distance
 
-    from baarda.block.photo_block import Distances
     from baarda.pipeline import adjust
-    from baarda.simulate.aerial import FlightPlan, simulate_block
 
-    block, truth = simulate_block(FlightPlan(strips=2, photos_per_strip=6, seed=5,
-                                             gnss_sigma_m=0.05, gnss_offset_m=0.3,
-                                             imu_sigma_deg=0.005))
-    pts = block.points
-    tie = np.flatnonzero(pts.role == "tie")
-    a, b = tie[1], tie[-2]
-    xa, xb = (np.array(truth["points"][pts.ids[j]]) for j in (a, b))
-    dist = Distances(["bar"], np.array([a]), np.array([b]),
-                     np.array([float(np.linalg.norm(xa - xb))]), np.array([0.01]))
-    res = adjust(replace(block, distances=dist))
+    block, truth = gnss_imu_block_with_a_distance()
+    res = adjust(block)
     pb = res.problem
     assert pb.gnss_imu.n > 0 and len(pb.border_ids) == 2
     xyz = res.xyz

@@ -3,16 +3,14 @@ partners of millions of rows: issue 40) are those of `label`, component by compo
 rows with their photo, control points, GNSS and IMU rows (a photo, no point), distances
 (a point pair, no photo) and model coordinates (a model, not a photo)."""
 
-from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
+from gnss_blocks import gnss_imu_block_with_a_distance
 
-from baarda.block.photo_block import Distances
 from baarda.bundle.bundle_model import BundleModel
 from baarda.pipeline import adjust
 from baarda.quality.iterative import label, labels
-from baarda.simulate.aerial import FlightPlan, simulate_block
 
 
 def same_words(model) -> list[str]:
@@ -23,16 +21,7 @@ def same_words(model) -> list[str]:
 
 
 def test_labels_of_every_kind_are_label_row_by_row():
-    block, truth = simulate_block(FlightPlan(strips=2, photos_per_strip=6, seed=5,
-                                             gnss_sigma_m=0.05, gnss_offset_m=0.3,
-                                             imu_sigma_deg=0.005))
-    pts = block.points
-    tie = np.flatnonzero(pts.role == "tie")
-    a, b = tie[1], tie[-2]
-    xa, xb = (np.array(truth["points"][pts.ids[j]]) for j in (a, b))
-    dist = Distances(["bar"], np.array([a]), np.array([b]),
-                     np.array([float(np.linalg.norm(xa - xb))]), np.array([0.01]))
-    model = BundleModel(adjust(replace(block, distances=dist)))
+    model = BundleModel(adjust(gnss_imu_block_with_a_distance()[0]))
     words = same_words(model)
     kinds = set(np.asarray(model.kind, str))
     assert {"image", "control", "gnss", "imu"} <= kinds and len(kinds) >= 5, kinds
